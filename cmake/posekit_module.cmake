@@ -1,0 +1,25 @@
+# posekit_add_module(<name> SOURCES ... DEPS <posekit modules> PRIVATE_LIBS <third-party targets>)
+# Creates the library target posekit_<name> with public headers in modules/<name>/include.
+function(posekit_add_module name)
+  cmake_parse_arguments(ARG "" "" "SOURCES;DEPS;PUBLIC_LIBS;PRIVATE_LIBS" ${ARGN})
+  add_library(posekit_${name} STATIC ${ARG_SOURCES})
+  add_library(posekit::${name} ALIAS posekit_${name})
+  target_include_directories(posekit_${name} PUBLIC ${CMAKE_CURRENT_SOURCE_DIR}/include)
+  set(deps "")
+  foreach(dep IN LISTS ARG_DEPS)
+    list(APPEND deps posekit_${dep})
+  endforeach()
+  target_link_libraries(posekit_${name} PUBLIC ${deps} Eigen3::Eigen ${ARG_PUBLIC_LIBS}
+                        PRIVATE ${ARG_PRIVATE_LIBS})
+  set_target_properties(posekit_${name} PROPERTIES POSITION_INDEPENDENT_CODE ON)
+endfunction()
+
+# posekit_add_test(<module> SOURCES ... LIBS ...): one gtest binary per module, registered with CTest.
+function(posekit_add_test module)
+  cmake_parse_arguments(ARG "" "" "SOURCES;LIBS" ${ARGN})
+  set(target posekit_${module}_tests)
+  add_executable(${target} ${ARG_SOURCES})
+  target_link_libraries(${target} PRIVATE posekit_${module} posekit_testing ${ARG_LIBS} GTest::gtest_main)
+  gtest_discover_tests(${target} DISCOVERY_TIMEOUT 60
+                       PROPERTIES ENVIRONMENT "POSEKIT_DATA=${POSEKIT_DEFAULT_DATA_ROOT}")
+endfunction()

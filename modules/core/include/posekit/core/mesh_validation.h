@@ -1,0 +1,36 @@
+#pragma once
+#include <string>
+
+#include "posekit/core/triangle_mesh.h"
+
+namespace posekit {
+
+/// What is wrong (or right) with a mesh; counts only, nothing is modified.
+struct MeshReport {
+  long num_vertices = 0;
+  long num_faces = 0;
+  long out_of_range_indices = 0;   ///< face indices < 0 or >= #V
+  long non_finite_vertices = 0;    ///< vertices with a NaN or Inf coordinate
+  long degenerate_faces = 0;       ///< repeated vertex index or zero area
+  long duplicate_faces = 0;        ///< same vertex set as an earlier face
+  long unreferenced_vertices = 0;  ///< used by no face
+  long boundary_edges = 0;
+  long non_manifold_edges = 0;     ///< shared by more than two faces
+  long boundary_loops = 0;
+  long components = 0;
+  bool watertight = false;         ///< no boundary and no non-manifold edge
+  double surface_area = 0.0;       ///< m^2
+  double signed_volume = 0.0;      ///< m^3, meaningful when watertight
+
+  /// True when the mesh can be used at all: indices in range and coordinates finite.
+  bool usable() const { return out_of_range_indices == 0 && non_finite_vertices == 0; }
+};
+
+/// Counts the defects of a mesh (Deliver 3 of the foundation issue).
+MeshReport validate_mesh(const TriangleMesh& mesh);
+
+/// Throws InvalidInput naming `what` and the first bad element when indices are out of range or
+/// a coordinate is not finite. Used at every I/O and API boundary.
+void require_usable_mesh(const TriangleMesh& mesh, const std::string& what);
+
+}  // namespace posekit

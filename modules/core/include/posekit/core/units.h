@@ -1,0 +1,23 @@
+#pragma once
+#include <string>
+
+namespace posekit {
+
+/// Length units found in body files. Inside the library everything is metres.
+enum class Unit { kMetre, kDecimetre, kCentimetre, kMillimetre };
+
+/// Metres per one `unit` (e.g. 0.001 for mm).
+double metres_per_unit(Unit unit);
+
+/// Parses "m", "dm", "cm", "mm" (also "metre(s)", "meter(s)", "millimetre(s)", ...).
+/// Throws InvalidInput naming the accepted spellings.
+Unit parse_unit(const std::string& text);
+
+/// Short name: "m", "dm", "cm", "mm".
+std::string unit_name(Unit unit);
+
+/// Guess of the unit a human body file was written in from its largest bounding-box extent
+/// (a standing adult is 1.4-2.1 m). Returns false when the extent fits no unit.
+bool guess_body_unit(double largest_extent, Unit* unit);
+
+}  // namespace posekit

@@ -1,0 +1,78 @@
+#include "posekit/core/mesh_geometry.h"
+
+#include <Eigen/Geometry>
+
+#include "posekit/core/error.h"
+
+namespace posekit {
+namespace {
+inline Eigen::Vector3d corner(const Eigen::MatrixXd& V, const Eigen::MatrixXi& F, Eigen::Index f, int c) {
+  return V.row(F(f, c)).transpose();
+}
+inline Eigen::Vector3d face_cross(const Eigen::MatrixXd& V, const Eigen::MatrixXi& F, Eigen::Index f) {
+  const Eigen::Vector3d a = corner(V, F, f, 0);
+  return (corner(V, F, f, 1) - a).cross(corner(V, F, f, 2) - a);
+}
+}  // namespace
+
+Eigen::MatrixXd face_normals(const Eigen::MatrixXd& V, const Eigen::MatrixXi& F) {
+  Eigen::MatrixXd N(F.rows(), 3);
+  for (Eigen::Index f = 0; f < F.rows(); ++f) {
+    const Eigen::Vector3d n = face_cross(V, F, f);
+    const double len = n.norm();
+    N.row(f) = len > 0 ? Eigen::RowVector3d(n.transpose() / len) : Eigen::RowVector3d::Zero();
+  }
+  return N;
+}
+
+Eigen::VectorXd face_areas(const Eigen::MatrixXd& V, const Eigen::MatrixXi& F) {
+  Eigen::VectorXd A(F.rows());
+  for (Eigen::Index f = 0; f < F.rows(); ++f) A[f] = 0.5 * face_cross(V, F, f).norm();
+  return A;
+}
+
+Eigen::MatrixXd face_centroids(const Eigen::MatrixXd& V, const Eigen::MatrixXi& F) {
+  Eigen::MatrixXd C(F.rows(), 3);
+  for (Eigen::Index f = 0; f < F.rows(); ++f)
+    C.row(f) = (V.row(F(f, 0)) + V.row(F(f, 1)) + V.row(F(f, 2))) / 3.0;
+  return C;
+}
+
+Eigen::MatrixXd vertex_normals(const Eigen::MatrixXd& V, const Eigen::MatrixXi& F) {
+  Eigen::MatrixXd N = Eigen::MatrixXd::Zero(V.rows(), 3);
+  for (Eigen::Index f = 0; f < F.rows(); ++f) {
+    const Eigen::RowVector3d n = face_cross(V, F, f).transpose();  // length = 2 * area
+    for (int c = 0; c < 3; ++c) N.row(F(f, c)) += n;
+  }
+  for (Eigen::Index v = 0; v < N.rows(); ++v) {
+    const double len = N.row(v).norm();
+    if (len > 0) N.row(v) /= len;
+  }
+  return N;
+}
+
+BoundingBox bounding_box(const Eigen::MatrixXd& P) {
+  if (P.rows() == 0) throw InvalidInput("bounding_box: no points");
+  BoundingBox box;
+  box.min = P.colwise().minCoeff().transpose();
+  box.max = P.colwise().maxCoeff().transpose();
+  return box;
+}
+
+double signed_volume(const Eigen::MatrixXd& V, const Eigen::MatrixXi& F) {
+  // Tetrahedra fan from the vertex mean rather than the origin: exact for any closed mesh and
+  // free of cancellation when the body is far from the origin.
+  const Eigen::Vector3d o = V.rows() > 0 ? Eigen::Vector3d(V.colwise().mean().transpose()) : Eigen::Vector3d::Zero();
+  double six_volume = 0.0;
+  for (Eigen::Index f = 0; f < F.rows(); ++f) {
+    const Eigen::Vector3d a = corner(V, F, f, 0) - o;
+    six_volume += a.dot((corner(V, F, f, 1) - o).cross(corner(V, F, f, 2) - o));
+  }
+  return six_volume / 6.0;
+}
+
+double surface_area(const Eigen::MatrixXd& V, const Eigen::MatrixXi& F) {
+  return face_areas(V, F).sum();
+}
+
+}  // namespace posekit

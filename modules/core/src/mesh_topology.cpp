@@ -1,0 +1,139 @@
+#include "posekit/core/mesh_topology.h"
+
+#include <algorithm>
+#include <cstdint>
+#include <numeric>
+#include <unordered_map>
+
+namespace posekit {
+namespace {
+
+struct HalfEdge {
+  std::uint64_t key;  // (min << 32) | max
+  int face;
+  int corner;         // edge (F(face,corner), F(face,corner+1))
+};
+
+std::uint64_t edge_key(int a, int b) {
+  const auto lo = static_cast<std::uint32_t>(std::min(a, b));
+  const auto hi = static_cast<std::uint32_t>(std::max(a, b));
+  return (static_cast<std::uint64_t>(lo) << 32) | hi;
+}
+
+std::vector<HalfEdge> sorted_half_edges(const Eigen::MatrixXi& F) {
+  std::vector<HalfEdge> h;
+  h.reserve(static_cast<size_t>(F.rows()) * 3);
+  for (Eigen::Index f = 0; f < F.rows(); ++f)
+    for (int c = 0; c < 3; ++c)
+      h.push_back({edge_key(F(f, c), F(f, (c + 1) % 3)), static_cast<int>(f), c});
+  std::sort(h.begin(), h.end(), [](const HalfEdge& a, const HalfEdge& b) {
+    return a.key != b.key ? a.key < b.key : a.face < b.face;
+  });
+  return h;
+}
+
+int find_root(std::vector<int>& parent, int x) {
+  while (parent[x] != x) {
+    parent[x] = parent[parent[x]];
+    x = parent[x];
+  }
+  return x;
+}
+
+}  // namespace
+
+Eigen::MatrixXi unique_edges(const Eigen::MatrixXi& F) {
+  const auto h = sorted_half_edges(F);
+  std::vector<std::uint64_t> keys;
+  keys.reserve(h.size());
+  for (const auto& e : h)
+    if (keys.empty() || keys.back() != e.key) keys.push_back(e.key);
+  Eigen::MatrixXi E(static_cast<Eigen::Index>(keys.size()), 2);
+  for (size_t i = 0; i < keys.size(); ++i) {
+    E(i, 0) = static_cast<int>(keys[i] >> 32);
+    E(i, 1) = static_cast<int>(keys[i] & 0xffffffffu);
+  }
+  return E;
+}
+
+Eigen::MatrixXi face_adjacency(const Eigen::MatrixXi& F, int* non_manifold_edges) {
+  Eigen::MatrixXi TT = Eigen::MatrixXi::Constant(F.rows(), 3, -1);
+  const auto h = sorted_half_edges(F);
+  int non_manifold = 0;
+  for (size_t i = 0; i < h.size();) {
+    size_t j = i;
+    while (j < h.size() && h[j].key == h[i].key) ++j;
+    const size_t count = j - i;
+    if (count >= 2) {
+      if (count > 2) ++non_manifold;
+      TT(h[i].face, h[i].corner) = h[i + 1].face;
+      TT(h[i + 1].face, h[i + 1].corner) = h[i].face;
+    }
+    i = j;
+  }
+  if (non_manifold_edges) *non_manifold_edges = non_manifold;
+  return TT;
+}
+
+std::vector<std::vector<int>> boundary_loops(const Eigen::MatrixXi& F) {
+  const Eigen::MatrixXi TT = face_adjacency(F);
+  // Boundary half-edges a->b in face orientation; a loop follows them head to tail.
+  std::unordered_multimap<int, int> next;
+  for (Eigen::Index f = 0; f < F.rows(); ++f)
+    for (int c = 0; c < 3; ++c)
+      if (TT(f, c) < 0) next.emplace(F(f, c), F(f, (c + 1) % 3));
+  std::vector<std::vector<int>> loops;
+  while (!next.empty()) {
+    auto it = next.begin();
+    const int start = it->first;
+    std::vector<int> loop{start};
+    int to = it->second;
+    next.erase(it);
+    while (to != start) {
+      loop.push_back(to);
+      auto n = next.find(to);
+      if (n == next.end()) break;  // open chain on a non-manifold boundary
+      to = n->second;
+      next.erase(n);
+    }
+    loops.push_back(std::move(loop));
+  }
+  return loops;
+}
+
+int connected_components(const Eigen::MatrixXi& F, int num_vertices, Eigen::VectorXi* face_labels) {
+  std::vector<int> parent(num_vertices);
+  std::iota(parent.begin(), parent.end(), 0);
+  for (Eigen::Index f = 0; f < F.rows(); ++f) {
+    const int a = find_root(parent, F(f, 0));
+    for (int c = 1; c < 3; ++c) {
+      const int b = find_root(parent, F(f, c));
+      if (a != b) parent[b] = a;
+    }
+  }
+  std::vector<int> label_of_root(num_vertices, -1);
+  Eigen::VectorXi labels(F.rows());
+  int count = 0;
+  for (Eigen::Index f = 0; f < F.rows(); ++f) {
+    const int r = find_root(parent, F(f, 0));
+    if (label_of_root[r] < 0) label_of_root[r] = count++;
+    labels[f] = label_of_root[r];
+  }
+  if (face_labels) *face_labels = std::move(labels);
+  return count;
+}
+
+VertexFaces vertex_faces(const Eigen::MatrixXi& F, int num_vertices) {
+  VertexFaces vf;
+  vf.offsets.assign(num_vertices + 1, 0);
+  for (Eigen::Index f = 0; f < F.rows(); ++f)
+    for (int c = 0; c < 3; ++c) ++vf.offsets[F(f, c) + 1];
+  std::partial_sum(vf.offsets.begin(), vf.offsets.end(), vf.offsets.begin());
+  vf.face_index.resize(vf.offsets.back());
+  std::vector<int> fill(vf.offsets.begin(), vf.offsets.end() - 1);
+  for (Eigen::Index f = 0; f < F.rows(); ++f)
+    for (int c = 0; c < 3; ++c) vf.face_index[fill[F(f, c)]++] = static_cast<int>(f);
+  return vf;
+}
+
+}  // namespace posekit

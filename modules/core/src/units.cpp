@@ -1,0 +1,54 @@
+#include "posekit/core/units.h"
+
+#include <algorithm>
+#include <cctype>
+
+#include "posekit/core/error.h"
+
+namespace posekit {
+
+double metres_per_unit(Unit unit) {
+  switch (unit) {
+    case Unit::kMetre: return 1.0;
+    case Unit::kDecimetre: return 0.1;
+    case Unit::kCentimetre: return 0.01;
+    case Unit::kMillimetre: return 0.001;
+  }
+  return 1.0;
+}
+
+Unit parse_unit(const std::string& text) {
+  std::string t = text;
+  std::transform(t.begin(), t.end(), t.begin(), [](unsigned char c) { return std::tolower(c); });
+  if (t == "m" || t == "metre" || t == "metres" || t == "meter" || t == "meters") return Unit::kMetre;
+  if (t == "dm" || t == "decimetre" || t == "decimetres" || t == "decimeter" || t == "decimeters")
+    return Unit::kDecimetre;
+  if (t == "cm" || t == "centimetre" || t == "centimetres" || t == "centimeter" || t == "centimeters")
+    return Unit::kCentimetre;
+  if (t == "mm" || t == "millimetre" || t == "millimetres" || t == "millimeter" || t == "millimeters")
+    return Unit::kMillimetre;
+  throw InvalidInput("unknown unit '" + text + "': expected one of m, dm, cm, mm");
+}
+
+std::string unit_name(Unit unit) {
+  switch (unit) {
+    case Unit::kMetre: return "m";
+    case Unit::kDecimetre: return "dm";
+    case Unit::kCentimetre: return "cm";
+    case Unit::kMillimetre: return "mm";
+  }
+  return "m";
+}
+
+bool guess_body_unit(double largest_extent, Unit* unit) {
+  for (Unit u : {Unit::kMetre, Unit::kDecimetre, Unit::kCentimetre, Unit::kMillimetre}) {
+    const double metres = largest_extent * metres_per_unit(u);
+    if (metres >= 0.5 && metres <= 3.0) {
+      *unit = u;
+      return true;
+    }
+  }
+  return false;
+}
+
+}  // namespace posekit
