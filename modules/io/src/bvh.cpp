@@ -1,0 +1,250 @@
+#include "posekit/io/bvh.h"
+
+#include <Eigen/Geometry>
+#include <cmath>
+#include <functional>
+#include <iomanip>
+
+#include "parse_util.h"
+#include "posekit/core/error.h"
+#include "posekit/io/atomic_file.h"
+
+namespace posekit {
+using namespace io_detail;
+
+namespace {
+
+const char* channel_name(BvhChannel c) {
+  switch (c) {
+    case BvhChannel::kXposition: return "Xposition";
+    case BvhChannel::kYposition: return "Yposition";
+    case BvhChannel::kZposition: return "Zposition";
+    case BvhChannel::kXrotation: return "Xrotation";
+    case BvhChannel::kYrotation: return "Yrotation";
+    case BvhChannel::kZrotation: return "Zrotation";
+  }
+  return "";
+}
+
+bool parse_channel(std::string_view s, BvhChannel& c) {
+  for (BvhChannel k : {BvhChannel::kXposition, BvhChannel::kYposition, BvhChannel::kZposition,
+                       BvhChannel::kXrotation, BvhChannel::kYrotation, BvhChannel::kZrotation})
+    if (s == channel_name(k)) {
+      c = k;
+      return true;
+    }
+  return false;
+}
+
+bool is_position(BvhChannel c) {
+  return c == BvhChannel::kXposition || c == BvhChannel::kYposition || c == BvhChannel::kZposition;
+}
+
+/// Token stream over the whole file (BVH allows braces and values on any line).
+class TokenStream {
+ public:
+  TokenStream(const std::string& text, const std::string& file) : lines_(text, file) {}
+  bool next(std::string_view& token) {
+    while (index_ >= tokens_.size()) {
+      std::string_view line;
+      if (!lines_.next(line)) return false;
+      split(line, tokens_);
+      index_ = 0;
+    }
+    token = tokens_[index_++];
+    return true;
+  }
+  std::string_view expect(const char* what) {
+    std::string_view t;
+    if (!next(t)) lines_.fail(std::string("file ends early: expected ") + what);
+    return t;
+  }
+  void expect_word(std::string_view word) {
+    const std::string_view t = expect(std::string(word).c_str());
+    if (t != word) lines_.fail("expected '" + std::string(word) + "', got '" + printable(t) + "'");
+  }
+  double number(const char* what) { return lines_.to_double(expect(what), what); }
+  const LineScanner& lines() const { return lines_; }
+
+ private:
+  LineScanner lines_;
+  std::vector<std::string_view> tokens_;
+  size_t index_ = 0;
+};
+
+}  // namespace
+
+int BvhMotion::find_joint(const std::string& name) const {
+  for (size_t j = 0; j < joints.size(); ++j)
+    if (joints[j].name == name) return static_cast<int>(j);
+  return -1;
+}
+
+Eigen::Matrix3d BvhMotion::local_rotation(int frame, int joint) const {
+  const BvhJoint& j = joints.at(joint);
+  Eigen::Matrix3d R = Eigen::Matrix3d::Identity();
+  for (size_t c = 0; c < j.channels.size(); ++c) {
+    const double angle = frames(frame, j.first_channel + static_cast<int>(c)) * M_PI / 180.0;
+    switch (j.channels[c]) {
+      case BvhChannel::kXrotation: R = R * Eigen::AngleAxisd(angle, Eigen::Vector3d::UnitX()).toRotationMatrix(); break;
+      case BvhChannel::kYrotation: R = R * Eigen::AngleAxisd(angle, Eigen::Vector3d::UnitY()).toRotationMatrix(); break;
+      case BvhChannel::kZrotation: R = R * Eigen::AngleAxisd(angle, Eigen::Vector3d::UnitZ()).toRotationMatrix(); break;
+      default: break;
+    }
+  }
+  return R;
+}
+
+Eigen::Vector3d BvhMotion::local_translation(int frame, int joint) const {
+  const BvhJoint& j = joints.at(joint);
+  // Position channels are displacements added to the OFFSET (for the usual root OFFSET of zero
+  // this is the same as an absolute position; MakeHuman writes non-zero offsets and deltas).
+  Eigen::Vector3d t = j.offset;
+  for (size_t c = 0; c < j.channels.size(); ++c) {
+    const double v = frames(frame, j.first_channel + static_cast<int>(c));
+    if (j.channels[c] == BvhChannel::kXposition) t.x() += v;
+    if (j.channels[c] == BvhChannel::kYposition) t.y() += v;
+    if (j.channels[c] == BvhChannel::kZposition) t.z() += v;
+  }
+  return t;
+}
+
+Eigen::MatrixXd BvhMotion::joint_positions(int frame) const {
+  if (frame < 0 || frame >= num_frames()) throw InvalidInput("BVH frame " + std::to_string(frame) + " out of range");
+  std::vector<Eigen::Matrix3d> R(joints.size());
+  Eigen::MatrixXd P(joints.size(), 3);
+  for (size_t j = 0; j < joints.size(); ++j) {
+    const Eigen::Vector3d t = local_translation(frame, static_cast<int>(j));
+    const Eigen::Matrix3d r = local_rotation(frame, static_cast<int>(j));
+    const int p = joints[j].parent;
+    if (p < 0) {
+      R[j] = r;
+      P.row(j) = t.transpose();
+    } else {
+      R[j] = R[p] * r;
+      P.row(j) = (P.row(p).transpose() + R[p] * t).transpose();
+    }
+  }
+  return P;
+}
+
+BvhMotion read_bvh(const std::string& path, Unit unit) {
+  const double scale = metres_per_unit(unit);
+  const std::string bytes = read_file_bytes(path);
+  TokenStream ts(bytes, path);
+  BvhMotion motion;
+  int channel_count = 0;
+  if (ts.expect("HIERARCHY") != "HIERARCHY") ts.lines().fail("expected 'HIERARCHY' (not a BVH file?)");
+  std::function<void(int)> parse_joint = [&](int parent) {
+    BvhJoint joint;
+    joint.parent = parent;
+    joint.name = std::string(ts.expect("a joint name"));
+    ts.expect_word("{");
+    ts.expect_word("OFFSET");
+    for (int k = 0; k < 3; ++k) joint.offset[k] = ts.number("an OFFSET value") * scale;
+    const int index = static_cast<int>(motion.joints.size());
+    std::string_view t = ts.expect("CHANNELS, JOINT, End Site or }");
+    if (t == "CHANNELS") {
+      const double n = ts.number("the channel count");
+      if (n < 0 || n > 6 || n != std::floor(n)) ts.lines().fail("CHANNELS count must be 0..6");
+      joint.first_channel = channel_count;
+      for (int c = 0; c < static_cast<int>(n); ++c) {
+        BvhChannel ch;
+        const std::string_view name = ts.expect("a channel name");
+        if (!parse_channel(name, ch))
+          ts.lines().fail("unknown channel '" + printable(name) + "': expected X/Y/Z position or rotation");
+        joint.channels.push_back(ch);
+      }
+      channel_count += static_cast<int>(n);
+      t = ts.expect("JOINT, End Site or }");
+    }
+    motion.joints.push_back(joint);
+    while (t != "}") {
+      if (t == "JOINT") {
+        parse_joint(index);
+      } else if (t == "End") {
+        ts.expect_word("Site");
+        ts.expect_word("{");
+        ts.expect_word("OFFSET");
+        Eigen::Vector3d end;
+        for (int k = 0; k < 3; ++k) end[k] = ts.number("an End Site OFFSET value") * scale;
+        ts.expect_word("}");
+        motion.joints[index].has_end_site = true;
+        motion.joints[index].end_offset = end;
+      } else {
+        ts.lines().fail("expected JOINT, End Site or }, got '" + printable(t) + "'");
+      }
+      t = ts.expect("JOINT, End Site or }");
+    }
+  };
+  std::string_view t = ts.expect("ROOT");
+  while (t == "ROOT") {
+    parse_joint(-1);
+    t = ts.expect("MOTION");
+  }
+  if (motion.joints.empty()) ts.lines().fail("expected 'ROOT'");
+  if (t != "MOTION") ts.lines().fail("expected 'MOTION', got '" + printable(t) + "'");
+  ts.expect_word("Frames:");
+  const double nframes = ts.number("the frame count");
+  if (nframes < 0 || nframes != std::floor(nframes) || nframes > 1e7) ts.lines().fail("bad frame count");
+  ts.expect_word("Frame");
+  ts.expect_word("Time:");
+  motion.frame_time = ts.number("the frame time");
+  const auto nf = static_cast<Eigen::Index>(nframes);
+  if (static_cast<double>(nf) * channel_count > static_cast<double>(bytes.size()))
+    ts.lines().fail("the header declares " + std::to_string(nf) + " frames of " + std::to_string(channel_count) +
+                    " channels, more than the file holds");
+  motion.frames.resize(nf, channel_count);
+  for (Eigen::Index f = 0; f < nf; ++f)
+    for (int c = 0; c < channel_count; ++c) {
+      std::string_view tok;
+      if (!ts.next(tok))
+        throw IoError(path + ": frame " + std::to_string(f) + " of " + std::to_string(nf) + " has " + std::to_string(c) +
+                      " values, expected " + std::to_string(channel_count) + " (truncated file)");
+      const double v = ts.lines().to_double(tok, "a channel value");
+      if (!std::isfinite(v)) ts.lines().fail("non-finite channel value");
+      motion.frames(f, c) = v;
+    }
+  for (const BvhJoint& j : motion.joints)
+    for (size_t c = 0; c < j.channels.size(); ++c)
+      if (is_position(j.channels[c])) motion.frames.col(j.first_channel + static_cast<int>(c)) *= scale;
+  return motion;
+}
+
+void write_bvh(const std::string& path, const BvhMotion& motion, Unit unit) {
+  const double scale = 1.0 / metres_per_unit(unit);
+  write_file_atomically(path, [&](std::ostream& out) {
+    out << std::setprecision(10) << "HIERARCHY\n";
+    std::function<void(int, int)> emit = [&](int j, int depth) {
+      const std::string pad(static_cast<size_t>(depth), '\t');
+      const BvhJoint& joint = motion.joints[j];
+      out << pad << (joint.parent < 0 ? "ROOT " : "JOINT ") << joint.name << "\n" << pad << "{\n";
+      out << pad << "\tOFFSET " << joint.offset.x() * scale << ' ' << joint.offset.y() * scale << ' '
+          << joint.offset.z() * scale << '\n';
+      if (!joint.channels.empty()) {
+        out << pad << "\tCHANNELS " << joint.channels.size();
+        for (BvhChannel c : joint.channels) out << ' ' << channel_name(c);
+        out << '\n';
+      }
+      for (size_t k = 0; k < motion.joints.size(); ++k)
+        if (motion.joints[k].parent == j) emit(static_cast<int>(k), depth + 1);
+      if (joint.has_end_site)
+        out << pad << "\tEnd Site\n" << pad << "\t{\n" << pad << "\t\tOFFSET " << joint.end_offset.x() * scale << ' '
+            << joint.end_offset.y() * scale << ' ' << joint.end_offset.z() * scale << '\n' << pad << "\t}\n";
+      out << pad << "}\n";
+    };
+    for (size_t j = 0; j < motion.joints.size(); ++j)
+      if (motion.joints[j].parent < 0) emit(static_cast<int>(j), 0);
+    out << "MOTION\nFrames: " << motion.frames.rows() << "\nFrame Time: " << motion.frame_time << '\n';
+    for (Eigen::Index f = 0; f < motion.frames.rows(); ++f) {
+      for (const BvhJoint& joint : motion.joints)
+        for (size_t c = 0; c < joint.channels.size(); ++c) {
+          const double v = motion.frames(f, joint.first_channel + static_cast<int>(c));
+          out << (is_position(joint.channels[c]) ? v * scale : v) << ' ';
+        }
+      out << '\n';
+    }
+  }, false);
+}
+
+}  // namespace posekit

@@ -1,0 +1,396 @@
+#include "posekit/io/mesh_io.h"
+
+#include <algorithm>
+#include <cctype>
+#include <cmath>
+#include <cstring>
+#include <filesystem>
+#include <iomanip>
+#include <map>
+#include <unordered_map>
+
+#include "parse_util.h"
+#include "ply_format.h"
+#include "posekit/core/error.h"
+#include "posekit/core/mesh_geometry.h"
+#include "posekit/core/mesh_validation.h"
+#include "posekit/io/atomic_file.h"
+
+namespace posekit {
+namespace io_detail {
+std::string lower_extension(const std::string& path) {
+  std::string ext = std::filesystem::path(path).extension().string();
+  std::transform(ext.begin(), ext.end(), ext.begin(), [](unsigned char ch) { return std::tolower(ch); });
+  return ext;
+}
+}  // namespace io_detail
+
+using namespace io_detail;
+
+namespace {
+
+// ---------------------------------------------------------------- OBJ
+TriangleMesh read_obj(const std::string& path, double scale) {
+  const std::string bytes = read_file_bytes(path);
+  if (bytes.find('\0') != std::string::npos)
+    throw IoError(path + ": contains NUL bytes: expected a text OBJ file");
+  LineScanner lines(bytes, path);
+  std::vector<double> v, vc, vn;
+  std::vector<int> tris, groups, normal_of_corner;
+  std::vector<std::string> group_names;
+  std::map<std::string, int> group_index;
+  int current_group = -1;
+  std::string_view line;
+  std::vector<std::string_view> tok;
+  std::vector<int> poly;
+  while (lines.next(line)) {
+    if (line.empty() || line[0] == '#') continue;
+    split(line, tok);
+    if (tok.empty()) continue;
+    const std::string_view key = tok[0];
+    if (key == "v") {
+      if (tok.size() != 4 && tok.size() != 5 && tok.size() != 7)
+        lines.fail("expected 'v x y z [w]' or 'v x y z r g b'");
+      for (int k = 1; k <= 3; ++k) {
+        const double x = lines.to_double(tok[k], "a vertex coordinate");
+        if (!std::isfinite(x)) lines.fail("non-finite vertex coordinate '" + printable(tok[k]) + "'");
+        v.push_back(x * scale);
+      }
+      if (tok.size() == 7)
+        for (int k = 4; k <= 6; ++k) vc.push_back(lines.to_double(tok[k], "a vertex colour"));
+    } else if (key == "vn") {
+      if (tok.size() != 4) lines.fail("expected 'vn x y z'");
+      for (int k = 1; k <= 3; ++k) vn.push_back(lines.to_double(tok[k], "a normal component"));
+    } else if (key == "f") {
+      if (tok.size() < 4) lines.fail("a face needs at least 3 vertices");
+      const long long nv = static_cast<long long>(v.size() / 3);
+      poly.clear();
+      for (size_t k = 1; k < tok.size(); ++k) {
+        const std::string_view t = tok[k];
+        const size_t slash = t.find('/');
+        long long idx = lines.to_int(t.substr(0, slash), "a face vertex index");
+        if (idx < 0) idx = nv + idx + 1;  // relative index
+        if (idx < 1 || idx > nv)
+          lines.fail("face vertex index " + std::string(t.substr(0, slash)) + " out of range 1.." +
+                     std::to_string(nv) + " (vertices defined so far)");
+        poly.push_back(static_cast<int>(idx - 1));
+      }
+      for (size_t k = 1; k + 1 < poly.size(); ++k) {
+        tris.insert(tris.end(), {poly[0], poly[k], poly[k + 1]});
+        groups.push_back(current_group);
+      }
+    } else if (key == "g") {
+      std::string name = tok.size() > 1 ? std::string(tok[1]) : std::string("default");
+      for (size_t k = 2; k < tok.size(); ++k) name += " " + std::string(tok[k]);
+      auto [it, inserted] = group_index.emplace(name, static_cast<int>(group_names.size()));
+      if (inserted) group_names.push_back(name);
+      current_group = it->second;
+    }
+    // vt, o, s, usemtl, mtllib, l, p and other statements carry nothing posekit uses.
+  }
+  TriangleMesh mesh;
+  const Eigen::Index nv = static_cast<Eigen::Index>(v.size() / 3);
+  if (nv == 0) throw IoError(path + ": no vertices ('v' lines) found: expected an OBJ mesh");
+  mesh.V = Eigen::Map<Eigen::Matrix<double, Eigen::Dynamic, 3, Eigen::RowMajor>>(v.data(), nv, 3);
+  mesh.F = Eigen::Map<Eigen::Matrix<int, Eigen::Dynamic, 3, Eigen::RowMajor>>(tris.data(),
+                                                                             static_cast<Eigen::Index>(tris.size() / 3), 3);
+  if (vn.size() == v.size())
+    mesh.N = Eigen::Map<Eigen::Matrix<double, Eigen::Dynamic, 3, Eigen::RowMajor>>(vn.data(), nv, 3);
+  if (vc.size() == v.size()) {
+    mesh.C.resize(nv, 3);
+    for (Eigen::Index i = 0; i < nv; ++i)
+      for (int k = 0; k < 3; ++k)
+        mesh.C(i, k) = static_cast<std::uint8_t>(std::clamp(std::lround(vc[3 * i + k] * 255.0), 0L, 255L));
+  }
+  if (!group_names.empty()) {
+    // Faces before the first `g` belong to "default".
+    if (std::find(groups.begin(), groups.end(), -1) != groups.end()) {
+      auto [it, inserted] = group_index.emplace("default", static_cast<int>(group_names.size()));
+      if (inserted) group_names.push_back("default");
+      for (int& g : groups)
+        if (g < 0) g = it->second;
+    }
+    mesh.face_group = Eigen::Map<Eigen::VectorXi>(groups.data(), static_cast<Eigen::Index>(groups.size()));
+    mesh.group_names = group_names;
+  }
+  return mesh;
+}
+
+void write_obj(const std::string& path, const TriangleMesh& mesh, double scale) {
+  write_file_atomically(path, [&](std::ostream& out) {
+    out << "# written by posekit\n" << std::setprecision(17);
+    for (Eigen::Index i = 0; i < mesh.V.rows(); ++i) {
+      out << "v " << mesh.V(i, 0) * scale << ' ' << mesh.V(i, 1) * scale << ' ' << mesh.V(i, 2) * scale;
+      if (mesh.has_colors())
+        for (int k = 0; k < 3; ++k) out << ' ' << mesh.C(i, k) / 255.0;
+      out << '\n';
+    }
+    if (mesh.has_normals())
+      for (Eigen::Index i = 0; i < mesh.N.rows(); ++i)
+        out << "vn " << mesh.N(i, 0) << ' ' << mesh.N(i, 1) << ' ' << mesh.N(i, 2) << '\n';
+    const bool grouped = mesh.face_group.size() == mesh.F.rows() && !mesh.group_names.empty();
+    int current = -1;
+    for (Eigen::Index f = 0; f < mesh.F.rows(); ++f) {
+      if (grouped && mesh.face_group[f] != current) {
+        current = mesh.face_group[f];
+        out << "g " << mesh.group_names.at(current) << '\n';
+      }
+      out << 'f';
+      for (int c = 0; c < 3; ++c) {
+        out << ' ' << mesh.F(f, c) + 1;
+        if (mesh.has_normals()) out << "//" << mesh.F(f, c) + 1;
+      }
+      out << '\n';
+    }
+  }, false);
+}
+
+// ---------------------------------------------------------------- OFF
+TriangleMesh read_off(const std::string& path, double scale) {
+  const std::string bytes = read_file_bytes(path);
+  LineScanner lines(bytes, path);
+  std::string_view line;
+  std::vector<std::string_view> tok;
+  // Tokens of non-comment lines, remembering line numbers through the scanner.
+  auto next_tokens = [&](const char* what) {
+    while (true) {
+      if (!lines.next(line)) lines.fail(std::string("file ends early: expected ") + what);
+      const size_t hash = line.find('#');
+      split(hash == std::string_view::npos ? line : line.substr(0, hash), tok);
+      if (!tok.empty()) return;
+    }
+  };
+  next_tokens("the OFF header");
+  std::string_view head = tok[0];
+  if (head.size() < 3 || head.substr(head.size() - 3) != "OFF")
+    lines.fail("expected the header 'OFF' (or COFF/NOFF), got '" + printable(head) + "'");
+  const bool has_normal = head.find('N') != std::string_view::npos;
+  const bool has_color = head.find('C') != std::string_view::npos;
+  std::vector<std::string_view> counts(tok.begin() + 1, tok.end());
+  if (counts.empty()) {
+    next_tokens("the counts line 'nv nf ne'");
+    counts = tok;
+  }
+  if (counts.size() < 2) lines.fail("expected the counts 'nv nf [ne]'");
+  const long long nv = lines.to_int(counts[0], "the vertex count");
+  const long long nf = lines.to_int(counts[1], "the face count");
+  if (nv <= 0 || nf < 0) lines.fail("implausible counts nv=" + std::to_string(nv) + " nf=" + std::to_string(nf));
+  if (static_cast<size_t>(nv) > bytes.size() / 6 + 1)
+    lines.fail("the header claims " + std::to_string(nv) + " vertices, more than the file can hold");
+  TriangleMesh mesh;
+  mesh.V.resize(nv, 3);
+  for (long long i = 0; i < nv; ++i) {
+    next_tokens("a vertex line");
+    const size_t need = 3 + (has_normal ? 3 : 0);
+    if (tok.size() < need) lines.fail("vertex " + std::to_string(i) + ": expected x y z");
+    for (int k = 0; k < 3; ++k) {
+      const double x = lines.to_double(tok[k], "a vertex coordinate");
+      if (!std::isfinite(x)) lines.fail("vertex " + std::to_string(i) + " has a non-finite coordinate");
+      mesh.V(i, k) = x * scale;
+    }
+  }
+  (void)has_color;
+  std::vector<int> tris;
+  for (long long f = 0; f < nf; ++f) {
+    next_tokens("a face line");
+    const long long n = lines.to_int(tok[0], "the face vertex count");
+    if (n < 3 || static_cast<long long>(tok.size()) < n + 1)
+      lines.fail("face " + std::to_string(f) + ": expected 'n i1 .. in' with n >= 3");
+    std::vector<int> poly;
+    for (long long k = 1; k <= n; ++k) {
+      const long long idx = lines.to_int(tok[k], "a face vertex index");
+      if (idx < 0 || idx >= nv)
+        lines.fail("face " + std::to_string(f) + ": vertex index " + std::to_string(idx) +
+                   " out of range 0.." + std::to_string(nv - 1));
+      poly.push_back(static_cast<int>(idx));
+    }
+    for (size_t k = 1; k + 1 < poly.size(); ++k) tris.insert(tris.end(), {poly[0], poly[k], poly[k + 1]});
+  }
+  mesh.F = Eigen::Map<Eigen::Matrix<int, Eigen::Dynamic, 3, Eigen::RowMajor>>(tris.data(),
+                                                                             static_cast<Eigen::Index>(tris.size() / 3), 3);
+  return mesh;
+}
+
+void write_off(const std::string& path, const TriangleMesh& mesh, double scale) {
+  write_file_atomically(path, [&](std::ostream& out) {
+    out << "OFF\n" << mesh.V.rows() << ' ' << mesh.F.rows() << " 0\n" << std::setprecision(17);
+    for (Eigen::Index i = 0; i < mesh.V.rows(); ++i)
+      out << mesh.V(i, 0) * scale << ' ' << mesh.V(i, 1) * scale << ' ' << mesh.V(i, 2) * scale << '\n';
+    for (Eigen::Index f = 0; f < mesh.F.rows(); ++f)
+      out << "3 " << mesh.F(f, 0) << ' ' << mesh.F(f, 1) << ' ' << mesh.F(f, 2) << '\n';
+  }, false);
+}
+
+// ---------------------------------------------------------------- STL
+/// Welds corners with bit-identical coordinates into shared vertices.
+TriangleMesh weld(const std::vector<float>& corners, double scale) {
+  struct Key {
+    float x, y, z;
+    bool operator==(const Key& o) const { return x == o.x && y == o.y && z == o.z; }
+  };
+  struct Hash {
+    size_t operator()(const Key& k) const {
+      std::uint32_t a, b, c;
+      std::memcpy(&a, &k.x, 4);
+      std::memcpy(&b, &k.y, 4);
+      std::memcpy(&c, &k.z, 4);
+      return (static_cast<size_t>(a) * 73856093u) ^ (static_cast<size_t>(b) * 19349663u) ^ (static_cast<size_t>(c) * 83492791u);
+    }
+  };
+  std::unordered_map<Key, int, Hash> index;
+  index.reserve(corners.size() / 6);
+  std::vector<double> v;
+  const size_t nc = corners.size() / 3;
+  TriangleMesh mesh;
+  mesh.F.resize(static_cast<Eigen::Index>(nc / 3), 3);
+  for (size_t c = 0; c < nc; ++c) {
+    const Key k{corners[3 * c], corners[3 * c + 1], corners[3 * c + 2]};
+    auto [it, inserted] = index.emplace(k, static_cast<int>(v.size() / 3));
+    if (inserted) v.insert(v.end(), {k.x * scale, k.y * scale, k.z * scale});
+    mesh.F(static_cast<Eigen::Index>(c / 3), static_cast<int>(c % 3)) = it->second;
+  }
+  mesh.V = Eigen::Map<Eigen::Matrix<double, Eigen::Dynamic, 3, Eigen::RowMajor>>(v.data(),
+                                                                                static_cast<Eigen::Index>(v.size() / 3), 3);
+  return mesh;
+}
+
+TriangleMesh read_stl(const std::string& path, double scale) {
+  const std::string bytes = read_file_bytes(path);
+  std::vector<float> corners;
+  if (bytes.size() >= 84) {
+    std::uint32_t n = 0;
+    std::memcpy(&n, bytes.data() + 80, 4);
+    if (!host_is_little_endian()) n = __builtin_bswap32(n);
+    if (84 + 50ull * n == bytes.size()) {
+      ByteReader r(bytes.data() + 84, bytes.data() + bytes.size(), !host_is_little_endian());
+      corners.reserve(9ull * n);
+      for (std::uint32_t t = 0; t < n; ++t) {
+        r.skip(12);
+        for (int k = 0; k < 9; ++k) {
+          float x = 0;
+          r.read(x);
+          if (!std::isfinite(x))
+            throw IoError(path + ": triangle #" + std::to_string(t) + " has a non-finite coordinate");
+          corners.push_back(x);
+        }
+        r.skip(2);
+      }
+      if (n == 0) throw IoError(path + ": binary STL with no triangles");
+      return weld(corners, scale);
+    }
+  }
+  if (bytes.compare(0, 5, "solid") != 0)
+    throw IoError(path + ": not an STL file: neither binary (84 + 50 x count bytes) nor ascii ('solid' header)");
+  LineScanner lines(bytes, path);
+  std::string_view line;
+  std::vector<std::string_view> tok;
+  while (lines.next(line)) {
+    split(line, tok);
+    if (tok.empty() || tok[0] != "vertex") continue;
+    if (tok.size() != 4) lines.fail("expected 'vertex x y z'");
+    for (int k = 1; k <= 3; ++k) {
+      const double x = lines.to_double(tok[k], "a vertex coordinate");
+      if (!std::isfinite(x)) lines.fail("non-finite vertex coordinate");
+      corners.push_back(static_cast<float>(x));
+    }
+  }
+  if (corners.empty() || corners.size() % 9 != 0)
+    throw IoError(path + ": ascii STL: expected facets of 3 'vertex' lines, found " +
+                  std::to_string(corners.size() / 3) + " vertices");
+  return weld(corners, scale);
+}
+
+void write_stl(const std::string& path, const TriangleMesh& mesh, double scale, bool binary) {
+  const Eigen::MatrixXd N = face_normals(mesh.V, mesh.F);
+  write_file_atomically(path, [&](std::ostream& out) {
+    if (binary) {
+      char header[80] = {};
+      std::snprintf(header, sizeof(header), "posekit binary STL");
+      out.write(header, 80);
+      const auto n = static_cast<std::uint32_t>(mesh.F.rows());
+      out.write(reinterpret_cast<const char*>(&n), 4);
+      for (Eigen::Index f = 0; f < mesh.F.rows(); ++f) {
+        float rec[12];
+        for (int k = 0; k < 3; ++k) rec[k] = static_cast<float>(N(f, k));
+        for (int c = 0; c < 3; ++c)
+          for (int k = 0; k < 3; ++k) rec[3 + 3 * c + k] = static_cast<float>(mesh.V(mesh.F(f, c), k) * scale);
+        out.write(reinterpret_cast<const char*>(rec), sizeof(rec));
+        const std::uint16_t attr = 0;
+        out.write(reinterpret_cast<const char*>(&attr), 2);
+      }
+    } else {
+      out << "solid posekit\n" << std::setprecision(9);
+      for (Eigen::Index f = 0; f < mesh.F.rows(); ++f) {
+        out << " facet normal " << N(f, 0) << ' ' << N(f, 1) << ' ' << N(f, 2) << "\n  outer loop\n";
+        for (int c = 0; c < 3; ++c)
+          out << "   vertex " << mesh.V(mesh.F(f, c), 0) * scale << ' ' << mesh.V(mesh.F(f, c), 1) * scale << ' '
+              << mesh.V(mesh.F(f, c), 2) * scale << '\n';
+        out << "  endloop\n endfacet\n";
+      }
+      out << "endsolid posekit\n";
+    }
+  }, true);
+}
+
+MeshFormat resolve(const std::string& path, MeshFormat format) {
+  if (format != MeshFormat::kAuto) return format;
+  const MeshFormat f = mesh_format_from_path(path);
+  if (f == MeshFormat::kAuto)
+    throw IoError(path + ": unknown mesh extension '" + lower_extension(path) + "': expected .obj, .ply, .off or .stl");
+  return f;
+}
+
+}  // namespace
+
+MeshFormat mesh_format_from_path(const std::string& path) {
+  const std::string ext = lower_extension(path);
+  if (ext == ".obj") return MeshFormat::kObj;
+  if (ext == ".ply") return MeshFormat::kPly;
+  if (ext == ".off") return MeshFormat::kOff;
+  if (ext == ".stl") return MeshFormat::kStl;
+  return MeshFormat::kAuto;
+}
+
+TriangleMesh read_mesh(const std::string& path, const MeshReadOptions& options) {
+  const double scale = metres_per_unit(options.unit);
+  TriangleMesh mesh;
+  switch (resolve(path, options.format)) {
+    case MeshFormat::kObj: mesh = read_obj(path, scale); break;
+    case MeshFormat::kOff: mesh = read_off(path, scale); break;
+    case MeshFormat::kStl: mesh = read_stl(path, scale); break;
+    case MeshFormat::kPly: {
+      io_detail::PlyContent c = io_detail::read_ply(path, scale);
+      mesh.V = std::move(c.V);
+      mesh.F = std::move(c.F);
+      mesh.N = std::move(c.N);
+      mesh.C = std::move(c.C);
+      mesh.vertex_scalars = std::move(c.scalars);
+      break;
+    }
+    case MeshFormat::kAuto: break;
+  }
+  if (mesh.F.rows() == 0) throw IoError(path + ": no faces: expected a triangle mesh (read it as a point cloud?)");
+  return mesh;
+}
+
+void write_mesh(const std::string& path, const TriangleMesh& mesh, const MeshWriteOptions& options) {
+  require_usable_mesh(mesh, path);
+  for (const auto& kv : mesh.vertex_scalars)
+    if (kv.first.empty() || std::any_of(kv.first.begin(), kv.first.end(), [](unsigned char ch) { return std::isspace(ch); }))
+      throw InvalidInput(path + ": scalar field name '" + kv.first + "' must be non-empty without blanks");
+  const double scale = 1.0 / metres_per_unit(options.unit);
+  switch (resolve(path, options.format)) {
+    case MeshFormat::kObj: write_obj(path, mesh, scale); break;
+    case MeshFormat::kOff: write_off(path, mesh, scale); break;
+    case MeshFormat::kStl: write_stl(path, mesh, scale, options.binary); break;
+    case MeshFormat::kPly: {
+      io_detail::PlyContent c{mesh.V, mesh.has_normals() ? mesh.N : Eigen::MatrixXd(),
+                              mesh.has_colors() ? mesh.C : RowMatrixX3u8(), mesh.vertex_scalars, mesh.F};
+      io_detail::write_ply(path, c, options.binary, scale);
+      break;
+    }
+    case MeshFormat::kAuto: break;
+  }
+}
+
+}  // namespace posekit

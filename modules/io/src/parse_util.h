@@ -1,0 +1,126 @@
+#pragma once
+// Internal helpers shared by the readers: line scanning and number parsing with file:line errors.
+#include <charconv>
+#include <cstdint>
+#include <cstring>
+#include <string>
+#include <string_view>
+#include <vector>
+
+#include "posekit/core/error.h"
+
+namespace posekit::io_detail {
+
+inline bool is_space(char c) { return c == ' ' || c == '\t' || c == '\r' || c == '\v' || c == '\f'; }
+
+inline std::string_view trim(std::string_view s) {
+  while (!s.empty() && (is_space(s.front()) || s.front() == '\n')) s.remove_prefix(1);
+  while (!s.empty() && (is_space(s.back()) || s.back() == '\n')) s.remove_suffix(1);
+  return s;
+}
+
+/// Splits on blanks into `out` (cleared first).
+inline void split(std::string_view s, std::vector<std::string_view>& out) {
+  out.clear();
+  size_t i = 0;
+  while (i < s.size()) {
+    while (i < s.size() && is_space(s[i])) ++i;
+    size_t j = i;
+    while (j < s.size() && !is_space(s[j])) ++j;
+    if (j > i) out.push_back(s.substr(i, j - i));
+    i = j;
+  }
+}
+
+inline std::string printable(std::string_view s) {
+  std::string out;
+  for (char c : s.substr(0, 40)) out += (c >= 32 && c < 127) ? c : '?';
+  if (s.size() > 40) out += "...";
+  return out;
+}
+
+/// Walks a text buffer line by line and knows the current line number for error messages.
+class LineScanner {
+ public:
+  LineScanner(std::string_view text, std::string file) : text_(text), file_(std::move(file)) {}
+
+  /// Next line without its terminator; false at the end.
+  bool next(std::string_view& line) {
+    if (pos_ >= text_.size()) return false;
+    const size_t end = text_.find('\n', pos_);
+    const size_t stop = end == std::string_view::npos ? text_.size() : end;
+    line = text_.substr(pos_, stop - pos_);
+    if (!line.empty() && line.back() == '\r') line.remove_suffix(1);
+    pos_ = stop + 1;
+    ++line_;
+    return true;
+  }
+  size_t offset() const { return pos_ > text_.size() ? text_.size() : pos_; }
+  long line_number() const { return line_; }
+  const std::string& file() const { return file_; }
+
+  [[noreturn]] void fail(const std::string& what) const {
+    throw IoError(file_ + ":" + std::to_string(line_) + ": " + what);
+  }
+  double to_double(std::string_view token, const char* what) const {
+    double value = 0;
+    const auto [ptr, ec] = std::from_chars(token.data(), token.data() + token.size(), value);
+    if (ec != std::errc() || ptr != token.data() + token.size())
+      fail(std::string("expected a number for ") + what + ", got '" + printable(token) + "'");
+    return value;
+  }
+  long long to_int(std::string_view token, const char* what) const {
+    long long value = 0;
+    if (!token.empty() && token.front() == '+') token.remove_prefix(1);
+    const auto [ptr, ec] = std::from_chars(token.data(), token.data() + token.size(), value);
+    if (ec != std::errc() || ptr != token.data() + token.size())
+      fail(std::string("expected an integer for ") + what + ", got '" + printable(token) + "'");
+    return value;
+  }
+
+ private:
+  std::string_view text_;
+  std::string file_;
+  size_t pos_ = 0;
+  long line_ = 0;
+};
+
+/// Bounds-checked reader of binary values, optionally byte-swapped.
+class ByteReader {
+ public:
+  ByteReader(const char* begin, const char* end, bool swap) : p_(begin), end_(end), swap_(swap) {}
+  template <typename T>
+  bool read(T& value) {
+    if (static_cast<size_t>(end_ - p_) < sizeof(T)) return false;
+    char bytes[sizeof(T)];
+    std::memcpy(bytes, p_, sizeof(T));
+    if (swap_)
+      for (size_t i = 0; i < sizeof(T) / 2; ++i) std::swap(bytes[i], bytes[sizeof(T) - 1 - i]);
+    std::memcpy(&value, bytes, sizeof(T));
+    p_ += sizeof(T);
+    return true;
+  }
+  bool skip(size_t n) {
+    if (static_cast<size_t>(end_ - p_) < n) return false;
+    p_ += n;
+    return true;
+  }
+  size_t remaining() const { return static_cast<size_t>(end_ - p_); }
+
+ private:
+  const char* p_;
+  const char* end_;
+  bool swap_;
+};
+
+inline bool host_is_little_endian() {
+  const std::uint16_t one = 1;
+  char first;
+  std::memcpy(&first, &one, 1);
+  return first == 1;
+}
+
+/// Lower-cased extension with the dot, e.g. ".ply".
+std::string lower_extension(const std::string& path);
+
+}  // namespace posekit::io_detail

@@ -1,0 +1,401 @@
+#include "ply_format.h"
+
+#include <algorithm>
+#include <cmath>
+#include <iomanip>
+#include <sstream>
+#include <vector>
+
+#include "parse_util.h"
+#include "posekit/core/error.h"
+#include "posekit/io/atomic_file.h"
+
+namespace posekit::io_detail {
+namespace {
+
+enum class PlyType { kInt8, kUint8, kInt16, kUint16, kInt32, kUint32, kFloat32, kFloat64 };
+
+bool parse_type(std::string_view s, PlyType& t) {
+  if (s == "char" || s == "int8") t = PlyType::kInt8;
+  else if (s == "uchar" || s == "uint8") t = PlyType::kUint8;
+  else if (s == "short" || s == "int16") t = PlyType::kInt16;
+  else if (s == "ushort" || s == "uint16") t = PlyType::kUint16;
+  else if (s == "int" || s == "int32") t = PlyType::kInt32;
+  else if (s == "uint" || s == "uint32") t = PlyType::kUint32;
+  else if (s == "float" || s == "float32") t = PlyType::kFloat32;
+  else if (s == "double" || s == "float64") t = PlyType::kFloat64;
+  else return false;
+  return true;
+}
+
+struct PlyProperty {
+  std::string name;
+  PlyType type = PlyType::kFloat32;
+  bool is_list = false;
+  PlyType count_type = PlyType::kUint8;
+};
+
+struct PlyElement {
+  std::string name;
+  long long count = 0;
+  std::vector<PlyProperty> properties;
+};
+
+enum class PlyEncoding { kAscii, kBinaryLittle, kBinaryBig };
+
+template <typename T>
+bool read_as_double(ByteReader& r, double& out) {
+  T v;
+  if (!r.read(v)) return false;
+  out = static_cast<double>(v);
+  return true;
+}
+
+bool read_binary_value(ByteReader& r, PlyType t, double& out) {
+  switch (t) {
+    case PlyType::kInt8: return read_as_double<std::int8_t>(r, out);
+    case PlyType::kUint8: return read_as_double<std::uint8_t>(r, out);
+    case PlyType::kInt16: return read_as_double<std::int16_t>(r, out);
+    case PlyType::kUint16: return read_as_double<std::uint16_t>(r, out);
+    case PlyType::kInt32: return read_as_double<std::int32_t>(r, out);
+    case PlyType::kUint32: return read_as_double<std::uint32_t>(r, out);
+    case PlyType::kFloat32: return read_as_double<float>(r, out);
+    case PlyType::kFloat64: return read_as_double<double>(r, out);
+  }
+  return false;
+}
+
+/// Where each vertex property goes.
+enum class VertexSlot { kX, kY, kZ, kNx, kNy, kNz, kRed, kGreen, kBlue, kScalar, kIgnore };
+
+class PlyParser {
+ public:
+  PlyParser(const std::string& path, double scale) : path_(path), scale_(scale) {}
+
+  PlyContent parse() {
+    bytes_ = read_file_bytes(path_);
+    if (bytes_.size() < 3 || bytes_.compare(0, 3, "ply") != 0)
+      throw IoError(path_ + ": not a PLY file (expected the first line 'ply')");
+    parse_header();
+    const char* data_begin = bytes_.data() + header_end_;
+    const char* data_end = bytes_.data() + bytes_.size();
+    if (encoding_ == PlyEncoding::kAscii) {
+      read_ascii(std::string_view(data_begin, data_end - data_begin));
+    } else {
+      const bool swap = (encoding_ == PlyEncoding::kBinaryLittle) != host_is_little_endian();
+      ByteReader reader(data_begin, data_end, swap);
+      read_binary(reader);
+    }
+    finish();
+    return std::move(out_);
+  }
+
+ private:
+  [[noreturn]] void fail_element(const PlyElement& e, long long index, const std::string& what) const {
+    throw IoError(path_ + ": element '" + e.name + "' #" + std::to_string(index) + " of " +
+                  std::to_string(e.count) + ": " + what);
+  }
+
+  void parse_header() {
+    const size_t end = find_end_header();
+    LineScanner lines(std::string_view(bytes_.data(), end), path_);
+    std::string_view line;
+    std::vector<std::string_view> tok;
+    lines.next(line);  // "ply"
+    bool have_format = false;
+    while (lines.next(line)) {
+      split(line, tok);
+      if (tok.empty() || tok[0] == "comment" || tok[0] == "obj_info") continue;
+      if (tok[0] == "format") {
+        if (tok.size() < 2) lines.fail("expected 'format ascii|binary_little_endian|binary_big_endian 1.0'");
+        if (tok[1] == "ascii") encoding_ = PlyEncoding::kAscii;
+        else if (tok[1] == "binary_little_endian") encoding_ = PlyEncoding::kBinaryLittle;
+        else if (tok[1] == "binary_big_endian") encoding_ = PlyEncoding::kBinaryBig;
+        else lines.fail("unknown PLY format '" + printable(tok[1]) + "'");
+        have_format = true;
+      } else if (tok[0] == "element") {
+        if (tok.size() != 3) lines.fail("expected 'element <name> <count>'");
+        PlyElement e;
+        e.name = std::string(tok[1]);
+        e.count = lines.to_int(tok[2], "the element count");
+        if (e.count < 0) lines.fail("negative element count");
+        elements_.push_back(std::move(e));
+      } else if (tok[0] == "property") {
+        if (elements_.empty()) lines.fail("property before any element");
+        PlyProperty p;
+        if (tok.size() == 5 && tok[1] == "list") {
+          p.is_list = true;
+          if (!parse_type(tok[2], p.count_type) || !parse_type(tok[3], p.type))
+            lines.fail("unknown list property types '" + printable(tok[2]) + " " + printable(tok[3]) + "'");
+          p.name = std::string(tok[4]);
+        } else if (tok.size() == 3) {
+          if (!parse_type(tok[1], p.type)) lines.fail("unknown property type '" + printable(tok[1]) + "'");
+          p.name = std::string(tok[2]);
+        } else {
+          lines.fail("expected 'property <type> <name>' or 'property list <ctype> <type> <name>'");
+        }
+        elements_.back().properties.push_back(std::move(p));
+      } else if (tok[0] == "end_header") {
+        break;
+      } else {
+        lines.fail("unexpected header keyword '" + printable(tok[0]) + "'");
+      }
+    }
+    if (!have_format) throw IoError(path_ + ": PLY header has no 'format' line");
+    header_end_ = end;
+  }
+
+  size_t find_end_header() {
+    size_t pos = 0;
+    while (true) {
+      const size_t hit = bytes_.find("end_header", pos);
+      if (hit == std::string::npos || hit > (1u << 20))
+        throw IoError(path_ + ": PLY header has no 'end_header' line");
+      size_t eol = bytes_.find('\n', hit);
+      if (eol == std::string::npos) {
+        if (bytes_.size() - hit <= 11) return bytes_.size();  // header only
+        throw IoError(path_ + ": PLY header has no line break after 'end_header'");
+      }
+      if (hit == 0 || bytes_[hit - 1] == '\n') return eol + 1;
+      pos = hit + 1;
+    }
+  }
+
+  std::vector<VertexSlot> vertex_slots(const PlyElement& e) {
+    std::vector<VertexSlot> slots;
+    for (const auto& p : e.properties) {
+      VertexSlot s = VertexSlot::kScalar;
+      if (p.is_list) s = VertexSlot::kIgnore;
+      else if (p.name == "x") s = VertexSlot::kX;
+      else if (p.name == "y") s = VertexSlot::kY;
+      else if (p.name == "z") s = VertexSlot::kZ;
+      else if (p.name == "nx") s = VertexSlot::kNx;
+      else if (p.name == "ny") s = VertexSlot::kNy;
+      else if (p.name == "nz") s = VertexSlot::kNz;
+      else if (p.name == "red" || p.name == "r") s = VertexSlot::kRed;
+      else if (p.name == "green" || p.name == "g") s = VertexSlot::kGreen;
+      else if (p.name == "blue" || p.name == "b") s = VertexSlot::kBlue;
+      else if (p.name == "alpha") s = VertexSlot::kIgnore;
+      slots.push_back(s);
+    }
+    auto has = [&](VertexSlot s) { return std::find(slots.begin(), slots.end(), s) != slots.end(); };
+    if (!has(VertexSlot::kX) || !has(VertexSlot::kY) || !has(VertexSlot::kZ))
+      throw IoError(path_ + ": element 'vertex' has no x, y, z properties");
+    has_normals_ = has(VertexSlot::kNx) && has(VertexSlot::kNy) && has(VertexSlot::kNz);
+    has_colors_ = has(VertexSlot::kRed) && has(VertexSlot::kGreen) && has(VertexSlot::kBlue);
+    const auto n = e.count;
+    out_.V.resize(n, 3);
+    if (has_normals_) out_.N.resize(n, 3);
+    if (has_colors_) out_.C.resize(n, 3);
+    for (size_t i = 0; i < slots.size(); ++i)
+      if (slots[i] == VertexSlot::kScalar) out_.scalars[e.properties[i].name].resize(n);
+    return slots;
+  }
+
+  void store_vertex(const PlyElement& e, const std::vector<VertexSlot>& slots, long long v, size_t prop,
+                    double value) {
+    switch (slots[prop]) {
+      case VertexSlot::kX: out_.V(v, 0) = value * scale_; break;
+      case VertexSlot::kY: out_.V(v, 1) = value * scale_; break;
+      case VertexSlot::kZ: out_.V(v, 2) = value * scale_; break;
+      case VertexSlot::kNx: if (has_normals_) out_.N(v, 0) = value; break;
+      case VertexSlot::kNy: if (has_normals_) out_.N(v, 1) = value; break;
+      case VertexSlot::kNz: if (has_normals_) out_.N(v, 2) = value; break;
+      case VertexSlot::kRed: if (has_colors_) out_.C(v, 0) = to_color(value, e.properties[prop].type); break;
+      case VertexSlot::kGreen: if (has_colors_) out_.C(v, 1) = to_color(value, e.properties[prop].type); break;
+      case VertexSlot::kBlue: if (has_colors_) out_.C(v, 2) = to_color(value, e.properties[prop].type); break;
+      case VertexSlot::kScalar: out_.scalars[e.properties[prop].name][v] = value; break;
+      case VertexSlot::kIgnore: break;
+    }
+  }
+
+  static std::uint8_t to_color(double value, PlyType type) {
+    if (type == PlyType::kFloat32 || type == PlyType::kFloat64) value *= 255.0;
+    return static_cast<std::uint8_t>(std::clamp(std::lround(value), 0L, 255L));
+  }
+
+  static int face_list_index(const PlyElement& e) {
+    for (size_t i = 0; i < e.properties.size(); ++i)
+      if (e.properties[i].is_list &&
+          (e.properties[i].name == "vertex_indices" || e.properties[i].name == "vertex_index"))
+        return static_cast<int>(i);
+    return -1;
+  }
+
+  void add_polygon(const PlyElement& e, long long f, const std::vector<long long>& poly) {
+    if (poly.size() < 3) fail_element(e, f, "a face needs at least 3 vertices, got " + std::to_string(poly.size()));
+    for (long long idx : poly)
+      if (idx < 0 || idx >= out_.V.rows())
+        fail_element(e, f, "vertex index " + std::to_string(idx) + " out of range 0.." +
+                               std::to_string(out_.V.rows() - 1));
+    for (size_t k = 1; k + 1 < poly.size(); ++k)
+      tris_.insert(tris_.end(), {static_cast<int>(poly[0]), static_cast<int>(poly[k]), static_cast<int>(poly[k + 1])});
+  }
+
+  void read_binary(ByteReader& r) {
+    std::vector<long long> poly;
+    for (const auto& e : elements_) {
+      const bool is_vertex = e.name == "vertex";
+      const bool is_face = e.name == "face";
+      std::vector<VertexSlot> slots;
+      if (is_vertex) slots = vertex_slots(e);
+      const int list_index = is_face ? face_list_index(e) : -1;
+      if (is_face && list_index < 0) throw IoError(path_ + ": element 'face' has no vertex_indices list");
+      if (is_face) tris_.reserve(static_cast<size_t>(e.count) * 3);
+      // Fast path: the common face layout "uchar count, int/uint indices".
+      for (long long i = 0; i < e.count; ++i) {
+        for (size_t p = 0; p < e.properties.size(); ++p) {
+          const auto& prop = e.properties[p];
+          double value = 0;
+          if (!prop.is_list) {
+            if (!read_binary_value(r, prop.type, value))
+              fail_element(e, i, "file ends early (truncated binary data)");
+            if (is_vertex) store_vertex(e, slots, i, p, value);
+            continue;
+          }
+          double count = 0;
+          if (!read_binary_value(r, prop.count_type, count))
+            fail_element(e, i, "file ends early (truncated binary data)");
+          if (count < 0 || count > 1e6) fail_element(e, i, "implausible list length " + std::to_string(count));
+          const bool keep = is_face && static_cast<int>(p) == list_index;
+          if (keep) poly.clear();
+          for (long long k = 0; k < static_cast<long long>(count); ++k) {
+            if (!read_binary_value(r, prop.type, value))
+              fail_element(e, i, "file ends early (truncated binary data)");
+            if (keep) poly.push_back(static_cast<long long>(value));
+          }
+          if (keep) add_polygon(e, i, poly);
+        }
+      }
+    }
+  }
+
+  void read_ascii(std::string_view text) {
+    LineScanner lines(text, path_);
+    std::string_view line;
+    std::vector<std::string_view> tok;
+    std::vector<long long> poly;
+    for (const auto& e : elements_) {
+      const bool is_vertex = e.name == "vertex";
+      const bool is_face = e.name == "face";
+      std::vector<VertexSlot> slots;
+      if (is_vertex) slots = vertex_slots(e);
+      const int list_index = is_face ? face_list_index(e) : -1;
+      if (is_face && list_index < 0) throw IoError(path_ + ": element 'face' has no vertex_indices list");
+      for (long long i = 0; i < e.count; ++i) {
+        do {
+          if (!lines.next(line)) fail_element(e, i, "file ends early (expected " + std::to_string(e.count) + " lines)");
+          split(line, tok);
+        } while (tok.empty());
+        size_t t = 0;
+        auto take = [&]() -> std::string_view {
+          if (t >= tok.size()) fail_element(e, i, "too few values on the line");
+          return tok[t++];
+        };
+        for (size_t p = 0; p < e.properties.size(); ++p) {
+          const auto& prop = e.properties[p];
+          if (!prop.is_list) {
+            const double value = to_number(take(), e, i);
+            if (is_vertex) store_vertex(e, slots, i, p, value);
+            continue;
+          }
+          const double count = to_number(take(), e, i);
+          if (count < 0 || count > 1e6) fail_element(e, i, "implausible list length");
+          const bool keep = is_face && static_cast<int>(p) == list_index;
+          if (keep) poly.clear();
+          for (long long k = 0; k < static_cast<long long>(count); ++k) {
+            const double value = to_number(take(), e, i);
+            if (keep) poly.push_back(static_cast<long long>(value));
+          }
+          if (keep) add_polygon(e, i, poly);
+        }
+      }
+    }
+  }
+
+  double to_number(std::string_view token, const PlyElement& e, long long i) const {
+    double value = 0;
+    const auto [ptr, ec] = std::from_chars(token.data(), token.data() + token.size(), value);
+    if (ec != std::errc() || ptr != token.data() + token.size())
+      fail_element(e, i, "expected a number, got '" + printable(token) + "'");
+    return value;
+  }
+
+  void finish() {
+    bool have_vertex = false;
+    for (const auto& e : elements_) have_vertex |= e.name == "vertex";
+    if (!have_vertex) throw IoError(path_ + ": PLY has no 'vertex' element");
+    for (Eigen::Index v = 0; v < out_.V.rows(); ++v)
+      if (!out_.V.row(v).allFinite())
+        throw IoError(path_ + ": element 'vertex' #" + std::to_string(v) + " has a non-finite coordinate");
+    out_.F.resize(static_cast<Eigen::Index>(tris_.size() / 3), 3);
+    for (Eigen::Index f = 0; f < out_.F.rows(); ++f)
+      for (int c = 0; c < 3; ++c) out_.F(f, c) = tris_[3 * f + c];
+  }
+
+  std::string path_;
+  double scale_;
+  std::string bytes_;
+  size_t header_end_ = 0;
+  PlyEncoding encoding_ = PlyEncoding::kAscii;
+  std::vector<PlyElement> elements_;
+  bool has_normals_ = false;
+  bool has_colors_ = false;
+  std::vector<int> tris_;
+  PlyContent out_;
+};
+
+template <typename T>
+void put(std::ostream& out, T value) {
+  out.write(reinterpret_cast<const char*>(&value), sizeof(T));
+}
+
+}  // namespace
+
+PlyContent read_ply(const std::string& path, double scale) { return PlyParser(path, scale).parse(); }
+
+void write_ply(const std::string& path, const PlyContent& c, bool binary, double scale) {
+  const Eigen::Index n = c.V.rows();
+  const bool normals = c.N.rows() == n && n > 0;
+  const bool colors = c.C.rows() == n && n > 0;
+  for (const auto& [name, values] : c.scalars)
+    if (values.size() != n)
+      throw InvalidInput(path + ": scalar field '" + name + "' has " + std::to_string(values.size()) +
+                         " values, expected one per vertex (" + std::to_string(n) + ")");
+  const bool little = host_is_little_endian();
+  write_file_atomically(path, [&](std::ostream& out) {
+    out << "ply\nformat " << (binary ? (little ? "binary_little_endian" : "binary_big_endian") : "ascii")
+        << " 1.0\ncomment written by posekit\nelement vertex " << n
+        << "\nproperty double x\nproperty double y\nproperty double z\n";
+    if (normals) out << "property double nx\nproperty double ny\nproperty double nz\n";
+    if (colors) out << "property uchar red\nproperty uchar green\nproperty uchar blue\n";
+    for (const auto& kv : c.scalars) out << "property double " << kv.first << "\n";
+    if (c.F.rows() > 0) out << "element face " << c.F.rows() << "\nproperty list uchar int vertex_indices\n";
+    out << "end_header\n";
+    if (binary) {
+      for (Eigen::Index v = 0; v < n; ++v) {
+        for (int k = 0; k < 3; ++k) put(out, c.V(v, k) * scale);
+        if (normals) for (int k = 0; k < 3; ++k) put(out, c.N(v, k));
+        if (colors) for (int k = 0; k < 3; ++k) put(out, c.C(v, k));
+        for (const auto& kv : c.scalars) put(out, kv.second[v]);
+      }
+      for (Eigen::Index f = 0; f < c.F.rows(); ++f) {
+        put<std::uint8_t>(out, 3);
+        for (int k = 0; k < 3; ++k) put<std::int32_t>(out, c.F(f, k));
+      }
+    } else {
+      out << std::setprecision(17);
+      for (Eigen::Index v = 0; v < n; ++v) {
+        out << c.V(v, 0) * scale << ' ' << c.V(v, 1) * scale << ' ' << c.V(v, 2) * scale;
+        if (normals) out << ' ' << c.N(v, 0) << ' ' << c.N(v, 1) << ' ' << c.N(v, 2);
+        if (colors) out << ' ' << int(c.C(v, 0)) << ' ' << int(c.C(v, 1)) << ' ' << int(c.C(v, 2));
+        for (const auto& kv : c.scalars) out << ' ' << kv.second[v];
+        out << '\n';
+      }
+      for (Eigen::Index f = 0; f < c.F.rows(); ++f)
+        out << "3 " << c.F(f, 0) << ' ' << c.F(f, 1) << ' ' << c.F(f, 2) << '\n';
+    }
+  });
+}
+
+}  // namespace posekit::io_detail
