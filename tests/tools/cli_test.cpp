@@ -1,0 +1,94 @@
+// The posekit executable as a user runs it: exit codes, --help, --json, one-line errors.
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <array>
+#include <cstdio>
+#include <nlohmann/json.hpp>
+#include <string>
+
+#include "posekit/io/mesh_io.h"
+#include "testing/temp_dir.h"
+#include "testing/test_meshes.h"
+
+using namespace posekit;
+
+namespace {
+struct CommandResult {
+  int code;
+  std::string out;
+};
+
+CommandResult run(const std::string& args, bool merge_stderr = false) {
+  const std::string cmd = std::string(POSEKIT_EXE) + " " + args + (merge_stderr ? " 2>&1" : " 2>/dev/null");
+  FILE* pipe = ::popen(cmd.c_str(), "r");
+  std::string out;
+  std::array<char, 4096> buf;
+  size_t n;
+  while ((n = std::fread(buf.data(), 1, buf.size(), pipe)) > 0) out.append(buf.data(), n);
+  const int status = ::pclose(pipe);
+  return {WEXITSTATUS(status), out};
+}
+}  // namespace
+
+TEST(Cli, EveryCommandHasHelp) {
+  for (const char* c : {"info", "convert", "bench"}) {
+    const CommandResult r = run(std::string(c) + " --help");
+    EXPECT_EQ(r.code, 0) << c;
+    EXPECT_NE(r.out.find("usage: posekit"), std::string::npos) << c;
+  }
+  EXPECT_EQ(run("--help").code, 0);
+  EXPECT_EQ(run("frobnicate").code, 2);
+}
+
+TEST(Cli, InfoJsonReportsCountsAndValidity) {
+  test::TempDir dir;
+  write_mesh(dir.file("s.ply"), test::icosphere(2, 0.9));
+  const CommandResult r = run("info " + dir.file("s.ply") + " --json");
+  ASSERT_EQ(r.code, 0);
+  const auto j = nlohmann::json::parse(r.out);
+  EXPECT_EQ(j["triangles"], 320);
+  EXPECT_EQ(j["validity"]["watertight"], true);
+  EXPECT_GT(j["volume_litres"].get<double>(), 2000.0);
+}
+
+TEST(Cli, InfoWarnsWhenABodyIsInAnotherUnit) {
+  test::TempDir dir;
+  TriangleMesh tall = test::unit_cube();
+  tall.V.col(1) *= 1700.0;  // a 1700-unit tall box: millimetres
+  write_mesh(dir.file("t.obj"), tall);
+  const auto j = nlohmann::json::parse(run("info " + dir.file("t.obj") + " --json").out);
+  EXPECT_EQ(j["unit_guess_for_a_body"], "mm");
+  EXPECT_NE(j["warning"].get<std::string>().find("--unit mm"), std::string::npos);
+}
+
+TEST(Cli, BadInputGivesOneLineAndNonZeroExit) {
+  test::TempDir dir;
+  const std::string bad = dir.write("bad.ply", "ply\nformat ascii 1.0\nelement vertex 5\nproperty float x\nproperty float y\n"
+                                                "property float z\nend_header\n0 0 0\n");
+  const CommandResult r = run("info " + bad, true);
+  EXPECT_EQ(r.code, 1);
+  EXPECT_EQ(std::count(r.out.begin(), r.out.end(), '\n'), 1) << r.out;
+  EXPECT_NE(r.out.find("bad.ply"), std::string::npos);
+  EXPECT_EQ(run("info " + bad + " --bogus").code, 2);
+  EXPECT_EQ(run("info").code, 2);
+}
+
+TEST(Cli, ConvertChangesFormatAndUnit) {
+  test::TempDir dir;
+  write_mesh(dir.file("c.ply"), test::unit_cube());
+  ASSERT_EQ(run("convert " + dir.file("c.ply") + " " + dir.file("c.off") + " --to-unit mm").code, 0);
+  const TriangleMesh r = read_mesh(dir.file("c.off"), {Unit::kMillimetre});
+  EXPECT_NEAR(r.V.maxCoeff(), 1.0, 1e-12);
+  ASSERT_EQ(run("convert " + dir.file("c.off") + " " + dir.file("c.pcd") + " --from-unit mm --to-unit mm").code, 0);
+  EXPECT_EQ(run("convert " + dir.file("c.pcd") + " " + dir.file("x.stl")).code, 1);
+  EXPECT_EQ(dir.count(), 3);
+}
+
+TEST(Cli, InfoOnTheMakeHumanBodyGroup) {
+  const std::string root = test::test_data_root();
+  ASSERT_FALSE(root.empty()) << "POSEKIT_DATA is not set to the MakeHuman assets";
+  const auto j = nlohmann::json::parse(run("info " + root + "/3dobjs/base.obj --unit dm --group body --json").out);
+  EXPECT_EQ(j["vertices"], 13380);
+  EXPECT_EQ(j["validity"]["usable"], true);
+}

@@ -1,0 +1,176 @@
+#include "cli.h"
+
+#include <unistd.h>
+
+#include <algorithm>
+#include <cstdio>
+#include <fstream>
+#include <iostream>
+#include <nlohmann/json.hpp>
+#include <sstream>
+
+namespace posekit::cli {
+
+ArgParser& ArgParser::positional(const std::string& name, const std::string& help, bool required) {
+  positional_specs_.push_back({name, help, required});
+  return *this;
+}
+ArgParser& ArgParser::option(const std::string& name, const std::string& value_name, const std::string& help,
+                             const std::string& default_value) {
+  options_.push_back({name, value_name, help, default_value, false});
+  return *this;
+}
+ArgParser& ArgParser::flag(const std::string& name, const std::string& help) {
+  options_.push_back({name, "", help, "", true});
+  return *this;
+}
+ArgParser& ArgParser::example(const std::string& line) {
+  examples_.push_back(line);
+  return *this;
+}
+
+std::string ArgParser::help() const {
+  std::ostringstream out;
+  out << "usage: posekit " << command_;
+  for (const auto& p : positional_specs_) out << (p.required ? " <" : " [<") << p.name << (p.required ? ">" : ">]");
+  out << " [options]\n\n" << summary_ << "\n";
+  if (!positional_specs_.empty()) {
+    out << "\narguments:\n";
+    for (const auto& p : positional_specs_) out << "  " << p.name << std::string(std::max<size_t>(2, 24 - p.name.size()), ' ') << p.help << "\n";
+  }
+  out << "\noptions:\n";
+  for (const auto& o : options_) {
+    std::string lhs = "--" + o.name + (o.is_flag ? "" : " " + o.value_name);
+    out << "  " << lhs << std::string(std::max<size_t>(2, 24 - lhs.size()), ' ') << o.help;
+    if (!o.default_value.empty()) out << " (default: " << o.default_value << ")";
+    out << "\n";
+  }
+  out << "  --help" << std::string(18, ' ') << "show this help\n";
+  if (!examples_.empty()) {
+    out << "\nexamples:\n";
+    for (const auto& e : examples_) out << "  " << e << "\n";
+  }
+  return out.str();
+}
+
+bool ArgParser::parse(int argc, char** argv) {
+  for (int i = 0; i < argc; ++i) {
+    std::string a = argv[i];
+    if (a == "--help" || a == "-h") {
+      std::cout << help();
+      return false;
+    }
+    if (a.rfind("--", 0) == 0 && a.size() > 2) {
+      std::string name = a.substr(2), value;
+      const size_t eq = name.find('=');
+      const bool inline_value = eq != std::string::npos;
+      if (inline_value) {
+        value = name.substr(eq + 1);
+        name = name.substr(0, eq);
+      }
+      auto it = std::find_if(options_.begin(), options_.end(), [&](const Option& o) { return o.name == name; });
+      if (it == options_.end()) throw UsageError("unknown option --" + name + " (see posekit " + command_ + " --help)");
+      if (it->is_flag) {
+        if (inline_value) throw UsageError("--" + name + " takes no value");
+        values_[name] = "1";
+      } else {
+        if (!inline_value) {
+          if (i + 1 >= argc) throw UsageError("--" + name + " needs a value <" + it->value_name + ">");
+          value = argv[++i];
+        }
+        values_[name] = value;
+      }
+    } else {
+      positional_values_.push_back(a);
+    }
+  }
+  size_t required = 0;
+  for (const auto& p : positional_specs_) required += p.required;
+  if (positional_values_.size() < required)
+    throw UsageError("missing argument <" + positional_specs_[positional_values_.size()].name + "> (see posekit " +
+                     command_ + " --help)");
+  if (positional_values_.size() > positional_specs_.size())
+    throw UsageError("unexpected argument '" + positional_values_[positional_specs_.size()] + "' (see posekit " +
+                     command_ + " --help)");
+  for (const auto& o : options_)
+    if (!o.is_flag && !o.default_value.empty() && !values_.count(o.name)) values_[o.name] = o.default_value;
+  return true;
+}
+
+const std::string& ArgParser::get(const std::string& name) const {
+  static const std::string empty;
+  auto it = values_.find(name);
+  return it == values_.end() ? empty : it->second;
+}
+bool ArgParser::has(const std::string& name) const { return values_.count(name) > 0; }
+
+double ArgParser::get_double(const std::string& name) const {
+  const std::string& v = get(name);
+  try {
+    size_t used = 0;
+    const double d = std::stod(v, &used);
+    if (used == v.size()) return d;
+  } catch (...) {
+  }
+  throw UsageError("--" + name + " expects a number, got '" + v + "'");
+}
+long ArgParser::get_int(const std::string& name) const {
+  const std::string& v = get(name);
+  try {
+    size_t used = 0;
+    const long d = std::stol(v, &used);
+    if (used == v.size()) return d;
+  } catch (...) {
+  }
+  throw UsageError("--" + name + " expects an integer, got '" + v + "'");
+}
+
+Progress::Progress(std::string label, long total)
+    : label_(std::move(label)), total_(std::max(1L, total)), tty_(::isatty(2)), start_(std::chrono::steady_clock::now()) {}
+
+void Progress::update(long done) {
+  const double frac = std::min(1.0, static_cast<double>(done) / total_);
+  const int decile = static_cast<int>(frac * 10);
+  const double secs = std::chrono::duration<double>(std::chrono::steady_clock::now() - start_).count();
+  if (tty_ && secs >= 0.3) {
+    shown_ = true;
+    const int width = 30, filled = static_cast<int>(frac * width);
+    std::fprintf(stderr, "\r%s [%s%s] %3d%% %ld/%ld %.1fs", label_.c_str(), std::string(filled, '#').c_str(),
+                 std::string(width - filled, '.').c_str(), static_cast<int>(frac * 100), done, total_, secs);
+    std::fflush(stderr);
+  } else if (decile > last_decile_ && secs >= 1.0) {  // quiet for work under a second
+    last_decile_ = decile;
+    std::fprintf(stderr, "%s: %d%% (%ld/%ld, %.1fs)\n", label_.c_str(), decile * 10, done, total_, secs);
+  }
+}
+
+void Progress::finish() {
+  if (finished_) return;
+  finished_ = true;
+  update(total_);
+  if (tty_ && shown_) std::fprintf(stderr, "\n");
+}
+
+Progress::~Progress() { finish(); }
+
+void print_json(const nlohmann::json& value) { std::cout << value.dump(2) << std::endl; }
+
+Stats stats_of(std::vector<double> v) {
+  Stats s;
+  if (v.empty()) return s;
+  std::sort(v.begin(), v.end());
+  s.min = v.front();
+  s.max = v.back();
+  s.median = v.size() % 2 ? v[v.size() / 2] : 0.5 * (v[v.size() / 2 - 1] + v[v.size() / 2]);
+  return s;
+}
+
+double peak_rss_mib() {
+  std::ifstream status("/proc/self/status");
+  std::string line;
+  while (std::getline(status, line))
+    if (line.rfind("VmHWM:", 0) == 0) return std::stod(line.substr(6)) / 1024.0;
+  return 0.0;
+}
+
+}  // namespace posekit::cli

@@ -1,0 +1,87 @@
+#pragma once
+// Command-line plumbing shared by the posekit subcommands.
+#include <chrono>
+#include <map>
+#include <stdexcept>
+#include <string>
+#include <vector>
+
+#include <nlohmann/json_fwd.hpp>
+
+namespace posekit::cli {
+
+/// Wrong usage of a subcommand (unknown option, missing value): exit code 2.
+struct UsageError : std::runtime_error {
+  using std::runtime_error::runtime_error;
+};
+
+/// Declarative options of one subcommand; builds its --help text.
+class ArgParser {
+ public:
+  ArgParser(std::string command, std::string summary) : command_(std::move(command)), summary_(std::move(summary)) {}
+
+  ArgParser& positional(const std::string& name, const std::string& help, bool required = true);
+  ArgParser& option(const std::string& name, const std::string& value_name, const std::string& help,
+                    const std::string& default_value = "");
+  ArgParser& flag(const std::string& name, const std::string& help);
+  ArgParser& example(const std::string& line);
+
+  /// Parses argv; returns false when --help was printed.
+  bool parse(int argc, char** argv);
+
+  const std::string& get(const std::string& name) const;
+  bool has(const std::string& name) const;
+  bool flag_set(const std::string& name) const { return has(name); }
+  double get_double(const std::string& name) const;
+  long get_int(const std::string& name) const;
+  const std::vector<std::string>& positionals() const { return positional_values_; }
+  std::string help() const;
+
+ private:
+  struct Option {
+    std::string name, value_name, help, default_value;
+    bool is_flag = false;
+  };
+  struct Positional {
+    std::string name, help;
+    bool required = true;
+  };
+  std::string command_, summary_;
+  std::vector<Option> options_;
+  std::vector<Positional> positional_specs_;
+  std::vector<std::string> examples_;
+  std::map<std::string, std::string> values_;
+  std::vector<std::string> positional_values_;
+};
+
+/// Progress on stderr: a bar when stderr is a terminal, otherwise a line every ~10%.
+class Progress {
+ public:
+  Progress(std::string label, long total);
+  void update(long done);
+  void finish();
+  ~Progress();
+
+ private:
+  std::string label_;
+  long total_;
+  int last_decile_ = -1;
+  bool tty_;
+  bool finished_ = false;
+  bool shown_ = false;
+  std::chrono::steady_clock::time_point start_;
+};
+
+/// Prints JSON to stdout, pretty, with a trailing newline.
+void print_json(const nlohmann::json& value);
+
+/// Median, min and max of a sample (seconds or any unit).
+struct Stats {
+  double median = 0, min = 0, max = 0;
+};
+Stats stats_of(std::vector<double> values);
+
+/// Peak resident set size of this process so far, in MiB (from /proc/self/status).
+double peak_rss_mib();
+
+}  // namespace posekit::cli

@@ -1,0 +1,125 @@
+// posekit bench <what>: timings reported as median/min/max over several runs (never timed tests).
+#include <unistd.h>
+
+#include <chrono>
+#include <cmath>
+#include <filesystem>
+#include <iomanip>
+#include <iostream>
+#include <nlohmann/json.hpp>
+
+#include "cli.h"
+#include "commands.h"
+#include "posekit/core/error.h"
+#include "posekit/io/mesh_io.h"
+#include "posekit/io/point_cloud_io.h"
+
+namespace posekit::cli {
+namespace {
+
+using Clock = std::chrono::steady_clock;
+
+/// A closed torus-like tube mesh with about `triangles` triangles (2 per grid cell).
+TriangleMesh make_torus(long triangles) {
+  const int n = std::max(8, static_cast<int>(std::sqrt(triangles / 2.0)));
+  TriangleMesh mesh;
+  mesh.V.resize(static_cast<Eigen::Index>(n) * n, 3);
+  mesh.F.resize(2L * n * n, 3);
+  for (int i = 0; i < n; ++i)
+    for (int j = 0; j < n; ++j) {
+      const double u = 2 * M_PI * i / n, v = 2 * M_PI * j / n;
+      mesh.V.row(i * n + j) << (0.5 + 0.2 * std::cos(v)) * std::cos(u), 0.2 * std::sin(v), (0.5 + 0.2 * std::cos(v)) * std::sin(u);
+      const int a = i * n + j, b = ((i + 1) % n) * n + j, c = ((i + 1) % n) * n + (j + 1) % n, d = i * n + (j + 1) % n;
+      mesh.F.row(2 * a) << a, b, c;
+      mesh.F.row(2 * a + 1) << a, c, d;
+    }
+  return mesh;
+}
+
+template <typename F>
+Stats time_runs(int runs, const std::string& label, F&& body) {
+  std::vector<double> seconds;
+  Progress progress(label, runs);
+  for (int r = 0; r < runs; ++r) {
+    const auto t0 = Clock::now();
+    body();
+    seconds.push_back(std::chrono::duration<double>(Clock::now() - t0).count());
+    progress.update(r + 1);
+  }
+  progress.finish();
+  return stats_of(seconds);
+}
+
+int bench_io(int argc, char** argv) {
+  ArgParser args("bench io", "Times reading large files: binary PLY, OBJ and binary STL meshes and a binary PCD cloud.\n"
+                             "Files are generated in a temporary folder and removed afterwards.");
+  args.option("triangles", "N", "triangles of the test mesh", "1000000")
+      .option("points", "N", "points of the test cloud", "1000000")
+      .option("runs", "R", "timed runs per format (median reported)", "5")
+      .option("tmp", "DIR", "folder for the temporary files", std::filesystem::temp_directory_path().string())
+      .flag("json", "machine-readable results on stdout");
+  if (!args.parse(argc, argv)) return 0;
+  const long triangles = args.get_int("triangles");
+  const long points = args.get_int("points");
+  const int runs = static_cast<int>(args.get_int("runs"));
+  if (triangles < 100 || points < 1 || runs < 1) throw UsageError("--triangles >= 100, --points >= 1, --runs >= 1");
+  const auto dir = std::filesystem::path(args.get("tmp")) / ("posekit-bench-io-" + std::to_string(::getpid()));
+  std::filesystem::create_directories(dir);
+  nlohmann::json results = nlohmann::json::array();
+  try {
+    const TriangleMesh mesh = make_torus(triangles);
+    PointCloud cloud;
+    cloud.P = Eigen::MatrixXd::Random(points, 3);
+    struct Case {
+      std::string name, file;
+    };
+    for (const Case& c : {Case{"ply_binary", "m.ply"}, Case{"obj", "m.obj"}, Case{"stl_binary", "m.stl"}}) {
+      const std::string path = (dir / c.file).string();
+      write_mesh(path, mesh);
+      const auto size = std::filesystem::file_size(path);
+      long read_faces = 0;
+      const Stats s = time_runs(runs, "read " + c.name, [&] { read_faces = read_mesh(path).num_faces(); });
+      if (read_faces != mesh.num_faces()) throw Error("bench io: " + c.name + " read back " + std::to_string(read_faces) + " faces");
+      results.push_back({{"case", "read " + c.name}, {"elements", mesh.num_faces()}, {"element", "triangles"},
+                         {"file_mib", size / 1048576.0}, {"median_s", s.median}, {"min_s", s.min}, {"max_s", s.max}});
+    }
+    const std::string pcd = (dir / "c.pcd").string();
+    write_point_cloud(pcd, cloud);
+    const auto size = std::filesystem::file_size(pcd);
+    const Stats s = time_runs(runs, "read pcd_binary", [&] { (void)read_point_cloud(pcd); });
+    results.push_back({{"case", "read pcd_binary"}, {"elements", points}, {"element", "points"},
+                       {"file_mib", size / 1048576.0}, {"median_s", s.median}, {"min_s", s.min}, {"max_s", s.max}});
+  } catch (...) {
+    std::filesystem::remove_all(dir);
+    throw;
+  }
+  std::filesystem::remove_all(dir);
+  nlohmann::json out = {{"benchmark", "io"}, {"runs", runs}, {"results", results}, {"peak_rss_mib", peak_rss_mib()}};
+  if (args.flag_set("json")) {
+    print_json(out);
+    return 0;
+  }
+  std::cout << "| case | elements | file MiB | median s | min s | max s |\n|---|---|---|---|---|---|\n" << std::fixed;
+  for (const auto& r : results)
+    std::cout << "| " << r["case"].get<std::string>() << " | " << r["elements"] << " " << r["element"].get<std::string>()
+              << " | " << std::setprecision(1) << r["file_mib"].get<double>() << " | " << std::setprecision(3)
+              << r["median_s"].get<double>() << " | " << r["min_s"].get<double>() << " | " << r["max_s"].get<double>() << " |\n";
+  std::cout << "peak RSS: " << std::setprecision(0) << out["peak_rss_mib"].get<double>() << " MiB, " << runs << " runs each\n";
+  return 0;
+}
+
+}  // namespace
+
+int run_bench(int argc, char** argv) {
+  const std::string usage =
+      "usage: posekit bench <what> [options]\n\nbenchmarks:\n  io    reading 1M-triangle meshes and 1M-point clouds\n";
+  if (argc < 1 || std::string(argv[0]) == "--help" || std::string(argv[0]) == "-h") {
+    std::cout << usage;
+    return argc < 1 ? 2 : 0;
+  }
+  const std::string what = argv[0];
+  if (what == "io") return bench_io(argc - 1, argv + 1);
+  throw UsageError("unknown benchmark '" + what + "'\n" + usage);
+}
+
+}  // namespace posekit::cli

@@ -1,0 +1,159 @@
+// posekit info <file>: what a mesh or point cloud file holds and whether it is usable.
+#include <iomanip>
+#include <iostream>
+#include <nlohmann/json.hpp>
+
+#include "cli.h"
+#include "commands.h"
+#include "posekit/core/error.h"
+#include "posekit/core/mesh_geometry.h"
+#include "posekit/core/mesh_validation.h"
+#include "posekit/io/mesh_io.h"
+#include "posekit/io/point_cloud_io.h"
+
+namespace posekit::cli {
+namespace {
+
+nlohmann::json box_json(const BoundingBox& b, double to_unit) {
+  auto v = [&](const Eigen::Vector3d& x) { return nlohmann::json{x.x() * to_unit, x.y() * to_unit, x.z() * to_unit}; };
+  return {{"min", v(b.min)}, {"max", v(b.max)}, {"extent", v(b.extent())}};
+}
+
+bool is_cloud_path(const std::string& path) {
+  const auto f = cloud_format_from_path(path);
+  return f == CloudFormat::kPcd || f == CloudFormat::kXyz;
+}
+
+}  // namespace
+
+int run_info(int argc, char** argv) {
+  ArgParser args("info", "Reports what a mesh (OBJ, PLY, OFF, STL) or point cloud (PCD, PLY, XYZ) holds: counts,\n"
+                         "groups, scalar fields, bounding box, the unit it seems to be in, and a validity report\n"
+                         "(out-of-range indices, non-finite coordinates, degenerate and duplicate faces,\n"
+                         "boundaries, non-manifold edges, components, watertightness, area, volume).");
+  args.positional("file", "mesh or point cloud")
+      .option("unit", "U", "unit the file is written in: m, dm, cm, mm", "m")
+      .option("group", "NAME", "report only this OBJ group (e.g. body)")
+      .flag("json", "machine-readable report on stdout")
+      .example("posekit info ../shared/datasets/makehuman/3dobjs/base.obj --unit dm --group body")
+      .example("posekit info scan.pcd --unit mm --json");
+  if (!args.parse(argc, argv)) return 0;
+  const std::string path = args.positionals()[0];
+  const Unit unit = parse_unit(args.get("unit"));
+  const double to_unit = 1.0 / metres_per_unit(unit);
+  nlohmann::json report;
+  report["file"] = path;
+  report["unit"] = unit_name(unit);
+  report["coordinates_unit_in_report"] = unit_name(unit);
+  bool as_cloud = is_cloud_path(path);
+  TriangleMesh mesh;
+  PointCloud cloud;
+  if (!as_cloud) {
+    try {
+      mesh = read_mesh(path, {unit});
+    } catch (const IoError& e) {
+      // A PLY without faces is a point cloud.
+      if (mesh_format_from_path(path) != MeshFormat::kPly || std::string(e.what()).find("no faces") == std::string::npos) throw;
+      as_cloud = true;
+    }
+  }
+  Eigen::MatrixXd points;
+  if (as_cloud) {
+    cloud = read_point_cloud(path, {unit});
+    report["kind"] = "point cloud";
+    report["points"] = cloud.size();
+    report["has_normals"] = cloud.has_normals();
+    std::vector<std::string> names;
+    for (const auto& kv : cloud.point_scalars) names.push_back(kv.first);
+    report["scalar_fields"] = names;
+    points = cloud.P;
+  } else {
+    report["kind"] = "triangle mesh";
+    if (!mesh.group_names.empty()) {
+      nlohmann::json groups = nlohmann::json::object();
+      Eigen::VectorXi counts = Eigen::VectorXi::Zero(static_cast<Eigen::Index>(mesh.group_names.size()));
+      for (Eigen::Index f = 0; f < mesh.face_group.size(); ++f) ++counts[mesh.face_group[f]];
+      for (size_t g = 0; g < mesh.group_names.size(); ++g) groups[mesh.group_names[g]] = counts[g];
+      report["groups_triangles"] = groups;
+    }
+    if (args.has("group")) {
+      mesh = extract_group(mesh, args.get("group"));
+      report["group"] = args.get("group");
+    }
+    const MeshReport r = validate_mesh(mesh);
+    report["vertices"] = r.num_vertices;
+    report["triangles"] = r.num_faces;
+    report["has_normals"] = mesh.has_normals();
+    report["has_colors"] = mesh.has_colors();
+    std::vector<std::string> names;
+    for (const auto& kv : mesh.vertex_scalars) names.push_back(kv.first);
+    report["scalar_fields"] = names;
+    report["validity"] = {{"usable", r.usable()},
+                          {"out_of_range_indices", r.out_of_range_indices},
+                          {"non_finite_vertices", r.non_finite_vertices},
+                          {"degenerate_faces", r.degenerate_faces},
+                          {"duplicate_faces", r.duplicate_faces},
+                          {"unreferenced_vertices", r.unreferenced_vertices},
+                          {"boundary_edges", r.boundary_edges},
+                          {"boundary_loops", r.boundary_loops},
+                          {"non_manifold_edges", r.non_manifold_edges},
+                          {"components", r.components},
+                          {"watertight", r.watertight}};
+    report["surface_area_m2"] = r.surface_area;
+    if (r.watertight) report["volume_litres"] = r.signed_volume * 1000.0;
+    points = mesh.V;
+  }
+  if (points.rows() > 0) {
+    const BoundingBox box = bounding_box(points);
+    report["bounding_box"] = box_json(box, to_unit);
+    Unit guess;
+    const double extent_in_file_units = box.extent().maxCoeff() * to_unit;
+    if (guess_body_unit(extent_in_file_units, &guess)) {
+      report["unit_guess_for_a_body"] = unit_name(guess);
+      if (guess != unit)
+        report["warning"] = "largest extent " + std::to_string(extent_in_file_units) + " " + unit_name(unit) +
+                            ": if this is a human body, the file is probably in " + unit_name(guess) +
+                            " (pass --unit " + unit_name(guess) + ")";
+    }
+  }
+  if (args.flag_set("json")) {
+    print_json(report);
+    return 0;
+  }
+  std::cout << std::fixed << std::setprecision(4);
+  std::cout << path << " (" << report["kind"].get<std::string>() << ", coordinates in " << unit_name(unit) << ")\n";
+  if (as_cloud) {
+    std::cout << "  points:      " << cloud.size() << (cloud.has_normals() ? " (with normals)" : "") << "\n";
+  } else {
+    if (report.contains("groups_triangles")) {
+      std::cout << "  groups:      " << report["groups_triangles"].size() << " (";
+      int shown = 0;
+      for (auto it = report["groups_triangles"].begin(); it != report["groups_triangles"].end() && shown < 6; ++it, ++shown)
+        std::cout << (shown ? ", " : "") << it.key() << ": " << it.value() << " triangles";
+      std::cout << (report["groups_triangles"].size() > 6 ? ", ...)\n" : ")\n");
+    }
+    if (report.contains("group")) std::cout << "  group:       " << report["group"].get<std::string>() << "\n";
+    const auto& v = report["validity"];
+    std::cout << "  vertices:    " << report["vertices"] << "\n  triangles:   " << report["triangles"] << "\n";
+    std::cout << "  validity:    " << (v["usable"].get<bool>() ? "usable" : "NOT usable") << ", "
+              << (v["watertight"].get<bool>() ? "watertight" : "not watertight") << "\n";
+    for (const char* key : {"out_of_range_indices", "non_finite_vertices", "degenerate_faces", "duplicate_faces",
+                            "unreferenced_vertices", "boundary_edges", "boundary_loops", "non_manifold_edges", "components"})
+      std::cout << "    " << key << ": " << v[key] << "\n";
+    std::cout << "  area:        " << report["surface_area_m2"].get<double>() << " m^2\n";
+    if (report.contains("volume_litres")) std::cout << "  volume:      " << report["volume_litres"].get<double>() << " L\n";
+  }
+  if (!report["scalar_fields"].empty()) std::cout << "  scalars:     " << report["scalar_fields"].dump() << "\n";
+  if (report.contains("bounding_box")) {
+    const auto& b = report["bounding_box"];
+    auto d = [&](const char* key, int i) { return b[key][i].get<double>(); };
+    std::cout << "  bbox min:    " << d("min", 0) << " " << d("min", 1) << " " << d("min", 2) << " " << unit_name(unit) << "\n";
+    std::cout << "  bbox max:    " << d("max", 0) << " " << d("max", 1) << " " << d("max", 2) << " " << unit_name(unit) << "\n";
+    std::cout << "  extent:      " << d("extent", 0) << " x " << d("extent", 1) << " x " << d("extent", 2) << " "
+              << unit_name(unit) << "\n";
+  }
+  if (report.contains("warning")) std::cout << "  warning:     " << report["warning"].get<std::string>() << "\n";
+  return 0;
+}
+
+}  // namespace posekit::cli

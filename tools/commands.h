@@ -1,0 +1,8 @@
+#pragma once
+// One function per `posekit` subcommand; argv excludes the program and subcommand names.
+
+namespace posekit::cli {
+int run_info(int argc, char** argv);
+int run_convert(int argc, char** argv);
+int run_bench(int argc, char** argv);
+}  // namespace posekit::cli

@@ -1,0 +1,60 @@
+// posekit: one executable, one subcommand per task (like git or colmap).
+#include <cstring>
+#include <iostream>
+#include <string>
+
+#include "cli.h"
+#include "commands.h"
+#include "posekit/core/error.h"
+
+namespace {
+
+struct Command {
+  const char* name;
+  int (*run)(int, char**);
+  const char* summary;
+};
+
+const Command kCommands[] = {
+    {"info", posekit::cli::run_info, "counts, bounding box, units and validity of a mesh or point cloud"},
+    {"convert", posekit::cli::run_convert, "convert between mesh/cloud formats and units"},
+    {"bench", posekit::cli::run_bench, "benchmarks (io) with medians over several runs"},
+};
+
+void print_usage() {
+  std::cout << "usage: posekit <command> [arguments] [--help]\n\n"
+               "posekit: customize, pose and validate human body models (Zhu & Mok).\n\ncommands:\n";
+  for (const auto& c : kCommands) std::cout << "  " << c.name << std::string(12 - std::strlen(c.name), ' ') << c.summary << "\n";
+  std::cout << "\nRun 'posekit <command> --help' for the options of one command.\n";
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  if (argc < 2 || !std::strcmp(argv[1], "--help") || !std::strcmp(argv[1], "-h") || !std::strcmp(argv[1], "help")) {
+    print_usage();
+    return argc < 2 ? 2 : 0;
+  }
+  if (!std::strcmp(argv[1], "--version")) {
+    std::cout << "posekit 0.1.0\n";
+    return 0;
+  }
+  const std::string name = argv[1];
+  for (const auto& c : kCommands) {
+    if (name != c.name) continue;
+    try {
+      return c.run(argc - 2, argv + 2);
+    } catch (const posekit::cli::UsageError& e) {
+      std::cerr << "posekit " << name << ": " << e.what() << "\n";
+      return 2;
+    } catch (const posekit::Error& e) {
+      std::cerr << "posekit " << name << ": error: " << e.what() << "\n";
+      return 1;
+    } catch (const std::exception& e) {
+      std::cerr << "posekit " << name << ": internal error: " << e.what() << "\n";
+      return 1;
+    }
+  }
+  std::cerr << "posekit: unknown command '" << name << "' (run 'posekit --help' for the list)\n";
+  return 2;
+}
