@@ -1,0 +1,28 @@
+#pragma once
+// Planar cross-sections of a mesh and their perimeters (girths, ISO 8559-1 style).
+#include <Eigen/Core>
+#include <vector>
+
+namespace posekit {
+
+/// Cross-section of a triangle mesh with the plane {x : normal . x = offset}: each loop is
+/// #points x 3, in order along the section; `closed` tells whether the loop returned to its start
+/// (an open chain means the mesh has a hole there). normal need not be unit length.
+struct SectionLoop {
+  Eigen::MatrixXd points;
+  bool closed = false;
+};
+std::vector<SectionLoop> slice_mesh(const Eigen::MatrixXd& V, const Eigen::MatrixXi& F, const Eigen::Vector3d& normal,
+                                    double offset);
+
+/// Length of a polyline (#P x 3), including the closing segment when `closed`.
+double polyline_length(const Eigen::MatrixXd& points, bool closed);
+
+/// Perimeter of the convex hull of points lying in a plane with the given normal: a tape measure
+/// stretched around the section (#P x 3 points, m).
+double convex_hull_perimeter(const Eigen::MatrixXd& points, const Eigen::Vector3d& normal);
+
+/// Index of the loop whose centroid is nearest to `point` (-1 when there are none).
+int nearest_loop(const std::vector<SectionLoop>& loops, const Eigen::Vector3d& point);
+
+}  // namespace posekit
