@@ -4,7 +4,17 @@ set -euo pipefail
 cd "$(dirname "$0")/.."
 bash scripts/install-deps.sh
 bash scripts/build.sh release posekit
-data=${POSEKIT_DATA:-../shared/datasets/makehuman}
+data=${POSEKIT_DATA:-$(cd .. && pwd)/shared/datasets/makehuman}
+export POSEKIT_DATA=$data
 posekit=build/release/bin/posekit
-echo "== posekit info: the MakeHuman base mesh (skin group) from $data"
+out=out
+mkdir -p "$out"
+echo "== the MakeHuman base mesh (skin group) from $data"
 "$posekit" info "$data/3dobjs/base.obj" --unit dm --group body
+echo "== a body from sliders, with its 16-part labels and joint centres"
+"$posekit" body --gender 1 --weight 0.8 --height 0.55 --labels --save-spec "$out/subject.json" \
+  --joints "$out/subject_joints.json" --out "$out/subject_rest.ply"
+echo "== the same body posed by the MakeHuman benchmark BVH (linear blend and dual quaternion skinning)"
+"$posekit" body --spec "$out/subject.json" --pose "$data/poses/benchmark.bvh" --out "$out/subject_benchmark_lbs.ply"
+"$posekit" body --spec "$out/subject.json" --pose "$data/poses/benchmark.bvh" --skinning dqs --out "$out/subject_benchmark_dqs.ply"
+echo "== results in $out/ (PLY files open in MeshLab, CloudCompare, ParaView)"

@@ -5,4 +5,5 @@ namespace posekit::cli {
 int run_info(int argc, char** argv);
 int run_convert(int argc, char** argv);
 int run_bench(int argc, char** argv);
+int run_body(int argc, char** argv);
 }  // namespace posekit::cli

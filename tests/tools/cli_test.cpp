@@ -32,7 +32,7 @@ CommandResult run(const std::string& args, bool merge_stderr = false) {
 }  // namespace
 
 TEST(Cli, EveryCommandHasHelp) {
-  for (const char* c : {"info", "convert", "bench"}) {
+  for (const char* c : {"info", "convert", "bench", "body"}) {
     const CommandResult r = run(std::string(c) + " --help");
     EXPECT_EQ(r.code, 0) << c;
     EXPECT_NE(r.out.find("usage: posekit"), std::string::npos) << c;
@@ -91,4 +91,40 @@ TEST(Cli, InfoOnTheMakeHumanBodyGroup) {
   const auto j = nlohmann::json::parse(run("info " + root + "/3dobjs/base.obj --unit dm --group body --json").out);
   EXPECT_EQ(j["vertices"], 13380);
   EXPECT_EQ(j["validity"]["usable"], true);
+}
+
+TEST(Cli, BodyBuildsPosesAndLabelsTheMakeHumanBody) {
+  const std::string root = test::test_data_root();
+  ASSERT_FALSE(root.empty());
+  test::TempDir dir;
+  const CommandResult r = run("body --gender 1 --weight 0.9 --labels --save-spec " + dir.file("s.json") + " --out " +
+                              dir.file("b.ply") + " --json");
+  ASSERT_EQ(r.code, 0) << r.out;
+  const auto j = nlohmann::json::parse(r.out);
+  EXPECT_EQ(j["vertices"], 13380);
+  EXPECT_GT(j["bmi"].get<double>(), 18.0);
+  const TriangleMesh m = read_mesh(dir.file("b.ply"));
+  ASSERT_EQ(m.vertex_scalars.count("part"), 1u);
+  EXPECT_EQ(m.vertex_scalars.at("part").maxCoeff(), 15.0);
+  // The saved spec regenerates the same body, and a BVH poses it.
+  ASSERT_EQ(run("body --spec " + dir.file("s.json") + " --labels --out " + dir.file("c.ply")).code, 0);
+  EXPECT_EQ(read_mesh(dir.file("c.ply")).V, m.V);
+  ASSERT_EQ(run("body --spec " + dir.file("s.json") + " --pose " + root + "/poses/tpose.bvh --out " + dir.file("t.ply")).code, 0);
+  EXPECT_GT((read_mesh(dir.file("t.ply")).V - m.V).rowwise().norm().maxCoeff(), 0.2);
+}
+
+TEST(Cli, BodyRejectsBadSpecsAndForeignSkeletons) {
+  const std::string root = test::test_data_root();
+  ASSERT_FALSE(root.empty());
+  test::TempDir dir;
+  const std::string spec = dir.write("bad.json", "{\"gender\": 0.5, \"wieght\": 0.2}");
+  CommandResult r = run("body --spec " + spec, true);
+  EXPECT_EQ(r.code, 1);
+  EXPECT_NE(r.out.find("unknown slider 'wieght'"), std::string::npos) << r.out;
+  r = run("body --pose " + root + "/animations/walks/walk1.bvh --out " + dir.file("w.ply"), true);
+  EXPECT_EQ(r.code, 1);
+  EXPECT_NE(r.out.find("MakeHuman default rig"), std::string::npos) << r.out;
+  EXPECT_EQ(run("body --data " + dir.path()).code, 1);
+  EXPECT_EQ(run("body --gender 2").code, 1);
+  EXPECT_EQ(dir.count(), 1) << "nothing written on failure";
 }
