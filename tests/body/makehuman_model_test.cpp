@@ -153,4 +153,23 @@ TEST(MakeHumanModel, BadInputNamesTheFile) {
   } catch (const IoError& e) {
     EXPECT_NE(std::string(e.what()).find("macrodetails"), std::string::npos) << e.what();
   }
+  // One macro target missing from an otherwise complete copy is named.
+  fs::create_directories(dir.file("targets"));
+  for (const auto& e : fs::directory_iterator(root))
+    if (e.path().filename() != "targets" && e.path().filename() != "3dobjs") fs::create_symlink(e.path(), dir.file(e.path().filename().string()));
+  for (const auto& e : fs::directory_iterator(root + "/targets"))
+    if (e.path().filename() != "macrodetails") fs::create_symlink(e.path(), dir.file("targets/" + e.path().filename().string()));
+  for (const auto& e : fs::recursive_directory_iterator(root + "/targets/macrodetails")) {
+    const fs::path to = dir.file("targets/macrodetails") / fs::relative(e.path(), root + "/targets/macrodetails");
+    if (e.is_directory()) continue;
+    fs::create_directories(to.parent_path());
+    fs::create_symlink(e.path(), to);
+  }
+  fs::remove(dir.file("targets/macrodetails/height/male-young-maxmuscle-minweight-maxheight.target"));
+  try {
+    load_makehuman_model(dir.path());
+    FAIL() << "no exception";
+  } catch (const IoError& e) {
+    EXPECT_NE(std::string(e.what()).find("male-young-maxmuscle-minweight-maxheight.target: missing"), std::string::npos) << e.what();
+  }
 }

@@ -179,6 +179,24 @@ std::shared_ptr<const MakeHumanModel> load_makehuman_model(const std::string& da
   for (const auto& e : fs::recursive_directory_iterator(macro_dir))
     if (e.path().extension() == ".target") macro_files.push_back(e.path());
   std::sort(macro_files.begin(), macro_files.end());
+  // Every slider combination needs its target: a missing one would silently give a wrong body.
+  for (const char* gender : {"female", "male"}) {
+    std::vector<fs::path> required = {macro_dir / (std::string("african-") + gender + "-young.target"),
+                                      macro_dir / (std::string("asian-") + gender + "-young.target"),
+                                      macro_dir / (std::string("caucasian-") + gender + "-young.target")};
+    for (const char* muscle : {"minmuscle", "averagemuscle", "maxmuscle"})
+      for (const char* weight : {"minweight", "averageweight", "maxweight"}) {
+        const std::string stem = std::string(gender) + "-young-" + muscle + "-" + weight;
+        required.push_back(macro_dir / ("universal-" + stem + ".target"));
+        for (const char* h : {"minheight", "maxheight"}) required.push_back(macro_dir / "height" / (stem + "-" + h + ".target"));
+        for (const char* p : {"uncommonproportions", "idealproportions"})
+          required.push_back(macro_dir / "proportions" / (stem + "-" + p + ".target"));
+      }
+    for (const auto& r : required)
+      if (!fs::is_regular_file(r))
+        throw IoError(r.string() + ": missing macro target (every gender/muscle/weight/height/proportions combination "
+                                   "of the MakeHuman macro model is needed)");
+  }
   for (const auto& p : macro_files) {
     MakeHumanModel::MacroTarget mt;
     mt.name = fs::relative(p, root / "targets").string();
