@@ -1,0 +1,61 @@
+#pragma once
+// The evaluation dataset on disk: generated from the MakeHuman model (`make_dataset`), or a user's
+// own data in the same layout (`load_pose_dataset`, `load_subject_mesh`, ...).
+#include <functional>
+#include <string>
+#include <vector>
+
+#include "posekit/body/parts.h"
+#include "posekit/core/point_cloud.h"
+#include "posekit/core/triangle_mesh.h"
+
+namespace posekit {
+
+struct DatasetOptions {
+  std::string data_root;       ///< MakeHuman assets
+  unsigned seed = 1;
+  bool small = false;          ///< a third of the poses, 2 subjects
+  int subjects = 16;           ///< ignored when small
+  int subject_vertices = 12400;
+  double scan_noise_sigma = 0.0015;  ///< m
+  double scan_outlier_fraction = 0.001;
+  bool force = false;          ///< replace an existing output folder
+  /// Progress callback: (done, total, what).
+  std::function<void(int, int, const std::string&)> progress;
+};
+
+/// Summary of what make_dataset wrote.
+struct DatasetSummary {
+  int poses = 0, test_poses = 0, subjects = 0, scans = 0, photos = 0;
+  long files = 0;
+  double seconds = 0;
+};
+
+/// Writes the whole dataset into `out_dir` (see README "Dataset layout") through a temporary
+/// sibling folder renamed at the end: a failure leaves nothing behind. Throws IoError when out_dir
+/// exists (unless options.force) or is not writable.
+DatasetSummary make_dataset(const std::string& out_dir, const DatasetOptions& options);
+
+/// A registered pose dataset: meshes sharing one topology, with optional 16-part poses.
+struct PoseDataset {
+  std::vector<std::string> names;
+  std::vector<Eigen::MatrixXd> V;      ///< each #V x 3 (m)
+  Eigen::MatrixXi F;                   ///< the shared triangles
+  std::vector<bool> has_pose;
+  std::vector<PartPose> poses;
+  std::vector<bool> test;              ///< held out (from the manifest; all false without one)
+  std::string rest_name;               ///< the rest-pose example (template), if known
+};
+
+/// Loads `dir/pose_dataset` of a posekit dataset (split from its manifest), or any folder of
+/// registered meshes (OBJ/PLY/OFF, each optionally with a same-named .json 16-part pose). Meshes must
+/// share the topology: the first one that does not is named in the InvalidInput thrown.
+PoseDataset load_pose_dataset(const std::string& dir, Unit unit = Unit::kMetre);
+
+/// A subject's mesh: any closed body mesh (PLY/OBJ/OFF/STL).
+TriangleMesh load_subject_mesh(const std::string& path, Unit unit = Unit::kMetre);
+
+/// A scan: any point cloud (PCD/PLY/XYZ); posekit's simulated scans are in millimetres.
+PointCloud load_scan(const std::string& path, Unit unit = Unit::kMillimetre);
+
+}  // namespace posekit

@@ -1,0 +1,44 @@
+#pragma once
+// Customized subjects: MakeHuman bodies in the four BMI classes, with local shape variation, and
+// their ground-truth measurements.
+#include <string>
+#include <vector>
+
+#include "posekit/body/makehuman_model.h"
+
+namespace posekit {
+
+enum class BmiClass { kUnderweight, kNormal, kOverweight, kObese };
+const char* bmi_class_name(BmiClass c);  ///< "underweight", "normal", "overweight", "obese"
+BmiClass bmi_class_of(double bmi);       ///< < 18.5, 18.5-25, 25-30, >= 30
+
+constexpr double kBodyDensityKgPerLitre = 1.01;
+
+struct BodyStats {
+  double stature_m = 0, volume_litres = 0, mass_kg = 0, bmi = 0;
+};
+/// Stature (vertical extent), enclosed volume, mass at 1.01 kg/L and BMI of a standing body.
+BodyStats body_stats(const TriangleMesh& body);
+
+struct SubjectSpec {
+  std::string id;  ///< "f01".."f08", "m01".."m08"
+  bool female = true;
+  BmiClass target_class = BmiClass::kNormal;
+  double target_bmi = 22;
+  BodySpec spec;
+};
+
+/// `count` subjects (half female), two per BMI class per gender for 16, each with random sliders
+/// and measure modifiers from `seed` and a fatness chosen by bisection to hit its target BMI.
+std::vector<SubjectSpec> make_subject_specs(const MakeHumanModel& model, unsigned seed, int count = 16);
+
+/// Girths and stature in metres. Girths are convex-hull perimeters (a tape over concavities).
+struct Measurements {
+  double stature = 0, bust = 0, underbust = 0, waist = 0, hip = 0, thigh = 0, upper_arm = 0, neck = 0;
+  double bust_height = 0, waist_height = 0, hip_height = 0, crotch_height = 0;  ///< y of the levels (m)
+};
+/// Ground-truth measurements of a MakeHuman body in rest pose, with its rig's joints as landmarks
+/// (levels defined in the README after ISO 8559-1). Throws InvalidInput if a level cannot be found.
+Measurements measure_makehuman_body(const MakeHumanModel& model, const Body& body);
+
+}  // namespace posekit

@@ -1,0 +1,319 @@
+#include "posekit/datasets/dataset.h"
+
+#include <unistd.h>
+
+#include <chrono>
+#include <filesystem>
+#include <fstream>
+#include <iomanip>
+#include <nlohmann/json.hpp>
+#include <sstream>
+
+#include "posekit/body/makehuman_model.h"
+#include "posekit/body/skinning.h"
+#include "posekit/core/error.h"
+#include "posekit/datasets/pose_set.h"
+#include "posekit/datasets/rasterizer.h"
+#include "posekit/datasets/remesh.h"
+#include "posekit/datasets/scanner.h"
+#include "posekit/datasets/subjects.h"
+#include "posekit/io/atomic_file.h"
+#include "posekit/io/mesh_io.h"
+#include "posekit/io/point_cloud_io.h"
+
+namespace posekit {
+namespace fs = std::filesystem;
+
+namespace {
+
+/// The subjects' posed ground truth and scans use these held-out poses.
+const char* kSubjectTestPoses[] = {"walk_phase_1", "reach_forward", "squat_half"};
+
+class DatasetWriter {
+ public:
+  explicit DatasetWriter(fs::path root) : root_(std::move(root)) {}
+
+  void text(const std::string& rel, const std::string& content, const std::string& kind, const std::string& meaning) {
+    ensure_parent(rel);
+    write_file_atomically((root_ / rel).string(), [&](std::ostream& out) { out << content; }, false);
+    add(rel, kind, meaning);
+  }
+  void mesh(const std::string& rel, const TriangleMesh& m, const std::string& kind, const std::string& meaning) {
+    ensure_parent(rel);
+    write_mesh((root_ / rel).string(), m);
+    add(rel, kind, meaning);
+  }
+  void cloud(const std::string& rel, const PointCloud& c, const std::string& meaning) {
+    ensure_parent(rel);
+    write_point_cloud((root_ / rel).string(), c, {Unit::kMillimetre});
+    add(rel, "scan", meaning);
+  }
+  void png(const std::string& rel, int w, int h, const std::vector<std::uint8_t>& px, const std::string& kind,
+           const std::string& meaning) {
+    ensure_parent(rel);
+    write_gray_png((root_ / rel).string(), w, h, px);
+    add(rel, kind, meaning);
+  }
+  const nlohmann::ordered_json& files() const { return files_; }
+
+ private:
+  void ensure_parent(const std::string& rel) { fs::create_directories((root_ / rel).parent_path()); }
+  void add(const std::string& rel, const std::string& kind, const std::string& meaning) {
+    files_.push_back({{"path", rel}, {"kind", kind}, {"meaning", meaning}});
+  }
+  fs::path root_;
+  nlohmann::ordered_json files_ = nlohmann::ordered_json::array();
+};
+
+std::string pose_json(const NamedPose& p) { return part_pose_to_json(p.pose); }
+
+nlohmann::ordered_json vec(const Eigen::Vector3d& v) { return {v.x(), v.y(), v.z()}; }
+
+Eigen::MatrixXd pose_body(const MakeHumanModel& model, const Body& body, const PartPose& pose) {
+  const BoneTransforms T = pose_bone_transforms(model.rig, body.bone_heads, bone_pose_from_part_pose(model.rig, pose));
+  return dual_quaternion_skinning(body.mesh.V, model.weights, T);
+}
+
+std::string correspondence_csv(const SurfacePoints& s) {
+  std::ostringstream o;
+  o << "# subject vertex -> template triangle and barycentric coordinates (posekit dataset)\n"
+    << "subject_vertex,template_triangle,b0,b1,b2\n"
+    << std::setprecision(17);
+  for (Eigen::Index i = 0; i < s.face.size(); ++i)
+    o << i << ',' << s.face[i] << ',' << s.bary(i, 0) << ',' << s.bary(i, 1) << ',' << s.bary(i, 2) << '\n';
+  return o.str();
+}
+
+std::string measurements_json(const Measurements& m, const BodyStats& st) {
+  nlohmann::ordered_json j;
+  j["units"] = "m (girths are convex-hull perimeters of the cross-section; definitions in README)";
+  j["stature"] = m.stature;
+  j["girths"] = {{"bust", m.bust}, {"underbust", m.underbust}, {"waist", m.waist}, {"hip", m.hip},
+                 {"thigh", m.thigh}, {"upper_arm", m.upper_arm}, {"neck", m.neck}};
+  j["levels_y"] = {{"bust", m.bust_height}, {"waist", m.waist_height}, {"hip", m.hip_height}, {"crotch", m.crotch_height}};
+  j["volume_litres"] = st.volume_litres;
+  j["mass_kg"] = st.mass_kg;
+  j["bmi"] = st.bmi;
+  return j.dump(2) + "\n";
+}
+
+}  // namespace
+
+DatasetSummary make_dataset(const std::string& out_dir, const DatasetOptions& o) {
+  const auto t0 = std::chrono::steady_clock::now();
+  const fs::path out = fs::absolute(out_dir).lexically_normal();
+  std::error_code ec;
+  if (fs::exists(out, ec) && !o.force) throw IoError(out.string() + ": already exists (choose another --out or pass --force)");
+  const fs::path tmp = out.string() + ".tmp-" + std::to_string(::getpid());
+  fs::remove_all(tmp, ec);
+  if (!fs::create_directories(tmp, ec) || ec)
+    throw IoError(tmp.string() + ": cannot create the output folder (" + ec.message() + ")");
+  try {
+    const auto model = load_makehuman_model(o.data_root);
+    DatasetWriter w(tmp);
+    DatasetSummary summary;
+    nlohmann::ordered_json manifest;
+    manifest["format"] = "posekit dataset 1";
+    manifest["generator"] = {{"seed", o.seed}, {"small", o.small}, {"source", "MakeHuman CC0 assets (data root)"},
+                             {"posing", "163-bone rig, MakeHuman skinning weights, dual quaternion skinning"}};
+    manifest["units"] = {{"meshes", "m"}, {"scans", "mm"}, {"angles", "radians"}};
+
+    // Template: the pose-dataset subject in rest pose.
+    const Body templ = build_body(*model, BodySpec{});
+    const Eigen::VectorXi vlabels = vertex_part_labels(*model);
+    const Eigen::VectorXi tlabels = triangle_part_labels(templ.mesh.F, vlabels);
+    const Eigen::MatrixXd joints = joint_centres(model->rig, templ);
+    {
+      TriangleMesh m = templ.mesh;
+      m.vertex_scalars["part"] = vlabels.cast<double>();
+      w.mesh("template/rest.ply", m, "template", "pose-dataset subject in rest pose, with vertex scalar 'part' (0..15)");
+      nlohmann::ordered_json parts;
+      for (int p = 0; p < kNumParts; ++p) parts["names"].push_back(part_name(p));
+      parts["vertex_part"] = std::vector<int>(vlabels.data(), vlabels.data() + vlabels.size());
+      parts["triangle_part"] = std::vector<int>(tlabels.data(), tlabels.data() + tlabels.size());
+      w.text("template/parts.json", parts.dump() + "\n", "labels", "16-part labels of every template vertex and triangle");
+      nlohmann::ordered_json jj;
+      jj["units"] = "m";
+      for (int j = 0; j < kNumJoints; ++j) jj["joints"][joint_name(j)] = vec(joints.row(j).transpose());
+      w.text("template/joints.json", jj.dump(2) + "\n", "joints", "15 joint centres of the 16-part skeleton, rest pose");
+      w.text("template/spec.json", body_spec_to_json(BodySpec{}), "spec", "MakeHuman body spec of the template");
+    }
+    // Pose dataset.
+    std::vector<NamedPose> poses = standard_pose_set(joints, o.seed, o.small ? 4 : 10, o.small);
+    for (auto& p : poses)
+      for (const char* name : kSubjectTestPoses)
+        if (p.name == name) p.test = true;
+    for (const char* name : kSubjectTestPoses)
+      if (std::none_of(poses.begin(), poses.end(), [&](const NamedPose& p) { return p.name == name; }))
+        throw InvalidInput(std::string("pose set lacks the subject test pose ") + name);
+    NamedPose rest;
+    rest.name = "rest";
+    poses.insert(poses.begin(), rest);
+    const int total_steps = static_cast<int>(poses.size()) + (o.small ? 2 : o.subjects);
+    int step = 0;
+    nlohmann::ordered_json pose_list = nlohmann::ordered_json::array();
+    for (const NamedPose& p : poses) {
+      TriangleMesh m;
+      m.V = pose_body(*model, templ, p.pose);
+      m.F = templ.mesh.F;
+      w.mesh("pose_dataset/" + p.name + ".ply", m, "pose example", "template registered in pose '" + p.name + "'");
+      w.text("pose_dataset/" + p.name + ".json", pose_json(p), "pose", "16-part pose of '" + p.name + "'");
+      pose_list.push_back({{"name", p.name}, {"mesh", "pose_dataset/" + p.name + ".ply"},
+                           {"pose", "pose_dataset/" + p.name + ".json"}, {"split", p.test ? "test" : "train"}});
+      ++summary.poses;
+      summary.test_poses += p.test;
+      if (o.progress) o.progress(++step, total_steps, "pose " + p.name);
+    }
+    manifest["template"] = {{"mesh", "template/rest.ply"}, {"parts", "template/parts.json"},
+                            {"joints", "template/joints.json"}, {"spec", "template/spec.json"}};
+    manifest["pose_dataset"] = {{"rest", "rest"}, {"poses", pose_list}};
+
+    // Subjects.
+    const auto specs = make_subject_specs(*model, o.seed, o.small ? 2 : o.subjects);
+    nlohmann::ordered_json subjects = nlohmann::ordered_json::array();
+    for (size_t si = 0; si < specs.size(); ++si) {
+      const SubjectSpec& s = specs[si];
+      const std::string dir = "subjects/" + s.id + "/";
+      const Body body = build_body(*model, s.spec);
+      const BodyStats st = body_stats(body.mesh);
+      SurfacePoints corr;
+      const TriangleMesh rest_mesh = remesh_body(body.mesh, o.subject_vertices, &corr);
+      const Measurements meas = measure_makehuman_body(*model, body);
+      w.text(dir + "spec.json", body_spec_to_json(s.spec), "spec", "MakeHuman body spec of subject " + s.id);
+      w.mesh(dir + "rest.ply", rest_mesh, "subject", "subject " + s.id + " in rest pose, its own topology");
+      w.text(dir + "measurements.json", measurements_json(meas, st), "measurements", "ground-truth stature and girths");
+      w.text(dir + "correspondence.csv", correspondence_csv(corr), "correspondence",
+             "ground truth: each subject vertex as a template triangle + barycentric coordinates");
+      nlohmann::ordered_json posed = nlohmann::ordered_json::array();
+      std::vector<std::pair<std::string, TriangleMesh>> scanned = {{"rest", rest_mesh}};
+      for (const char* pname : kSubjectTestPoses) {
+        const auto it = std::find_if(poses.begin(), poses.end(), [&](const NamedPose& p) { return p.name == pname; });
+        TriangleMesh pm;
+        pm.V = evaluate_surface_points(pose_body(*model, body, it->pose), body.mesh.F, corr);
+        pm.F = rest_mesh.F;
+        w.mesh(dir + "posed/" + pname + ".ply", pm, "posed subject", "subject " + s.id + " posed by the rig in '" + pname + "'");
+        w.text(dir + "posed/" + pname + ".json", pose_json(*it), "pose", "16-part pose of '" + std::string(pname) + "'");
+        posed.push_back({{"pose", pname}, {"mesh", dir + "posed/" + pname + ".ply"}, {"pose_json", dir + "posed/" + pname + ".json"}});
+        scanned.emplace_back(pname, pm);
+      }
+      nlohmann::ordered_json scans = nlohmann::ordered_json::array();
+      for (size_t k = 0; k < scanned.size(); ++k) {
+        ScannerOptions so;
+        so.noise_sigma = o.scan_noise_sigma;
+        so.outlier_fraction = o.scan_outlier_fraction;
+        so.width = 320;
+        so.height = 480;
+        so.focal_px = 345;
+        so.seed = o.seed * 7919u + static_cast<unsigned>(si * 31 + k);
+        const SimulatedScan scan = simulate_scan(scanned[k].second, so);
+        const std::string rel = "scans/" + s.id + "/" + scanned[k].first + ".pcd";
+        w.cloud(rel, scan.cloud, "simulated scan of " + s.id + " in '" + scanned[k].first + "' (mm, 8 views, noise along rays)");
+        scans.push_back({{"pose", scanned[k].first}, {"cloud", rel}, {"points", scan.cloud.size()}, {"outliers", scan.outliers},
+                         {"noise_sigma_mm", o.scan_noise_sigma * 1000}});
+        ++summary.scans;
+      }
+      // Photos: front and (left) side at 3 m, perspective, plain background.
+      const double mid = 0.5 * (rest_mesh.V.col(1).maxCoeff() + rest_mesh.V.col(1).minCoeff());
+      const PinholeCamera front = PinholeCamera::look_at(Eigen::Vector3d(0, mid, 3.0), Eigen::Vector3d(0, mid, 0),
+                                                         Eigen::Vector3d::UnitY(), 800, 1200, 1400);
+      const PinholeCamera side = PinholeCamera::look_at(Eigen::Vector3d(3.0, mid, 0), Eigen::Vector3d(0, mid, 0),
+                                                        Eigen::Vector3d::UnitY(), 800, 1200, 1400);
+      std::string cameras = "{\n\"front\": " + camera_to_json(front) + ",\n\"side\": " + camera_to_json(side) + "}\n";
+      for (const auto& [view, cam] : {std::pair<std::string, PinholeCamera>{"front", front}, {"side", side}}) {
+        const RenderBuffers buf = render_mesh(rest_mesh, cam);
+        std::vector<std::uint8_t> mask(buf.face.size());
+        for (size_t k = 0; k < mask.size(); ++k) mask[k] = buf.face[k] >= 0 ? 255 : 0;
+        w.png("photos/" + s.id + "/" + view + ".png", buf.width, buf.height, buf.gray, "photo",
+              view + " photo of " + s.id + " (3 m, f = 1400 px)");
+        w.png("photos/" + s.id + "/" + view + "_mask.png", buf.width, buf.height, mask, "mask",
+              "ground-truth silhouette of the " + view + " photo");
+        summary.photos += 1;
+      }
+      w.text("photos/" + s.id + "/camera.json", cameras, "camera", "intrinsics and extrinsics of the front and side photos");
+      subjects.push_back({{"id", s.id}, {"gender", s.female ? "female" : "male"}, {"bmi", st.bmi},
+                          {"bmi_class", bmi_class_name(bmi_class_of(st.bmi))}, {"target_bmi", s.target_bmi},
+                          {"stature_m", st.stature_m}, {"mass_kg", st.mass_kg}, {"spec", dir + "spec.json"},
+                          {"rest", dir + "rest.ply"}, {"vertices", rest_mesh.num_vertices()}, {"triangles", rest_mesh.num_faces()},
+                          {"measurements", dir + "measurements.json"}, {"correspondence", dir + "correspondence.csv"},
+                          {"posed", posed}, {"scans", scans},
+                          {"photos", {{"front", "photos/" + s.id + "/front.png"}, {"side", "photos/" + s.id + "/side.png"},
+                                      {"front_mask", "photos/" + s.id + "/front_mask.png"},
+                                      {"side_mask", "photos/" + s.id + "/side_mask.png"},
+                                      {"camera", "photos/" + s.id + "/camera.json"}}}});
+      ++summary.subjects;
+      if (o.progress) o.progress(++step, total_steps, "subject " + s.id);
+    }
+    manifest["subjects"] = subjects;
+    manifest["files"] = w.files();
+    summary.files = static_cast<long>(w.files().size()) + 1;
+    const std::string text = manifest.dump(2) + "\n";
+    write_file_atomically((tmp / "manifest.json").string(), [&](std::ostream& os) { os << text; }, false);
+    if (fs::exists(out)) fs::remove_all(out);
+    fs::rename(tmp, out);
+    summary.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+    return summary;
+  } catch (...) {
+    fs::remove_all(tmp, ec);
+    throw;
+  }
+}
+
+PoseDataset load_pose_dataset(const std::string& dir, Unit unit) {
+  PoseDataset ds;
+  fs::path base = dir;
+  std::vector<fs::path> meshes;
+  std::map<std::string, bool> split;
+  const fs::path manifest = fs::path(dir) / "manifest.json";
+  if (fs::is_regular_file(manifest)) {
+    nlohmann::json j;
+    try {
+      j = nlohmann::json::parse(read_file_bytes(manifest.string()));
+    } catch (const nlohmann::json::exception& e) {
+      throw IoError(manifest.string() + ": not valid JSON (" + e.what() + ")");
+    }
+    if (!j.contains("pose_dataset")) throw IoError(manifest.string() + ": no 'pose_dataset' section");
+    for (const auto& p : j["pose_dataset"]["poses"]) {
+      meshes.push_back(fs::path(dir) / p["mesh"].get<std::string>());
+      split[fs::path(p["mesh"].get<std::string>()).stem().string()] = p.value("split", "train") == "test";
+    }
+    ds.rest_name = j["pose_dataset"].value("rest", "");
+  } else {
+    if (fs::is_directory(fs::path(dir) / "pose_dataset")) base = fs::path(dir) / "pose_dataset";
+    if (!fs::is_directory(base)) throw IoError(dir + ": not a folder of registered meshes");
+    for (const auto& e : fs::directory_iterator(base)) {
+      const MeshFormat f = mesh_format_from_path(e.path().string());
+      if (e.is_regular_file() && (f == MeshFormat::kPly || f == MeshFormat::kObj || f == MeshFormat::kOff)) meshes.push_back(e.path());
+    }
+    std::sort(meshes.begin(), meshes.end());
+  }
+  if (meshes.empty()) throw IoError(dir + ": no registered meshes (.ply, .obj, .off) found");
+  for (const fs::path& p : meshes) {
+    TriangleMesh m = read_mesh(p.string(), {unit});
+    if (ds.V.empty()) {
+      ds.F = m.F;
+    } else if (m.V.rows() != ds.V.front().rows() || m.F.rows() != ds.F.rows() || m.F != ds.F) {
+      throw InvalidInput(p.string() + ": " + std::to_string(m.V.rows()) + " vertices / " + std::to_string(m.F.rows()) +
+                         " triangles disagree with " + meshes.front().string() + " (" + std::to_string(ds.V.front().rows()) +
+                         " / " + std::to_string(ds.F.rows()) + "): a pose dataset's meshes must share one topology");
+    }
+    const std::string stem = p.stem().string();
+    ds.names.push_back(stem);
+    ds.V.push_back(std::move(m.V));
+    const fs::path pose = p.parent_path() / (stem + ".json");
+    const bool has = fs::is_regular_file(pose);
+    ds.has_pose.push_back(has);
+    ds.poses.push_back(has ? read_part_pose(pose.string()) : PartPose{});
+    ds.test.push_back(split.count(stem) ? split[stem] : false);
+  }
+  return ds;
+}
+
+TriangleMesh load_subject_mesh(const std::string& path, Unit unit) {
+  TriangleMesh m = read_mesh(path, {unit});
+  m.vertex_scalars.clear();
+  return m;
+}
+
+PointCloud load_scan(const std::string& path, Unit unit) { return read_point_cloud(path, {unit}); }
+
+}  // namespace posekit

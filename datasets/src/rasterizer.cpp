@@ -1,0 +1,127 @@
+#include "posekit/datasets/rasterizer.h"
+
+#include <Eigen/Geometry>
+#include <algorithm>
+#include <cmath>
+#include <iomanip>
+#include <limits>
+#include <opencv2/core.hpp>
+#include <opencv2/imgcodecs.hpp>
+#include <sstream>
+
+#include "posekit/core/error.h"
+#include "posekit/core/mesh_geometry.h"
+#include "posekit/io/atomic_file.h"
+
+namespace posekit {
+
+Eigen::Vector3d PinholeCamera::ray(double u, double v) const {
+  const Eigen::Vector3d d_cam((u - cx) / fx, (v - cy) / fy, 1.0);
+  return (R.transpose() * d_cam).normalized();
+}
+
+PinholeCamera PinholeCamera::look_at(const Eigen::Vector3d& eye, const Eigen::Vector3d& target, const Eigen::Vector3d& up,
+                                     int width, int height, double focal_px) {
+  PinholeCamera c;
+  c.width = width;
+  c.height = height;
+  c.fx = c.fy = focal_px;
+  c.cx = width / 2.0;
+  c.cy = height / 2.0;
+  const Eigen::Vector3d z = (target - eye).normalized();
+  const Eigen::Vector3d x = z.cross(up).normalized();  // image right
+  const Eigen::Vector3d y = z.cross(x);                // image down
+  c.R.row(0) = x.transpose();
+  c.R.row(1) = y.transpose();
+  c.R.row(2) = z.transpose();
+  c.t = -c.R * eye;
+  return c;
+}
+
+int RenderBuffers::covered() const { return static_cast<int>(std::count_if(face.begin(), face.end(), [](int f) { return f >= 0; })); }
+
+RenderBuffers render_mesh(const TriangleMesh& mesh, const PinholeCamera& cam, std::uint8_t background) {
+  if (cam.width <= 0 || cam.height <= 0 || cam.fx <= 0 || cam.fy <= 0) throw InvalidInput("render_mesh: bad camera");
+  RenderBuffers out;
+  out.width = cam.width;
+  out.height = cam.height;
+  const size_t n = static_cast<size_t>(cam.width) * cam.height;
+  out.depth.assign(n, std::numeric_limits<float>::infinity());
+  out.face.assign(n, -1);
+  out.gray.assign(n, background);
+  const Eigen::MatrixXd Vc = (mesh.V * cam.R.transpose()).rowwise() + cam.t.transpose();
+  Eigen::MatrixXd uv(Vc.rows(), 2);
+  for (Eigen::Index i = 0; i < Vc.rows(); ++i) {
+    uv(i, 0) = cam.fx * Vc(i, 0) / Vc(i, 2) + cam.cx;
+    uv(i, 1) = cam.fy * Vc(i, 1) / Vc(i, 2) + cam.cy;
+  }
+  constexpr double kNear = 0.01;
+  for (Eigen::Index f = 0; f < mesh.F.rows(); ++f) {
+    const int a = mesh.F(f, 0), b = mesh.F(f, 1), c = mesh.F(f, 2);
+    if (Vc(a, 2) < kNear || Vc(b, 2) < kNear || Vc(c, 2) < kNear) continue;
+    const double ax = uv(a, 0), ay = uv(a, 1), bx = uv(b, 0), by = uv(b, 1), cx = uv(c, 0), cy = uv(c, 1);
+    const double area = (bx - ax) * (cy - ay) - (by - ay) * (cx - ax);
+    if (std::abs(area) < 1e-12) continue;
+    const int x0 = std::max(0, static_cast<int>(std::floor(std::min({ax, bx, cx}) - 0.5)));
+    const int x1 = std::min(cam.width - 1, static_cast<int>(std::ceil(std::max({ax, bx, cx}) - 0.5)));
+    const int y0 = std::max(0, static_cast<int>(std::floor(std::min({ay, by, cy}) - 0.5)));
+    const int y1 = std::min(cam.height - 1, static_cast<int>(std::ceil(std::max({ay, by, cy}) - 0.5)));
+    const double iza = 1.0 / Vc(a, 2), izb = 1.0 / Vc(b, 2), izc = 1.0 / Vc(c, 2);
+    for (int y = y0; y <= y1; ++y)
+      for (int x = x0; x <= x1; ++x) {
+        const double px = x + 0.5, py = y + 0.5;
+        const double w0 = ((bx - px) * (cy - py) - (by - py) * (cx - px)) / area;
+        const double w1 = ((cx - px) * (ay - py) - (cy - py) * (ax - px)) / area;
+        const double w2 = 1.0 - w0 - w1;
+        if (w0 < 0 || w1 < 0 || w2 < 0) continue;
+        const float z = static_cast<float>(1.0 / (w0 * iza + w1 * izb + w2 * izc));
+        const size_t k = static_cast<size_t>(y) * cam.width + x;
+        if (z < out.depth[k]) {
+          out.depth[k] = z;
+          out.face[k] = static_cast<int>(f);
+        }
+      }
+  }
+  const Eigen::MatrixXd N = face_normals(mesh.V, mesh.F);
+  for (int y = 0; y < cam.height; ++y)
+    for (int x = 0; x < cam.width; ++x) {
+      const size_t k = static_cast<size_t>(y) * cam.width + x;
+      if (out.face[k] < 0) continue;
+      const double lambert = std::abs(N.row(out.face[k]).dot(cam.ray(x + 0.5, y + 0.5)));
+      out.gray[k] = static_cast<std::uint8_t>(40 + std::lround(185 * lambert));  // at most 225 < background
+    }
+  return out;
+}
+
+std::string camera_to_json(const PinholeCamera& c) {
+  std::ostringstream o;
+  o << std::setprecision(17) << "{\n  \"model\": \"pinhole\",\n  \"convention\": \"x_cam = R x_world + t; camera looks along +z, "
+    << "x right, y down (OpenCV); world in metres, Y up, subject facing +Z\",\n  \"width\": " << c.width
+    << ",\n  \"height\": " << c.height << ",\n  \"K\": [[" << c.fx << ", 0, " << c.cx << "], [0, " << c.fy << ", " << c.cy
+    << "], [0, 0, 1]],\n  \"R\": [";
+  for (int r = 0; r < 3; ++r) o << (r ? ", " : "") << "[" << c.R(r, 0) << ", " << c.R(r, 1) << ", " << c.R(r, 2) << "]";
+  const Eigen::Vector3d e = c.centre();
+  o << "],\n  \"t\": [" << c.t.x() << ", " << c.t.y() << ", " << c.t.z() << "],\n  \"centre\": [" << e.x() << ", " << e.y()
+    << ", " << e.z() << "]\n}\n";
+  return o.str();
+}
+
+void write_gray_png(const std::string& path, int width, int height, const std::vector<std::uint8_t>& pixels) {
+  if (static_cast<size_t>(width) * height != pixels.size()) throw InvalidInput(path + ": image size does not match its pixels");
+  const cv::Mat image(height, width, CV_8UC1, const_cast<std::uint8_t*>(pixels.data()));
+  std::vector<uchar> png;
+  if (!cv::imencode(".png", image, png)) throw IoError(path + ": PNG encoding failed");
+  write_file_atomically(path, [&](std::ostream& out) { out.write(reinterpret_cast<const char*>(png.data()), static_cast<std::streamsize>(png.size())); });
+}
+
+std::vector<std::uint8_t> read_gray_png(const std::string& path, int* width, int* height) {
+  const cv::Mat image = cv::imread(path, cv::IMREAD_GRAYSCALE);
+  if (image.empty()) throw IoError(path + ": cannot read as an image (expected PNG)");
+  *width = image.cols;
+  *height = image.rows;
+  std::vector<std::uint8_t> pixels(static_cast<size_t>(image.cols) * image.rows);
+  for (int y = 0; y < image.rows; ++y) std::copy(image.ptr<uchar>(y), image.ptr<uchar>(y) + image.cols, pixels.begin() + static_cast<long>(y) * image.cols);
+  return pixels;
+}
+
+}  // namespace posekit
