@@ -17,4 +17,7 @@ echo "== a body from sliders, with its 16-part labels and joint centres"
 echo "== the same body posed by the MakeHuman benchmark BVH (linear blend and dual quaternion skinning)"
 "$posekit" body --spec "$out/subject.json" --pose "$data/poses/benchmark.bvh" --out "$out/subject_benchmark_lbs.ply"
 "$posekit" body --spec "$out/subject.json" --pose "$data/poses/benchmark.bvh" --skinning dqs --out "$out/subject_benchmark_dqs.ply"
-echo "== results in $out/ (PLY files open in MeshLab, CloudCompare, ParaView)"
+echo "== the evaluation dataset: template, pose dataset, 16 subjects with ground truth, scans, photos"
+"$posekit" dataset make --out "$out/dataset" --force
+"$posekit" dataset info "$out/dataset"
+echo "== results in $out/ (PLY files open in MeshLab, CloudCompare, ParaView; scans are PCD in mm)"

@@ -151,7 +151,9 @@ void Progress::finish() {
   if (tty_ && shown_) std::fprintf(stderr, "\n");
 }
 
-Progress::~Progress() { finish(); }
+Progress::~Progress() {
+  if (tty_ && shown_ && !finished_) std::fprintf(stderr, "\n");  // abandoned (an error): no 100%
+}
 
 void print_json(const nlohmann::json& value) { std::cout << value.dump(2) << std::endl; }
 

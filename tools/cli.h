@@ -54,7 +54,8 @@ class ArgParser {
   std::vector<std::string> positional_values_;
 };
 
-/// Progress on stderr: a bar when stderr is a terminal, otherwise a line every ~10%.
+/// Progress on stderr: a bar when stderr is a terminal, otherwise a line every ~10% (after 1 s).
+/// finish() reports completion; destroying an unfinished Progress (an error) does not.
 class Progress {
  public:
   Progress(std::string label, long total);

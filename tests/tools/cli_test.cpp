@@ -32,7 +32,7 @@ CommandResult run(const std::string& args, bool merge_stderr = false) {
 }  // namespace
 
 TEST(Cli, EveryCommandHasHelp) {
-  for (const char* c : {"info", "convert", "bench", "body"}) {
+  for (const char* c : {"info", "convert", "bench", "body", "dataset"}) {
     const CommandResult r = run(std::string(c) + " --help");
     EXPECT_EQ(r.code, 0) << c;
     EXPECT_NE(r.out.find("usage: posekit"), std::string::npos) << c;
@@ -127,4 +127,23 @@ TEST(Cli, BodyRejectsBadSpecsAndForeignSkeletons) {
   EXPECT_EQ(run("body --data " + dir.path()).code, 1);
   EXPECT_EQ(run("body --gender 2").code, 1);
   EXPECT_EQ(dir.count(), 1) << "nothing written on failure";
+}
+
+TEST(Cli, DatasetMakeWritesAConsistentFolderAndRefusesToOverwrite) {
+  ASSERT_FALSE(test::test_data_root().empty());
+  test::TempDir dir;
+  const std::string out = dir.file("ds");
+  CommandResult r = run("dataset make --small --out " + out + " --json");
+  ASSERT_EQ(r.code, 0) << r.out;
+  const auto j = nlohmann::json::parse(r.out);
+  EXPECT_EQ(j["subjects"], 2);
+  r = run("dataset info " + out + " --json");
+  ASSERT_EQ(r.code, 0);
+  EXPECT_EQ(nlohmann::json::parse(r.out)["missing_files"], 0);
+  r = run("dataset make --small --out " + out, true);
+  EXPECT_EQ(r.code, 1);
+  EXPECT_NE(r.out.find("already exists"), std::string::npos) << r.out;
+  EXPECT_EQ(run("dataset make --small").code, 2);  // --out missing
+  EXPECT_EQ(run("dataset make --small --out " + dir.file("x") + " --data " + dir.path()).code, 1);
+  EXPECT_EQ(dir.count(), 1);
 }
