@@ -54,3 +54,14 @@ TEST(WindingNumber, InsideIsOneOutsideIsZero) {
   EXPECT_NEAR(winding_number(s.V, s.F, Eigen::Vector3d(0.1, -0.2, 0.3)), 1.0, 1e-9);
   EXPECT_NEAR(winding_number(s.V, s.F, Eigen::Vector3d(1.5, 0, 0)), 0.0, 1e-9);
 }
+
+TEST(MeshSlice, StackEqualsOneSliceAtATime) {
+  const TriangleMesh s = test::icosphere(4, 1.0);
+  const std::vector<double> levels = {-0.9, -0.31, 0.0, 0.42, 0.77};
+  const auto stack = slice_mesh_stack(s.V, s.F, Eigen::Vector3d(0, 1, 0), levels);
+  for (size_t i = 0; i < levels.size(); ++i) {
+    const auto one = slice_mesh(s.V, s.F, Eigen::Vector3d(0, 1, 0), levels[i]);
+    ASSERT_EQ(stack[i].size(), one.size());
+    EXPECT_NEAR(polyline_length(stack[i][0].points, true), polyline_length(one[0].points, true), 1e-12);
+  }
+}

@@ -15,6 +15,11 @@ struct SectionLoop {
 std::vector<SectionLoop> slice_mesh(const Eigen::MatrixXd& V, const Eigen::MatrixXi& F, const Eigen::Vector3d& normal,
                                     double offset);
 
+/// Sections at many parallel planes {normal . x = offsets[i]} in one pass over the faces (each face
+/// only visits the planes its extent spans): result[i] are the loops at offsets[i].
+std::vector<std::vector<SectionLoop>> slice_mesh_stack(const Eigen::MatrixXd& V, const Eigen::MatrixXi& F,
+                                                       const Eigen::Vector3d& normal, const std::vector<double>& offsets);
+
 /// Length of a polyline (#P x 3), including the closing segment when `closed`.
 double polyline_length(const Eigen::MatrixXd& points, bool closed);
 

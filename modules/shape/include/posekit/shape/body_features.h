@@ -1,0 +1,47 @@
+#pragma once
+// Anatomical features of a standing body (A-pose, Y up, facing +Z, metres) found from its geometry
+// alone: horizontal sections, their loops, girths and centroids. Works for any topology.
+#include <Eigen/Core>
+#include <string>
+#include <vector>
+
+#include "posekit/core/mesh_slice.h"
+
+namespace posekit {
+
+/// Horizontal sections of a mesh every `step` metres from just above the soles to just below the
+/// top of the head: the raw material of features, measurements and the layered representation.
+struct SectionStack {
+  double floor_y = 0, top_y = 0, step = 0;
+  std::vector<double> y;                        ///< level heights (m)
+  std::vector<std::vector<SectionLoop>> loops;  ///< loops at each level
+};
+SectionStack horizontal_sections(const Eigen::MatrixXd& V, const Eigen::MatrixXi& F, double step = 0.005);
+
+enum Side : int { kLeft = 0, kRight = 1 };  ///< the subject's left is +X
+
+struct BodyFeatures {
+  double floor_y = 0, top_y = 0, stature = 0;  ///< soles, top of head (m)
+  double axis_x = 0;                           ///< x of the body's sagittal plane
+  double crotch_y = 0, hip_y = 0, waist_y = 0, underbust_y = 0, bust_y = 0, neck_y = 0;  ///< levels (m)
+  Eigen::Vector3d crotch = Eigen::Vector3d::Zero();
+  Eigen::Vector3d neck_base = Eigen::Vector3d::Zero();  ///< centre of the neck's lowest section
+  Eigen::Vector3d neck_top = Eigen::Vector3d::Zero();   ///< centre of the neck's narrowest section
+  Eigen::Vector3d armpit[2], shoulder[2];        ///< armpit surface points; shoulder joint centres
+  Eigen::Vector3d elbow[2], wrist[2];            ///< joint centres (inside the limb)
+  Eigen::Vector3d knee[2], ankle[2];
+  Eigen::Vector3d hand_tip[2];                   ///< farthest point of each hand from the shoulder
+  bool arm_found[2] = {true, true};              ///< false: that arm could not be followed (shoulder,
+                                                 ///< elbow, wrist, hand tip are then not valid)
+  std::vector<std::string> warnings;             ///< features found with doubt
+};
+
+/// Finds the features of a standing human body mesh. Throws InvalidInput naming what failed for
+/// a mesh that is not a standing human (lying, upside-down, arms touching the torso, too small);
+/// an arm that cannot be followed to the hand (a hole in a scan) is flagged in arm_found and warnings.
+BodyFeatures find_body_features(const Eigen::MatrixXd& V, const Eigen::MatrixXi& F);
+
+/// The same from precomputed sections (`horizontal_sections`).
+BodyFeatures find_body_features(const SectionStack& stack);
+
+}  // namespace posekit

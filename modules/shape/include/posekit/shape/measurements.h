@@ -1,0 +1,41 @@
+#pragma once
+// Stature and girths of a standing body (mesh or scan), defined in the README after ISO 8559-1:
+// tape girths are convex-hull perimeters of the cross-section at the feature levels.
+#include <Eigen/Core>
+#include <string>
+#include <vector>
+
+#include "posekit/shape/body_features.h"
+
+namespace posekit {
+
+struct Girth {
+  std::string name;     ///< bust, underbust, waist, hip, thigh, knee, calf, ankle, upper_arm, wrist, neck
+  double value = 0;     ///< m (valid when measured)
+  bool measured = false;
+  std::string note;     ///< why it was not measured (e.g. a hole in the scan)
+  Eigen::Vector3d point = Eigen::Vector3d::Zero();   ///< where the tape goes round
+  Eigen::Vector3d normal = Eigen::Vector3d::UnitY(); ///< the tape's plane normal
+};
+
+struct BodyMeasurements {
+  double stature = 0;  ///< m
+  std::vector<Girth> girths;
+  BodyFeatures features;
+  const Girth* find(const std::string& name) const;
+};
+
+/// Measures a standing body mesh. Throws InvalidInput as find_body_features does.
+BodyMeasurements measure_body(const Eigen::MatrixXd& V, const Eigen::MatrixXi& F);
+
+/// Measures a standing body scan (#P x 3 points, m): sections are slabs of points; a girth whose
+/// section has an angular gap over 40 degrees is reported as not measured, with the reason.
+BodyMeasurements measure_point_cloud(const Eigen::MatrixXd& P);
+
+/// Horizontal "sections" of a point cloud (isolated outliers dropped first): points within half a
+/// step of each level, clustered
+/// (2 cm), each cluster ordered by angle about its centroid; closed when no angular gap exceeds
+/// `max_gap_deg`.
+SectionStack horizontal_sections_of_points(const Eigen::MatrixXd& P, double step = 0.005, double max_gap_deg = 40);
+
+}  // namespace posekit

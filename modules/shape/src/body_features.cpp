@@ -1,0 +1,402 @@
+#include "posekit/shape/body_features.h"
+
+#include <Eigen/Eigenvalues>
+#include <Eigen/Geometry>
+#include <algorithm>
+#include <cmath>
+#include <limits>
+
+#include "posekit/core/error.h"
+#include "posekit/core/mesh_geometry.h"
+
+namespace posekit {
+namespace {
+
+constexpr double kBustBandStart = 0.62;   ///< of the crotch-to-armpit span
+constexpr double kWaistBandStart = 0.33;
+constexpr double kKneeFraction = 0.563;   ///< knee joint between ankle joint and crotch
+constexpr double kWristBand[2] = {0.48, 0.68};  ///< wrist between elbow and hand tip
+constexpr double kWristBeyondNarrowest = 0.012;  ///< m, toward the hand
+constexpr double kShoulderInset = 0.2;  ///< shoulder joint between armpit (0) and the lateral edge (1)
+
+/// Area-weighted centroid and area of a horizontal loop in the XZ plane.
+struct LoopShape {
+  Eigen::Vector3d centroid = Eigen::Vector3d::Zero();
+  double area = 0, girth = 0;
+  double min_x = 0, max_x = 0;
+};
+
+LoopShape shape_of(const SectionLoop& loop) {
+  LoopShape s;
+  const Eigen::MatrixXd& P = loop.points;
+  double a2 = 0, cx = 0, cz = 0;
+  for (Eigen::Index i = 0, j = P.rows() - 1; i < P.rows(); j = i++) {
+    const double cross = P(j, 0) * P(i, 2) - P(i, 0) * P(j, 2);
+    a2 += cross;
+    cx += (P(j, 0) + P(i, 0)) * cross;
+    cz += (P(j, 2) + P(i, 2)) * cross;
+  }
+  s.area = std::abs(a2) / 2;
+  if (std::abs(a2) > 1e-12)
+    s.centroid = Eigen::Vector3d(cx / (3 * a2), P.col(1).mean(), cz / (3 * a2));
+  else
+    s.centroid = P.colwise().mean().transpose();
+  s.girth = convex_hull_perimeter(P, Eigen::Vector3d::UnitY());
+  s.min_x = P.col(0).minCoeff();
+  s.max_x = P.col(0).maxCoeff();
+  return s;
+}
+
+bool contains_xz(const SectionLoop& loop, double x, double z) {
+  const Eigen::MatrixXd& P = loop.points;
+  bool in = false;
+  for (Eigen::Index i = 0, j = P.rows() - 1; i < P.rows(); j = i++)
+    if ((P(i, 2) > z) != (P(j, 2) > z) && x < (P(j, 0) - P(i, 0)) * (z - P(i, 2)) / (P(j, 2) - P(i, 2)) + P(i, 0)) in = !in;
+  return in;
+}
+
+int count_closed(const std::vector<SectionLoop>& loops, double min_area) {
+  int n = 0;
+  for (const auto& l : loops) n += l.closed && shape_of(l).area > min_area;
+  return n;
+}
+
+/// Least-squares line through points (rows), as point + unit direction.
+void fit_line(const std::vector<Eigen::Vector3d>& pts, Eigen::Vector3d* point, Eigen::Vector3d* dir) {
+  Eigen::Vector3d mean = Eigen::Vector3d::Zero();
+  for (const auto& p : pts) mean += p;
+  mean /= static_cast<double>(pts.size());
+  Eigen::Matrix3d cov = Eigen::Matrix3d::Zero();
+  for (const auto& p : pts) cov += (p - mean) * (p - mean).transpose();
+  Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> es(cov);
+  *point = mean;
+  *dir = es.eigenvectors().col(2);
+}
+
+double line_error(const std::vector<Eigen::Vector3d>& pts, size_t from, size_t to) {
+  if (to - from < 2) return 0;
+  std::vector<Eigen::Vector3d> sub(pts.begin() + static_cast<long>(from), pts.begin() + static_cast<long>(to));
+  Eigen::Vector3d p, d;
+  fit_line(sub, &p, &d);
+  double e = 0;
+  for (const auto& q : sub) e += ((q - p) - (q - p).dot(d) * d).squaredNorm();
+  return e;
+}
+
+}  // namespace
+
+SectionStack horizontal_sections(const Eigen::MatrixXd& V, const Eigen::MatrixXi& F, double step) {
+  if (V.rows() == 0 || F.rows() == 0) throw InvalidInput("horizontal_sections: empty mesh");
+  if (!(step > 0)) throw InvalidInput("horizontal_sections: step must be positive");
+  SectionStack s;
+  s.floor_y = V.col(1).minCoeff();
+  s.top_y = V.col(1).maxCoeff();
+  s.step = step;
+  for (double y = s.floor_y + step / 2; y < s.top_y; y += step) s.y.push_back(y);
+  s.loops = slice_mesh_stack(V, F, Eigen::Vector3d::UnitY(), s.y);
+  return s;
+}
+
+BodyFeatures find_body_features(const Eigen::MatrixXd& V, const Eigen::MatrixXi& F) {
+  const BoundingBox box = bounding_box(V);
+  const double height = box.extent().y();
+  if (height < 0.8 || height > 2.6)
+    throw InvalidInput("body features: the mesh is " + std::to_string(height) +
+                       " m tall along Y: expected a standing human in metres with Y up (wrong unit or axis?)");
+  if (box.extent().z() > height || box.extent().x() > 1.3 * height)
+    throw InvalidInput("body features: the mesh is wider than it is tall: expected a standing body with Y up, not a lying one");
+  return find_body_features(horizontal_sections(V, F));
+}
+
+BodyFeatures find_body_features(const SectionStack& st) {
+  BodyFeatures f;
+  f.floor_y = st.floor_y;
+  f.top_y = st.top_y;
+  f.stature = st.top_y - st.floor_y;
+  const int n = static_cast<int>(st.y.size());
+  auto level_at = [&](double fraction) { return std::clamp(static_cast<int>(fraction * n), 0, n - 1); };
+  // Standing, not upside-down: the top 12% (head and neck) is one large section at nearly every
+  // level, the bottom 12% (feet and shins) never is.
+  auto single_fraction = [&](double from, double to) {
+    int single = 0, total = 0;
+    for (int i = level_at(from); i <= level_at(to); ++i, ++total) single += count_closed(st.loops[i], 2e-3) == 1;
+    return static_cast<double>(single) / std::max(1, total);
+  };
+  const double low_single = single_fraction(0.02, 0.12), high_single = single_fraction(0.88, 0.98);
+  if (low_single > 0.5 && high_single < 0.5)
+    throw InvalidInput("body features: one section near the bottom and several near the top: the body seems upside-down");
+  if (high_single < 0.5)
+    throw InvalidInput("body features: no single head section in the top 12% of the height: not a standing body");
+  const int low = count_closed(st.loops[level_at(0.08)], 1e-3);
+  if (low < 2)
+    throw InvalidInput("body features: expected two separate legs at 8% of the height, found " + std::to_string(low) +
+                       " section(s) (legs together, or not a standing body)");
+
+  // Legs at 20% of the height: the two largest loops give the sagittal axis.
+  std::vector<std::pair<double, LoopShape>> legs;
+  for (const auto& l : st.loops[level_at(0.2)])
+    if (l.closed) legs.emplace_back(shape_of(l).area, shape_of(l));
+  std::sort(legs.begin(), legs.end(), [](const auto& a, const auto& b) { return a.first > b.first; });
+  if (legs.size() < 2) throw InvalidInput("body features: could not find both legs at 20% of the height");
+  f.axis_x = 0.5 * (legs[0].second.centroid.x() + legs[1].second.centroid.x());
+  double z_track = 0.5 * (legs[0].second.centroid.z() + legs[1].second.centroid.z());
+
+  // Torso: from the crotch up, the loop enclosing the axis.
+  std::vector<int> torso(n, -1);
+  std::vector<LoopShape> torso_shape(n);
+  int crotch = -1;
+  for (int i = level_at(0.2); i < level_at(0.97); ++i) {
+    // Below the crotch only a loop enclosing the axis point counts; above it, the largest loop that
+    // spans the axis near the tracked centre (the neck, not the chin beside it).
+    int found = -1;
+    for (size_t k = 0; k < st.loops[i].size(); ++k)
+      if (st.loops[i][k].closed && contains_xz(st.loops[i][k], f.axis_x, z_track)) found = static_cast<int>(k);
+    if (crotch >= 0) {
+      double best_area = found >= 0 ? shape_of(st.loops[i][found]).area : 0.0;
+      for (size_t k = 0; k < st.loops[i].size(); ++k) {
+        if (!st.loops[i][k].closed) continue;
+        const LoopShape sh = shape_of(st.loops[i][k]);
+        const double d = Eigen::Vector2d(sh.centroid.x() - f.axis_x, sh.centroid.z() - z_track).norm();
+        if (sh.min_x < f.axis_x && sh.max_x > f.axis_x && d < 0.1 && sh.area > best_area)
+          best_area = sh.area, found = static_cast<int>(k);
+      }
+    }
+    if (found < 0) {
+      if (crotch >= 0 && i - crotch > 3) torso[i] = torso[i - 1] >= 0 ? -2 : -1;  // hole: keep tracking
+      continue;
+    }
+    if (crotch < 0) crotch = i;
+    torso[i] = found;
+    torso_shape[i] = shape_of(st.loops[i][found]);
+    z_track = torso_shape[i].centroid.z();
+  }
+  if (crotch < 0) throw InvalidInput("body features: no section encloses the body axis: could not find the crotch");
+  f.crotch_y = st.y[crotch];
+  f.crotch = Eigen::Vector3d(f.axis_x, f.crotch_y, torso_shape[crotch].centroid.z());
+
+  // Arms: going down from high on the chest, the first level where a separate loop appears on a side
+  // is that side's armpit.
+  auto side_loops = [&](int i, int side) {
+    std::vector<int> out;
+    if (torso[i] < 0) return out;
+    for (size_t k = 0; k < st.loops[i].size(); ++k) {
+      if (static_cast<int>(k) == torso[i] || !st.loops[i][k].closed) continue;
+      const LoopShape s = shape_of(st.loops[i][k]);
+      if (s.area < 2e-5) continue;
+      if ((side == kLeft) == (s.centroid.x() > f.axis_x)) out.push_back(static_cast<int>(k));
+    }
+    return out;
+  };
+  int armpit_level[2] = {-1, -1};
+  for (int side : {kLeft, kRight})
+    for (int i = level_at(0.86); i > crotch; --i)
+      if (!side_loops(i, side).empty() && !side_loops(i - 1, side).empty() && !side_loops(i - 2, side).empty()) {
+        armpit_level[side] = i;
+        break;
+      }
+  for (int side : {kLeft, kRight})
+    if (armpit_level[side] < 0)
+      throw InvalidInput(std::string("body features: the ") + (side == kLeft ? "left" : "right") +
+                         " arm never separates from the torso (arms touching the body?)");
+  for (int side : {kLeft, kRight}) {
+    const int i = armpit_level[side];
+    const auto arms = side_loops(i, side);
+    const SectionLoop& torso_loop = st.loops[i][torso[i]];
+    const SectionLoop& arm_loop = st.loops[i][arms.front()];
+    Eigen::Index t_idx, a_idx;
+    if (side == kLeft) {
+      torso_loop.points.col(0).maxCoeff(&t_idx);
+      arm_loop.points.col(0).minCoeff(&a_idx);
+    } else {
+      torso_loop.points.col(0).minCoeff(&t_idx);
+      arm_loop.points.col(0).maxCoeff(&a_idx);
+    }
+    f.armpit[side] = 0.5 * (torso_loop.points.row(t_idx) + arm_loop.points.row(a_idx)).transpose();
+    f.armpit[side].y() = st.y[i] + st.step / 2;
+  }
+  for (int side : {kLeft, kRight})
+    if (f.armpit[side].y() < f.floor_y + 0.62 * f.stature)
+      throw InvalidInput(std::string("body features: the ") + (side == kLeft ? "left" : "right") +
+                         " arm separates from the torso only at " +
+                         std::to_string(static_cast<int>(100 * (f.armpit[side].y() - f.floor_y) / f.stature)) +
+                         "% of the height (armpits are at 70-78%): arms touching the body?");
+  const int armpit_low = std::min(armpit_level[kLeft], armpit_level[kRight]);
+  const int armpit_high = std::max(armpit_level[kLeft], armpit_level[kRight]);
+
+  auto girth = [&](int i) { return torso[i] >= 0 ? torso_shape[i].girth : std::numeric_limits<double>::quiet_NaN(); };
+  auto argbest = [&](int from, int to, bool want_max) {
+    int best = -1;
+    for (int i = std::max(from, crotch); i <= std::min(to, n - 1); ++i) {
+      const double g = girth(i);
+      if (std::isnan(g)) continue;
+      if (best < 0 || (want_max ? g > girth(best) : g < girth(best))) best = i;
+    }
+    return best;
+  };
+
+  // Neck: the narrowest section between the shoulders and the head; its base is where the girth
+  // starts to widen into the shoulders.
+  const int neck = argbest(armpit_high + static_cast<int>(0.05 / st.step), level_at(0.95) - static_cast<int>(0.1 / st.step), false);
+  if (neck < 0) throw InvalidInput("body features: could not find the neck");
+  f.neck_y = st.y[neck];
+  int base = neck;
+  while (base - 1 > armpit_high && !std::isnan(girth(base - 1)) && girth(base - 1) < 1.25 * girth(neck)) --base;
+  f.neck_top = torso_shape[neck].centroid;
+  f.neck_top.y() = st.y[neck];
+  f.neck_base = torso_shape[base].centroid;
+  f.neck_base.y() = st.y[base];
+
+  // Arms: follow each arm's loop down from the armpit; centroids trace the limb axis.
+  for (int side : {kLeft, kRight}) {
+    std::vector<Eigen::Vector3d> axis;
+    std::vector<double> area, girth;
+    Eigen::Vector3d previous = f.armpit[side];
+    Eigen::Vector3d tip = previous;
+    for (int i = armpit_level[side]; i >= 0; --i) {
+      int best = -1;
+      double best_d = 0.08;
+      for (size_t k = 0; k < st.loops[i].size(); ++k) {
+        if (static_cast<int>(k) == torso[i]) continue;
+        const LoopShape s = shape_of(st.loops[i][k]);
+        if ((side == kLeft) != (s.centroid.x() > f.axis_x)) continue;
+        const double d = Eigen::Vector2d(s.centroid.x() - previous.x(), s.centroid.z() - previous.z()).norm();
+        if (d < best_d) best = static_cast<int>(k), best_d = d;
+      }
+      if (best < 0) break;
+      const LoopShape s = shape_of(st.loops[i][best]);
+      axis.push_back(s.centroid);
+      area.push_back(s.area);
+      girth.push_back(s.girth);
+      previous = s.centroid;
+      Eigen::Index lowest;
+      st.loops[i][best].points.col(1).minCoeff(&lowest);
+      tip = st.loops[i][best].points.row(lowest).transpose();
+    }
+    if (axis.size() < 20) {
+      f.arm_found[side] = false;
+      f.warnings.push_back(std::string("could not follow the ") + (side == kLeft ? "left" : "right") +
+                           " arm from the armpit to the hand (holes?): its shoulder, elbow and wrist are not found");
+      f.shoulder[side] = f.armpit[side] + Eigen::Vector3d(0, 0.06, 0);  // only bounds the bust search
+      continue;
+    }
+    f.hand_tip[side] = tip;
+    const size_t m = axis.size();
+    // Elbow: the break of a two-segment line through the axis (the kink of the slightly bent A-pose
+    // arm), first up to 80% of the arm, then up to the wrist found from it.
+    auto find_elbow = [&](size_t end) {
+      size_t elbow = end / 2;
+      double best = std::numeric_limits<double>::max();
+      for (size_t k = end / 4; k < end * 3 / 4; ++k) {
+        const double e = line_error(axis, 0, k) + line_error(axis, k, end);
+        if (e < best) best = e, elbow = k;
+      }
+      return elbow;
+    };
+    // Wrist: the thinnest section between 48% and 68% of the way from the elbow to the hand tip.
+    auto find_wrist = [&](size_t elbow) {
+      const double reach = (tip - axis[elbow]).norm();
+      size_t wrist = elbow;
+      double wrist_girth = std::numeric_limits<double>::max();
+      for (size_t k = elbow; k < m; ++k) {
+        const double t = (axis[k] - axis[elbow]).norm() / reach;
+        if (t < kWristBand[0] || t > kWristBand[1]) continue;
+        if (girth[k] < wrist_girth) wrist_girth = girth[k], wrist = k;
+      }
+      return wrist;
+    };
+    size_t elbow = find_elbow(m * 8 / 10);
+    size_t wrist = find_wrist(elbow);
+    elbow = find_elbow(wrist);
+    wrist = find_wrist(elbow);
+    f.elbow[side] = axis[elbow];
+    // Wrist joint: just distal of the narrowest forearm section.
+    const Eigen::Vector3d forearm = (axis[wrist] - axis[elbow]).normalized();
+    f.wrist[side] = axis[wrist] + kWristBeyondNarrowest * forearm;
+    // Shoulder joint: in the arm's share of the torso section (lateral of the armpit), 1.5 arm radii
+    // above the armpit.
+    const double radius = std::sqrt(area[0] / M_PI);
+    int level = armpit_level[side];
+    while (level + 1 < n && st.y[level] < f.armpit[side].y() + 1.5 * radius) ++level;
+    f.shoulder[side] = Eigen::Vector3d(axis[0].x(), st.y[level], axis[0].z());
+    if (torso[level] >= 0) {
+      const Eigen::MatrixXd& P = st.loops[level][torso[level]].points;
+      double lo_z = 1e9, hi_z = -1e9, far_x = f.armpit[side].x();
+      int count = 0;
+      for (Eigen::Index r = 0; r < P.rows(); ++r) {
+        const bool lateral = side == kLeft ? P(r, 0) > f.armpit[side].x() : P(r, 0) < f.armpit[side].x();
+        if (!lateral) continue;
+        ++count;
+        lo_z = std::min(lo_z, P(r, 2));
+        hi_z = std::max(hi_z, P(r, 2));
+        far_x = side == kLeft ? std::max(far_x, P(r, 0)) : std::min(far_x, P(r, 0));
+      }
+      if (count >= 5) f.shoulder[side] = Eigen::Vector3d(f.armpit[side].x() + kShoulderInset * (far_x - f.armpit[side].x()), st.y[level], 0.5 * (lo_z + hi_z));
+    }
+  }
+
+  // Girth levels of the torso (ISO 8559-1 style, see README).
+  // Search bands as fractions of the crotch-to-armpit span (spine proportions measured on the
+  // MakeHuman population, see README), so that a large belly is not taken for the bust.
+  const int span = armpit_low - crotch;
+  int shoulder_level = crotch;  // bust band ends 12 cm below the lower shoulder joint
+  while (shoulder_level + 1 < n && st.y[shoulder_level + 1] <= std::min(f.shoulder[kLeft].y(), f.shoulder[kRight].y())) ++shoulder_level;
+  const int bust = argbest(crotch + static_cast<int>(kBustBandStart * span), shoulder_level - static_cast<int>(0.12 / st.step), true);
+  const int underbust = argbest(bust - static_cast<int>(0.12 / st.step), bust - static_cast<int>(0.03 / st.step), false);
+  const int waist = argbest(crotch + static_cast<int>(kWaistBandStart * span), bust - static_cast<int>(0.05 / st.step), false);
+  const int hip = argbest(crotch + static_cast<int>(0.02 / st.step), waist, true);
+  if (bust < 0 || underbust < 0 || waist < 0 || hip < 0)
+    throw InvalidInput("body features: the torso sections between crotch and armpits are not closed (holes?)");
+  f.bust_y = st.y[bust];
+  f.underbust_y = st.y[underbust];
+  f.waist_y = st.y[waist];
+  f.hip_y = st.y[hip];
+
+  // Legs: follow each leg's loop down from the crotch.
+  for (int side : {kLeft, kRight}) {
+    std::vector<Eigen::Vector3d> axis;
+    std::vector<double> g, depth;
+    std::vector<int> level;
+    Eigen::Vector3d previous(f.axis_x + (side == kLeft ? 0.1 : -0.1), 0, f.crotch.z());
+    for (int i = crotch - 1; i >= 0; --i) {
+      int best = -1;
+      double best_d = 0.15;
+      for (size_t k = 0; k < st.loops[i].size(); ++k) {
+        if (!st.loops[i][k].closed) continue;
+        const LoopShape s = shape_of(st.loops[i][k]);
+        if ((side == kLeft) != (s.centroid.x() > f.axis_x) || s.area < 5e-4) continue;
+        const double d = Eigen::Vector2d(s.centroid.x() - previous.x(), s.centroid.z() - previous.z()).norm();
+        if (d < best_d) best = static_cast<int>(k), best_d = d;
+      }
+      if (best < 0) continue;
+      const LoopShape s = shape_of(st.loops[i][best]);
+      axis.push_back(s.centroid);
+      g.push_back(s.girth);
+      depth.push_back(st.loops[i][best].points.col(2).maxCoeff() - st.loops[i][best].points.col(2).minCoeff());
+      level.push_back(i);
+      previous = s.centroid;
+    }
+    if (axis.size() < 40)
+      throw InvalidInput(std::string("body features: could not follow the ") + (side == kLeft ? "left" : "right") + " leg");
+    auto index_of_height = [&](double y) {
+      size_t best = 0;
+      for (size_t k = 0; k < axis.size(); ++k)
+        if (std::abs(axis[k].y() - y) < std::abs(axis[best].y() - y)) best = k;
+      return best;
+    };
+    // Ankle: below the thinnest section above the foot, the level where the section has grown 1.45
+    // times as deep (front to back): the foot begins there, at the ankle joint.
+    size_t ankle = index_of_height(f.floor_y + 0.07 * f.stature);
+    for (size_t k = index_of_height(f.floor_y + 0.12 * f.stature); k <= index_of_height(f.floor_y + 0.04 * f.stature); ++k)
+      if (g[k] < g[ankle]) ankle = k;
+    const double min_depth = depth[ankle];
+    while (ankle + 1 < axis.size() && depth[ankle + 1] < 1.45 * min_depth) ++ankle;
+    // Knee: at a fixed fraction of the way from the ankle joint up to the crotch.
+    const double knee_y = axis[ankle].y() + kKneeFraction * (f.crotch_y - axis[ankle].y());
+    const size_t knee = index_of_height(knee_y);
+    f.ankle[side] = axis[ankle];
+    f.knee[side] = Eigen::Vector3d(axis[knee].x(), knee_y, axis[knee].z());  // at its defined height, even over a hole
+  }
+  return f;
+}
+
+}  // namespace posekit

@@ -1,0 +1,254 @@
+#include "posekit/shape/measurements.h"
+
+#include <Eigen/Geometry>
+#include <algorithm>
+#include <cmath>
+#include <array>
+#include <map>
+#include <numeric>
+
+#include "posekit/core/error.h"
+#include "posekit/core/mesh_geometry.h"
+
+namespace posekit {
+namespace {
+
+constexpr double kMaxGapDeg = 40.0;
+constexpr double kClusterCell = 0.012;  ///< m: scan points closer than about this belong to one section
+
+/// A section from scattered planar points (in the plane with normal n): the median radius about
+/// their centroid in each 5-degree sector, which also removes the scanner's noise; closed when no
+/// run of empty sectors spans more than `max_gap_deg`.
+SectionLoop loop_from_points(const std::vector<Eigen::Vector3d>& pts, const Eigen::Vector3d& n, double max_gap_deg) {
+  constexpr int kSectors = 72;
+  Eigen::Vector3d c = Eigen::Vector3d::Zero();
+  for (const auto& p : pts) c += p;
+  c /= static_cast<double>(pts.size());
+  const Eigen::Vector3d u = n.unitOrthogonal(), w = n.cross(u);
+  std::vector<std::vector<double>> radii(kSectors);
+  for (const auto& p : pts) {
+    const Eigen::Vector3d d = p - c;
+    const double a = std::atan2(d.dot(w), d.dot(u)) + M_PI;
+    radii[std::min(kSectors - 1, static_cast<int>(a / (2 * M_PI) * kSectors))].push_back(std::hypot(d.dot(u), d.dot(w)));
+  }
+  std::vector<Eigen::Vector3d> ring;
+  int longest_gap = 0, gap = 0;
+  for (int k = 0; k < 2 * kSectors; ++k) {  // twice round, for gaps across the start
+    if (radii[k % kSectors].empty()) longest_gap = std::max(longest_gap, ++gap);
+    else gap = 0;
+  }
+  for (int k = 0; k < kSectors; ++k) {
+    auto& r = radii[k];
+    if (r.empty()) continue;
+    std::nth_element(r.begin(), r.begin() + static_cast<long>(r.size() / 2), r.end());
+    const double a = (k + 0.5) / kSectors * 2 * M_PI - M_PI;
+    ring.push_back(c + r[r.size() / 2] * (std::cos(a) * u + std::sin(a) * w));
+  }
+  SectionLoop loop;
+  loop.closed = ring.size() >= 8 && longest_gap * 360.0 / kSectors < max_gap_deg;
+  loop.points.resize(static_cast<Eigen::Index>(ring.size()), 3);
+  for (size_t i = 0; i < ring.size(); ++i) loop.points.row(static_cast<Eigen::Index>(i)) = ring[i].transpose();
+  return loop;
+}
+
+/// Clusters points (already in one slab) by 2D proximity in the plane with normal n.
+std::vector<std::vector<Eigen::Vector3d>> cluster(const std::vector<Eigen::Vector3d>& pts, const Eigen::Vector3d& n, double cell) {
+  const Eigen::Vector3d u = n.unitOrthogonal(), w = n.cross(u);
+  std::map<std::pair<long, long>, std::vector<size_t>> grid;
+  for (size_t i = 0; i < pts.size(); ++i)
+    grid[{std::lround(std::floor(pts[i].dot(u) / cell)), std::lround(std::floor(pts[i].dot(w) / cell))}].push_back(i);
+  std::map<std::pair<long, long>, int> label;
+  int next = 0;
+  for (const auto& [key, members] : grid) {
+    if (label.count(key)) continue;
+    std::vector<std::pair<long, long>> stack{key};
+    label[key] = next;
+    while (!stack.empty()) {
+      const auto k = stack.back();
+      stack.pop_back();
+      for (long dx = -1; dx <= 1; ++dx)
+        for (long dz = -1; dz <= 1; ++dz) {
+          const std::pair<long, long> nb{k.first + dx, k.second + dz};
+          if (grid.count(nb) && !label.count(nb)) label[nb] = next, stack.push_back(nb);
+        }
+    }
+    ++next;
+  }
+  std::vector<std::vector<Eigen::Vector3d>> out(next);
+  for (const auto& [key, members] : grid)
+    for (size_t i : members) out[label[key]].push_back(pts[i]);
+  return out;
+}
+
+/// The loop of a section through `point` (plane normal `normal`) nearest to the point.
+SectionLoop mesh_section(const Eigen::MatrixXd& V, const Eigen::MatrixXi& F, const Eigen::Vector3d& point,
+                         const Eigen::Vector3d& normal) {
+  const auto loops = slice_mesh(V, F, normal, normal.dot(point));
+  const int k = nearest_loop(loops, point);
+  return k < 0 ? SectionLoop{} : loops[k];
+}
+
+SectionLoop cloud_section(const Eigen::MatrixXd& P, const Eigen::Vector3d& point, const Eigen::Vector3d& normal) {
+  const Eigen::Vector3d n = normal.normalized();
+  std::vector<Eigen::Vector3d> slab;
+  for (Eigen::Index i = 0; i < P.rows(); ++i) {
+    const Eigen::Vector3d q = P.row(i).transpose();
+    const double h = (q - point).dot(n);
+    if (std::abs(h) < 0.004 && (q - point).norm() < 0.35) slab.push_back(q - h * n);
+  }
+  if (slab.size() < 8) return SectionLoop{};
+  auto clusters = cluster(slab, n, kClusterCell);
+  size_t best = 0;
+  double best_d = 1e9;
+  for (size_t c = 0; c < clusters.size(); ++c) {
+    Eigen::Vector3d m = Eigen::Vector3d::Zero();
+    for (const auto& q : clusters[c]) m += q;
+    m /= static_cast<double>(clusters[c].size());
+    if ((m - point).norm() < best_d && clusters[c].size() >= 8) best_d = (m - point).norm(), best = c;
+  }
+  return loop_from_points(clusters[best], n, kMaxGapDeg);
+}
+
+template <typename Section>
+BodyMeasurements measure(const BodyFeatures& f, Section&& section) {
+  BodyMeasurements m;
+  m.features = f;
+  m.stature = f.stature;
+  auto add = [&](const std::string& name, const Eigen::Vector3d& point, const Eigen::Vector3d& normal) {
+    Girth g;
+    g.name = name;
+    g.point = point;
+    g.normal = normal.normalized();
+    const SectionLoop loop = section(point, g.normal);
+    if (loop.points.rows() < 3) {
+      g.note = "no section found";
+    } else if (!loop.closed) {
+      g.note = "section not closed (a hole in the surface or scan)";
+    } else {
+      g.value = convex_hull_perimeter(loop.points, g.normal);
+      g.measured = true;
+    }
+    m.girths.push_back(g);
+  };
+  const Eigen::Vector3d up = Eigen::Vector3d::UnitY();
+  const Eigen::Vector3d centre(f.axis_x, 0, f.crotch.z());
+  auto torso = [&](double y) { return Eigen::Vector3d(centre.x(), y, centre.z()); };
+  add("bust", torso(f.bust_y), up);
+  add("underbust", torso(f.underbust_y), up);
+  add("waist", torso(f.waist_y), up);
+  add("hip", torso(f.hip_y), up);
+  // Thigh: the left leg's section 2 cm below the crotch (the section nearest a point on the leg).
+  add("thigh", Eigen::Vector3d(f.knee[kLeft].x(), f.crotch_y - 0.02, f.knee[kLeft].z()), up);
+  add("knee", f.knee[kLeft], up);
+  // Calf: the fullest, and ankle: the thinnest, horizontal leg section between ankle joint and knee.
+  auto extreme_leg_level = [&](double from, double to, bool fullest) {
+    Eigen::Vector3d best_point = f.ankle[kLeft] + from * (f.knee[kLeft] - f.ankle[kLeft]);
+    double best = fullest ? -1.0 : 1e9;
+    for (int k = 0; k <= 12; ++k) {
+      const Eigen::Vector3d p = f.ankle[kLeft] + (from + (to - from) * k / 12.0) * (f.knee[kLeft] - f.ankle[kLeft]);
+      const SectionLoop loop = section(p, up);
+      if (!loop.closed || loop.points.rows() < 3) continue;
+      const double g = convex_hull_perimeter(loop.points, up);
+      if (fullest ? g > best : g < best) best = g, best_point = p;
+    }
+    return best_point;
+  };
+  add("calf", extreme_leg_level(0.3, 0.8, true), up);
+  add("ankle", extreme_leg_level(0.05, 0.4, false), up);
+  if (f.arm_found[kLeft]) {
+    add("upper_arm", 0.5 * (f.shoulder[kLeft] + f.elbow[kLeft]), f.elbow[kLeft] - f.shoulder[kLeft]);
+    add("wrist", f.wrist[kLeft], f.wrist[kLeft] - f.elbow[kLeft]);
+  } else {
+    for (const char* name : {"upper_arm", "wrist"}) {
+      Girth g;
+      g.name = name;
+      g.note = "the left arm could not be followed (holes in the surface or scan)";
+      m.girths.push_back(g);
+    }
+  }
+  // Neck: perpendicular to the neck's axis at its narrowest section.
+  add("neck", f.neck_top, f.neck_top - f.neck_base);
+  return m;
+}
+
+}  // namespace
+
+const Girth* BodyMeasurements::find(const std::string& name) const {
+  for (const auto& g : girths)
+    if (g.name == name) return &g;
+  return nullptr;
+}
+
+BodyMeasurements measure_body(const Eigen::MatrixXd& V, const Eigen::MatrixXi& F) {
+  const BodyFeatures f = find_body_features(V, F);
+  return measure(f, [&](const Eigen::Vector3d& p, const Eigen::Vector3d& n) { return mesh_section(V, F, p, n); });
+}
+
+namespace {
+
+/// Drops isolated points (outliers): those with fewer than 4 others in their 2 cm cell and its 26
+/// neighbours.
+Eigen::MatrixXd drop_isolated_points(const Eigen::MatrixXd& P) {
+  constexpr double kCell = 0.02;
+  std::map<std::array<long, 3>, int> count;
+  auto cell = [&](Eigen::Index i) {
+    return std::array<long, 3>{std::lround(std::floor(P(i, 0) / kCell)), std::lround(std::floor(P(i, 1) / kCell)),
+                               std::lround(std::floor(P(i, 2) / kCell))};
+  };
+  for (Eigen::Index i = 0; i < P.rows(); ++i) ++count[cell(i)];
+  std::vector<Eigen::Index> keep;
+  for (Eigen::Index i = 0; i < P.rows(); ++i) {
+    const auto c = cell(i);
+    int n = -1;
+    for (long dx = -1; dx <= 1; ++dx)
+      for (long dy = -1; dy <= 1; ++dy)
+        for (long dz = -1; dz <= 1; ++dz) {
+          const auto it = count.find({c[0] + dx, c[1] + dy, c[2] + dz});
+          if (it != count.end()) n += it->second;
+        }
+    if (n >= 4) keep.push_back(i);
+  }
+  Eigen::MatrixXd out(static_cast<Eigen::Index>(keep.size()), 3);
+  for (size_t k = 0; k < keep.size(); ++k) out.row(static_cast<Eigen::Index>(k)) = P.row(keep[k]);
+  return out;
+}
+
+/// Sections of a cloud whose outliers are already gone.
+SectionStack sections_of_clean_points(const Eigen::MatrixXd& P, double step, double max_gap_deg) {
+  SectionStack s;
+  s.floor_y = P.col(1).minCoeff();
+  s.top_y = P.col(1).maxCoeff();
+  s.step = step;
+  for (double y = s.floor_y + step / 2; y < s.top_y; y += step) s.y.push_back(y);
+  std::vector<std::vector<Eigen::Vector3d>> slabs(s.y.size());
+  for (Eigen::Index i = 0; i < P.rows(); ++i) {
+    const long k = std::lround(std::floor((P(i, 1) - s.floor_y) / step));
+    if (k >= 0 && k < static_cast<long>(s.y.size())) slabs[k].push_back(Eigen::Vector3d(P(i, 0), s.y[k], P(i, 2)));
+  }
+  s.loops.resize(s.y.size());
+  for (size_t k = 0; k < slabs.size(); ++k)
+    for (const auto& c : cluster(slabs[k], Eigen::Vector3d::UnitY(), kClusterCell))
+      if (c.size() >= 8) s.loops[k].push_back(loop_from_points(c, Eigen::Vector3d::UnitY(), max_gap_deg));
+  return s;
+}
+
+}  // namespace
+
+SectionStack horizontal_sections_of_points(const Eigen::MatrixXd& scan, double step, double max_gap_deg) {
+  if (scan.rows() < 1000) throw InvalidInput("measure: the point cloud has " + std::to_string(scan.rows()) + " points, too few for a body");
+  return sections_of_clean_points(drop_isolated_points(scan), step, max_gap_deg);
+}
+
+BodyMeasurements measure_point_cloud(const Eigen::MatrixXd& scan) {
+  if (scan.rows() < 1000) throw InvalidInput("measure: the point cloud has " + std::to_string(scan.rows()) + " points, too few for a body");
+  if (scan.rows() < 1000) throw InvalidInput("measure: the point cloud has " + std::to_string(scan.rows()) + " points, too few for a body");
+  const Eigen::MatrixXd P = drop_isolated_points(scan);
+  const BoundingBox box = bounding_box(P);
+  if (box.extent().y() < 0.8 || box.extent().y() > 2.6)
+    throw InvalidInput("measure: the cloud is " + std::to_string(box.extent().y()) +
+                       " m tall along Y: expected a standing human in metres (wrong --unit?)");
+  const BodyFeatures f = find_body_features(sections_of_clean_points(P, 0.005, kMaxGapDeg));
+  return measure(f, [&](const Eigen::Vector3d& p, const Eigen::Vector3d& n) { return cloud_section(P, p, n); });
+}
+
+}  // namespace posekit

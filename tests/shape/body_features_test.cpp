@@ -1,0 +1,116 @@
+#include "posekit/shape/body_features.h"
+
+#include <Eigen/Geometry>
+#include <gtest/gtest.h>
+
+#include "posekit/body/parts.h"
+#include "posekit/body/skinning.h"
+#include "posekit/core/error.h"
+#include "posekit/datasets/remesh.h"
+#include "posekit/datasets/scanner.h"
+#include "posekit/shape/measurements.h"
+#include "posekit/datasets/subjects.h"
+#include "testing/makehuman_fixture.h"
+
+using namespace posekit;
+
+namespace {
+struct FeatureErrors {
+  std::vector<double> crotch, hip, waist, bust, neck_base, shoulder, elbow, wrist, knee, ankle;  // cm
+};
+
+/// Features of the 16 subjects, found on their remeshed bodies, against the rig's ground truth.
+const FeatureErrors& subject_errors(const MakeHumanModel& model) {
+  static FeatureErrors e = [&] {
+    FeatureErrors out;
+    for (const auto& s : make_subject_specs(model, 1, 16)) {
+      const Body b = build_body(model, s.spec);
+      const TriangleMesh mesh = remesh_body(b.mesh, 12400);
+      const Measurements gt = measure_makehuman_body(model, b);
+      const Eigen::MatrixXd J = joint_centres(model.rig, b);
+      auto j = [&](const char* name) { return Eigen::Vector3d(J.row(find_joint_index(name))); };
+      const BodyFeatures f = find_body_features(mesh.V, mesh.F);
+      out.crotch.push_back(100 * std::abs(f.crotch_y - gt.crotch_height));
+      out.hip.push_back(100 * std::abs(f.hip_y - gt.hip_height));
+      out.waist.push_back(100 * std::abs(f.waist_y - gt.waist_height));
+      out.bust.push_back(100 * std::abs(f.bust_y - gt.bust_height));
+      out.neck_base.push_back(100 * (f.neck_base - j("neck")).norm());
+      for (int side : {kLeft, kRight}) {
+        const std::string p = side == kLeft ? "left_" : "right_";
+        out.shoulder.push_back(100 * (f.shoulder[side] - j((p + "shoulder").c_str())).norm());
+        out.elbow.push_back(100 * (f.elbow[side] - j((p + "elbow").c_str())).norm());
+        out.wrist.push_back(100 * (f.wrist[side] - j((p + "wrist").c_str())).norm());
+        out.knee.push_back(100 * (f.knee[side] - j((p + "knee").c_str())).norm());
+        out.ankle.push_back(100 * (f.ankle[side] - j((p + "ankle").c_str())).norm());
+      }
+    }
+    return out;
+  }();
+  return e;
+}
+
+int count_within(const std::vector<double>& v, double cm) {
+  return static_cast<int>(std::count_if(v.begin(), v.end(), [&](double x) { return x <= cm; }));
+}
+double worst(const std::vector<double>& v) { return *std::max_element(v.begin(), v.end()); }
+}  // namespace
+
+TEST(BodyFeatures, TorsoLevelsOnAllSixteenRemeshedSubjects) {
+  POSEKIT_REQUIRE_MAKEHUMAN();
+  const FeatureErrors& e = subject_errors(model);
+  EXPECT_LE(worst(e.crotch), 2.0);
+  EXPECT_LE(worst(e.hip), 2.0);
+  EXPECT_LE(worst(e.bust), 2.5);
+  EXPECT_GE(count_within(e.waist, 2.0), 15);  // measured: one obese male's waist level 11 cm off
+  EXPECT_LE(worst(e.neck_base), 2.0);
+}
+
+TEST(BodyFeatures, LimbJointsOnAllSixteenRemeshedSubjects) {
+  POSEKIT_REQUIRE_MAKEHUMAN();
+  const FeatureErrors& e = subject_errors(model);
+  // Measured (32 limbs): ankle <= 1.3 cm, knee <= 2.3, shoulder <= 2.7, elbow <= 2.4 but one 4.2,
+  // wrist <= 2.5 but up to 7.3 on three male arms.
+  EXPECT_LE(worst(e.ankle), 2.0);
+  EXPECT_LE(worst(e.knee), 2.5);
+  EXPECT_LE(worst(e.shoulder), 3.0);
+  EXPECT_GE(count_within(e.elbow, 2.5), 30);
+  EXPECT_GE(count_within(e.wrist, 2.5), 24);
+}
+
+TEST(BodyFeatures, RejectsBodiesThatAreNotStanding) {
+  POSEKIT_REQUIRE_MAKEHUMAN();
+  const Body b = build_body(model, BodySpec{});
+  auto rotated = [&](const Eigen::Matrix3d& R) { return Eigen::MatrixXd(b.mesh.V * R.transpose()); };
+  const Eigen::Matrix3d lying = Eigen::AngleAxisd(M_PI / 2, Eigen::Vector3d::UnitZ()).toRotationMatrix();
+  const Eigen::Matrix3d upside_down = Eigen::AngleAxisd(M_PI, Eigen::Vector3d::UnitZ()).toRotationMatrix();
+  auto message = [&](const Eigen::MatrixXd& V) {
+    try {
+      find_body_features(V, b.mesh.F);
+    } catch (const InvalidInput& e) {
+      return std::string(e.what());
+    }
+    return std::string();
+  };
+  EXPECT_NE(message(rotated(lying)).find("lying"), std::string::npos);
+  EXPECT_NE(message(rotated(upside_down)).find("upside-down"), std::string::npos);
+  EXPECT_NE(message(b.mesh.V * 1000.0).find("wrong unit"), std::string::npos);
+  // A scan with the arms lowered against the torso: they separate from it only low down.
+  PartPose arms_down;
+  arms_down.joint_rotation[find_joint_index("left_shoulder")] = Eigen::Vector3d(0, 0, -0.75);
+  arms_down.joint_rotation[find_joint_index("right_shoulder")] = Eigen::Vector3d(0, 0, 0.75);
+  TriangleMesh lowered;
+  lowered.F = b.mesh.F;
+  lowered.V = linear_blend_skinning(
+      b.mesh.V, model.weights, pose_bone_transforms(model.rig, b.bone_heads, bone_pose_from_part_pose(model.rig, arms_down)));
+  ScannerOptions o;
+  o.width = 320;
+  o.height = 480;
+  o.focal_px = 345;
+  const SimulatedScan scan = simulate_scan(lowered, o);
+  try {
+    find_body_features(horizontal_sections_of_points(scan.cloud.P));
+    FAIL() << "no exception";
+  } catch (const InvalidInput& e) {
+    EXPECT_NE(std::string(e.what()).find("arms touching the body"), std::string::npos) << e.what();
+  }
+}
