@@ -1,0 +1,86 @@
+// posekit measure <mesh|cloud>: stature and tape girths of a standing body, with the features used.
+#include <cmath>
+#include <iomanip>
+#include <iostream>
+#include <nlohmann/json.hpp>
+
+#include "cli.h"
+#include "commands.h"
+#include "posekit/core/error.h"
+#include "posekit/io/mesh_io.h"
+#include "posekit/io/point_cloud_io.h"
+#include "posekit/shape/measurements.h"
+
+namespace posekit::cli {
+namespace {
+
+nlohmann::json vec(const Eigen::Vector3d& v) { return {v.x(), v.y(), v.z()}; }
+
+}  // namespace
+
+int run_measure(int argc, char** argv) {
+  ArgParser args("measure",
+                 "Measures a standing body (A-pose, Y up, facing +Z) from its geometry alone: stature and the\n"
+                 "girths bust, underbust, waist, hip, thigh, knee, calf, ankle, upper arm, wrist, neck (convex-hull\n"
+                 "perimeters, definitions in the README), and the features they hang on. Works on meshes of any\n"
+                 "topology and on scans (point clouds): a girth whose scan section has a hole is reported, not guessed.");
+  args.positional("file", "body mesh (OBJ/PLY/OFF/STL) or scan (PCD/PLY/XYZ)")
+      .option("unit", "U", "unit of the file: m, dm, cm, mm (scans are usually mm)", "m")
+      .flag("json", "machine-readable results on stdout (metres)")
+      .example("posekit measure subjects/f01/rest.ply")
+      .example("posekit measure scans/f01/rest.pcd --unit mm --json");
+  if (!args.parse(argc, argv)) return 0;
+  const std::string path = args.positionals()[0];
+  const Unit unit = parse_unit(args.get("unit"));
+  const CloudFormat cf = cloud_format_from_path(path);
+  bool cloud = cf == CloudFormat::kPcd || cf == CloudFormat::kXyz;
+  BodyMeasurements m;
+  TriangleMesh mesh;
+  if (!cloud) {
+    try {
+      mesh = read_mesh(path, {unit});
+    } catch (const IoError& e) {
+      if (cf != CloudFormat::kPly || std::string(e.what()).find("no faces") == std::string::npos) throw;
+      cloud = true;
+    }
+  }
+  if (cloud) m = measure_point_cloud(read_point_cloud(path, {unit}).P);
+  else m = measure_body(mesh.V, mesh.F);
+  const BodyFeatures& f = m.features;
+  if (args.flag_set("json")) {
+    nlohmann::ordered_json j;
+    j["file"] = path;
+    j["kind"] = cloud ? "point cloud" : "mesh";
+    j["units"] = "m";
+    j["stature"] = m.stature;
+    for (const auto& g : m.girths) {
+      nlohmann::ordered_json e = {{"measured", g.measured}, {"point", vec(g.point)}, {"normal", vec(g.normal)}};
+      if (g.measured) e["value"] = g.value;
+      else e["note"] = g.note;
+      j["girths"][g.name] = e;
+    }
+    j["levels_y"] = {{"crotch", f.crotch_y}, {"hip", f.hip_y}, {"waist", f.waist_y}, {"underbust", f.underbust_y},
+                     {"bust", f.bust_y}, {"neck", f.neck_y}, {"floor", f.floor_y}, {"top", f.top_y}};
+    j["features"] = {{"crotch", vec(f.crotch)}, {"neck_base", vec(f.neck_base)},
+                     {"left_armpit", vec(f.armpit[kLeft])}, {"right_armpit", vec(f.armpit[kRight])},
+                     {"left_shoulder", vec(f.shoulder[kLeft])}, {"right_shoulder", vec(f.shoulder[kRight])},
+                     {"left_elbow", vec(f.elbow[kLeft])}, {"right_elbow", vec(f.elbow[kRight])},
+                     {"left_wrist", vec(f.wrist[kLeft])}, {"right_wrist", vec(f.wrist[kRight])},
+                     {"left_knee", vec(f.knee[kLeft])}, {"right_knee", vec(f.knee[kRight])},
+                     {"left_ankle", vec(f.ankle[kLeft])}, {"right_ankle", vec(f.ankle[kRight])}};
+    j["warnings"] = f.warnings;
+    std::cout << j.dump(2) << std::endl;
+    return 0;
+  }
+  std::cout << path << " (" << (cloud ? "point cloud" : "mesh") << ")\n" << std::fixed << std::setprecision(1)
+            << "  stature      " << m.stature * 100 << " cm\n";
+  for (const auto& g : m.girths) {
+    std::cout << "  " << std::left << std::setw(12) << g.name << std::right << " ";
+    if (g.measured) std::cout << g.value * 100 << " cm\n";
+    else std::cout << "not measured: " << g.note << "\n";
+  }
+  for (const auto& w : f.warnings) std::cout << "  warning: " << w << "\n";
+  return 0;
+}
+
+}  // namespace posekit::cli
