@@ -20,4 +20,7 @@ echo "== the same body posed by the MakeHuman benchmark BVH (linear blend and du
 echo "== the evaluation dataset: template, pose dataset, 16 subjects with ground truth, scans, photos"
 "$posekit" dataset make --out "$out/dataset" --force
 "$posekit" dataset info "$out/dataset"
+echo "== measurements of a customized subject, from its mesh and from its simulated scan (ground truth in measurements.json)"
+"$posekit" measure "$out/dataset/subjects/f01/rest.ply"
+"$posekit" measure "$out/dataset/scans/f01/rest.pcd" --unit mm
 echo "== results in $out/ (PLY files open in MeshLab, CloudCompare, ParaView; scans are PCD in mm)"
