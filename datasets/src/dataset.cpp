@@ -314,6 +314,39 @@ TriangleMesh load_subject_mesh(const std::string& path, Unit unit) {
   return m;
 }
 
+SurfacePoints load_correspondence(const std::string& path) {
+  const std::string text = read_file_bytes(path);
+  std::vector<int> face;
+  std::vector<double> bary;
+  std::istringstream in(text);
+  std::string line;
+  long line_no = 0;
+  while (std::getline(in, line)) {
+    ++line_no;
+    if (line.empty() || line[0] == '#' || line.rfind("subject_vertex", 0) == 0) continue;
+    std::istringstream cells(line);
+    std::string cell;
+    std::vector<double> values;
+    while (std::getline(cells, cell, ',')) {
+      try {
+        values.push_back(std::stod(cell));
+      } catch (const std::exception&) {
+        throw IoError(path + ":" + std::to_string(line_no) + ": expected numbers 'vertex,triangle,b0,b1,b2'");
+      }
+    }
+    if (values.size() != 5 || values[0] != static_cast<double>(face.size()))
+      throw IoError(path + ":" + std::to_string(line_no) + ": expected 'vertex,triangle,b0,b1,b2' with vertices in order");
+    face.push_back(static_cast<int>(values[1]));
+    bary.insert(bary.end(), {values[2], values[3], values[4]});
+  }
+  if (face.empty()) throw IoError(path + ": no correspondence rows");
+  SurfacePoints s;
+  s.face = Eigen::Map<Eigen::VectorXi>(face.data(), static_cast<Eigen::Index>(face.size()));
+  s.bary = Eigen::Map<Eigen::Matrix<double, Eigen::Dynamic, 3, Eigen::RowMajor>>(bary.data(), static_cast<Eigen::Index>(face.size()), 3);
+  s.distance = Eigen::VectorXd::Zero(static_cast<Eigen::Index>(face.size()));
+  return s;
+}
+
 PointCloud load_scan(const std::string& path, Unit unit) { return read_point_cloud(path, {unit}); }
 
 }  // namespace posekit

@@ -46,27 +46,6 @@ const SmallDataset& small_dataset() {
   return ds;
 }
 
-/// Subject vertex -> template triangle + barycentrics, from correspondence.csv.
-SurfacePoints read_correspondence(const std::string& path) {
-  std::ifstream in(path);
-  std::string line;
-  std::vector<int> face;
-  std::vector<double> bary;
-  while (std::getline(in, line)) {
-    if (line.empty() || line[0] == '#' || line[0] == 's') continue;
-    std::stringstream ss(line);
-    std::string cell;
-    std::vector<std::string> cells;
-    while (std::getline(ss, cell, ',')) cells.push_back(cell);
-    face.push_back(std::stoi(cells[1]));
-    for (int k = 2; k < 5; ++k) bary.push_back(std::stod(cells[k]));
-  }
-  SurfacePoints s;
-  s.face = Eigen::Map<Eigen::VectorXi>(face.data(), static_cast<Eigen::Index>(face.size()));
-  s.bary = Eigen::Map<Eigen::Matrix<double, Eigen::Dynamic, 3, Eigen::RowMajor>>(bary.data(), static_cast<Eigen::Index>(face.size()), 3);
-  return s;
-}
-
 }  // namespace
 
 TEST(Dataset, ManifestListsExactlyTheFilesWritten) {
@@ -122,7 +101,7 @@ TEST(Dataset, SubjectsHaveTheirOwnManifoldTopologyAndExactCorrespondence) {
     EXPECT_NE(rest.num_vertices(), templ.num_vertices());
     // Ground truth: every subject vertex, evaluated on the subject-shaped template, within 1 mm.
     const Body body = build_body(model, read_body_spec(ds.root + "/" + s["spec"].get<std::string>()));
-    const SurfacePoints corr = read_correspondence(ds.root + "/" + s["correspondence"].get<std::string>());
+    const SurfacePoints corr = load_correspondence(ds.root + "/" + s["correspondence"].get<std::string>());
     ASSERT_EQ(corr.face.size(), rest.num_vertices());
     EXPECT_LT((evaluate_surface_points(body.mesh.V, body.mesh.F, corr) - rest.V).rowwise().norm().maxCoeff(), 0.001) << id;
     // Posed meshes keep the subject's topology.

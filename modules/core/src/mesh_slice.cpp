@@ -3,7 +3,7 @@
 #include <Eigen/Geometry>
 #include <algorithm>
 #include <cstdint>
-#include <unordered_map>
+#include <tuple>
 
 namespace posekit {
 namespace {
@@ -15,76 +15,81 @@ std::uint64_t edge_key(int a, int b) {
 
 namespace {
 
-/// Segments of one plane: each cut edge (key) with its point and its neighbouring cut edges.
-struct PlaneCuts {
-  std::unordered_map<std::uint64_t, Eigen::Vector3d> point_of_edge;
-  std::unordered_map<std::uint64_t, std::vector<std::uint64_t>> neighbours;
+/// One segment of a plane's section: it joins the cut points of two mesh edges (keys).
+struct Segment {
+  std::uint64_t key[2];
+  Eigen::Vector3d point[2];
 };
 
-/// Adds face f's segment for the plane at signed distances s (vertices with s >= 0 count as above).
-void cut_face(const Eigen::MatrixXd& V, const Eigen::MatrixXi& F, Eigen::Index f, const double* s, PlaneCuts& cuts) {
-  std::uint64_t cut[2];
+/// The segment of face f for a plane at signed distances s (s >= 0 counts as above); false if none.
+bool cut_face(const Eigen::MatrixXd& V, const Eigen::MatrixXi& F, Eigen::Index f, const double* s, Segment& seg) {
   int count = 0;
-  for (int c = 0; c < 3; ++c) {
+  for (int c = 0; c < 3 && count < 2; ++c) {
     const int a = F(f, c), b = F(f, (c + 1) % 3);
     const double sa = s[c], sb = s[(c + 1) % 3];
     if ((sa >= 0) == (sb >= 0)) continue;
-    const std::uint64_t key = edge_key(a, b);
-    if (!cuts.point_of_edge.count(key)) {
-      const double t = sa / (sa - sb);
-      // Interpolate from the smaller index so both faces of the edge compute the same point.
-      cuts.point_of_edge[key] = a < b ? Eigen::Vector3d(V.row(a).transpose() + t * (V.row(b) - V.row(a)).transpose())
-                                      : Eigen::Vector3d(V.row(b).transpose() + (1 - t) * (V.row(a) - V.row(b)).transpose());
-    }
-    if (count < 2) cut[count] = key;
+    const double t = sa / (sa - sb);
+    seg.key[count] = edge_key(a, b);
+    // Interpolate from the smaller index so both faces of the edge compute the same point.
+    seg.point[count] = a < b ? Eigen::Vector3d(V.row(a).transpose() + t * (V.row(b) - V.row(a)).transpose())
+                             : Eigen::Vector3d(V.row(b).transpose() + (1 - t) * (V.row(a) - V.row(b)).transpose());
     ++count;
   }
-  if (count == 2) {
-    cuts.neighbours[cut[0]].push_back(cut[1]);
-    cuts.neighbours[cut[1]].push_back(cut[0]);
-  }
+  return count == 2;
 }
 
-std::vector<SectionLoop> chain_loops(PlaneCuts& cuts) {
+/// Chains the segments of one plane into loops through their shared edge keys.
+std::vector<SectionLoop> chain_loops(const std::vector<Segment>& segs) {
+  // (key, segment, end) sorted by key: the (usually two) segments meeting at a cut edge are adjacent.
+  std::vector<std::tuple<std::uint64_t, int, int>> ends;
+  ends.reserve(segs.size() * 2);
+  for (size_t i = 0; i < segs.size(); ++i)
+    for (int e = 0; e < 2; ++e) ends.emplace_back(segs[i].key[e], static_cast<int>(i), e);
+  std::sort(ends.begin(), ends.end());
+  // partner[2 * seg + end] = the other (segment, end) at the same key, or -1 at an open end.
+  std::vector<int> partner(segs.size() * 2, -1);
+  for (size_t i = 0; i + 1 < ends.size(); ++i)
+    if (std::get<0>(ends[i]) == std::get<0>(ends[i + 1])) {
+      const int a = 2 * std::get<1>(ends[i]) + std::get<2>(ends[i]), b = 2 * std::get<1>(ends[i + 1]) + std::get<2>(ends[i + 1]);
+      if (partner[a] < 0 && partner[b] < 0) partner[a] = b, partner[b] = a;
+    }
+  std::vector<bool> used(segs.size(), false);
   std::vector<SectionLoop> loops;
-  std::unordered_map<std::uint64_t, bool> visited;
-  // Start open chains at their ends first, then the closed loops; sorted keys make it deterministic.
-  std::vector<std::uint64_t> starts;
-  for (const auto& [key, nb] : cuts.neighbours)
-    if (nb.size() == 1) starts.push_back(key);
-  std::sort(starts.begin(), starts.end());
-  std::vector<std::uint64_t> rest;
-  for (const auto& kv : cuts.neighbours) rest.push_back(kv.first);
-  std::sort(rest.begin(), rest.end());
-  starts.insert(starts.end(), rest.begin(), rest.end());
-  for (std::uint64_t start : starts) {
-    if (visited[start]) continue;
+  auto walk = [&](int seg, int start_end) {
+    // Leaves through the end opposite start_end, collecting the point at each entry end.
     std::vector<Eigen::Vector3d> pts;
-    std::uint64_t prev = start, cur = start;
     bool closed = false;
+    const int first = seg;
+    int end_in = start_end;
     while (true) {
-      visited[cur] = true;
-      pts.push_back(cuts.point_of_edge[cur]);
-      std::uint64_t next = cur;
-      for (std::uint64_t cand : cuts.neighbours[cur])
-        if (cand != prev && !visited[cand]) {
-          next = cand;
-          break;
-        }
-      if (next == cur) {
-        for (std::uint64_t cand : cuts.neighbours[cur])
-          if (cand == start && pts.size() > 2) closed = true;
+      used[seg] = true;
+      pts.push_back(segs[seg].point[end_in]);
+      const int out = 2 * seg + (1 - end_in);
+      const int next = partner[out];
+      if (next < 0) {
+        pts.push_back(segs[seg].point[1 - end_in]);
         break;
       }
-      prev = cur;
-      cur = next;
+      if (next / 2 == first) {
+        closed = true;
+        break;
+      }
+      if (used[next / 2]) break;
+      seg = next / 2;
+      end_in = next % 2;
     }
     SectionLoop loop;
     loop.closed = closed;
     loop.points.resize(static_cast<Eigen::Index>(pts.size()), 3);
     for (size_t i = 0; i < pts.size(); ++i) loop.points.row(static_cast<Eigen::Index>(i)) = pts[i].transpose();
     loops.push_back(std::move(loop));
-  }
+  };
+  // Open chains start at a segment end without a partner, so each is walked whole.
+  for (size_t i = 0; i < segs.size(); ++i)
+    for (int e = 0; e < 2; ++e)
+      if (!used[i] && partner[2 * i + e] < 0) walk(static_cast<int>(i), e);
+  for (size_t i = 0; i < segs.size(); ++i)
+    if (!used[i]) walk(static_cast<int>(i), 0);
   return loops;
 }
 
@@ -103,7 +108,8 @@ std::vector<std::vector<SectionLoop>> slice_mesh_stack(const Eigen::MatrixXd& V,
   std::vector<std::pair<double, size_t>> order;
   for (size_t i = 0; i < offsets.size(); ++i) order.emplace_back(offsets[i] / scale, i);
   std::sort(order.begin(), order.end());
-  std::vector<PlaneCuts> cuts(offsets.size());
+  std::vector<std::vector<Segment>> segs(offsets.size());
+  Segment seg;
   for (Eigen::Index f = 0; f < F.rows(); ++f) {
     const double h0 = h[F(f, 0)], h1 = h[F(f, 1)], h2 = h[F(f, 2)];
     const double lo = std::min({h0, h1, h2}), hi = std::max({h0, h1, h2});
@@ -111,11 +117,11 @@ std::vector<std::vector<SectionLoop>> slice_mesh_stack(const Eigen::MatrixXd& V,
                                [](const auto& a, const auto& b) { return a.first < b.first; });
     for (; it != order.end() && it->first <= hi; ++it) {
       const double s[3] = {h0 - it->first, h1 - it->first, h2 - it->first};
-      cut_face(V, F, f, s, cuts[it->second]);
+      if (cut_face(V, F, f, s, seg)) segs[it->second].push_back(seg);
     }
   }
   std::vector<std::vector<SectionLoop>> out(offsets.size());
-  for (size_t i = 0; i < offsets.size(); ++i) out[i] = chain_loops(cuts[i]);
+  for (size_t i = 0; i < offsets.size(); ++i) out[i] = chain_loops(segs[i]);
   return out;
 }
 

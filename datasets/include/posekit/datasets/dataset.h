@@ -55,6 +55,11 @@ PoseDataset load_pose_dataset(const std::string& dir, Unit unit = Unit::kMetre);
 /// A subject's mesh: any closed body mesh (PLY/OBJ/OFF/STL).
 TriangleMesh load_subject_mesh(const std::string& path, Unit unit = Unit::kMetre);
 
+/// Ground-truth correspondence of a subject (subjects/<id>/correspondence.csv): each subject vertex
+/// as a template triangle + barycentric coordinates. Throws IoError naming the file and line.
+struct SurfacePoints;
+SurfacePoints load_correspondence(const std::string& path);
+
 /// A scan: any point cloud (PCD/PLY/XYZ); posekit's simulated scans are in millimetres.
 PointCloud load_scan(const std::string& path, Unit unit = Unit::kMillimetre);
 

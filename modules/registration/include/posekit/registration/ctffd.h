@@ -1,0 +1,27 @@
+#pragma once
+// ct-FFD (Zhu et al. 2013, ref. [20] of Zhu & Mok): a free-form deformation driven by the layered
+// representation. Each source vertex is parametrised in its representation band (the band's axis
+// point, the direction to the representation surface, and offsets relative to the band's radius)
+// and re-evaluated in the target's representation, which has the same topology.
+#include <Eigen/Core>
+
+#include "posekit/shape/layered_representation.h"
+
+namespace posekit {
+
+/// Per-vertex coordinates of a mesh in a representation (built once per source mesh).
+struct CtffdParametrization {
+  Eigen::VectorXi triangle;  ///< #V representation triangle of each vertex
+  Eigen::MatrixXd bary;      ///< #V x 3 barycentric coordinates of its foot point on that triangle
+  Eigen::MatrixXd offset;    ///< #V x 3 (radial, along the band normal, tangential), in band radii
+};
+
+/// Parametrises V (#V x 3, any mesh of the body `rep` was built from) in `rep`.
+CtffdParametrization ctffd_parametrize(const Eigen::MatrixXd& V, const LayeredRepresentation& rep);
+
+/// Re-evaluates the parametrisation in another body's representation: the deformed vertices, #V x 3.
+/// Evaluating in the same representation gives V back. Throws InvalidInput if the representations'
+/// topologies differ.
+Eigen::MatrixXd ctffd_evaluate(const CtffdParametrization& param, const LayeredRepresentation& target);
+
+}  // namespace posekit

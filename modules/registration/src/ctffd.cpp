@@ -1,0 +1,100 @@
+#include "posekit/registration/ctffd.h"
+
+#include <Eigen/Geometry>
+
+#include "posekit/core/error.h"
+#include "posekit/core/mesh_geometry.h"
+#include "posekit/registration/correspondence.h"
+
+namespace posekit {
+namespace {
+
+/// The band frame of a representation triangle at barycentric b: axis point (interpolated layer
+/// centres), band normal, and the representation surface point.
+struct BandFrame {
+  Eigen::Vector3d axis, normal, surface;
+};
+
+BandFrame band_frame(const LayeredRepresentation& rep, int tri, const Eigen::Vector3d& b) {
+  const int n = rep.points_per_layer;
+  BandFrame f;
+  f.surface = Eigen::Vector3d::Zero();
+  f.axis = Eigen::Vector3d::Zero();
+  f.normal = Eigen::Vector3d::Zero();
+  for (int c = 0; c < 3; ++c) {
+    const int v = rep.mesh.F(tri, c);
+    const RepresentationLayer& L = rep.layers[static_cast<size_t>(v / n)];
+    f.surface += b[c] * rep.mesh.V.row(v).transpose();
+    f.axis += b[c] * L.centre;
+    f.normal += b[c] * L.normal;
+  }
+  f.normal.normalize();
+  return f;
+}
+
+Eigen::Vector3d closest_barycentric(const Eigen::Vector3d& p, const Eigen::Vector3d& a, const Eigen::Vector3d& b, const Eigen::Vector3d& c) {
+  const Eigen::Vector3d v0 = b - a, v1 = c - a, v2 = p - a;
+  const double d00 = v0.dot(v0), d01 = v0.dot(v1), d11 = v1.dot(v1), d20 = v2.dot(v0), d21 = v2.dot(v1);
+  const double den = d00 * d11 - d01 * d01;
+  if (den <= 0) return Eigen::Vector3d(1, 0, 0);
+  Eigen::Vector3d w(0, (d11 * d20 - d01 * d21) / den, (d00 * d21 - d01 * d20) / den);
+  w[0] = 1 - w[1] - w[2];
+  w = w.cwiseMax(0.0);
+  return w / w.sum();
+}
+
+}  // namespace
+
+CtffdParametrization ctffd_parametrize(const Eigen::MatrixXd& V, const LayeredRepresentation& rep) {
+  // Each vertex goes to the representation triangle whose centroid is nearest among those facing
+  // the same way (the same test as Eq. 2b/2c), with normals from the vertex's radial direction.
+  const CentroidIndex index(rep.mesh.V, rep.mesh.F);
+  const Eigen::MatrixXd rep_centroids = face_centroids(rep.mesh.V, rep.mesh.F);
+  // Radial directions need an axis: use the nearest triangle's band axis, found unconditionally first.
+  Eigen::MatrixXd radial(V.rows(), 3);
+  {
+    const Eigen::VectorXi nearest = index.match(V, Eigen::MatrixXd::Zero(V.rows(), 3), 1);
+    for (Eigen::Index i = 0; i < V.rows(); ++i) {
+      const BandFrame f = band_frame(rep, nearest[i], Eigen::Vector3d::Constant(1.0 / 3));
+      Eigen::Vector3d d = V.row(i).transpose() - f.axis;
+      d -= d.dot(f.normal) * f.normal;
+      radial.row(i) = d.norm() > 1e-12 ? Eigen::RowVector3d(d.normalized().transpose()) : Eigen::RowVector3d(1, 0, 0);
+    }
+  }
+  const Eigen::VectorXi tri = index.match(V, radial, 16);
+  CtffdParametrization p;
+  p.triangle = tri;
+  p.bary.resize(V.rows(), 3);
+  p.offset.resize(V.rows(), 3);
+  for (Eigen::Index i = 0; i < V.rows(); ++i) {
+    const int t = tri[i];
+    const Eigen::Vector3d v = V.row(i).transpose();
+    const Eigen::Vector3d b = closest_barycentric(v, rep.mesh.V.row(rep.mesh.F(t, 0)), rep.mesh.V.row(rep.mesh.F(t, 1)),
+                                                  rep.mesh.V.row(rep.mesh.F(t, 2)));
+    const BandFrame f = band_frame(rep, t, b);
+    const Eigen::Vector3d r = f.surface - f.axis;
+    const double radius = std::max(r.norm(), 1e-6);
+    const Eigen::Vector3d e1 = r / radius, e3 = f.normal.cross(e1).normalized(), e2 = e3.cross(e1);
+    const Eigen::Vector3d d = v - f.axis;
+    p.bary.row(i) = b.transpose();
+    p.offset.row(i) << d.dot(e1) / radius, d.dot(e2) / radius, d.dot(e3) / radius;
+  }
+  return p;
+}
+
+Eigen::MatrixXd ctffd_evaluate(const CtffdParametrization& p, const LayeredRepresentation& target) {
+  if (target.mesh.F.rows() <= p.triangle.maxCoeff())
+    throw InvalidInput("ctffd_evaluate: the target representation has another topology (" +
+                       std::to_string(target.mesh.F.rows()) + " triangles)");
+  Eigen::MatrixXd out(p.triangle.size(), 3);
+  for (Eigen::Index i = 0; i < p.triangle.size(); ++i) {
+    const BandFrame f = band_frame(target, p.triangle[i], p.bary.row(i).transpose());
+    const Eigen::Vector3d r = f.surface - f.axis;
+    const double radius = std::max(r.norm(), 1e-6);
+    const Eigen::Vector3d e1 = r / radius, e3 = f.normal.cross(e1).normalized(), e2 = e3.cross(e1);
+    out.row(i) = (f.axis + radius * (p.offset(i, 0) * e1 + p.offset(i, 1) * e2 + p.offset(i, 2) * e3)).transpose();
+  }
+  return out;
+}
+
+}  // namespace posekit

@@ -1,0 +1,273 @@
+#include "posekit/shape/layered_representation.h"
+
+#include <Eigen/Geometry>
+#include <algorithm>
+#include <cmath>
+
+#include "posekit/body/parts.h"
+#include "posekit/core/error.h"
+#include "posekit/core/mesh_slice.h"
+
+namespace posekit {
+namespace {
+
+// Part labels belong to layers, once and for all (Eq. 2a): the first torso layers (crotch to hip,
+// and on to about the lower-back joint, at 0.36 of the crotch-to-armpit span on the MakeHuman
+// population) are pelvis, the next ones up to about the upper-back joint (0.68) abdomen, the rest
+// chest.
+constexpr int kPelvisLayers = 6, kAbdomenLayers = 5;
+// Layers per segment of each chain: torso crotch-hip-waist-underbust-bust-armpit-neck base; head;
+// legs crotch-knee-ankle-sole; arms (upper arm)-elbow-wrist-hand tip.
+constexpr int kTorsoSegments[] = {3, 5, 3, 2, 3, 4};
+constexpr int kHeadSegments = 10;
+constexpr int kLegSegments[] = {6, 6, 3};
+constexpr int kArmSegments[] = {5, 6, 4};
+
+struct Plane2d {
+  Eigen::Vector3d origin, front, side;
+  Eigen::Vector2d to2d(const Eigen::Vector3d& p) const { return {(p - origin).dot(front), (p - origin).dot(side)}; }
+};
+
+/// The polygon's points at N equal angles about its area centroid, taking the farthest crossing of
+/// each ray (the envelope of a star-shaped section). Returns the centroid.
+Eigen::Vector3d resample(const std::vector<Eigen::Vector3d>& polygon, const Eigen::Vector3d& normal, const Eigen::Vector3d& front,
+                         int n, Eigen::MatrixXd& out, Eigen::Index first_row) {
+  const Eigen::Vector3d side = normal.cross(front);
+  Plane2d plane{polygon.front(), front, side};
+  std::vector<Eigen::Vector2d> q;
+  for (const auto& p : polygon) q.push_back(plane.to2d(p));
+  double a2 = 0, cx = 0, cy = 0;
+  for (size_t i = 0, j = q.size() - 1; i < q.size(); j = i++) {
+    const double cr = q[j].x() * q[i].y() - q[i].x() * q[j].y();
+    a2 += cr;
+    cx += (q[j].x() + q[i].x()) * cr;
+    cy += (q[j].y() + q[i].y()) * cr;
+  }
+  Eigen::Vector2d c = std::abs(a2) > 1e-12 ? Eigen::Vector2d(cx / (3 * a2), cy / (3 * a2)) : Eigen::Vector2d::Zero();
+  if (std::abs(a2) <= 1e-12)
+    for (const auto& p : q) c += p / static_cast<double>(q.size());
+  for (int k = 0; k < n; ++k) {
+    const double theta = 2 * M_PI * k / n;
+    const Eigen::Vector2d d(std::cos(theta), std::sin(theta));
+    double best = -1;
+    for (size_t i = 0, j = q.size() - 1; i < q.size(); j = i++) {
+      const Eigen::Vector2d e = q[i] - q[j];
+      const double den = d.x() * e.y() - d.y() * e.x();
+      if (std::abs(den) < 1e-15) continue;
+      const Eigen::Vector2d w = q[j] - c;
+      const double t = (w.x() * e.y() - w.y() * e.x()) / den;
+      const double s = (w.x() * d.y() - w.y() * d.x()) / den;
+      if (t > 0 && s >= 0 && s <= 1) best = std::max(best, t);
+    }
+    if (best < 0) {  // the centroid is outside (should not happen): nearest point in angle
+      double best_dot = -2;
+      for (const auto& p : q)
+        if ((p - c).normalized().dot(d) > best_dot) best_dot = (p - c).normalized().dot(d), best = (p - c).norm();
+    }
+    const Eigen::Vector2d p2 = c + best * d;
+    out.row(first_row + k) = (plane.origin + p2.x() * front + p2.y() * side).transpose();
+  }
+  return plane.origin + c.x() * front + c.y() * side;
+}
+
+/// Convex hull (in the plane) of the given points, counter-clockwise about `normal`.
+std::vector<Eigen::Vector3d> planar_hull(const std::vector<Eigen::Vector3d>& pts, const Eigen::Vector3d& normal, const Eigen::Vector3d& front) {
+  const Eigen::Vector3d side = normal.cross(front);
+  std::vector<std::pair<Eigen::Vector2d, size_t>> q;
+  for (size_t i = 0; i < pts.size(); ++i) q.push_back({Eigen::Vector2d(pts[i].dot(front), pts[i].dot(side)), i});
+  std::sort(q.begin(), q.end(), [](const auto& a, const auto& b) {
+    return a.first.x() != b.first.x() ? a.first.x() < b.first.x() : a.first.y() < b.first.y();
+  });
+  auto cross = [](const Eigen::Vector2d& o, const Eigen::Vector2d& a, const Eigen::Vector2d& b) {
+    return (a - o).x() * (b - o).y() - (a - o).y() * (b - o).x();
+  };
+  std::vector<size_t> hull(2 * q.size());
+  size_t k = 0;
+  for (size_t i = 0; i < q.size(); ++i) {
+    while (k >= 2 && cross(q[hull[k - 2]].first, q[hull[k - 1]].first, q[i].first) <= 0) --k;
+    hull[k++] = i;
+  }
+  for (size_t i = q.size() - 1, t = k + 1; i-- > 0;) {
+    while (k >= t && cross(q[hull[k - 2]].first, q[hull[k - 1]].first, q[i].first) <= 0) --k;
+    hull[k++] = i;
+  }
+  std::vector<Eigen::Vector3d> out;
+  for (size_t i = 0; i + 1 < k; ++i) out.push_back(pts[q[hull[i]].second]);
+  return out;
+}
+
+class Builder {
+ public:
+  Builder(const Eigen::MatrixXd& V, const Eigen::MatrixXi& F, const BodyFeatures& f, int n) : V_(V), F_(F), f_(f), n_(n) {}
+
+  LayeredRepresentation build() {
+    rep_.points_per_layer = n_;
+    rep_.chain_names = {"torso", "head", "left_leg", "right_leg", "left_arm", "right_arm"};
+    torso();
+    head();
+    for (int side : {kLeft, kRight}) leg(side);
+    for (int side : {kLeft, kRight}) arm(side);
+    stitch();
+    return std::move(rep_);
+  }
+
+ private:
+  /// Adds one layer from the section polygon chosen by `pick` on the plane through `centre`.
+  void add_layer(int chain, const Eigen::Vector3d& centre, const Eigen::Vector3d& normal, int part, bool hull_of_nearby,
+                 const Eigen::MatrixXi* faces = nullptr) {
+    const Eigen::Vector3d n = normal.normalized();
+    Eigen::Vector3d front = Eigen::Vector3d::UnitZ() - Eigen::Vector3d::UnitZ().dot(n) * n;
+    if (front.norm() < 1e-6) front = n.unitOrthogonal();
+    front.normalize();
+    const auto loops = slice_mesh(V_, faces ? *faces : F_, n, n.dot(centre));
+    const int nearest = nearest_loop(loops, centre);
+    if (nearest < 0)
+      throw InvalidInput("layered representation: no section of the " + rep_.chain_names[chain] + " at " +
+                         std::to_string(centre.x()) + ", " + std::to_string(centre.y()) + ", " + std::to_string(centre.z()));
+    std::vector<Eigen::Vector3d> polygon;
+    if (hull_of_nearby) {  // limbs: the nearest loop and its neighbours (fingers), as a tape would go
+      for (size_t k = 0; k < loops.size(); ++k) {
+        const Eigen::Vector3d c = loops[k].points.colwise().mean().transpose();
+        if (static_cast<int>(k) != nearest && (c - centre).norm() > 0.05) continue;
+        for (Eigen::Index r = 0; r < loops[k].points.rows(); ++r) polygon.push_back(loops[k].points.row(r).transpose());
+      }
+      polygon = planar_hull(polygon, n, front);
+    } else {
+      const Eigen::MatrixXd& P = loops[nearest].points;
+      for (Eigen::Index r = 0; r < P.rows(); ++r) polygon.push_back(P.row(r).transpose());
+    }
+    if (polygon.size() < 3) throw InvalidInput("layered representation: degenerate section of the " + rep_.chain_names[chain]);
+    const Eigen::Index row = static_cast<Eigen::Index>(rep_.layers.size()) * n_;
+    points_.conservativeResize(row + n_, 3);
+    RepresentationLayer layer;
+    layer.chain = chain;
+    layer.normal = n;
+    layer.front = front;
+    layer.side = n.cross(front);
+    layer.part = part;
+    layer.centre = resample(polygon, n, front, n_, points_, row);
+    rep_.layers.push_back(layer);
+  }
+
+  void torso() {
+    const double span = std::min(f_.armpit[kLeft].y(), f_.armpit[kRight].y()) - f_.crotch_y;
+    const double keys[] = {f_.crotch_y + 0.01, f_.hip_y, f_.waist_y, f_.underbust_y, f_.bust_y,
+                           f_.crotch_y + span - 0.01, f_.neck_base.y()};
+    int index = 0;
+    for (int s = 0; s < 6; ++s)
+      for (int k = 0; k < kTorsoSegments[s] + (s == 5); ++k, ++index) {
+        const double y = keys[s] + (keys[s + 1] - keys[s]) * k / kTorsoSegments[s];
+        const double t = (y - f_.crotch_y) / std::max(1e-6, f_.neck_base.y() - f_.crotch_y);
+        const Eigen::Vector3d centre(f_.axis_x, y, f_.crotch.z() + t * (f_.neck_base.z() - f_.crotch.z()));
+        const int part = index < kPelvisLayers ? kPelvis : (index < kPelvisLayers + kAbdomenLayers ? kAbdomen : kChest);
+        add_layer(0, centre, Eigen::Vector3d::UnitY(), part, false);
+      }
+  }
+
+  void head() {
+    const double y0 = f_.neck_base.y() + 0.005, y1 = f_.top_y - 0.01;
+    for (int k = 0; k <= kHeadSegments; ++k) {
+      const double y = y0 + (y1 - y0) * k / kHeadSegments;
+      const double t = (y - f_.neck_base.y()) / std::max(1e-6, f_.neck_top.y() - f_.neck_base.y());
+      const Eigen::Vector3d c = f_.neck_base + std::clamp(t, 0.0, 1.0) * (f_.neck_top - f_.neck_base);
+      add_layer(1, Eigen::Vector3d(c.x(), y, c.z()), Eigen::Vector3d::UnitY(), kHead, false);
+    }
+  }
+
+  void leg(int side) {
+    const Eigen::Vector3d knee = f_.knee[side], ankle = f_.ankle[side];
+    const Eigen::Vector3d top(knee.x() + 0.5 * (f_.axis_x - knee.x()) * 0.5, f_.crotch_y - 0.015, knee.z());
+    const Eigen::Vector3d sole(ankle.x(), f_.floor_y + 0.005, ankle.z() + 0.03);
+    const Eigen::Vector3d keys[] = {top, knee, ankle, sole};
+    const int parts[] = {side == kLeft ? kLeftThigh : kRightThigh, side == kLeft ? kLeftShank : kRightShank,
+                         side == kLeft ? kLeftFoot : kRightFoot};
+    for (int s = 0; s < 3; ++s)
+      for (int k = 0; k < kLegSegments[s] + (s == 2); ++k) {
+        const Eigen::Vector3d c = keys[s] + (keys[s + 1] - keys[s]) * (static_cast<double>(k) / kLegSegments[s]);
+        add_layer(2 + side, c, Eigen::Vector3d::UnitY(), parts[s], true);
+      }
+  }
+
+  void arm(int side) {
+    const Eigen::Vector3d shoulder = f_.shoulder[side], elbow = f_.elbow[side], wrist = f_.wrist[side];
+    const Eigen::Vector3d tip = f_.hand_tip[side] - 0.01 * (f_.hand_tip[side] - wrist).normalized();
+    const Eigen::Vector3d keys[] = {shoulder + 0.35 * (elbow - shoulder), elbow, wrist, tip};
+    const int parts[] = {side == kLeft ? kLeftUpperArm : kRightUpperArm, side == kLeft ? kLeftForearm : kRightForearm,
+                         side == kLeft ? kLeftHand : kRightHand};
+    // Arm sections are cut from the faces around the arm only (its box grown by 8 cm).
+    Eigen::Vector3d lo = keys[0], hi = keys[0];
+    for (const auto& k : keys) lo = lo.cwiseMin(k), hi = hi.cwiseMax(k);
+    lo.array() -= 0.08;
+    hi.array() += 0.08;
+    std::vector<int> rows;
+    for (Eigen::Index f = 0; f < F_.rows(); ++f)
+      for (int c = 0; c < 3; ++c) {
+        const Eigen::Vector3d p = V_.row(F_(f, c)).transpose();
+        if ((p.array() >= lo.array()).all() && (p.array() <= hi.array()).all()) {
+          rows.push_back(static_cast<int>(f));
+          break;
+        }
+      }
+    Eigen::MatrixXi arm_faces(static_cast<Eigen::Index>(rows.size()), 3);
+    for (size_t r = 0; r < rows.size(); ++r) arm_faces.row(static_cast<Eigen::Index>(r)) = F_.row(rows[r]);
+    for (int s = 0; s < 3; ++s)
+      for (int k = 0; k < kArmSegments[s] + (s == 2); ++k) {
+        const Eigen::Vector3d c = keys[s] + (keys[s + 1] - keys[s]) * (static_cast<double>(k) / kArmSegments[s]);
+        Eigen::Vector3d dir = (keys[s + 1] - keys[s]).normalized();
+        if (k == 0 && s > 0) dir = (dir + (keys[s] - keys[s - 1]).normalized()).normalized();  // at a joint
+        add_layer(4 + side, c, -dir, parts[s], true, &arm_faces);  // normals point up the limb, towards the body
+      }
+  }
+
+  void stitch() {
+    rep_.mesh.V = points_;
+    std::vector<int> tris, part, layer;
+    for (size_t i = 0; i + 1 < rep_.layers.size(); ++i) {
+      if (rep_.layers[i].chain != rep_.layers[i + 1].chain) continue;
+      const int a = static_cast<int>(i) * n_, b = static_cast<int>(i + 1) * n_;
+      for (int k = 0; k < n_; ++k) {
+        const int k1 = (k + 1) % n_;
+        tris.insert(tris.end(), {a + k, a + k1, b + k1, a + k, b + k1, b + k});
+        part.insert(part.end(), 2, rep_.layers[i].part);
+        layer.insert(layer.end(), 2, static_cast<int>(i));
+      }
+    }
+    rep_.mesh.F = Eigen::Map<Eigen::Matrix<int, Eigen::Dynamic, 3, Eigen::RowMajor>>(tris.data(), static_cast<Eigen::Index>(tris.size() / 3), 3);
+    rep_.triangle_part = Eigen::Map<Eigen::VectorXi>(part.data(), static_cast<Eigen::Index>(part.size()));
+    rep_.triangle_layer = Eigen::Map<Eigen::VectorXi>(layer.data(), static_cast<Eigen::Index>(layer.size()));
+    // Torso and head layers advance along their normals, legs and arms against them: flipping the
+    // latter makes every triangle face outwards, with the same connectivity for every body.
+    for (Eigen::Index t = 0; t < rep_.mesh.F.rows(); ++t)
+      if (rep_.layers[rep_.triangle_layer[t]].chain >= 2) std::swap(rep_.mesh.F(t, 1), rep_.mesh.F(t, 2));
+  }
+
+  const Eigen::MatrixXd& V_;
+  const Eigen::MatrixXi& F_;
+  const BodyFeatures& f_;
+  int n_;
+  Eigen::MatrixXd points_;
+  LayeredRepresentation rep_;
+};
+
+}  // namespace
+
+int representation_layer_count() {
+  int n = 1 + kHeadSegments;
+  for (int s : kTorsoSegments) n += s;
+  n += 1;
+  for (int s : kLegSegments) n += 2 * s;
+  n += 2;
+  for (int s : kArmSegments) n += 2 * s;
+  n += 2;
+  return n;
+}
+
+LayeredRepresentation build_layered_representation(const Eigen::MatrixXd& V, const Eigen::MatrixXi& F, const BodyFeatures& f,
+                                                   int points_per_layer) {
+  if (points_per_layer < 8) throw InvalidInput("layered representation: at least 8 points per layer");
+  for (int side : {kLeft, kRight})
+    if (!f.arm_found[side]) throw InvalidInput("layered representation: an arm was not found (see the features' warnings)");
+  return Builder(V, F, f, points_per_layer).build();
+}
+
+}  // namespace posekit
