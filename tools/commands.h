@@ -8,4 +8,5 @@ int run_bench(int argc, char** argv);
 int run_body(int argc, char** argv);
 int run_dataset(int argc, char** argv);
 int run_measure(int argc, char** argv);
+int run_register(int argc, char** argv);
 }  // namespace posekit::cli

@@ -20,6 +20,7 @@ const Command kCommands[] = {
     {"convert", posekit::cli::run_convert, "convert between mesh/cloud formats and units"},
     {"body", posekit::cli::run_body, "build a MakeHuman body from sliders, pose it, write it"},
     {"measure", posekit::cli::run_measure, "stature and girths of a standing body mesh or scan"},
+    {"register", posekit::cli::run_register, "register a template to a body (ct-FFD or ICP) and match triangles"},
     {"dataset", posekit::cli::run_dataset, "generate the evaluation dataset, or check one"},
     {"bench", posekit::cli::run_bench, "benchmarks (io) with medians over several runs"},
 };
