@@ -17,9 +17,10 @@ int run_register(int argc, char** argv) {
                  "Registers a source body (e.g. the template) to a target body (a customized model) and matches\n"
                  "every target triangle to the source triangle with the nearest centroid facing the same way\n"
                  "(Eq. 2b/2c). ctffd: ct-FFD through the layered representations (section 3.3.3); icp: rigid\n"
-                 "ICP (PCL) for --iterations, the paper's Table 1 baseline. Both bodies standing, Y up, metres.");
+                 "ICP (PCL) for --iterations, the paper's Table 1 baseline; nicp: optimal-step non-rigid ICP\n"
+                 "(Amberg et al. 2007). Both bodies standing, Y up, metres.");
   args.positional("source", "source mesh").positional("target", "target mesh")
-      .option("method", "M", "ctffd or icp", "ctffd")
+      .option("method", "M", "ctffd, icp or nicp", "ctffd")
       .option("iterations", "N", "ICP iterations", "6")
       .option("unit", "U", "unit of both meshes", "m")
       .option("out", "FILE", "correspondence JSON: for each target triangle its source triangle")

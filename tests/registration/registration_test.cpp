@@ -3,6 +3,7 @@
 #include <gtest/gtest.h>
 
 #include <algorithm>
+#include <cmath>
 
 #include "posekit/core/error.h"
 #include "posekit/core/mesh_geometry.h"
@@ -10,6 +11,7 @@
 #include "posekit/datasets/subjects.h"
 #include "posekit/registration/correspondence.h"
 #include "posekit/registration/ctffd.h"
+#include "posekit/registration/nicp.h"
 #include "testing/makehuman_fixture.h"
 #include "testing/test_meshes.h"
 
@@ -79,4 +81,21 @@ TEST(Registration, WorksBothWaysAndRejectsBadInput) {
   EXPECT_EQ(r.deformed_source.rows(), subject.num_vertices());
   EXPECT_THROW(parse_registration_method("nicp2"), InvalidInput);
   EXPECT_THROW(register_bodies(test::icosphere(2), templ.mesh), InvalidInput);  // a sphere has no features
+}
+
+TEST(Nicp, FitsASphereOntoAnEllipsoid) {
+  const TriangleMesh sphere = test::icosphere(3, 0.5);
+  TriangleMesh ellipsoid = test::icosphere(4, 0.5);
+  ellipsoid.V.col(0) *= 1.3;
+  ellipsoid.V.col(1) *= 0.8;
+  NicpOptions o;
+  o.max_distance = 0.3;
+  const NicpResult r = nonrigid_icp(sphere, ellipsoid, o);
+  EXPECT_EQ(r.solves, static_cast<int>(o.stiffness.size()) * o.iterations_per_stiffness);
+  // Every deformed vertex lies on the ellipsoid (x/0.65)^2 + (y/0.4)^2 + (z/0.5)^2 = 1 within 5 mm.
+  for (Eigen::Index i = 0; i < r.V.rows(); ++i) {
+    const double f = std::sqrt(std::pow(r.V(i, 0) / 0.65, 2) + std::pow(r.V(i, 1) / 0.4, 2) + std::pow(r.V(i, 2) / 0.5, 2));
+    EXPECT_NEAR(f, 1.0, 0.0125) << i;
+  }
+  EXPECT_LT(r.final_mean_distance, 0.01);
 }

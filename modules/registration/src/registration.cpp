@@ -10,6 +10,7 @@
 #include "posekit/core/mesh_validation.h"
 #include "posekit/registration/correspondence.h"
 #include "posekit/registration/ctffd.h"
+#include "posekit/registration/nicp.h"
 #include "posekit/shape/layered_representation.h"
 
 namespace posekit {
@@ -17,7 +18,8 @@ namespace posekit {
 RegistrationMethod parse_registration_method(const std::string& name) {
   if (name == "ctffd") return RegistrationMethod::kCtffd;
   if (name == "icp") return RegistrationMethod::kIcp;
-  throw InvalidInput("unknown registration method '" + name + "': expected ctffd or icp");
+  if (name == "nicp") return RegistrationMethod::kNicp;
+  throw InvalidInput("unknown registration method '" + name + "': expected ctffd, icp or nicp");
 }
 
 RegistrationResult register_bodies(const TriangleMesh& source, const TriangleMesh& target, const RegistrationOptions& o) {
@@ -31,6 +33,8 @@ RegistrationResult register_bodies(const TriangleMesh& source, const TriangleMes
     const LayeredRepresentation rt =
         build_layered_representation(target.V, target.F, find_body_features(target.V, target.F), o.points_per_layer);
     r.deformed_source = ctffd_evaluate(ctffd_parametrize(source.V, rs), rt);
+  } else if (o.method == RegistrationMethod::kNicp) {
+    r.deformed_source = nonrigid_icp(source, target).V;
   } else {
     if (o.icp_iterations < 1) throw InvalidInput("ICP needs at least one iteration");
     pcl::PointCloud<pcl::PointXYZ>::Ptr src(new pcl::PointCloud<pcl::PointXYZ>), tgt(new pcl::PointCloud<pcl::PointXYZ>);

@@ -9,7 +9,7 @@
 
 namespace posekit {
 
-enum class RegistrationMethod { kCtffd, kIcp };
+enum class RegistrationMethod { kCtffd, kIcp, kNicp };
 
 struct RegistrationOptions {
   RegistrationMethod method = RegistrationMethod::kCtffd;
@@ -28,6 +28,6 @@ struct RegistrationResult {
 /// body's features cannot be found (ct-FFD) or a mesh is unusable.
 RegistrationResult register_bodies(const TriangleMesh& source, const TriangleMesh& target, const RegistrationOptions& options = {});
 
-RegistrationMethod parse_registration_method(const std::string& name);  ///< "ctffd" or "icp"
+RegistrationMethod parse_registration_method(const std::string& name);  ///< "ctffd", "icp" or "nicp"
 
 }  // namespace posekit
