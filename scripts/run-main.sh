@@ -23,4 +23,8 @@ echo "== the evaluation dataset: template, pose dataset, 16 subjects with ground
 echo "== measurements of a customized subject, from its mesh and from its simulated scan (ground truth in measurements.json)"
 "$posekit" measure "$out/dataset/subjects/f01/rest.ply"
 "$posekit" measure "$out/dataset/scans/f01/rest.pcd" --unit mm
+echo "== ct-FFD registration of the template to a subject, and the paper's Table 1 on this machine"
+"$posekit" register "$out/dataset/template/rest.ply" "$out/dataset/subjects/f01/rest.ply" \
+  --out "$out/f01_correspondence.json" --deformed "$out/template_on_f01.ply"
+"$posekit" bench registration --dataset "$out/dataset" --runs 3
 echo "== results in $out/ (PLY files open in MeshLab, CloudCompare, ParaView; scans are PCD in mm)"
