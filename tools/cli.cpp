@@ -9,6 +9,10 @@
 #include <nlohmann/json.hpp>
 #include <sstream>
 
+#include "posekit/core/error.h"
+#include "posekit/io/mesh_io.h"
+#include "posekit/io/point_cloud_io.h"
+
 namespace posekit::cli {
 
 ArgParser& ArgParser::positional(const std::string& name, const std::string& help, bool required) {
@@ -153,6 +157,24 @@ void Progress::finish() {
 
 Progress::~Progress() {
   if (tty_ && shown_ && !finished_) std::fprintf(stderr, "\n");  // abandoned (an error): no 100%
+}
+
+BodyInput read_body_input(const std::string& path, Unit unit) {
+  BodyInput in;
+  const CloudFormat cf = cloud_format_from_path(path);
+  in.is_cloud = cf == CloudFormat::kPcd || cf == CloudFormat::kXyz;
+  if (!in.is_cloud) {
+    try {
+      in.mesh = read_mesh(path, {unit});
+      return in;
+    } catch (const IoError& e) {
+      // A PLY without faces is a point cloud.
+      if (cf != CloudFormat::kPly || std::string(e.what()).find("no faces") == std::string::npos) throw;
+      in.is_cloud = true;
+    }
+  }
+  in.cloud = read_point_cloud(path, {unit});
+  return in;
 }
 
 void print_json(const nlohmann::json& value) { std::cout << value.dump(2) << std::endl; }

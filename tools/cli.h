@@ -8,6 +8,10 @@
 
 #include <nlohmann/json_fwd.hpp>
 
+#include "posekit/core/point_cloud.h"
+#include "posekit/core/triangle_mesh.h"
+#include "posekit/core/units.h"
+
 namespace posekit::cli {
 
 /// Wrong usage of a subcommand (unknown option, missing value): exit code 2.
@@ -72,6 +76,14 @@ class Progress {
   bool shown_ = false;
   std::chrono::steady_clock::time_point start_;
 };
+
+/// A body file as the user gave it: a mesh, or a point cloud (PCD, XYZ, or a PLY without faces).
+struct BodyInput {
+  bool is_cloud = false;
+  TriangleMesh mesh;
+  PointCloud cloud;
+};
+BodyInput read_body_input(const std::string& path, Unit unit);
 
 /// Prints JSON to stdout, pretty, with a trailing newline.
 void print_json(const nlohmann::json& value);

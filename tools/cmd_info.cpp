@@ -19,10 +19,6 @@ nlohmann::json box_json(const BoundingBox& b, double to_unit) {
   return {{"min", v(b.min)}, {"max", v(b.max)}, {"extent", v(b.extent())}};
 }
 
-bool is_cloud_path(const std::string& path) {
-  const auto f = cloud_format_from_path(path);
-  return f == CloudFormat::kPcd || f == CloudFormat::kXyz;
-}
 
 }  // namespace
 
@@ -45,21 +41,12 @@ int run_info(int argc, char** argv) {
   report["file"] = path;
   report["unit"] = unit_name(unit);
   report["coordinates_unit_in_report"] = unit_name(unit);
-  bool as_cloud = is_cloud_path(path);
-  TriangleMesh mesh;
-  PointCloud cloud;
-  if (!as_cloud) {
-    try {
-      mesh = read_mesh(path, {unit});
-    } catch (const IoError& e) {
-      // A PLY without faces is a point cloud.
-      if (mesh_format_from_path(path) != MeshFormat::kPly || std::string(e.what()).find("no faces") == std::string::npos) throw;
-      as_cloud = true;
-    }
-  }
+  BodyInput in = read_body_input(path, unit);
+  const bool as_cloud = in.is_cloud;
+  TriangleMesh& mesh = in.mesh;
+  const PointCloud& cloud = in.cloud;
   Eigen::MatrixXd points;
   if (as_cloud) {
-    cloud = read_point_cloud(path, {unit});
     report["kind"] = "point cloud";
     report["points"] = cloud.size();
     report["has_normals"] = cloud.has_normals();

@@ -32,20 +32,9 @@ int run_measure(int argc, char** argv) {
   if (!args.parse(argc, argv)) return 0;
   const std::string path = args.positionals()[0];
   const Unit unit = parse_unit(args.get("unit"));
-  const CloudFormat cf = cloud_format_from_path(path);
-  bool cloud = cf == CloudFormat::kPcd || cf == CloudFormat::kXyz;
-  BodyMeasurements m;
-  TriangleMesh mesh;
-  if (!cloud) {
-    try {
-      mesh = read_mesh(path, {unit});
-    } catch (const IoError& e) {
-      if (cf != CloudFormat::kPly || std::string(e.what()).find("no faces") == std::string::npos) throw;
-      cloud = true;
-    }
-  }
-  if (cloud) m = measure_point_cloud(read_point_cloud(path, {unit}).P);
-  else m = measure_body(mesh.V, mesh.F);
+  const BodyInput in = read_body_input(path, unit);
+  const bool cloud = in.is_cloud;
+  const BodyMeasurements m = cloud ? measure_point_cloud(in.cloud.P) : measure_body(in.mesh.V, in.mesh.F);
   const BodyFeatures& f = m.features;
   if (args.flag_set("json")) {
     nlohmann::ordered_json j;

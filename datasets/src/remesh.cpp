@@ -14,6 +14,7 @@
 #include <Eigen/Geometry>
 
 #include "posekit/core/error.h"
+#include "posekit/core/mesh_geometry.h"
 #include "posekit/core/mesh_topology.h"
 #include "posekit/core/mesh_validation.h"
 
@@ -56,14 +57,6 @@ TriangleMesh from_vtk(vtkPolyData* poly) {
   return m;
 }
 
-Eigen::Vector3d barycentric(const Eigen::Vector3d& p, const Eigen::Vector3d& a, const Eigen::Vector3d& b, const Eigen::Vector3d& c) {
-  const Eigen::Vector3d v0 = b - a, v1 = c - a, v2 = p - a;
-  const double d00 = v0.dot(v0), d01 = v0.dot(v1), d11 = v1.dot(v1), d20 = v2.dot(v0), d21 = v2.dot(v1);
-  const double den = d00 * d11 - d01 * d01;
-  if (den <= 0) return Eigen::Vector3d(1, 0, 0);
-  const double v = (d11 * d20 - d01 * d21) / den, w = (d00 * d21 - d01 * d20) / den;
-  return Eigen::Vector3d(1 - v - w, v, w);
-}
 
 }  // namespace
 
@@ -86,9 +79,7 @@ SurfacePoints closest_surface_points(const TriangleMesh& mesh, const Eigen::Matr
     if (cell_id < 0) throw InvalidInput("closest_surface_points: no closest triangle found for point " + std::to_string(i));
     const Eigen::Vector3d c(closest[0], closest[1], closest[2]);
     const auto f = static_cast<Eigen::Index>(cell_id);
-    Eigen::Vector3d b = barycentric(c, mesh.V.row(mesh.F(f, 0)), mesh.V.row(mesh.F(f, 1)), mesh.V.row(mesh.F(f, 2)));
-    b = b.cwiseMax(0.0);
-    b /= b.sum();
+    const Eigen::Vector3d b = clamped_barycentric(c, mesh.V.row(mesh.F(f, 0)), mesh.V.row(mesh.F(f, 1)), mesh.V.row(mesh.F(f, 2)));
     s.face[i] = static_cast<int>(f);
     s.bary.row(i) = b.transpose();
     s.distance[i] = std::sqrt(d2);

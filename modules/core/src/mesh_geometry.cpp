@@ -51,6 +51,18 @@ Eigen::MatrixXd vertex_normals(const Eigen::MatrixXd& V, const Eigen::MatrixXi& 
   return N;
 }
 
+Eigen::Vector3d clamped_barycentric(const Eigen::Vector3d& p, const Eigen::Vector3d& a, const Eigen::Vector3d& b,
+                                    const Eigen::Vector3d& c) {
+  const Eigen::Vector3d v0 = b - a, v1 = c - a, v2 = p - a;
+  const double d00 = v0.dot(v0), d01 = v0.dot(v1), d11 = v1.dot(v1), d20 = v2.dot(v0), d21 = v2.dot(v1);
+  const double den = d00 * d11 - d01 * d01;
+  if (den <= 0) return Eigen::Vector3d(1, 0, 0);
+  Eigen::Vector3d w(0, (d11 * d20 - d01 * d21) / den, (d00 * d21 - d01 * d20) / den);
+  w[0] = 1 - w[1] - w[2];
+  w = w.cwiseMax(0.0);
+  return w / w.sum();
+}
+
 BoundingBox bounding_box(const Eigen::MatrixXd& P) {
   if (P.rows() == 0) throw InvalidInput("bounding_box: no points");
   BoundingBox box;

@@ -32,16 +32,6 @@ BandFrame band_frame(const LayeredRepresentation& rep, int tri, const Eigen::Vec
   return f;
 }
 
-Eigen::Vector3d closest_barycentric(const Eigen::Vector3d& p, const Eigen::Vector3d& a, const Eigen::Vector3d& b, const Eigen::Vector3d& c) {
-  const Eigen::Vector3d v0 = b - a, v1 = c - a, v2 = p - a;
-  const double d00 = v0.dot(v0), d01 = v0.dot(v1), d11 = v1.dot(v1), d20 = v2.dot(v0), d21 = v2.dot(v1);
-  const double den = d00 * d11 - d01 * d01;
-  if (den <= 0) return Eigen::Vector3d(1, 0, 0);
-  Eigen::Vector3d w(0, (d11 * d20 - d01 * d21) / den, (d00 * d21 - d01 * d20) / den);
-  w[0] = 1 - w[1] - w[2];
-  w = w.cwiseMax(0.0);
-  return w / w.sum();
-}
 
 }  // namespace
 
@@ -69,7 +59,7 @@ CtffdParametrization ctffd_parametrize(const Eigen::MatrixXd& V, const LayeredRe
   for (Eigen::Index i = 0; i < V.rows(); ++i) {
     const int t = tri[i];
     const Eigen::Vector3d v = V.row(i).transpose();
-    const Eigen::Vector3d b = closest_barycentric(v, rep.mesh.V.row(rep.mesh.F(t, 0)), rep.mesh.V.row(rep.mesh.F(t, 1)),
+    const Eigen::Vector3d b = clamped_barycentric(v, rep.mesh.V.row(rep.mesh.F(t, 0)), rep.mesh.V.row(rep.mesh.F(t, 1)),
                                                   rep.mesh.V.row(rep.mesh.F(t, 2)));
     const BandFrame f = band_frame(rep, t, b);
     const Eigen::Vector3d r = f.surface - f.axis;

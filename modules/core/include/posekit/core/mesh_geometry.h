@@ -18,6 +18,11 @@ Eigen::MatrixXd face_centroids(const Eigen::MatrixXd& V, const Eigen::MatrixXi& 
 /// Area-weighted unit vertex normals, #V x 3 (zero rows for unreferenced vertices).
 Eigen::MatrixXd vertex_normals(const Eigen::MatrixXd& V, const Eigen::MatrixXi& F);
 
+/// Barycentric coordinates (sum 1, each >= 0) of the point of triangle (a, b, c) nearest to the
+/// projection of p onto its plane, clamped into the triangle. (1, 0, 0) for a degenerate triangle.
+Eigen::Vector3d clamped_barycentric(const Eigen::Vector3d& p, const Eigen::Vector3d& a, const Eigen::Vector3d& b,
+                                    const Eigen::Vector3d& c);
+
 /// Axis-aligned bounding box.
 struct BoundingBox {
   Eigen::Vector3d min = Eigen::Vector3d::Zero();
