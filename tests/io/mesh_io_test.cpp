@@ -32,7 +32,9 @@ void expect_same_geometry(const TriangleMesh& a, const TriangleMesh& b, double t
   for (Eigen::Index f = 0; f < a.F.rows(); ++f)
     for (int c = 0; c < 3; ++c) worst = std::max(worst, (a.V.row(a.F(f, c)) - b.V.row(b.F(f, c))).cwiseAbs().maxCoeff());
   EXPECT_LE(worst, tol);
-  if (same_indexing) EXPECT_EQ(a.F, b.F);
+  if (same_indexing) {
+    EXPECT_EQ(a.F, b.F);
+  }
 }
 
 }  // namespace
