@@ -232,17 +232,32 @@ class PlyParser {
       tris_.insert(tris_.end(), {static_cast<int>(poly[0]), static_cast<int>(poly[k]), static_cast<int>(poly[k + 1])});
   }
 
+  /// What to do with each property of an element (shared by the ascii and binary readers).
+  struct ElementPlan {
+    bool is_vertex = false, is_face = false;
+    std::vector<VertexSlot> slots;  ///< vertex elements only
+    int list_index = -1;            ///< face elements: the vertex_indices property
+  };
+  ElementPlan plan_element(const PlyElement& e) {
+    ElementPlan plan;
+    plan.is_vertex = e.name == "vertex";
+    plan.is_face = e.name == "face";
+    if (plan.is_vertex) plan.slots = vertex_slots(e);
+    if (plan.is_face) {
+      plan.list_index = face_list_index(e);
+      if (plan.list_index < 0) throw IoError(path_ + ": element 'face' has no vertex_indices list");
+      tris_.reserve(tris_.size() + static_cast<size_t>(e.count) * 3);
+    }
+    return plan;
+  }
+
   void read_binary(ByteReader& r) {
     std::vector<long long> poly;
     for (const auto& e : elements_) {
-      const bool is_vertex = e.name == "vertex";
-      const bool is_face = e.name == "face";
-      std::vector<VertexSlot> slots;
-      if (is_vertex) slots = vertex_slots(e);
-      const int list_index = is_face ? face_list_index(e) : -1;
-      if (is_face && list_index < 0) throw IoError(path_ + ": element 'face' has no vertex_indices list");
-      if (is_face) tris_.reserve(static_cast<size_t>(e.count) * 3);
-      // Fast path: the common face layout "uchar count, int/uint indices".
+      const ElementPlan plan = plan_element(e);
+      const bool is_vertex = plan.is_vertex, is_face = plan.is_face;
+      const std::vector<VertexSlot>& slots = plan.slots;
+      const int list_index = plan.list_index;
       for (long long i = 0; i < e.count; ++i) {
         for (size_t p = 0; p < e.properties.size(); ++p) {
           const auto& prop = e.properties[p];
@@ -276,12 +291,10 @@ class PlyParser {
     std::vector<std::string_view> tok;
     std::vector<long long> poly;
     for (const auto& e : elements_) {
-      const bool is_vertex = e.name == "vertex";
-      const bool is_face = e.name == "face";
-      std::vector<VertexSlot> slots;
-      if (is_vertex) slots = vertex_slots(e);
-      const int list_index = is_face ? face_list_index(e) : -1;
-      if (is_face && list_index < 0) throw IoError(path_ + ": element 'face' has no vertex_indices list");
+      const ElementPlan plan = plan_element(e);
+      const bool is_vertex = plan.is_vertex, is_face = plan.is_face;
+      const std::vector<VertexSlot>& slots = plan.slots;
+      const int list_index = plan.list_index;
       for (long long i = 0; i < e.count; ++i) {
         do {
           if (!lines.next(line)) fail_element(e, i, "file ends early (expected " + std::to_string(e.count) + " lines)");
