@@ -1,0 +1,29 @@
+#pragma once
+// Skeleton embedding (section 3.3.1 of Zhu & Mok): the 15 joint centres of the 16-part tree of a
+// body, from its layered representation and its segmentation.
+#include <Eigen/Core>
+
+#include "posekit/registration/ctffd.h"
+#include "posekit/shape/layered_representation.h"
+
+namespace posekit {
+
+/// A reference skeleton: the joint centres of a template body expressed in its representation.
+struct SkeletonPrior {
+  CtffdParametrization joints;   ///< the 15 joint centres, parametrised as ct-FFD points
+};
+
+/// Parametrises a template's joint centres (#joints x 3) in its representation.
+SkeletonPrior make_skeleton_prior(const Eigen::MatrixXd& template_joints, const LayeredRepresentation& template_rep);
+
+/// The joint centres of another body (#joints x 3, m): the prior's points re-evaluated in the body's
+/// representation, so they follow its layers (ct-FFD).
+Eigen::MatrixXd embed_skeleton(const SkeletonPrior& prior, const LayeredRepresentation& rep);
+
+/// Joint centres without a prior, from the segmentation alone: the centroid of the boundary edges
+/// between each part and its parent (#joints x 3). A joint whose parts share no edge throws
+/// InvalidInput naming it.
+Eigen::MatrixXd joint_centres_from_segmentation(const Eigen::MatrixXd& V, const Eigen::MatrixXi& F,
+                                                const Eigen::VectorXi& triangle_part);
+
+}  // namespace posekit

@@ -1,0 +1,145 @@
+#include "posekit/segmentation/segmentation.h"
+
+#include <algorithm>
+#include <map>
+#include <string>
+#include <vector>
+
+#include "posekit/body/parts.h"
+#include "posekit/core/error.h"
+#include "posekit/core/mesh_geometry.h"
+#include "posekit/core/mesh_topology.h"
+#include "posekit/registration/correspondence.h"
+
+namespace posekit {
+
+Segmentation segment_body(const Eigen::MatrixXd& V, const Eigen::MatrixXi& F, const LayeredRepresentation& rep,
+                          const Eigen::VectorXi& representation_labels, const SegmentationOptions& options) {
+  const Eigen::VectorXi& rep_labels = representation_labels.size() ? representation_labels : rep.triangle_part;
+  if (rep_labels.size() != rep.mesh.F.rows())
+    throw InvalidInput("segment_body: " + std::to_string(rep_labels.size()) + " representation labels for " +
+                       std::to_string(rep.mesh.F.rows()) + " representation triangles");
+  if (F.rows() == 0) throw InvalidInput("segment_body: the mesh has no triangles");
+  const CentroidIndex index(rep.mesh.V, rep.mesh.F);
+  Segmentation out;
+  const Eigen::VectorXi match =
+      index.match(face_centroids(V, F), face_normals(V, F), options.candidates, &out.normal_failures);
+  out.triangle_part.resize(F.rows());
+  for (Eigen::Index f = 0; f < F.rows(); ++f) out.triangle_part[f] = rep_labels[match[f]];
+  if (options.clean) out.relabelled = clean_part_labels(V, F, &out.triangle_part);
+  out.vertex_part = vertex_labels_from_triangles(V, F, out.triangle_part);
+  return out;
+}
+
+Eigen::VectorXi representation_labels_from_body(const Eigen::MatrixXd& V, const Eigen::MatrixXi& F,
+                                                const Eigen::VectorXi& triangle_part, const LayeredRepresentation& rep) {
+  if (triangle_part.size() != F.rows())
+    throw InvalidInput("representation_labels_from_body: " + std::to_string(triangle_part.size()) + " labels for " +
+                       std::to_string(F.rows()) + " triangles");
+  const CentroidIndex index(rep.mesh.V, rep.mesh.F);
+  const Eigen::VectorXi match = index.match(face_centroids(V, F), face_normals(V, F), 16);
+  const Eigen::VectorXd area = face_areas(V, F);
+  Eigen::MatrixXd votes = Eigen::MatrixXd::Zero(rep.mesh.F.rows(), kNumParts);
+  for (Eigen::Index f = 0; f < F.rows(); ++f) votes(match[f], triangle_part[f]) += area[f];
+  Eigen::VectorXi labels = rep.triangle_part;
+  for (Eigen::Index t = 0; t < votes.rows(); ++t) {
+    Eigen::Index best;
+    if (votes.row(t).maxCoeff(&best) > 0) labels[t] = static_cast<int>(best);
+  }
+  return labels;
+}
+
+int clean_part_labels(const Eigen::MatrixXd& V, const Eigen::MatrixXi& F, Eigen::VectorXi* triangle_part) {
+  Eigen::VectorXi& L = *triangle_part;
+  const Eigen::MatrixXi TT = face_adjacency(F);
+  const Eigen::VectorXd area = face_areas(V, F);
+  int relabelled = 0;
+  // Repeat: islands may merge into a neighbour that is itself an island.
+  for (int round = 0; round < 4; ++round) {
+    // Regions: edge-connected triangles of one label.
+    Eigen::VectorXi region = Eigen::VectorXi::Constant(F.rows(), -1);
+    std::vector<double> region_area;
+    std::vector<int> region_label, stack;
+    for (Eigen::Index seed = 0; seed < F.rows(); ++seed) {
+      if (region[seed] >= 0) continue;
+      const int r = static_cast<int>(region_area.size());
+      region_area.push_back(0);
+      region_label.push_back(L[seed]);
+      region[seed] = r;
+      stack.assign(1, static_cast<int>(seed));
+      while (!stack.empty()) {
+        const int f = stack.back();
+        stack.pop_back();
+        region_area[r] += area[f];
+        for (int c = 0; c < 3; ++c) {
+          const int g = TT(f, c);
+          if (g >= 0 && region[g] < 0 && L[g] == L[f]) {
+            region[g] = r;
+            stack.push_back(g);
+          }
+        }
+      }
+    }
+    std::vector<int> main_region(kNumParts, -1);
+    for (size_t r = 0; r < region_area.size(); ++r) {
+      int& m = main_region[static_cast<size_t>(region_label[r])];
+      if (m < 0 || region_area[r] > region_area[static_cast<size_t>(m)]) m = static_cast<int>(r);
+    }
+    // Each island takes the label it shares the longest boundary with.
+    std::vector<std::map<int, double>> border(region_area.size());
+    for (Eigen::Index f = 0; f < F.rows(); ++f) {
+      for (int c = 0; c < 3; ++c) {
+        const int g = TT(f, c);
+        if (g < 0 || L[g] == L[f]) continue;
+        const double len = (V.row(F(f, c)) - V.row(F(f, (c + 1) % 3))).norm();
+        border[static_cast<size_t>(region[f])][L[g]] += len;
+      }
+    }
+    std::vector<int> new_label(region_area.size(), -1);
+    bool changed = false;
+    for (size_t r = 0; r < region_area.size(); ++r) {
+      if (main_region[static_cast<size_t>(region_label[r])] == static_cast<int>(r) || border[r].empty()) continue;
+      const auto best = std::max_element(border[r].begin(), border[r].end(),
+                                         [](const auto& a, const auto& b) { return a.second < b.second; });
+      new_label[r] = best->first;
+      changed = true;
+    }
+    if (!changed) break;
+    for (Eigen::Index f = 0; f < F.rows(); ++f) {
+      const int n = new_label[static_cast<size_t>(region[f])];
+      if (n >= 0) {
+        L[f] = n;
+        ++relabelled;
+      }
+    }
+  }
+  return relabelled;
+}
+
+Eigen::VectorXi vertex_labels_from_triangles(const Eigen::MatrixXd& V, const Eigen::MatrixXi& F,
+                                             const Eigen::VectorXi& triangle_part) {
+  const Eigen::VectorXd area = face_areas(V, F);
+  Eigen::MatrixXd votes = Eigen::MatrixXd::Zero(V.rows(), kNumParts);
+  for (Eigen::Index f = 0; f < F.rows(); ++f)
+    for (int c = 0; c < 3; ++c) votes(F(f, c), triangle_part[f]) += area[f] + 1e-18;
+  Eigen::VectorXi out = Eigen::VectorXi::Zero(V.rows());
+  for (Eigen::Index v = 0; v < V.rows(); ++v) {
+    Eigen::Index best;
+    votes.row(v).maxCoeff(&best);
+    out[v] = static_cast<int>(best);
+  }
+  return out;
+}
+
+double label_agreement(const Eigen::MatrixXd& V, const Eigen::MatrixXi& F, const Eigen::VectorXi& a,
+                       const Eigen::VectorXi& b) {
+  if (a.size() != F.rows() || b.size() != F.rows())
+    throw InvalidInput("label_agreement: labels do not match the " + std::to_string(F.rows()) + " triangles");
+  const Eigen::VectorXd area = face_areas(V, F);
+  double same = 0;
+  for (Eigen::Index f = 0; f < F.rows(); ++f)
+    if (a[f] == b[f]) same += area[f];
+  return same / std::max(area.sum(), 1e-300);
+}
+
+}  // namespace posekit
