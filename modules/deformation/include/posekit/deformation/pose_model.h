@@ -1,0 +1,61 @@
+#pragma once
+// The learned non-rigid pose deformation T^Q (Eq. 3-5, section 3.3.2 of Zhu & Mok): per template
+// triangle, a 9 x 7 linear map from the twists of the two joints next to its part (and a bias) to
+// the entries of its 3 x 3 deformation in the part's frame.
+#include <Eigen/Core>
+#include <functional>
+#include <string>
+#include <vector>
+
+#include "posekit/body/parts.h"
+
+namespace posekit {
+
+struct PoseDataset;
+
+constexpr int kPoseFeatures = 7;  ///< twists of two joints (3 + 3) and a bias
+
+struct PoseModel {
+  Eigen::MatrixXd template_V;          ///< #V x 3 rest pose of the training template (m)
+  Eigen::MatrixXi template_F;          ///< #F x 3
+  Eigen::VectorXi triangle_part;       ///< #F, L(k) of Eq. 1
+  Eigen::MatrixXd joint_centres;       ///< #joints x 3, rest pose
+  Eigen::MatrixXi triangle_joints;     ///< #F x 2, the joints driving each triangle (-1: none)
+  /// #F x 63: row k holds b_k of Eq. 4, entry (m, f) at m * 7 + f, m the row-major index into T^Q,
+  /// f the feature [twist_1 (3), twist_2 (3), 1].
+  Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor> coefficients;
+  int training_poses = 0;
+  double fit_rms = 0;                  ///< RMS residual of Eq. 5 over all entries and poses
+};
+
+struct TrainingOptions {
+  /// Template labels and joints when the dataset has none (a posekit dataset supplies both).
+  Eigen::VectorXi triangle_part;
+  Eigen::MatrixXd joint_centres;
+  double pca_energy = 1e-4;            ///< drop twist directions with variance below this fraction
+  double ridge = 1e-4;                 ///< Tikhonov weight on the reduced coefficients
+  /// Fix the bias of Eq. 4 to the identity, so that the rest pose reproduces the template exactly;
+  /// otherwise the bias is fitted like the other weights.
+  bool identity_at_rest = true;
+  std::function<void(int, int)> progress;
+};
+
+/// Fits Eq. 5 on every training example of a registered pose dataset (held-out examples skipped)
+/// whose 16-part pose is known. Throws InvalidInput when there are fewer than 2 such examples or the
+/// template labels/joints are missing or inconsistent.
+PoseModel train_pose_model(const PoseDataset& dataset, const TrainingOptions& options);
+
+/// Twist features x (7) of each joint pair of a pose: the joint rotations as axis-angle vectors.
+/// Eq. 4: T^Q_k = reshape(B_k x). Returns #F x 9 (row-major 3 x 3 per row).
+Eigen::MatrixXd predict_nonrigid(const PoseModel& model, const PartPose& pose);
+
+/// Deformation gradient of each triangle from rest (V0) to deformed (V1), made well-posed with a
+/// fourth vertex along the normal (Sumner & Popovic 2004): #F x 9, row-major.
+Eigen::MatrixXd deformation_gradients(const Eigen::MatrixXd& V0, const Eigen::MatrixXd& V1, const Eigen::MatrixXi& F);
+
+/// Binary model file (.pkm, little-endian, see README). Written atomically; reading checks sizes,
+/// labels and finiteness and throws IoError naming the file.
+void write_pose_model(const std::string& path, const PoseModel& model);
+PoseModel read_pose_model(const std::string& path);
+
+}  // namespace posekit

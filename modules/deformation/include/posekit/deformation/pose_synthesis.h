@@ -1,0 +1,77 @@
+#pragma once
+// Posing a body of any topology (section 3.3.3 of Zhu & Mok): its own segmentation and skeleton
+// give T^R, the template's learned T^Q is carried over through the ct-FFD correspondence, and one
+// prefactorised solve (Eq. 5-6) per pose recovers the vertices. The two baselines users compare
+// with run in the same code path.
+#include <Eigen/Core>
+#include <memory>
+#include <string>
+
+#include "posekit/body/parts.h"
+#include "posekit/core/triangle_mesh.h"
+#include "posekit/deformation/pose_model.h"
+
+namespace posekit {
+
+enum class PoseMethod {
+  kLearned,  ///< T^R T^Q (Eq. 1), the paper's method
+  kRigid,    ///< T^R only: rigid parts stitched by the same solve ("puppet")
+  kLbs       ///< linear blend skinning, 16-part weights diffused from the segmentation
+};
+PoseMethod parse_pose_method(const std::string& name);  ///< "learned", "rigid" or "lbs"
+const char* pose_method_name(PoseMethod method);
+
+struct SubjectSetupOptions {
+  bool is_template = false;       ///< the subject is the model's own template: identity correspondence
+  /// Soft skeleton anchoring: vertices whose learned T^Q barely depends on the pose (their
+  /// twist-coefficient norm well below `rigid_sensitivity`) are held near their part's rigid motion
+  /// with weight `anchor_strength` (relative to the mesh's own stiffness). 0 disables it; the pelvis
+  /// then fixes the translation alone.
+  double anchor_strength = 0.1;
+  double rigid_sensitivity = 0.05;
+  int lbs_smoothing_iterations = 0;  ///< 0: chosen from the mean edge length (about 3 cm of blending)
+  /// A segmentation (#F) and joint centres (#joints x 3) the user already has; empty: computed.
+  Eigen::VectorXi triangle_part;
+  Eigen::MatrixXd joint_centres;
+  /// A correspondence subject triangle -> template triangle (#F); empty: ct-FFD (section 3.3.3).
+  Eigen::VectorXi template_triangle;
+};
+
+/// What set-up found out about a subject, for reports.
+struct SubjectSetupInfo {
+  double seconds_representation = 0, seconds_segmentation = 0, seconds_correspondence = 0,
+         seconds_factorisation = 0;
+  int normal_failures = 0;
+  Eigen::VectorXi triangle_part;    ///< #F
+  Eigen::MatrixXd joint_centres;    ///< #joints x 3
+  Eigen::VectorXi template_triangle;  ///< #F, the corresponding template triangle
+};
+
+/// A subject prepared for posing: build once (segmentation, skeleton, correspondence,
+/// factorisation), then pose() is a pure function of the pose.
+class PoseSynthesizer {
+ public:
+  /// Throws InvalidInput when the subject is not a single closed body mesh or its features cannot be
+  /// found, and when `is_template` is set but the mesh is not the model's template.
+  PoseSynthesizer(std::shared_ptr<const PoseModel> model, const TriangleMesh& subject,
+                  const SubjectSetupOptions& options = {});
+  ~PoseSynthesizer();
+  PoseSynthesizer(const PoseSynthesizer&) = delete;
+  PoseSynthesizer& operator=(const PoseSynthesizer&) = delete;
+
+  /// The posed subject, #V x 3. Throws InvalidInput on a NaN or unknown pose.
+  Eigen::MatrixXd pose(const PartPose& pose, PoseMethod method = PoseMethod::kLearned) const;
+
+  const SubjectSetupInfo& info() const;
+
+ private:
+  struct Impl;
+  std::unique_ptr<Impl> impl_;
+};
+
+/// Smooth skinning weights (#V x 16, rows sum to 1) diffused from per-vertex part labels by
+/// `iterations` rounds of neighbour averaging.
+Eigen::MatrixXd diffuse_part_weights(const Eigen::MatrixXi& F, const Eigen::VectorXi& vertex_part, int num_vertices,
+                                     int iterations);
+
+}  // namespace posekit

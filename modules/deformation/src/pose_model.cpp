@@ -1,0 +1,336 @@
+#include "posekit/deformation/pose_model.h"
+
+#include <Eigen/Dense>
+#include <algorithm>
+#include <cmath>
+#include <cstdint>
+#include <cstring>
+#include <map>
+#include <string>
+#include <utility>
+#include <vector>
+
+#include "posekit/core/error.h"
+#include "posekit/core/mesh_geometry.h"
+#include "posekit/datasets/dataset.h"
+#include "posekit/deformation/rigid_pose.h"
+#include "posekit/io/atomic_file.h"
+
+namespace posekit {
+namespace {
+
+constexpr int kCoefficients = 9 * kPoseFeatures;
+
+/// [e1 e2 n/sqrt|n|] of each triangle, the frame of the deformation gradient (4th vertex).
+Eigen::Matrix3d triangle_frame(const Eigen::MatrixXd& V, const Eigen::MatrixXi& F, Eigen::Index k) {
+  const Eigen::Vector3d a = V.row(F(k, 0)), b = V.row(F(k, 1)), c = V.row(F(k, 2));
+  Eigen::Matrix3d E;
+  E.col(0) = b - a;
+  E.col(1) = c - a;
+  const Eigen::Vector3d n = E.col(0).cross(E.col(1));
+  E.col(2) = n / std::sqrt(std::max(n.norm(), 1e-300));
+  return E;
+}
+
+std::vector<Eigen::Matrix3d> inverse_frames(const Eigen::MatrixXd& V, const Eigen::MatrixXi& F) {
+  std::vector<Eigen::Matrix3d> inv(static_cast<size_t>(F.rows()));
+  for (Eigen::Index k = 0; k < F.rows(); ++k) {
+    const Eigen::Matrix3d E = triangle_frame(V, F, k);
+    inv[static_cast<size_t>(k)] = std::abs(E.determinant()) > 1e-300 ? Eigen::Matrix3d(E.inverse()) : Eigen::Matrix3d::Identity();
+  }
+  return inv;
+}
+
+/// The joints adjacent to a part: the one to its parent and those to its children.
+std::vector<int> adjacent_joints(int part) {
+  std::vector<int> joints;
+  if (part > 0) joints.push_back(part - 1);
+  for (int c = 1; c < kNumParts; ++c)
+    if (part_parent(c) == part) joints.push_back(c - 1);
+  return joints;
+}
+
+Eigen::Matrix<double, kPoseFeatures, 1> features(const PartPose& pose, int a, int b) {
+  Eigen::Matrix<double, kPoseFeatures, 1> x = Eigen::Matrix<double, kPoseFeatures, 1>::Zero();
+  if (a >= 0) x.segment<3>(0) = pose.joint_rotation[static_cast<size_t>(a)];
+  if (b >= 0) x.segment<3>(3) = pose.joint_rotation[static_cast<size_t>(b)];
+  x[6] = 1;
+  return x;
+}
+
+}  // namespace
+
+Eigen::MatrixXd deformation_gradients(const Eigen::MatrixXd& V0, const Eigen::MatrixXd& V1, const Eigen::MatrixXi& F) {
+  if (V0.rows() != V1.rows())
+    throw InvalidInput("deformation_gradients: meshes of " + std::to_string(V0.rows()) + " and " +
+                       std::to_string(V1.rows()) + " vertices");
+  const auto inv = inverse_frames(V0, F);
+  Eigen::MatrixXd D(F.rows(), 9);
+  for (Eigen::Index k = 0; k < F.rows(); ++k) {
+    const Eigen::Matrix3d G = triangle_frame(V1, F, k) * inv[static_cast<size_t>(k)];
+    for (int m = 0; m < 9; ++m) D(k, m) = G(m / 3, m % 3);
+  }
+  return D;
+}
+
+PoseModel train_pose_model(const PoseDataset& data, const TrainingOptions& options) {
+  const Eigen::MatrixXi& F = data.F;
+  // The template: the named rest example, else the first one with a zero pose.
+  int rest = -1;
+  for (size_t i = 0; i < data.names.size(); ++i)
+    if (data.names[i] == data.rest_name && !data.rest_name.empty()) rest = static_cast<int>(i);
+  for (size_t i = 0; i < data.names.size() && rest < 0; ++i) {
+    bool zero = data.has_pose[i];
+    for (int j = 0; j < kNumJoints && zero; ++j) zero = data.poses[i].joint_rotation[static_cast<size_t>(j)].norm() < 1e-12;
+    if (zero) rest = static_cast<int>(i);
+  }
+  if (rest < 0) throw InvalidInput("train_pose_model: the dataset has no rest-pose example (all joint rotations zero)");
+  std::vector<int> examples;
+  for (size_t i = 0; i < data.names.size(); ++i) {
+    if (!data.has_pose[i] || data.test[i]) continue;
+    validate_part_pose(data.poses[i], "pose of example '" + data.names[i] + "'");
+    examples.push_back(static_cast<int>(i));
+  }
+  if (examples.size() < 2)
+    throw InvalidInput("train_pose_model: " + std::to_string(examples.size()) +
+                       " training examples with a known pose; at least 2 are needed");
+  if (options.triangle_part.size() != F.rows())
+    throw InvalidInput("train_pose_model: " + std::to_string(options.triangle_part.size()) + " template labels for " +
+                       std::to_string(F.rows()) + " triangles");
+  if (options.triangle_part.minCoeff() < 0 || options.triangle_part.maxCoeff() >= kNumParts)
+    throw InvalidInput("train_pose_model: a template label is outside [0, 16)");
+  if (options.joint_centres.rows() != kNumJoints || options.joint_centres.cols() != 3 || !options.joint_centres.allFinite())
+    throw InvalidInput("train_pose_model: expected " + std::to_string(kNumJoints) + " x 3 finite joint centres");
+
+  PoseModel model;
+  const Eigen::MatrixXd& V0 = data.V[static_cast<size_t>(rest)];
+  model.template_V = V0;
+  model.template_F = F;
+  model.triangle_part = options.triangle_part;
+  model.joint_centres = options.joint_centres;
+  model.training_poses = static_cast<int>(examples.size());
+
+  // The two joints nearest to each triangle among those next to its part (Eq. 4).
+  const Eigen::MatrixXd centroids = face_centroids(V0, F);
+  model.triangle_joints = Eigen::MatrixXi::Constant(F.rows(), 2, -1);
+  for (Eigen::Index k = 0; k < F.rows(); ++k) {
+    std::vector<std::pair<double, int>> near;
+    for (int j : adjacent_joints(model.triangle_part[k]))
+      near.emplace_back((centroids.row(k) - model.joint_centres.row(j)).squaredNorm(), j);
+    std::sort(near.begin(), near.end());
+    for (size_t n = 0; n < near.size() && n < 2; ++n) model.triangle_joints(k, static_cast<Eigen::Index>(n)) = near[n].second;
+    if (model.triangle_joints(k, 1) >= 0 && model.triangle_joints(k, 1) < model.triangle_joints(k, 0))
+      std::swap(model.triangle_joints(k, 0), model.triangle_joints(k, 1));
+  }
+
+  // Per joint pair, PCA of the observed twists, then the ridge least-squares operator H that maps
+  // a triangle's observed T^Q entries (m x 9) to its reduced coefficients (Eq. 5).
+  struct Group {
+    Eigen::MatrixXd P;                   // 6 x d principal directions
+    Eigen::Matrix<double, 6, 1> mean;
+    Eigen::MatrixXd H;                   // (d+1) x m
+  };
+  const int m = static_cast<int>(examples.size());
+  std::map<std::pair<int, int>, Group> groups;
+  for (Eigen::Index k = 0; k < F.rows(); ++k) groups[{model.triangle_joints(k, 0), model.triangle_joints(k, 1)}];
+  for (auto& [key, g] : groups) {
+    Eigen::MatrixXd X(m, 6);
+    for (int e = 0; e < m; ++e)
+      X.row(e) = features(data.poses[static_cast<size_t>(examples[static_cast<size_t>(e)])], key.first, key.second)
+                     .head<6>()
+                     .transpose();
+    g.mean = options.identity_at_rest ? Eigen::Matrix<double, 6, 1>::Zero() : Eigen::Matrix<double, 6, 1>(X.colwise().mean().transpose());
+    const Eigen::MatrixXd Xc = X.rowwise() - g.mean.transpose();
+    const Eigen::JacobiSVD<Eigen::MatrixXd> svd(Xc, Eigen::ComputeThinV);
+    const Eigen::VectorXd s = svd.singularValues();
+    const double total = s.squaredNorm();
+    int d = 0;
+    while (d < s.size() && total > 0 && s[d] * s[d] > options.pca_energy * total) ++d;
+    g.P = svd.matrixV().leftCols(d);
+    // With a free bias the last column of Z is ones; with the identity at rest there is none.
+    const int bias_columns = options.identity_at_rest ? 0 : 1;
+    Eigen::MatrixXd Z(m, d + bias_columns);
+    Z.leftCols(d) = Xc * g.P;
+    if (bias_columns) Z.col(d).setOnes();
+    Eigen::MatrixXd N = Z.transpose() * Z;
+    for (int c = 0; c < d; ++c) N(c, c) += options.ridge * m;
+    g.H = N.ldlt().solve(Z.transpose());
+  }
+
+  std::vector<const Group*> group_of(static_cast<size_t>(F.rows()));
+  for (Eigen::Index k = 0; k < F.rows(); ++k)
+    group_of[static_cast<size_t>(k)] = &groups.at({model.triangle_joints(k, 0), model.triangle_joints(k, 1)});
+
+  // Stream over the examples: B_k += H(:, e) * T^Q_k(e).
+  std::vector<Eigen::MatrixXd> reduced(static_cast<size_t>(F.rows()));
+  for (Eigen::Index k = 0; k < F.rows(); ++k)
+    reduced[static_cast<size_t>(k)] = Eigen::MatrixXd::Zero(group_of[static_cast<size_t>(k)]->H.rows(), 9);
+  const auto inv0 = inverse_frames(V0, F);
+  auto nonrigid = [&](int example, Eigen::Index k, const std::array<Eigen::Matrix3d, kNumParts>& R) {
+    const Eigen::Matrix3d D = triangle_frame(data.V[static_cast<size_t>(example)], F, k) * inv0[static_cast<size_t>(k)];
+    return Eigen::Matrix3d(R[static_cast<size_t>(model.triangle_part[k])].transpose() * D);
+  };
+  for (int e = 0; e < m; ++e) {
+    const int ex = examples[static_cast<size_t>(e)];
+    if (data.V[static_cast<size_t>(ex)].rows() != V0.rows())
+      throw InvalidInput("train_pose_model: example '" + data.names[static_cast<size_t>(ex)] + "' has another vertex count");
+    const auto R = part_rotations(data.poses[static_cast<size_t>(ex)]);
+    for (Eigen::Index k = 0; k < F.rows(); ++k) {
+      const Eigen::Matrix3d Q = nonrigid(ex, k, R);
+      const Eigen::Matrix3d Y = options.identity_at_rest ? Eigen::Matrix3d(Q - Eigen::Matrix3d::Identity()) : Q;
+      reduced[static_cast<size_t>(k)] += group_of[static_cast<size_t>(k)]->H.col(e) * Eigen::Matrix<double, 1, 9>(
+          Y(0, 0), Y(0, 1), Y(0, 2), Y(1, 0), Y(1, 1), Y(1, 2), Y(2, 0), Y(2, 1), Y(2, 2));
+    }
+    if (options.progress) options.progress(e + 1, 2 * m);
+  }
+  // Back to raw twists: x -> P^T (x - mean), so W = P B_lin and bias = B_bias - mean^T W.
+  model.coefficients.resize(F.rows(), kCoefficients);
+  for (Eigen::Index k = 0; k < F.rows(); ++k) {
+    const Group& g = *group_of[static_cast<size_t>(k)];
+    const Eigen::MatrixXd& B = reduced[static_cast<size_t>(k)];
+    const int d = static_cast<int>(g.P.cols());
+    const Eigen::MatrixXd W = g.P * B.topRows(d);                                  // 6 x 9
+    Eigen::RowVectorXd bias(9);
+    if (options.identity_at_rest)
+      bias << 1, 0, 0, 0, 1, 0, 0, 0, 1;
+    else
+      bias = B.row(d) - g.mean.transpose() * W;
+    for (int entry = 0; entry < 9; ++entry) {
+      for (int f = 0; f < 6; ++f) model.coefficients(k, entry * kPoseFeatures + f) = W(f, entry);
+      model.coefficients(k, entry * kPoseFeatures + 6) = bias[entry];
+    }
+  }
+  // Residual of Eq. 5 over the training set.
+  double sq = 0;
+  long count = 0;
+  for (int e = 0; e < m; ++e) {
+    const int ex = examples[static_cast<size_t>(e)];
+    const auto R = part_rotations(data.poses[static_cast<size_t>(ex)]);
+    const Eigen::MatrixXd predicted = predict_nonrigid(model, data.poses[static_cast<size_t>(ex)]);
+    for (Eigen::Index k = 0; k < F.rows(); ++k) {
+      const Eigen::Matrix3d Q = nonrigid(ex, k, R);
+      for (int entry = 0; entry < 9; ++entry) {
+        const double r = predicted(k, entry) - Q(entry / 3, entry % 3);
+        sq += r * r;
+        ++count;
+      }
+    }
+    if (options.progress) options.progress(m + e + 1, 2 * m);
+  }
+  model.fit_rms = std::sqrt(sq / std::max<long>(count, 1));
+  return model;
+}
+
+Eigen::MatrixXd predict_nonrigid(const PoseModel& model, const PartPose& pose) {
+  const Eigen::Index nf = model.coefficients.rows();
+  Eigen::MatrixXd Q(nf, 9);
+  for (Eigen::Index k = 0; k < nf; ++k) {
+    const Eigen::Matrix<double, kPoseFeatures, 1> x = features(pose, model.triangle_joints(k, 0), model.triangle_joints(k, 1));
+    const Eigen::Map<const Eigen::Matrix<double, 9, kPoseFeatures, Eigen::RowMajor>> B(model.coefficients.row(k).data());
+    Q.row(k) = (B * x).transpose();
+  }
+  return Q;
+}
+
+// ---- .pkm files ----
+namespace {
+
+constexpr char kMagic[8] = {'P', 'O', 'S', 'E', 'K', 'P', 'K', 'M'};
+constexpr std::uint32_t kVersion = 1;
+
+template <typename T>
+void put(std::ostream& os, const T& value) {
+  os.write(reinterpret_cast<const char*>(&value), sizeof(T));
+}
+template <typename Matrix>
+void put_matrix(std::ostream& os, const Matrix& M) {
+  for (Eigen::Index r = 0; r < M.rows(); ++r)
+    for (Eigen::Index c = 0; c < M.cols(); ++c) put(os, M(r, c));
+}
+
+class Reader {
+ public:
+  Reader(std::string bytes, std::string path) : bytes_(std::move(bytes)), path_(std::move(path)) {}
+  template <typename T>
+  T get(const char* what) {
+    if (pos_ + sizeof(T) > bytes_.size())
+      throw IoError(path_ + ": the file ends inside " + what + " (truncated .pkm model?)");
+    T value;
+    std::memcpy(&value, bytes_.data() + pos_, sizeof(T));
+    pos_ += sizeof(T);
+    return value;
+  }
+  template <typename Scalar>
+  Eigen::Matrix<Scalar, Eigen::Dynamic, Eigen::Dynamic> matrix(Eigen::Index rows, Eigen::Index cols, const char* what) {
+    Eigen::Matrix<Scalar, Eigen::Dynamic, Eigen::Dynamic> M(rows, cols);
+    if (pos_ + sizeof(Scalar) * static_cast<size_t>(rows * cols) > bytes_.size())
+      throw IoError(path_ + ": the file ends inside " + what + " (truncated .pkm model?)");
+    for (Eigen::Index r = 0; r < rows; ++r)
+      for (Eigen::Index c = 0; c < cols; ++c) M(r, c) = get<Scalar>(what);
+    return M;
+  }
+  bool at_end() const { return pos_ == bytes_.size(); }
+
+ private:
+  std::string bytes_, path_;
+  size_t pos_ = 0;
+};
+
+}  // namespace
+
+void write_pose_model(const std::string& path, const PoseModel& model) {
+  write_file_atomically(path, [&](std::ostream& os) {
+    os.write(kMagic, sizeof(kMagic));
+    put(os, kVersion);
+    put(os, static_cast<std::uint32_t>(model.template_V.rows()));
+    put(os, static_cast<std::uint32_t>(model.template_F.rows()));
+    put(os, static_cast<std::uint32_t>(kNumJoints));
+    put(os, static_cast<std::uint32_t>(kCoefficients));
+    put(os, static_cast<std::int32_t>(model.training_poses));
+    put(os, model.fit_rms);
+    put_matrix(os, model.template_V);
+    put_matrix(os, Eigen::Matrix<std::int32_t, Eigen::Dynamic, Eigen::Dynamic>(model.template_F.cast<std::int32_t>()));
+    put_matrix(os, Eigen::Matrix<std::int32_t, Eigen::Dynamic, 1>(model.triangle_part.cast<std::int32_t>()));
+    put_matrix(os, model.joint_centres);
+    put_matrix(os, Eigen::Matrix<std::int32_t, Eigen::Dynamic, Eigen::Dynamic>(model.triangle_joints.cast<std::int32_t>()));
+    put_matrix(os, model.coefficients);
+  });
+}
+
+PoseModel read_pose_model(const std::string& path) {
+  Reader in(read_file_bytes(path), path);
+  char magic[8];
+  for (char& c : magic) c = in.get<char>("the header");
+  if (std::memcmp(magic, kMagic, sizeof(kMagic)) != 0)
+    throw IoError(path + ": not a posekit pose model (expected the POSEKPKM header of a .pkm file)");
+  const auto version = in.get<std::uint32_t>("the header");
+  if (version != kVersion)
+    throw IoError(path + ": .pkm version " + std::to_string(version) + ", this posekit reads version " +
+                  std::to_string(kVersion));
+  const auto nv = in.get<std::uint32_t>("the header"), nf = in.get<std::uint32_t>("the header");
+  const auto nj = in.get<std::uint32_t>("the header"), nc = in.get<std::uint32_t>("the header");
+  if (nj != kNumJoints || nc != kCoefficients || nv < 3 || nf < 1 || nv > 50000000u || nf > 100000000u)
+    throw IoError(path + ": implausible .pkm header (" + std::to_string(nv) + " vertices, " + std::to_string(nf) +
+                  " triangles, " + std::to_string(nj) + " joints, " + std::to_string(nc) + " coefficients)");
+  PoseModel m;
+  m.training_poses = in.get<std::int32_t>("the header");
+  m.fit_rms = in.get<double>("the header");
+  m.template_V = in.matrix<double>(nv, 3, "the template vertices");
+  m.template_F = in.matrix<std::int32_t>(nf, 3, "the template triangles").cast<int>();
+  m.triangle_part = in.matrix<std::int32_t>(nf, 1, "the part labels").cast<int>();
+  m.joint_centres = in.matrix<double>(nj, 3, "the joint centres");
+  m.triangle_joints = in.matrix<std::int32_t>(nf, 2, "the triangle joints").cast<int>();
+  m.coefficients = in.matrix<double>(nf, nc, "the coefficients");  // row-major copy
+  if (!in.at_end()) throw IoError(path + ": unexpected bytes after the coefficients");
+  if (!m.template_V.allFinite() || !m.joint_centres.allFinite() || !m.coefficients.allFinite())
+    throw IoError(path + ": the model holds a NaN or infinite value");
+  if (m.template_F.minCoeff() < 0 || m.template_F.maxCoeff() >= static_cast<int>(nv))
+    throw IoError(path + ": a template triangle refers to a vertex outside [0, " + std::to_string(nv) + ")");
+  if (m.triangle_part.minCoeff() < 0 || m.triangle_part.maxCoeff() >= kNumParts)
+    throw IoError(path + ": a part label is outside [0, 16)");
+  if (m.triangle_joints.minCoeff() < -1 || m.triangle_joints.maxCoeff() >= kNumJoints)
+    throw IoError(path + ": a triangle joint is outside [-1, 15)");
+  return m;
+}
+
+}  // namespace posekit

@@ -1,0 +1,244 @@
+#include "posekit/deformation/pose_synthesis.h"
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <string>
+
+#include "posekit/core/error.h"
+#include "posekit/core/mesh_geometry.h"
+#include "posekit/core/mesh_topology.h"
+#include "posekit/core/mesh_validation.h"
+#include "posekit/deformation/poisson_solver.h"
+#include "posekit/deformation/rigid_pose.h"
+#include "posekit/registration/correspondence.h"
+#include "posekit/registration/ctffd.h"
+#include "posekit/segmentation/segmentation.h"
+#include "posekit/segmentation/skeleton_embedding.h"
+#include "posekit/shape/body_features.h"
+#include "posekit/shape/layered_representation.h"
+
+namespace posekit {
+
+PoseMethod parse_pose_method(const std::string& name) {
+  if (name == "learned" || name == "ours") return PoseMethod::kLearned;
+  if (name == "rigid") return PoseMethod::kRigid;
+  if (name == "lbs") return PoseMethod::kLbs;
+  throw InvalidInput("unknown pose method '" + name + "': expected learned, rigid or lbs");
+}
+
+const char* pose_method_name(PoseMethod method) {
+  switch (method) {
+    case PoseMethod::kLearned: return "learned";
+    case PoseMethod::kRigid: return "rigid";
+    case PoseMethod::kLbs: return "lbs";
+  }
+  return "?";
+}
+
+Eigen::MatrixXd diffuse_part_weights(const Eigen::MatrixXi& F, const Eigen::VectorXi& vertex_part, int num_vertices,
+                                     int iterations) {
+  const Eigen::MatrixXi E = unique_edges(F);
+  Eigen::VectorXd degree = Eigen::VectorXd::Zero(num_vertices);
+  for (Eigen::Index e = 0; e < E.rows(); ++e) {
+    degree[E(e, 0)] += 1;
+    degree[E(e, 1)] += 1;
+  }
+  Eigen::MatrixXd W = Eigen::MatrixXd::Zero(num_vertices, kNumParts);
+  for (int v = 0; v < num_vertices; ++v) W(v, vertex_part[v]) = 1;
+  Eigen::MatrixXd sum(num_vertices, kNumParts);
+  for (int it = 0; it < iterations; ++it) {
+    sum.setZero();
+    for (Eigen::Index e = 0; e < E.rows(); ++e) {
+      sum.row(E(e, 0)) += W.row(E(e, 1));
+      sum.row(E(e, 1)) += W.row(E(e, 0));
+    }
+    for (int v = 0; v < num_vertices; ++v)
+      if (degree[v] > 0) W.row(v) = 0.5 * W.row(v) + 0.5 * sum.row(v) / degree[v];
+  }
+  for (int v = 0; v < num_vertices; ++v) W.row(v) /= W.row(v).sum();
+  return W;
+}
+
+struct PoseSynthesizer::Impl {
+  std::shared_ptr<const PoseModel> model;
+  Eigen::MatrixXd V;
+  Eigen::MatrixXi F;
+  SubjectSetupInfo info;
+  Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor> coefficients;  // #F x 63, from the template
+  Eigen::MatrixXi triangle_joints;    // #F x 2
+  Eigen::VectorXd pelvis_area;        // #F: the area of pelvis triangles, 0 elsewhere
+  Eigen::VectorXi vertex_part;        // #V
+  Eigen::MatrixXd lbs_weights;        // #V x 16
+  std::unique_ptr<PoissonSolver> solver;
+};
+
+namespace {
+double seconds_since(std::chrono::steady_clock::time_point t0) {
+  return std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+}
+}  // namespace
+
+PoseSynthesizer::PoseSynthesizer(std::shared_ptr<const PoseModel> model, const TriangleMesh& subject,
+                                 const SubjectSetupOptions& options)
+    : impl_(std::make_unique<Impl>()) {
+  Impl& s = *impl_;
+  if (!model) throw InvalidInput("PoseSynthesizer: no model");
+  require_usable_mesh(subject, "subject mesh");
+  s.model = model;
+  s.V = subject.V;
+  s.F = subject.F;
+  const PoseModel& M = *model;
+  auto t0 = std::chrono::steady_clock::now();
+  if (options.is_template) {
+    if (subject.V.rows() != M.template_V.rows() || subject.F != M.template_F)
+      throw InvalidInput("the mesh is not the model's template (" + std::to_string(subject.V.rows()) + " vertices, " +
+                         std::to_string(subject.F.rows()) + " triangles; the model was trained on " +
+                         std::to_string(M.template_V.rows()) + " and " + std::to_string(M.template_F.rows()) + ")");
+    s.info.triangle_part = M.triangle_part;
+    s.info.joint_centres = M.joint_centres;
+    s.info.template_triangle = Eigen::VectorXi::LinSpaced(s.F.rows(), 0, static_cast<int>(s.F.rows()) - 1);
+  } else {
+    const LayeredRepresentation template_rep =
+        build_layered_representation(M.template_V, M.template_F, find_body_features(M.template_V, M.template_F));
+    const LayeredRepresentation rep = build_layered_representation(s.V, s.F, find_body_features(s.V, s.F));
+    s.info.seconds_representation = seconds_since(t0);
+    t0 = std::chrono::steady_clock::now();
+    const Eigen::VectorXi rep_labels =
+        representation_labels_from_body(M.template_V, M.template_F, M.triangle_part, template_rep);
+    const Segmentation seg = segment_body(s.V, s.F, rep, rep_labels);
+    s.info.triangle_part = seg.triangle_part;
+    s.info.joint_centres = embed_skeleton(make_skeleton_prior(M.joint_centres, template_rep), rep);
+    s.info.seconds_segmentation = seconds_since(t0);
+    t0 = std::chrono::steady_clock::now();
+    const Eigen::MatrixXd deformed = ctffd_evaluate(ctffd_parametrize(M.template_V, template_rep), rep);
+    s.info.template_triangle =
+        nearest_centroid_correspondence(deformed, M.template_F, s.V, s.F, &s.info.normal_failures);
+    s.info.seconds_correspondence = seconds_since(t0);
+  }
+  if (options.triangle_part.size()) {
+    if (options.triangle_part.size() != s.F.rows() || options.triangle_part.minCoeff() < 0 ||
+        options.triangle_part.maxCoeff() >= kNumParts)
+      throw InvalidInput("subject labels: expected " + std::to_string(s.F.rows()) + " labels in [0, 16)");
+    s.info.triangle_part = options.triangle_part;
+  }
+  if (options.joint_centres.size()) {
+    if (options.joint_centres.rows() != kNumJoints || options.joint_centres.cols() != 3)
+      throw InvalidInput("subject joints: expected " + std::to_string(kNumJoints) + " x 3 joint centres");
+    s.info.joint_centres = options.joint_centres;
+  }
+  if (options.template_triangle.size()) {
+    if (options.template_triangle.size() != s.F.rows() || options.template_triangle.minCoeff() < 0 ||
+        options.template_triangle.maxCoeff() >= M.template_F.rows())
+      throw InvalidInput("subject correspondence: expected " + std::to_string(s.F.rows()) +
+                         " template triangle indices in [0, " + std::to_string(M.template_F.rows()) + ")");
+    s.info.template_triangle = options.template_triangle;
+  }
+  s.coefficients.resize(s.F.rows(), M.coefficients.cols());
+  s.triangle_joints.resize(s.F.rows(), 2);
+  for (Eigen::Index k = 0; k < s.F.rows(); ++k) {
+    s.coefficients.row(k) = M.coefficients.row(s.info.template_triangle[k]);
+    s.triangle_joints.row(k) = M.triangle_joints.row(s.info.template_triangle[k]);
+  }
+  s.vertex_part = vertex_labels_from_triangles(s.V, s.F, s.info.triangle_part);
+
+  t0 = std::chrono::steady_clock::now();
+  Eigen::VectorXd position_weight;
+  if (options.anchor_strength > 0) {
+    // Sensitivity of each triangle's T^Q to the pose: the norm of its twist coefficients.
+    Eigen::VectorXd sensitivity = Eigen::VectorXd::Zero(s.V.rows()), vertex_area = Eigen::VectorXd::Zero(s.V.rows());
+    const Eigen::VectorXd face_area = face_areas(s.V, s.F);
+    for (Eigen::Index k = 0; k < s.F.rows(); ++k) {
+      double sq = 0;
+      for (int entry = 0; entry < 9; ++entry)
+        sq += s.coefficients.row(k).segment<6>(entry * kPoseFeatures).squaredNorm();
+      for (int c = 0; c < 3; ++c) {
+        sensitivity[s.F(k, c)] = std::max(sensitivity[s.F(k, c)], std::sqrt(sq));
+        vertex_area[s.F(k, c)] += face_area[k] / 3;
+      }
+    }
+    // The mesh's stiffness per vertex is about area / edge^2 (times the valence): scale to it.
+    const Eigen::MatrixXi E = unique_edges(s.F);
+    double mean_sq_edge = 0;
+    for (Eigen::Index e = 0; e < E.rows(); ++e) mean_sq_edge += (s.V.row(E(e, 0)) - s.V.row(E(e, 1))).squaredNorm();
+    mean_sq_edge /= std::max<Eigen::Index>(E.rows(), 1);
+    position_weight.resize(s.V.rows());
+    for (Eigen::Index v = 0; v < s.V.rows(); ++v) {
+      const double r = sensitivity[v] / options.rigid_sensitivity;
+      position_weight[v] = options.anchor_strength * vertex_area[v] / mean_sq_edge * std::exp(-r * r);
+    }
+    if (!(position_weight.sum() > 0)) position_weight.resize(0);
+  }
+  s.solver = std::make_unique<PoissonSolver>(s.V, s.F, position_weight);
+  s.info.seconds_factorisation = seconds_since(t0);
+  const Eigen::VectorXd area = face_areas(s.V, s.F);
+  s.pelvis_area = Eigen::VectorXd::Zero(s.F.rows());
+  for (Eigen::Index k = 0; k < s.F.rows(); ++k)
+    if (s.info.triangle_part[k] == kPelvis) s.pelvis_area[k] = area[k];
+  if (!(s.pelvis_area.sum() > 0))
+    throw InvalidInput("subject mesh: no triangle was labelled pelvis; is it a standing body?");
+
+  int iterations = options.lbs_smoothing_iterations;
+  if (iterations <= 0) {
+    const Eigen::MatrixXi E = unique_edges(s.F);
+    double mean_edge = 0;
+    for (Eigen::Index e = 0; e < E.rows(); ++e) mean_edge += (s.V.row(E(e, 0)) - s.V.row(E(e, 1))).norm();
+    mean_edge /= std::max<Eigen::Index>(E.rows(), 1);
+    const double rings = 0.03 / std::max(mean_edge, 1e-6);  // blend over about 3 cm
+    iterations = static_cast<int>(std::clamp(2 * rings * rings, 4.0, 400.0));
+  }
+  s.lbs_weights = diffuse_part_weights(s.F, s.vertex_part, static_cast<int>(s.V.rows()), iterations);
+}
+
+PoseSynthesizer::~PoseSynthesizer() = default;
+
+const SubjectSetupInfo& PoseSynthesizer::info() const { return impl_->info; }
+
+Eigen::MatrixXd PoseSynthesizer::pose(const PartPose& pose, PoseMethod method) const {
+  const Impl& s = *impl_;
+  validate_part_pose(pose, "pose");
+  const PartTransforms T = part_transforms(pose, s.info.joint_centres);
+  if (method == PoseMethod::kLbs) {
+    Eigen::MatrixXd X = Eigen::MatrixXd::Zero(s.V.rows(), 3);
+    for (int p = 0; p < kNumParts; ++p) {
+      const Eigen::MatrixXd moved =
+          (s.V * T.R[static_cast<size_t>(p)].transpose()).rowwise() + T.t[static_cast<size_t>(p)].transpose();
+      X.array() += moved.array().colwise() * s.lbs_weights.col(p).array();
+    }
+    return X;
+  }
+  Eigen::MatrixXd M(s.F.rows(), 9);
+  // Anchor: the pelvis where it stays rigid (T^Q near the identity), so that skin moving at the hips
+  // does not drag the body along.
+  Eigen::VectorXd anchor = s.pelvis_area;
+  for (Eigen::Index k = 0; k < s.F.rows(); ++k) {
+    const Eigen::Matrix3d& R = T.R[static_cast<size_t>(s.info.triangle_part[k])];
+    Eigen::Matrix3d Tk = R;
+    if (method == PoseMethod::kLearned) {
+      Eigen::Matrix<double, kPoseFeatures, 1> x = Eigen::Matrix<double, kPoseFeatures, 1>::Zero();
+      const int a = s.triangle_joints(k, 0), b = s.triangle_joints(k, 1);
+      if (a >= 0) x.segment<3>(0) = pose.joint_rotation[static_cast<size_t>(a)];
+      if (b >= 0) x.segment<3>(3) = pose.joint_rotation[static_cast<size_t>(b)];
+      x[6] = 1;
+      const Eigen::Map<const Eigen::Matrix<double, 9, kPoseFeatures, Eigen::RowMajor>> B(s.coefficients.row(k).data());
+      const Eigen::Matrix<double, 9, 1> q = B * x;
+      Eigen::Matrix3d Q;
+      Q << q[0], q[1], q[2], q[3], q[4], q[5], q[6], q[7], q[8];
+      Tk = R * Q;  // Eq. 1: T^R T^Q
+      if (anchor[k] > 0) anchor[k] *= std::exp(-(Q - Eigen::Matrix3d::Identity()).squaredNorm() / (0.02 * 0.02));
+    }
+    for (int entry = 0; entry < 9; ++entry) M(k, entry) = Tk(entry / 3, entry % 3);
+  }
+  if (s.solver->has_position_weights()) {
+    Eigen::MatrixXd targets(s.V.rows(), 3);
+    for (Eigen::Index v = 0; v < s.V.rows(); ++v) {
+      const size_t p = static_cast<size_t>(s.vertex_part[v]);
+      targets.row(v) = (T.R[p] * s.V.row(v).transpose() + T.t[p]).transpose();
+    }
+    return s.solver->solve(M, targets);
+  }
+  if (!(anchor.sum() > 1e-6 * s.pelvis_area.sum())) anchor = s.pelvis_area;
+  return s.solver->solve(M, anchor, T.R[kPelvis], T.t[kPelvis]);
+}
+
+}  // namespace posekit

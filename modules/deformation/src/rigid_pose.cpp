@@ -1,0 +1,76 @@
+#include "posekit/deformation/rigid_pose.h"
+
+#include <Eigen/Geometry>
+#include <cmath>
+#include <string>
+
+#include "posekit/core/error.h"
+
+namespace posekit {
+
+void validate_part_pose(const PartPose& pose, const std::string& context) {
+  auto check = [&](const Eigen::Vector3d& r, const std::string& what) {
+    if (!r.allFinite()) throw InvalidInput(context + ": " + what + " is not a finite number");
+  };
+  for (int j = 0; j < kNumJoints; ++j) {
+    check(pose.joint_rotation[static_cast<size_t>(j)], "rotation of joint '" + joint_name(j) + "'");
+    if (pose.joint_rotation[static_cast<size_t>(j)].norm() > 2 * M_PI + 1e-9)
+      throw InvalidInput(context + ": rotation of joint '" + joint_name(j) + "' exceeds 2 pi radians (degrees given?)");
+  }
+  check(pose.root_rotation, "root_rotation");
+  check(pose.root_translation, "root_translation");
+}
+
+std::array<Eigen::Matrix3d, kNumParts> part_rotations(const PartPose& pose) {
+  std::array<Eigen::Matrix3d, kNumParts> R;
+  R[kPelvis] = rotation_from_axis_angle(pose.root_rotation);
+  for (int p = 1; p < kNumParts; ++p)  // parents precede children in the Part order
+    R[static_cast<size_t>(p)] =
+        R[static_cast<size_t>(part_parent(p))] * rotation_from_axis_angle(pose.joint_rotation[static_cast<size_t>(p - 1)]);
+  return R;
+}
+
+PartTransforms part_transforms(const PartPose& pose, const Eigen::MatrixXd& joints) {
+  if (joints.rows() != kNumJoints || joints.cols() != 3)
+    throw InvalidInput("part_transforms: expected " + std::to_string(kNumJoints) + " x 3 joint centres");
+  PartTransforms T;
+  T.R = part_rotations(pose);
+  // Pelvis pivot: the mean of lower back and hips.
+  const Eigen::Vector3d pivot = (joints.row(kAbdomen - 1) + joints.row(kLeftThigh - 1) + joints.row(kRightThigh - 1)).transpose() / 3;
+  T.t[kPelvis] = pivot + pose.root_translation - T.R[kPelvis] * pivot;
+  for (int p = 1; p < kNumParts; ++p) {
+    const size_t q = static_cast<size_t>(part_parent(p)), c = static_cast<size_t>(p);
+    const Eigen::Vector3d j = joints.row(p - 1).transpose();
+    const Eigen::Vector3d posed_joint = T.R[q] * j + T.t[q];
+    T.t[c] = posed_joint - T.R[c] * j;
+  }
+  return T;
+}
+
+PartPose part_pose_from_bone_pose(const Rig& rig, const BonePose& pose) {
+  if (static_cast<int>(pose.local.size()) != rig.num_bones())
+    throw InvalidInput("part_pose_from_bone_pose: the pose has " + std::to_string(pose.local.size()) +
+                       " bones, the rig " + std::to_string(rig.num_bones()));
+  std::vector<Eigen::Matrix3d> world(static_cast<size_t>(rig.num_bones()));
+  for (int b = 0; b < rig.num_bones(); ++b) {
+    const int p = rig.parent[static_cast<size_t>(b)];
+    world[static_cast<size_t>(b)] = p < 0 ? pose.local[static_cast<size_t>(b)]
+                                          : Eigen::Matrix3d(world[static_cast<size_t>(p)] * pose.local[static_cast<size_t>(b)]);
+  }
+  const auto roots = part_root_bones(rig);
+  auto axis_angle = [](const Eigen::Matrix3d& R) -> Eigen::Vector3d {
+    const Eigen::AngleAxisd aa(R);
+    return aa.angle() * aa.axis();
+  };
+  PartPose out;
+  out.root_rotation = axis_angle(world[static_cast<size_t>(roots[kPelvis])]);
+  out.root_translation = pose.root_translation;
+  for (int p = 1; p < kNumParts; ++p) {
+    const Eigen::Matrix3d& child = world[static_cast<size_t>(roots[static_cast<size_t>(p)])];
+    const Eigen::Matrix3d& parent = world[static_cast<size_t>(roots[static_cast<size_t>(part_parent(p))])];
+    out.joint_rotation[static_cast<size_t>(p - 1)] = axis_angle(parent.transpose() * child);
+  }
+  return out;
+}
+
+}  // namespace posekit
