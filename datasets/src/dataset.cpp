@@ -184,6 +184,13 @@ DatasetSummary make_dataset(const std::string& out_dir, const DatasetOptions& o)
       w.text(dir + "measurements.json", measurements_json(meas, st), "measurements", "ground-truth stature and girths");
       w.text(dir + "correspondence.csv", correspondence_csv(corr), "correspondence",
              "ground truth: each subject vertex as a template triangle + barycentric coordinates");
+      {
+        const Eigen::MatrixXd sj = joint_centres(model->rig, body);
+        nlohmann::ordered_json jj;
+        jj["units"] = "m";
+        for (int j = 0; j < kNumJoints; ++j) jj["joints"][joint_name(j)] = vec(sj.row(j).transpose());
+        w.text(dir + "joints.json", jj.dump(2) + "\n", "joints", "ground truth: the rig's 15 joint centres of subject " + s.id);
+      }
       nlohmann::ordered_json posed = nlohmann::ordered_json::array();
       std::vector<std::pair<std::string, TriangleMesh>> scanned = {{"rest", rest_mesh}};
       for (const char* pname : kSubjectTestPoses) {
@@ -235,7 +242,7 @@ DatasetSummary make_dataset(const std::string& out_dir, const DatasetOptions& o)
                           {"stature_m", st.stature_m}, {"mass_kg", st.mass_kg}, {"spec", dir + "spec.json"},
                           {"rest", dir + "rest.ply"}, {"vertices", rest_mesh.num_vertices()}, {"triangles", rest_mesh.num_faces()},
                           {"measurements", dir + "measurements.json"}, {"correspondence", dir + "correspondence.csv"},
-                          {"posed", posed}, {"scans", scans},
+                          {"joints", dir + "joints.json"}, {"posed", posed}, {"scans", scans},
                           {"photos", {{"front", "photos/" + s.id + "/front.png"}, {"side", "photos/" + s.id + "/side.png"},
                                       {"front_mask", "photos/" + s.id + "/front_mask.png"},
                                       {"side_mask", "photos/" + s.id + "/side_mask.png"},
@@ -306,6 +313,52 @@ PoseDataset load_pose_dataset(const std::string& dir, Unit unit) {
     ds.test.push_back(split.count(stem) ? split[stem] : false);
   }
   return ds;
+}
+
+Eigen::MatrixXd read_joint_centres(const std::string& path) {
+  nlohmann::json jj;
+  try {
+    jj = nlohmann::json::parse(read_file_bytes(path));
+  } catch (const nlohmann::json::exception& e) {
+    throw IoError(path + ": not valid JSON (" + e.what() + ")");
+  }
+  Eigen::MatrixXd J(kNumJoints, 3);
+  for (int j = 0; j < kNumJoints; ++j) {
+    try {
+      const auto v = jj.at("joints").at(joint_name(j)).get<std::vector<double>>();
+      if (v.size() != 3) throw IoError(path + ": joint '" + joint_name(j) + "' needs 3 coordinates");
+      J.row(j) << v[0], v[1], v[2];
+    } catch (const nlohmann::json::exception& e) {
+      throw IoError(path + ": missing or malformed joint '" + joint_name(j) + "' (" + e.what() + ")");
+    }
+  }
+  if (!J.allFinite()) throw IoError(path + ": a joint coordinate is not finite");
+  return J;
+}
+
+TemplateAnnotations load_template_annotations(const std::string& dir, bool* found) {
+  TemplateAnnotations out;
+  const fs::path parts = fs::path(dir) / "template" / "parts.json", joints = fs::path(dir) / "template" / "joints.json";
+  if (found) *found = fs::is_regular_file(parts) && fs::is_regular_file(joints);
+  if (!fs::is_regular_file(parts) || !fs::is_regular_file(joints)) return out;
+  auto parse = [](const fs::path& p) {
+    try {
+      return nlohmann::json::parse(read_file_bytes(p.string()));
+    } catch (const nlohmann::json::exception& e) {
+      throw IoError(p.string() + ": not valid JSON (" + e.what() + ")");
+    }
+  };
+  try {
+    const nlohmann::json pj = parse(parts);
+    const std::vector<int> labels = pj.at("triangle_part").get<std::vector<int>>();
+    out.triangle_part = Eigen::Map<const Eigen::VectorXi>(labels.data(), static_cast<Eigen::Index>(labels.size()));
+    if (labels.empty() || out.triangle_part.minCoeff() < 0 || out.triangle_part.maxCoeff() >= kNumParts)
+      throw IoError(parts.string() + ": 'triangle_part' must hold labels in [0, 16)");
+  } catch (const nlohmann::json::exception& e) {
+    throw IoError(parts.string() + ": expected an array 'triangle_part' of integers (" + e.what() + ")");
+  }
+  out.joint_centres = read_joint_centres(joints.string());
+  return out;
 }
 
 TriangleMesh load_subject_mesh(const std::string& path, Unit unit) {

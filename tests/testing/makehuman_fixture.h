@@ -20,6 +20,6 @@ inline std::shared_ptr<const MakeHumanModel> makehuman() {
 #define POSEKIT_REQUIRE_MAKEHUMAN()                                                     \
   const auto model_ptr = ::posekit::test::makehuman();                                  \
   ASSERT_NE(model_ptr, nullptr) << "POSEKIT_DATA does not point at the MakeHuman assets"; \
-  const ::posekit::MakeHumanModel& model = *model_ptr
+  [[maybe_unused]] const ::posekit::MakeHumanModel& model = *model_ptr
 
 }  // namespace posekit::test

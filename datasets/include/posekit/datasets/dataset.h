@@ -52,6 +52,18 @@ struct PoseDataset {
 /// share the topology: the first one that does not is named in the InvalidInput thrown.
 PoseDataset load_pose_dataset(const std::string& dir, Unit unit = Unit::kMetre);
 
+/// Part labels and joint centres of a dataset's template (template/parts.json, template/joints.json).
+struct TemplateAnnotations {
+  Eigen::VectorXi triangle_part;   ///< #F of the pose dataset
+  Eigen::MatrixXd joint_centres;   ///< #joints x 3 (m)
+};
+/// Reads them from a posekit dataset folder; `found` (optional) is false, and the result empty,
+/// when the dataset has no such files. Malformed files throw IoError naming the file.
+TemplateAnnotations load_template_annotations(const std::string& dir, bool* found = nullptr);
+
+/// 15 joint centres from a joints.json ({"units": "m", "joints": {"lower_back": [x, y, z], ...}}).
+Eigen::MatrixXd read_joint_centres(const std::string& path);
+
 /// A subject's mesh: any closed body mesh (PLY/OBJ/OFF/STL).
 TriangleMesh load_subject_mesh(const std::string& path, Unit unit = Unit::kMetre);
 

@@ -1,0 +1,198 @@
+#include "posekit/evaluation/pose_evaluation.h"
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <filesystem>
+#include <nlohmann/json.hpp>
+
+#include "posekit/core/error.h"
+#include "posekit/datasets/dataset.h"
+#include "posekit/datasets/remesh.h"
+#include "posekit/io/atomic_file.h"
+#include "posekit/io/mesh_io.h"
+#include "posekit/segmentation/segmentation.h"
+#include "posekit/segmentation/skeleton_embedding.h"
+#include "posekit/shape/body_features.h"
+#include "posekit/shape/layered_representation.h"
+
+namespace fs = std::filesystem;
+
+namespace posekit {
+
+ErrorStats error_stats(const std::vector<double>& d) {
+  ErrorStats s;
+  s.count = static_cast<long>(d.size());
+  if (d.empty()) return s;
+  std::vector<double> sorted = d;
+  double sum = 0;
+  for (double x : d) sum += x;
+  const size_t k = std::min(sorted.size() - 1, static_cast<size_t>(std::ceil(0.95 * static_cast<double>(sorted.size()))) - 1);
+  std::nth_element(sorted.begin(), sorted.begin() + static_cast<long>(k), sorted.end());
+  s.p95_mm = 1000 * sorted[k];
+  s.max_mm = 1000 * *std::max_element(d.begin(), d.end());
+  s.mean_mm = 1000 * sum / static_cast<double>(d.size());
+  return s;
+}
+
+PoseModel train_on_dataset(const std::string& dir, const TrainingOptions& base) {
+  const PoseDataset data = load_pose_dataset(dir);
+  TrainingOptions o = base;
+  bool found = false;
+  const TemplateAnnotations ann = load_template_annotations(dir, &found);
+  if (found && ann.triangle_part.size() == data.F.rows()) {
+    o.triangle_part = ann.triangle_part;
+    o.joint_centres = ann.joint_centres;
+  } else {
+    // No labels shipped: the template's own segmentation (Eq. 2) and skeleton.
+    int rest = 0;
+    for (size_t i = 0; i < data.names.size(); ++i)
+      if (data.names[i] == data.rest_name) rest = static_cast<int>(i);
+    const Eigen::MatrixXd& V = data.V[static_cast<size_t>(rest)];
+    const LayeredRepresentation rep = build_layered_representation(V, data.F, find_body_features(V, data.F));
+    o.triangle_part = segment_body(V, data.F, rep).triangle_part;
+    o.joint_centres = joint_centres_from_segmentation(V, data.F, o.triangle_part);
+  }
+  return train_pose_model(data, o);
+}
+
+namespace {
+
+struct Accumulator {
+  std::vector<double> all;
+  std::array<std::vector<double>, kNumParts> part;
+  void add(const Eigen::MatrixXd& X, const Eigen::MatrixXd& truth, const Eigen::VectorXi& vertex_part) {
+    for (Eigen::Index v = 0; v < X.rows(); ++v) {
+      const double e = (X.row(v) - truth.row(v)).norm();
+      all.push_back(e);
+      part[static_cast<size_t>(vertex_part[v])].push_back(e);
+    }
+  }
+  MethodErrors result(PoseMethod m) const {
+    MethodErrors r{m, error_stats(all), {}};
+    for (int p = 0; p < kNumParts; ++p) r.per_part[static_cast<size_t>(p)] = error_stats(part[static_cast<size_t>(p)]);
+    return r;
+  }
+};
+
+nlohmann::json read_manifest(const std::string& dir) {
+  const std::string path = (fs::path(dir) / "manifest.json").string();
+  try {
+    return nlohmann::json::parse(read_file_bytes(path));
+  } catch (const nlohmann::json::exception& e) {
+    throw IoError(path + ": not valid JSON (" + e.what() + ")");
+  }
+}
+
+}  // namespace
+
+PoseEvaluation evaluate_poses(const std::string& dir, std::shared_ptr<const PoseModel> model,
+                              const PoseEvaluationOptions& options) {
+  PoseEvaluation out;
+  const PoseModel& M = *model;
+  const nlohmann::json manifest = read_manifest(dir);
+  const TemplateAnnotations ann = load_template_annotations(dir);
+  const Eigen::VectorXi template_vertex_part =
+      ann.triangle_part.size() == M.template_F.rows()
+          ? vertex_labels_from_triangles(M.template_V, M.template_F, ann.triangle_part)
+          : vertex_labels_from_triangles(M.template_V, M.template_F, M.triangle_part);
+  const Eigen::VectorXi& template_triangle_part =
+      ann.triangle_part.size() == M.template_F.rows() ? ann.triangle_part : M.triangle_part;
+
+  int total_steps = 0, step = 0;
+  const PoseDataset data = options.template_poses ? load_pose_dataset(dir) : PoseDataset{};
+  for (size_t i = 0; i < data.names.size(); ++i) total_steps += data.test[i] && data.has_pose[i];
+  const auto subjects = manifest.value("subjects", nlohmann::json::array());
+  if (options.subjects) total_steps += static_cast<int>(subjects.size());
+  auto tick = [&](const std::string& what) {
+    if (options.progress) options.progress(++step, total_steps, what);
+  };
+
+  if (options.template_poses) {
+    int rest = -1;
+    for (size_t i = 0; i < data.names.size(); ++i)
+      if (data.names[i] == data.rest_name) rest = static_cast<int>(i);
+    if (rest < 0) throw InvalidInput(dir + ": the pose dataset names no rest example");
+    const Eigen::MatrixXd& V0 = data.V[static_cast<size_t>(rest)];
+    if (V0.rows() != M.template_V.rows() || data.F != M.template_F || (V0 - M.template_V).cwiseAbs().maxCoeff() > 1e-6)
+      throw InvalidInput("the model was trained on another template than the pose dataset of " + dir + " (" +
+                         std::to_string(M.template_V.rows()) + " vs " + std::to_string(V0.rows()) + " vertices)");
+    TriangleMesh templ;
+    templ.V = V0;
+    templ.F = data.F;
+    SubjectSetupOptions so;
+    so.is_template = true;
+    const PoseSynthesizer synth(model, templ, so);
+    std::vector<Accumulator> acc(options.methods.size());
+    for (size_t i = 0; i < data.names.size(); ++i) {
+      if (!data.test[i] || !data.has_pose[i]) continue;
+      for (size_t m = 0; m < options.methods.size(); ++m)
+        acc[m].add(synth.pose(data.poses[i], options.methods[m]), data.V[i], template_vertex_part);
+      ++out.test_poses;
+      tick("template pose " + data.names[i]);
+    }
+    for (size_t m = 0; m < options.methods.size(); ++m) out.template_errors.push_back(acc[m].result(options.methods[m]));
+  }
+
+  if (options.subjects) {
+    std::vector<Accumulator> pooled(options.methods.size());
+    std::vector<double> pose_ms;
+    for (const auto& s : subjects) {
+      SubjectPoseReport report;
+      report.id = s.value("id", "?");
+      const TriangleMesh subject = load_subject_mesh((fs::path(dir) / s.at("rest").get<std::string>()).string());
+      // Ground-truth vertex parts through the dataset's correspondence (when it has one).
+      Eigen::VectorXi vertex_part = Eigen::VectorXi::Zero(subject.V.rows());
+      Eigen::VectorXi truth_triangles;
+      if (s.contains("correspondence") && template_triangle_part.size() == M.template_F.rows()) {
+        const SurfacePoints corr = load_correspondence((fs::path(dir) / s["correspondence"].get<std::string>()).string());
+        if (corr.face.size() == subject.V.rows() && corr.face.maxCoeff() < M.template_F.rows()) {
+          for (Eigen::Index v = 0; v < subject.V.rows(); ++v) vertex_part[v] = template_triangle_part[corr.face[v]];
+          truth_triangles.resize(subject.F.rows());
+          for (Eigen::Index f = 0; f < subject.F.rows(); ++f) {
+            const int a = vertex_part[subject.F(f, 0)], b = vertex_part[subject.F(f, 1)], c = vertex_part[subject.F(f, 2)];
+            truth_triangles[f] = (b == c) ? b : a;
+          }
+        }
+      }
+      const auto t0 = std::chrono::steady_clock::now();
+      const PoseSynthesizer synth(model, subject);
+      report.setup_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+      if (truth_triangles.size())
+        report.segmentation_agreement = label_agreement(subject.V, subject.F, truth_triangles, synth.info().triangle_part);
+      if (s.contains("joints") && fs::is_regular_file(fs::path(dir) / s["joints"].get<std::string>())) {
+        const Eigen::MatrixXd J = read_joint_centres((fs::path(dir) / s["joints"].get<std::string>()).string());
+        const Eigen::VectorXd e = (J - synth.info().joint_centres).rowwise().norm();
+        report.joint_error_max_mm = 1000 * e.maxCoeff();
+        report.joint_error_mean_mm = 1000 * e.mean();
+      }
+      std::vector<Accumulator> acc(options.methods.size());
+      for (const auto& p : s.value("posed", nlohmann::json::array())) {
+        const TriangleMesh truth = read_mesh((fs::path(dir) / p.at("mesh").get<std::string>()).string());
+        const PartPose pose = read_part_pose((fs::path(dir) / p.at("pose_json").get<std::string>()).string());
+        if (truth.V.rows() != subject.V.rows())
+          throw InvalidInput(p.at("mesh").get<std::string>() + ": " + std::to_string(truth.V.rows()) +
+                             " vertices, the subject has " + std::to_string(subject.V.rows()));
+        for (size_t m = 0; m < options.methods.size(); ++m) {
+          const auto t1 = std::chrono::steady_clock::now();
+          const Eigen::MatrixXd X = synth.pose(pose, options.methods[m]);
+          if (options.methods[m] == PoseMethod::kLearned)
+            pose_ms.push_back(1000 * std::chrono::duration<double>(std::chrono::steady_clock::now() - t1).count());
+          acc[m].add(X, truth.V, vertex_part);
+          pooled[m].add(X, truth.V, vertex_part);
+        }
+      }
+      for (size_t m = 0; m < options.methods.size(); ++m) report.methods.push_back(acc[m].result(options.methods[m]));
+      out.subjects.push_back(std::move(report));
+      tick("subject " + out.subjects.back().id);
+    }
+    for (size_t m = 0; m < options.methods.size(); ++m) out.subject_errors.push_back(pooled[m].result(options.methods[m]));
+    if (!pose_ms.empty()) {
+      std::nth_element(pose_ms.begin(), pose_ms.begin() + static_cast<long>(pose_ms.size() / 2), pose_ms.end());
+      out.pose_ms_median = pose_ms[pose_ms.size() / 2];
+    }
+  }
+  return out;
+}
+
+}  // namespace posekit
