@@ -20,6 +20,8 @@
 #include "posekit/datasets/dataset.h"
 #include "posekit/datasets/remesh.h"
 #include "posekit/io/atomic_file.h"
+#include "posekit/deformation/pose_synthesis.h"
+#include "posekit/evaluation/pose_evaluation.h"
 #include "posekit/registration/registration.h"
 #include "posekit/io/mesh_io.h"
 #include "posekit/io/point_cloud_io.h"
@@ -286,13 +288,95 @@ int bench_registration(int argc, char** argv) {
   return 0;
 }
 
+int bench_pose(int argc, char** argv) {
+  ArgParser args("bench pose",
+                 "Speed of the pose deformation pipeline (single thread): training on the dataset's training\n"
+                 "split, per-subject set-up (representation, segmentation, skeleton, ct-FFD correspondence,\n"
+                 "factorisation), and one pose of a subject (learned T^Q, right-hand side, back-substitution).");
+  args.option("dataset", "DIR", "a posekit dataset (posekit dataset make)")
+      .option("runs", "R", "training runs and set-up runs per subject", "5")
+      .option("poses", "P", "poses timed per subject (the dataset's poses, cycled)", "50")
+      .option("subjects", "N", "use only the first N subjects (0: all)", "0")
+      .flag("json", "results as JSON on stdout");
+  if (!args.parse(argc, argv)) return 0;
+  if (!args.has("dataset")) throw UsageError("--dataset DIR is required");
+  const std::string dir = args.get("dataset");
+  const int runs = static_cast<int>(args.get_int("runs")), pose_count = static_cast<int>(args.get_int("poses"));
+  if (runs < 1 || pose_count < 1) throw UsageError("--runs and --poses must be at least 1");
+  const PoseDataset data = load_pose_dataset(dir);
+  std::vector<double> train_s;
+  std::shared_ptr<const PoseModel> model;
+  Progress progress("bench pose", runs);
+  for (int r = 0; r < runs; ++r) {
+    const auto t0 = Clock::now();
+    model = std::make_shared<const PoseModel>(train_on_dataset(dir));
+    train_s.push_back(std::chrono::duration<double>(Clock::now() - t0).count());
+    progress.update(r + 1);
+  }
+  progress.finish();
+  const auto manifest = nlohmann::json::parse(read_file_bytes(dir + "/manifest.json"));
+  const int limit = static_cast<int>(args.get_int("subjects"));
+  std::vector<double> setup_s, pose_ms, rigid_ms, lbs_ms;
+  long vertices = 0;
+  int count = 0;
+  Progress subjects_progress("bench pose subjects", static_cast<long>(manifest["subjects"].size()));
+  for (const auto& s : manifest["subjects"]) {
+    if (limit > 0 && count >= limit) break;
+    const TriangleMesh subject = read_mesh(dir + "/" + s["rest"].get<std::string>());
+    vertices += subject.num_vertices();
+    std::unique_ptr<PoseSynthesizer> synth;
+    for (int r = 0; r < runs; ++r) {
+      const auto t0 = Clock::now();
+      synth = std::make_unique<PoseSynthesizer>(model, subject);
+      setup_s.push_back(std::chrono::duration<double>(Clock::now() - t0).count());
+    }
+    for (int i = 0; i < pose_count; ++i) {
+      const PartPose& pose = data.poses[static_cast<size_t>(i) % data.poses.size()];
+      for (auto [method, out] : {std::pair{PoseMethod::kLearned, &pose_ms}, std::pair{PoseMethod::kRigid, &rigid_ms},
+                                 std::pair{PoseMethod::kLbs, &lbs_ms}}) {
+        const auto t0 = Clock::now();
+        const Eigen::MatrixXd X = synth->pose(pose, method);
+        out->push_back(1000 * std::chrono::duration<double>(Clock::now() - t0).count());
+        if (!X.allFinite()) throw InvalidInput("posing produced a non-finite vertex");
+      }
+    }
+    ++count;
+    subjects_progress.update(count);
+  }
+  subjects_progress.finish();
+  auto j = [](const Stats& st) { return nlohmann::ordered_json{{"median", st.median}, {"min", st.min}, {"max", st.max}}; };
+  const Stats train = stats_of(train_s), setup = stats_of(setup_s), learned = stats_of(pose_ms), rigid = stats_of(rigid_ms),
+              lbs = stats_of(lbs_ms);
+  nlohmann::ordered_json out = {{"benchmark", "pose"}, {"training_poses", model->training_poses},
+                                {"template_vertices", model->template_V.rows()}, {"subjects", count},
+                                {"mean_subject_vertices", vertices / std::max(count, 1)}, {"runs", runs},
+                                {"poses_per_subject", pose_count}, {"train_s", j(train)}, {"setup_s", j(setup)},
+                                {"pose_ms_learned", j(learned)}, {"pose_ms_rigid", j(rigid)}, {"pose_ms_lbs", j(lbs)},
+                                {"peak_rss_mib", peak_rss_mib()}};
+  if (args.flag_set("json")) {
+    print_json(out);
+    return 0;
+  }
+  std::cout << std::fixed << std::setprecision(3) << "Pose deformation, single thread: " << model->training_poses
+            << " training poses, " << count << " subjects of ~" << out["mean_subject_vertices"] << " vertices\n\n"
+            << "| stage | median | min | max |\n|---|---|---|---|\n"
+            << "| training (s) | " << train.median << " | " << train.min << " | " << train.max << " |\n"
+            << "| set-up per subject (s) | " << setup.median << " | " << setup.min << " | " << setup.max << " |\n"
+            << "| one pose, learned (ms) | " << learned.median << " | " << learned.min << " | " << learned.max << " |\n"
+            << "| one pose, rigid (ms) | " << rigid.median << " | " << rigid.min << " | " << rigid.max << " |\n"
+            << "| one pose, 16-part LBS (ms) | " << lbs.median << " | " << lbs.min << " | " << lbs.max << " |\n"
+            << "\npeak RSS " << std::setprecision(0) << peak_rss_mib() << " MiB\n";
+  return 0;
+}
+
 }  // namespace
 
 int run_bench(int argc, char** argv) {
   const std::string usage =
       "usage: posekit bench <what> [options]\n\nbenchmarks:\n  io    reading 1M-triangle meshes and 1M-point clouds\n"
       "  body  building and posing a MakeHuman body\n"
-      "  registration  the paper's Table 1: ct-FFD vs ICP on a dataset, with correspondence accuracy\n";
+      "  registration  the paper's Table 1: ct-FFD vs ICP on a dataset, with correspondence accuracy\n"
+      "  pose  training, per-subject set-up and per-pose time of the pose deformation\n";
   if (argc < 1 || std::string(argv[0]) == "--help" || std::string(argv[0]) == "-h") {
     std::cout << usage;
     return argc < 1 ? 2 : 0;
@@ -301,6 +385,7 @@ int run_bench(int argc, char** argv) {
   if (what == "io") return bench_io(argc - 1, argv + 1);
   if (what == "body") return bench_body(argc - 1, argv + 1);
   if (what == "registration") return bench_registration(argc - 1, argv + 1);
+  if (what == "pose") return bench_pose(argc - 1, argv + 1);
   throw UsageError("unknown benchmark '" + what + "'\n" + usage);
 }
 

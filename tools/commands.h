@@ -9,4 +9,8 @@ int run_body(int argc, char** argv);
 int run_dataset(int argc, char** argv);
 int run_measure(int argc, char** argv);
 int run_register(int argc, char** argv);
+int run_train(int argc, char** argv);
+int run_pose(int argc, char** argv);
+int run_segment(int argc, char** argv);
+int run_eval(int argc, char** argv);
 }  // namespace posekit::cli

@@ -21,6 +21,10 @@ const Command kCommands[] = {
     {"body", posekit::cli::run_body, "build a MakeHuman body from sliders, pose it, write it"},
     {"measure", posekit::cli::run_measure, "stature and girths of a standing body mesh or scan"},
     {"register", posekit::cli::run_register, "register a template to a body (ct-FFD or ICP) and match triangles"},
+    {"segment", posekit::cli::run_segment, "segment a body into 16 parts (Eq. 2) and embed the skeleton"},
+    {"train", posekit::cli::run_train, "learn the non-rigid pose deformation from a pose dataset (Eq. 3-5)"},
+    {"pose", posekit::cli::run_pose, "pose a customized body from joint angles or a BVH (Eq. 1, 5-6)"},
+    {"eval", posekit::cli::run_eval, "pose accuracy against ground truth (eval pose)"},
     {"dataset", posekit::cli::run_dataset, "generate the evaluation dataset, or check one"},
     {"bench", posekit::cli::run_bench, "benchmarks (io) with medians over several runs"},
 };

@@ -4,9 +4,11 @@
 #include <algorithm>
 #include <array>
 #include <cstdio>
+#include <filesystem>
 #include <nlohmann/json.hpp>
 #include <string>
 
+#include "posekit/io/bvh.h"
 #include "posekit/io/mesh_io.h"
 #include "testing/temp_dir.h"
 #include "testing/test_meshes.h"
@@ -32,7 +34,7 @@ CommandResult run(const std::string& args, bool merge_stderr = false) {
 }  // namespace
 
 TEST(Cli, EveryCommandHasHelp) {
-  for (const char* c : {"info", "convert", "bench", "body", "dataset"}) {
+  for (const char* c : {"info", "convert", "bench", "body", "dataset", "train", "pose", "segment", "register", "measure"}) {
     const CommandResult r = run(std::string(c) + " --help");
     EXPECT_EQ(r.code, 0) << c;
     EXPECT_NE(r.out.find("usage: posekit"), std::string::npos) << c;
@@ -146,4 +148,67 @@ TEST(Cli, DatasetMakeWritesAConsistentFolderAndRefusesToOverwrite) {
   EXPECT_EQ(run("dataset make --small").code, 2);  // --out missing
   EXPECT_EQ(run("dataset make --small --out " + dir.file("x") + " --data " + dir.path()).code, 1);
   EXPECT_EQ(dir.count(), 1);
+}
+
+TEST(Cli, TrainPoseSegmentAndEvalOnASmallDataset) {
+  ASSERT_FALSE(test::test_data_root().empty());
+  test::TempDir dir;
+  const std::string ds = dir.file("ds");
+  ASSERT_EQ(run("dataset make --small --out " + ds).code, 0);
+  CommandResult r = run("train --dataset " + ds + " --out " + dir.file("m.pkm") + " --json");
+  ASSERT_EQ(r.code, 0) << r.out;
+  EXPECT_GT(nlohmann::json::parse(r.out)["training_poses"].get<int>(), 10);
+
+  // A 16-part pose JSON.
+  const std::string subject = ds + "/subjects/f01/rest.ply";
+  r = run("pose --model " + dir.file("m.pkm") + " --subject " + subject + " --pose " + ds +
+          "/subjects/f01/posed/squat_half.json --out " + dir.file("squat.ply") + " --json");
+  ASSERT_EQ(r.code, 0) << r.out;
+  const TriangleMesh posed = read_mesh(dir.file("squat.ply"));
+  const TriangleMesh truth = read_mesh(ds + "/subjects/f01/posed/squat_half.ply");
+  ASSERT_EQ(posed.V.rows(), truth.V.rows());
+  EXPECT_LT((posed.V - truth.V).rowwise().norm().mean(), 0.012);
+  EXPECT_EQ(posed.vertex_scalars.count("part"), 1u);
+
+  // A BVH of three frames: three meshes.
+  BvhMotion motion = read_bvh(test::test_data_root() + "/poses/benchmark.bvh");
+  motion.frames = motion.frames.replicate(3, 1).eval();
+  write_bvh(dir.file("three.bvh"), motion);
+  r = run("pose --model " + dir.file("m.pkm") + " --subject " + subject + " --pose " + dir.file("three.bvh") +
+          " --out " + dir.file("walk.ply") + " --json");
+  ASSERT_EQ(r.code, 0) << r.out;
+  EXPECT_EQ(nlohmann::json::parse(r.out)["written"].size(), 3u);
+  for (const char* f : {"walk_0000.ply", "walk_0001.ply", "walk_0002.ply"}) EXPECT_EQ(read_mesh(dir.file(f)).V.rows(), posed.V.rows()) << f;
+
+  // Segment, with joints out.
+  r = run("segment " + subject + " --model " + dir.file("m.pkm") + " --out " + dir.file("parts.ply") + " --joints " +
+          dir.file("joints.json") + " --json");
+  ASSERT_EQ(r.code, 0) << r.out;
+  EXPECT_EQ(nlohmann::json::parse(r.out)["joints"].size(), 15u);
+  EXPECT_EQ(read_mesh(dir.file("parts.ply")).vertex_scalars.at("part").maxCoeff(), 15.0);
+
+  // Eval with the model: learned beats the baselines on the template.
+  r = run("eval pose --dataset " + ds + " --model " + dir.file("m.pkm") + " --json");
+  ASSERT_EQ(r.code, 0) << r.out;
+  const auto ev = nlohmann::json::parse(r.out);
+  EXPECT_LT(ev["template"][0]["all"]["mean_mm"].get<double>(), ev["template"][1]["all"]["mean_mm"].get<double>());
+  EXPECT_EQ(ev["subjects"].size(), 2u);
+
+  // Bad input: an unknown joint, degrees instead of radians, a model file that is not one.
+  dir.write("bad.json", R"({"joints": {"left_elbw": [0, 0, 1]}})");
+  r = run("pose --model " + dir.file("m.pkm") + " --subject " + subject + " --pose " + dir.file("bad.json") + " --out " +
+              dir.file("x.ply"), true);
+  EXPECT_EQ(r.code, 1);
+  EXPECT_NE(r.out.find("left_elbw"), std::string::npos) << r.out;
+  dir.write("deg.json", R"({"joints": {"left_elbow": [90, 0, 0]}})");
+  r = run("pose --model " + dir.file("m.pkm") + " --subject " + subject + " --pose " + dir.file("deg.json") + " --out " +
+              dir.file("x.ply"), true);
+  EXPECT_EQ(r.code, 1);
+  EXPECT_NE(r.out.find("left_elbow"), std::string::npos) << r.out;
+  r = run("pose --model " + subject + " --subject " + subject + " --pose " + dir.file("deg.json") + " --out " +
+              dir.file("x.ply"), true);
+  EXPECT_EQ(r.code, 1);
+  EXPECT_NE(r.out.find("POSEKPKM"), std::string::npos) << r.out;
+  EXPECT_FALSE(std::filesystem::exists(dir.file("x.ply")));
+  EXPECT_EQ(run("pose --model " + dir.file("m.pkm")).code, 2);
 }

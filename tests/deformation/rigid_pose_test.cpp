@@ -1,0 +1,106 @@
+#include "posekit/deformation/rigid_pose.h"
+
+#include <gtest/gtest.h>
+
+#include <Eigen/Geometry>
+#include <random>
+
+#include "posekit/core/error.h"
+#include "posekit/deformation/poisson_solver.h"
+#include "posekit/deformation/pose_model.h"
+#include "testing/makehuman_fixture.h"
+#include "testing/test_meshes.h"
+
+using namespace posekit;
+
+namespace {
+
+PartPose random_pose(std::mt19937& rng, double max_angle) {
+  std::uniform_real_distribution<double> u(-1, 1);
+  PartPose p;
+  for (auto& r : p.joint_rotation) r = Eigen::Vector3d(u(rng), u(rng), u(rng)).normalized() * max_angle * std::abs(u(rng));
+  p.root_rotation = Eigen::Vector3d(u(rng), u(rng), u(rng)) * 0.3;
+  return p;
+}
+
+}  // namespace
+
+TEST(RigidPose, ChildrenTurnWithTheirParentsAndJointsStayPut) {
+  Eigen::MatrixXd joints(kNumJoints, 3);
+  for (int j = 0; j < kNumJoints; ++j) joints.row(j) << 0.1 * j, 0.05 * j * j, -0.02 * j;
+  PartPose pose;
+  pose.joint_rotation[kLeftUpperArm - 1] = Eigen::Vector3d(0, 0, 0.7);  // left shoulder
+  pose.joint_rotation[kLeftForearm - 1] = Eigen::Vector3d(0.4, 0, 0);   // left elbow
+  const PartTransforms T = part_transforms(pose, joints);
+  EXPECT_TRUE(T.R[kChest].isIdentity(1e-12));
+  EXPECT_TRUE(T.R[kRightForearm].isIdentity(1e-12));
+  EXPECT_TRUE(T.R[kLeftHand].isApprox(T.R[kLeftForearm], 1e-12));
+  EXPECT_TRUE(T.R[kLeftForearm].isApprox(T.R[kLeftUpperArm] * rotation_from_axis_angle(Eigen::Vector3d(0.4, 0, 0)), 1e-12));
+  // A joint is where both of its parts take it.
+  for (int p = 1; p < kNumParts; ++p) {
+    const Eigen::Vector3d j = joints.row(p - 1).transpose();
+    const int q = part_parent(p);
+    EXPECT_LT((T.R[p] * j + T.t[p] - (T.R[q] * j + T.t[q])).norm(), 1e-12) << part_name(p);
+  }
+  PartPose bad;
+  bad.joint_rotation[3] = Eigen::Vector3d(std::nan(""), 0, 0);
+  EXPECT_THROW(validate_part_pose(bad, "test"), InvalidInput);
+  bad.joint_rotation[3] = Eigen::Vector3d(90, 0, 0);  // degrees by mistake
+  EXPECT_THROW(validate_part_pose(bad, "test"), InvalidInput);
+}
+
+TEST(RigidPose, PartPoseSurvivesTheRoundTripThroughTheRig) {
+  POSEKIT_REQUIRE_MAKEHUMAN();
+  std::mt19937 rng(3);
+  for (int trial = 0; trial < 5; ++trial) {
+    const PartPose pose = random_pose(rng, 1.2);
+    const PartPose back = part_pose_from_bone_pose(model.rig, bone_pose_from_part_pose(model.rig, pose));
+    for (int j = 0; j < kNumJoints; ++j)
+      EXPECT_TRUE(rotation_from_axis_angle(back.joint_rotation[j]).isApprox(rotation_from_axis_angle(pose.joint_rotation[j]), 1e-9))
+          << joint_name(j);
+    EXPECT_TRUE(rotation_from_axis_angle(back.root_rotation).isApprox(rotation_from_axis_angle(pose.root_rotation), 1e-9));
+  }
+}
+
+TEST(DeformationGradient, IsTheRotationOfARotatedMesh) {
+  const TriangleMesh s = test::icosphere(2);
+  const Eigen::Matrix3d R = rotation_from_axis_angle(Eigen::Vector3d(0.3, -0.5, 0.8));
+  const Eigen::MatrixXd moved = (s.V * R.transpose()).rowwise() + Eigen::RowVector3d(1, 2, 3);
+  const Eigen::MatrixXd D = deformation_gradients(s.V, moved, s.F);
+  for (Eigen::Index k = 0; k < D.rows(); ++k)
+    for (int e = 0; e < 9; ++e) ASSERT_NEAR(D(k, e), R(e / 3, e % 3), 1e-9);
+  // A stretch along x: the triangles' gradients stretch along x too (up to the normal direction).
+  Eigen::MatrixXd stretched = s.V;
+  stretched.col(0) *= 1.5;
+  const Eigen::MatrixXd S = deformation_gradients(s.V, stretched, s.F);
+  for (Eigen::Index k = 0; k < S.rows(); ++k) {
+    Eigen::Matrix3d G;
+    G << S(k, 0), S(k, 1), S(k, 2), S(k, 3), S(k, 4), S(k, 5), S(k, 6), S(k, 7), S(k, 8);
+    const Eigen::Vector3d e1 = (s.V.row(s.F(k, 1)) - s.V.row(s.F(k, 0))).transpose();
+    EXPECT_LT((G * e1 - Eigen::Vector3d(1.5 * e1.x(), e1.y(), e1.z())).norm(), 1e-9);
+  }
+}
+
+TEST(PoissonSolver, RecoversARigidMotionAndPlacesTheAnchor) {
+  const TriangleMesh s = test::icosphere(3);
+  const PoissonSolver solver(s.V, s.F);
+  const Eigen::Matrix3d R = rotation_from_axis_angle(Eigen::Vector3d(0.2, 0.9, -0.4));
+  Eigen::MatrixXd T(s.F.rows(), 9);
+  for (Eigen::Index k = 0; k < T.rows(); ++k)
+    for (int e = 0; e < 9; ++e) T(k, e) = R(e / 3, e % 3);
+  const Eigen::Vector3d t(0.5, -1, 2);
+  const Eigen::MatrixXd X = solver.solve(T, Eigen::VectorXd::Ones(s.F.rows()), R, t);
+  const Eigen::MatrixXd expected = (s.V * R.transpose()).rowwise() + t.transpose();
+  EXPECT_LT((X - expected).rowwise().norm().maxCoeff(), 1e-9);
+  // With soft position constraints the same motion is reproduced from targets alone.
+  const PoissonSolver anchored(s.V, s.F, Eigen::VectorXd::Constant(s.V.rows(), 0.01));
+  EXPECT_LT((anchored.solve(T, expected) - expected).rowwise().norm().maxCoeff(), 1e-9);
+  // Two separate spheres cannot be posed as one body.
+  TriangleMesh two = s;
+  two.V.conservativeResize(2 * s.V.rows(), 3);
+  two.V.bottomRows(s.V.rows()) = s.V.rowwise() + Eigen::RowVector3d(3, 0, 0);
+  two.F.conservativeResize(2 * s.F.rows(), 3);
+  two.F.bottomRows(s.F.rows()) = s.F.array() + static_cast<int>(s.V.rows());
+  EXPECT_THROW(PoissonSolver(two.V, two.F), InvalidInput);
+  EXPECT_THROW(solver.solve(Eigen::MatrixXd::Zero(3, 9), Eigen::VectorXd::Ones(s.F.rows()), R, t), InvalidInput);
+}

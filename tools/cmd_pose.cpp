@@ -1,0 +1,321 @@
+// posekit train / pose / segment / eval: the pose deformation pipeline of section 3.3.
+#include <chrono>
+#include <filesystem>
+#include <sstream>
+#include <iomanip>
+#include <iostream>
+#include <memory>
+#include <nlohmann/json.hpp>
+
+#include "cli.h"
+#include "commands.h"
+#include "posekit/body/makehuman_model.h"
+#include "posekit/body/parts.h"
+#include "posekit/core/data_root.h"
+#include "posekit/core/error.h"
+#include "posekit/deformation/pose_model.h"
+#include "posekit/deformation/pose_synthesis.h"
+#include "posekit/deformation/rigid_pose.h"
+#include "posekit/evaluation/pose_evaluation.h"
+#include "posekit/io/bvh.h"
+#include "posekit/io/atomic_file.h"
+#include "posekit/io/mesh_io.h"
+#include "posekit/core/mesh_geometry.h"
+#include "posekit/core/mesh_validation.h"
+#include "posekit/segmentation/segmentation.h"
+#include "posekit/segmentation/skeleton_embedding.h"
+#include "posekit/shape/body_features.h"
+#include "posekit/shape/layered_representation.h"
+
+namespace fs = std::filesystem;
+
+namespace posekit::cli {
+namespace {
+
+double seconds_since(std::chrono::steady_clock::time_point t0) {
+  return std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+}
+
+/// Subject meshes for posing must be closed bodies in one piece: say so before any work.
+void check_subject(const TriangleMesh& mesh, const std::string& path) {
+  const MeshReport r = validate_mesh(mesh);
+  if (r.components != 1)
+    throw InvalidInput(path + ": the subject mesh has " + std::to_string(r.components) +
+                       " connected components; posing needs one connected body");
+  if (r.boundary_loops > 0)
+    std::cerr << "posekit: warning: " << path << " has " << r.boundary_loops
+              << " holes; segmentation and posing proceed, features near the holes may be off\n";
+}
+
+nlohmann::ordered_json stats_json(const ErrorStats& s) {
+  return {{"mean_mm", s.mean_mm}, {"p95_mm", s.p95_mm}, {"max_mm", s.max_mm}, {"vertices", s.count}};
+}
+
+}  // namespace
+
+int run_train(int argc, char** argv) {
+  ArgParser args("train",
+                 "Learns the non-rigid pose deformation T^Q (Eq. 3-5): for every template triangle a 9 x 7 linear\n"
+                 "model on the twists of the two joints next to its part, from the training split of a registered\n"
+                 "pose dataset. Template labels and joints come from the dataset (template/parts.json, joints.json)\n"
+                 "or, when absent, from the template's own segmentation (Eq. 2).");
+  args.option("dataset", "DIR", "a posekit dataset, or a folder of registered meshes with same-named .json poses")
+      .option("out", "FILE", "model file to write (.pkm)", "model.pkm")
+      .flag("json", "summary as JSON on stdout")
+      .example("posekit train --dataset out/dataset --out model.pkm");
+  if (!args.parse(argc, argv)) return 0;
+  if (!args.has("dataset")) throw UsageError("--dataset DIR is required");
+  Progress progress("train", 100);
+  TrainingOptions o;
+  o.progress = [&](int done, int total) { progress.update(100L * done / std::max(total, 1)); };
+  const auto t0 = std::chrono::steady_clock::now();
+  const PoseModel model = train_on_dataset(args.get("dataset"), o);
+  const double seconds = seconds_since(t0);
+  progress.finish();
+  write_pose_model(args.get("out"), model);
+  nlohmann::ordered_json s = {{"model", args.get("out")}, {"training_poses", model.training_poses},
+                              {"template_vertices", model.template_V.rows()}, {"template_triangles", model.template_F.rows()},
+                              {"fit_rms", model.fit_rms}, {"seconds", seconds}, {"peak_rss_mib", peak_rss_mib()}};
+  if (args.flag_set("json")) {
+    print_json(s);
+    return 0;
+  }
+  std::cout << "trained on " << model.training_poses << " poses of a " << model.template_V.rows() << "-vertex template in "
+            << std::fixed << std::setprecision(2) << seconds << " s (RMS residual of Eq. 5: " << std::setprecision(4)
+            << model.fit_rms << "); wrote " << args.get("out") << "\n";
+  return 0;
+}
+
+int run_pose(int argc, char** argv) {
+  ArgParser args("pose",
+                 "Poses a customized body (any topology) with a trained model (section 3.3.3): its own\n"
+                 "segmentation and skeleton give the rigid part rotations T^R, the template's learned T^Q is\n"
+                 "carried over by the ct-FFD correspondence, and one prefactorised solve per pose gives the mesh.\n"
+                 "A pose is a 16-part pose JSON or a BVH of the MakeHuman skeleton (one mesh per frame).");
+  args.option("model", "FILE", "trained model (.pkm, posekit train)")
+      .option("subject", "FILE", "the body to pose (PLY/OBJ/OFF/STL), standing, Y up")
+      .option("pose", "FILE", "pose.json (16-part pose) or motion.bvh")
+      .option("out", "FILE", "posed mesh; several BVH frames go to <stem>_0000<ext>, <stem>_0001<ext>, ...")
+      .option("method", "M", "learned (the paper's), rigid (parts only) or lbs (16-part skinning)", "learned")
+      .option("unit", "U", "unit of the subject mesh", "m")
+      .option("frames", "A:B", "BVH frames A to B-1 (default: all)")
+      .option("data", "DIR", "MakeHuman data root, for the BVH skeleton (default: POSEKIT_DATA or ../shared/...)")
+      .flag("json", "summary as JSON on stdout")
+      .example("posekit pose --model model.pkm --subject out/dataset/subjects/f01/rest.ply --pose out/dataset/subjects/f01/posed/squat_half.json --out posed.ply");
+  if (!args.parse(argc, argv)) return 0;
+  for (const char* required : {"model", "subject", "pose", "out"})
+    if (!args.has(required)) throw UsageError(std::string("--") + required + " is required");
+  const PoseMethod method = parse_pose_method(args.get("method"));
+  const auto model = std::make_shared<const PoseModel>(read_pose_model(args.get("model")));
+  const TriangleMesh subject = read_mesh(args.get("subject"), {parse_unit(args.get("unit"))});
+  check_subject(subject, args.get("subject"));
+  std::vector<PartPose> poses;
+  const std::string pose_path = args.get("pose");
+  const bool bvh = fs::path(pose_path).extension() == ".bvh" || fs::path(pose_path).extension() == ".BVH";
+  if (bvh) {
+    const BvhMotion motion = read_bvh(pose_path);
+    const auto mh = load_makehuman_model(find_data_root(args.get("data")));
+    long first = 0, last = motion.frames.rows();
+    if (args.has("frames")) {
+      const std::string f = args.get("frames");
+      const auto colon = f.find(':');
+      try {
+        if (colon == std::string::npos) throw std::invalid_argument(f);
+        first = std::stol(f.substr(0, colon));
+        last = std::stol(f.substr(colon + 1));
+      } catch (const std::exception&) {
+        throw UsageError("--frames expects A:B, got '" + f + "'");
+      }
+      if (first < 0 || last > motion.frames.rows() || first >= last)
+        throw UsageError("--frames " + f + " is outside the " + std::to_string(motion.frames.rows()) + " frames of " + pose_path);
+    }
+    for (long i = first; i < last; ++i)
+      poses.push_back(part_pose_from_bone_pose(mh->rig, bone_pose_from_bvh(mh->rig, motion, static_cast<int>(i))));
+  } else {
+    poses.push_back(read_part_pose(pose_path));
+  }
+  const auto t0 = std::chrono::steady_clock::now();
+  const PoseSynthesizer synth(model, subject);
+  const double setup = seconds_since(t0);
+  Progress progress("pose", static_cast<long>(poses.size()));
+  double pose_seconds = 0;
+  std::vector<std::string> written;
+  const fs::path out = args.get("out");
+  for (size_t i = 0; i < poses.size(); ++i) {
+    const auto t1 = std::chrono::steady_clock::now();
+    TriangleMesh posed;
+    posed.V = synth.pose(poses[i], method);
+    pose_seconds += seconds_since(t1);
+    posed.F = subject.F;
+    posed.vertex_scalars["part"] = vertex_labels_from_triangles(subject.V, subject.F, synth.info().triangle_part).cast<double>();
+    std::string path = out.string();
+    if (poses.size() > 1) {
+      std::ostringstream name;
+      name << out.stem().string() << "_" << std::setw(4) << std::setfill('0') << i << out.extension().string();
+      path = (out.parent_path() / name.str()).string();
+    }
+    write_mesh(path, posed, {parse_unit(args.get("unit"))});
+    written.push_back(path);
+    progress.update(static_cast<long>(i + 1));
+  }
+  progress.finish();
+  nlohmann::ordered_json s = {{"subject", args.get("subject")}, {"method", pose_method_name(method)},
+                              {"poses", poses.size()}, {"setup_seconds", setup},
+                              {"pose_ms_mean", 1000 * pose_seconds / static_cast<double>(poses.size())},
+                              {"normal_failures", synth.info().normal_failures}, {"written", written}};
+  if (args.flag_set("json")) {
+    print_json(s);
+    return 0;
+  }
+  std::cout << "posed " << args.get("subject") << " (" << subject.num_vertices() << " vertices) in " << poses.size()
+            << (poses.size() == 1 ? " pose" : " poses") << " by the " << pose_method_name(method) << " method: set-up "
+            << std::fixed << std::setprecision(3) << setup << " s, " << std::setprecision(2)
+            << 1000 * pose_seconds / static_cast<double>(poses.size()) << " ms per pose; wrote " << written.front()
+            << (written.size() > 1 ? " ..." : "") << "\n";
+  return 0;
+}
+
+int run_segment(int argc, char** argv) {
+  ArgParser args("segment",
+                 "Segments a standing body mesh into the 16 rigid parts (Eq. 2a-2c) and embeds the 15-joint\n"
+                 "skeleton. With --model, the representation's labels and the skeleton come from the model's\n"
+                 "template (recommended); without, from the representation's own layer labels and part borders.");
+  args.positional("mesh", "body mesh (PLY/OBJ/OFF/STL)")
+      .option("model", "FILE", "trained model (.pkm) whose template labels the representation")
+      .option("unit", "U", "unit of the mesh", "m")
+      .option("out", "FILE", "mesh with vertex scalar 'part' (0..15); PLY keeps it for other tools")
+      .option("joints", "FILE", "write the joint centres as JSON")
+      .flag("json", "summary as JSON on stdout")
+      .example("posekit segment out/dataset/subjects/m01/rest.ply --model model.pkm --out m01_parts.ply");
+  if (!args.parse(argc, argv)) return 0;
+  const TriangleMesh mesh = read_mesh(args.positionals()[0], {parse_unit(args.get("unit"))});
+  require_usable_mesh(mesh, args.positionals()[0]);
+  const auto t0 = std::chrono::steady_clock::now();
+  const LayeredRepresentation rep = build_layered_representation(mesh.V, mesh.F, find_body_features(mesh.V, mesh.F));
+  Segmentation seg;
+  Eigen::MatrixXd joints;
+  if (args.has("model")) {
+    const PoseModel model = read_pose_model(args.get("model"));
+    const LayeredRepresentation trep = build_layered_representation(
+        model.template_V, model.template_F, find_body_features(model.template_V, model.template_F));
+    seg = segment_body(mesh.V, mesh.F, rep,
+                       representation_labels_from_body(model.template_V, model.template_F, model.triangle_part, trep));
+    joints = embed_skeleton(make_skeleton_prior(model.joint_centres, trep), rep);
+  } else {
+    seg = segment_body(mesh.V, mesh.F, rep);
+    joints = joint_centres_from_segmentation(mesh.V, mesh.F, seg.triangle_part);
+  }
+  const double seconds = seconds_since(t0);
+  if (args.has("out")) {
+    TriangleMesh labelled = mesh;
+    labelled.vertex_scalars["part"] = seg.vertex_part.cast<double>();
+    write_mesh(args.get("out"), labelled, {parse_unit(args.get("unit"))});
+  }
+  nlohmann::ordered_json jj;
+  jj["units"] = "m";
+  for (int j = 0; j < kNumJoints; ++j) jj["joints"][joint_name(j)] = {joints(j, 0), joints(j, 1), joints(j, 2)};
+  if (args.has("joints")) {
+    const std::string text = jj.dump(2) + "\n";
+    write_file_atomically(args.get("joints"), [&](std::ostream& o) { o << text; }, false);
+  }
+  const Eigen::VectorXd area = face_areas(mesh.V, mesh.F);
+  nlohmann::ordered_json parts;
+  for (int p = 0; p < kNumParts; ++p) {
+    double a = 0;
+    for (Eigen::Index f = 0; f < mesh.F.rows(); ++f)
+      if (seg.triangle_part[f] == p) a += area[f];
+    parts[part_name(p)] = {{"area_m2", a}};
+  }
+  nlohmann::ordered_json s = {{"mesh", args.positionals()[0]}, {"seconds", seconds},
+                              {"normal_failures", seg.normal_failures}, {"relabelled_by_cleanup", seg.relabelled},
+                              {"parts", parts}, {"joints", jj["joints"]}};
+  if (args.flag_set("json")) {
+    print_json(s);
+    return 0;
+  }
+  std::cout << "segmented " << args.positionals()[0] << " into 16 parts in " << std::fixed << std::setprecision(3) << seconds
+            << " s (" << seg.normal_failures << " triangles without a representation triangle facing the same way, "
+            << seg.relabelled << " moved by the clean-up)\n";
+  for (int j = 0; j < kNumJoints; ++j)
+    std::cout << "  " << std::left << std::setw(16) << joint_name(j) << std::right << std::setprecision(3) << joints(j, 0)
+              << " " << joints(j, 1) << " " << joints(j, 2) << " m\n";
+  return 0;
+}
+
+int run_eval(int argc, char** argv) {
+  if (argc < 1 || std::string(argv[0]) != "pose") {
+    std::cout << "usage: posekit eval pose --dataset DIR [--model FILE] [--json]\n";
+    return argc >= 1 && (std::string(argv[0]) == "--help" || std::string(argv[0]) == "-h") ? 0 : 2;
+  }
+  ArgParser args("eval pose",
+                 "Pose accuracy against ground truth: (a) the template in the held-out poses of the pose dataset,\n"
+                 "(b) each customized subject in its ground-truth posed meshes; per method (learned = the paper's\n"
+                 "T^R T^Q, rigid = parts only, lbs = 16-part skinning) mean, 95th percentile and max per-vertex\n"
+                 "error in mm, overall and per part. Also segmentation agreement and joint error per subject.");
+  args.option("dataset", "DIR", "a posekit dataset")
+      .option("model", "FILE", "trained model (default: train on the dataset's training split first)")
+      .flag("json", "results as JSON on stdout");
+  if (!args.parse(argc - 1, argv + 1)) return 0;
+  if (!args.has("dataset")) throw UsageError("--dataset DIR is required");
+  const std::string dir = args.get("dataset");
+  auto t0 = std::chrono::steady_clock::now();
+  const auto model = std::make_shared<const PoseModel>(args.has("model") ? read_pose_model(args.get("model"))
+                                                                          : train_on_dataset(dir));
+  const double train_seconds = seconds_since(t0);
+  PoseEvaluationOptions o;
+  std::unique_ptr<Progress> progress;
+  o.progress = [&](int done, int total, const std::string&) {
+    if (!progress) progress = std::make_unique<Progress>("eval pose", total);
+    progress->update(done);
+  };
+  const PoseEvaluation ev = evaluate_poses(dir, model, o);
+  if (progress) progress->finish();
+  auto methods_json = [](const std::vector<MethodErrors>& ms) {
+    nlohmann::ordered_json a = nlohmann::ordered_json::array();
+    for (const auto& m : ms) {
+      nlohmann::ordered_json parts;
+      for (int p = 0; p < kNumParts; ++p) parts[part_name(p)] = stats_json(m.per_part[static_cast<size_t>(p)]);
+      a.push_back({{"method", pose_method_name(m.method)}, {"all", stats_json(m.all)}, {"per_part", parts}});
+    }
+    return a;
+  };
+  nlohmann::ordered_json subjects = nlohmann::ordered_json::array();
+  for (const auto& s : ev.subjects)
+    subjects.push_back({{"id", s.id}, {"setup_seconds", s.setup_seconds}, {"segmentation_agreement", s.segmentation_agreement},
+                        {"joint_error_mean_mm", s.joint_error_mean_mm}, {"joint_error_max_mm", s.joint_error_max_mm},
+                        {"methods", methods_json(s.methods)}});
+  nlohmann::ordered_json out = {{"dataset", dir}, {"units", "mm"}, {"model_seconds", train_seconds},
+                                {"template_test_poses", ev.test_poses}, {"template", methods_json(ev.template_errors)},
+                                {"subjects_pooled", methods_json(ev.subject_errors)}, {"subjects", subjects},
+                                {"pose_ms_median", ev.pose_ms_median}, {"peak_rss_mib", peak_rss_mib()}};
+  if (args.flag_set("json")) {
+    print_json(out);
+    return 0;
+  }
+  std::cout << std::fixed << std::setprecision(2);
+  auto table = [](const std::vector<MethodErrors>& ms) {
+    std::cout << "| method | mean mm | 95th pct mm | max mm |\n|---|---|---|---|\n";
+    for (const auto& m : ms)
+      std::cout << "| " << pose_method_name(m.method) << " | " << m.all.mean_mm << " | " << m.all.p95_mm << " | "
+                << m.all.max_mm << " |\n";
+  };
+  std::cout << "(a) template, " << ev.test_poses << " held-out poses\n\n";
+  table(ev.template_errors);
+  std::cout << "\n(b) " << ev.subjects.size() << " customized subjects, their ground-truth posed meshes\n\n";
+  table(ev.subject_errors);
+  std::cout << "\n| subject | segmentation agreement % | joint error mean / max mm |";
+  for (const auto& m : ev.subject_errors) std::cout << " " << pose_method_name(m.method) << " mean mm |";
+  std::cout << "\n|---|---|---|";
+  for (size_t m = 0; m < ev.subject_errors.size(); ++m) std::cout << "---|";
+  std::cout << "\n";
+  for (const auto& s : ev.subjects) {
+    std::cout << "| " << s.id << " | " << std::setprecision(1) << 100 * s.segmentation_agreement << " | "
+              << s.joint_error_mean_mm << " / " << s.joint_error_max_mm << " |";
+    for (const auto& m : s.methods) std::cout << " " << std::setprecision(2) << m.all.mean_mm << " |";
+    std::cout << "\n";
+  }
+  std::cout << "\nmedian time per pose (learned): " << ev.pose_ms_median << " ms\n";
+  return 0;
+}
+
+}  // namespace posekit::cli
