@@ -27,4 +27,14 @@ echo "== ct-FFD registration of the template to a subject, and the paper's Table
 "$posekit" register "$out/dataset/template/rest.ply" "$out/dataset/subjects/f01/rest.ply" \
   --out "$out/f01_correspondence.json" --deformed "$out/template_on_f01.ply"
 "$posekit" bench registration --dataset "$out/dataset" --runs 3
+echo "== pose deformation: learn T^Q on the pose dataset, pose a customized subject, accuracy and speed"
+"$posekit" train --dataset "$out/dataset" --out "$out/model.pkm"
+"$posekit" segment "$out/dataset/subjects/m05/rest.ply" --model "$out/model.pkm" --out "$out/m05_parts.ply" \
+  --joints "$out/m05_joints.json"
+"$posekit" pose --model "$out/model.pkm" --subject "$out/dataset/subjects/m05/rest.ply" \
+  --pose "$out/dataset/subjects/m05/posed/squat_half.json" --out "$out/m05_squat_half.ply"
+"$posekit" pose --model "$out/model.pkm" --subject "$out/subject_rest.ply" --pose "$data/poses/benchmark.bvh" \
+  --out "$out/subject_benchmark_learned.ply"
+"$posekit" eval pose --dataset "$out/dataset" --model "$out/model.pkm"
+"$posekit" bench pose --dataset "$out/dataset" --runs 3 --poses 20
 echo "== results in $out/ (PLY files open in MeshLab, CloudCompare, ParaView; scans are PCD in mm)"
