@@ -4,6 +4,7 @@
 #include <chrono>
 #include <algorithm>
 #include <cmath>
+#include <random>
 #include <filesystem>
 #include <iomanip>
 #include <iostream>
@@ -22,6 +23,8 @@
 #include "posekit/io/atomic_file.h"
 #include "posekit/deformation/pose_synthesis.h"
 #include "posekit/evaluation/pose_evaluation.h"
+#include "posekit/evaluation/registration_table.h"
+#include "posekit/evaluation/scan_comparison.h"
 #include "posekit/registration/registration.h"
 #include "posekit/io/mesh_io.h"
 #include "posekit/io/point_cloud_io.h"
@@ -183,21 +186,6 @@ int bench_body(int argc, char** argv) {
   return 0;
 }
 
-/// Distances (mm) on the template between each target triangle's matched source centroid and its
-/// true corresponding point (the centroid of its vertices' ground-truth template points).
-std::pair<double, double> correspondence_error_mm(const TriangleMesh& templ, const TriangleMesh& subject,
-                                                  const SurfacePoints& truth, const Eigen::VectorXi& match) {
-  const Eigen::MatrixXd true_points = face_centroids(evaluate_surface_points(templ.V, templ.F, truth), subject.F);
-  const Eigen::MatrixXd source_centroids = face_centroids(templ.V, templ.F);
-  std::vector<double> d(static_cast<size_t>(match.size()));
-  for (Eigen::Index k = 0; k < match.size(); ++k) d[k] = 1000 * (source_centroids.row(match[k]) - true_points.row(k)).norm();
-  double mean = 0;
-  for (double x : d) mean += x;
-  mean /= static_cast<double>(d.size());
-  std::sort(d.begin(), d.end());
-  return {mean, d[static_cast<size_t>(0.95 * static_cast<double>(d.size() - 1))]};
-}
-
 int bench_registration(int argc, char** argv) {
   ArgParser args("bench registration",
                  "The paper's Table 1 on this machine: the template registered to every subject of a dataset by\n"
@@ -215,68 +203,36 @@ int bench_registration(int argc, char** argv) {
   const std::string dir = args.get("dataset");
   const int runs = static_cast<int>(args.get_int("runs"));
   if (runs < 1) throw UsageError("--runs must be at least 1");
-  const auto manifest = nlohmann::json::parse(read_file_bytes(dir + "/manifest.json"));
-  const TriangleMesh templ = read_mesh(dir + "/" + manifest["template"]["mesh"].get<std::string>());
-  struct Method {
-    std::string name;
-    RegistrationOptions options;
-  };
-  std::vector<Method> methods(4);
-  methods[0].name = "ct-FFD";
-  methods[1].name = "ICP (1 iteration)";
-  methods[1].options.method = RegistrationMethod::kIcp;
-  methods[1].options.icp_iterations = 1;
-  methods[2].name = "ICP (6 iterations)";
-  methods[2].options.method = RegistrationMethod::kIcp;
-  methods[2].options.icp_iterations = 6;
-  methods[3].name = "non-rigid ICP (optimal step)";
-  methods[3].options.method = RegistrationMethod::kNicp;
   const int nicp_runs = static_cast<int>(args.get_int("nicp-runs"));
   if (nicp_runs < 1) throw UsageError("--nicp-runs must be at least 1");
-  std::vector<std::vector<double>> seconds(methods.size()), mean(methods.size()), p95(methods.size());
-  long subject_vertices = 0, subject_triangles = 0;
-  int count = 0;
-  const int limit = static_cast<int>(args.get_int("subjects"));
-  const int total = limit > 0 ? std::min<int>(limit, static_cast<int>(manifest["subjects"].size())) : static_cast<int>(manifest["subjects"].size());
-  Progress progress("bench registration", total * static_cast<int>(methods.size()));
-  for (const auto& s : manifest["subjects"]) {
-    if (count >= total) break;
-    const TriangleMesh subject = read_mesh(dir + "/" + s["rest"].get<std::string>());
-    const SurfacePoints truth = load_correspondence(dir + "/" + s["correspondence"].get<std::string>());
-    subject_vertices += subject.num_vertices();
-    subject_triangles += subject.num_faces();
-    for (size_t m = 0; m < methods.size(); ++m) {
-      RegistrationResult r;
-      for (int k = 0; k < (methods[m].options.method == RegistrationMethod::kNicp ? nicp_runs : runs); ++k) {
-        r = register_bodies(templ, subject, methods[m].options);
-        seconds[m].push_back(r.seconds);
-      }
-      const auto [e_mean, e_p95] = correspondence_error_mm(templ, subject, truth, r.correspondence);
-      mean[m].push_back(e_mean);
-      p95[m].push_back(e_p95);
-      progress.update(count * static_cast<int>(methods.size()) + static_cast<int>(m) + 1);
-    }
-    ++count;
-  }
-  progress.finish();
-  auto average = [](const std::vector<double>& v) { double a = 0; for (double x : v) a += x; return a / std::max<size_t>(1, v.size()); };
+  RegistrationTableOptions o;
+  o.runs = runs;
+  o.nicp_runs = nicp_runs;
+  o.subjects = static_cast<int>(args.get_int("subjects"));
+  std::unique_ptr<Progress> progress;
+  o.progress = [&](int done, int total) {
+    if (!progress) progress = std::make_unique<Progress>("bench registration", total);
+    progress->update(done);
+  };
+  const RegistrationTable table = measure_registration_table(dir, o);
+  if (progress) progress->finish();
+  const int count = static_cast<int>(table.subject_ids.size());
   nlohmann::ordered_json rows = nlohmann::ordered_json::array();
-  for (size_t m = 0; m < methods.size(); ++m) {
-    const Stats t = stats_of(seconds[m]);
-    rows.push_back({{"method", methods[m].name}, {"median_s", t.median}, {"min_s", t.min}, {"max_s", t.max},
-                    {"mean_error_mm", average(mean[m])}, {"p95_error_mm", average(p95[m])},
-                    {"worst_subject_mean_error_mm", *std::max_element(mean[m].begin(), mean[m].end())}});
-  }
+  for (const auto& row : table.rows)
+    rows.push_back({{"method", row.method}, {"median_s", row.median_s}, {"min_s", row.min_s}, {"max_s", row.max_s},
+                    {"mean_error_mm", row.mean_error_mm}, {"p95_error_mm", row.p95_error_mm},
+                    {"worst_subject_mean_error_mm", row.worst_subject_mean_error_mm},
+                    {"subject_mean_error_mm", row.subject_mean_error_mm}});
   nlohmann::ordered_json out = {{"benchmark", "registration"}, {"subjects", count}, {"runs", runs},
-                                {"template_vertices", templ.num_vertices()}, {"template_triangles", templ.num_faces()},
-                                {"mean_subject_vertices", subject_vertices / std::max(1, count)},
-                                {"mean_subject_triangles", subject_triangles / std::max(1, count)},
+                                {"template_vertices", table.template_vertices}, {"template_triangles", table.template_triangles},
+                                {"mean_subject_vertices", table.mean_subject_vertices},
+                                {"mean_subject_triangles", table.mean_subject_triangles}, {"subject_ids", table.subject_ids},
                                 {"results", rows}, {"peak_rss_mib", peak_rss_mib()}};
   if (args.flag_set("json")) {
     print_json(out);
     return 0;
   }
-  std::cout << "Registration of the template (" << templ.num_vertices() << " vertices) to " << count << " subjects (~"
+  std::cout << "Registration of the template (" << table.template_vertices << " vertices) to " << count << " subjects (~"
             << out["mean_subject_vertices"] << " vertices, ~" << out["mean_subject_triangles"] << " triangles), " << runs
             << " runs each (non-rigid ICP " << nicp_runs << "), single thread\n\n| method | median s | min s | max s | mean error mm | 95th pct mm |\n|---|---|---|---|---|---|\n"
             << std::fixed;
@@ -369,6 +325,70 @@ int bench_pose(int argc, char** argv) {
   return 0;
 }
 
+int bench_compare(int argc, char** argv) {
+  ArgParser args("bench compare",
+                 "Times posekit compare: a MakeHuman body (26,756 triangles) against a synthetic scan of N points\n"
+                 "sampled uniformly on it with Gaussian noise (both directions, coverage, statistics).");
+  args.option("data", "DIR", "MakeHuman data root")
+      .option("points", "N", "scan points", "1000000")
+      .option("threads", "T", "threads (0: all cores)", "0")
+      .option("runs", "R", "timed runs (median reported)", "5")
+      .flag("json", "machine-readable results on stdout");
+  if (!args.parse(argc, argv)) return 0;
+  const int runs = static_cast<int>(args.get_int("runs"));
+  const long n = args.get_int("points");
+  if (runs < 1 || n < 1) throw UsageError("--runs and --points must be at least 1");
+  const auto model = load_makehuman_model(find_data_root(args.get("data")));
+  const Body body = build_body(*model, BodySpec{});
+  // Uniform samples by area, with 1.5 mm noise along the normal.
+  const Eigen::VectorXd area = face_areas(body.mesh.V, body.mesh.F);
+  const Eigen::MatrixXd normals = face_normals(body.mesh.V, body.mesh.F);
+  std::vector<double> cdf(static_cast<size_t>(area.size()));
+  double acc = 0;
+  for (Eigen::Index f = 0; f < area.size(); ++f) cdf[static_cast<size_t>(f)] = acc += area[f];
+  std::mt19937_64 rng(7);
+  std::uniform_real_distribution<double> u(0, 1);
+  std::normal_distribution<double> noise(0, 0.0015);
+  PointCloud scan;
+  scan.P.resize(n, 3);
+  for (long i = 0; i < n; ++i) {
+    const size_t f = std::min(cdf.size() - 1, static_cast<size_t>(std::lower_bound(cdf.begin(), cdf.end(), u(rng) * acc) - cdf.begin()));
+    double a = u(rng), b = u(rng);
+    if (a + b > 1) a = 1 - a, b = 1 - b;
+    const auto F = body.mesh.F.row(static_cast<Eigen::Index>(f));
+    scan.P.row(i) = (1 - a - b) * body.mesh.V.row(F[0]) + a * body.mesh.V.row(F[1]) + b * body.mesh.V.row(F[2]) +
+                    noise(rng) * normals.row(static_cast<Eigen::Index>(f));
+  }
+  ScanComparisonOptions o;
+  o.threads = static_cast<int>(args.get_int("threads"));
+  std::vector<double> seconds;
+  ScanComparison r;
+  Progress progress("bench compare", runs);
+  for (int k = 0; k < runs; ++k) {
+    const auto t0 = Clock::now();
+    r = compare_with_scan(body.mesh, scan, o);
+    seconds.push_back(std::chrono::duration<double>(Clock::now() - t0).count());
+    progress.update(k + 1);
+  }
+  progress.finish();
+  const Stats t = stats_of(seconds);
+  nlohmann::ordered_json out = {{"benchmark", "compare"}, {"model_triangles", body.mesh.F.rows()}, {"scan_points", n},
+                                {"threads", o.threads}, {"runs", runs}, {"median_s", t.median}, {"min_s", t.min},
+                                {"max_s", t.max}, {"scan_to_model_mean_mm", r.scan_stats.mean_mm},
+                                {"scan_to_model_rms_mm", r.scan_stats.rms_mm}, {"coverage", r.coverage},
+                                {"peak_rss_mib", peak_rss_mib()}};
+  if (args.flag_set("json")) {
+    print_json(out);
+    return 0;
+  }
+  std::cout << std::fixed << std::setprecision(3) << "compare: " << n << " scan points against " << body.mesh.F.rows()
+            << " triangles, threads " << (o.threads > 0 ? std::to_string(o.threads) : std::string("all")) << ": median "
+            << t.median << " s (min " << t.min << ", max " << t.max << ") over " << runs << " runs; RMS "
+            << std::setprecision(2) << r.scan_stats.rms_mm << " mm (noise sigma 1.5 mm); peak RSS " << std::setprecision(0)
+            << peak_rss_mib() << " MiB\n";
+  return 0;
+}
+
 }  // namespace
 
 int run_bench(int argc, char** argv) {
@@ -376,7 +396,8 @@ int run_bench(int argc, char** argv) {
       "usage: posekit bench <what> [options]\n\nbenchmarks:\n  io    reading 1M-triangle meshes and 1M-point clouds\n"
       "  body  building and posing a MakeHuman body\n"
       "  registration  the paper's Table 1: ct-FFD vs ICP on a dataset, with correspondence accuracy\n"
-      "  pose  training, per-subject set-up and per-pose time of the pose deformation\n";
+      "  pose  training, per-subject set-up and per-pose time of the pose deformation\n"
+      "  compare  a 1M-point scan against a 25k-triangle model\n";
   if (argc < 1 || std::string(argv[0]) == "--help" || std::string(argv[0]) == "-h") {
     std::cout << usage;
     return argc < 1 ? 2 : 0;
@@ -386,6 +407,7 @@ int run_bench(int argc, char** argv) {
   if (what == "body") return bench_body(argc - 1, argv + 1);
   if (what == "registration") return bench_registration(argc - 1, argv + 1);
   if (what == "pose") return bench_pose(argc - 1, argv + 1);
+  if (what == "compare") return bench_compare(argc - 1, argv + 1);
   throw UsageError("unknown benchmark '" + what + "'\n" + usage);
 }
 

@@ -25,6 +25,8 @@ const Command kCommands[] = {
     {"train", posekit::cli::run_train, "learn the non-rigid pose deformation from a pose dataset (Eq. 3-5)"},
     {"pose", posekit::cli::run_pose, "pose a customized body from joint angles or a BVH (Eq. 1, 5-6)"},
     {"eval", posekit::cli::run_eval, "pose accuracy against ground truth (eval pose)"},
+    {"compare", posekit::cli::run_compare, "a model against a scan: distances, coverage, girth discrepancies, heatmap"},
+    {"view", posekit::cli::run_view, "VTK viewer for meshes with error fields (window, or --png off-screen)"},
     {"dataset", posekit::cli::run_dataset, "generate the evaluation dataset, or check one"},
     {"bench", posekit::cli::run_bench, "benchmarks (io) with medians over several runs"},
 };

@@ -1,0 +1,39 @@
+#pragma once
+// The paper's Table 1 measured here: the template registered to every subject of a dataset by
+// ct-FFD, rigid ICP (1 and 6 iterations) and non-rigid ICP, timed, with correspondence accuracy.
+#include <functional>
+#include <string>
+#include <vector>
+
+namespace posekit {
+
+struct RegistrationTableOptions {
+  int runs = 5;              ///< timed runs per method and subject
+  int nicp_runs = 1;         ///< timed runs of non-rigid ICP (0: leave it out)
+  int subjects = 0;          ///< first N subjects (0: all)
+  int nicp_subjects = 0;     ///< non-rigid ICP on the first N subjects only (0: all)
+  std::function<void(int, int)> progress;
+};
+
+struct RegistrationTableRow {
+  std::string method;
+  std::vector<double> seconds;                 ///< every timed run
+  double median_s = 0, min_s = 0, max_s = 0;
+  double mean_error_mm = 0, p95_error_mm = 0;  ///< averaged over subjects
+  double worst_subject_mean_error_mm = 0;
+  std::vector<double> subject_mean_error_mm;   ///< per subject, dataset order
+  int subjects = 0;
+};
+
+struct RegistrationTable {
+  long template_vertices = 0, template_triangles = 0;
+  long mean_subject_vertices = 0, mean_subject_triangles = 0;
+  std::vector<std::string> subject_ids;
+  std::vector<RegistrationTableRow> rows;
+};
+
+/// Error = distance (mm) on the template between the centroid of each subject triangle's matched
+/// template triangle and its true corresponding point, from the dataset's correspondence.csv.
+RegistrationTable measure_registration_table(const std::string& dataset_dir, const RegistrationTableOptions& options);
+
+}  // namespace posekit

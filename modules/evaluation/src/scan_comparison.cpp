@@ -1,0 +1,180 @@
+#include "posekit/evaluation/scan_comparison.h"
+
+#include <flann/flann.hpp>
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <limits>
+#include <sstream>
+#include <unordered_map>
+
+#include "posekit/core/closest_point.h"
+#include "posekit/core/error.h"
+#include "posekit/core/mesh_geometry.h"
+#include "posekit/core/mesh_validation.h"
+#include "posekit/shape/measurements.h"
+
+namespace posekit {
+namespace {
+
+DistanceStats stats_of(const Eigen::VectorXd& d, double outlier_threshold) {
+  DistanceStats s;
+  std::vector<double> inliers;
+  inliers.reserve(static_cast<size_t>(d.size()));
+  double sum = 0, sum_sq = 0, sum_signed = 0;
+  for (Eigen::Index i = 0; i < d.size(); ++i) {
+    if (!std::isfinite(d[i])) continue;
+    const double a = std::abs(d[i]);
+    s.max_mm = std::max(s.max_mm, 1000 * a);
+    if (a > outlier_threshold) {
+      ++s.outliers;
+      continue;
+    }
+    inliers.push_back(a);
+    sum += a;
+    sum_sq += a * a;
+    sum_signed += d[i];
+  }
+  s.count = static_cast<long>(inliers.size());
+  if (inliers.empty()) return s;
+  const double n = static_cast<double>(inliers.size());
+  s.mean_mm = 1000 * sum / n;
+  s.rms_mm = 1000 * std::sqrt(sum_sq / n);
+  s.signed_mean_mm = 1000 * sum_signed / n;
+  const size_t k = std::min(inliers.size() - 1, static_cast<size_t>(std::ceil(0.95 * n)) - 1);
+  std::nth_element(inliers.begin(), inliers.begin() + static_cast<long>(k), inliers.end());
+  s.p95_mm = 1000 * inliers[k];
+  return s;
+}
+
+}  // namespace
+
+std::string unit_mismatch(const TriangleMesh& model, const PointCloud& scan) {
+  if (model.V.rows() == 0 || scan.P.rows() == 0) return "";
+  const BoundingBox mb = bounding_box(model.V), sb = bounding_box(scan.P);
+  const double m = (mb.max - mb.min).maxCoeff(), s = (sb.max - sb.min).maxCoeff();
+  if (!(m > 0) || !(s > 0)) return "";
+  const double ratio = s / m;
+  if (ratio > 0.2 && ratio < 5) return "";
+  std::ostringstream msg;
+  msg.precision(4);
+  msg << "scan extent " << s << " units against a " << m << " m model";
+  if (ratio > 500 && ratio < 2000) msg << ": did you mean mm?";
+  else if (ratio > 50 && ratio < 200) msg << ": did you mean cm?";
+  else if (ratio > 5 && ratio < 20) msg << ": did you mean dm?";
+  else if (ratio < 0.002 && ratio > 0.0005) msg << ": is the model in mm and the scan in m?";
+  else msg << ": are they the same body and unit?";
+  return msg.str();
+}
+
+ScanComparison compare_with_scan(const TriangleMesh& model, const PointCloud& scan, const ScanComparisonOptions& o) {
+  require_usable_mesh(model, "model mesh");
+  if (scan.P.rows() == 0) throw InvalidInput("the scan has no points");
+  if (!scan.P.allFinite()) throw InvalidInput("the scan has a non-finite point");
+  if (const std::string m = unit_mismatch(model, scan); !m.empty()) throw InvalidInput(m);
+  const auto t0 = std::chrono::steady_clock::now();
+  ScanComparison r;
+
+  // Scan to model: exact point-to-triangle distances, signed by the outward normal at the closest point.
+  const TriangleTree tree(model.V, model.F);
+  const ClosestPoints cp = tree.closest(scan.P, o.threads);
+  const Eigen::MatrixXd vn = vertex_normals(model.V, model.F);
+  r.scan_closest_face = cp.face;
+  r.scan_to_model.resize(scan.P.rows());
+  parallel_for_ranges(scan.P.rows(), o.threads, [&](long begin, long end) {
+    for (long i = begin; i < end; ++i) {
+      const int f = cp.face[i];
+      const Eigen::RowVector3d n = cp.bary(i, 0) * vn.row(model.F(f, 0)) + cp.bary(i, 1) * vn.row(model.F(f, 1)) +
+                                   cp.bary(i, 2) * vn.row(model.F(f, 2));
+      const double side = (scan.P.row(i) - cp.point.row(i)).dot(n);
+      r.scan_to_model[i] = side < 0 ? -cp.distance[i] : cp.distance[i];
+    }
+  });
+
+  // Model to scan: nearest scan point of every vertex through a FLANN KD-tree over the scan.
+  std::vector<double> pts(static_cast<size_t>(scan.P.rows()) * 3);
+  for (Eigen::Index i = 0; i < scan.P.rows(); ++i)
+    for (int c = 0; c < 3; ++c) pts[static_cast<size_t>(3 * i + c)] = scan.P(i, c);
+  flann::Matrix<double> data(pts.data(), static_cast<size_t>(scan.P.rows()), 3);
+  flann::Index<flann::L2_Simple<double>> index(data, flann::KDTreeSingleIndexParams(16));
+  index.buildIndex();
+  std::vector<double> queries(static_cast<size_t>(model.V.rows()) * 3);
+  for (Eigen::Index i = 0; i < model.V.rows(); ++i)
+    for (int c = 0; c < 3; ++c) queries[static_cast<size_t>(3 * i + c)] = model.V(i, c);
+  std::vector<size_t> nearest(static_cast<size_t>(model.V.rows()));
+  std::vector<double> sq(static_cast<size_t>(model.V.rows()));
+  flann::Matrix<double> q(queries.data(), static_cast<size_t>(model.V.rows()), 3);
+  flann::Matrix<size_t> idx(nearest.data(), static_cast<size_t>(model.V.rows()), 1);
+  flann::Matrix<double> dst(sq.data(), static_cast<size_t>(model.V.rows()), 1);
+  flann::SearchParams params(flann::FLANN_CHECKS_UNLIMITED, 0, false);
+  params.cores = o.threads > 0 ? o.threads : 0;
+  index.knnSearch(q, idx, dst, 1, params);
+
+  // Coverage radius: four times the median scan spacing (at least 10 mm) unless given.
+  r.coverage_radius = o.coverage_radius;
+  if (r.coverage_radius <= 0) {
+    std::vector<double> spacing;
+    const Eigen::Index step = std::max<Eigen::Index>(1, scan.P.rows() / 2000);
+    for (Eigen::Index i = 0; i < scan.P.rows(); i += step) {
+      std::vector<size_t> ni(2);
+      std::vector<double> nd(2);
+      flann::Matrix<double> qq(&pts[static_cast<size_t>(3 * i)], 1, 3);
+      flann::Matrix<size_t> ii(ni.data(), 1, 2);
+      flann::Matrix<double> dd(nd.data(), 1, 2);
+      index.knnSearch(qq, ii, dd, 2, flann::SearchParams(flann::FLANN_CHECKS_UNLIMITED));
+      spacing.push_back(std::sqrt(nd[1]));
+    }
+    std::nth_element(spacing.begin(), spacing.begin() + static_cast<long>(spacing.size() / 2), spacing.end());
+    r.coverage_radius = std::max(0.010, 4 * spacing[spacing.size() / 2]);
+  }
+  r.model_to_scan.resize(model.V.rows());
+  for (Eigen::Index v = 0; v < model.V.rows(); ++v) {
+    const double d = std::sqrt(sq[static_cast<size_t>(v)]);
+    if (d > r.coverage_radius) {
+      r.model_to_scan[v] = std::numeric_limits<double>::quiet_NaN();
+      ++r.uncovered_vertices;
+      continue;
+    }
+    const double side = (scan.P.row(static_cast<Eigen::Index>(nearest[static_cast<size_t>(v)])) - model.V.row(v)).dot(vn.row(v));
+    // Positive: the scan lies outside the model there (same convention as scan_to_model).
+    r.model_to_scan[v] = side < 0 ? -d : d;
+  }
+  r.coverage = 1.0 - static_cast<double>(r.uncovered_vertices) / static_cast<double>(model.V.rows());
+  r.scan_stats = stats_of(r.scan_to_model, o.outlier_threshold);
+  r.model_stats = stats_of(r.model_to_scan, o.outlier_threshold);
+  r.hausdorff_mm = std::max(r.scan_stats.max_mm, r.model_stats.max_mm);
+  r.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  return r;
+}
+
+std::vector<GirthDiscrepancy> girth_discrepancies(const TriangleMesh& model, const PointCloud& scan) {
+  const BodyMeasurements a = measure_body(model.V, model.F);
+  const BodyMeasurements b = measure_point_cloud(scan.P);
+  std::vector<GirthDiscrepancy> out;
+  GirthDiscrepancy stature;
+  stature.name = "stature";
+  stature.model_cm = 100 * a.stature;
+  stature.scan_cm = 100 * b.stature;
+  stature.difference_cm = stature.model_cm - stature.scan_cm;
+  stature.measured = a.stature > 0 && b.stature > 0;
+  stature.tolerance_mm = 4;
+  out.push_back(stature);
+  for (const Girth& g : a.girths) {
+    GirthDiscrepancy d;
+    d.name = g.name;
+    const bool large = g.name == "bust" || g.name == "underbust" || g.name == "waist" || g.name == "hip" || g.name == "thigh";
+    d.tolerance_mm = large ? 9 : 4;
+    const Girth* s = b.find(g.name);
+    d.model_cm = g.measured ? 100 * g.value : 0;
+    d.scan_cm = s && s->measured ? 100 * s->value : 0;
+    d.measured = g.measured && s && s->measured;
+    if (d.measured) d.difference_cm = d.model_cm - d.scan_cm;
+    if (!g.measured) d.note = "model: " + (g.note.empty() ? std::string("not measured") : g.note);
+    else if (!s || !s->measured) d.note = "scan: " + (s && !s->note.empty() ? s->note : std::string("not measured"));
+    out.push_back(d);
+  }
+  return out;
+}
+
+}  // namespace posekit

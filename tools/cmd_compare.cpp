@@ -1,0 +1,227 @@
+// posekit compare / view: a model against a scan, and VTK viewers for meshes with error fields.
+#include <cmath>
+#include <iomanip>
+#include <iostream>
+#include <nlohmann/json.hpp>
+
+#include "cli.h"
+#include "commands.h"
+#include "posekit/core/error.h"
+#include "posekit/evaluation/scan_comparison.h"
+#include "posekit/io/mesh_io.h"
+#include "posekit/io/point_cloud_io.h"
+#include "posekit/viewers/viewer.h"
+
+namespace posekit::cli {
+namespace {
+
+nlohmann::ordered_json stats_json(const DistanceStats& s) {
+  return {{"mean_mm", s.mean_mm}, {"rms_mm", s.rms_mm}, {"p95_mm", s.p95_mm}, {"max_mm", s.max_mm},
+          {"signed_mean_mm", s.signed_mean_mm}, {"count", s.count}, {"outliers", s.outliers}};
+}
+
+ColourMap colour_map_from(const ArgParser& args, ColourMapKind default_kind) {
+  ColourMap map;
+  map.kind = default_kind;
+  if (args.has("colours")) {
+    const std::string c = args.get("colours");
+    if (c == "diverging") map.kind = ColourMapKind::kDiverging;
+    else if (c == "sequential") map.kind = ColourMapKind::kSequential;
+    else throw UsageError("--colours expects diverging or sequential, got '" + c + "'");
+  }
+  if (args.has("range")) {
+    const std::string r = args.get("range");
+    const auto colon = r.find(':');
+    try {
+      if (colon == std::string::npos) throw std::invalid_argument(r);
+      map.min = std::stod(r.substr(0, colon));
+      map.max = std::stod(r.substr(colon + 1));
+    } catch (const std::exception&) {
+      throw UsageError("--range expects MIN:MAX in mm, got '" + r + "'");
+    }
+    if (!(map.max > map.min)) throw UsageError("--range: MAX must exceed MIN");
+    map.automatic = false;
+  }
+  return map;
+}
+
+}  // namespace
+
+int run_compare(int argc, char** argv) {
+  ArgParser args("compare",
+                 "Compares a model mesh with a scan (point cloud or mesh): scan-to-model point-to-triangle distance\n"
+                 "(exact, AABB tree over the model's triangles) and model-to-scan distance (nearest scan point,\n"
+                 "FLANN KD-tree) where the scan has data; vertices in scan holes are reported as uncovered, not as\n"
+                 "error. Distances are signed by the model's outward normal (+: the scan lies outside the model).\n"
+                 "All figures are in millimetres.");
+  args.positional("model", "model mesh (PLY/OBJ/OFF/STL)").positional("scan", "scan: PCD/PLY/XYZ cloud, or a mesh")
+      .option("model-unit", "U", "unit of the model", "m")
+      .option("scan-unit", "U", "unit of the scan (posekit's simulated scans are mm)", "mm")
+      .option("threshold", "MM", "points beyond this distance are outliers, counted apart", "20")
+      .option("coverage", "MM", "a vertex with no scan point this close is uncovered (0: 4x scan spacing, >= 10)", "0")
+      .option("threads", "N", "threads (0: all cores)", "0")
+      .option("out", "FILE", "the model with vertex scalars signed_distance_mm (NaN: uncovered) and covered (0/1)")
+      .option("scan-out", "FILE", "the scan with point scalar signed_distance_mm (PLY/PCD)")
+      .option("png", "FILE", "heatmap of the model's error, front and back (off-screen VTK)")
+      .option("range", "MIN:MAX", "colour range in mm (default: automatic)")
+      .option("colours", "KIND", "diverging (signed) or sequential (|error|)", "diverging")
+      .flag("measure", "also measure both and print the girth discrepancies (cm) with ISO 20685-1 tolerances")
+      .flag("json", "results as JSON on stdout")
+      .example("posekit compare out/dataset/subjects/f01/rest.ply out/dataset/scans/f01/rest.pcd --measure --png f01.png");
+  if (!args.parse(argc, argv)) return 0;
+  const TriangleMesh model = read_mesh(args.positionals()[0], {parse_unit(args.get("model-unit"))});
+  const BodyInput scan_input = read_body_input(args.positionals()[1], parse_unit(args.get("scan-unit")));
+  PointCloud scan = scan_input.cloud;
+  if (!scan_input.is_cloud) scan.P = scan_input.mesh.V;
+  if (scan.P.rows() == 0) throw InvalidInput(args.positionals()[1] + ": the scan has no points");
+  ScanComparisonOptions o;
+  o.outlier_threshold = args.get_double("threshold") / 1000;
+  o.coverage_radius = args.get_double("coverage") / 1000;
+  o.threads = static_cast<int>(args.get_int("threads"));
+  if (!(o.outlier_threshold > 0)) throw UsageError("--threshold must be positive");
+  ScanComparison r;
+  try {
+    r = compare_with_scan(model, scan, o);
+  } catch (const InvalidInput& e) {
+    throw InvalidInput(args.positionals()[1] + " against " + args.positionals()[0] + ": " + e.what() +
+                       " (set --scan-unit / --model-unit)");
+  }
+  std::vector<GirthDiscrepancy> girths;
+  if (args.flag_set("measure")) girths = girth_discrepancies(model, scan);
+
+  if (args.has("out")) {
+    TriangleMesh out = model;
+    out.vertex_scalars["signed_distance_mm"] = 1000 * r.model_to_scan;
+    Eigen::VectorXd covered(model.V.rows());
+    for (Eigen::Index v = 0; v < covered.size(); ++v) covered[v] = std::isfinite(r.model_to_scan[v]) ? 1 : 0;
+    out.vertex_scalars["covered"] = covered;
+    write_mesh(args.get("out"), out, {parse_unit(args.get("model-unit"))});
+  }
+  if (args.has("scan-out")) {
+    PointCloud out = scan;
+    out.point_scalars["signed_distance_mm"] = 1000 * r.scan_to_model;
+    write_point_cloud(args.get("scan-out"), out, {parse_unit(args.get("scan-unit"))});
+  }
+  if (args.has("png")) {
+    ViewOptions v;
+    v.colour_map = colour_map_from(args, ColourMapKind::kDiverging);
+    v.colour_map.title = "model to scan (mm)";
+    TriangleMesh shown = model;
+    shown.vertex_scalars["signed_distance_mm"] = 1000 * r.model_to_scan;
+    if (v.colour_map.kind == ColourMapKind::kSequential)
+      shown.vertex_scalars["signed_distance_mm"] = shown.vertex_scalars["signed_distance_mm"].cwiseAbs();
+    std::vector<ViewPanel> panels(2);
+    for (int i = 0; i < 2; ++i) {
+      panels[static_cast<size_t>(i)].mesh = shown;
+      panels[static_cast<size_t>(i)].scalar = "signed_distance_mm";
+      panels[static_cast<size_t>(i)].camera = i == 0 ? CameraPreset::kFront : CameraPreset::kBack;
+      panels[static_cast<size_t>(i)].caption = i == 0 ? "front" : "back";
+    }
+    render_panels_png(panels, v, args.get("png"));
+  }
+
+  nlohmann::ordered_json g = nlohmann::ordered_json::array();
+  for (const auto& d : girths)
+    g.push_back({{"name", d.name}, {"model_cm", d.model_cm}, {"scan_cm", d.scan_cm}, {"difference_cm", d.difference_cm},
+                 {"measured", d.measured}, {"iso20685_tolerance_mm", d.tolerance_mm},
+                 {"within_tolerance", d.measured && std::abs(d.difference_cm) * 10 <= d.tolerance_mm}, {"note", d.note}});
+  nlohmann::ordered_json out = {{"model", args.positionals()[0]}, {"scan", args.positionals()[1]}, {"units", "mm"},
+                                {"scan_points", scan.P.rows()}, {"model_vertices", model.V.rows()},
+                                {"scan_to_model", stats_json(r.scan_stats)}, {"model_to_scan", stats_json(r.model_stats)},
+                                {"hausdorff_mm", r.hausdorff_mm}, {"coverage", r.coverage},
+                                {"uncovered_vertices", r.uncovered_vertices}, {"coverage_radius_mm", 1000 * r.coverage_radius},
+                                {"outlier_threshold_mm", 1000 * o.outlier_threshold}, {"seconds", r.seconds}};
+  if (!girths.empty()) out["girths"] = g;
+  if (args.flag_set("json")) {
+    print_json(out);
+    return 0;
+  }
+  std::cout << std::fixed << std::setprecision(2) << "compared " << args.positionals()[0] << " (" << model.V.rows()
+            << " vertices) with " << args.positionals()[1] << " (" << scan.P.rows() << " points) in " << r.seconds
+            << " s\n\n| direction | mean mm | RMS mm | 95th pct mm | max mm | signed mean mm | outliers (> "
+            << 1000 * o.outlier_threshold << " mm) |\n|---|---|---|---|---|---|---|\n";
+  for (auto [name, s] : {std::pair{"scan to model", &r.scan_stats}, std::pair{"model to scan", &r.model_stats}})
+    std::cout << "| " << name << " | " << s->mean_mm << " | " << s->rms_mm << " | " << s->p95_mm << " | " << s->max_mm
+              << " | " << s->signed_mean_mm << " | " << s->outliers << " |\n";
+  std::cout << "\nHausdorff " << r.hausdorff_mm << " mm; coverage " << std::setprecision(1) << 100 * r.coverage << "% ("
+            << r.uncovered_vertices << " model vertices without scan data within " << 1000 * r.coverage_radius << " mm)\n";
+  if (!girths.empty()) {
+    std::cout << "\n| measure | model cm | scan cm | difference cm | ISO 20685-1 tolerance mm | within |\n|---|---|---|---|---|---|\n";
+    for (const auto& d : girths) {
+      std::cout << "| " << d.name << " | ";
+      if (d.measured)
+        std::cout << d.model_cm << " | " << d.scan_cm << " | " << std::showpos << d.difference_cm << std::noshowpos << " | "
+                  << d.tolerance_mm << " | " << (std::abs(d.difference_cm) * 10 <= d.tolerance_mm ? "yes" : "no") << " |\n";
+      else
+        std::cout << "- | - | - | " << d.tolerance_mm << " | " << d.note << " |\n";
+    }
+  }
+  return 0;
+}
+
+int run_view(int argc, char** argv) {
+  ArgParser args("view",
+                 "Shows meshes coloured by a vertex scalar (e.g. signed_distance_mm from posekit compare) in a VTK\n"
+                 "window: drag to rotate, wheel to zoom, click a vertex to print its value, 's' toggles the scan,\n"
+                 "'c' cycles front/side/back. With --png renders off-screen instead (no display needed: a private\n"
+                 "Xvfb is started when DISPLAY is unset). Several meshes are shown side by side.");
+  args.positional("mesh", "mesh(es) to show; separate several with commas")
+      .option("scalar", "NAME", "vertex scalar to colour by (default: none, plain skin)")
+      .option("scan", "FILE", "a point cloud to overlay (PCD/PLY/XYZ)")
+      .option("scan-unit", "U", "unit of the scan", "mm")
+      .option("unit", "U", "unit of the meshes", "m")
+      .option("camera", "C", "front, side or back", "front")
+      .option("png", "FILE", "render off-screen to this PNG and exit")
+      .option("size", "WxH", "size of each panel in pixels", "480x720")
+      .option("range", "MIN:MAX", "colour range (default: automatic)")
+      .option("colours", "KIND", "diverging or sequential", "sequential")
+      .option("title", "TEXT", "colour bar title", "error (mm)")
+      .example("posekit view f01_errors.ply --scalar signed_distance_mm --colours diverging --png f01.png");
+  if (!args.parse(argc, argv)) return 0;
+  ViewOptions v;
+  v.colour_map = colour_map_from(args, ColourMapKind::kSequential);
+  v.colour_map.title = args.get("title");
+  const std::string size = args.get("size");
+  const auto x = size.find('x');
+  try {
+    if (x == std::string::npos) throw std::invalid_argument(size);
+    v.panel_width = std::stoi(size.substr(0, x));
+    v.panel_height = std::stoi(size.substr(x + 1));
+  } catch (const std::exception&) {
+    throw UsageError("--size expects WxH, got '" + size + "'");
+  }
+  if (v.panel_width < 64 || v.panel_height < 64 || v.panel_width > 4000 || v.panel_height > 4000)
+    throw UsageError("--size: each side must be 64 to 4000 pixels");
+  PointCloud overlay;
+  if (args.has("scan")) {
+    const BodyInput in = read_body_input(args.get("scan"), parse_unit(args.get("scan-unit")));
+    overlay = in.is_cloud ? in.cloud : PointCloud{in.mesh.V, {}, {}};
+  }
+  std::vector<ViewPanel> panels;
+  std::string list = args.positionals()[0];
+  size_t start = 0;
+  while (start <= list.size()) {
+    const size_t comma = list.find(',', start);
+    const std::string path = list.substr(start, comma == std::string::npos ? std::string::npos : comma - start);
+    if (!path.empty()) {
+      ViewPanel p;
+      p.mesh = read_mesh(path, {parse_unit(args.get("unit"))});
+      p.scalar = args.has("scalar") ? args.get("scalar") : "";
+      p.camera = parse_camera_preset(args.get("camera"));
+      p.overlay = overlay;
+      p.caption = path.substr(path.find_last_of('/') == std::string::npos ? 0 : path.find_last_of('/') + 1);
+      panels.push_back(std::move(p));
+    }
+    if (comma == std::string::npos) break;
+    start = comma + 1;
+  }
+  if (args.has("png")) {
+    render_panels_png(panels, v, args.get("png"));
+    std::cout << "wrote " << args.get("png") << "\n";
+    return 0;
+  }
+  show_panels(panels, v);
+  return 0;
+}
+
+}  // namespace posekit::cli

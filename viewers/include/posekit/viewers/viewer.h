@@ -1,0 +1,59 @@
+#pragma once
+// VTK viewers for meshes with error fields: an interactive window and off-screen PNG rendering,
+// several meshes side by side, a labelled colour bar in mm. VTK stays inside src/.
+#include <Eigen/Core>
+#include <string>
+#include <vector>
+
+#include "posekit/core/point_cloud.h"
+#include "posekit/core/triangle_mesh.h"
+
+namespace posekit {
+
+enum class ColourMapKind {
+  kSequential,  ///< blue (low) through cyan and yellow to red (high): unsigned errors
+  kDiverging    ///< blue (negative), white (zero), red (positive): signed errors
+};
+
+struct ColourMap {
+  ColourMapKind kind = ColourMapKind::kSequential;
+  bool automatic = true;         ///< range from the data (diverging: symmetric about zero)
+  double min = 0, max = 10;      ///< fixed range when not automatic
+  std::string title = "error (mm)";
+};
+
+enum class CameraPreset { kFront, kSide, kBack };
+CameraPreset parse_camera_preset(const std::string& name);  ///< "front", "side" or "back"
+
+/// One panel of a figure: a mesh (optionally coloured by one of its vertex scalars), optionally a
+/// point cloud overlaid, and a caption.
+struct ViewPanel {
+  TriangleMesh mesh;
+  std::string scalar;            ///< vertex scalar to colour by; empty: plain skin colour
+  PointCloud overlay;            ///< drawn as points when not empty
+  std::string caption;
+  CameraPreset camera = CameraPreset::kFront;
+};
+
+struct ViewOptions {
+  ColourMap colour_map;
+  int panel_width = 480, panel_height = 720;
+  bool colour_bar = true;        ///< shown when any panel has a scalar
+  double point_size = 1.0;
+  std::string title;             ///< window title / figure title
+};
+
+/// Renders the panels side by side off-screen and writes a PNG (atomically). Needs an X display;
+/// without one it starts a private Xvfb for the duration. Throws InvalidInput on an unknown scalar
+/// or empty mesh, IoError when the PNG cannot be written or no display can be had.
+void render_panels_png(const std::vector<ViewPanel>& panels, const ViewOptions& options, const std::string& png_path);
+
+/// Opens an interactive window (rotate, zoom; click a vertex to print its scalar; 's' toggles the
+/// overlays; 'c' cycles front/side/back). Returns when the window is closed. Throws IoError when no
+/// display is available.
+void show_panels(const std::vector<ViewPanel>& panels, const ViewOptions& options);
+
+/// The range a colour map will use for these values (NaNs ignored).
+std::pair<double, double> colour_range(const ColourMap& map, const std::vector<const Eigen::VectorXd*>& values);
+
+}  // namespace posekit

@@ -1,0 +1,426 @@
+#include "posekit/viewers/viewer.h"
+
+#include <fcntl.h>
+#include <signal.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <vtkActor.h>
+#include <vtkCallbackCommand.h>
+#include <vtkCamera.h>
+#include <vtkCellArray.h>
+#include <vtkColorTransferFunction.h>
+#include <vtkFloatArray.h>
+#include <vtkInteractorStyleTrackballCamera.h>
+#include <vtkLookupTable.h>
+#include <vtkNew.h>
+#include <vtkObjectFactory.h>
+#include <vtkPNGWriter.h>
+#include <vtkPointData.h>
+#include <vtkPointPicker.h>
+#include <vtkPoints.h>
+#include <vtkPolyData.h>
+#include <vtkPolyDataMapper.h>
+#include <vtkPolyDataNormals.h>
+#include <vtkProperty.h>
+#include <vtkRenderWindow.h>
+#include <vtkRenderWindowInteractor.h>
+#include <vtkRenderer.h>
+#include <vtkScalarBarActor.h>
+#include <vtkSmartPointer.h>
+#include <vtkTextActor.h>
+#include <vtkTextProperty.h>
+#include <vtkUnsignedCharArray.h>
+#include <vtkWindowToImageFilter.h>
+
+#include <cmath>
+#include <cstdio>
+#include <cstdlib>
+#include <iostream>
+#include <limits>
+#include <memory>
+#include <string>
+
+#include "posekit/core/error.h"
+#include "posekit/io/atomic_file.h"
+
+namespace posekit {
+
+CameraPreset parse_camera_preset(const std::string& name) {
+  if (name == "front") return CameraPreset::kFront;
+  if (name == "side") return CameraPreset::kSide;
+  if (name == "back") return CameraPreset::kBack;
+  throw InvalidInput("unknown camera '" + name + "': expected front, side or back");
+}
+
+std::pair<double, double> colour_range(const ColourMap& map, const std::vector<const Eigen::VectorXd*>& values) {
+  if (!map.automatic) {
+    if (!(map.max > map.min)) throw InvalidInput("colour range: the maximum must exceed the minimum");
+    return {map.min, map.max};
+  }
+  std::vector<double> finite;
+  for (const auto* v : values)
+    for (Eigen::Index i = 0; i < v->size(); ++i)
+      if (std::isfinite((*v)[i])) finite.push_back((*v)[i]);
+  if (finite.empty()) return {0.0, 1.0};
+  // Robust: the 1st and 99th percentiles, so that a few outliers do not wash the map out.
+  std::sort(finite.begin(), finite.end());
+  const double lo = finite[static_cast<size_t>(0.01 * static_cast<double>(finite.size() - 1))];
+  const double hi = finite[static_cast<size_t>(0.99 * static_cast<double>(finite.size() - 1))];
+  if (map.kind == ColourMapKind::kDiverging) {
+    const double m = std::max({std::abs(lo), std::abs(hi), 1e-9});
+    return {-m, m};
+  }
+  const double low = std::min(lo, 0.0);
+  return {low, std::max(hi, low + 1e-9)};
+}
+
+namespace {
+
+/// A display for VTK's X render window: the user's DISPLAY, or a private Xvfb started once.
+class Display {
+ public:
+  static void require(bool allow_virtual) {
+    static Display instance;
+    if (const char* d = std::getenv("DISPLAY"); d && *d) return;
+    if (!allow_virtual)
+      throw IoError("no display (DISPLAY is unset): the interactive viewer needs one; use --png for off-screen images");
+    instance.start();
+  }
+  ~Display() {
+    if (pid_ > 0) {
+      ::kill(pid_, SIGTERM);
+      ::waitpid(pid_, nullptr, 0);
+    }
+  }
+
+ private:
+  void start() {
+    if (pid_ > 0) return;
+    int fds[2];
+    if (::pipe(fds) != 0) throw IoError("cannot start Xvfb: pipe failed");
+    const pid_t pid = ::fork();
+    if (pid < 0) throw IoError("cannot start Xvfb: fork failed");
+    if (pid == 0) {
+      ::close(fds[0]);
+      const int devnull = ::open("/dev/null", O_WRONLY);
+      if (devnull >= 0) {
+        ::dup2(devnull, 1);
+        ::dup2(devnull, 2);
+      }
+      const std::string fd = std::to_string(fds[1]);
+      ::execlp("Xvfb", "Xvfb", "-displayfd", fd.c_str(), "-screen", "0", "3000x2000x24", "-nolisten", "tcp",
+               static_cast<char*>(nullptr));
+      ::_exit(127);
+    }
+    ::close(fds[1]);
+    std::string number;
+    char c;
+    while (::read(fds[0], &c, 1) == 1 && c != '\n') number += c;
+    ::close(fds[0]);
+    if (number.empty()) {
+      ::waitpid(pid, nullptr, 0);
+      throw IoError("no display (DISPLAY is unset) and Xvfb could not be started: install xvfb (apt-get install xvfb) "
+                    "or run under xvfb-run");
+    }
+    pid_ = pid;
+    ::setenv("DISPLAY", (":" + number).c_str(), 1);
+  }
+  pid_t pid_ = -1;
+};
+
+vtkSmartPointer<vtkColorTransferFunction> make_colours(ColourMapKind kind, double lo, double hi) {
+  auto f = vtkSmartPointer<vtkColorTransferFunction>::New();
+  if (kind == ColourMapKind::kDiverging) {
+    f->SetColorSpaceToDiverging();
+    f->AddRGBPoint(lo, 0.230, 0.299, 0.754);
+    f->AddRGBPoint(0.5 * (lo + hi), 0.865, 0.865, 0.865);
+    f->AddRGBPoint(hi, 0.706, 0.016, 0.150);
+  } else {
+    f->SetColorSpaceToRGB();
+    const double d = hi - lo;
+    f->AddRGBPoint(lo, 0.19, 0.21, 0.58);
+    f->AddRGBPoint(lo + 0.25 * d, 0.16, 0.60, 0.85);
+    f->AddRGBPoint(lo + 0.5 * d, 0.55, 0.85, 0.55);
+    f->AddRGBPoint(lo + 0.75 * d, 0.99, 0.80, 0.20);
+    f->AddRGBPoint(hi, 0.85, 0.08, 0.08);
+  }
+  return f;
+}
+
+vtkSmartPointer<vtkLookupTable> make_lookup(const ColourMap& map, double lo, double hi) {
+  const auto colours = make_colours(map.kind, lo, hi);
+  auto table = vtkSmartPointer<vtkLookupTable>::New();
+  table->SetNumberOfTableValues(256);
+  table->SetRange(lo, hi);
+  for (int i = 0; i < 256; ++i) {
+    double rgb[3];
+    colours->GetColor(lo + (hi - lo) * i / 255.0, rgb);
+    table->SetTableValue(i, rgb[0], rgb[1], rgb[2], 1.0);
+  }
+  table->SetNanColor(0.6, 0.6, 0.6, 1.0);
+  table->UseAboveRangeColorOn();
+  table->SetAboveRangeColor(0.55, 0.0, 0.0, 1.0);
+  table->UseBelowRangeColorOn();
+  double below[3];
+  colours->GetColor(lo, below);
+  table->SetBelowRangeColor(below[0], below[1], below[2], 1.0);
+  table->Build();
+  return table;
+}
+
+vtkSmartPointer<vtkPolyData> to_polydata(const TriangleMesh& mesh, const std::string& scalar) {
+  auto points = vtkSmartPointer<vtkPoints>::New();
+  points->SetNumberOfPoints(mesh.V.rows());
+  for (Eigen::Index i = 0; i < mesh.V.rows(); ++i) points->SetPoint(i, mesh.V(i, 0), mesh.V(i, 1), mesh.V(i, 2));
+  auto cells = vtkSmartPointer<vtkCellArray>::New();
+  for (Eigen::Index f = 0; f < mesh.F.rows(); ++f) {
+    const vtkIdType ids[3] = {mesh.F(f, 0), mesh.F(f, 1), mesh.F(f, 2)};
+    cells->InsertNextCell(3, ids);
+  }
+  auto poly = vtkSmartPointer<vtkPolyData>::New();
+  poly->SetPoints(points);
+  poly->SetPolys(cells);
+  if (!scalar.empty()) {
+    const Eigen::VectorXd& s = mesh.vertex_scalars.at(scalar);
+    auto array = vtkSmartPointer<vtkFloatArray>::New();
+    array->SetName(scalar.c_str());
+    array->SetNumberOfValues(s.size());
+    for (Eigen::Index i = 0; i < s.size(); ++i) array->SetValue(i, static_cast<float>(s[i]));
+    poly->GetPointData()->SetScalars(array);
+  }
+  return poly;
+}
+
+vtkSmartPointer<vtkPolyData> cloud_polydata(const PointCloud& cloud, size_t max_points) {
+  const Eigen::Index n = cloud.P.rows();
+  const Eigen::Index step = std::max<Eigen::Index>(1, n / static_cast<Eigen::Index>(std::max<size_t>(max_points, 1)));
+  auto points = vtkSmartPointer<vtkPoints>::New();
+  auto verts = vtkSmartPointer<vtkCellArray>::New();
+  for (Eigen::Index i = 0; i < n; i += step) {
+    const vtkIdType id = points->InsertNextPoint(cloud.P(i, 0), cloud.P(i, 1), cloud.P(i, 2));
+    verts->InsertNextCell(1, &id);
+  }
+  auto poly = vtkSmartPointer<vtkPolyData>::New();
+  poly->SetPoints(points);
+  poly->SetVerts(verts);
+  return poly;
+}
+
+void place_camera(vtkRenderer* renderer, CameraPreset preset) {
+  renderer->ResetCamera();
+  vtkCamera* camera = renderer->GetActiveCamera();
+  double focal[3];
+  camera->GetFocalPoint(focal);
+  const double distance = camera->GetDistance();
+  double dir[3] = {0, 0, 1};  // the subject faces +Z
+  if (preset == CameraPreset::kSide) dir[0] = 1, dir[2] = 0;
+  if (preset == CameraPreset::kBack) dir[2] = -1;
+  camera->SetPosition(focal[0] + distance * dir[0], focal[1] + distance * dir[1], focal[2] + distance * dir[2]);
+  camera->SetViewUp(0, 1, 0);
+  renderer->ResetCamera();
+  camera->Zoom(1.15);
+}
+
+/// Everything VTK needs for a figure; kept alive while the window lives.
+struct Scene {
+  vtkSmartPointer<vtkRenderWindow> window;
+  std::vector<vtkSmartPointer<vtkRenderer>> renderers;
+  std::vector<vtkSmartPointer<vtkActor>> mesh_actors, overlay_actors;
+  std::vector<const ViewPanel*> panels;
+};
+
+Scene build_scene(const std::vector<ViewPanel>& panels, const ViewOptions& o) {
+  if (panels.empty()) throw InvalidInput("viewer: nothing to show");
+  std::vector<const Eigen::VectorXd*> values;
+  for (const auto& p : panels) {
+    if (p.mesh.V.rows() == 0 || p.mesh.F.rows() == 0) throw InvalidInput("viewer: panel '" + p.caption + "' has an empty mesh");
+    if (!p.mesh.V.allFinite()) throw InvalidInput("viewer: panel '" + p.caption + "' has a non-finite vertex");
+    if (p.scalar.empty()) continue;
+    const auto it = p.mesh.vertex_scalars.find(p.scalar);
+    if (it == p.mesh.vertex_scalars.end()) {
+      std::string names;
+      for (const auto& [name, v] : p.mesh.vertex_scalars) names += (names.empty() ? "" : ", ") + name;
+      throw InvalidInput("viewer: the mesh has no vertex scalar '" + p.scalar + "' (it has: " +
+                         (names.empty() ? "none" : names) + ")");
+    }
+    values.push_back(&it->second);
+  }
+  const auto [lo, hi] = colour_range(o.colour_map, values);
+  const auto lookup = make_lookup(o.colour_map, lo, hi);
+  const bool bar = o.colour_bar && !values.empty();
+  const int bar_width = bar ? 200 : 0;
+  const int width = o.panel_width * static_cast<int>(panels.size()) + bar_width;
+
+  Scene scene;
+  scene.window = vtkSmartPointer<vtkRenderWindow>::New();
+  scene.window->SetSize(width, o.panel_height);
+  scene.window->SetWindowName(o.title.empty() ? "posekit" : o.title.c_str());
+  for (size_t i = 0; i < panels.size(); ++i) {
+    const ViewPanel& p = panels[i];
+    auto renderer = vtkSmartPointer<vtkRenderer>::New();
+    renderer->SetBackground(1, 1, 1);
+    const double x0 = static_cast<double>(i) * o.panel_width / width, x1 = static_cast<double>(i + 1) * o.panel_width / width;
+    renderer->SetViewport(x0, 0, x1, 1);
+    vtkNew<vtkPolyDataNormals> normals;
+    normals->SetInputData(to_polydata(p.mesh, p.scalar));
+    normals->SplittingOff();
+    normals->ConsistencyOff();
+    auto mapper = vtkSmartPointer<vtkPolyDataMapper>::New();
+    mapper->SetInputConnection(normals->GetOutputPort());
+    auto actor = vtkSmartPointer<vtkActor>::New();
+    actor->SetMapper(mapper);
+    if (p.scalar.empty()) {
+      mapper->ScalarVisibilityOff();
+      actor->GetProperty()->SetColor(0.87, 0.74, 0.64);
+    } else {
+      mapper->SetLookupTable(lookup);
+      mapper->SetScalarRange(lo, hi);
+      mapper->SetScalarModeToUsePointData();
+      mapper->ScalarVisibilityOn();
+      mapper->InterpolateScalarsBeforeMappingOn();
+      mapper->SetColorModeToMapScalars();
+    }
+    actor->GetProperty()->SetSpecular(0.15);
+    renderer->AddActor(actor);
+    scene.mesh_actors.push_back(actor);
+    if (p.overlay.size() > 0) {
+      auto cmapper = vtkSmartPointer<vtkPolyDataMapper>::New();
+      cmapper->SetInputData(cloud_polydata(p.overlay, 80000));
+      auto cactor = vtkSmartPointer<vtkActor>::New();
+      cactor->SetMapper(cmapper);
+      cactor->GetProperty()->SetColor(0.15, 0.15, 0.2);
+      cactor->GetProperty()->SetPointSize(static_cast<float>(o.point_size));
+      renderer->AddActor(cactor);
+      scene.overlay_actors.push_back(cactor);
+    } else {
+      scene.overlay_actors.push_back(nullptr);
+    }
+    if (!p.caption.empty()) {
+      auto text = vtkSmartPointer<vtkTextActor>::New();
+      text->SetInput(p.caption.c_str());
+      text->GetTextProperty()->SetFontSize(18);
+      text->GetTextProperty()->SetColor(0.1, 0.1, 0.1);
+      text->GetTextProperty()->SetJustificationToCentered();
+      text->GetTextProperty()->SetVerticalJustificationToTop();
+      text->GetPositionCoordinate()->SetCoordinateSystemToNormalizedViewport();
+      text->GetPositionCoordinate()->SetValue(0.5, 0.97);
+      renderer->AddActor2D(text);
+    }
+    place_camera(renderer, p.camera);
+    scene.window->AddRenderer(renderer);
+    scene.renderers.push_back(renderer);
+    scene.panels.push_back(&p);
+  }
+  if (bar) {
+    auto renderer = vtkSmartPointer<vtkRenderer>::New();
+    renderer->SetBackground(1, 1, 1);
+    renderer->SetViewport(static_cast<double>(width - bar_width) / width, 0, 1, 1);
+    auto scalar_bar = vtkSmartPointer<vtkScalarBarActor>::New();
+    scalar_bar->SetLookupTable(lookup);
+    scalar_bar->SetTitle(o.colour_map.title.c_str());
+    scalar_bar->SetNumberOfLabels(5);
+    scalar_bar->SetLabelFormat("%.1f");
+    scalar_bar->GetTitleTextProperty()->SetColor(0.1, 0.1, 0.1);
+    scalar_bar->GetTitleTextProperty()->SetFontSize(15);
+    scalar_bar->GetTitleTextProperty()->ItalicOff();
+    scalar_bar->GetTitleTextProperty()->ShadowOff();
+    scalar_bar->GetLabelTextProperty()->ItalicOff();
+    scalar_bar->GetLabelTextProperty()->ShadowOff();
+    scalar_bar->GetLabelTextProperty()->SetColor(0.1, 0.1, 0.1);
+    scalar_bar->GetLabelTextProperty()->SetFontSize(14);
+    scalar_bar->UnconstrainedFontSizeOn();
+    scalar_bar->GetPositionCoordinate()->SetCoordinateSystemToNormalizedViewport();
+    scalar_bar->GetPositionCoordinate()->SetValue(0.08, 0.1);
+    scalar_bar->SetWidth(0.84);
+    scalar_bar->SetHeight(0.8);
+    scalar_bar->SetBarRatio(0.3);
+    renderer->AddActor2D(scalar_bar);
+    scene.window->AddRenderer(renderer);
+  }
+  return scene;
+}
+
+/// Click to read a vertex's value, 's' toggles overlays, 'c' cycles the camera presets.
+class PickingStyle : public vtkInteractorStyleTrackballCamera {
+ public:
+  static PickingStyle* New();
+  vtkTypeMacro(PickingStyle, vtkInteractorStyleTrackballCamera);
+  Scene* scene = nullptr;
+  int preset = 0;
+
+  void OnLeftButtonDown() override {
+    int* pos = this->Interactor->GetEventPosition();
+    vtkNew<vtkPointPicker> picker;
+    picker->SetTolerance(0.005);
+    for (size_t i = 0; i < scene->renderers.size(); ++i) {
+      if (!picker->Pick(pos[0], pos[1], 0, scene->renderers[i]) || picker->GetPointId() < 0) continue;
+      const ViewPanel& p = *scene->panels[i];
+      const vtkIdType id = picker->GetPointId();
+      if (id >= p.mesh.V.rows()) break;
+      std::cout << "panel " << i << (p.caption.empty() ? "" : " (" + p.caption + ")") << " vertex " << id << " at ("
+                << p.mesh.V(id, 0) << ", " << p.mesh.V(id, 1) << ", " << p.mesh.V(id, 2) << ") m";
+      if (!p.scalar.empty()) std::cout << ": " << p.scalar << " = " << p.mesh.vertex_scalars.at(p.scalar)[id];
+      std::cout << std::endl;
+      break;
+    }
+    vtkInteractorStyleTrackballCamera::OnLeftButtonDown();
+  }
+  void OnChar() override {
+    const char key = this->Interactor->GetKeyCode();
+    if (key == 's') {
+      for (auto& a : scene->overlay_actors)
+        if (a) a->SetVisibility(!a->GetVisibility());
+      this->Interactor->Render();
+      return;
+    }
+    if (key == 'c') {
+      preset = (preset + 1) % 3;
+      for (auto& r : scene->renderers) place_camera(r, static_cast<CameraPreset>(preset));
+      this->Interactor->Render();
+      return;
+    }
+    vtkInteractorStyleTrackballCamera::OnChar();
+  }
+};
+vtkStandardNewMacro(PickingStyle);
+
+}  // namespace
+
+void render_panels_png(const std::vector<ViewPanel>& panels, const ViewOptions& options, const std::string& png_path) {
+  Display::require(true);
+  Scene scene = build_scene(panels, options);
+  scene.window->SetOffScreenRendering(1);
+  scene.window->Render();
+  vtkNew<vtkWindowToImageFilter> grab;
+  grab->SetInput(scene.window);
+  grab->SetInputBufferTypeToRGB();
+  grab->ReadFrontBufferOff();
+  grab->Update();
+  vtkNew<vtkPNGWriter> writer;
+  writer->SetInputConnection(grab->GetOutputPort());
+  writer->WriteToMemoryOn();
+  writer->Write();
+  vtkUnsignedCharArray* bytes = writer->GetResult();
+  if (!bytes || bytes->GetNumberOfTuples() == 0) throw IoError(png_path + ": VTK produced no image");
+  const auto* data = reinterpret_cast<const char*>(bytes->GetPointer(0));
+  const size_t size = static_cast<size_t>(bytes->GetNumberOfTuples() * bytes->GetNumberOfComponents());
+  write_file_atomically(png_path, [&](std::ostream& out) { out.write(data, static_cast<std::streamsize>(size)); });
+}
+
+void show_panels(const std::vector<ViewPanel>& panels, const ViewOptions& options) {
+  Display::require(false);
+  Scene scene = build_scene(panels, options);
+  vtkNew<vtkRenderWindowInteractor> interactor;
+  interactor->SetRenderWindow(scene.window);
+  vtkNew<PickingStyle> style;
+  style->scene = &scene;
+  interactor->SetInteractorStyle(style);
+  std::cout << "posekit view: drag to rotate, wheel to zoom, click a vertex to read it, 's' scan on/off, "
+               "'c' front/side/back, 'q' quit"
+            << std::endl;
+  scene.window->Render();
+  interactor->Start();
+}
+
+}  // namespace posekit
