@@ -241,8 +241,14 @@ SectionStack horizontal_sections_of_points(const Eigen::MatrixXd& scan, double s
 
 BodyMeasurements measure_point_cloud(const Eigen::MatrixXd& scan) {
   if (scan.rows() < 1000) throw InvalidInput("measure: the point cloud has " + std::to_string(scan.rows()) + " points, too few for a body");
-  if (scan.rows() < 1000) throw InvalidInput("measure: the point cloud has " + std::to_string(scan.rows()) + " points, too few for a body");
+  // The unit first: a body in mm read as metres has no neighbours within 2 cm at all.
+  const double tall = bounding_box(scan).extent().y();
+  if (tall > 500 && tall < 2600)
+    throw InvalidInput("measure: the cloud is " + std::to_string(tall) + " units tall along Y: did you mean --unit mm?");
   const Eigen::MatrixXd P = drop_isolated_points(scan);
+  if (P.rows() < 1000)
+    throw InvalidInput("measure: only " + std::to_string(P.rows()) + " of " + std::to_string(scan.rows()) +
+                       " points have neighbours within 2 cm: a sparse cloud, or in another unit (wrong --unit?)");
   const BoundingBox box = bounding_box(P);
   if (box.extent().y() < 0.8 || box.extent().y() > 2.6)
     throw InvalidInput("measure: the cloud is " + std::to_string(box.extent().y()) +

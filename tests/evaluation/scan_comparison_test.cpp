@@ -1,0 +1,153 @@
+#include "posekit/evaluation/scan_comparison.h"
+
+#include <gtest/gtest.h>
+
+#include <random>
+
+#include "posekit/body/makehuman_model.h"
+#include "posekit/core/closest_point.h"
+#include "posekit/core/error.h"
+#include "posekit/core/mesh_geometry.h"
+#include "posekit/datasets/scanner.h"
+#include "posekit/datasets/subjects.h"
+#include "testing/makehuman_fixture.h"
+#include "testing/test_meshes.h"
+
+using namespace posekit;
+
+namespace {
+
+/// Points on the mesh (face samples), each with its face's outward normal.
+void sample_surface(const TriangleMesh& m, int per_face, Eigen::MatrixXd* P, Eigen::MatrixXd* N) {
+  std::mt19937 rng(5);
+  std::uniform_real_distribution<double> u(0, 1);
+  const Eigen::MatrixXd fn = face_normals(m.V, m.F);
+  P->resize(m.F.rows() * per_face, 3);
+  N->resize(m.F.rows() * per_face, 3);
+  for (Eigen::Index f = 0; f < m.F.rows(); ++f)
+    for (int k = 0; k < per_face; ++k) {
+      double a = u(rng), b = u(rng);
+      if (a + b > 1) a = 1 - a, b = 1 - b;
+      P->row(f * per_face + k) = (1 - a - b) * m.V.row(m.F(f, 0)) + a * m.V.row(m.F(f, 1)) + b * m.V.row(m.F(f, 2));
+      N->row(f * per_face + k) = fn.row(f);
+    }
+}
+
+}  // namespace
+
+TEST(ClosestPoint, MatchesABruteForceSearch) {
+  const TriangleMesh s = test::icosphere(3, 0.5);
+  const TriangleTree tree(s.V, s.F);
+  std::mt19937 rng(1);
+  std::uniform_real_distribution<double> u(-1, 1);
+  Eigen::MatrixXd P(500, 3);
+  for (Eigen::Index i = 0; i < P.rows(); ++i) P.row(i) << u(rng), u(rng), u(rng);
+  const ClosestPoints cp = tree.closest(P, 2);
+  for (Eigen::Index i = 0; i < P.rows(); ++i) {
+    double best = 1e300;
+    for (Eigen::Index f = 0; f < s.F.rows(); ++f) {
+      const Eigen::Vector3d q = closest_point_on_triangle(P.row(i), s.V.row(s.F(f, 0)), s.V.row(s.F(f, 1)), s.V.row(s.F(f, 2)));
+      best = std::min(best, (q - P.row(i).transpose()).norm());
+    }
+    ASSERT_NEAR(cp.distance[i], best, 1e-12) << i;
+    ASSERT_NEAR((cp.point.row(i) - P.row(i)).norm(), best, 1e-12);
+  }
+  // Vertex, edge and face regions of one triangle.
+  const Eigen::Vector3d a(0, 0, 0), b(1, 0, 0), c(0, 1, 0);
+  EXPECT_TRUE(closest_point_on_triangle({-1, -1, 2}, a, b, c).isApprox(a));
+  EXPECT_TRUE(closest_point_on_triangle({0.5, -2, 0}, a, b, c).isApprox(Eigen::Vector3d(0.5, 0, 0)));
+  EXPECT_TRUE(closest_point_on_triangle({1, 1, 0}, a, b, c).isApprox(Eigen::Vector3d(0.5, 0.5, 0)));
+  EXPECT_TRUE(closest_point_on_triangle({0.2, 0.3, -4}, a, b, c).isApprox(Eigen::Vector3d(0.2, 0.3, 0)));
+}
+
+TEST(ScanComparison, PointsOnTheSurfaceAreAtZeroAndOffsetPointsAtTheirOffset) {
+  TriangleMesh body = test::icosphere(4, 0.3);
+  Eigen::MatrixXd P, N;
+  sample_surface(body, 4, &P, &N);
+  PointCloud on;
+  on.P = P;
+  const ScanComparison zero = compare_with_scan(body, on);
+  EXPECT_LT(zero.scan_to_model.cwiseAbs().maxCoeff(), 1e-9);
+  EXPECT_EQ(zero.uncovered_vertices, 0);
+  EXPECT_NEAR(zero.coverage, 1.0, 1e-12);
+  for (double d : {0.004, -0.003}) {  // 4 mm outside, 3 mm inside
+    PointCloud offset;
+    offset.P = P + d * N;
+    const ScanComparison r = compare_with_scan(body, offset);
+    for (Eigen::Index i = 0; i < P.rows(); ++i) ASSERT_NEAR(r.scan_to_model[i], d, 1e-4) << i;
+    EXPECT_NEAR(r.scan_stats.signed_mean_mm, 1000 * d, 0.1);
+    EXPECT_NEAR(r.scan_stats.mean_mm, 1000 * std::abs(d), 0.1);
+    EXPECT_NEAR(r.scan_stats.p95_mm, 1000 * std::abs(d), 0.1);
+    EXPECT_GT(r.model_stats.signed_mean_mm * d, 0) << "model-to-scan has the same sign";
+  }
+  // Outliers are counted apart and do not enter the mean.
+  PointCloud noisy = on;
+  noisy.P.conservativeResize(P.rows() + 3, 3);
+  noisy.P.bottomRows(3) << 0, 0.5, 0, 0, -0.5, 0, 0.5, 0, 0;
+  const ScanComparison o = compare_with_scan(body, noisy);
+  EXPECT_EQ(o.scan_stats.outliers, 3);
+  EXPECT_LT(o.scan_stats.mean_mm, 1e-6);
+  EXPECT_NEAR(o.hausdorff_mm, 200, 1.0);  // (0, 0.5, 0) is 0.2 m off the 0.3 m sphere
+}
+
+TEST(ScanComparison, VerticesUnderAHoleAreUncoveredNotErrors) {
+  TriangleMesh body = test::icosphere(4, 0.3);
+  Eigen::MatrixXd P, N;
+  sample_surface(body, 4, &P, &N);
+  PointCloud holed;
+  std::vector<int> keep;
+  for (Eigen::Index i = 0; i < P.rows(); ++i)
+    if (P(i, 1) < 0.22) keep.push_back(static_cast<int>(i));  // the top cap is not scanned
+  holed.P.resize(static_cast<Eigen::Index>(keep.size()), 3);
+  for (size_t k = 0; k < keep.size(); ++k) holed.P.row(static_cast<Eigen::Index>(k)) = P.row(keep[k]);
+  const ScanComparison r = compare_with_scan(body, holed);
+  EXPECT_GT(r.uncovered_vertices, 50);
+  EXPECT_LT(r.coverage, 0.97);
+  for (Eigen::Index v = 0; v < body.V.rows(); ++v) {
+    if (body.V(v, 1) > 0.26) {
+      EXPECT_TRUE(std::isnan(r.model_to_scan[v])) << v;
+    } else if (body.V(v, 1) < 0.2) {
+      EXPECT_TRUE(std::isfinite(r.model_to_scan[v])) << v;
+    }
+  }
+  EXPECT_LT(r.model_stats.max_mm, 1000 * r.coverage_radius + 1e-9);
+}
+
+TEST(ScanComparison, RejectsEmptyScansNaNMeshesAndUnitMixUps) {
+  const TriangleMesh body = test::icosphere(3, 0.9);
+  EXPECT_THROW(compare_with_scan(body, PointCloud{}), InvalidInput);
+  PointCloud mm;
+  mm.P = body.V * 1000;  // the same body in mm, read as metres
+  try {
+    compare_with_scan(body, mm);
+    FAIL();
+  } catch (const InvalidInput& e) {
+    EXPECT_NE(std::string(e.what()).find("did you mean mm"), std::string::npos) << e.what();
+  }
+  TriangleMesh nan = body;
+  nan.V(3, 1) = std::nan("");
+  PointCloud ok;
+  ok.P = body.V;
+  EXPECT_THROW(compare_with_scan(nan, ok), InvalidInput);
+}
+
+TEST(ScanComparison, GirthsOfABodyAgreeWithThoseOfItsSimulatedScan) {
+  POSEKIT_REQUIRE_MAKEHUMAN();
+  const Body b = build_body(model, make_subject_specs(model, 1, 16)[0].spec);
+  PointCloud scan;
+  scan.P = simulate_scan(b.mesh).cloud.P;
+  const auto girths = girth_discrepancies(b.mesh, scan);
+  int measured = 0;
+  for (const auto& g : girths) {
+    if (!g.measured) continue;
+    ++measured;
+    if (g.name == "bust" || g.name == "waist" || g.name == "hip")
+      EXPECT_LT(std::abs(g.difference_cm), 1.0) << g.name << " " << g.model_cm << " vs " << g.scan_cm;
+    // The scan's floor is its lowest seen point and the soles are not seen: stature comes out short.
+    if (g.name == "stature") EXPECT_LT(std::abs(g.difference_cm), 1.5) << g.model_cm << " vs " << g.scan_cm;
+  }
+  EXPECT_GE(measured, 8);
+  const ScanComparison r = compare_with_scan(b.mesh, scan);
+  EXPECT_LT(r.scan_stats.rms_mm, 2.5);  // the scanner's noise is 1.5 mm
+  EXPECT_GT(r.coverage, 0.85);          // soles and occluded folds are not seen
+}

@@ -1,0 +1,101 @@
+#include "posekit/viewers/viewer.h"
+
+#include <gtest/gtest.h>
+
+#include <opencv2/imgcodecs.hpp>
+
+#include "posekit/core/error.h"
+#include "testing/temp_dir.h"
+#include "testing/test_meshes.h"
+
+using namespace posekit;
+
+namespace {
+
+bool is_red(const cv::Vec3b& bgr) { return bgr[2] > 150 && bgr[1] < 110 && bgr[0] < 110; }
+bool is_blue(const cv::Vec3b& bgr) { return bgr[0] > 140 && bgr[2] < 110; }
+bool is_background(const cv::Vec3b& bgr) { return bgr[0] > 245 && bgr[1] > 245 && bgr[2] > 245; }
+
+}  // namespace
+
+TEST(Viewer, OffScreenHeatmapShowsTheBodyTheColourBarAndRedWhereTheErrorIsHigh) {
+  test::TempDir dir;
+  ViewPanel panel;
+  panel.mesh = test::icosphere(4, 0.3);
+  panel.mesh.V.col(1) *= 3;  // a standing ellipsoid, 1.8 tall
+  Eigen::VectorXd error = 10 * (panel.mesh.V.col(1).array() / 0.9);  // -10 mm at the bottom, +10 at the top
+  panel.mesh.vertex_scalars["error_mm"] = error;
+  panel.scalar = "error_mm";
+  panel.caption = "test";
+  ViewOptions o;
+  o.colour_map.kind = ColourMapKind::kDiverging;
+  o.panel_width = 300;
+  o.panel_height = 450;
+  render_panels_png({panel, panel}, o, dir.file("h.png"));
+  const cv::Mat img = cv::imread(dir.file("h.png"), cv::IMREAD_COLOR);
+  ASSERT_FALSE(img.empty());
+  EXPECT_EQ(img.cols, 2 * 300 + 200);
+  EXPECT_EQ(img.rows, 450);
+  // The body covers a sensible part of each panel.
+  for (int panel_index = 0; panel_index < 2; ++panel_index) {
+    long body = 0, total = 0;
+    for (int y = 0; y < img.rows; ++y)
+      for (int x = panel_index * 300; x < (panel_index + 1) * 300; ++x, ++total) body += !is_background(img.at<cv::Vec3b>(y, x));
+    const double fraction = static_cast<double>(body) / static_cast<double>(total);
+    EXPECT_GT(fraction, 0.05) << panel_index;
+    EXPECT_LT(fraction, 0.7) << panel_index;
+  }
+  // The top of the body is red, the bottom blue.
+  long red_top = 0, blue_bottom = 0, red_bottom = 0;
+  for (int y = 0; y < img.rows; ++y)
+    for (int x = 0; x < 300; ++x) {
+      const cv::Vec3b p = img.at<cv::Vec3b>(y, x);
+      if (y < img.rows / 4) red_top += is_red(p);
+      if (y > 3 * img.rows / 4) {
+        blue_bottom += is_blue(p);
+        red_bottom += is_red(p);
+      }
+    }
+  EXPECT_GT(red_top, 200);
+  EXPECT_GT(blue_bottom, 200);
+  EXPECT_EQ(red_bottom, 0);
+  // The colour bar: red and blue in the rightmost 200 pixels, red above blue.
+  int first_red = -1, first_blue = -1;
+  for (int y = 0; y < img.rows; ++y)
+    for (int x = 600; x < img.cols; ++x) {
+      if (first_red < 0 && is_red(img.at<cv::Vec3b>(y, x))) first_red = y;
+      if (first_blue < 0 && is_blue(img.at<cv::Vec3b>(y, x))) first_blue = y;
+    }
+  ASSERT_GE(first_red, 0);
+  ASSERT_GE(first_blue, 0);
+  EXPECT_LT(first_red, first_blue);
+}
+
+TEST(Viewer, PlainMeshesAndBadScalars) {
+  test::TempDir dir;
+  ViewPanel panel;
+  panel.mesh = test::icosphere(3, 0.5);
+  render_panels_png({panel}, ViewOptions{}, dir.file("plain.png"));
+  const cv::Mat img = cv::imread(dir.file("plain.png"), cv::IMREAD_COLOR);
+  ASSERT_FALSE(img.empty());
+  EXPECT_EQ(img.cols, 480);  // no scalar: no colour bar
+  panel.scalar = "missing";
+  try {
+    render_panels_png({panel}, ViewOptions{}, dir.file("bad.png"));
+    FAIL();
+  } catch (const InvalidInput& e) {
+    EXPECT_NE(std::string(e.what()).find("missing"), std::string::npos);
+  }
+  EXPECT_THROW(render_panels_png({}, ViewOptions{}, dir.file("none.png")), InvalidInput);
+  EXPECT_EQ(dir.count(), 1);
+  ColourMap fixed;
+  fixed.automatic = false;
+  fixed.min = -2;
+  fixed.max = 5;
+  Eigen::VectorXd v = Eigen::VectorXd::LinSpaced(10, -100, 100);
+  EXPECT_EQ(colour_range(fixed, {&v}), std::make_pair(-2.0, 5.0));
+  ColourMap diverging;
+  diverging.kind = ColourMapKind::kDiverging;
+  const auto r = colour_range(diverging, {&v});
+  EXPECT_DOUBLE_EQ(r.first, -r.second);
+}
