@@ -15,4 +15,5 @@ int run_segment(int argc, char** argv);
 int run_eval(int argc, char** argv);
 int run_compare(int argc, char** argv);
 int run_view(int argc, char** argv);
+int run_report(int argc, char** argv);
 }  // namespace posekit::cli

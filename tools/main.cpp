@@ -27,6 +27,7 @@ const Command kCommands[] = {
     {"eval", posekit::cli::run_eval, "pose accuracy against ground truth (eval pose)"},
     {"compare", posekit::cli::run_compare, "a model against a scan: distances, coverage, girth discrepancies, heatmap"},
     {"view", posekit::cli::run_view, "VTK viewer for meshes with error fields (window, or --png off-screen)"},
+    {"report", posekit::cli::run_report, "the paper's figures and tables from a dataset, as HTML + Markdown"},
     {"dataset", posekit::cli::run_dataset, "generate the evaluation dataset, or check one"},
     {"bench", posekit::cli::run_bench, "benchmarks (io) with medians over several runs"},
 };

@@ -207,8 +207,11 @@ vtkSmartPointer<vtkPolyData> cloud_polydata(const PointCloud& cloud, size_t max_
   return poly;
 }
 
-void place_camera(vtkRenderer* renderer, CameraPreset preset) {
-  renderer->ResetCamera();
+/// Frames the mesh (not the overlay, whose outliers may lie far away) from a preset direction.
+void place_camera(vtkRenderer* renderer, vtkActor* mesh, CameraPreset preset, double aspect) {
+  double bounds[6];
+  mesh->GetBounds(bounds);
+  renderer->ResetCamera(bounds);
   vtkCamera* camera = renderer->GetActiveCamera();
   double focal[3];
   camera->GetFocalPoint(focal);
@@ -218,8 +221,9 @@ void place_camera(vtkRenderer* renderer, CameraPreset preset) {
   if (preset == CameraPreset::kBack) dir[2] = -1;
   camera->SetPosition(focal[0] + distance * dir[0], focal[1] + distance * dir[1], focal[2] + distance * dir[2]);
   camera->SetViewUp(0, 1, 0);
-  renderer->ResetCamera();
-  camera->Zoom(1.15);
+  renderer->ResetCamera(bounds);
+  // ResetCamera fits the bounding sphere vertically; narrow panels need less zoom to keep the arms.
+  camera->Zoom(1.15 * std::min(1.0, aspect / 0.75));
 }
 
 /// Everything VTK needs for a figure; kept alive while the window lives.
@@ -228,6 +232,7 @@ struct Scene {
   std::vector<vtkSmartPointer<vtkRenderer>> renderers;
   std::vector<vtkSmartPointer<vtkActor>> mesh_actors, overlay_actors;
   std::vector<const ViewPanel*> panels;
+  double aspect = 1;
 };
 
 Scene build_scene(const std::vector<ViewPanel>& panels, const ViewOptions& o) {
@@ -253,6 +258,7 @@ Scene build_scene(const std::vector<ViewPanel>& panels, const ViewOptions& o) {
   const int width = o.panel_width * static_cast<int>(panels.size()) + bar_width;
 
   Scene scene;
+  scene.aspect = static_cast<double>(o.panel_width) / o.panel_height;
   scene.window = vtkSmartPointer<vtkRenderWindow>::New();
   scene.window->SetSize(width, o.panel_height);
   scene.window->SetWindowName(o.title.empty() ? "posekit" : o.title.c_str());
@@ -307,7 +313,7 @@ Scene build_scene(const std::vector<ViewPanel>& panels, const ViewOptions& o) {
       text->GetPositionCoordinate()->SetValue(0.5, 0.97);
       renderer->AddActor2D(text);
     }
-    place_camera(renderer, p.camera);
+    place_camera(renderer, actor, p.camera, static_cast<double>(o.panel_width) / o.panel_height);
     scene.window->AddRenderer(renderer);
     scene.renderers.push_back(renderer);
     scene.panels.push_back(&p);
@@ -376,7 +382,8 @@ class PickingStyle : public vtkInteractorStyleTrackballCamera {
     }
     if (key == 'c') {
       preset = (preset + 1) % 3;
-      for (auto& r : scene->renderers) place_camera(r, static_cast<CameraPreset>(preset));
+      for (size_t i = 0; i < scene->renderers.size(); ++i)
+        place_camera(scene->renderers[i], scene->mesh_actors[i], static_cast<CameraPreset>(preset), scene->aspect);
       this->Interactor->Render();
       return;
     }

@@ -1,0 +1,30 @@
+#pragma once
+// `posekit report`: the paper's evaluation figures and tables regenerated from a dataset, as an
+// HTML page and Markdown with PNG figures (VTK, off-screen).
+#include <functional>
+#include <string>
+#include <vector>
+
+namespace posekit {
+
+struct ReportOptions {
+  std::string model_path;        ///< trained model (.pkm); empty: train on the dataset
+  int threads = 0;               ///< for the scan comparisons (0: all cores)
+  int registration_runs = 3;     ///< timed runs per method and subject in Table 1
+  int nicp_subjects = 2;         ///< non-rigid ICP (seconds per run) on the first N subjects only
+  std::string command_line;      ///< how the report was asked for, quoted in it
+  std::function<void(int, int, const std::string&)> progress;
+};
+
+struct ReportSummary {
+  std::vector<std::string> files;      ///< everything written, relative to the output folder
+  std::vector<std::string> warnings;   ///< also listed in the report
+  double seconds = 0;
+};
+
+/// Writes index.html, report.md, report.json and the figures into `out_dir` (created; existing
+/// report files are replaced). Each figure or table that cannot be made becomes a warning in the
+/// report instead of a broken link. Throws IoError when the dataset cannot be read at all.
+ReportSummary write_report(const std::string& dataset_dir, const std::string& out_dir, const ReportOptions& options);
+
+}  // namespace posekit
