@@ -34,7 +34,8 @@ CommandResult run(const std::string& args, bool merge_stderr = false) {
 }  // namespace
 
 TEST(Cli, EveryCommandHasHelp) {
-  for (const char* c : {"info", "convert", "bench", "body", "dataset", "train", "pose", "segment", "register", "measure"}) {
+  for (const char* c : {"info", "convert", "bench", "body", "dataset", "train", "pose", "segment", "register", "measure",
+                        "compare", "view", "report"}) {
     const CommandResult r = run(std::string(c) + " --help");
     EXPECT_EQ(r.code, 0) << c;
     EXPECT_NE(r.out.find("usage: posekit"), std::string::npos) << c;
@@ -211,4 +212,51 @@ TEST(Cli, TrainPoseSegmentAndEvalOnASmallDataset) {
   EXPECT_NE(r.out.find("POSEKPKM"), std::string::npos) << r.out;
   EXPECT_FALSE(std::filesystem::exists(dir.file("x.ply")));
   EXPECT_EQ(run("pose --model " + dir.file("m.pkm")).code, 2);
+}
+
+TEST(Cli, CompareViewAndReport) {
+  ASSERT_FALSE(test::test_data_root().empty());
+  test::TempDir dir;
+  const std::string ds = dir.file("ds");
+  ASSERT_EQ(run("dataset make --small --out " + ds).code, 0);
+  const std::string subject = ds + "/subjects/m01/rest.ply", scan = ds + "/scans/m01/rest.pcd";
+  CommandResult r = run("compare " + subject + " " + scan + " --measure --json --out " + dir.file("err.ply") + " --png " +
+                        dir.file("err.png"));
+  ASSERT_EQ(r.code, 0) << r.out;
+  const auto j = nlohmann::json::parse(r.out);
+  EXPECT_EQ(j["units"], "mm");
+  EXPECT_LT(j["scan_to_model"]["rms_mm"].get<double>(), 2.5);  // scanner noise 1.5 mm
+  EXPECT_GT(j["coverage"].get<double>(), 0.85);
+  EXPECT_GT(j["scan_to_model"]["outliers"].get<long>(), 0);  // the simulated stray points
+  bool waist = false;
+  for (const auto& g : j["girths"])
+    if (g["name"] == "waist") waist = std::abs(g["difference_cm"].get<double>()) < 1.0;
+  EXPECT_TRUE(waist);
+  const TriangleMesh err = read_mesh(dir.file("err.ply"));
+  EXPECT_EQ(err.vertex_scalars.count("signed_distance_mm"), 1u);
+  EXPECT_EQ(err.vertex_scalars.count("covered"), 1u);
+  EXPECT_TRUE(std::filesystem::is_regular_file(dir.file("err.png")));
+
+  // The viewer off-screen, with the scan overlaid, two meshes side by side.
+  r = run("view " + dir.file("err.ply") + "," + subject + " --scalar covered --scan " + scan + " --png " + dir.file("v.png"));
+  EXPECT_EQ(r.code, 1);  // the second mesh has no 'covered' scalar: a clear error
+  r = run("view " + dir.file("err.ply") + " --scalar signed_distance_mm --colours diverging --range -5:5 --camera back --scan " +
+          scan + " --png " + dir.file("v.png"));
+  ASSERT_EQ(r.code, 0) << r.out;
+  EXPECT_TRUE(std::filesystem::is_regular_file(dir.file("v.png")));
+  EXPECT_EQ(run("view " + subject + " --camera top --png " + dir.file("x.png")).code, 1);
+  EXPECT_EQ(run("view " + subject + " --size 10 --png " + dir.file("x.png")).code, 2);
+
+  // Units: the scan read as metres is refused with a hint.
+  r = run("compare " + subject + " " + scan + " --scan-unit m", true);
+  EXPECT_EQ(r.code, 1);
+  EXPECT_NE(r.out.find("did you mean mm"), std::string::npos) << r.out;
+  dir.write("empty.xyz", "");
+  EXPECT_EQ(run("compare " + subject + " " + dir.file("empty.xyz")).code, 1);
+
+  // The report.
+  r = run("report --dataset " + ds + " --out " + dir.file("report") + " --runs 1 --nicp-subjects 0");
+  ASSERT_EQ(r.code, 0) << r.out;
+  EXPECT_TRUE(std::filesystem::is_regular_file(dir.file("report/index.html")));
+  EXPECT_FALSE(std::filesystem::exists(dir.file("x.png")));
 }
