@@ -23,10 +23,9 @@ echo "== the evaluation dataset: template, pose dataset, 16 subjects with ground
 echo "== measurements of a customized subject, from its mesh and from its simulated scan (ground truth in measurements.json)"
 "$posekit" measure "$out/dataset/subjects/f01/rest.ply"
 "$posekit" measure "$out/dataset/scans/f01/rest.pcd" --unit mm
-echo "== ct-FFD registration of the template to a subject, and the paper's Table 1 on this machine"
+echo "== ct-FFD registration of the template to a subject (Table 1 is in the report below)"
 "$posekit" register "$out/dataset/template/rest.ply" "$out/dataset/subjects/f01/rest.ply" \
   --out "$out/f01_correspondence.json" --deformed "$out/template_on_f01.ply"
-"$posekit" bench registration --dataset "$out/dataset" --runs 3
 echo "== pose deformation: learn T^Q on the pose dataset, pose a customized subject, accuracy and speed"
 "$posekit" train --dataset "$out/dataset" --out "$out/model.pkm"
 "$posekit" segment "$out/dataset/subjects/m05/rest.ply" --model "$out/model.pkm" --out "$out/m05_parts.ply" \
@@ -37,4 +36,12 @@ echo "== pose deformation: learn T^Q on the pose dataset, pose a customized subj
   --out "$out/subject_benchmark_learned.ply"
 "$posekit" eval pose --dataset "$out/dataset" --model "$out/model.pkm"
 "$posekit" bench pose --dataset "$out/dataset" --runs 3 --poses 20
+echo "== validation against a scan: distances, coverage, girth discrepancies, heatmap (off-screen VTK)"
+"$posekit" compare "$out/m05_squat_half.ply" "$out/dataset/scans/m05/squat_half.pcd" --out "$out/m05_squat_half_errors.ply" \
+  --png "$out/m05_squat_half_errors.png"
+"$posekit" compare "$out/dataset/subjects/f01/rest.ply" "$out/dataset/scans/f01/rest.pcd" --measure
+"$posekit" bench compare --runs 3
+echo "== the report: the paper's figures and tables regenerated from the dataset"
+"$posekit" report --dataset "$out/dataset" --model "$out/model.pkm" --out "$out/report"
 echo "== results in $out/ (PLY files open in MeshLab, CloudCompare, ParaView; scans are PCD in mm)"
+echo "== open $out/report/index.html"
