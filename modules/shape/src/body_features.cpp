@@ -26,7 +26,8 @@ struct LoopShape {
   double min_x = 0, max_x = 0;
 };
 
-LoopShape shape_of(const SectionLoop& loop) {
+/// Area, centroid and x-range of a horizontal loop; its girth (a convex hull) only when asked.
+LoopShape shape_of(const SectionLoop& loop, bool with_girth = false) {
   LoopShape s;
   const Eigen::MatrixXd& P = loop.points;
   double a2 = 0, cx = 0, cz = 0;
@@ -41,7 +42,7 @@ LoopShape shape_of(const SectionLoop& loop) {
     s.centroid = Eigen::Vector3d(cx / (3 * a2), P.col(1).mean(), cz / (3 * a2));
   else
     s.centroid = P.colwise().mean().transpose();
-  s.girth = convex_hull_perimeter(P, Eigen::Vector3d::UnitY());
+  if (with_girth) s.girth = convex_hull_perimeter(P, Eigen::Vector3d::UnitY());
   s.min_x = P.col(0).minCoeff();
   s.max_x = P.col(0).maxCoeff();
   return s;
@@ -167,7 +168,7 @@ BodyFeatures find_body_features(const SectionStack& st) {
     }
     if (crotch < 0) crotch = i;
     torso[i] = found;
-    torso_shape[i] = shape_of(st.loops[i][found]);
+    torso_shape[i] = shape_of(st.loops[i][found], true);
     z_track = torso_shape[i].centroid.z();
   }
   if (crotch < 0) throw InvalidInput("body features: no section encloses the body axis: could not find the crotch");
@@ -263,7 +264,7 @@ BodyFeatures find_body_features(const SectionStack& st) {
         if (d < best_d) best = static_cast<int>(k), best_d = d;
       }
       if (best < 0) break;
-      const LoopShape s = shape_of(st.loops[i][best]);
+      const LoopShape s = shape_of(st.loops[i][best], true);
       axis.push_back(s.centroid);
       area.push_back(s.area);
       girth.push_back(s.girth);
@@ -368,7 +369,7 @@ BodyFeatures find_body_features(const SectionStack& st) {
         if (d < best_d) best = static_cast<int>(k), best_d = d;
       }
       if (best < 0) continue;
-      const LoopShape s = shape_of(st.loops[i][best]);
+      const LoopShape s = shape_of(st.loops[i][best], true);
       axis.push_back(s.centroid);
       g.push_back(s.girth);
       depth.push_back(st.loops[i][best].points.col(2).maxCoeff() - st.loops[i][best].points.col(2).minCoeff());
