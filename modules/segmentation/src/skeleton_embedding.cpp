@@ -8,15 +8,34 @@
 
 namespace posekit {
 
+std::pair<double, double> torso_span(const LayeredRepresentation& rep) {
+  double lo = 0, hi = 0;
+  bool found = false;
+  for (const RepresentationLayer& layer : rep.layers) {
+    if (layer.chain != 0) continue;  // chain 0 is the torso
+    if (!found) lo = layer.centre.y();
+    hi = layer.centre.y();
+    found = true;
+  }
+  if (!found || !(hi > lo)) throw InvalidInput("torso_span: the representation has no torso chain");
+  return {lo, hi};
+}
+
 SkeletonPrior make_skeleton_prior(const Eigen::MatrixXd& template_joints, const LayeredRepresentation& template_rep) {
   if (template_joints.rows() != kNumJoints || template_joints.cols() != 3)
     throw InvalidInput("make_skeleton_prior: expected " + std::to_string(kNumJoints) + " x 3 joint centres, got " +
                        std::to_string(template_joints.rows()) + " x " + std::to_string(template_joints.cols()));
-  return SkeletonPrior{ctffd_parametrize(template_joints, template_rep)};
+  SkeletonPrior prior{ctffd_parametrize(template_joints, template_rep)};
+  const auto [lo, hi] = torso_span(template_rep);
+  for (int j = 0; j < 3; ++j) prior.torso_fraction[j] = (template_joints(j, 1) - lo) / (hi - lo);
+  return prior;
 }
 
 Eigen::MatrixXd embed_skeleton(const SkeletonPrior& prior, const LayeredRepresentation& rep) {
-  return ctffd_evaluate(prior.joints, rep);
+  Eigen::MatrixXd joints = ctffd_evaluate(prior.joints, rep);
+  const auto [lo, hi] = torso_span(rep);
+  for (int j = 0; j < 3; ++j) joints(j, 1) = lo + prior.torso_fraction[j] * (hi - lo);
+  return joints;
 }
 
 Eigen::MatrixXd joint_centres_from_segmentation(const Eigen::MatrixXd& V, const Eigen::MatrixXi& F,

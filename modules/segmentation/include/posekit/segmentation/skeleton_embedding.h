@@ -11,13 +11,21 @@ namespace posekit {
 /// A reference skeleton: the joint centres of a template body expressed in its representation.
 struct SkeletonPrior {
   CtffdParametrization joints;   ///< the 15 joint centres, parametrised as ct-FFD points
+  /// Heights of the lower-back, upper-back and neck joints as fractions of the torso chain, from
+  /// the crotch (0) to the neck base (1): on MakeHuman bodies of either sex and any weight these
+  /// vary by under 2.5 cm, far less than their position between the waist and hip levels does.
+  Eigen::Vector3d torso_fraction = Eigen::Vector3d::Zero();
 };
+
+/// Heights (m) of the first and last torso layers of a representation: crotch and neck base.
+std::pair<double, double> torso_span(const LayeredRepresentation& rep);
 
 /// Parametrises a template's joint centres (#joints x 3) in its representation.
 SkeletonPrior make_skeleton_prior(const Eigen::MatrixXd& template_joints, const LayeredRepresentation& template_rep);
 
 /// The joint centres of another body (#joints x 3, m): the prior's points re-evaluated in the body's
-/// representation, so they follow its layers (ct-FFD).
+/// representation, so they follow its layers (ct-FFD); the three torso joints then take their
+/// heights from the torso fractions.
 Eigen::MatrixXd embed_skeleton(const SkeletonPrior& prior, const LayeredRepresentation& rep);
 
 /// Joint centres without a prior, from the segmentation alone: the centroid of the boundary edges
