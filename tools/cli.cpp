@@ -189,6 +189,20 @@ Stats stats_of(std::vector<double> v) {
   return s;
 }
 
+std::pair<double, double> parse_number_pair(const std::string& text, char separator, const std::string& option) {
+  const auto at = text.find(separator);
+  try {
+    if (at == std::string::npos) throw std::invalid_argument(text);
+    size_t used_a = 0, used_b = 0;
+    const std::string a = text.substr(0, at), b = text.substr(at + 1);
+    const double first = std::stod(a, &used_a), second = std::stod(b, &used_b);
+    if (used_a != a.size() || used_b != b.size()) throw std::invalid_argument(text);
+    return {first, second};
+  } catch (const std::exception&) {
+    throw UsageError(option + " expects two numbers as A" + std::string(1, separator) + "B, got '" + text + "'");
+  }
+}
+
 double peak_rss_mib() {
   std::ifstream status("/proc/self/status");
   std::string line;

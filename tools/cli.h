@@ -94,6 +94,9 @@ struct Stats {
 };
 Stats stats_of(std::vector<double> values);
 
+/// Two numbers written with a separator, as "A:B" or "WxH"; UsageError naming `option` otherwise.
+std::pair<double, double> parse_number_pair(const std::string& text, char separator, const std::string& option);
+
 /// Peak resident set size of this process so far, in MiB (from /proc/self/status).
 double peak_rss_mib();
 

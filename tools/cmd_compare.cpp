@@ -1,5 +1,6 @@
 // posekit compare / view: a model against a scan, and VTK viewers for meshes with error fields.
 #include <cmath>
+#include <tuple>
 #include <iomanip>
 #include <iostream>
 #include <nlohmann/json.hpp>
@@ -30,15 +31,7 @@ ColourMap colour_map_from(const ArgParser& args, ColourMapKind default_kind) {
     else throw UsageError("--colours expects diverging or sequential, got '" + c + "'");
   }
   if (args.has("range")) {
-    const std::string r = args.get("range");
-    const auto colon = r.find(':');
-    try {
-      if (colon == std::string::npos) throw std::invalid_argument(r);
-      map.min = std::stod(r.substr(0, colon));
-      map.max = std::stod(r.substr(colon + 1));
-    } catch (const std::exception&) {
-      throw UsageError("--range expects MIN:MAX in mm, got '" + r + "'");
-    }
+    std::tie(map.min, map.max) = parse_number_pair(args.get("range"), ':', "--range (mm)");
     if (!(map.max > map.min)) throw UsageError("--range: MAX must exceed MIN");
     map.automatic = false;
   }
@@ -181,15 +174,9 @@ int run_view(int argc, char** argv) {
   ViewOptions v;
   v.colour_map = colour_map_from(args, ColourMapKind::kSequential);
   v.colour_map.title = args.get("title");
-  const std::string size = args.get("size");
-  const auto x = size.find('x');
-  try {
-    if (x == std::string::npos) throw std::invalid_argument(size);
-    v.panel_width = std::stoi(size.substr(0, x));
-    v.panel_height = std::stoi(size.substr(x + 1));
-  } catch (const std::exception&) {
-    throw UsageError("--size expects WxH, got '" + size + "'");
-  }
+  const auto [w, h] = parse_number_pair(args.get("size"), 'x', "--size");
+  v.panel_width = static_cast<int>(w);
+  v.panel_height = static_cast<int>(h);
   if (v.panel_width < 64 || v.panel_height < 64 || v.panel_width > 4000 || v.panel_height > 4000)
     throw UsageError("--size: each side must be 64 to 4000 pixels");
   PointCloud overlay;

@@ -117,15 +117,10 @@ int run_pose(int argc, char** argv) {
     const auto mh = load_makehuman_model(find_data_root(args.get("data")));
     long first = 0, last = motion.frames.rows();
     if (args.has("frames")) {
+      const auto [a, b] = parse_number_pair(args.get("frames"), ':', "--frames");
+      first = static_cast<long>(a);
+      last = static_cast<long>(b);
       const std::string f = args.get("frames");
-      const auto colon = f.find(':');
-      try {
-        if (colon == std::string::npos) throw std::invalid_argument(f);
-        first = std::stol(f.substr(0, colon));
-        last = std::stol(f.substr(colon + 1));
-      } catch (const std::exception&) {
-        throw UsageError("--frames expects A:B, got '" + f + "'");
-      }
       if (first < 0 || last > motion.frames.rows() || first >= last)
         throw UsageError("--frames " + f + " is outside the " + std::to_string(motion.frames.rows()) + " frames of " + pose_path);
     }

@@ -11,6 +11,7 @@
 #include "posekit/datasets/remesh.h"
 #include "posekit/io/atomic_file.h"
 #include "posekit/io/mesh_io.h"
+#include "manifest.h"
 #include "posekit/segmentation/segmentation.h"
 #include "posekit/segmentation/skeleton_embedding.h"
 #include "posekit/shape/body_features.h"
@@ -75,22 +76,13 @@ struct Accumulator {
   }
 };
 
-nlohmann::json read_manifest(const std::string& dir) {
-  const std::string path = (fs::path(dir) / "manifest.json").string();
-  try {
-    return nlohmann::json::parse(read_file_bytes(path));
-  } catch (const nlohmann::json::exception& e) {
-    throw IoError(path + ": not valid JSON (" + e.what() + ")");
-  }
-}
-
 }  // namespace
 
 PoseEvaluation evaluate_poses(const std::string& dir, std::shared_ptr<const PoseModel> model,
                               const PoseEvaluationOptions& options) {
   PoseEvaluation out;
   const PoseModel& M = *model;
-  const nlohmann::json manifest = read_manifest(dir);
+  const nlohmann::json manifest = read_dataset_manifest(dir);
   const TemplateAnnotations ann = load_template_annotations(dir);
   const Eigen::VectorXi template_vertex_part =
       ann.triangle_part.size() == M.template_F.rows()

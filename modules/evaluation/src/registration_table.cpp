@@ -4,6 +4,7 @@
 #include <filesystem>
 #include <nlohmann/json.hpp>
 
+#include "manifest.h"
 #include "posekit/core/error.h"
 #include "posekit/core/mesh_geometry.h"
 #include "posekit/datasets/dataset.h"
@@ -35,13 +36,7 @@ std::pair<double, double> correspondence_error_mm(const TriangleMesh& templ, con
 
 RegistrationTable measure_registration_table(const std::string& dir, const RegistrationTableOptions& o) {
   if (o.runs < 1) throw InvalidInput("registration table: runs must be at least 1");
-  const std::string manifest_path = (fs::path(dir) / "manifest.json").string();
-  nlohmann::json manifest;
-  try {
-    manifest = nlohmann::json::parse(read_file_bytes(manifest_path));
-  } catch (const nlohmann::json::exception& e) {
-    throw IoError(manifest_path + ": not valid JSON (" + e.what() + ")");
-  }
+  const nlohmann::json manifest = read_dataset_manifest(dir);
   const TriangleMesh templ = read_mesh((fs::path(dir) / manifest.at("template").at("mesh").get<std::string>()).string());
   struct Method {
     std::string name;

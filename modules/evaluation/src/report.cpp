@@ -10,6 +10,7 @@
 #include <nlohmann/json.hpp>
 #include <sstream>
 
+#include "manifest.h"
 #include "posekit/core/error.h"
 #include "posekit/datasets/dataset.h"
 #include "posekit/deformation/pose_model.h"
@@ -150,6 +151,17 @@ TriangleMesh with_scalar(TriangleMesh mesh, const std::string& name, const Eigen
 }
 
 /// A pose not in the pose dataset: a wave with the right arm while stepping forward on the left.
+/// A fixed, symmetric signed-distance colour map (mm) for the heatmap figures.
+ColourMap signed_error_map(double range_mm) {
+  ColourMap map;
+  map.kind = ColourMapKind::kDiverging;
+  map.automatic = false;
+  map.min = -range_mm;
+  map.max = range_mm;
+  map.title = "model to scan (mm)";
+  return map;
+}
+
 PartPose novel_pose() {
   PartPose p;
   p.joint_rotation[static_cast<size_t>(find_joint_index("right_shoulder"))] = Eigen::Vector3d(0, 0, -1.6);
@@ -164,13 +176,7 @@ PartPose novel_pose() {
 
 ReportSummary write_report(const std::string& dir, const std::string& out_dir, const ReportOptions& o) {
   const auto t_start = std::chrono::steady_clock::now();
-  const std::string manifest_path = (fs::path(dir) / "manifest.json").string();
-  nlohmann::json manifest;
-  try {
-    manifest = nlohmann::json::parse(read_file_bytes(manifest_path));
-  } catch (const nlohmann::json::exception& e) {
-    throw IoError(manifest_path + ": not valid JSON (" + e.what() + ")");
-  }
+  const nlohmann::json manifest = read_dataset_manifest(dir);
   std::error_code ec;
   fs::create_directories(out_dir, ec);
   if (ec || !fs::is_directory(out_dir)) throw IoError(out_dir + ": cannot create the report folder (" + ec.message() + ")");
@@ -356,11 +362,7 @@ ReportSummary write_report(const std::string& dir, const std::string& out_dir, c
   doc.data["scans"] = scan_json;
   if (!customization_panels.empty()) {
     ViewOptions v = plain;
-    v.colour_map.kind = ColourMapKind::kDiverging;
-    v.colour_map.automatic = false;
-    v.colour_map.min = -30;
-    v.colour_map.max = 30;
-    v.colour_map.title = "model to scan (mm)";
+    v.colour_map = signed_error_map(30);
     render(customization_panels, v, "fig4_customization_vs_scan.png",
            {"", "Figure 4: customized models against scans",
             "The template customized to each subject by ct-FFD (its representation deformed into the subject's) coloured by "
@@ -474,11 +476,7 @@ ReportSummary write_report(const std::string& dir, const std::string& out_dir, c
     ViewOptions v = plain;
     v.panel_width = 260;
     v.panel_height = 480;
-    v.colour_map.kind = ColourMapKind::kDiverging;
-    v.colour_map.automatic = false;
-    v.colour_map.min = -20;
-    v.colour_map.max = 20;
-    v.colour_map.title = "model to scan (mm)";
+    v.colour_map = signed_error_map(20);
     render(fig9, v, "fig9_posed_vs_scans.png",
            {"", "Figure 9: posed models beside their scans",
             "Subjects posed by the learned method in 'reach_forward', with the simulated scan of the subject in that pose "
