@@ -174,7 +174,8 @@ int run_segment(int argc, char** argv) {
   ArgParser args("segment",
                  "Segments a standing body mesh into the 16 rigid parts (Eq. 2a-2c) and embeds the 15-joint\n"
                  "skeleton. With --model, the representation's labels and the skeleton come from the model's\n"
-                 "template (recommended); without, from the representation's own layer labels and part borders.");
+                 "template (recommended); without, from the representation's own layer labels, the body's\n"
+                 "features (shoulders, elbows, wrists, knees, ankles) and part borders (hips).");
   args.positional("mesh", "body mesh (PLY/OBJ/OFF/STL)")
       .option("model", "FILE", "trained model (.pkm) whose template labels the representation")
       .option("unit", "U", "unit of the mesh", "m")
@@ -186,7 +187,8 @@ int run_segment(int argc, char** argv) {
   const TriangleMesh mesh = read_mesh(args.positionals()[0], {parse_unit(args.get("unit"))});
   require_usable_mesh(mesh, args.positionals()[0]);
   const auto t0 = std::chrono::steady_clock::now();
-  const LayeredRepresentation rep = build_layered_representation(mesh.V, mesh.F, find_body_features(mesh.V, mesh.F));
+  const BodyFeatures features = find_body_features(mesh.V, mesh.F);
+  const LayeredRepresentation rep = build_layered_representation(mesh.V, mesh.F, features);
   Segmentation seg;
   Eigen::MatrixXd joints;
   if (args.has("model")) {
@@ -198,7 +200,7 @@ int run_segment(int argc, char** argv) {
     joints = embed_skeleton(make_skeleton_prior(model.joint_centres, trep), rep);
   } else {
     seg = segment_body(mesh.V, mesh.F, rep);
-    joints = joint_centres_from_segmentation(mesh.V, mesh.F, seg.triangle_part);
+    joints = joint_centres_from_features(mesh.V, mesh.F, seg.triangle_part, rep, features);
   }
   const double seconds = seconds_since(t0);
   if (args.has("out")) {

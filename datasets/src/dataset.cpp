@@ -265,6 +265,17 @@ DatasetSummary make_dataset(const std::string& out_dir, const DatasetOptions& o)
   }
 }
 
+int find_rest_example(const PoseDataset& data) {
+  for (size_t i = 0; i < data.names.size(); ++i)
+    if (!data.rest_name.empty() && data.names[i] == data.rest_name) return static_cast<int>(i);
+  for (size_t i = 0; i < data.names.size(); ++i) {
+    bool zero = data.has_pose[i] && data.poses[i].root_rotation.norm() < 1e-12;
+    for (int j = 0; j < kNumJoints && zero; ++j) zero = data.poses[i].joint_rotation[static_cast<size_t>(j)].norm() < 1e-12;
+    if (zero) return static_cast<int>(i);
+  }
+  return -1;
+}
+
 PoseDataset load_pose_dataset(const std::string& dir, Unit unit) {
   PoseDataset ds;
   fs::path base = dir;

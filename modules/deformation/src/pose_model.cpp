@@ -75,15 +75,7 @@ Eigen::MatrixXd deformation_gradients(const Eigen::MatrixXd& V0, const Eigen::Ma
 
 PoseModel train_pose_model(const PoseDataset& data, const TrainingOptions& options) {
   const Eigen::MatrixXi& F = data.F;
-  // The template: the named rest example, else the first one with a zero pose.
-  int rest = -1;
-  for (size_t i = 0; i < data.names.size(); ++i)
-    if (data.names[i] == data.rest_name && !data.rest_name.empty()) rest = static_cast<int>(i);
-  for (size_t i = 0; i < data.names.size() && rest < 0; ++i) {
-    bool zero = data.has_pose[i];
-    for (int j = 0; j < kNumJoints && zero; ++j) zero = data.poses[i].joint_rotation[static_cast<size_t>(j)].norm() < 1e-12;
-    if (zero) rest = static_cast<int>(i);
-  }
+  const int rest = find_rest_example(data);
   if (rest < 0) throw InvalidInput("train_pose_model: the dataset has no rest-pose example (all joint rotations zero)");
   std::vector<int> examples;
   for (size_t i = 0; i < data.names.size(); ++i) {

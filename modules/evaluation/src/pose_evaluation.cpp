@@ -46,13 +46,13 @@ PoseModel train_on_dataset(const std::string& dir, const TrainingOptions& base) 
     o.joint_centres = ann.joint_centres;
   } else {
     // No labels shipped: the template's own segmentation (Eq. 2) and skeleton.
-    int rest = 0;
-    for (size_t i = 0; i < data.names.size(); ++i)
-      if (data.names[i] == data.rest_name) rest = static_cast<int>(i);
+    const int rest = find_rest_example(data);
+    if (rest < 0) throw InvalidInput(dir + ": no rest-pose example (all joint rotations zero) to be the template");
     const Eigen::MatrixXd& V = data.V[static_cast<size_t>(rest)];
-    const LayeredRepresentation rep = build_layered_representation(V, data.F, find_body_features(V, data.F));
+    const BodyFeatures features = find_body_features(V, data.F);
+    const LayeredRepresentation rep = build_layered_representation(V, data.F, features);
     o.triangle_part = segment_body(V, data.F, rep).triangle_part;
-    o.joint_centres = joint_centres_from_segmentation(V, data.F, o.triangle_part);
+    o.joint_centres = joint_centres_from_features(V, data.F, o.triangle_part, rep, features);
   }
   return train_pose_model(data, o);
 }
@@ -101,10 +101,8 @@ PoseEvaluation evaluate_poses(const std::string& dir, std::shared_ptr<const Pose
   };
 
   if (options.template_poses) {
-    int rest = -1;
-    for (size_t i = 0; i < data.names.size(); ++i)
-      if (data.names[i] == data.rest_name) rest = static_cast<int>(i);
-    if (rest < 0) throw InvalidInput(dir + ": the pose dataset names no rest example");
+    const int rest = find_rest_example(data);
+    if (rest < 0) throw InvalidInput(dir + ": the pose dataset has no rest example");
     const Eigen::MatrixXd& V0 = data.V[static_cast<size_t>(rest)];
     if (V0.rows() != M.template_V.rows() || data.F != M.template_F || (V0 - M.template_V).cwiseAbs().maxCoeff() > 1e-6)
       throw InvalidInput("the model was trained on another template than the pose dataset of " + dir + " (" +

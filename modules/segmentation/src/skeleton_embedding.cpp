@@ -38,6 +38,41 @@ Eigen::MatrixXd embed_skeleton(const SkeletonPrior& prior, const LayeredRepresen
   return joints;
 }
 
+Eigen::Vector3d typical_torso_fractions() { return Eigen::Vector3d(0.262, 0.495, 1.004); }
+
+Eigen::MatrixXd joint_centres_from_features(const Eigen::MatrixXd& V, const Eigen::MatrixXi& F,
+                                            const Eigen::VectorXi& triangle_part, const LayeredRepresentation& rep,
+                                            const BodyFeatures& f) {
+  Eigen::MatrixXd J = joint_centres_from_segmentation(V, F, triangle_part);
+  const auto [lo, hi] = torso_span(rep);
+  const Eigen::Vector3d fraction = typical_torso_fractions();
+  for (int j = 0; j < 3; ++j) {
+    // On the torso axis: the centre of the torso layers at that height.
+    const double y = lo + fraction[j] * (hi - lo);
+    Eigen::Vector3d below = Eigen::Vector3d::Zero(), above = Eigen::Vector3d::Zero();
+    bool have_below = false, have_above = false;
+    for (const RepresentationLayer& layer : rep.layers) {
+      if (layer.chain != 0) continue;
+      if (layer.centre.y() <= y) below = layer.centre, have_below = true;
+      if (layer.centre.y() >= y && !have_above) above = layer.centre, have_above = true;
+    }
+    Eigen::Vector3d c = have_below ? below : above;
+    if (have_below && have_above && above.y() > below.y()) c = below + (y - below.y()) / (above.y() - below.y()) * (above - below);
+    J.row(j) << f.axis_x, y, c.z();
+  }
+  for (int side : {kLeft, kRight}) {
+    const bool left = side == kLeft;
+    if (f.arm_found[side]) {
+      J.row((left ? kLeftUpperArm : kRightUpperArm) - 1) = f.shoulder[side].transpose();
+      J.row((left ? kLeftForearm : kRightForearm) - 1) = f.elbow[side].transpose();
+      J.row((left ? kLeftHand : kRightHand) - 1) = f.wrist[side].transpose();
+    }
+    J.row((left ? kLeftShank : kRightShank) - 1) = f.knee[side].transpose();
+    J.row((left ? kLeftFoot : kRightFoot) - 1) = f.ankle[side].transpose();
+  }
+  return J;
+}
+
 Eigen::MatrixXd joint_centres_from_segmentation(const Eigen::MatrixXd& V, const Eigen::MatrixXi& F,
                                                 const Eigen::VectorXi& triangle_part) {
   const Eigen::MatrixXi TT = face_adjacency(F);

@@ -47,6 +47,10 @@ struct PoseDataset {
   std::string rest_name;               ///< the rest-pose example (template), if known
 };
 
+/// The template of a pose dataset: the example named rest_name, else the first one whose 16-part
+/// pose is all zero; -1 when there is none.
+int find_rest_example(const PoseDataset& data);
+
 /// Loads `dir/pose_dataset` of a posekit dataset (split from its manifest), or any folder of
 /// registered meshes (OBJ/PLY/OFF, each optionally with a same-named .json 16-part pose). Meshes must
 /// share the topology: the first one that does not is named in the InvalidInput thrown.
