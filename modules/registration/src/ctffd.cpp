@@ -67,7 +67,12 @@ CtffdParametrization ctffd_parametrize(const Eigen::MatrixXd& V, const LayeredRe
     const Eigen::Vector3d e1 = r / radius, e3 = f.normal.cross(e1).normalized(), e2 = e3.cross(e1);
     const Eigen::Vector3d d = v - f.axis;
     p.bary.row(i) = b.transpose();
-    p.offset.row(i) << d.dot(e1) / radius, d.dot(e2) / radius, d.dot(e3) / radius;
+    // Radial: a fraction of the band radius inside the representation surface; outside it, 1 plus
+    // the distance beyond the surface in metres, which is not rescaled (a chin far outside a thin
+    // neck band would otherwise be thrown forward by the ratio of the two bodies' neck radii).
+    const double radial = d.dot(e1);
+    p.offset.row(i) << (radial <= radius ? radial / radius : 1.0 + (radial - radius)), d.dot(e2) / radius,
+        d.dot(e3) / radius;
   }
   return p;
 }
@@ -82,7 +87,9 @@ Eigen::MatrixXd ctffd_evaluate(const CtffdParametrization& p, const LayeredRepre
     const Eigen::Vector3d r = f.surface - f.axis;
     const double radius = std::max(r.norm(), 1e-6);
     const Eigen::Vector3d e1 = r / radius, e3 = f.normal.cross(e1).normalized(), e2 = e3.cross(e1);
-    out.row(i) = (f.axis + radius * (p.offset(i, 0) * e1 + p.offset(i, 1) * e2 + p.offset(i, 2) * e3)).transpose();
+    const double rho = p.offset(i, 0);
+    const double radial = rho <= 1 ? rho * radius : radius + (rho - 1.0);
+    out.row(i) = (f.axis + radial * e1 + radius * (p.offset(i, 1) * e2 + p.offset(i, 2) * e3)).transpose();
   }
   return out;
 }

@@ -13,7 +13,9 @@ namespace posekit {
 struct CtffdParametrization {
   Eigen::VectorXi triangle;  ///< #V representation triangle of each vertex
   Eigen::MatrixXd bary;      ///< #V x 3 barycentric coordinates of its foot point on that triangle
-  Eigen::MatrixXd offset;    ///< #V x 3 (radial, along the band normal, tangential), in band radii
+  /// #V x 3 (radial, along the band normal, tangential) in band radii; a radial value above 1 is
+  /// 1 plus the distance outside the representation surface in metres (not rescaled).
+  Eigen::MatrixXd offset;
 };
 
 /// Parametrises V (#V x 3, any mesh of the body `rep` was built from) in `rep`.
