@@ -142,12 +142,16 @@ PoseSynthesizer::PoseSynthesizer(std::shared_ptr<const PoseModel> model, const T
   }
   s.vertex_part = vertex_labels_from_triangles(s.V, s.F, s.info.triangle_part);
 
+  const Eigen::VectorXd face_area = face_areas(s.V, s.F);
+  const Eigen::MatrixXi edges = unique_edges(s.F);
+  Eigen::VectorXd edge_length(edges.rows());
+  for (Eigen::Index e = 0; e < edges.rows(); ++e) edge_length[e] = (s.V.row(edges(e, 0)) - s.V.row(edges(e, 1))).norm();
+
   t0 = std::chrono::steady_clock::now();
   Eigen::VectorXd position_weight;
   if (options.anchor_strength > 0) {
     // Sensitivity of each triangle's T^Q to the pose: the norm of its twist coefficients.
     Eigen::VectorXd sensitivity = Eigen::VectorXd::Zero(s.V.rows()), vertex_area = Eigen::VectorXd::Zero(s.V.rows());
-    const Eigen::VectorXd face_area = face_areas(s.V, s.F);
     for (Eigen::Index k = 0; k < s.F.rows(); ++k) {
       double sq = 0;
       for (int entry = 0; entry < 9; ++entry)
@@ -158,10 +162,7 @@ PoseSynthesizer::PoseSynthesizer(std::shared_ptr<const PoseModel> model, const T
       }
     }
     // The mesh's stiffness per vertex is about area / edge^2 (times the valence): scale to it.
-    const Eigen::MatrixXi E = unique_edges(s.F);
-    double mean_sq_edge = 0;
-    for (Eigen::Index e = 0; e < E.rows(); ++e) mean_sq_edge += (s.V.row(E(e, 0)) - s.V.row(E(e, 1))).squaredNorm();
-    mean_sq_edge /= std::max<Eigen::Index>(E.rows(), 1);
+    const double mean_sq_edge = edge_length.squaredNorm() / static_cast<double>(std::max<Eigen::Index>(edges.rows(), 1));
     position_weight.resize(s.V.rows());
     for (Eigen::Index v = 0; v < s.V.rows(); ++v) {
       const double r = sensitivity[v] / options.rigid_sensitivity;
@@ -171,19 +172,15 @@ PoseSynthesizer::PoseSynthesizer(std::shared_ptr<const PoseModel> model, const T
   }
   s.solver = std::make_unique<PoissonSolver>(s.V, s.F, position_weight);
   s.info.seconds_factorisation = seconds_since(t0);
-  const Eigen::VectorXd area = face_areas(s.V, s.F);
   s.pelvis_area = Eigen::VectorXd::Zero(s.F.rows());
   for (Eigen::Index k = 0; k < s.F.rows(); ++k)
-    if (s.info.triangle_part[k] == kPelvis) s.pelvis_area[k] = area[k];
+    if (s.info.triangle_part[k] == kPelvis) s.pelvis_area[k] = face_area[k];
   if (!(s.pelvis_area.sum() > 0))
     throw InvalidInput("subject mesh: no triangle was labelled pelvis; is it a standing body?");
 
   int iterations = options.lbs_smoothing_iterations;
   if (iterations <= 0) {
-    const Eigen::MatrixXi E = unique_edges(s.F);
-    double mean_edge = 0;
-    for (Eigen::Index e = 0; e < E.rows(); ++e) mean_edge += (s.V.row(E(e, 0)) - s.V.row(E(e, 1))).norm();
-    mean_edge /= std::max<Eigen::Index>(E.rows(), 1);
+    const double mean_edge = edge_length.size() ? edge_length.mean() : 0.0;
     const double rings = 0.03 / std::max(mean_edge, 1e-6);  // blend over about 3 cm
     iterations = static_cast<int>(std::clamp(2 * rings * rings, 4.0, 400.0));
   }
