@@ -141,10 +141,13 @@ TEST(ScanComparison, GirthsOfABodyAgreeWithThoseOfItsSimulatedScan) {
   for (const auto& g : girths) {
     if (!g.measured) continue;
     ++measured;
-    if (g.name == "bust" || g.name == "waist" || g.name == "hip")
+    if (g.name == "bust" || g.name == "waist" || g.name == "hip") {
       EXPECT_LT(std::abs(g.difference_cm), 1.0) << g.name << " " << g.model_cm << " vs " << g.scan_cm;
+    }
     // The scan's floor is its lowest seen point and the soles are not seen: stature comes out short.
-    if (g.name == "stature") EXPECT_LT(std::abs(g.difference_cm), 1.5) << g.model_cm << " vs " << g.scan_cm;
+    if (g.name == "stature") {
+      EXPECT_LT(std::abs(g.difference_cm), 1.5) << g.model_cm << " vs " << g.scan_cm;
+    }
   }
   EXPECT_GE(measured, 8);
   const ScanComparison r = compare_with_scan(b.mesh, scan);

@@ -411,7 +411,7 @@ vtkStandardNewMacro(PickingStyle);
 }  // namespace
 
 void render_panels_png(const std::vector<ViewPanel>& panels, const ViewOptions& options, const std::string& png_path) {
-  const RenderingLeakScope leak_scope;
+  [[maybe_unused]] const RenderingLeakScope leak_scope;
   Display::require(true);
   Scene scene = build_scene(panels, options);
   scene.window->SetOffScreenRendering(1);
@@ -433,7 +433,7 @@ void render_panels_png(const std::vector<ViewPanel>& panels, const ViewOptions& 
 }
 
 void show_panels(const std::vector<ViewPanel>& panels, const ViewOptions& options) {
-  const RenderingLeakScope leak_scope;
+  [[maybe_unused]] const RenderingLeakScope leak_scope;
   Display::require(false);
   Scene scene = build_scene(panels, options);
   vtkNew<vtkRenderWindowInteractor> interactor;
