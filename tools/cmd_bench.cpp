@@ -190,9 +190,8 @@ int bench_registration(int argc, char** argv) {
   ArgParser args("bench registration",
                  "The paper's Table 1 on this machine: the template registered to every subject of a dataset by\n"
                  "ct-FFD, by PCL's rigid ICP (1 and 6 iterations) and by optimal-step non-rigid ICP, each followed\n"
-                 "by the nearest-centroid\n"
-                 "correspondence; median/min/max time over several runs (single thread) and correspondence error\n"
-                 "against the dataset's ground truth (mean and 95th percentile, mm).");
+                 "by the nearest-centroid correspondence; median/min/max time over several runs (single thread)\n"
+                 "and correspondence error against the dataset's ground truth (mean and 95th percentile, mm).");
   args.option("dataset", "DIR", "a posekit dataset (posekit dataset make)")
       .option("runs", "R", "timed runs per method and subject", "5")
       .option("subjects", "N", "use only the first N subjects (0: all)", "0")
