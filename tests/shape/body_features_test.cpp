@@ -68,13 +68,14 @@ TEST(BodyFeatures, TorsoLevelsOnAllSixteenRemeshedSubjects) {
 TEST(BodyFeatures, LimbJointsOnAllSixteenRemeshedSubjects) {
   POSEKIT_REQUIRE_MAKEHUMAN();
   const FeatureErrors& e = subject_errors(model);
-  // Measured (32 limbs): ankle <= 1.3 cm, knee <= 2.3, shoulder <= 2.7, elbow <= 2.4 but one 4.2,
-  // wrist <= 2.5 but up to 7.3 on three male arms.
+  // Measured (32 limbs): ankle <= 1.3 cm, knee <= 2.3, shoulder <= 2.7, elbow <= 2.4; wrist <= 2.5
+  // on 26, up to 3.5 on six male arms (the bar is 2 cm).
   EXPECT_LE(worst(e.ankle), 2.0);
   EXPECT_LE(worst(e.knee), 2.5);
   EXPECT_LE(worst(e.shoulder), 3.0);
-  EXPECT_GE(count_within(e.elbow, 2.5), 30);
-  EXPECT_GE(count_within(e.wrist, 2.5), 24);
+  EXPECT_LE(worst(e.elbow), 2.5);
+  EXPECT_GE(count_within(e.wrist, 2.5), 26);
+  EXPECT_LE(worst(e.wrist), 4.0);
 }
 
 TEST(BodyFeatures, RejectsBodiesThatAreNotStanding) {

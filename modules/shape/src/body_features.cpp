@@ -16,6 +16,7 @@ constexpr double kBustBandStart = 0.62;   ///< of the crotch-to-armpit span
 constexpr double kWaistBandStart = 0.33;
 constexpr double kKneeFraction = 0.563;   ///< knee joint between ankle joint and crotch
 constexpr double kWristBand[2] = {0.48, 0.68};  ///< wrist between elbow and hand tip
+constexpr double kPalmFrom = 0.55;               ///< the palm lies beyond this fraction
 constexpr double kWristBeyondNarrowest = 0.012;  ///< m, toward the hand
 constexpr double kShoulderInset = 0.2;  ///< shoulder joint between armpit (0) and the lateral edge (1)
 
@@ -293,14 +294,20 @@ BodyFeatures find_body_features(const SectionStack& st) {
       }
       return elbow;
     };
-    // Wrist: the thinnest section between 48% and 68% of the way from the elbow to the hand tip.
+    // Wrist: the thinnest section between 48% and 68% of the way from the elbow to the hand tip,
+    // proximal of the palm (the fullest section beyond 55%): horizontal sections of the hanging hand
+    // narrow again towards the fingertips.
     auto find_wrist = [&](size_t elbow) {
       const double reach = (tip - axis[elbow]).norm();
+      auto fraction = [&](size_t k) { return (axis[k] - axis[elbow]).norm() / reach; };
+      size_t palm = m;
+      for (size_t k = elbow; k < m; ++k)
+        if (fraction(k) >= kPalmFrom && (palm == m || girth[k] > girth[palm])) palm = k;
       size_t wrist = elbow;
       double wrist_girth = std::numeric_limits<double>::max();
       for (size_t k = elbow; k < m; ++k) {
-        const double t = (axis[k] - axis[elbow]).norm() / reach;
-        if (t < kWristBand[0] || t > kWristBand[1]) continue;
+        const double t = fraction(k);
+        if (t < kWristBand[0] || t > kWristBand[1] || (k >= palm && wrist_girth < std::numeric_limits<double>::max())) continue;
         if (girth[k] < wrist_girth) wrist_girth = girth[k], wrist = k;
       }
       return wrist;
