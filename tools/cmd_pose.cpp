@@ -16,6 +16,7 @@
 #include "posekit/deformation/pose_model.h"
 #include "posekit/deformation/pose_synthesis.h"
 #include "posekit/deformation/rigid_pose.h"
+#include "posekit/deformation/segmentation_calibration.h"
 #include "posekit/evaluation/pose_evaluation.h"
 #include "posekit/io/bvh.h"
 #include "posekit/io/atomic_file.h"
@@ -23,6 +24,7 @@
 #include "posekit/core/mesh_geometry.h"
 #include "posekit/core/mesh_validation.h"
 #include "posekit/segmentation/segmentation.h"
+#include "posekit/segmentation/segmentation_prior.h"
 #include "posekit/segmentation/skeleton_embedding.h"
 #include "posekit/shape/body_features.h"
 #include "posekit/shape/layered_representation.h"
@@ -58,9 +60,13 @@ int run_train(int argc, char** argv) {
                  "Learns the non-rigid pose deformation T^Q (Eq. 3-5): for every template triangle a 9 x 7 linear\n"
                  "model on the twists of the two joints next to its part, from the training split of a registered\n"
                  "pose dataset. Template labels and joints come from the dataset (template/parts.json, joints.json)\n"
-                 "or, when absent, from the template's own segmentation (Eq. 2).");
+                 "or, when absent, from the template's own segmentation (Eq. 2). When the template is the MakeHuman\n"
+                 "base mesh, the model also keeps a segmentation prior: random MakeHuman bodies labelled by the rig,\n"
+                 "from which a customized body takes the part labels and joints of the bodies shaped most like it.");
   args.option("dataset", "DIR", "a posekit dataset, or a folder of registered meshes with same-named .json poses")
       .option("out", "FILE", "model file to write (.pkm)", "model.pkm")
+      .option("calibration-bodies", "N", "random MakeHuman bodies in the segmentation prior; 0: the template alone (default: 128)")
+      .option("data", "DIR", "MakeHuman data root, for the prior (default: POSEKIT_DATA or ../shared/...)")
       .flag("json", "summary as JSON on stdout")
       .example("posekit train --dataset out/dataset --out model.pkm");
   if (!args.parse(argc, argv)) return 0;
@@ -69,20 +75,39 @@ int run_train(int argc, char** argv) {
   TrainingOptions o;
   o.progress = [&](int done, int total) { progress.update(100L * done / std::max(total, 1)); };
   const auto t0 = std::chrono::steady_clock::now();
-  const PoseModel model = train_on_dataset(args.get("dataset"), o);
+  PoseModel model = train_on_dataset(args.get("dataset"), o);
   const double seconds = seconds_since(t0);
   progress.finish();
+  const long calibration_bodies = args.has("calibration-bodies") ? args.get_int("calibration-bodies") : 128;
+  if (calibration_bodies < 0) throw UsageError("--calibration-bodies must not be negative");
+  PriorReport prior;
+  if (calibration_bodies > 0) {
+    Progress calibration("segmentation prior", calibration_bodies + 1);
+    CalibrationOptions co;
+    co.bodies = static_cast<int>(calibration_bodies);
+    co.progress = [&](int done, int) { calibration.update(done); };
+    prior = add_segmentation_prior(&model, args.has("data") ? args.get("data") : "", co);
+    calibration.finish();
+    if (!prior.not_made.empty()) std::cerr << "posekit train: segmentation prior is the template alone: " << prior.not_made << "\n";
+  }
   write_pose_model(args.get("out"), model);
   nlohmann::ordered_json s = {{"model", args.get("out")}, {"training_poses", model.training_poses},
                               {"template_vertices", model.template_V.rows()}, {"template_triangles", model.template_F.rows()},
-                              {"fit_rms", model.fit_rms}, {"seconds", seconds}, {"peak_rss_mib", peak_rss_mib()}};
+                              {"fit_rms", model.fit_rms}, {"seconds", seconds},
+                              {"calibration_bodies", prior.bodies}, {"calibration_skipped", prior.skipped},
+                              {"calibration_seconds", prior.seconds},
+                              {"peak_rss_mib", peak_rss_mib()}};
   if (args.flag_set("json")) {
     print_json(s);
     return 0;
   }
   std::cout << "trained on " << model.training_poses << " poses of a " << model.template_V.rows() << "-vertex template in "
             << std::fixed << std::setprecision(2) << seconds << " s (RMS residual of Eq. 5: " << std::setprecision(4)
-            << model.fit_rms << "); wrote " << args.get("out") << "\n";
+            << model.fit_rms << ")";
+  if (prior.bodies > 0)
+    std::cout << "; segmentation prior of " << prior.bodies << " bodies in " << std::setprecision(2) << prior.seconds << " s"
+              << (prior.skipped ? " (" + std::to_string(prior.skipped) + " left out: features not found)" : "");
+  std::cout << "; wrote " << args.get("out") << "\n";
   return 0;
 }
 
@@ -192,12 +217,9 @@ int run_segment(int argc, char** argv) {
   Segmentation seg;
   Eigen::MatrixXd joints;
   if (args.has("model")) {
-    const PoseModel model = read_pose_model(args.get("model"));
-    const LayeredRepresentation trep = build_layered_representation(
-        model.template_V, model.template_F, find_body_features(model.template_V, model.template_F));
-    seg = segment_body(mesh.V, mesh.F, rep,
-                       representation_labels_from_body(model.template_V, model.template_F, model.triangle_part, trep));
-    joints = embed_skeleton(make_skeleton_prior(model.joint_centres, trep), rep);
+    const SegmentationPrior prior = segmentation_prior_of(read_pose_model(args.get("model")));
+    seg = segment_body(mesh.V, mesh.F, rep, representation_labels_from_prior(prior, rep));
+    joints = embed_skeleton(prior, rep);
   } else {
     seg = segment_body(mesh.V, mesh.F, rep);
     joints = joint_centres_from_features(mesh.V, mesh.F, seg.triangle_part, rep, features);
@@ -256,8 +278,14 @@ int run_eval(int argc, char** argv) {
   if (!args.has("dataset")) throw UsageError("--dataset DIR is required");
   const std::string dir = args.get("dataset");
   auto t0 = std::chrono::steady_clock::now();
-  const auto model = std::make_shared<const PoseModel>(args.has("model") ? read_pose_model(args.get("model"))
-                                                                          : train_on_dataset(dir));
+  std::shared_ptr<const PoseModel> model;
+  if (args.has("model")) {
+    model = std::make_shared<const PoseModel>(read_pose_model(args.get("model")));
+  } else {
+    PoseModel trained = train_on_dataset(dir);
+    add_segmentation_prior(&trained);
+    model = std::make_shared<const PoseModel>(std::move(trained));
+  }
   const double train_seconds = seconds_since(t0);
   PoseEvaluationOptions o;
   std::unique_ptr<Progress> progress;

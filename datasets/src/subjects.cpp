@@ -44,6 +44,21 @@ BodySpec with_fatness(BodySpec s, double fatness) {
   return s;
 }
 
+/// Height, muscle, proportions, ethnic mix and the local variation modifiers, drawn at random.
+BodySpec random_sliders(double gender, std::mt19937& rng) {
+  std::uniform_real_distribution<double> u(0.0, 1.0);
+  BodySpec b;
+  b.gender = gender;
+  b.height = 0.3 + 0.35 * u(rng);
+  b.muscle = 0.3 + 0.4 * u(rng);
+  b.proportions = 0.35 + 0.3 * u(rng);
+  b.african = u(rng);
+  b.asian = u(rng);
+  b.caucasian = 0.2 + 0.8 * u(rng);
+  for (const char* m : kVariationModifiers) b.modifiers[m] = std::round((u(rng) * 0.8 - 0.4) * 1000) / 1000;
+  return b;
+}
+
 /// Centre of the torso section at height y, from the spine joints.
 Eigen::Vector3d torso_centre(const Eigen::MatrixXd& J, double y) {
   const int a = find_joint_index("lower_back"), b = find_joint_index("upper_back"), c = find_joint_index("neck");
@@ -124,15 +139,7 @@ std::vector<SubjectSpec> make_subject_specs(const MakeHumanModel& model, unsigne
     s.target_class = static_cast<BmiClass>((k * 4) / std::max(1, per_gender) % 4);
     const int c = static_cast<int>(s.target_class);
     s.target_bmi = class_lo[c] + (class_hi[c] - class_lo[c]) * u(rng);
-    BodySpec b;
-    b.gender = s.female ? 0.0 : 1.0;
-    b.height = 0.3 + 0.35 * u(rng);
-    b.muscle = 0.3 + 0.4 * u(rng);
-    b.proportions = 0.35 + 0.3 * u(rng);
-    b.african = u(rng);
-    b.asian = u(rng);
-    b.caucasian = 0.2 + 0.8 * u(rng);
-    for (const char* m : kVariationModifiers) b.modifiers[m] = std::round((u(rng) * 0.8 - 0.4) * 1000) / 1000;
+    const BodySpec b = random_sliders(s.female ? 0.0 : 1.0, rng);
     // Bisection on fatness: BMI grows with it.
     double lo = kMinFatness, hi = kMaxFatness;
     for (int it = 0; it < 32; ++it) {
@@ -145,6 +152,19 @@ std::vector<SubjectSpec> make_subject_specs(const MakeHumanModel& model, unsigne
       throw InvalidInput("make_subject_specs: subject " + s.id + " reaches BMI " + std::to_string(bmi) + ", not the " +
                          bmi_class_name(s.target_class) + " target " + std::to_string(s.target_bmi));
     out.push_back(std::move(s));
+  }
+  return out;
+}
+
+std::vector<BodySpec> make_calibration_specs(unsigned seed, int count) {
+  if (count < 0) throw InvalidInput("make_calibration_specs: count must not be negative");
+  std::mt19937 rng(seed);
+  std::uniform_real_distribution<double> u(0.0, 1.0);
+  std::vector<BodySpec> out;
+  for (int i = 0; i < count; ++i) {
+    const double gender = i % 3 == 0 ? 0.0 : i % 3 == 1 ? 1.0 : u(rng);
+    const double fatness = kMinFatness + (kMaxFatness - kMinFatness) * u(rng);
+    out.push_back(with_fatness(random_sliders(gender, rng), fatness));
   }
   return out;
 }

@@ -6,8 +6,10 @@
 #include <fstream>
 
 #include "posekit/core/error.h"
+#include "posekit/deformation/segmentation_calibration.h"
 #include "posekit/evaluation/pose_evaluation.h"
 #include "posekit/io/atomic_file.h"
+#include "testing/makehuman_fixture.h"
 #include "testing/small_dataset.h"
 
 using namespace posekit;
@@ -40,9 +42,65 @@ TEST(PoseModel, FitsTheTrainingPosesAndSavesLosslessly) {
   dir.write("foreign.pkm", "ply\nformat ascii 1.0\n");
   std::string nan_bytes = bytes;
   const double nan = std::nan("");
-  std::memcpy(&nan_bytes[nan_bytes.size() - sizeof(double)], &nan, sizeof(double));
+  // The last coefficient, before the (empty) segmentation prior's count and neighbours.
+  std::memcpy(&nan_bytes[nan_bytes.size() - 8 - sizeof(double)], &nan, sizeof(double));
   dir.write("nan.pkm", nan_bytes);
   for (const char* name : {"cut.pkm", "foreign.pkm", "nan.pkm", "missing.pkm"}) {
+    try {
+      read_pose_model(dir.file(name));
+      FAIL() << name;
+    } catch (const IoError& e) {
+      EXPECT_NE(std::string(e.what()).find(name), std::string::npos) << e.what();
+    }
+  }
+}
+
+TEST(PoseModel, KeepsItsSegmentationPrior) {
+  POSEKIT_REQUIRE_MAKEHUMAN();
+  PoseModel m = train_on_dataset(test::small_dataset().root);
+  CalibrationOptions o;
+  o.bodies = 4;
+  int progress_calls = 0, skipped = -1;
+  o.progress = [&](int done, int total) {
+    ++progress_calls;
+    EXPECT_LE(done, total);
+  };
+  m.segmentation_prior = calibrate_segmentation(model, o, &skipped);
+  EXPECT_EQ(progress_calls, 5);
+  ASSERT_EQ(static_cast<int>(m.segmentation_prior.bodies.size()) + skipped, 5);
+  ASSERT_GE(m.segmentation_prior.bodies.size(), 3u);
+
+  test::TempDir dir;
+  write_pose_model(dir.file("m.pkm"), m);
+  const PoseModel back = read_pose_model(dir.file("m.pkm"));
+  ASSERT_EQ(back.segmentation_prior.bodies.size(), m.segmentation_prior.bodies.size());
+  EXPECT_EQ(back.segmentation_prior.neighbours, m.segmentation_prior.neighbours);
+  for (size_t b = 0; b < back.segmentation_prior.bodies.size(); ++b) {
+    const CalibrationBody &x = back.segmentation_prior.bodies[b], &y = m.segmentation_prior.bodies[b];
+    EXPECT_EQ(x.labels, y.labels);
+    for (int r = 0; r < kShapeRegions; ++r) EXPECT_EQ(x.shape.region[r], y.shape.region[r]);
+    EXPECT_EQ(x.skeleton.joints.triangle, y.skeleton.joints.triangle);
+    EXPECT_TRUE(x.skeleton.joints.bary == y.skeleton.joints.bary && x.skeleton.joints.offset == y.skeleton.joints.offset);
+    EXPECT_EQ(x.skeleton.torso_fraction, y.skeleton.torso_fraction);
+  }
+  // Body 0 is the default body: the template's own labelling.
+  EXPECT_EQ(segmentation_prior_of(m).bodies.size(), m.segmentation_prior.bodies.size());
+  PoseModel bare = m;
+  bare.segmentation_prior = {};
+  const SegmentationPrior own = segmentation_prior_of(bare);
+  ASSERT_EQ(own.bodies.size(), 1u);
+  EXPECT_EQ(own.bodies[0].labels, m.segmentation_prior.bodies[0].labels);
+
+  // A prior cut short or with a label outside the 16 parts names the file.
+  const std::string bytes = read_file_bytes(dir.file("m.pkm"));
+  dir.write("cut_prior.pkm", bytes.substr(0, bytes.size() - 100));
+  std::string bad_label = bytes;
+  const CalibrationBody& last = m.segmentation_prior.bodies.back();
+  const size_t skeleton_bytes = kNumJoints * (4 + 6 * 8) + 3 * 8;
+  bad_label[bytes.size() - skeleton_bytes - 1] = static_cast<char>(200);  // the last body's last label
+  ASSERT_EQ(last.labels.size() > 0, true);
+  dir.write("bad_label.pkm", bad_label);
+  for (const char* name : {"cut_prior.pkm", "bad_label.pkm"}) {
     try {
       read_pose_model(dir.file(name));
       FAIL() << name;

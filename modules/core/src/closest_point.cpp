@@ -45,9 +45,9 @@ Eigen::Vector3d closest_point_on_triangle(const Eigen::Vector3d& p, const Eigen:
   return done(1 - v - w, v, w);
 }
 
-void parallel_for_ranges(long n, int threads, const std::function<void(long, long)>& body) {
+void parallel_for_ranges(long n, int threads, const std::function<void(long, long)>& body, long min_items_per_thread) {
   if (threads <= 0) threads = static_cast<int>(std::max(1u, std::thread::hardware_concurrency()));
-  threads = static_cast<int>(std::min<long>(threads, std::max<long>(1, n / 1024)));
+  threads = static_cast<int>(std::min<long>(threads, std::max<long>(1, n / std::max<long>(1, min_items_per_thread))));
   if (threads <= 1) {
     body(0, n);
     return;

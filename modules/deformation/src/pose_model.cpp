@@ -15,6 +15,7 @@
 #include "posekit/datasets/dataset.h"
 #include "posekit/deformation/rigid_pose.h"
 #include "posekit/io/atomic_file.h"
+#include "posekit/shape/body_features.h"
 
 namespace posekit {
 namespace {
@@ -228,7 +229,7 @@ Eigen::MatrixXd predict_nonrigid(const PoseModel& model, const PartPose& pose) {
 namespace {
 
 constexpr char kMagic[8] = {'P', 'O', 'S', 'E', 'K', 'P', 'K', 'M'};
-constexpr std::uint32_t kVersion = 1;
+constexpr std::uint32_t kVersion = 2;  ///< 2 adds the segmentation prior; 1 is still read
 
 template <typename T>
 void put(std::ostream& os, const T& value) {
@@ -268,7 +269,63 @@ class Reader {
   size_t pos_ = 0;
 };
 
+SegmentationPrior read_segmentation_prior(Reader& in, const std::string& path) {
+  SegmentationPrior prior;
+  const auto count = in.get<std::uint32_t>("the segmentation prior");
+  prior.neighbours = in.get<std::int32_t>("the segmentation prior");
+  if (count > 100000u || prior.neighbours < 1 || prior.neighbours > 100000)
+    throw IoError(path + ": implausible segmentation prior (" + std::to_string(count) + " bodies, " +
+                  std::to_string(prior.neighbours) + " neighbours)");
+  Eigen::Index label_count = -1;
+  std::vector<Eigen::Index> region_sizes;
+  for (std::uint32_t b = 0; b < count; ++b) {
+    CalibrationBody body;
+    const auto regions = in.get<std::uint32_t>("the segmentation prior");
+    if (regions != kShapeRegions)
+      throw IoError(path + ": calibration body " + std::to_string(b) + " has " + std::to_string(regions) +
+                    " shape regions, expected " + std::to_string(kShapeRegions));
+    for (std::uint32_t r = 0; r < regions; ++r) {
+      const auto n = in.get<std::uint32_t>("the segmentation prior");
+      if (n > 10000000u) throw IoError(path + ": implausible shape descriptor of " + std::to_string(n) + " values");
+      body.shape.region.push_back(in.matrix<float>(n, 1, "a calibration body's shape"));
+      if (!body.shape.region.back().allFinite())
+        throw IoError(path + ": calibration body " + std::to_string(b) + " has a NaN or infinite shape value");
+    }
+    const auto labels = in.get<std::uint32_t>("the segmentation prior");
+    if (labels > 10000000u) throw IoError(path + ": implausible count of " + std::to_string(labels) + " representation labels");
+    body.labels = in.matrix<std::uint8_t>(labels, 1, "a calibration body's labels");
+    if (labels > 0 && body.labels.maxCoeff() >= kNumParts)
+      throw IoError(path + ": calibration body " + std::to_string(b) + " has a part label outside [0, 16)");
+    // All bodies share one representation topology.
+    std::vector<Eigen::Index> sizes;
+    for (const auto& r : body.shape.region) sizes.push_back(r.size());
+    if (label_count < 0) label_count = body.labels.size(), region_sizes = sizes;
+    if (body.labels.size() != label_count || sizes != region_sizes)
+      throw IoError(path + ": calibration body " + std::to_string(b) + " has another representation size than body 0");
+    CtffdParametrization& j = body.skeleton.joints;
+    j.triangle = in.matrix<std::int32_t>(kNumJoints, 1, "a calibration skeleton").cast<int>();
+    j.bary = in.matrix<double>(kNumJoints, 3, "a calibration skeleton");
+    j.offset = in.matrix<double>(kNumJoints, 3, "a calibration skeleton");
+    body.skeleton.torso_fraction = in.matrix<double>(3, 1, "a calibration skeleton");
+    if (j.triangle.minCoeff() < 0 || j.triangle.maxCoeff() >= label_count || !j.bary.allFinite() ||
+        !j.offset.allFinite() || !body.skeleton.torso_fraction.allFinite())
+      throw IoError(path + ": calibration body " + std::to_string(b) + " has an invalid skeleton");
+    prior.bodies.push_back(std::move(body));
+  }
+  return prior;
+}
+
 }  // namespace
+
+SegmentationPrior segmentation_prior_of(const PoseModel& model) {
+  if (!model.segmentation_prior.bodies.empty()) return model.segmentation_prior;
+  const LayeredRepresentation rep = build_layered_representation(
+      model.template_V, model.template_F, find_body_features(model.template_V, model.template_F));
+  SegmentationPrior prior;
+  prior.bodies.push_back(
+      make_calibration_body(model.template_V, model.template_F, model.triangle_part, model.joint_centres, rep));
+  return prior;
+}
 
 void write_pose_model(const std::string& path, const PoseModel& model) {
   write_file_atomically(path, [&](std::ostream& os) {
@@ -286,6 +343,23 @@ void write_pose_model(const std::string& path, const PoseModel& model) {
     put_matrix(os, model.joint_centres);
     put_matrix(os, Eigen::Matrix<std::int32_t, Eigen::Dynamic, Eigen::Dynamic>(model.triangle_joints.cast<std::int32_t>()));
     put_matrix(os, model.coefficients);
+    const SegmentationPrior& prior = model.segmentation_prior;
+    put(os, static_cast<std::uint32_t>(prior.bodies.size()));
+    put(os, static_cast<std::int32_t>(prior.neighbours));
+    for (const CalibrationBody& body : prior.bodies) {
+      put(os, static_cast<std::uint32_t>(body.shape.region.size()));
+      for (const Eigen::VectorXf& r : body.shape.region) {
+        put(os, static_cast<std::uint32_t>(r.size()));
+        put_matrix(os, r);
+      }
+      put(os, static_cast<std::uint32_t>(body.labels.size()));
+      put_matrix(os, body.labels);
+      const CtffdParametrization& j = body.skeleton.joints;
+      put_matrix(os, Eigen::Matrix<std::int32_t, Eigen::Dynamic, 1>(j.triangle.cast<std::int32_t>()));
+      put_matrix(os, j.bary);
+      put_matrix(os, j.offset);
+      put_matrix(os, body.skeleton.torso_fraction);
+    }
   });
 }
 
@@ -296,7 +370,7 @@ PoseModel read_pose_model(const std::string& path) {
   if (std::memcmp(magic, kMagic, sizeof(kMagic)) != 0)
     throw IoError(path + ": not a posekit pose model (expected the POSEKPKM header of a .pkm file)");
   const auto version = in.get<std::uint32_t>("the header");
-  if (version != kVersion)
+  if (version < 1 || version > kVersion)
     throw IoError(path + ": .pkm version " + std::to_string(version) + ", this posekit reads version " +
                   std::to_string(kVersion));
   const auto nv = in.get<std::uint32_t>("the header"), nf = in.get<std::uint32_t>("the header");
@@ -313,7 +387,8 @@ PoseModel read_pose_model(const std::string& path) {
   m.joint_centres = in.matrix<double>(nj, 3, "the joint centres");
   m.triangle_joints = in.matrix<std::int32_t>(nf, 2, "the triangle joints").cast<int>();
   m.coefficients = in.matrix<double>(nf, nc, "the coefficients");  // row-major copy
-  if (!in.at_end()) throw IoError(path + ": unexpected bytes after the coefficients");
+  if (version >= 2) m.segmentation_prior = read_segmentation_prior(in, path);
+  if (!in.at_end()) throw IoError(path + ": unexpected bytes after the " + (version >= 2 ? "segmentation prior" : "coefficients"));
   if (!m.template_V.allFinite() || !m.joint_centres.allFinite() || !m.coefficients.allFinite())
     throw IoError(path + ": the model holds a NaN or infinite value");
   if (m.template_F.minCoeff() < 0 || m.template_F.maxCoeff() >= static_cast<int>(nv))

@@ -14,6 +14,7 @@
 #include "posekit/registration/correspondence.h"
 #include "posekit/registration/ctffd.h"
 #include "posekit/segmentation/segmentation.h"
+#include "posekit/segmentation/segmentation_prior.h"
 #include "posekit/segmentation/skeleton_embedding.h"
 #include "posekit/shape/body_features.h"
 #include "posekit/shape/layered_representation.h"
@@ -104,11 +105,13 @@ PoseSynthesizer::PoseSynthesizer(std::shared_ptr<const PoseModel> model, const T
     const LayeredRepresentation rep = build_layered_representation(s.V, s.F, find_body_features(s.V, s.F));
     s.info.seconds_representation = seconds_since(t0);
     t0 = std::chrono::steady_clock::now();
-    const Eigen::VectorXi rep_labels =
-        representation_labels_from_body(M.template_V, M.template_F, M.triangle_part, template_rep);
-    const Segmentation seg = segment_body(s.V, s.F, rep, rep_labels);
+    const SegmentationPrior prior = M.segmentation_prior.bodies.empty()
+                                        ? SegmentationPrior{{make_calibration_body(M.template_V, M.template_F, M.triangle_part,
+                                                                                   M.joint_centres, template_rep)}}
+                                        : M.segmentation_prior;
+    const Segmentation seg = segment_body(s.V, s.F, rep, representation_labels_from_prior(prior, rep));
     s.info.triangle_part = seg.triangle_part;
-    s.info.joint_centres = embed_skeleton(make_skeleton_prior(M.joint_centres, template_rep), rep);
+    s.info.joint_centres = embed_skeleton(prior, rep);
     s.info.seconds_segmentation = seconds_since(t0);
     t0 = std::chrono::steady_clock::now();
     const Eigen::MatrixXd deformed = ctffd_evaluate(ctffd_parametrize(M.template_V, template_rep), rep);

@@ -14,6 +14,7 @@
 #include "posekit/core/error.h"
 #include "posekit/datasets/dataset.h"
 #include "posekit/deformation/pose_model.h"
+#include "posekit/deformation/segmentation_calibration.h"
 #include "posekit/deformation/pose_synthesis.h"
 #include "posekit/evaluation/pose_evaluation.h"
 #include "posekit/evaluation/registration_table.h"
@@ -207,7 +208,10 @@ ReportSummary write_report(const std::string& dir, const std::string& out_dir, c
   if (!o.model_path.empty()) {
     model = std::make_shared<const PoseModel>(read_pose_model(o.model_path));
   } else {
-    model = std::make_shared<const PoseModel>(train_on_dataset(dir));
+    PoseModel trained = train_on_dataset(dir);
+    const PriorReport prior = add_segmentation_prior(&trained);
+    if (!prior.not_made.empty()) doc.warnings.push_back("segmentation prior: the template alone (" + prior.not_made + ")");
+    model = std::make_shared<const PoseModel>(std::move(trained));
   }
   tick("model");
   TriangleMesh templ;

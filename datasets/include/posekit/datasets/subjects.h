@@ -32,6 +32,11 @@ struct SubjectSpec {
 /// and measure modifiers from `seed` and a fatness chosen by bisection to hit its target BMI.
 std::vector<SubjectSpec> make_subject_specs(const MakeHumanModel& model, unsigned seed, int count = 16);
 
+/// `count` bodies for calibrating the segmentation (segmentation_prior.h): a third women, a third
+/// men, a third of mixed gender, fatness uniform over the subjects' range (BMI about 15 to 40) and
+/// the subjects' random sliders, from `seed` (use one the subjects do not).
+std::vector<BodySpec> make_calibration_specs(unsigned seed, int count);
+
 /// Girths and stature in metres. Girths are convex-hull perimeters (a tape over concavities).
 struct Measurements {
   double stature = 0, bust = 0, underbust = 0, waist = 0, hip = 0, thigh = 0, upper_arm = 0, neck = 0;

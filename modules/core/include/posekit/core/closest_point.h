@@ -42,7 +42,7 @@ class TriangleTree {
 };
 
 /// Runs body(begin, end) over [0, n) split into contiguous chunks on `threads` threads (0: the
-/// hardware's); the calling thread takes a chunk too.
-void parallel_for_ranges(long n, int threads, const std::function<void(long, long)>& body);
+/// hardware's), each with at least `min_items_per_thread` items; the calling thread takes a chunk too.
+void parallel_for_ranges(long n, int threads, const std::function<void(long, long)>& body, long min_items_per_thread = 1024);
 
 }  // namespace posekit

@@ -8,6 +8,7 @@
 #include <vector>
 
 #include "posekit/body/parts.h"
+#include "posekit/segmentation/segmentation_prior.h"
 
 namespace posekit {
 
@@ -26,7 +27,14 @@ struct PoseModel {
   Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor> coefficients;
   int training_poses = 0;
   double fit_rms = 0;                  ///< RMS residual of Eq. 5 over all entries and poses
+  /// Labelled bodies that segment and embed the skeleton of a customized model (segmentation_prior.h);
+  /// empty: the template alone.
+  SegmentationPrior segmentation_prior;
 };
+
+/// The model's segmentation prior, or when it has none, one made of the template with its labels
+/// and joints (the paper's single labelling of the representation).
+SegmentationPrior segmentation_prior_of(const PoseModel& model);
 
 struct TrainingOptions {
   /// Template labels and joints when the dataset has none (a posekit dataset supplies both).
