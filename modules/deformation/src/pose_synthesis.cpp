@@ -105,10 +105,11 @@ PoseSynthesizer::PoseSynthesizer(std::shared_ptr<const PoseModel> model, const T
     const LayeredRepresentation rep = build_layered_representation(s.V, s.F, find_body_features(s.V, s.F));
     s.info.seconds_representation = seconds_since(t0);
     t0 = std::chrono::steady_clock::now();
-    const SegmentationPrior prior = M.segmentation_prior.bodies.empty()
-                                        ? SegmentationPrior{{make_calibration_body(M.template_V, M.template_F, M.triangle_part,
-                                                                                   M.joint_centres, template_rep)}}
-                                        : M.segmentation_prior;
+    SegmentationPrior template_alone;  // a model without a prior: the template's own labelling
+    if (M.segmentation_prior.bodies.empty())
+      template_alone.bodies.push_back(
+          make_calibration_body(M.template_V, M.template_F, M.triangle_part, M.joint_centres, template_rep));
+    const SegmentationPrior& prior = template_alone.bodies.empty() ? M.segmentation_prior : template_alone;
     const Segmentation seg = segment_body(s.V, s.F, rep, representation_labels_from_prior(prior, rep));
     s.info.triangle_part = seg.triangle_part;
     s.info.joint_centres = embed_skeleton(prior, rep);

@@ -209,7 +209,9 @@ ReportSummary write_report(const std::string& dir, const std::string& out_dir, c
     model = std::make_shared<const PoseModel>(read_pose_model(o.model_path));
   } else {
     PoseModel trained = train_on_dataset(dir);
-    const PriorReport prior = add_segmentation_prior(&trained);
+    CalibrationOptions calibration;
+    calibration.bodies = o.calibration_bodies;
+    const PriorReport prior = add_segmentation_prior(&trained, "", calibration);
     if (!prior.not_made.empty()) doc.warnings.push_back("segmentation prior: the template alone (" + prior.not_made + ")");
     model = std::make_shared<const PoseModel>(std::move(trained));
   }

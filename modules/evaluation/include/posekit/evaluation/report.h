@@ -9,6 +9,7 @@ namespace posekit {
 
 struct ReportOptions {
   std::string model_path;        ///< trained model (.pkm); empty: train on the dataset
+  int calibration_bodies = 128;  ///< segmentation prior of a model trained here (0: the template alone)
   int threads = 0;               ///< for the scan comparisons (0: all cores)
   int registration_runs = 3;     ///< timed runs per method and subject in Table 1
   int nicp_subjects = 2;         ///< non-rigid ICP (seconds per run) on the first N subjects only
