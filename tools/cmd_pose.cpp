@@ -199,10 +199,11 @@ int run_segment(int argc, char** argv) {
   ArgParser args("segment",
                  "Segments a standing body mesh into the 16 rigid parts (Eq. 2a-2c) and embeds the 15-joint\n"
                  "skeleton. With --model, the representation's labels and the skeleton come from the model's\n"
-                 "template (recommended); without, from the representation's own layer labels, the body's\n"
-                 "features (shoulders, elbows, wrists, knees, ankles) and part borders (hips).");
+                 "segmentation prior: the labelled bodies shaped most like this one (recommended); without, from\n"
+                 "the representation's own layer labels, the body's features (shoulders, elbows, wrists, knees,\n"
+                 "ankles) and part borders (hips).");
   args.positional("mesh", "body mesh (PLY/OBJ/OFF/STL)")
-      .option("model", "FILE", "trained model (.pkm) whose template labels the representation")
+      .option("model", "FILE", "trained model (.pkm) whose segmentation prior labels the representation")
       .option("unit", "U", "unit of the mesh", "m")
       .option("out", "FILE", "mesh with vertex scalar 'part' (0..15); PLY keeps it for other tools")
       .option("joints", "FILE", "write the joint centres as JSON")
@@ -283,7 +284,8 @@ int run_eval(int argc, char** argv) {
     model = std::make_shared<const PoseModel>(read_pose_model(args.get("model")));
   } else {
     PoseModel trained = train_on_dataset(dir);
-    add_segmentation_prior(&trained);
+    const PriorReport prior = add_segmentation_prior(&trained);
+    if (!prior.not_made.empty()) std::cerr << "posekit eval: segmentation prior is the template alone: " << prior.not_made << "\n";
     model = std::make_shared<const PoseModel>(std::move(trained));
   }
   const double train_seconds = seconds_since(t0);
