@@ -15,10 +15,10 @@ namespace {
 // and on to about the lower-back joint, at 0.36 of the crotch-to-armpit span on the MakeHuman
 // population) are pelvis, the next ones up to about the upper-back joint (0.68) abdomen, the rest
 // chest.
-constexpr int kPelvisLayers = 6, kAbdomenLayers = 5;
+constexpr int kPelvisLayers = 6, kAbdomenLayers = 7;
 // Layers per segment of each chain: torso crotch-hip-waist-underbust-bust-armpit-neck base; head;
 // legs crotch-knee-ankle-sole; arms (upper arm)-elbow-wrist-hand tip.
-constexpr int kTorsoSegments[] = {3, 5, 3, 2, 3, 4};
+constexpr int kTorsoSegments[] = {3, 5, 5, 3, 3, 4};
 constexpr int kHeadSegments = 10;
 constexpr int kLegSegments[] = {6, 6, 3};
 constexpr int kArmSegments[] = {5, 6, 4};
