@@ -49,9 +49,6 @@ const FeatureErrors& subject_errors(const MakeHumanModel& model) {
   return e;
 }
 
-int count_within(const std::vector<double>& v, double cm) {
-  return static_cast<int>(std::count_if(v.begin(), v.end(), [&](double x) { return x <= cm; }));
-}
 double worst(const std::vector<double>& v) { return *std::max_element(v.begin(), v.end()); }
 }  // namespace
 
@@ -60,22 +57,20 @@ TEST(BodyFeatures, TorsoLevelsOnAllSixteenRemeshedSubjects) {
   const FeatureErrors& e = subject_errors(model);
   EXPECT_LE(worst(e.crotch), 2.0);
   EXPECT_LE(worst(e.hip), 2.0);
-  EXPECT_LE(worst(e.bust), 2.5);
-  EXPECT_GE(count_within(e.waist, 2.0), 15);  // measured: one obese male's waist level 11 cm off
+  EXPECT_LE(worst(e.bust), 2.0);
+  EXPECT_LE(worst(e.waist), 2.0);
   EXPECT_LE(worst(e.neck_base), 2.0);
 }
 
 TEST(BodyFeatures, LimbJointsOnAllSixteenRemeshedSubjects) {
   POSEKIT_REQUIRE_MAKEHUMAN();
   const FeatureErrors& e = subject_errors(model);
-  // Measured (32 limbs): ankle <= 1.3 cm, knee <= 2.3, shoulder <= 2.7, elbow <= 2.4; wrist <= 2.5
-  // on 26, up to 3.5 on six male arms (the bar is 2 cm).
+  // Measured (32 limbs, worst): ankle 0.9 cm, knee 1.6, shoulder 1.6, elbow 1.6, wrist 1.9.
   EXPECT_LE(worst(e.ankle), 2.0);
-  EXPECT_LE(worst(e.knee), 2.5);
-  EXPECT_LE(worst(e.shoulder), 3.0);
-  EXPECT_LE(worst(e.elbow), 2.5);
-  EXPECT_GE(count_within(e.wrist, 2.5), 26);
-  EXPECT_LE(worst(e.wrist), 4.0);
+  EXPECT_LE(worst(e.knee), 2.0);
+  EXPECT_LE(worst(e.shoulder), 2.0);
+  EXPECT_LE(worst(e.elbow), 2.0);
+  EXPECT_LE(worst(e.wrist), 2.0);
 }
 
 TEST(BodyFeatures, RejectsBodiesThatAreNotStanding) {

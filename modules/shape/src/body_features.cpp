@@ -14,11 +14,44 @@ namespace {
 
 constexpr double kBustBandStart = 0.62;   ///< of the crotch-to-armpit span
 constexpr double kWaistBandStart = 0.33;
+constexpr double kWaistTieTolerance = 0.002;  ///< m of girth
 constexpr double kKneeFraction = 0.563;   ///< knee joint between ankle joint and crotch
+/// Knee height = fraction estimate + kKneeTowardHollow (popliteal hollow - fraction estimate) +
+/// kKneeShift (crotch - ankle): least squares on the 240 legs of 120 MakeHuman calibration bodies
+/// (make_calibration_specs(20131122, 120), remeshed): residual 8.4 mm SD, 14 mm before.
+constexpr double kKneeTowardHollow = 0.6459;
+constexpr double kKneeShift = -0.0336;
 constexpr double kWristBand[2] = {0.48, 0.68};  ///< wrist between elbow and hand tip
 constexpr double kPalmFrom = 0.55;               ///< the palm lies beyond this fraction
 constexpr double kWristBeyondNarrowest = 0.012;  ///< m, toward the hand
-constexpr double kShoulderInset = 0.2;  ///< shoulder joint between armpit (0) and the lateral edge (1)
+
+/// Shoulder joint centre from the torso section 1.5 arm radii above the armpit: a linear regression
+/// on (1, lateral width of the section beyond the armpit, arm radius at the armpit, front-to-back
+/// depth of that lateral part, the arm's top centroid lateral of the armpit and forward of the
+/// part's mid-depth), all in metres. Gives the joint lateral of the armpit, above it, and forward of
+/// the mid-depth. Least squares on the 224 arms of 112 MakeHuman calibration bodies
+/// (make_calibration_specs(20131122, 120), remeshed; not the test subjects): median error 4.4 mm.
+struct ShoulderRegression {
+  double lateral[6], up[6], forward[6];
+};
+constexpr ShoulderRegression kShoulderFromSection = {
+    {0.0124, 0.7672, 0.0876, -0.3498, -0.3895, -0.5959},
+    {-0.0153, 0.0250, 0.4774, 0.2500, 0.5850, -0.1005},
+    {-0.0141, 0.0955, 0.4973, 0.0592, -0.3034, 0.7831}};
+
+/// Joint centre minus the section centroid that locates it, as (lateral, up, forward) in metres:
+/// medians over 80 MakeHuman calibration bodies (make_calibration_specs(20131122, 80), not the test
+/// subjects), remeshed. The elbow and knee joints lie behind the limb's centre line, the wrist in
+/// front of it, the ankle behind and inside the narrowest shank section.
+constexpr double kElbowOffset[3] = {-0.001, 0.001, -0.011};
+constexpr double kWristOffset[3] = {0.008, -0.005, 0.013};
+constexpr double kKneeOffset[3] = {0.002, 0.0, 0.006};
+constexpr double kAnkleOffset[3] = {-0.004, -0.002, -0.009};
+
+/// A calibrated offset on the given side (the subject's left is +X).
+Eigen::Vector3d offset_on(const double (&offset)[3], int side) {
+  return Eigen::Vector3d(side == 0 ? offset[0] : -offset[0], offset[1], offset[2]);
+}
 
 /// Area-weighted centroid and area of a horizontal loop in the XZ plane.
 struct LoopShape {
@@ -316,29 +349,39 @@ BodyFeatures find_body_features(const SectionStack& st) {
     size_t wrist = find_wrist(elbow);
     elbow = find_elbow(wrist);
     wrist = find_wrist(elbow);
-    f.elbow[side] = axis[elbow];
+    f.elbow[side] = axis[elbow] + offset_on(kElbowOffset, side);
     // Wrist joint: just distal of the narrowest forearm section.
     const Eigen::Vector3d forearm = (axis[wrist] - axis[elbow]).normalized();
-    f.wrist[side] = axis[wrist] + kWristBeyondNarrowest * forearm;
-    // Shoulder joint: in the arm's share of the torso section (lateral of the armpit), 1.5 arm radii
-    // above the armpit.
+    f.wrist[side] = axis[wrist] + kWristBeyondNarrowest * forearm + offset_on(kWristOffset, side);
+    // Shoulder joint: regressed (kShoulderFromSection) on the torso section 1.5 arm radii above the
+    // armpit; without a closed section there, the arm's top centroid.
     const double radius = std::sqrt(area[0] / M_PI);
     int level = armpit_level[side];
     while (level + 1 < n && st.y[level] < f.armpit[side].y() + 1.5 * radius) ++level;
     f.shoulder[side] = Eigen::Vector3d(axis[0].x(), st.y[level], axis[0].z());
     if (torso[level] >= 0) {
       const Eigen::MatrixXd& P = st.loops[level][torso[level]].points;
-      double lo_z = 1e9, hi_z = -1e9, far_x = f.armpit[side].x();
+      const double outward = side == kLeft ? 1.0 : -1.0;
+      double lo_z = 1e9, hi_z = -1e9, width = 0;
       int count = 0;
       for (Eigen::Index r = 0; r < P.rows(); ++r) {
-        const bool lateral = side == kLeft ? P(r, 0) > f.armpit[side].x() : P(r, 0) < f.armpit[side].x();
-        if (!lateral) continue;
+        const double lateral = outward * (P(r, 0) - f.armpit[side].x());
+        if (lateral <= 0) continue;
         ++count;
         lo_z = std::min(lo_z, P(r, 2));
         hi_z = std::max(hi_z, P(r, 2));
-        far_x = side == kLeft ? std::max(far_x, P(r, 0)) : std::min(far_x, P(r, 0));
+        width = std::max(width, lateral);
       }
-      if (count >= 5) f.shoulder[side] = Eigen::Vector3d(f.armpit[side].x() + kShoulderInset * (far_x - f.armpit[side].x()), st.y[level], 0.5 * (lo_z + hi_z));
+      const double mid_z = 0.5 * (lo_z + hi_z);
+      const double x[6] = {1.0, width, radius, hi_z - lo_z, outward * (axis[0].x() - f.armpit[side].x()), axis[0].z() - mid_z};
+      auto predict = [&](const double (&w)[6]) {
+        double v = 0;
+        for (int k = 0; k < 6; ++k) v += w[k] * x[k];
+        return v;
+      };
+      if (count >= 5)
+        f.shoulder[side] = Eigen::Vector3d(f.armpit[side].x() + outward * predict(kShoulderFromSection.lateral),
+                                           f.armpit[side].y() + predict(kShoulderFromSection.up), mid_z + predict(kShoulderFromSection.forward));
     }
   }
 
@@ -346,23 +389,51 @@ BodyFeatures find_body_features(const SectionStack& st) {
   // Search bands as fractions of the crotch-to-armpit span (spine proportions measured on the
   // MakeHuman population, see README), so that a large belly is not taken for the bust.
   const int span = armpit_low - crotch;
-  int shoulder_level = crotch;  // bust band ends 12 cm below the lower shoulder joint
-  while (shoulder_level + 1 < n && st.y[shoulder_level + 1] <= std::min(f.shoulder[kLeft].y(), f.shoulder[kRight].y())) ++shoulder_level;
-  const int bust = argbest(crotch + static_cast<int>(kBustBandStart * span), shoulder_level - static_cast<int>(0.12 / st.step), true);
-  const int underbust = argbest(bust - static_cast<int>(0.12 / st.step), bust - static_cast<int>(0.03 / st.step), false);
-  const int waist = argbest(crotch + static_cast<int>(kWaistBandStart * span), bust - static_cast<int>(0.05 / st.step), false);
-  const int hip = argbest(crotch + static_cast<int>(0.02 / st.step), waist, true);
+  // Each level is searched among the sections in a band of heights, then placed between the
+  // sections (so that it does not jump a whole step when the mesh is remeshed): at the band's end
+  // when the girth still grows (or shrinks) beyond it, else at the vertex of the parabola through
+  // the extreme section's and its neighbours' girths.
+  auto first_at_or_above = [&](double y) { return static_cast<int>(std::lower_bound(st.y.begin(), st.y.end(), y) - st.y.begin()); };
+  auto last_at_or_below = [&](double y) { return static_cast<int>(std::upper_bound(st.y.begin(), st.y.end(), y) - st.y.begin()) - 1; };
+  auto better = [&](int i, int than, bool want_max) {
+    return i >= 0 && i < n && !std::isnan(girth(i)) && (want_max ? girth(i) > girth(than) : girth(i) < girth(than));
+  };
+  auto refined_level = [&](int i, double from_y, double to_y, bool want_max) {
+    if (i == last_at_or_below(to_y) && better(i + 1, i, want_max)) return std::clamp(to_y, st.y[i], st.y[i] + st.step);
+    if (i == first_at_or_above(from_y) && better(i - 1, i, want_max)) return std::clamp(from_y, st.y[i] - st.step, st.y[i]);
+    if (i <= crotch || i + 1 >= n) return st.y[i];
+    const double a = girth(i - 1), b = girth(i), c = girth(i + 1), curvature = a - 2 * b + c;
+    if (std::isnan(a) || std::isnan(c) || std::abs(curvature) < 1e-12) return st.y[i];
+    return st.y[i] + std::clamp(0.5 * (a - c) / curvature, -0.5, 0.5) * st.step;
+  };
+  auto level_of_extremum = [&](double from_y, double to_y, bool want_max, int* index) {
+    *index = argbest(first_at_or_above(from_y), last_at_or_below(to_y), want_max);
+    return *index < 0 ? 0.0 : refined_level(*index, from_y, to_y, want_max);
+  };
+  // Bust: the fullest level up to 12 cm below the lower shoulder joint.
+  int bust = -1, underbust = -1, waist = -1, hip = -1;
+  f.bust_y = level_of_extremum(st.y[std::min(n - 1, crotch + static_cast<int>(kBustBandStart * span))],
+                               std::min(f.shoulder[kLeft].y(), f.shoulder[kRight].y()) - 0.12, true, &bust);
+  if (bust >= 0) f.underbust_y = level_of_extremum(f.bust_y - 0.12, f.bust_y - 0.03, false, &underbust);
+  if (bust >= 0) {
+    const double waist_from = st.y[std::min(n - 1, crotch + static_cast<int>(kWaistBandStart * span))], waist_to = f.bust_y - 0.05;
+    level_of_extremum(waist_from, waist_to, false, &waist);
+    // A flat waist can have two near-equal minima: take the highest local minimum within
+    // kWaistTieTolerance of the narrowest (the natural waist, nearest the ribs).
+    for (int i = waist + 1; waist >= 0 && i < std::min(last_at_or_below(waist_to), n - 1); ++i) {
+      const double g = girth(i);
+      if (g <= girth(waist) + kWaistTieTolerance && g <= girth(i - 1) && g <= girth(i + 1)) waist = i;
+    }
+    if (waist >= 0) f.waist_y = refined_level(waist, waist_from, waist_to, false);
+  }
+  if (waist >= 0) f.hip_y = level_of_extremum(f.crotch_y + 0.02, f.waist_y, true, &hip);
   if (bust < 0 || underbust < 0 || waist < 0 || hip < 0)
     throw InvalidInput("body features: the torso sections between crotch and armpits are not closed (holes?)");
-  f.bust_y = st.y[bust];
-  f.underbust_y = st.y[underbust];
-  f.waist_y = st.y[waist];
-  f.hip_y = st.y[hip];
 
   // Legs: follow each leg's loop down from the crotch.
   for (int side : {kLeft, kRight}) {
     std::vector<Eigen::Vector3d> axis;
-    std::vector<double> g, depth;
+    std::vector<double> g, depth, back;
     std::vector<int> level;
     Eigen::Vector3d previous(f.axis_x + (side == kLeft ? 0.1 : -0.1), 0, f.crotch.z());
     for (int i = crotch - 1; i >= 0; --i) {
@@ -380,6 +451,7 @@ BodyFeatures find_body_features(const SectionStack& st) {
       axis.push_back(s.centroid);
       g.push_back(s.girth);
       depth.push_back(st.loops[i][best].points.col(2).maxCoeff() - st.loops[i][best].points.col(2).minCoeff());
+      back.push_back(st.loops[i][best].points.col(2).minCoeff());
       level.push_back(i);
       previous = s.centroid;
     }
@@ -398,11 +470,18 @@ BodyFeatures find_body_features(const SectionStack& st) {
       if (g[k] < g[ankle]) ankle = k;
     const double min_depth = depth[ankle];
     while (ankle + 1 < axis.size() && depth[ankle + 1] < 1.45 * min_depth) ++ankle;
-    // Knee: at a fixed fraction of the way from the ankle joint up to the crotch.
-    const double knee_y = axis[ankle].y() + kKneeFraction * (f.crotch_y - axis[ankle].y());
+    // Knee: a fixed fraction of the way from the ankle joint up to the crotch, drawn toward the
+    // popliteal hollow (the level within 10 cm above / 6 cm below where the back of the leg comes
+    // furthest forward) by a regression on the calibration bodies (kKneeTowardHollow).
+    const double leg_length = f.crotch_y - axis[ankle].y();
+    const double fraction_y = axis[ankle].y() + kKneeFraction * leg_length;
+    size_t hollow = index_of_height(fraction_y);
+    for (size_t k = index_of_height(fraction_y + 0.10); k <= index_of_height(fraction_y - 0.06); ++k)
+      if (back[k] > back[hollow]) hollow = k;
+    const double knee_y = fraction_y + kKneeTowardHollow * (axis[hollow].y() - fraction_y) + kKneeShift * leg_length;
     const size_t knee = index_of_height(knee_y);
-    f.ankle[side] = axis[ankle];
-    f.knee[side] = Eigen::Vector3d(axis[knee].x(), knee_y, axis[knee].z());  // at its defined height, even over a hole
+    f.ankle[side] = axis[ankle] + offset_on(kAnkleOffset, side);
+    f.knee[side] = Eigen::Vector3d(axis[knee].x(), knee_y, axis[knee].z()) + offset_on(kKneeOffset, side);  // even over a hole
   }
   return f;
 }
