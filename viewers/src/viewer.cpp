@@ -125,7 +125,9 @@ class Display {
         ::dup2(devnull, 2);
       }
       const std::string fd = std::to_string(fds[1]);
-      ::execlp("Xvfb", "Xvfb", "-displayfd", fd.c_str(), "-screen", "0", "3000x2000x24", "-nolisten", "tcp",
+      // -noreset: by default the server resets when its last client disconnects, and a render that
+      // connects during the reset fails (VTK then aborts).
+      ::execlp("Xvfb", "Xvfb", "-displayfd", fd.c_str(), "-screen", "0", "3000x2000x24", "-nolisten", "tcp", "-noreset",
                static_cast<char*>(nullptr));
       ::_exit(127);
     }
