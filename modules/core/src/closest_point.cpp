@@ -1,6 +1,7 @@
 #include "posekit/core/closest_point.h"
 
 #include <algorithm>
+#include <exception>
 #include <numeric>
 #include <thread>
 #include <vector>
@@ -52,14 +53,25 @@ void parallel_for_ranges(long n, int threads, const std::function<void(long, lon
     body(0, n);
     return;
   }
+  // An exception in any range is rethrown here after every thread has joined (never std::terminate).
   std::vector<std::thread> pool;
+  std::vector<std::exception_ptr> errors(static_cast<size_t>(threads));
+  auto guarded = [&](int t, long begin, long end) {
+    try {
+      body(begin, end);
+    } catch (...) {
+      errors[static_cast<size_t>(t)] = std::current_exception();
+    }
+  };
   const long chunk = (n + threads - 1) / threads;
   for (int t = 1; t < threads; ++t) {
     const long begin = t * chunk, end = std::min(n, begin + chunk);
-    if (begin < end) pool.emplace_back(body, begin, end);
+    if (begin < end) pool.emplace_back(guarded, t, begin, end);
   }
-  body(0, std::min(n, chunk));
+  guarded(0, 0, std::min(n, chunk));
   for (auto& th : pool) th.join();
+  for (const auto& e : errors)
+    if (e) std::rethrow_exception(e);
 }
 
 struct TriangleTree::Impl {

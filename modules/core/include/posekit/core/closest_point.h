@@ -43,6 +43,7 @@ class TriangleTree {
 
 /// Runs body(begin, end) over [0, n) split into contiguous chunks on `threads` threads (0: the
 /// hardware's), each with at least `min_items_per_thread` items; the calling thread takes a chunk too.
+/// An exception thrown by body is rethrown once every thread has finished.
 void parallel_for_ranges(long n, int threads, const std::function<void(long, long)>& body, long min_items_per_thread = 1024);
 
 }  // namespace posekit
