@@ -51,6 +51,7 @@ int run_measure(int argc, char** argv) {
     j["levels_y"] = {{"crotch", f.crotch_y}, {"hip", f.hip_y}, {"waist", f.waist_y}, {"underbust", f.underbust_y},
                      {"bust", f.bust_y}, {"neck", f.neck_y}, {"floor", f.floor_y}, {"top", f.top_y}};
     j["features"] = {{"crotch", vec(f.crotch)}, {"neck_base", vec(f.neck_base)},
+                     {"neck_joint", vec(f.neck_joint)}, {"head_joint", vec(f.head_joint)},
                      {"left_armpit", vec(f.armpit[kLeft])}, {"right_armpit", vec(f.armpit[kRight])},
                      {"left_shoulder", vec(f.shoulder[kLeft])}, {"right_shoulder", vec(f.shoulder[kRight])},
                      {"left_elbow", vec(f.elbow[kLeft])}, {"right_elbow", vec(f.elbow[kRight])},

@@ -12,7 +12,7 @@ using namespace posekit;
 
 TEST(Measurements, GirthsMatchTheGroundTruthOnAllSixteenSubjects) {
   POSEKIT_REQUIRE_MAKEHUMAN();
-  int bust_within_1cm = 0, neck_within_1cm = 0;
+  int bust_within_1cm = 0;
   for (const auto& s : make_subject_specs(model, 1, 16)) {
     const Body b = build_body(model, s.spec);
     const TriangleMesh mesh = remesh_body(b.mesh, 12400);
@@ -25,15 +25,12 @@ TEST(Measurements, GirthsMatchTheGroundTruthOnAllSixteenSubjects) {
     EXPECT_NEAR(m.find("underbust")->value, gt.underbust, 0.01) << s.id;
     EXPECT_NEAR(m.find("thigh")->value, gt.thigh, 0.01) << s.id;
     EXPECT_NEAR(m.find("upper_arm")->value, gt.upper_arm, 0.01) << s.id;
-    // Measured: bust within 1 cm on 14 of 16 (1.4 and 1.5 cm on two), neck within 1 cm on 12 (1.3-3.6
-    // cm on four men, m05-m08).
+    EXPECT_NEAR(m.find("neck")->value, gt.neck, 0.01) << s.id;  // measured: worst 0.99 cm (f06)
+    // Measured: bust within 1 cm on 14 of 16, 1.4 and 1.5 cm on two.
     EXPECT_NEAR(m.find("bust")->value, gt.bust, 0.02) << s.id;
-    EXPECT_NEAR(m.find("neck")->value, gt.neck, 0.04) << s.id;
     bust_within_1cm += std::abs(m.find("bust")->value - gt.bust) <= 0.01;
-    neck_within_1cm += std::abs(m.find("neck")->value - gt.neck) <= 0.01;
   }
   EXPECT_GE(bust_within_1cm, 14);
-  EXPECT_GE(neck_within_1cm, 12);
 }
 
 TEST(Measurements, RemeshingLeavesTheTorsoAndLimbGirthsUnchanged) {

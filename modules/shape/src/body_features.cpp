@@ -25,6 +25,13 @@ constexpr double kWristBand[2] = {0.48, 0.68};  ///< wrist between elbow and han
 constexpr double kPalmFrom = 0.55;               ///< the palm lies beyond this fraction
 constexpr double kWristBeyondNarrowest = 0.012;  ///< m, toward the hand
 
+/// Neck joint = neck base + (0, kNeckJointAboveBase, kNeckJointForward); head joint at
+/// kHeadJointFraction of the way from the neck base up to the crown, kHeadJointForward from the
+/// head section's centroid there: medians over 100 calibration bodies (remeshed; not the test
+/// subjects), SD 7.8 and 4.4 mm (neck) and 4.6 and 4.2 mm (head) in height and depth.
+constexpr double kNeckJointAboveBase = 0.0039, kNeckJointForward = -0.0079;
+constexpr double kHeadJointFraction = 0.4164, kHeadJointForward = -0.0176;
+
 /// Shoulder joint centre from the torso section 1.5 arm radii above the armpit: a linear regression
 /// on (1, lateral width of the section beyond the armpit, arm radius at the armpit, front-to-back
 /// depth of that lateral part, the arm's top centroid lateral of the armpit and forward of the
@@ -280,6 +287,17 @@ BodyFeatures find_body_features(const SectionStack& st) {
   f.neck_top.y() = st.y[neck];
   f.neck_base = torso_shape[base].centroid;
   f.neck_base.y() = st.y[base];
+  // Neck and head joints (the neck girth's axis): the head joint at a calibrated fraction of the way
+  // from the neck base to the crown, behind the centroid of the head's section there.
+  f.neck_joint = f.neck_base + Eigen::Vector3d(0, kNeckJointAboveBase, kNeckJointForward);
+  const double head_y = f.neck_base.y() + kHeadJointFraction * (f.top_y - f.neck_base.y());
+  const int head_level = std::clamp(static_cast<int>(std::lround((head_y - st.y[0]) / st.step)), 0, n - 1);
+  Eigen::Vector3d head_centre = f.neck_top;  // over a hole, the nearest closed head section within 2.5 cm
+  for (int d = 0; d <= 5; ++d) {
+    if (head_level - d >= 0 && torso[head_level - d] >= 0) { head_centre = torso_shape[head_level - d].centroid; break; }
+    if (head_level + d < n && torso[head_level + d] >= 0) { head_centre = torso_shape[head_level + d].centroid; break; }
+  }
+  f.head_joint = Eigen::Vector3d(head_centre.x(), head_y, head_centre.z() + kHeadJointForward);
 
   // Arms: follow each arm's loop down from the armpit; centroids trace the limb axis.
   for (int side : {kLeft, kRight}) {

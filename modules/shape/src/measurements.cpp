@@ -166,8 +166,8 @@ BodyMeasurements measure(const BodyFeatures& f, Section&& section) {
       m.girths.push_back(g);
     }
   }
-  // Neck: perpendicular to the neck's axis at its narrowest section.
-  add("neck", f.neck_top, f.neck_top - f.neck_base);
+  // Neck: perpendicular to the neck axis (neck joint to head joint), a third of the way up.
+  add("neck", f.neck_joint + (f.head_joint - f.neck_joint) / 3.0, f.head_joint - f.neck_joint);
   return m;
 }
 
