@@ -97,9 +97,17 @@ bool contains_xz(const SectionLoop& loop, double x, double z) {
   return in;
 }
 
+/// Closed loops of a section larger than min_area, not counting loops nested inside another one
+/// (cavities such as the inside of the mouth: they are holes of the outer section, not body parts).
 int count_closed(const std::vector<SectionLoop>& loops, double min_area) {
   int n = 0;
-  for (const auto& l : loops) n += l.closed && shape_of(l).area > min_area;
+  for (size_t i = 0; i < loops.size(); ++i) {
+    if (!loops[i].closed || shape_of(loops[i]).area <= min_area) continue;
+    bool nested = false;
+    for (size_t j = 0; j < loops.size() && !nested; ++j)
+      nested = j != i && loops[j].closed && contains_xz(loops[j], loops[i].points(0, 0), loops[i].points(0, 2));
+    n += !nested;
+  }
   return n;
 }
 
