@@ -19,7 +19,7 @@ constexpr int kPelvisLayers = 6, kAbdomenLayers = 7;
 // Layers per segment of each chain: torso crotch-hip-waist-underbust-bust-armpit-neck base; head;
 // legs crotch-knee-ankle-sole; arms (upper arm)-elbow-wrist-hand tip.
 constexpr int kTorsoSegments[] = {3, 5, 5, 3, 3, 4};
-constexpr int kHeadSegments = 10;
+constexpr int kHeadSegments = 10, kNeckSegments = 2;
 constexpr int kLegSegments[] = {6, 6, 3};
 constexpr int kArmSegments[] = {5, 6, 4};
 
@@ -165,9 +165,13 @@ class Builder {
   }
 
   void head() {
+    // Feature-aligned: kNeckSegments layers' spacing up to the narrowest neck section, the rest up
+    // to the crown, so that the chin sits at the same layers on every body.
     const double y0 = f_.neck_base.y() + 0.005, y1 = f_.top_y - 0.01;
+    const double y_neck = std::clamp(f_.neck_top.y(), y0 + 0.005, y1 - 0.05);
     for (int k = 0; k <= kHeadSegments; ++k) {
-      const double y = y0 + (y1 - y0) * k / kHeadSegments;
+      const double y = k <= kNeckSegments ? y0 + (y_neck - y0) * k / kNeckSegments
+                                          : y_neck + (y1 - y_neck) * (k - kNeckSegments) / (kHeadSegments - kNeckSegments);
       const double t = (y - f_.neck_base.y()) / std::max(1e-6, f_.neck_top.y() - f_.neck_base.y());
       const Eigen::Vector3d c = f_.neck_base + std::clamp(t, 0.0, 1.0) * (f_.neck_top - f_.neck_base);
       add_layer(1, Eigen::Vector3d(c.x(), y, c.z()), Eigen::Vector3d::UnitY(), kHead, false);
