@@ -230,7 +230,7 @@ BodyFeatures find_body_features(const SectionStack& st) {
     std::vector<int> out;
     if (torso[i] < 0) return out;
     for (size_t k = 0; k < st.loops[i].size(); ++k) {
-      if (static_cast<int>(k) == torso[i] || !st.loops[i][k].closed) continue;
+      if (static_cast<int>(k) == torso[i]) continue;  // open loops count: a scan's arm has gaps near the armpit
       const LoopShape s = shape_of(st.loops[i][k]);
       if (s.area < 2e-5) continue;
       if ((side == kLeft) == (s.centroid.x() > f.axis_x)) out.push_back(static_cast<int>(k));
