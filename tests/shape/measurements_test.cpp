@@ -72,3 +72,21 @@ TEST(Measurements, ScanGirthsMatchTheMeshAndHolesAreReported) {
   EXPECT_TRUE(h.find("waist")->measured);
   EXPECT_THROW(measure_point_cloud(Eigen::MatrixXd::Random(100, 3)), InvalidInput);
 }
+
+TEST(Measurements, ScanOfAHeavyWomanFlagsTheBustBandInsteadOfGuessing) {
+  POSEKIT_REQUIRE_MAKEHUMAN();
+  // f06: the scanner does not see the gap between arm and torso below the armpit, the bust band
+  // ends too low and the belly below it is fuller: her scan's waist came out 11 cm too large.
+  const Body b = build_body(model, make_subject_specs(model, 1, 16)[5].spec);
+  const BodyMeasurements mesh = measure_body(b.mesh.V, b.mesh.F);
+  const BodyMeasurements scan = measure_point_cloud(simulate_scan(b.mesh).cloud.P);
+  EXPECT_FALSE(mesh.features.torso_levels_doubtful);
+  EXPECT_TRUE(scan.features.torso_levels_doubtful);
+  for (const char* name : {"bust", "underbust", "waist"}) {
+    EXPECT_TRUE(mesh.find(name)->measured) << name;
+    EXPECT_FALSE(scan.find(name)->measured) << name;
+    EXPECT_NE(scan.find(name)->note.find("fuller below the bust band"), std::string::npos) << scan.find(name)->note;
+  }
+  EXPECT_TRUE(scan.find("hip")->measured);
+  EXPECT_NEAR(scan.find("hip")->value, mesh.find("hip")->value, 0.01);
+}

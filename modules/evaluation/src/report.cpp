@@ -301,7 +301,9 @@ ReportSummary write_report(const std::string& dir, const std::string& out_dir, c
                     {},
                     "Distances from every scan point to the model's surface (exact), outliers beyond 20 mm counted apart. "
                     "Girth differences are model minus scan; ISO 20685-1 allows 9 mm for these large girths, the paper "
-                    "claims under 2 cm."};
+                    "claims under 2 cm. n/a: a girth not measured on the model or the scan, e.g. when the scan "
+                    "does not separate the arms from the torso below the armpits and its bust band cannot be trusted "
+                    "(`posekit measure` on the scan names the reason)."};
   std::vector<ViewPanel> customization_panels;
   ScanComparisonOptions co;
   co.threads = o.threads;

@@ -440,6 +440,11 @@ BodyFeatures find_body_features(const SectionStack& st) {
   int bust = -1, underbust = -1, waist = -1, hip = -1;
   f.bust_y = level_of_extremum(st.y[std::min(n - 1, crotch + static_cast<int>(kBustBandStart * span))],
                                std::min(f.shoulder[kLeft].y(), f.shoulder[kRight].y()) - 0.12, true, &bust);
+  const int bust_from = std::min(n - 1, crotch + static_cast<int>(kBustBandStart * span));
+  f.torso_levels_doubtful = bust == bust_from && better(bust - 1, bust, true);
+  if (f.torso_levels_doubtful)
+    f.warnings.push_back("bust: the torso is fullest at the bottom of the bust band and fuller still below it (a belly, or "
+                         "arms merged with the torso in a scan): the bust, underbust and waist levels are doubtful");
   if (bust >= 0) f.underbust_y = level_of_extremum(f.bust_y - 0.12, f.bust_y - 0.03, false, &underbust);
   if (bust >= 0) {
     const double waist_from = st.y[std::min(n - 1, crotch + static_cast<int>(kWaistBandStart * span))], waist_to = f.bust_y - 0.05;

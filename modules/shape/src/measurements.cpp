@@ -6,6 +6,7 @@
 #include <array>
 #include <map>
 #include <numeric>
+#include <utility>
 
 #include "posekit/core/error.h"
 #include "posekit/core/mesh_geometry.h"
@@ -133,9 +134,16 @@ BodyMeasurements measure(const BodyFeatures& f, Section&& section) {
   const Eigen::Vector3d up = Eigen::Vector3d::UnitY();
   const Eigen::Vector3d centre(f.axis_x, 0, f.crotch.z());
   auto torso = [&](double y) { return Eigen::Vector3d(centre.x(), y, centre.z()); };
-  add("bust", torso(f.bust_y), up);
-  add("underbust", torso(f.underbust_y), up);
-  add("waist", torso(f.waist_y), up);
+  for (const auto& [name, y] : {std::pair<const char*, double>{"bust", f.bust_y}, {"underbust", f.underbust_y}, {"waist", f.waist_y}}) {
+    if (!f.torso_levels_doubtful) {
+      add(name, torso(y), up);
+      continue;
+    }
+    Girth g;
+    g.name = name;
+    g.note = "level not found: the torso is fuller below the bust band (a belly, or arms merged with the torso in a scan)";
+    m.girths.push_back(g);
+  }
   add("hip", torso(f.hip_y), up);
   // Thigh: the left leg's section 2 cm below the crotch (the section nearest a point on the leg).
   add("thigh", Eigen::Vector3d(f.knee[kLeft].x(), f.crotch_y - 0.02, f.knee[kLeft].z()), up);

@@ -35,6 +35,9 @@ struct BodyFeatures {
   Eigen::Vector3d hand_tip[2];                   ///< farthest point of each hand from the shoulder
   bool arm_found[2] = {true, true};              ///< false: that arm could not be followed (shoulder,
                                                  ///< elbow, wrist, hand tip are then not valid)
+  bool torso_levels_doubtful = false;           ///< the torso is fuller below the bust band (a belly, or a
+                                                 ///< scan's arms merged with it): bust, underbust and waist
+                                                 ///< levels are not trusted
   std::vector<std::string> warnings;             ///< features found with doubt
 };
 
