@@ -23,7 +23,13 @@ constexpr double kKneeTowardHollow = 0.6459;
 constexpr double kKneeShift = -0.0336;
 constexpr double kWristBand[2] = {0.48, 0.68};  ///< wrist between elbow and hand tip
 constexpr double kPalmFrom = 0.55;               ///< the palm lies beyond this fraction
-constexpr double kWristBeyondNarrowest = 0.012;  ///< m, toward the hand
+constexpr double kWristBeyondNarrowest = 0.012;  ///< m, toward the hand (horizontal sections)
+/// refine_wrists: the joint lies this far (m) beyond the centre of the narrowest perpendicular
+/// forearm section (median over the 148 arms found of 80 calibration bodies,
+/// make_calibration_specs(20131122, 80), remeshed; the other components median under 1 mm).
+constexpr double kWristBeyondNarrowestSection = 0.005;
+constexpr double kPalmGrowth = 1.15;    ///< the palm: a section this much fuller than the narrowest
+constexpr double kForearmStep = 0.005;  ///< m between perpendicular forearm sections
 
 /// Neck joint = neck base + (0, kNeckJointAboveBase, kNeckJointForward); head joint at
 /// kHeadJointFraction of the way from the neck base up to the crown, kHeadJointForward from the
@@ -147,6 +153,44 @@ SectionStack horizontal_sections(const Eigen::MatrixXd& V, const Eigen::MatrixXi
   return s;
 }
 
+void refine_wrists(const SectionAt& section, BodyFeatures* features) {
+  BodyFeatures& f = *features;
+  for (int side : {kLeft, kRight}) {
+    if (!f.arm_found[side]) continue;
+    const double reach = (f.hand_tip[side] - f.elbow[side]).norm();
+    Eigen::Vector3d dir = (f.wrist[side] - f.elbow[side]).normalized(), at = f.elbow[side];
+    std::vector<Eigen::Vector3d> centres, dirs;
+    std::vector<double> girths;
+    size_t narrowest = 0;
+    bool palm = false;
+    for (double s = 0; s < reach && !palm; s += kForearmStep) {
+      const SectionLoop loop = section(at, dir);
+      if (!loop.closed || loop.points.rows() < 3) break;
+      const Eigen::Vector3d centre = loop.points.colwise().mean().transpose();
+      if ((centre - at).norm() > 0.04) break;  // jumped to another part
+      centres.push_back(centre);
+      dirs.push_back(dir);
+      girths.push_back(convex_hull_perimeter(loop.points, dir));
+      if (girths.back() < girths[narrowest]) narrowest = girths.size() - 1;
+      palm = s > 0.1 && girths.back() > kPalmGrowth * girths[narrowest];
+      if (centres.size() >= 5) dir = (centre - centres[centres.size() - 5]).normalized();
+      at = centre + kForearmStep * dir;
+    }
+    if (!palm) {
+      f.warnings.push_back(std::string("could not follow the ") + (side == kLeft ? "left" : "right") +
+                           " forearm to the palm with perpendicular sections: its wrist comes from horizontal sections only");
+      continue;
+    }
+    // Between sections: the vertex of the parabola through the narrowest and its neighbours.
+    double shift = 0;
+    if (narrowest > 0) {
+      const double a = girths[narrowest - 1], b = girths[narrowest], c = girths[narrowest + 1], curvature = a - 2 * b + c;
+      if (curvature > 1e-12) shift = std::clamp(0.5 * (a - c) / curvature, -0.5, 0.5) * kForearmStep;
+    }
+    f.wrist[side] = centres[narrowest] + (shift + kWristBeyondNarrowestSection) * dirs[narrowest];
+  }
+}
+
 BodyFeatures find_body_features(const Eigen::MatrixXd& V, const Eigen::MatrixXi& F) {
   const BoundingBox box = bounding_box(V);
   const double height = box.extent().y();
@@ -155,7 +199,13 @@ BodyFeatures find_body_features(const Eigen::MatrixXd& V, const Eigen::MatrixXi&
                        " m tall along Y: expected a standing human in metres with Y up (wrong unit or axis?)");
   if (box.extent().z() > height || box.extent().x() > 1.3 * height)
     throw InvalidInput("body features: the mesh is wider than it is tall: expected a standing body with Y up, not a lying one");
-  return find_body_features(horizontal_sections(V, F));
+  BodyFeatures f = find_body_features(horizontal_sections(V, F));
+  refine_wrists([&](const Eigen::Vector3d& point, const Eigen::Vector3d& normal) {
+    const auto loops = slice_mesh(V, F, normal, normal.dot(point));
+    const int k = nearest_loop(loops, point);
+    return k < 0 ? SectionLoop{} : loops[static_cast<size_t>(k)];
+  }, &f);
+  return f;
 }
 
 BodyFeatures find_body_features(const SectionStack& st) {

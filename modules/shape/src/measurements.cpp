@@ -188,7 +188,7 @@ const Girth* BodyMeasurements::find(const std::string& name) const {
 }
 
 BodyMeasurements measure_body(const Eigen::MatrixXd& V, const Eigen::MatrixXi& F) {
-  const BodyFeatures f = find_body_features(V, F);
+  const BodyFeatures f = find_body_features(V, F);  // wrists refined with perpendicular sections
   return measure(f, [&](const Eigen::Vector3d& p, const Eigen::Vector3d& n) { return mesh_section(V, F, p, n); });
 }
 
@@ -261,8 +261,10 @@ BodyMeasurements measure_point_cloud(const Eigen::MatrixXd& scan) {
   if (box.extent().y() < 0.8 || box.extent().y() > 2.6)
     throw InvalidInput("measure: the cloud is " + std::to_string(box.extent().y()) +
                        " m tall along Y: expected a standing human in metres (wrong --unit?)");
-  const BodyFeatures f = find_body_features(sections_of_clean_points(P, 0.005, kMaxGapDeg));
-  return measure(f, [&](const Eigen::Vector3d& p, const Eigen::Vector3d& n) { return cloud_section(P, p, n); });
+  auto section = [&](const Eigen::Vector3d& p, const Eigen::Vector3d& n) { return cloud_section(P, p, n); };
+  BodyFeatures f = find_body_features(sections_of_clean_points(P, 0.005, kMaxGapDeg));
+  refine_wrists(section, &f);
+  return measure(f, section);
 }
 
 }  // namespace posekit

@@ -2,6 +2,7 @@
 // Anatomical features of a standing body (A-pose, Y up, facing +Z, metres) found from its geometry
 // alone: horizontal sections, their loops, girths and centroids. Works for any topology.
 #include <Eigen/Core>
+#include <functional>
 #include <string>
 #include <vector>
 
@@ -46,7 +47,16 @@ struct BodyFeatures {
 /// an arm that cannot be followed to the hand (a hole in a scan) is flagged in arm_found and warnings.
 BodyFeatures find_body_features(const Eigen::MatrixXd& V, const Eigen::MatrixXi& F);
 
-/// The same from precomputed sections (`horizontal_sections`).
+/// The same from precomputed sections (`horizontal_sections`), without refine_wrists.
 BodyFeatures find_body_features(const SectionStack& stack);
+
+/// A cross-section of the body through `point` with plane normal `normal` (the loop nearest the point).
+using SectionAt = std::function<SectionLoop(const Eigen::Vector3d& point, const Eigen::Vector3d& normal)>;
+
+/// Re-finds each found wrist with sections perpendicular to the forearm, followed from the elbow
+/// by their centres: the narrowest before the palm (the first section 15% fuller than the narrowest
+/// so far). Horizontal sections cannot do it when the forearm points forward. A wrist whose forearm
+/// cannot be followed keeps its estimate from horizontal sections, with a warning.
+void refine_wrists(const SectionAt& section, BodyFeatures* features);
 
 }  // namespace posekit
