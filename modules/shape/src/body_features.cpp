@@ -383,7 +383,7 @@ BodyFeatures find_body_features(const SectionStack& st) {
     Eigen::Vector3d tip = previous;
     for (int i = armpit_level[side]; i >= 0; --i) {
       int best = -1;
-      double best_d = 0.08;
+      double best_d = axis.empty() ? 0.15 : 0.08;  // a heavy arm's centre lies far from the armpit point
       for (size_t k = 0; k < st.loops[i].size(); ++k) {
         if (static_cast<int>(k) == torso[i]) continue;
         const LoopShape s = shape_of(st.loops[i][k]);
@@ -407,6 +407,12 @@ BodyFeatures find_body_features(const SectionStack& st) {
                            " arm from the armpit to the hand (holes?): its shoulder, elbow and wrist are not found");
       f.shoulder[side] = f.armpit[side] + Eigen::Vector3d(0, 0.06, 0);  // only bounds the bust search
       continue;
+    }
+    // A sliver at the top (a fold of a deformed mesh in the armpit) is not the arm's first section.
+    while (axis.size() > 25 && area[0] < 0.25 * std::max({area[1], area[2], area[3], area[4]})) {
+      axis.erase(axis.begin());
+      area.erase(area.begin());
+      girth.erase(girth.begin());
     }
     f.hand_tip[side] = tip;
     const size_t m = axis.size();

@@ -113,8 +113,9 @@ class Builder {
 
  private:
   /// Adds one layer from the section polygon chosen by `pick` on the plane through `centre`.
+  /// hull_of_nearby: the hull of the loops whose centres lie within nearby_radius of `centre`.
   void add_layer(int chain, const Eigen::Vector3d& centre, const Eigen::Vector3d& normal, int part, bool hull_of_nearby,
-                 const Eigen::MatrixXi* faces = nullptr) {
+                 const Eigen::MatrixXi* faces = nullptr, double nearby_radius = 0.05) {
     const Eigen::Vector3d n = normal.normalized();
     Eigen::Vector3d front = Eigen::Vector3d::UnitZ() - Eigen::Vector3d::UnitZ().dot(n) * n;
     if (front.norm() < 1e-6) front = n.unitOrthogonal();
@@ -128,7 +129,7 @@ class Builder {
     if (hull_of_nearby) {  // limbs: the nearest loop and its neighbours (fingers), as a tape would go
       for (size_t k = 0; k < loops.size(); ++k) {
         const Eigen::Vector3d c = loops[k].points.colwise().mean().transpose();
-        if (static_cast<int>(k) != nearest && (c - centre).norm() > 0.05) continue;
+        if (static_cast<int>(k) != nearest && (c - centre).norm() > nearby_radius) continue;
         for (Eigen::Index r = 0; r < loops[k].points.rows(); ++r) polygon.push_back(loops[k].points.row(r).transpose());
       }
       polygon = planar_hull(polygon, n, front);
@@ -188,7 +189,9 @@ class Builder {
     for (int s = 0; s < 3; ++s)
       for (int k = 0; k < kLegSegments[s] + (s == 2); ++k) {
         const Eigen::Vector3d c = keys[s] + (keys[s + 1] - keys[s]) * (static_cast<double>(k) / kLegSegments[s]);
-        add_layer(2 + side, c, Eigen::Vector3d::UnitY(), parts[s], true);
+        // Low on a high-arched foot the heel and the ball are separate loops 10-15 cm apart: the
+        // foot's layers take both (the other foot is over 25 cm away).
+        add_layer(2 + side, c, Eigen::Vector3d::UnitY(), parts[s], true, nullptr, s == 2 ? 0.15 : 0.05);
       }
   }
 
