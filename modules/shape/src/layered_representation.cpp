@@ -3,6 +3,7 @@
 #include <Eigen/Geometry>
 #include <algorithm>
 #include <cmath>
+#include <map>
 
 #include "posekit/body/parts.h"
 #include "posekit/core/error.h"
@@ -103,6 +104,15 @@ class Builder {
   LayeredRepresentation build() {
     rep_.points_per_layer = n_;
     rep_.chain_names = {"torso", "head", "left_leg", "right_leg", "left_arm", "right_arm"};
+    // The horizontal layers (torso, head, legs) are sliced in one pass over the faces: a first run
+    // only collects their heights.
+    collecting_ = true;
+    torso();
+    head();
+    for (int side : {kLeft, kRight}) leg(side);
+    collecting_ = false;
+    const auto sections = slice_mesh_stack(V_, F_, Eigen::Vector3d::UnitY(), horizontal_heights_);
+    for (size_t i = 0; i < sections.size(); ++i) horizontal_sections_.emplace(horizontal_heights_[i], sections[i]);
     torso();
     head();
     for (int side : {kLeft, kRight}) leg(side);
@@ -117,10 +127,16 @@ class Builder {
   void add_layer(int chain, const Eigen::Vector3d& centre, const Eigen::Vector3d& normal, int part, bool hull_of_nearby,
                  const Eigen::MatrixXi* faces = nullptr, double nearby_radius = 0.05) {
     const Eigen::Vector3d n = normal.normalized();
+    const bool horizontal = !faces && n == Eigen::Vector3d::UnitY();
+    if (collecting_) {
+      if (horizontal) horizontal_heights_.push_back(centre.y());
+      return;
+    }
     Eigen::Vector3d front = Eigen::Vector3d::UnitZ() - Eigen::Vector3d::UnitZ().dot(n) * n;
     if (front.norm() < 1e-6) front = n.unitOrthogonal();
     front.normalize();
-    const auto loops = slice_mesh(V_, faces ? *faces : F_, n, n.dot(centre));
+    const auto cached = horizontal ? horizontal_sections_.find(centre.y()) : horizontal_sections_.end();
+    const auto loops = cached != horizontal_sections_.end() ? cached->second : slice_mesh(V_, faces ? *faces : F_, n, n.dot(centre));
     const int nearest = nearest_loop(loops, centre);
     if (nearest < 0)
       throw InvalidInput("layered representation: no section of the " + rep_.chain_names[chain] + " at " +
@@ -252,6 +268,9 @@ class Builder {
   const Eigen::MatrixXi& F_;
   const BodyFeatures& f_;
   int n_;
+  bool collecting_ = false;
+  std::vector<double> horizontal_heights_;
+  std::map<double, std::vector<SectionLoop>> horizontal_sections_;
   Eigen::MatrixXd points_;
   LayeredRepresentation rep_;
 };
