@@ -2,8 +2,9 @@
 
 #include <Eigen/Geometry>
 #include <algorithm>
+#include <cmath>
 #include <cstdint>
-#include <tuple>
+#include <numeric>
 
 namespace posekit {
 namespace {
@@ -39,21 +40,33 @@ bool cut_face(const Eigen::MatrixXd& V, const Eigen::MatrixXi& F, Eigen::Index f
 }
 
 /// Chains the segments of one plane into loops through their shared edge keys.
-std::vector<SectionLoop> chain_loops(const std::vector<Segment>& segs) {
-  // (key, segment, end) sorted by key: the (usually two) segments meeting at a cut edge are adjacent.
-  std::vector<std::tuple<std::uint64_t, int, int>> ends;
-  ends.reserve(segs.size() * 2);
-  for (size_t i = 0; i < segs.size(); ++i)
-    for (int e = 0; e < 2; ++e) ends.emplace_back(segs[i].key[e], static_cast<int>(i), e);
-  std::sort(ends.begin(), ends.end());
-  // partner[2 * seg + end] = the other (segment, end) at the same key, or -1 at an open end.
-  std::vector<int> partner(segs.size() * 2, -1);
-  for (size_t i = 0; i + 1 < ends.size(); ++i)
-    if (std::get<0>(ends[i]) == std::get<0>(ends[i + 1])) {
-      const int a = 2 * std::get<1>(ends[i]) + std::get<2>(ends[i]), b = 2 * std::get<1>(ends[i + 1]) + std::get<2>(ends[i + 1]);
-      if (partner[a] < 0 && partner[b] < 0) partner[a] = b, partner[b] = a;
+std::vector<SectionLoop> chain_loops(const Segment* segs, size_t count) {
+  // partner[2 * seg + end] = the other (segment, end) at the same key, or -1 at an open end. Ends
+  // meet through an open-addressing table keyed by the cut edge; at a key shared by more than two
+  // ends, consecutive ones pair up.
+  std::vector<int> partner(count * 2, -1);
+  size_t capacity = 16;
+  while (capacity < 4 * count) capacity *= 2;
+  const int shift = 64 - static_cast<int>(std::log2(static_cast<double>(capacity)) + 0.5);
+  constexpr int kEmpty = -2, kPaired = -1;
+  std::vector<std::uint64_t> slot_key(capacity);
+  std::vector<int> slot_end(capacity, kEmpty);  // the unpaired end waiting at this key, or kPaired
+  for (size_t i = 0; i < count; ++i)
+    for (int e = 0; e < 2; ++e) {
+      const std::uint64_t key = segs[i].key[e];
+      size_t slot = static_cast<size_t>((key * 0x9E3779B97F4A7C15ull) >> shift);
+      while (slot_end[slot] != kEmpty && slot_key[slot] != key) slot = (slot + 1) & (capacity - 1);
+      const int end = 2 * static_cast<int>(i) + e;
+      if (slot_end[slot] >= 0) {
+        partner[slot_end[slot]] = end;
+        partner[end] = slot_end[slot];
+        slot_end[slot] = kPaired;
+      } else {
+        slot_key[slot] = key;
+        slot_end[slot] = end;
+      }
     }
-  std::vector<bool> used(segs.size(), false);
+  std::vector<bool> used(count, false);
   std::vector<SectionLoop> loops;
   auto walk = [&](int seg, int start_end) {
     // Leaves through the end opposite start_end, collecting the point at each entry end.
@@ -85,10 +98,10 @@ std::vector<SectionLoop> chain_loops(const std::vector<Segment>& segs) {
     loops.push_back(std::move(loop));
   };
   // Open chains start at a segment end without a partner, so each is walked whole.
-  for (size_t i = 0; i < segs.size(); ++i)
+  for (size_t i = 0; i < count; ++i)
     for (int e = 0; e < 2; ++e)
       if (!used[i] && partner[2 * i + e] < 0) walk(static_cast<int>(i), e);
-  for (size_t i = 0; i < segs.size(); ++i)
+  for (size_t i = 0; i < count; ++i)
     if (!used[i]) walk(static_cast<int>(i), 0);
   return loops;
 }
@@ -105,23 +118,32 @@ std::vector<std::vector<SectionLoop>> slice_mesh_stack(const Eigen::MatrixXd& V,
   const double scale = normal.norm();
   const Eigen::Vector3d n = normal / scale;
   const Eigen::VectorXd h = V * n;
-  std::vector<std::pair<double, size_t>> order;
-  for (size_t i = 0; i < offsets.size(); ++i) order.emplace_back(offsets[i] / scale, i);
-  std::sort(order.begin(), order.end());
-  std::vector<std::vector<Segment>> segs(offsets.size());
-  Segment seg;
+  std::vector<size_t> order(offsets.size());
+  std::iota(order.begin(), order.end(), size_t(0));
+  std::sort(order.begin(), order.end(), [&](size_t a, size_t b) { return offsets[a] < offsets[b]; });
+  std::vector<double> level(offsets.size());
+  for (size_t k = 0; k < order.size(); ++k) level[k] = offsets[order[k]] / scale;
+  // A face meets the (sorted) planes first[f] .. last[f]-1, those with lo < level <= hi; each gives
+  // exactly one segment, so the segments of all planes fit one array, plane after plane.
+  std::vector<int> first(static_cast<size_t>(F.rows())), last(static_cast<size_t>(F.rows()));
+  std::vector<size_t> start(level.size() + 1, 0);
   for (Eigen::Index f = 0; f < F.rows(); ++f) {
     const double h0 = h[F(f, 0)], h1 = h[F(f, 1)], h2 = h[F(f, 2)];
     const double lo = std::min({h0, h1, h2}), hi = std::max({h0, h1, h2});
-    auto it = std::upper_bound(order.begin(), order.end(), std::make_pair(lo, size_t(0)),
-                               [](const auto& a, const auto& b) { return a.first < b.first; });
-    for (; it != order.end() && it->first <= hi; ++it) {
-      const double s[3] = {h0 - it->first, h1 - it->first, h2 - it->first};
-      if (cut_face(V, F, f, s, seg)) segs[it->second].push_back(seg);
-    }
+    first[f] = static_cast<int>(std::upper_bound(level.begin(), level.end(), lo) - level.begin());
+    last[f] = static_cast<int>(std::upper_bound(level.begin() + first[f], level.end(), hi) - level.begin());
+    for (int k = first[f]; k < last[f]; ++k) ++start[k + 1];
   }
+  for (size_t k = 0; k < level.size(); ++k) start[k + 1] += start[k];
+  std::vector<Segment> segs(start.back());
+  std::vector<size_t> fill(start.begin(), start.end() - 1);
+  for (Eigen::Index f = 0; f < F.rows(); ++f)
+    for (int k = first[f]; k < last[f]; ++k) {
+      const double s[3] = {h[F(f, 0)] - level[k], h[F(f, 1)] - level[k], h[F(f, 2)] - level[k]};
+      cut_face(V, F, f, s, segs[fill[k]++]);
+    }
   std::vector<std::vector<SectionLoop>> out(offsets.size());
-  for (size_t i = 0; i < offsets.size(); ++i) out[i] = chain_loops(segs[i]);
+  for (size_t k = 0; k < level.size(); ++k) out[order[k]] = chain_loops(segs.data() + start[k], start[k + 1] - start[k]);
   return out;
 }
 
