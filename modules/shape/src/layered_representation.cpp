@@ -125,9 +125,9 @@ class Builder {
   /// Adds one layer from the section polygon chosen by `pick` on the plane through `centre`.
   /// hull_of_nearby: the hull of the loops whose centres lie within nearby_radius of `centre`.
   void add_layer(int chain, const Eigen::Vector3d& centre, const Eigen::Vector3d& normal, int part, bool hull_of_nearby,
-                 const Eigen::MatrixXi* faces = nullptr, double nearby_radius = 0.05) {
+                 const TriangleMesh* part_mesh = nullptr, double nearby_radius = 0.05) {
     const Eigen::Vector3d n = normal.normalized();
-    const bool horizontal = !faces && n == Eigen::Vector3d::UnitY();
+    const bool horizontal = !part_mesh && n == Eigen::Vector3d::UnitY();
     if (collecting_) {
       if (horizontal) horizontal_heights_.push_back(centre.y());
       return;
@@ -136,7 +136,10 @@ class Builder {
     if (front.norm() < 1e-6) front = n.unitOrthogonal();
     front.normalize();
     const auto cached = horizontal ? horizontal_sections_.find(centre.y()) : horizontal_sections_.end();
-    const auto loops = cached != horizontal_sections_.end() ? cached->second : slice_mesh(V_, faces ? *faces : F_, n, n.dot(centre));
+    std::vector<SectionLoop> sliced;
+    if (cached == horizontal_sections_.end())
+      sliced = part_mesh ? slice_mesh(part_mesh->V, part_mesh->F, n, n.dot(centre)) : slice_mesh(V_, F_, n, n.dot(centre));
+    const std::vector<SectionLoop>& loops = cached != horizontal_sections_.end() ? cached->second : sliced;
     const int nearest = nearest_loop(loops, centre);
     if (nearest < 0)
       throw InvalidInput("layered representation: no section of the " + rep_.chain_names[chain] + " at " +
@@ -222,23 +225,34 @@ class Builder {
     for (const auto& k : keys) lo = lo.cwiseMin(k), hi = hi.cwiseMax(k);
     lo.array() -= 0.08;
     hi.array() += 0.08;
-    std::vector<int> rows;
+    // Re-indexed in the original order, so that the cut points are computed exactly as on the whole mesh.
+    std::vector<bool> kept_face(static_cast<size_t>(F_.rows()), false);
+    std::vector<int> new_index(static_cast<size_t>(V_.rows()), -1);
     for (Eigen::Index f = 0; f < F_.rows(); ++f)
       for (int c = 0; c < 3; ++c) {
         const Eigen::Vector3d p = V_.row(F_(f, c)).transpose();
         if ((p.array() >= lo.array()).all() && (p.array() <= hi.array()).all()) {
-          rows.push_back(static_cast<int>(f));
+          kept_face[f] = true;
+          for (int d = 0; d < 3; ++d) new_index[F_(f, d)] = 0;
           break;
         }
       }
-    Eigen::MatrixXi arm_faces(static_cast<Eigen::Index>(rows.size()), 3);
-    for (size_t r = 0; r < rows.size(); ++r) arm_faces.row(static_cast<Eigen::Index>(r)) = F_.row(rows[r]);
+    TriangleMesh arm_mesh;
+    int kept_vertices = 0;
+    for (int& index : new_index)
+      if (index == 0) index = kept_vertices++;
+    arm_mesh.V.resize(kept_vertices, 3);
+    for (Eigen::Index v = 0; v < V_.rows(); ++v)
+      if (new_index[v] >= 0) arm_mesh.V.row(new_index[v]) = V_.row(v);
+    arm_mesh.F.resize(std::count(kept_face.begin(), kept_face.end(), true), 3);
+    for (Eigen::Index f = 0, r = 0; f < F_.rows(); ++f)
+      if (kept_face[f]) arm_mesh.F.row(r++) << new_index[F_(f, 0)], new_index[F_(f, 1)], new_index[F_(f, 2)];
     for (int s = 0; s < 3; ++s)
       for (int k = 0; k < kArmSegments[s] + (s == 2); ++k) {
         const Eigen::Vector3d c = keys[s] + (keys[s + 1] - keys[s]) * (static_cast<double>(k) / kArmSegments[s]);
         Eigen::Vector3d dir = (keys[s + 1] - keys[s]).normalized();
         if (k == 0 && s > 0) dir = (dir + (keys[s] - keys[s - 1]).normalized()).normalized();  // at a joint
-        add_layer(4 + side, c, -dir, parts[s], true, &arm_faces);  // normals point up the limb, towards the body
+        add_layer(4 + side, c, -dir, parts[s], true, &arm_mesh);  // normals point up the limb, towards the body
       }
   }
 
