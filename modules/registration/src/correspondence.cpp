@@ -14,17 +14,17 @@ constexpr int kLeafSize = 16;  // leaf size measured fastest (of 4, 10, 16, 32) 
 }  // namespace
 
 struct CentroidIndex::Impl {
-  Eigen::Matrix<double, Eigen::Dynamic, 3, Eigen::RowMajor> centroids;
+  Eigen::Matrix<float, Eigen::Dynamic, 3, Eigen::RowMajor> centroids;  // float: a third faster, 0.1 um at 1 m
   Eigen::MatrixXd normals;
-  std::unique_ptr<flann::Index<flann::L2_Simple<double>>> index;
+  std::unique_ptr<flann::Index<flann::L2_Simple<float>>> index;
 };
 
 CentroidIndex::CentroidIndex(const Eigen::MatrixXd& V, const Eigen::MatrixXi& F) : impl_(std::make_unique<Impl>()) {
   if (F.rows() == 0) throw InvalidInput("CentroidIndex: the source mesh has no triangles");
-  impl_->centroids = face_centroids(V, F);
+  impl_->centroids = face_centroids(V, F).cast<float>();
   impl_->normals = face_normals(V, F);
-  flann::Matrix<double> data(impl_->centroids.data(), static_cast<size_t>(impl_->centroids.rows()), 3);
-  impl_->index = std::make_unique<flann::Index<flann::L2_Simple<double>>>(data, flann::KDTreeSingleIndexParams(kLeafSize));
+  flann::Matrix<float> data(impl_->centroids.data(), static_cast<size_t>(impl_->centroids.rows()), 3);
+  impl_->index = std::make_unique<flann::Index<flann::L2_Simple<float>>>(data, flann::KDTreeSingleIndexParams(kLeafSize));
   impl_->index->buildIndex();
 }
 
@@ -39,13 +39,13 @@ Eigen::VectorXi CentroidIndex::match(const Eigen::MatrixXd& C, const Eigen::Matr
   for (int k : {1, std::min(8, candidates), candidates}) {
     k = std::min<int>(k, static_cast<int>(impl_->centroids.rows()));
     if (pending.empty() || k < 1) break;
-    Eigen::Matrix<double, Eigen::Dynamic, 3, Eigen::RowMajor> queries(static_cast<Eigen::Index>(pending.size()), 3);
-    for (size_t i = 0; i < pending.size(); ++i) queries.row(static_cast<Eigen::Index>(i)) = C.row(pending[i]);
-    flann::Matrix<double> q(queries.data(), pending.size(), 3);
+    Eigen::Matrix<float, Eigen::Dynamic, 3, Eigen::RowMajor> queries(static_cast<Eigen::Index>(pending.size()), 3);
+    for (size_t i = 0; i < pending.size(); ++i) queries.row(static_cast<Eigen::Index>(i)) = C.row(pending[i]).cast<float>();
+    flann::Matrix<float> q(queries.data(), pending.size(), 3);
     std::vector<size_t> indices(pending.size() * k);
-    std::vector<double> dists(indices.size());
+    std::vector<float> dists(indices.size());
     flann::Matrix<size_t> idx(indices.data(), pending.size(), k);
-    flann::Matrix<double> dst(dists.data(), pending.size(), k);
+    flann::Matrix<float> dst(dists.data(), pending.size(), k);
     flann::SearchParams params(flann::FLANN_CHECKS_UNLIMITED, 0, k > 1);  // one neighbour needs no sorting
     params.cores = 1;
     impl_->index->knnSearch(q, idx, dst, k, params);

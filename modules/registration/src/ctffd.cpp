@@ -1,6 +1,7 @@
 #include "posekit/registration/ctffd.h"
 
 #include <Eigen/Geometry>
+#include <vector>
 
 #include "posekit/core/error.h"
 #include "posekit/core/mesh_geometry.h"
@@ -39,19 +40,31 @@ CtffdParametrization ctffd_parametrize(const Eigen::MatrixXd& V, const LayeredRe
   // Each vertex goes to the representation triangle whose centroid is nearest among those facing
   // the same way (the same test as Eq. 2b/2c), with normals from the vertex's radial direction.
   const CentroidIndex index(rep.mesh.V, rep.mesh.F);
-  const Eigen::MatrixXd rep_centroids = face_centroids(rep.mesh.V, rep.mesh.F);
   // Radial directions need an axis: use the nearest triangle's band axis, found unconditionally first.
+  const Eigen::VectorXi nearest = index.match(V, Eigen::MatrixXd::Zero(V.rows(), 3), 1);
   Eigen::MatrixXd radial(V.rows(), 3);
-  {
-    const Eigen::VectorXi nearest = index.match(V, Eigen::MatrixXd::Zero(V.rows(), 3), 1);
-    for (Eigen::Index i = 0; i < V.rows(); ++i) {
-      const BandFrame f = band_frame(rep, nearest[i], Eigen::Vector3d::Constant(1.0 / 3));
-      Eigen::Vector3d d = V.row(i).transpose() - f.axis;
-      d -= d.dot(f.normal) * f.normal;
-      radial.row(i) = d.norm() > 1e-12 ? Eigen::RowVector3d(d.normalized().transpose()) : Eigen::RowVector3d(1, 0, 0);
-    }
+  for (Eigen::Index i = 0; i < V.rows(); ++i) {
+    const BandFrame f = band_frame(rep, nearest[i], Eigen::Vector3d::Constant(1.0 / 3));
+    Eigen::Vector3d d = V.row(i).transpose() - f.axis;
+    d -= d.dot(f.normal) * f.normal;
+    radial.row(i) = d.norm() > 1e-12 ? Eigen::RowVector3d(d.normalized().transpose()) : Eigen::RowVector3d(1, 0, 0);
   }
-  const Eigen::VectorXi tri = index.match(V, radial, 16);
+  // Where that nearest triangle already faces the radial direction it is the answer; only the rest
+  // search further.
+  const Eigen::MatrixXd rep_normals = face_normals(rep.mesh.V, rep.mesh.F);
+  Eigen::VectorXi tri = nearest;
+  std::vector<Eigen::Index> disagree;
+  for (Eigen::Index i = 0; i < V.rows(); ++i)
+    if (!(rep_normals.row(nearest[i]).dot(radial.row(i)) > 0)) disagree.push_back(i);
+  if (!disagree.empty()) {
+    Eigen::MatrixXd C(static_cast<Eigen::Index>(disagree.size()), 3), N(static_cast<Eigen::Index>(disagree.size()), 3);
+    for (size_t k = 0; k < disagree.size(); ++k) {
+      C.row(static_cast<Eigen::Index>(k)) = V.row(disagree[k]);
+      N.row(static_cast<Eigen::Index>(k)) = radial.row(disagree[k]);
+    }
+    const Eigen::VectorXi further = index.match(C, N, 16);
+    for (size_t k = 0; k < disagree.size(); ++k) tri[disagree[k]] = further[static_cast<Eigen::Index>(k)];
+  }
   CtffdParametrization p;
   p.triangle = tri;
   p.bary.resize(V.rows(), 3);
