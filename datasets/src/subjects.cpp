@@ -179,8 +179,29 @@ Measurements measure_makehuman_body(const MakeHumanModel& model, const Body& bod
   const double lower_back = J(find_joint_index("lower_back"), 1), upper_back = J(find_joint_index("upper_back"), 1);
   const double shoulder = J(find_joint_index("left_shoulder"), 1), hip_joint = J(find_joint_index("left_hip"), 1);
   constexpr double kStep = 0.002;
-  // Bust: the fullest torso level between the upper back and the armpits.
-  for (double y = upper_back; y <= shoulder - 0.12; y += kStep) {
+  // Armpits: down from the shoulder joints, the first level (1 mm steps) from which on for 1 cm the
+  // section through the upper arm's axis (shoulder to elbow joint) is not the torso's.
+  double arms_separate = shoulder;
+  for (const char* side : {"left", "right"}) {
+    const Eigen::Vector3d sh = J.row(find_joint_index(std::string(side) + "_shoulder")).transpose();
+    const Eigen::Vector3d el = J.row(find_joint_index(std::string(side) + "_elbow")).transpose();
+    std::vector<double> heights;
+    for (double y = sh.y(); y > upper_back; y -= 0.001) heights.push_back(y);
+    const auto sections = slice_mesh_stack(m.V, m.F, up, heights);
+    std::vector<bool> separate(heights.size());
+    for (size_t k = 0; k < heights.size(); ++k) {
+      const Eigen::Vector3d arm = sh + (el - sh) * ((heights[k] - sh.y()) / (el.y() - sh.y()));
+      const int t = nearest_loop(sections[k], torso_centre(J, heights[k])), a = nearest_loop(sections[k], arm);
+      separate[k] = t >= 0 && a >= 0 && t != a;
+    }
+    size_t k = 0;
+    while (k + 10 < heights.size() && !(separate[k] && separate[k + 5] && separate[k + 10])) ++k;
+    if (k + 10 >= heights.size()) throw InvalidInput("measure_makehuman_body: the " + std::string(side) + " arm never separates from the torso");
+    arms_separate = std::min(arms_separate, heights[k] + 0.0005);
+  }
+  r.arms_separate_height = arms_separate;
+  // Bust: the fullest torso level between the upper back and 1 cm below the arms' separation.
+  for (double y = upper_back; y <= arms_separate - 0.01; y += kStep) {
     const Section s = torso(y);
     if (s.closed && s.girth > r.bust) r.bust = s.girth, r.bust_height = y;
   }

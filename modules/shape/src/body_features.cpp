@@ -14,6 +14,8 @@ namespace posekit {
 namespace {
 
 constexpr double kBustBandStart = 0.62;   ///< of the crotch-to-armpit span
+constexpr double kBustBelowArmpits = 0.01;  ///< m: the bust band ends this far below the arms' separation
+constexpr double kArmpitRefineStep = 0.001;  ///< m between the sections that refine the separation level
 constexpr double kWaistBandStart = 0.33;
 constexpr double kWaistTieTolerance = 0.002;  ///< m of girth
 constexpr double kKneeFraction = 0.563;   ///< knee joint between ankle joint and crotch
@@ -201,7 +203,9 @@ BodyFeatures find_body_features(const Eigen::MatrixXd& V, const Eigen::MatrixXi&
                        " m tall along Y: expected a standing human in metres with Y up (wrong unit or axis?)");
   if (box.extent().z() > height || box.extent().x() > 1.3 * height)
     throw InvalidInput("body features: the mesh is wider than it is tall: expected a standing body with Y up, not a lying one");
-  BodyFeatures f = find_body_features(horizontal_sections(V, F));
+  BodyFeatures f = find_body_features(horizontal_sections(V, F), [&](const std::vector<double>& heights) {
+    return slice_mesh_stack(V, F, Eigen::Vector3d::UnitY(), heights);
+  });
   // Forearm sections slice only the faces within reach of each elbow: the whole mesh, about 120
   // times, would cost more than all the horizontal sections.
   TriangleMesh arm[2];  // re-indexed, so that a section visits only the arm's vertices too
@@ -226,7 +230,7 @@ BodyFeatures find_body_features(const Eigen::MatrixXd& V, const Eigen::MatrixXi&
   return f;
 }
 
-BodyFeatures find_body_features(const SectionStack& st) {
+BodyFeatures find_body_features(const SectionStack& st, const HorizontalSectionsAt& sections_at) {
   BodyFeatures f;
   f.floor_y = st.floor_y;
   f.top_y = st.top_y;
@@ -338,6 +342,33 @@ BodyFeatures find_body_features(const SectionStack& st) {
                          " arm separates from the torso only at " +
                          std::to_string(static_cast<int>(100 * (f.armpit[side].y() - f.floor_y) / f.stature)) +
                          "% of the height (armpits are at 70-78%): arms touching the body?");
+  // The arms separate between the armpit level (separate) and the next one up (joined): with finer
+  // sections, at the highest of them below which the arm's loop is no longer the torso's.
+  f.arms_separate_y = std::numeric_limits<double>::infinity();
+  {
+    std::vector<double> heights;
+    for (int side : {kLeft, kRight})
+      for (double y = st.y[armpit_level[side]] + kArmpitRefineStep; y < st.y[armpit_level[side]] + st.step - 1e-9; y += kArmpitRefineStep)
+        heights.push_back(y);
+    const auto fine = sections_at ? sections_at(heights) : std::vector<std::vector<SectionLoop>>{};
+    size_t next = 0;
+    for (int side : {kLeft, kRight}) {
+      const int i = armpit_level[side];
+      const Eigen::Vector3d torso_centre = torso_shape[i].centroid, arm_centre = shape_of(st.loops[i][side_loops(i, side).front()]).centroid;
+      double separate = st.y[i];
+      bool joined = false;
+      for (double y = st.y[i] + kArmpitRefineStep; y < st.y[i] + st.step - 1e-9; y += kArmpitRefineStep, ++next) {
+        if (fine.empty() || joined) continue;
+        const auto& loops = fine[next];
+        const int t = nearest_loop(loops, Eigen::Vector3d(torso_centre.x(), y, torso_centre.z()));
+        const int a = nearest_loop(loops, Eigen::Vector3d(arm_centre.x(), y, arm_centre.z()));
+        joined = t < 0 || a < 0 || t == a;
+        if (!joined) separate = y;
+      }
+      const double joined_at = joined ? separate + kArmpitRefineStep : st.y[i] + st.step;
+      f.arms_separate_y = std::min(f.arms_separate_y, 0.5 * (separate + joined_at));
+    }
+  }
   const int armpit_low = std::min(armpit_level[kLeft], armpit_level[kRight]);
   const int armpit_high = std::max(armpit_level[kLeft], armpit_level[kRight]);
 
@@ -405,7 +436,7 @@ BodyFeatures find_body_features(const SectionStack& st) {
       f.arm_found[side] = false;
       f.warnings.push_back(std::string("could not follow the ") + (side == kLeft ? "left" : "right") +
                            " arm from the armpit to the hand (holes?): its shoulder, elbow and wrist are not found");
-      f.shoulder[side] = f.armpit[side] + Eigen::Vector3d(0, 0.06, 0);  // only bounds the bust search
+      f.shoulder[side] = f.armpit[side] + Eigen::Vector3d(0, 0.06, 0);  // a placeholder above the armpit
       continue;
     }
     // A sliver at the top (a fold of a deformed mesh in the armpit) is not the arm's first section.
@@ -510,10 +541,11 @@ BodyFeatures find_body_features(const SectionStack& st) {
     *index = argbest(first_at_or_above(from_y), last_at_or_below(to_y), want_max);
     return *index < 0 ? 0.0 : refined_level(*index, from_y, to_y, want_max);
   };
-  // Bust: the fullest level up to 12 cm below the lower shoulder joint.
+  // Bust: the fullest level up to 1 cm below where the arms separate (the breasts' fullest level, or
+  // a chest under the armpits).
   int bust = -1, underbust = -1, waist = -1, hip = -1;
   f.bust_y = level_of_extremum(st.y[std::min(n - 1, crotch + static_cast<int>(kBustBandStart * span))],
-                               std::min(f.shoulder[kLeft].y(), f.shoulder[kRight].y()) - 0.12, true, &bust);
+                               f.arms_separate_y - kBustBelowArmpits, true, &bust);
   const int bust_from = std::min(n - 1, crotch + static_cast<int>(kBustBandStart * span));
   f.torso_levels_doubtful = bust == bust_from && better(bust - 1, bust, true);
   if (f.torso_levels_doubtful)

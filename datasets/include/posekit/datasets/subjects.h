@@ -41,6 +41,7 @@ std::vector<BodySpec> make_calibration_specs(unsigned seed, int count);
 struct Measurements {
   double stature = 0, bust = 0, underbust = 0, waist = 0, hip = 0, thigh = 0, upper_arm = 0, neck = 0;
   double bust_height = 0, waist_height = 0, hip_height = 0, crotch_height = 0;  ///< y of the levels (m)
+  double arms_separate_height = 0;  ///< highest level (m) below which both arms are separate from the torso
 };
 /// Ground-truth measurements of a MakeHuman body in rest pose, with its rig's joints as landmarks
 /// (levels defined in the README after ISO 8559-1). Throws InvalidInput if a level cannot be found.

@@ -31,6 +31,8 @@ struct BodyFeatures {
   Eigen::Vector3d neck_joint = Eigen::Vector3d::Zero();  ///< neck joint centre (calibrated from neck_base)
   Eigen::Vector3d head_joint = Eigen::Vector3d::Zero();  ///< head joint centre, inside the lower head
   Eigen::Vector3d armpit[2], shoulder[2];        ///< armpit surface points; shoulder joint centres
+  double arms_separate_y = 0;                    ///< highest level at which both arms are separate from
+                                                 ///< the torso (to 1 mm on meshes, 5 mm on clouds)
   Eigen::Vector3d elbow[2], wrist[2];            ///< joint centres (inside the limb)
   Eigen::Vector3d knee[2], ankle[2];
   Eigen::Vector3d hand_tip[2];                   ///< farthest point of each hand from the shoulder
@@ -47,8 +49,12 @@ struct BodyFeatures {
 /// an arm that cannot be followed to the hand (a hole in a scan) is flagged in arm_found and warnings.
 BodyFeatures find_body_features(const Eigen::MatrixXd& V, const Eigen::MatrixXi& F);
 
-/// The same from precomputed sections (`horizontal_sections`), without refine_wrists.
-BodyFeatures find_body_features(const SectionStack& stack);
+/// Horizontal sections at the given heights (one loop list per height), for finer levels than a stack's.
+using HorizontalSectionsAt = std::function<std::vector<std::vector<SectionLoop>>(const std::vector<double>& heights)>;
+
+/// The same from precomputed sections (`horizontal_sections`), without refine_wrists. With
+/// `sections_at`, the level where the arms separate is refined between the stack's sections.
+BodyFeatures find_body_features(const SectionStack& stack, const HorizontalSectionsAt& sections_at = {});
 
 /// A cross-section of the body through `point` with plane normal `normal` (the loop nearest the point).
 using SectionAt = std::function<SectionLoop(const Eigen::Vector3d& point, const Eigen::Vector3d& normal)>;
