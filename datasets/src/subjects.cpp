@@ -3,6 +3,7 @@
 #include <Eigen/Geometry>
 #include <algorithm>
 #include <cmath>
+#include <limits>
 #include <random>
 
 #include "posekit/body/parts.h"
@@ -200,12 +201,28 @@ Measurements measure_makehuman_body(const MakeHumanModel& model, const Body& bod
     arms_separate = std::min(arms_separate, heights[k] + 0.0005);
   }
   r.arms_separate_height = arms_separate;
-  // Bust: the fullest torso level between the upper back and 1 cm below the arms' separation.
-  for (double y = upper_back; y <= arms_separate - 0.01; y += kStep) {
+  // Bust: the fullest torso level between the upper back and 1 cm below the arms' separation; on
+  // a flat chest, the middle of the span around it where the girth stays within 3 mm of the fullest.
+  std::vector<double> ys, gs;
+  for (double y = arms_separate - 0.01; y >= upper_back; y -= 0.001) {
     const Section s = torso(y);
-    if (s.closed && s.girth > r.bust) r.bust = s.girth, r.bust_height = y;
+    ys.push_back(y);
+    gs.push_back(s.closed ? s.girth : std::numeric_limits<double>::quiet_NaN());
   }
-  if (r.bust == 0) throw InvalidInput("measure_makehuman_body: no closed bust level found");
+  size_t best = 0;
+  for (size_t k = 1; k < gs.size(); ++k)
+    if (gs[k] > gs[best] || std::isnan(gs[best])) best = k;
+  if (gs.empty() || std::isnan(gs[best])) throw InvalidInput("measure_makehuman_body: no closed bust level found");
+  const double plateau = gs[best] - 0.003;
+  size_t top = best, bottom = best;  // ys descends with k
+  while (top > 0 && gs[top - 1] >= plateau) --top;
+  while (bottom + 1 < gs.size() && gs[bottom + 1] >= plateau) ++bottom;
+  const double upper = top == 0 || std::isnan(gs[top - 1]) ? ys[top] : ys[top] + 0.001 * (gs[top] - plateau) / (gs[top] - gs[top - 1]);
+  const double lower = bottom + 1 == gs.size() || std::isnan(gs[bottom + 1])
+                           ? ys[bottom]
+                           : ys[bottom] - 0.001 * (gs[bottom] - plateau) / (gs[bottom] - gs[bottom + 1]);
+  r.bust_height = 0.5 * (upper + lower);
+  r.bust = torso(r.bust_height).girth;
   r.underbust = 1e9;
   for (double y = r.bust_height - 0.03; y >= r.bust_height - 0.12; y -= kStep) r.underbust = std::min(r.underbust, torso(y).girth);
   // Waist: the narrowest level between the lower back and the bust.

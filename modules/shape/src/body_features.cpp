@@ -15,7 +15,8 @@ namespace {
 
 constexpr double kBustBandStart = 0.62;   ///< of the crotch-to-armpit span
 constexpr double kBustBelowArmpits = 0.01;  ///< m: the bust band ends this far below the arms' separation
-constexpr double kArmpitRefineStep = 0.001;  ///< m between the sections that refine the separation level
+constexpr double kArmpitRefineStep = 0.001;
+constexpr double kBustPlateau = 0.003;  ///< m of girth: levels this close to the fullest count as the bust  ///< m between the sections that refine the separation level
 constexpr double kWaistBandStart = 0.33;
 constexpr double kWaistTieTolerance = 0.002;  ///< m of girth
 constexpr double kKneeFraction = 0.563;   ///< knee joint between ankle joint and crotch
@@ -543,10 +544,26 @@ BodyFeatures find_body_features(const SectionStack& st, const HorizontalSections
   };
   // Bust: the fullest level up to 1 cm below where the arms separate (the breasts' fullest level, or
   // a chest under the armpits).
+  // A flat chest has near-equal maxima far apart: the level is the middle of the span around the
+  // fullest section where the girth stays within kBustPlateau of it (ends interpolated).
   int bust = -1, underbust = -1, waist = -1, hip = -1;
-  f.bust_y = level_of_extremum(st.y[std::min(n - 1, crotch + static_cast<int>(kBustBandStart * span))],
-                               f.arms_separate_y - kBustBelowArmpits, true, &bust);
   const int bust_from = std::min(n - 1, crotch + static_cast<int>(kBustBandStart * span));
+  const double bust_to_y = f.arms_separate_y - kBustBelowArmpits;
+  const int bust_to = last_at_or_below(bust_to_y);
+  bust = argbest(bust_from, bust_to, true);
+  if (bust >= 0) {
+    const double plateau = girth(bust) - kBustPlateau;
+    int up = bust, down = bust;
+    while (up < bust_to && girth(up + 1) >= plateau) ++up;
+    while (down > bust_from && girth(down - 1) >= plateau) --down;
+    const double upper = up == bust_to ? std::max(bust_to_y, st.y[up])
+                         : std::isnan(girth(up + 1)) ? st.y[up]
+                                                     : st.y[up] + st.step * (girth(up) - plateau) / (girth(up) - girth(up + 1));
+    const double lower = down == bust_from || std::isnan(girth(down - 1))
+                             ? st.y[down]
+                             : st.y[down] - st.step * (girth(down) - plateau) / (girth(down) - girth(down - 1));
+    f.bust_y = 0.5 * (lower + upper);
+  }
   f.torso_levels_doubtful = bust == bust_from && better(bust - 1, bust, true);
   if (f.torso_levels_doubtful)
     f.warnings.push_back("bust: the torso is fullest at the bottom of the bust band and fuller still below it (a belly, or "
