@@ -86,7 +86,7 @@ TEST(Registration, CtffdAtLeastAsAccurateAsNonRigidIcpOnItsClosestSubject) {
   const double e_ctffd = mean_error(templ.mesh, subject, truth, register_bodies(templ.mesh, subject, ctffd).correspondence);
   const double e_nicp = mean_error(templ.mesh, subject, truth, register_bodies(templ.mesh, subject, nicp).correspondence);
   EXPECT_LE(e_ctffd, e_nicp) << "ct-FFD " << e_ctffd << " m, non-rigid ICP " << e_nicp << " m";
-  EXPECT_LT(e_ctffd, 0.010);  // measured 9.3 mm
+  EXPECT_LT(e_ctffd, 0.010);  // measured 9.4 mm
 }
 
 TEST(Registration, CtffdCustomizedTemplateMeasuresLikeTheSubject) {
@@ -103,9 +103,9 @@ TEST(Registration, CtffdCustomizedTemplateMeasuresLikeTheSubject) {
     customized.V = register_bodies(templ.mesh, subject).deformed_source;
     customized.F = templ.mesh.F;
     const BodyMeasurements a = measure_body(customized.V, customized.F), b = measure_body(subject.V, subject.F);
-    // Measured over the 16 subjects: neck within 0.5 cm, torso girths within 1.3 cm, wrist 0.2 cm.
+    // Measured over the 16 subjects: neck within 0.5 cm, torso and thigh girths within 0.9 cm, wrist 0.2 cm.
     EXPECT_NEAR(a.find("neck")->value, b.find("neck")->value, 0.01) << specs[i].id;
-    for (const char* name : {"bust", "waist", "hip", "thigh"})
+    for (const char* name : {"bust", "underbust", "waist", "hip", "thigh"})
       EXPECT_NEAR(a.find(name)->value, b.find(name)->value, 0.015) << specs[i].id << " " << name;
     EXPECT_NEAR(a.find("wrist")->value, b.find("wrist")->value, 0.01) << specs[i].id;
   }

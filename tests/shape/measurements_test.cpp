@@ -38,7 +38,7 @@ TEST(Measurements, RemeshingLeavesTheTorsoAndLimbGirthsUnchanged) {
   const TriangleMesh r = remesh_body(b.mesh, 12400);
   const BodyMeasurements c = measure_body(r.V, r.F);
   for (const char* name : {"bust", "underbust", "waist", "hip", "thigh", "knee", "calf", "upper_arm", "neck"})
-    EXPECT_NEAR(a.find(name)->value, c.find(name)->value, 0.0015) << name;  // measured: <= 0.75 mm
+    EXPECT_NEAR(a.find(name)->value, c.find(name)->value, 0.0015) << name;  // measured: <= 0.91 mm (bust)
 }
 
 TEST(Measurements, ScanGirthsMatchTheMeshAndHolesAreReported) {
