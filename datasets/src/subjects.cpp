@@ -204,10 +204,13 @@ Measurements measure_makehuman_body(const MakeHumanModel& model, const Body& bod
   // Bust: the fullest torso level between the upper back and 1 cm below the arms' separation; on
   // a flat chest, the middle of the span around it where the girth stays within 3 mm of the fullest.
   std::vector<double> ys, gs;
-  for (double y = arms_separate - 0.01; y >= upper_back; y -= 0.001) {
-    const Section s = torso(y);
-    ys.push_back(y);
-    gs.push_back(s.closed ? s.girth : std::numeric_limits<double>::quiet_NaN());
+  for (double y = arms_separate - 0.01; y >= upper_back; y -= 0.001) ys.push_back(y);
+  const auto band = slice_mesh_stack(m.V, m.F, up, ys);
+  for (size_t k = 0; k < ys.size(); ++k) {
+    const int loop = nearest_loop(band[k], torso_centre(J, ys[k]));
+    gs.push_back(loop >= 0 && band[k][static_cast<size_t>(loop)].closed
+                     ? convex_hull_perimeter(band[k][static_cast<size_t>(loop)].points, up)
+                     : std::numeric_limits<double>::quiet_NaN());
   }
   size_t best = 0;
   for (size_t k = 1; k < gs.size(); ++k)

@@ -2,7 +2,6 @@
 
 #include <Eigen/Geometry>
 #include <algorithm>
-#include <cmath>
 #include <cstdint>
 #include <numeric>
 
@@ -45,9 +44,10 @@ std::vector<SectionLoop> chain_loops(const Segment* segs, size_t count) {
   // meet through an open-addressing table keyed by the cut edge; at a key shared by more than two
   // ends, consecutive ones pair up.
   std::vector<int> partner(count * 2, -1);
-  size_t capacity = 16;
-  while (capacity < 4 * count) capacity *= 2;
-  const int shift = 64 - static_cast<int>(std::log2(static_cast<double>(capacity)) + 0.5);
+  int bits = 4;
+  while ((size_t(1) << bits) < 4 * count) ++bits;
+  const size_t capacity = size_t(1) << bits;
+  const int shift = 64 - bits;
   constexpr int kEmpty = -2, kPaired = -1;
   std::vector<std::uint64_t> slot_key(capacity);
   std::vector<int> slot_end(capacity, kEmpty);  // the unpaired end waiting at this key, or kPaired

@@ -15,8 +15,8 @@ namespace {
 
 constexpr double kBustBandStart = 0.62;   ///< of the crotch-to-armpit span
 constexpr double kBustBelowArmpits = 0.01;  ///< m: the bust band ends this far below the arms' separation
-constexpr double kArmpitRefineStep = 0.001;
-constexpr double kBustPlateau = 0.003;  ///< m of girth: levels this close to the fullest count as the bust  ///< m between the sections that refine the separation level
+constexpr int kArmpitRefineSteps = 5;     ///< finer sections per step that place the arms' separation
+constexpr double kBustPlateau = 0.003;   ///< m of girth: levels this close to the fullest count as the bust
 constexpr double kWaistBandStart = 0.33;
 constexpr double kWaistTieTolerance = 0.002;  ///< m of girth
 constexpr double kKneeFraction = 0.563;   ///< knee joint between ankle joint and crotch
@@ -347,27 +347,27 @@ BodyFeatures find_body_features(const SectionStack& st, const HorizontalSections
   // sections, at the highest of them below which the arm's loop is no longer the torso's.
   f.arms_separate_y = std::numeric_limits<double>::infinity();
   {
+    const double fine_step = st.step / kArmpitRefineSteps;
     std::vector<double> heights;
     for (int side : {kLeft, kRight})
-      for (double y = st.y[armpit_level[side]] + kArmpitRefineStep; y < st.y[armpit_level[side]] + st.step - 1e-9; y += kArmpitRefineStep)
-        heights.push_back(y);
+      for (int k = 1; k < kArmpitRefineSteps; ++k) heights.push_back(st.y[armpit_level[side]] + k * fine_step);
     const auto fine = sections_at ? sections_at(heights) : std::vector<std::vector<SectionLoop>>{};
-    size_t next = 0;
     for (int side : {kLeft, kRight}) {
       const int i = armpit_level[side];
       const Eigen::Vector3d torso_centre = torso_shape[i].centroid, arm_centre = shape_of(st.loops[i][side_loops(i, side).front()]).centroid;
-      double separate = st.y[i];
-      bool joined = false;
-      for (double y = st.y[i] + kArmpitRefineStep; y < st.y[i] + st.step - 1e-9; y += kArmpitRefineStep, ++next) {
-        if (fine.empty() || joined) continue;
-        const auto& loops = fine[next];
+      double separate = st.y[i], joined = st.y[i] + st.step;
+      for (int k = 1; k < kArmpitRefineSteps && !fine.empty(); ++k) {
+        const double y = st.y[i] + k * fine_step;
+        const auto& loops = fine[static_cast<size_t>(side * (kArmpitRefineSteps - 1) + k - 1)];
         const int t = nearest_loop(loops, Eigen::Vector3d(torso_centre.x(), y, torso_centre.z()));
         const int a = nearest_loop(loops, Eigen::Vector3d(arm_centre.x(), y, arm_centre.z()));
-        joined = t < 0 || a < 0 || t == a;
-        if (!joined) separate = y;
+        if (t < 0 || a < 0 || t == a) {
+          joined = y;
+          break;
+        }
+        separate = y;
       }
-      const double joined_at = joined ? separate + kArmpitRefineStep : st.y[i] + st.step;
-      f.arms_separate_y = std::min(f.arms_separate_y, 0.5 * (separate + joined_at));
+      f.arms_separate_y = std::min(f.arms_separate_y, 0.5 * (separate + joined));
     }
   }
   const int armpit_low = std::min(armpit_level[kLeft], armpit_level[kRight]);
@@ -542,10 +542,9 @@ BodyFeatures find_body_features(const SectionStack& st, const HorizontalSections
     *index = argbest(first_at_or_above(from_y), last_at_or_below(to_y), want_max);
     return *index < 0 ? 0.0 : refined_level(*index, from_y, to_y, want_max);
   };
-  // Bust: the fullest level up to 1 cm below where the arms separate (the breasts' fullest level, or
-  // a chest under the armpits).
-  // A flat chest has near-equal maxima far apart: the level is the middle of the span around the
-  // fullest section where the girth stays within kBustPlateau of it (ends interpolated).
+  // Bust: the fullest level up to 1 cm below where the arms separate (the breasts, or a man's chest
+  // under the armpits). A flat chest has near-equal maxima far apart: the level is the middle of the
+  // span around the fullest section where the girth stays within kBustPlateau of it.
   int bust = -1, underbust = -1, waist = -1, hip = -1;
   const int bust_from = std::min(n - 1, crotch + static_cast<int>(kBustBandStart * span));
   const double bust_to_y = f.arms_separate_y - kBustBelowArmpits;
@@ -556,7 +555,7 @@ BodyFeatures find_body_features(const SectionStack& st, const HorizontalSections
     int up = bust, down = bust;
     while (up < bust_to && girth(up + 1) >= plateau) ++up;
     while (down > bust_from && girth(down - 1) >= plateau) --down;
-    const double upper = up == bust_to ? std::max(bust_to_y, st.y[up])
+    const double upper = up == bust_to ? bust_to_y
                          : std::isnan(girth(up + 1)) ? st.y[up]
                                                      : st.y[up] + st.step * (girth(up) - plateau) / (girth(up) - girth(up + 1));
     const double lower = down == bust_from || std::isnan(girth(down - 1))

@@ -8,6 +8,7 @@
 #include "posekit/body/parts.h"
 #include "posekit/core/error.h"
 #include "posekit/core/mesh_slice.h"
+#include "posekit/core/triangle_mesh.h"
 
 namespace posekit {
 namespace {
@@ -225,28 +226,15 @@ class Builder {
     for (const auto& k : keys) lo = lo.cwiseMin(k), hi = hi.cwiseMax(k);
     lo.array() -= 0.08;
     hi.array() += 0.08;
-    // Re-indexed in the original order, so that the cut points are computed exactly as on the whole mesh.
     std::vector<bool> kept_face(static_cast<size_t>(F_.rows()), false);
-    std::vector<int> new_index(static_cast<size_t>(V_.rows()), -1);
     for (Eigen::Index f = 0; f < F_.rows(); ++f)
-      for (int c = 0; c < 3; ++c) {
-        const Eigen::Vector3d p = V_.row(F_(f, c)).transpose();
-        if ((p.array() >= lo.array()).all() && (p.array() <= hi.array()).all()) {
-          kept_face[f] = true;
-          for (int d = 0; d < 3; ++d) new_index[F_(f, d)] = 0;
-          break;
-        }
-      }
-    TriangleMesh arm_mesh;
-    int kept_vertices = 0;
-    for (int& index : new_index)
-      if (index == 0) index = kept_vertices++;
-    arm_mesh.V.resize(kept_vertices, 3);
-    for (Eigen::Index v = 0; v < V_.rows(); ++v)
-      if (new_index[v] >= 0) arm_mesh.V.row(new_index[v]) = V_.row(v);
-    arm_mesh.F.resize(std::count(kept_face.begin(), kept_face.end(), true), 3);
-    for (Eigen::Index f = 0, r = 0; f < F_.rows(); ++f)
-      if (kept_face[f]) arm_mesh.F.row(r++) << new_index[F_(f, 0)], new_index[F_(f, 1)], new_index[F_(f, 2)];
+      for (int c = 0; c < 3 && !kept_face[f]; ++c)
+        kept_face[f] = (V_.row(F_(f, c)).transpose().array() >= lo.array()).all() &&
+                       (V_.row(F_(f, c)).transpose().array() <= hi.array()).all();
+    TriangleMesh whole;
+    whole.V = V_;
+    whole.F = F_;
+    const TriangleMesh arm_mesh = extract_faces(whole, kept_face);  // re-indexed: a section visits only the arm
     for (int s = 0; s < 3; ++s)
       for (int k = 0; k < kArmSegments[s] + (s == 2); ++k) {
         const Eigen::Vector3d c = keys[s] + (keys[s + 1] - keys[s]) * (static_cast<double>(k) / kArmSegments[s]);
