@@ -49,7 +49,8 @@ int run_measure(int argc, char** argv) {
       j["girths"][g.name] = e;
     }
     j["levels_y"] = {{"crotch", f.crotch_y}, {"hip", f.hip_y}, {"waist", f.waist_y}, {"underbust", f.underbust_y},
-                     {"bust", f.bust_y}, {"neck", f.neck_y}, {"floor", f.floor_y}, {"top", f.top_y}};
+                     {"bust", f.bust_y}, {"arms_separate", f.arms_separate_y}, {"neck", f.neck_y},
+                     {"floor", f.floor_y}, {"top", f.top_y}};
     j["features"] = {{"crotch", vec(f.crotch)}, {"neck_base", vec(f.neck_base)},
                      {"neck_joint", vec(f.neck_joint)}, {"head_joint", vec(f.head_joint)},
                      {"left_armpit", vec(f.armpit[kLeft])}, {"right_armpit", vec(f.armpit[kRight])},

@@ -90,7 +90,8 @@ std::string measurements_json(const Measurements& m, const BodyStats& st) {
   j["stature"] = m.stature;
   j["girths"] = {{"bust", m.bust}, {"underbust", m.underbust}, {"waist", m.waist}, {"hip", m.hip},
                  {"thigh", m.thigh}, {"upper_arm", m.upper_arm}, {"neck", m.neck}};
-  j["levels_y"] = {{"bust", m.bust_height}, {"waist", m.waist_height}, {"hip", m.hip_height}, {"crotch", m.crotch_height}};
+  j["levels_y"] = {{"arms_separate", m.arms_separate_height}, {"bust", m.bust_height}, {"waist", m.waist_height},
+                  {"hip", m.hip_height}, {"crotch", m.crotch_height}};
   j["volume_litres"] = st.volume_litres;
   j["mass_kg"] = st.mass_kg;
   j["bmi"] = st.bmi;

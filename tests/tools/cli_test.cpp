@@ -5,6 +5,7 @@
 #include <array>
 #include <cstdio>
 #include <filesystem>
+#include <fstream>
 #include <nlohmann/json.hpp>
 #include <string>
 
@@ -232,6 +233,15 @@ TEST(Cli, CompareViewAndReport) {
   for (const auto& g : j["girths"])
     if (g["name"] == "waist") waist = std::abs(g["difference_cm"].get<double>()) < 1.0;
   EXPECT_TRUE(waist);
+  // measure --json gives the levels, the bust band's end among them, next to the ground truth's.
+  r = run("measure " + subject + " --json");
+  ASSERT_EQ(r.code, 0) << r.out;
+  const auto levels = nlohmann::json::parse(r.out)["levels_y"];
+  std::ifstream truth_file(ds + "/subjects/m01/measurements.json");
+  const auto truth = nlohmann::json::parse(truth_file)["levels_y"];
+  EXPECT_NEAR(levels["arms_separate"].get<double>(), truth["arms_separate"].get<double>(), 0.003);
+  EXPECT_NEAR(levels["bust"].get<double>(), truth["bust"].get<double>(), 0.01);
+  EXPECT_LE(levels["bust"].get<double>(), levels["arms_separate"].get<double>() - 0.0099);
   const TriangleMesh err = read_mesh(dir.file("err.ply"));
   EXPECT_EQ(err.vertex_scalars.count("signed_distance_mm"), 1u);
   EXPECT_EQ(err.vertex_scalars.count("covered"), 1u);
