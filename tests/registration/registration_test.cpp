@@ -103,7 +103,8 @@ TEST(Registration, CtffdCustomizedTemplateMeasuresLikeTheSubject) {
     customized.V = register_bodies(templ.mesh, subject).deformed_source;
     customized.F = templ.mesh.F;
     const BodyMeasurements a = measure_body(customized.V, customized.F), b = measure_body(subject.V, subject.F);
-    // Measured over the 16 subjects: neck within 0.5 cm, torso and thigh girths within 0.9 cm, wrist 0.2 cm.
+    // Measured over the 16 subjects: neck within 0.5 cm, torso girths within 0.93 cm, thigh 1.2 cm
+    // (heavy men, whose thighs touch), wrist 0.2 cm.
     EXPECT_NEAR(a.find("neck")->value, b.find("neck")->value, 0.01) << specs[i].id;
     for (const char* name : {"bust", "underbust", "waist", "hip", "thigh"})
       EXPECT_NEAR(a.find(name)->value, b.find(name)->value, 0.015) << specs[i].id << " " << name;

@@ -15,7 +15,7 @@ namespace {
 
 constexpr double kBustBandStart = 0.62;   ///< of the crotch-to-armpit span
 constexpr double kBustBelowArmpits = 0.01;  ///< m: the bust band ends this far below the arms' separation
-constexpr int kArmpitRefineSteps = 5;     ///< finer sections per step that place the arms' separation
+constexpr int kRefineSteps = 5;  ///< finer sections per step that place the crotch and the arms' separation
 constexpr double kBustPlateau = 0.003;   ///< m of girth: levels this close to the fullest count as the bust
 constexpr double kWaistBandStart = 0.33;
 constexpr double kWaistTieTolerance = 0.002;  ///< m of girth
@@ -268,6 +268,7 @@ BodyFeatures find_body_features(const SectionStack& st, const HorizontalSections
   std::vector<int> torso(n, -1);
   std::vector<LoopShape> torso_shape(n);
   int crotch = -1;
+  double crotch_track_z = 0;
   for (int i = level_at(0.2); i < level_at(0.97); ++i) {
     // Below the crotch only a loop enclosing the axis point counts; above it, the largest loop that
     // spans the axis near the tracked centre (the neck, not the chin beside it).
@@ -288,13 +289,22 @@ BodyFeatures find_body_features(const SectionStack& st, const HorizontalSections
       if (crotch >= 0 && i - crotch > 3) torso[i] = torso[i - 1] >= 0 ? -2 : -1;  // hole: keep tracking
       continue;
     }
-    if (crotch < 0) crotch = i;
+    if (crotch < 0) crotch = i, crotch_track_z = z_track;
     torso[i] = found;
     torso_shape[i] = shape_of(st.loops[i][found], true);
     z_track = torso_shape[i].centroid.z();
   }
   if (crotch < 0) throw InvalidInput("body features: no section encloses the body axis: could not find the crotch");
+  // With finer sections, the lowest of them below st.y[crotch] that still encloses the axis.
   f.crotch_y = st.y[crotch];
+  if (sections_at && crotch > 0) {
+    std::vector<double> heights;
+    for (int k = kRefineSteps - 1; k >= 1; --k) heights.push_back(st.y[crotch] - k * st.step / kRefineSteps);
+    const auto fine = sections_at(heights);
+    for (size_t k = 0; k < heights.size() && f.crotch_y == st.y[crotch]; ++k)
+      for (const auto& loop : fine[k])
+        if (loop.closed && contains_xz(loop, f.axis_x, crotch_track_z)) f.crotch_y = heights[k];
+  }
   f.crotch = Eigen::Vector3d(f.axis_x, f.crotch_y, torso_shape[crotch].centroid.z());
 
   // Arms: going down from high on the chest, the first level where a separate loop appears on a side
@@ -347,18 +357,18 @@ BodyFeatures find_body_features(const SectionStack& st, const HorizontalSections
   // sections, at the highest of them below which the arm's loop is no longer the torso's.
   f.arms_separate_y = std::numeric_limits<double>::infinity();
   {
-    const double fine_step = st.step / kArmpitRefineSteps;
+    const double fine_step = st.step / kRefineSteps;
     std::vector<double> heights;
     for (int side : {kLeft, kRight})
-      for (int k = 1; k < kArmpitRefineSteps; ++k) heights.push_back(st.y[armpit_level[side]] + k * fine_step);
+      for (int k = 1; k < kRefineSteps; ++k) heights.push_back(st.y[armpit_level[side]] + k * fine_step);
     const auto fine = sections_at ? sections_at(heights) : std::vector<std::vector<SectionLoop>>{};
     for (int side : {kLeft, kRight}) {
       const int i = armpit_level[side];
       const Eigen::Vector3d torso_centre = torso_shape[i].centroid, arm_centre = shape_of(st.loops[i][side_loops(i, side).front()]).centroid;
       double separate = st.y[i], joined = st.y[i] + st.step;
-      for (int k = 1; k < kArmpitRefineSteps && !fine.empty(); ++k) {
+      for (int k = 1; k < kRefineSteps && !fine.empty(); ++k) {
         const double y = st.y[i] + k * fine_step;
-        const auto& loops = fine[static_cast<size_t>(side * (kArmpitRefineSteps - 1) + k - 1)];
+        const auto& loops = fine[static_cast<size_t>(side * (kRefineSteps - 1) + k - 1)];
         const int t = nearest_loop(loops, Eigen::Vector3d(torso_centre.x(), y, torso_centre.z()));
         const int a = nearest_loop(loops, Eigen::Vector3d(arm_centre.x(), y, arm_centre.z()));
         if (t < 0 || a < 0 || t == a) {
