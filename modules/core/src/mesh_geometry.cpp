@@ -38,6 +38,20 @@ Eigen::MatrixXd face_centroids(const Eigen::MatrixXd& V, const Eigen::MatrixXi& 
   return C;
 }
 
+Eigen::Vector3d phong_surface_point(const Eigen::MatrixXd& V, const Eigen::MatrixXd& N, const Eigen::Vector3i& corners,
+                                    const Eigen::Vector3d& bary) {
+  Eigen::Vector3d flat = Eigen::Vector3d::Zero();
+  for (int k = 0; k < 3; ++k)
+    if (bary[k] != 0) flat += bary[k] * V.row(corners[k]).transpose();
+  Eigen::Vector3d lift = Eigen::Vector3d::Zero();
+  for (int k = 0; k < 3; ++k) {
+    if (bary[k] == 0) continue;
+    const Eigen::Vector3d n = N.row(corners[k]).transpose();
+    lift -= bary[k] * (flat - V.row(corners[k]).transpose()).dot(n) * n;
+  }
+  return flat + 0.5 * lift;
+}
+
 Eigen::MatrixXd vertex_normals(const Eigen::MatrixXd& V, const Eigen::MatrixXi& F) {
   Eigen::MatrixXd N = Eigen::MatrixXd::Zero(V.rows(), 3);
   for (Eigen::Index f = 0; f < F.rows(); ++f) {

@@ -1,6 +1,8 @@
 #include "posekit/core/mesh_slice.h"
 
 #include <Eigen/Geometry>
+
+#include "posekit/core/mesh_geometry.h"
 #include <algorithm>
 #include <cstdint>
 #include <numeric>
@@ -19,6 +21,7 @@ namespace {
 struct Segment {
   std::uint64_t key[2];
   Eigen::Vector3d point[2];
+  Eigen::Vector3d middle;  ///< on the smooth surface, halfway across the face (slice_smooth_mesh only)
 };
 
 /// The segment of face f for a plane at signed distances s (s >= 0 counts as above); false if none.
@@ -39,7 +42,7 @@ bool cut_face(const Eigen::MatrixXd& V, const Eigen::MatrixXi& F, Eigen::Index f
 }
 
 /// Chains the segments of one plane into loops through their shared edge keys.
-std::vector<SectionLoop> chain_loops(const Segment* segs, size_t count) {
+std::vector<SectionLoop> chain_loops(const Segment* segs, size_t count, bool with_middles = false) {
   // partner[2 * seg + end] = the other (segment, end) at the same key, or -1 at an open end. Ends
   // meet through an open-addressing table keyed by the cut edge; at a key shared by more than two
   // ends, consecutive ones pair up.
@@ -77,6 +80,7 @@ std::vector<SectionLoop> chain_loops(const Segment* segs, size_t count) {
     while (true) {
       used[seg] = true;
       pts.push_back(segs[seg].point[end_in]);
+      if (with_middles) pts.push_back(segs[seg].middle);
       const int out = 2 * seg + (1 - end_in);
       const int next = partner[out];
       if (next < 0) {
@@ -106,15 +110,33 @@ std::vector<SectionLoop> chain_loops(const Segment* segs, size_t count) {
   return loops;
 }
 
-}  // namespace
-
-std::vector<SectionLoop> slice_mesh(const Eigen::MatrixXd& V, const Eigen::MatrixXi& F, const Eigen::Vector3d& normal,
-                                    double offset) {
-  return slice_mesh_stack(V, F, normal, {offset}).front();
+/// The segment of face f on the smooth surface (N: unit vertex normals): its cut points and the
+/// point halfway across the face moved onto the Phong surface; false if none.
+bool cut_face_smooth(const Eigen::MatrixXd& V, const Eigen::MatrixXi& F, const Eigen::MatrixXd& N, Eigen::Index f,
+                     const double* s, Segment& seg) {
+  double face_w[3] = {0, 0, 0};
+  int count = 0;
+  for (int c = 0; c < 3 && count < 2; ++c) {
+    const int a = F(f, c), b = F(f, (c + 1) % 3);
+    const double sa = s[c], sb = s[(c + 1) % 3];
+    if ((sa >= 0) == (sb >= 0)) continue;
+    // From the smaller index, so both faces of the edge compute the same point.
+    const double t = a < b ? sa / (sa - sb) : sb / (sb - sa);
+    seg.key[count] = edge_key(a, b);
+    seg.point[count] = phong_surface_point(V, N, Eigen::Vector3i(std::min(a, b), std::max(a, b), a), Eigen::Vector3d(1 - t, t, 0));
+    face_w[c] += 0.5 * (a < b ? 1 - t : t);
+    face_w[(c + 1) % 3] += 0.5 * (a < b ? t : 1 - t);
+    ++count;
+  }
+  if (count < 2) return false;
+  seg.middle = phong_surface_point(V, N, F.row(f).transpose(), Eigen::Vector3d(face_w[0], face_w[1], face_w[2]));
+  return true;
 }
 
-std::vector<std::vector<SectionLoop>> slice_mesh_stack(const Eigen::MatrixXd& V, const Eigen::MatrixXi& F,
-                                                       const Eigen::Vector3d& normal, const std::vector<double>& offsets) {
+/// Sections at many parallel planes in one pass over the faces (each face only visits the planes
+/// its extent spans); on the smooth surface when N is given.
+std::vector<std::vector<SectionLoop>> slice_stack(const Eigen::MatrixXd& V, const Eigen::MatrixXi& F, const Eigen::MatrixXd* N,
+                                                  const Eigen::Vector3d& normal, const std::vector<double>& offsets) {
   const double scale = normal.norm();
   const Eigen::Vector3d n = normal / scale;
   const Eigen::VectorXd h = V * n;
@@ -140,11 +162,36 @@ std::vector<std::vector<SectionLoop>> slice_mesh_stack(const Eigen::MatrixXd& V,
   for (Eigen::Index f = 0; f < F.rows(); ++f)
     for (int k = first[f]; k < last[f]; ++k) {
       const double s[3] = {h[F(f, 0)] - level[k], h[F(f, 1)] - level[k], h[F(f, 2)] - level[k]};
-      cut_face(V, F, f, s, segs[fill[k]++]);
+      if (N) cut_face_smooth(V, F, *N, f, s, segs[fill[k]++]);
+      else cut_face(V, F, f, s, segs[fill[k]++]);
     }
   std::vector<std::vector<SectionLoop>> out(offsets.size());
-  for (size_t k = 0; k < level.size(); ++k) out[order[k]] = chain_loops(segs.data() + start[k], start[k + 1] - start[k]);
+  for (size_t k = 0; k < level.size(); ++k)
+    out[order[k]] = chain_loops(segs.data() + start[k], start[k + 1] - start[k], N != nullptr);
   return out;
+}
+
+}  // namespace
+
+std::vector<SectionLoop> slice_mesh(const Eigen::MatrixXd& V, const Eigen::MatrixXi& F, const Eigen::Vector3d& normal,
+                                    double offset) {
+  return slice_mesh_stack(V, F, normal, {offset}).front();
+}
+
+std::vector<std::vector<SectionLoop>> slice_mesh_stack(const Eigen::MatrixXd& V, const Eigen::MatrixXi& F,
+                                                       const Eigen::Vector3d& normal, const std::vector<double>& offsets) {
+  return slice_stack(V, F, nullptr, normal, offsets);
+}
+
+std::vector<SectionLoop> slice_smooth_mesh(const Eigen::MatrixXd& V, const Eigen::MatrixXi& F, const Eigen::MatrixXd& N,
+                                           const Eigen::Vector3d& normal, double offset) {
+  return slice_stack(V, F, &N, normal, {offset}).front();
+}
+
+std::vector<std::vector<SectionLoop>> slice_smooth_mesh_stack(const Eigen::MatrixXd& V, const Eigen::MatrixXi& F,
+                                                              const Eigen::MatrixXd& N, const Eigen::Vector3d& normal,
+                                                              const std::vector<double>& offsets) {
+  return slice_stack(V, F, &N, normal, offsets);
 }
 
 double polyline_length(const Eigen::MatrixXd& P, bool closed) {

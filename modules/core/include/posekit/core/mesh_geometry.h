@@ -18,6 +18,14 @@ Eigen::MatrixXd face_centroids(const Eigen::MatrixXd& V, const Eigen::MatrixXi& 
 /// Area-weighted unit vertex normals, #V x 3 (zero rows for unreferenced vertices).
 Eigen::MatrixXd vertex_normals(const Eigen::MatrixXd& V, const Eigen::MatrixXi& F);
 
+/// The point with barycentric coordinates `bary` in the triangle of vertices `corners` on the smooth
+/// surface through the mesh's vertices: Phong tessellation (Boubekeur & Alexa 2008) with shape
+/// factor 1/2 and unit vertex normals N, i.e. the flat point moved halfway to the blend of its
+/// projections onto the corners' tangent planes. On a sphere through the corners this cancels the
+/// flat triangle's sagitta to second order. Corners with weight 0 do not contribute.
+Eigen::Vector3d phong_surface_point(const Eigen::MatrixXd& V, const Eigen::MatrixXd& N, const Eigen::Vector3i& corners,
+                                    const Eigen::Vector3d& bary);
+
 /// Barycentric coordinates (sum 1, each >= 0) of the point of triangle (a, b, c) nearest to the
 /// projection of p onto its plane, clamped into the triangle. (1, 0, 0) for a degenerate triangle.
 Eigen::Vector3d clamped_barycentric(const Eigen::Vector3d& p, const Eigen::Vector3d& a, const Eigen::Vector3d& b,
