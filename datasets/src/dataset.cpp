@@ -14,6 +14,7 @@
 #include "posekit/core/error.h"
 #include "posekit/datasets/pose_set.h"
 #include "posekit/datasets/rasterizer.h"
+#include "posekit/core/mesh_geometry.h"
 #include "posekit/datasets/remesh.h"
 #include "posekit/datasets/scanner.h"
 #include "posekit/datasets/subjects.h"
@@ -197,7 +198,8 @@ DatasetSummary make_dataset(const std::string& out_dir, const DatasetOptions& o)
       for (const char* pname : kSubjectTestPoses) {
         const auto it = std::find_if(poses.begin(), poses.end(), [&](const NamedPose& p) { return p.name == pname; });
         TriangleMesh pm;
-        pm.V = evaluate_surface_points(pose_body(*model, body, it->pose), body.mesh.F, corr);
+        const Eigen::MatrixXd posed_template = pose_body(*model, body, it->pose);
+        pm.V = evaluate_smooth_surface_points(posed_template, body.mesh.F, vertex_normals(posed_template, body.mesh.F), corr);
         pm.F = rest_mesh.F;
         w.mesh(dir + "posed/" + pname + ".ply", pm, "posed subject", "subject " + s.id + " posed by the rig in '" + pname + "'");
         w.text(dir + "posed/" + pname + ".json", pose_json(*it), "pose", "16-part pose of '" + std::string(pname) + "'");

@@ -96,6 +96,14 @@ Eigen::MatrixXd evaluate_surface_points(const Eigen::MatrixXd& V, const Eigen::M
   return out;
 }
 
+Eigen::MatrixXd evaluate_smooth_surface_points(const Eigen::MatrixXd& V, const Eigen::MatrixXi& F, const Eigen::MatrixXd& N,
+                                               const SurfacePoints& s) {
+  Eigen::MatrixXd out(s.face.size(), 3);
+  for (Eigen::Index i = 0; i < s.face.size(); ++i)
+    out.row(i) = phong_surface_point(V, N, F.row(s.face[i]).transpose(), s.bary.row(i).transpose()).transpose();
+  return out;
+}
+
 namespace {
 
 /// One decimation and snap; `report` tells whether the result is a closed, non-degenerate manifold.
@@ -110,7 +118,7 @@ TriangleMesh decimate_and_snap(const TriangleMesh& mesh, vtkPolyData* fine, int 
   out = extract_faces(out, std::vector<bool>(out.num_faces(), true));  // drop unused points
   const Eigen::MatrixXd decimated = out.V;
   SurfacePoints snap = closest_surface_points(mesh, out.V);
-  out.V = evaluate_surface_points(mesh.V, mesh.F, snap);
+  out.V = evaluate_smooth_surface_points(mesh.V, mesh.F, vertex_normals(mesh.V, mesh.F), snap);
   // Two vertices snapped onto one point (at a crease) flatten their triangles: those vertices keep
   // their decimated positions, a fraction of a millimetre off the surface.
   auto flat_triangle_vertices = [&] {

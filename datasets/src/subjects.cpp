@@ -76,8 +76,11 @@ struct Section {
   Eigen::MatrixXd points;
 };
 
-Section section(const TriangleMesh& m, const Eigen::Vector3d& normal, const Eigen::Vector3d& through, const Eigen::Vector3d& near) {
-  const auto loops = slice_mesh(m.V, m.F, normal, normal.dot(through));
+/// The section of the smooth surface through the vertices (N: unit vertex normals), as measure_body
+/// takes it.
+Section section(const TriangleMesh& m, const Eigen::MatrixXd& N, const Eigen::Vector3d& normal, const Eigen::Vector3d& through,
+                const Eigen::Vector3d& near) {
+  const auto loops = slice_smooth_mesh(m.V, m.F, N, normal, normal.dot(through));
   const int k = nearest_loop(loops, near);
   Section s;
   if (k < 0) return s;
@@ -172,11 +175,12 @@ std::vector<BodySpec> make_calibration_specs(unsigned seed, int count) {
 
 Measurements measure_makehuman_body(const MakeHumanModel& model, const Body& body) {
   const TriangleMesh& m = body.mesh;
+  const Eigen::MatrixXd N = vertex_normals(m.V, m.F);
   const Eigen::MatrixXd J = joint_centres(model.rig, body);
   const Eigen::Vector3d up = Eigen::Vector3d::UnitY();
   Measurements r;
   r.stature = m.V.col(1).maxCoeff() - m.V.col(1).minCoeff();
-  auto torso = [&](double y) { return section(m, up, Eigen::Vector3d(0, y, 0), torso_centre(J, y)); };
+  auto torso = [&](double y) { return section(m, N, up, Eigen::Vector3d(0, y, 0), torso_centre(J, y)); };
   const double lower_back = J(find_joint_index("lower_back"), 1), upper_back = J(find_joint_index("upper_back"), 1);
   const double shoulder = J(find_joint_index("left_shoulder"), 1), hip_joint = J(find_joint_index("left_hip"), 1);
   constexpr double kStep = 0.002;
@@ -225,7 +229,13 @@ Measurements measure_makehuman_body(const MakeHumanModel& model, const Body& bod
                            ? ys[bottom]
                            : ys[bottom] - 0.001 * (gs[bottom] - plateau) / (gs[bottom] - gs[bottom + 1]);
   r.bust_height = 0.5 * (upper + lower);
-  r.bust = torso(r.bust_height).girth;
+  // The girth: the fullest within 3 cm of that level, up to the band's end, in 1 mm steps.
+  r.bust = 0;
+  const double search_top = std::min(r.bust_height + 0.03, arms_separate - 0.01);
+  for (double y = r.bust_height - 0.03; y <= search_top; y = y + 0.001 > search_top && y < search_top ? search_top : y + 0.001) {
+    const Section s = torso(y);
+    if (s.closed) r.bust = std::max(r.bust, s.girth);
+  }
   r.underbust = 1e9;
   for (double y = r.bust_height - 0.03; y >= r.bust_height - 0.12; y -= kStep) r.underbust = std::min(r.underbust, torso(y).girth);
   // Waist: the narrowest level between the lower back and the bust.
@@ -249,17 +259,17 @@ Measurements measure_makehuman_body(const MakeHumanModel& model, const Body& bod
   }
   // Thigh: the left leg 2 cm below the crotch.
   const Eigen::Vector3d left_hip = J.row(find_joint_index("left_hip")).transpose();
-  r.thigh = section(m, up, Eigen::Vector3d(0, r.crotch_height - 0.02, 0),
+  r.thigh = section(m, N, up, Eigen::Vector3d(0, r.crotch_height - 0.02, 0),
                     Eigen::Vector3d(left_hip.x(), r.crotch_height - 0.02, left_hip.z())).girth;
   // Upper arm: perpendicular to the left upper arm, midway between shoulder and elbow.
   const Eigen::Vector3d sh = J.row(find_joint_index("left_shoulder")).transpose(), el = J.row(find_joint_index("left_elbow")).transpose();
   const Eigen::Vector3d mid = 0.5 * (sh + el);
-  r.upper_arm = section(m, (el - sh).normalized(), mid, mid).girth;
+  r.upper_arm = section(m, N, (el - sh).normalized(), mid, mid).girth;
   // Neck: perpendicular to the neck axis, a third of the way from its base to the head joint.
   const Eigen::Vector3d neck_base = J.row(find_joint_index("neck")).transpose();
   const Eigen::Vector3d head = body.bone_heads.row(model.rig.find_bone("head")).transpose();
   const Eigen::Vector3d neck_point = neck_base + (head - neck_base) / 3.0;
-  r.neck = section(m, (head - neck_base).normalized(), neck_point, neck_point).girth;
+  r.neck = section(m, N, (head - neck_base).normalized(), neck_point, neck_point).girth;
   for (double g : {r.bust, r.underbust, r.waist, r.hip, r.thigh, r.upper_arm, r.neck})
     if (!(g > 0.05 && g < 3.0)) throw InvalidInput("measure_makehuman_body: a girth came out implausible (" + std::to_string(g) + " m)");
   return r;

@@ -24,21 +24,32 @@ TEST(Measurements, GirthsMatchTheGroundTruthOnAllSixteenSubjects) {
     EXPECT_NEAR(m.find("underbust")->value, gt.underbust, 0.01) << s.id;
     EXPECT_NEAR(m.find("thigh")->value, gt.thigh, 0.01) << s.id;
     EXPECT_NEAR(m.find("upper_arm")->value, gt.upper_arm, 0.01) << s.id;
-    EXPECT_NEAR(m.find("neck")->value, gt.neck, 0.01) << s.id;  // measured: worst 0.99 cm (f06)
+    EXPECT_NEAR(m.find("neck")->value, gt.neck, 0.01) << s.id;  // measured: worst 0.63 cm (f08)
     EXPECT_NEAR(m.find("bust")->value, gt.bust, 0.01) << s.id;
     // The bust band ends 1 cm below where the arms separate, found to 1 mm in both.
     EXPECT_NEAR(m.features.arms_separate_y, gt.arms_separate_height, 0.003) << s.id;
   }
 }
 
-TEST(Measurements, RemeshingLeavesTheTorsoAndLimbGirthsUnchanged) {
+TEST(Measurements, RemeshingLeavesTheGirthsUnchangedOnAllSixteenSubjects) {
   POSEKIT_REQUIRE_MAKEHUMAN();
-  const Body b = build_body(model, BodySpec{});
-  const BodyMeasurements a = measure_body(b.mesh.V, b.mesh.F);
-  const TriangleMesh r = remesh_body(b.mesh, 12400);
-  const BodyMeasurements c = measure_body(r.V, r.F);
-  for (const char* name : {"bust", "underbust", "waist", "hip", "thigh", "knee", "calf", "upper_arm", "neck"})
-    EXPECT_NEAR(a.find(name)->value, c.find(name)->value, 0.0015) << name;  // measured: <= 0.91 mm (bust)
+  // Both are measured on the smooth surface through their vertices, and the remesh samples the
+  // original's smooth surface. Measured worst of 16, mm: knee, calf, ankle, waist, hip, upper arm,
+  // wrist, neck 0.91 (upper arm, f08); bust 1.26 (m08: the arms separate 2.3 mm lower, which ends the
+  // band, and a man's chest still grows there); thigh 1.18 (f07: the crotch moves 0.5 mm and the
+  // thigh girth 2 cm below it changes by 2 mm per mm there); underbust 2.58 (f01: on her flat chest
+  // the bust level, which the underbust band hangs from, moves by 3.7 mm).
+  for (const auto& s : make_subject_specs(model, 1, 16)) {
+    const Body b = build_body(model, s.spec);
+    const BodyMeasurements a = measure_body(b.mesh.V, b.mesh.F);
+    const TriangleMesh r = remesh_body(b.mesh, 12400);
+    const BodyMeasurements c = measure_body(r.V, r.F);
+    for (const char* name : {"waist", "hip", "knee", "calf", "ankle", "upper_arm", "wrist", "neck"})
+      EXPECT_NEAR(a.find(name)->value, c.find(name)->value, 0.001) << s.id << " " << name;
+    EXPECT_NEAR(a.find("bust")->value, c.find("bust")->value, 0.0015) << s.id;
+    EXPECT_NEAR(a.find("thigh")->value, c.find("thigh")->value, 0.0015) << s.id;
+    EXPECT_NEAR(a.find("underbust")->value, c.find("underbust")->value, 0.003) << s.id;
+  }
 }
 
 TEST(Measurements, ScanGirthsMatchTheMeshAndHolesAreReported) {

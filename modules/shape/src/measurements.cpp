@@ -15,6 +15,8 @@ namespace posekit {
 namespace {
 
 constexpr double kMaxGapDeg = 40.0;
+constexpr double kBustSearch = 0.03;        ///< m each side of the bust level searched for the fullest girth
+constexpr double kBustBelowArmpits = 0.01;  ///< m: the bust band's end below the arms' separation (as in the features)
 constexpr double kClusterCell = 0.012;  ///< m: scan points closer than about this belong to one section
 
 /// A section from scattered planar points (in the plane with normal n): the median radius about
@@ -81,10 +83,12 @@ std::vector<std::vector<Eigen::Vector3d>> cluster(const std::vector<Eigen::Vecto
   return out;
 }
 
-/// The loop of a section through `point` (plane normal `normal`) nearest to the point.
-SectionLoop mesh_section(const Eigen::MatrixXd& V, const Eigen::MatrixXi& F, const Eigen::Vector3d& point,
-                         const Eigen::Vector3d& normal) {
-  const auto loops = slice_mesh(V, F, normal, normal.dot(point));
+/// The loop of a section through `point` (plane normal `normal`) nearest to the point, on the
+/// smooth surface through the vertices (N: unit vertex normals), so that girths do not depend on
+/// the tessellation.
+SectionLoop mesh_section(const Eigen::MatrixXd& V, const Eigen::MatrixXi& F, const Eigen::MatrixXd& N,
+                         const Eigen::Vector3d& point, const Eigen::Vector3d& normal) {
+  const auto loops = slice_smooth_mesh(V, F, N, normal, normal.dot(point));
   const int k = nearest_loop(loops, point);
   return k < 0 ? SectionLoop{} : loops[k];
 }
@@ -134,7 +138,19 @@ BodyMeasurements measure(const BodyFeatures& f, Section&& section) {
   const Eigen::Vector3d up = Eigen::Vector3d::UnitY();
   const Eigen::Vector3d centre(f.axis_x, 0, f.crotch.z());
   auto torso = [&](double y) { return Eigen::Vector3d(centre.x(), y, centre.z()); };
-  for (const auto& [name, y] : {std::pair<const char*, double>{"bust", f.bust_y}, {"underbust", f.underbust_y}, {"waist", f.waist_y}}) {
+  // Bust: the fullest level within 3 cm of the bust level (the middle of the chest's plateau; see
+  // find_body_features), not above the band's end, in 1 mm steps. On a flat chest the girth there
+  // hardly depends on the tessellation, where the plateau's middle moves by millimetres.
+  double bust_y = f.bust_y, fullest = -1;
+  const double band_top = f.arms_separate_y > f.bust_y ? f.arms_separate_y - kBustBelowArmpits : f.bust_y;
+  const double search_top = std::min(f.bust_y + kBustSearch, band_top);
+  for (double y = f.bust_y - kBustSearch, step = 0.001; y <= search_top; y = y + step > search_top && y < search_top ? search_top : y + step) {
+    const SectionLoop loop = section(torso(y), up);
+    if (!loop.closed || loop.points.rows() < 3) continue;
+    const double g = convex_hull_perimeter(loop.points, up);
+    if (g > fullest) fullest = g, bust_y = y;
+  }
+  for (const auto& [name, y] : {std::pair<const char*, double>{"bust", bust_y}, {"underbust", f.underbust_y}, {"waist", f.waist_y}}) {
     if (!f.torso_levels_doubtful) {
       add(name, torso(y), up);
       continue;
@@ -189,7 +205,8 @@ const Girth* BodyMeasurements::find(const std::string& name) const {
 
 BodyMeasurements measure_body(const Eigen::MatrixXd& V, const Eigen::MatrixXi& F) {
   const BodyFeatures f = find_body_features(V, F);  // wrists refined with perpendicular sections
-  return measure(f, [&](const Eigen::Vector3d& p, const Eigen::Vector3d& n) { return mesh_section(V, F, p, n); });
+  const Eigen::MatrixXd N = vertex_normals(V, F);
+  return measure(f, [&](const Eigen::Vector3d& p, const Eigen::Vector3d& n) { return mesh_section(V, F, N, p, n); });
 }
 
 namespace {
