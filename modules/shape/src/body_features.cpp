@@ -36,11 +36,18 @@ constexpr double kWristBeyondNarrowestSection = 0.005;
 constexpr double kPalmGrowth = 1.15;    ///< the palm: a section this much fuller than the narrowest
 constexpr double kForearmStep = 0.01;  ///< m between perpendicular forearm sections
 
-/// Neck joint = neck base + (0, kNeckJointAboveBase, kNeckJointForward); head joint at
-/// kHeadJointFraction of the way from the neck base up to the crown, kHeadJointForward from the
-/// head section's centroid there: medians over 100 calibration bodies (remeshed; not the test
-/// subjects), SD 7.8 and 4.4 mm (neck) and 4.6 and 4.2 mm (head) in height and depth.
-constexpr double kNeckJointAboveBase = 0.0039, kNeckJointForward = -0.0079;
+/// Neck joint height above the level b where the neck's girth reaches 1.25 times its narrowest
+/// (placed between sections): a linear regression on (1, narrowest neck level - b, crown - b,
+/// b - crotch), in metres. A constant offset above b was 7.8 mm SD and biased by sex (the women's
+/// joints too high, the men's too low), since the shoulders' slope into the neck differs.
+/// Least squares on 100 calibration bodies (make_calibration_specs(20131122, 100), remeshed; not
+/// the test subjects): residual 4.1 mm SD, 8.8 mm at most; on the 16 subjects 4.2 mm RMS.
+constexpr double kNeckJointFromBase[4] = {-0.0813, -0.1808, 0.6473, -0.1134};
+/// Neck joint depth = neck base centroid + kNeckJointForward; head joint at kHeadJointFraction of
+/// the way from the neck base up to the crown, kHeadJointForward from the head section's centroid
+/// there: medians over 100 calibration bodies (remeshed; not the test subjects), SD 4.4 mm (neck
+/// depth) and 4.6 and 4.2 mm (head height and depth).
+constexpr double kNeckJointForward = -0.0079;
 constexpr double kHeadJointFraction = 0.4164, kHeadJointForward = -0.0176;
 
 /// Shoulder joint centre from the torso section 1.5 arm radii above the armpit: a linear regression
@@ -405,9 +412,18 @@ BodyFeatures find_body_features(const SectionStack& st, const HorizontalSections
   f.neck_top.y() = st.y[neck];
   f.neck_base = torso_shape[base].centroid;
   f.neck_base.y() = st.y[base];
-  // Neck and head joints (the neck girth's axis): the head joint at a calibrated fraction of the way
-  // from the neck base to the crown, behind the centroid of the head's section there.
-  f.neck_joint = f.neck_base + Eigen::Vector3d(0, kNeckJointAboveBase, kNeckJointForward);
+  // Neck and head joints (the neck girth's axis): the neck joint regressed on the level where the
+  // neck widens, the head joint at a calibrated fraction of the way from the neck base to the crown,
+  // behind the centroid of the head's section there.
+  const double threshold = 1.25 * girth(neck);
+  double widening_y = st.y[base];
+  if (base - 1 >= 0 && girth(base - 1) >= threshold && girth(base - 1) > girth(base))
+    widening_y -= st.step * (threshold - girth(base)) / (girth(base - 1) - girth(base));
+  const double* w = kNeckJointFromBase;
+  f.neck_joint = Eigen::Vector3d(f.neck_base.x(),
+                                 widening_y + w[0] + w[1] * (f.neck_y - widening_y) + w[2] * (f.top_y - widening_y) +
+                                     w[3] * (widening_y - f.crotch_y),
+                                 f.neck_base.z() + kNeckJointForward);
   const double head_y = f.neck_base.y() + kHeadJointFraction * (f.top_y - f.neck_base.y());
   const int head_level = std::clamp(static_cast<int>(std::lround((head_y - st.y[0]) / st.step)), 0, n - 1);
   Eigen::Vector3d head_centre = f.neck_top;  // over a hole, the nearest closed head section within 2.5 cm

@@ -28,7 +28,7 @@ struct BodyFeatures {
   Eigen::Vector3d crotch = Eigen::Vector3d::Zero();
   Eigen::Vector3d neck_base = Eigen::Vector3d::Zero();  ///< centre of the neck's lowest section
   Eigen::Vector3d neck_top = Eigen::Vector3d::Zero();   ///< centre of the neck's narrowest section
-  Eigen::Vector3d neck_joint = Eigen::Vector3d::Zero();  ///< neck joint centre (calibrated from neck_base)
+  Eigen::Vector3d neck_joint = Eigen::Vector3d::Zero();  ///< neck joint centre (regressed on the neck's levels)
   Eigen::Vector3d head_joint = Eigen::Vector3d::Zero();  ///< head joint centre, inside the lower head
   Eigen::Vector3d armpit[2], shoulder[2];        ///< armpit surface points; shoulder joint centres
   double arms_separate_y = 0;                    ///< highest level at which both arms are separate from
