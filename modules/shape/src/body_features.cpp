@@ -652,12 +652,32 @@ BodyFeatures find_body_features(const SectionStack& st, const HorizontalSections
     // Knee: a fixed fraction of the way from the ankle joint up to the crotch, drawn toward the
     // popliteal hollow (the level within 10 cm above / 6 cm below where the back of the leg comes
     // furthest forward) by a regression on the calibration bodies (kKneeTowardHollow).
-    const double leg_length = f.crotch_y - axis[ankle].y();
-    const double fraction_y = axis[ankle].y() + kKneeFraction * leg_length;
+    // Both levels are placed between the sections (the depth's crossing, the hollow's parabola), so
+    // that remeshing does not move the knee by whole steps.
+    double ankle_y = axis[ankle].y();
+    if (ankle + 1 < axis.size() && depth[ankle + 1] > depth[ankle])
+      ankle_y -= (axis[ankle].y() - axis[ankle + 1].y()) *
+                 std::clamp((1.45 * min_depth - depth[ankle]) / (depth[ankle + 1] - depth[ankle]), 0.0, 1.0);
+    const double leg_length = f.crotch_y - ankle_y;
+    const double fraction_y = ankle_y + kKneeFraction * leg_length;
     size_t hollow = index_of_height(fraction_y);
     for (size_t k = index_of_height(fraction_y + 0.10); k <= index_of_height(fraction_y - 0.06); ++k)
       if (back[k] > back[hollow]) hollow = k;
-    const double knee_y = fraction_y + kKneeTowardHollow * (axis[hollow].y() - fraction_y) + kKneeShift * leg_length;
+    // The hollow is shallow: the vertex of a parabola fitted over 3 cm each side.
+    double hollow_y = axis[hollow].y();
+    if (hollow >= 6 && hollow + 6 < axis.size()) {
+      Eigen::Matrix3d AtA = Eigen::Matrix3d::Zero();
+      Eigen::Vector3d Atb = Eigen::Vector3d::Zero();
+      for (size_t k = hollow - 6; k <= hollow + 6; ++k) {
+        const double t = axis[k].y() - axis[hollow].y();
+        const Eigen::Vector3d row(1, t, t * t);
+        AtA += row * row.transpose();
+        Atb += row * back[k];
+      }
+      const Eigen::Vector3d c = AtA.ldlt().solve(Atb);
+      if (c[2] < -1e-9) hollow_y += std::clamp(-c[1] / (2 * c[2]), -0.03, 0.03);
+    }
+    const double knee_y = fraction_y + kKneeTowardHollow * (hollow_y - fraction_y) + kKneeShift * leg_length;
     const size_t knee = index_of_height(knee_y);
     f.ankle[side] = axis[ankle] + offset_on(kAnkleOffset, side);
     f.knee[side] = Eigen::Vector3d(axis[knee].x(), knee_y, axis[knee].z()) + offset_on(kKneeOffset, side);  // even over a hole
