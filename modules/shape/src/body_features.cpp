@@ -26,6 +26,7 @@ constexpr double kKneeFraction = 0.563;   ///< knee joint between ankle joint an
 constexpr double kKneeTowardHollow = 0.6459;
 constexpr double kKneeShift = -0.0336;
 constexpr double kWristBand[2] = {0.48, 0.68};  ///< wrist between elbow and hand tip
+constexpr size_t kElbowFitHalfWidth = 6;         ///< arm sections each side of the kink in the elbow's fit
 constexpr double kPalmFrom = 0.55;               ///< the palm lies beyond this fraction
 constexpr double kWristBeyondNarrowest = 0.012;  ///< m, toward the hand (horizontal sections)
 /// refine_wrists: the joint lies this far (m) beyond the centre of the narrowest perpendicular
@@ -67,8 +68,9 @@ constexpr ShoulderRegression kShoulderFromSection = {
 /// Joint centre minus the section centroid that locates it, as (lateral, up, forward) in metres:
 /// medians over 80 MakeHuman calibration bodies (make_calibration_specs(20131122, 80), not the test
 /// subjects), remeshed. The elbow and knee joints lie behind the limb's centre line, the wrist in
-/// front of it, the ankle behind and inside the narrowest shank section.
-constexpr double kElbowOffset[3] = {-0.001, 0.001, -0.011};
+/// front of it, the ankle behind and inside the narrowest shank section. The elbow's is from the
+/// parabola's vertex on the 99 left arms found of make_calibration_specs(20131122, 100), remeshed.
+constexpr double kElbowOffset[3] = {-0.0098, 0.0119, -0.0224};
 constexpr double kWristOffset[3] = {0.008, -0.005, 0.013};
 constexpr double kKneeOffset[3] = {0.002, 0.0, 0.006};
 constexpr double kAnkleOffset[3] = {-0.004, -0.002, -0.009};
@@ -507,7 +509,31 @@ BodyFeatures find_body_features(const SectionStack& st, const HorizontalSections
     size_t wrist = find_wrist(elbow);
     elbow = find_elbow(wrist);
     wrist = find_wrist(elbow);
-    f.elbow[side] = axis[elbow] + offset_on(kElbowOffset, side);
+    // Elbow joint: on a heavy arm, nearly straight, the fit's error has a long, flat valley whose
+    // minimum jumps by whole sections when the body is remeshed (and with the wrist's section). So
+    // the joint is the vertex of a parabola fitted to the error over kElbowFitHalfWidth sections
+    // each side of the first pass's minimum (the forearm line ending at 80% of the arm), placed
+    // between the sections.
+    const size_t fit_end = m * 8 / 10, centre = find_elbow(fit_end);
+    Eigen::Vector3d elbow_point = axis[centre];
+    if (centre >= kElbowFitHalfWidth && centre + kElbowFitHalfWidth < fit_end) {
+      Eigen::Matrix3d AtA = Eigen::Matrix3d::Zero();
+      Eigen::Vector3d Atb = Eigen::Vector3d::Zero();
+      for (size_t k = centre - kElbowFitHalfWidth; k <= centre + kElbowFitHalfWidth; ++k) {
+        const double t = static_cast<double>(k) - static_cast<double>(centre);
+        const Eigen::Vector3d row(1, t, t * t);
+        AtA += row * row.transpose();
+        Atb += row * (line_error(axis, 0, k) + line_error(axis, k, fit_end));
+      }
+      const Eigen::Vector3d c = AtA.ldlt().solve(Atb);
+      if (c[2] > 1e-15) {
+        const double half = static_cast<double>(kElbowFitHalfWidth);
+        const double at = static_cast<double>(centre) + std::clamp(-c[1] / (2 * c[2]), -half, half);
+        const size_t k = static_cast<size_t>(std::floor(at));
+        elbow_point = axis[k] + (at - static_cast<double>(k)) * (axis[std::min(k + 1, m - 1)] - axis[k]);
+      }
+    }
+    f.elbow[side] = elbow_point + offset_on(kElbowOffset, side);
     // Wrist joint: just distal of the narrowest forearm section.
     const Eigen::Vector3d forearm = (axis[wrist] - axis[elbow]).normalized();
     f.wrist[side] = axis[wrist] + kWristBeyondNarrowest * forearm + offset_on(kWristOffset, side);
