@@ -232,9 +232,10 @@ Measurements measure_makehuman_body(const MakeHumanModel& model, const Body& bod
   // The girth: the fullest within 3 cm of that level, up to the band's end, in 1 mm steps.
   r.bust = 0;
   const double search_top = std::min(r.bust_height + 0.03, arms_separate - 0.01);
-  for (double y = r.bust_height - 0.03; y <= search_top; y = y + 0.001 > search_top && y < search_top ? search_top : y + 0.001) {
+  for (double y = r.bust_height - 0.03;; y = std::min(y + 0.001, search_top)) {
     const Section s = torso(y);
     if (s.closed) r.bust = std::max(r.bust, s.girth);
+    if (y >= search_top) break;
   }
   r.underbust = 1e9;
   for (double y = r.bust_height - 0.03; y >= r.bust_height - 0.12; y -= kStep) r.underbust = std::min(r.underbust, torso(y).girth);

@@ -143,8 +143,11 @@ BodyMeasurements measure(const BodyFeatures& f, Section&& section) {
   // hardly depends on the tessellation, where the plateau's middle moves by millimetres.
   double bust_y = f.bust_y, fullest = -1;
   const double band_top = f.arms_separate_y > f.bust_y ? f.arms_separate_y - kBustBelowArmpits : f.bust_y;
+  std::vector<double> levels;
   const double search_top = std::min(f.bust_y + kBustSearch, band_top);
-  for (double y = f.bust_y - kBustSearch, step = 0.001; y <= search_top; y = y + step > search_top && y < search_top ? search_top : y + step) {
+  for (double y = f.bust_y - kBustSearch; y < search_top; y += 0.001) levels.push_back(y);
+  levels.push_back(search_top);  // the band's exact end: a man's chest is often fullest there
+  for (const double y : levels) {
     const SectionLoop loop = section(torso(y), up);
     if (!loop.closed || loop.points.rows() < 3) continue;
     const double g = convex_hull_perimeter(loop.points, up);
