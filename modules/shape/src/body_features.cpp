@@ -153,6 +153,22 @@ double line_error(const std::vector<Eigen::Vector3d>& pts, size_t from, size_t t
   return e;
 }
 
+/// The vertex of the least-squares parabola through the points (t[i], v[i]) in *vertex; false
+/// unless it opens downward (want_max) or upward.
+bool parabola_vertex(const std::vector<double>& t, const std::vector<double>& v, bool want_max, double* vertex) {
+  Eigen::Matrix3d AtA = Eigen::Matrix3d::Zero();
+  Eigen::Vector3d Atb = Eigen::Vector3d::Zero();
+  for (size_t i = 0; i < t.size(); ++i) {
+    const Eigen::Vector3d row(1, t[i], t[i] * t[i]);
+    AtA += row * row.transpose();
+    Atb += row * v[i];
+  }
+  const Eigen::Vector3d c = AtA.ldlt().solve(Atb);
+  if (want_max ? !(c[2] < 0) : !(c[2] > 0)) return false;
+  *vertex = -c[1] / (2 * c[2]);
+  return true;
+}
+
 }  // namespace
 
 SectionStack horizontal_sections(const Eigen::MatrixXd& V, const Eigen::MatrixXi& F, double step) {
@@ -519,18 +535,13 @@ BodyFeatures find_body_features(const SectionStack& st, const HorizontalSections
     const size_t fit_end = m * 8 / 10, centre = find_elbow(fit_end);
     Eigen::Vector3d elbow_point = axis[centre];
     if (centre >= kElbowFitHalfWidth && centre + kElbowFitHalfWidth < fit_end) {
-      Eigen::Matrix3d AtA = Eigen::Matrix3d::Zero();
-      Eigen::Vector3d Atb = Eigen::Vector3d::Zero();
-      for (size_t k = centre - kElbowFitHalfWidth; k <= centre + kElbowFitHalfWidth; ++k) {
-        const double t = static_cast<double>(k) - static_cast<double>(centre);
-        const Eigen::Vector3d row(1, t, t * t);
-        AtA += row * row.transpose();
-        Atb += row * (line_error(axis, 0, k) + line_error(axis, k, fit_end));
-      }
-      const Eigen::Vector3d c = AtA.ldlt().solve(Atb);
-      if (c[2] > 1e-15) {
+      std::vector<double> t, v;
+      for (size_t k = centre - kElbowFitHalfWidth; k <= centre + kElbowFitHalfWidth; ++k)
+        t.push_back(static_cast<double>(k) - static_cast<double>(centre)), v.push_back(line_error(axis, 0, k) + line_error(axis, k, fit_end));
+      double vertex = 0;
+      if (parabola_vertex(t, v, false, &vertex)) {
         const double half = static_cast<double>(kElbowFitHalfWidth);
-        const double at = static_cast<double>(centre) + std::clamp(-c[1] / (2 * c[2]), -half, half);
+        const double at = static_cast<double>(centre) + std::clamp(vertex, -half, half);
         const size_t k = static_cast<size_t>(std::floor(at));
         elbow_point = axis[k] + (at - static_cast<double>(k)) * (axis[std::min(k + 1, m - 1)] - axis[k]);
       }
@@ -694,16 +705,10 @@ BodyFeatures find_body_features(const SectionStack& st, const HorizontalSections
     // The hollow is shallow: the vertex of a parabola fitted over 3 cm each side.
     double hollow_y = axis[hollow].y();
     if (hollow >= 6 && hollow + 6 < axis.size()) {
-      Eigen::Matrix3d AtA = Eigen::Matrix3d::Zero();
-      Eigen::Vector3d Atb = Eigen::Vector3d::Zero();
-      for (size_t k = hollow - 6; k <= hollow + 6; ++k) {
-        const double t = axis[k].y() - axis[hollow].y();
-        const Eigen::Vector3d row(1, t, t * t);
-        AtA += row * row.transpose();
-        Atb += row * back[k];
-      }
-      const Eigen::Vector3d c = AtA.ldlt().solve(Atb);
-      if (c[2] < -1e-9) hollow_y += std::clamp(-c[1] / (2 * c[2]), -0.03, 0.03);
+      std::vector<double> t, v;
+      for (size_t k = hollow - 6; k <= hollow + 6; ++k) t.push_back(axis[k].y() - axis[hollow].y()), v.push_back(back[k]);
+      double vertex = 0;
+      if (parabola_vertex(t, v, true, &vertex)) hollow_y += std::clamp(vertex, -0.03, 0.03);
     }
     const double knee_y = fraction_y + kKneeTowardHollow * (hollow_y - fraction_y) + kKneeShift * leg_length;
     const size_t knee = index_of_height(knee_y);
