@@ -4,6 +4,7 @@
 
 #include <cmath>
 
+#include "posekit/core/error.h"
 #include "posekit/core/winding_number.h"
 #include "testing/test_meshes.h"
 
@@ -64,4 +65,21 @@ TEST(MeshSlice, StackEqualsOneSliceAtATime) {
     ASSERT_EQ(stack[i].size(), one.size());
     EXPECT_NEAR(polyline_length(stack[i][0].points, true), polyline_length(one[0].points, true), 1e-12);
   }
+}
+
+TEST(MeshSlice, LoopDistanceIsTheGapBetweenThePolylines) {
+  // Two unit squares 0.3 apart along x, and a vertex of one facing the middle of the other's edge.
+  SectionLoop a, b;
+  a.points.resize(4, 3);
+  a.points << 0, 0, 0, 1, 0, 0, 1, 0, 1, 0, 0, 1;
+  a.closed = true;
+  b.points = a.points;
+  b.points.col(0).array() += 1.3;
+  EXPECT_NEAR(loop_distance(a, b), 0.3, 1e-12);
+  b.points.row(0) << 1.2, 0, 0.5;  // nearer than any vertex of a: the gap is to a's edge
+  EXPECT_NEAR(loop_distance(a, b), 0.2, 1e-12);
+  EXPECT_NEAR(loop_distance(b, a), 0.2, 1e-12);
+  b.points.row(0) << 1.0, 0, 0.5;  // touching
+  EXPECT_NEAR(loop_distance(a, b), 0.0, 1e-12);
+  EXPECT_THROW(loop_distance(a, SectionLoop{}), InvalidInput);
 }

@@ -41,6 +41,11 @@ double polyline_length(const Eigen::MatrixXd& points, bool closed);
 /// stretched around the section (#P x 3 points, m).
 double convex_hull_perimeter(const Eigen::MatrixXd& points, const Eigen::Vector3d& normal);
 
+/// Distance between two loops of a section (the nearest points of their polylines, closing
+/// segments included for closed loops): e.g. the gap between an arm and the torso. Throws
+/// InvalidInput for an empty loop.
+double loop_distance(const SectionLoop& a, const SectionLoop& b);
+
 /// Index of the loop whose centroid is nearest to `point` (-1 when there are none).
 int nearest_loop(const std::vector<SectionLoop>& loops, const Eigen::Vector3d& point);
 
