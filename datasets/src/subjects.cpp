@@ -10,6 +10,7 @@
 #include "posekit/core/error.h"
 #include "posekit/core/mesh_geometry.h"
 #include "posekit/core/mesh_slice.h"
+#include "posekit/core/profile.h"
 
 namespace posekit {
 namespace {
@@ -184,8 +185,10 @@ Measurements measure_makehuman_body(const MakeHumanModel& model, const Body& bod
   const double lower_back = J(find_joint_index("lower_back"), 1), upper_back = J(find_joint_index("upper_back"), 1);
   const double shoulder = J(find_joint_index("left_shoulder"), 1), hip_joint = J(find_joint_index("left_hip"), 1);
   constexpr double kStep = 0.002;
-  // Armpits: down from the shoulder joints, the first level (1 mm steps) from which on for 1 cm the
-  // section through the upper arm's axis (shoulder to elbow joint) is not the torso's.
+  constexpr double kArmClearance = 0.005;  // m, as in find_body_features
+  // Arms' separation: down from the shoulder joints, the first level (1 mm steps) from which on for
+  // 1 cm the section through the upper arm's axis (shoulder to elbow joint) is not the torso's; then
+  // on down, the level where that section first stands kArmClearance clear of the torso's.
   double arms_separate = shoulder;
   for (const char* side : {"left", "right"}) {
     const Eigen::Vector3d sh = J.row(find_joint_index(std::string(side) + "_shoulder")).transpose();
@@ -193,20 +196,27 @@ Measurements measure_makehuman_body(const MakeHumanModel& model, const Body& bod
     std::vector<double> heights;
     for (double y = sh.y(); y > upper_back; y -= 0.001) heights.push_back(y);
     const auto sections = slice_mesh_stack(m.V, m.F, up, heights);
+    std::vector<double> gap(heights.size(), 0.0);  // between arm and torso, 0 where they are one loop
     std::vector<bool> separate(heights.size());
     for (size_t k = 0; k < heights.size(); ++k) {
       const Eigen::Vector3d arm = sh + (el - sh) * ((heights[k] - sh.y()) / (el.y() - sh.y()));
       const int t = nearest_loop(sections[k], torso_centre(J, heights[k])), a = nearest_loop(sections[k], arm);
       separate[k] = t >= 0 && a >= 0 && t != a;
+      if (separate[k]) gap[k] = loop_distance(sections[k][static_cast<size_t>(t)], sections[k][static_cast<size_t>(a)]);
     }
     size_t k = 0;
     while (k + 10 < heights.size() && !(separate[k] && separate[k + 5] && separate[k + 10])) ++k;
     if (k + 10 >= heights.size()) throw InvalidInput("measure_makehuman_body: the " + std::string(side) + " arm never separates from the torso");
-    arms_separate = std::min(arms_separate, heights[k] + 0.0005);
+    // From there down, where the arm first stands 5 mm clear of the torso (between the 1 mm levels).
+    double above_y = heights[k] + 0.001, above_gap = 0;
+    while (k + 1 < heights.size() && gap[k] < kArmClearance) above_y = heights[k], above_gap = gap[k], ++k;
+    if (gap[k] < kArmClearance) throw InvalidInput("measure_makehuman_body: the " + std::string(side) + " arm never stands clear of the torso");
+    arms_separate = std::min(arms_separate, above_y + (heights[k] - above_y) * (kArmClearance - above_gap) / (gap[k] - above_gap));
   }
   r.arms_separate_height = arms_separate;
   // Bust: the fullest torso level between the upper back and 1 cm below the arms' separation; on
-  // a flat chest, the middle of the span around it where the girth stays within 3 mm of the fullest.
+  // a flat chest, the centre of the span around it where the girth stays within 3 mm of the fullest,
+  // weighted by how much fuller each level is (peak_centre).
   std::vector<double> ys, gs;
   for (double y = arms_separate - 0.01; y >= upper_back; y -= 0.001) ys.push_back(y);
   const auto band = slice_mesh_stack(m.V, m.F, up, ys);
@@ -220,15 +230,11 @@ Measurements measure_makehuman_body(const MakeHumanModel& model, const Body& bod
   for (size_t k = 1; k < gs.size(); ++k)
     if (gs[k] > gs[best] || std::isnan(gs[best])) best = k;
   if (gs.empty() || std::isnan(gs[best])) throw InvalidInput("measure_makehuman_body: no closed bust level found");
-  const double plateau = gs[best] - 0.003;
-  size_t top = best, bottom = best;  // ys descends with k
-  while (top > 0 && gs[top - 1] >= plateau) --top;
-  while (bottom + 1 < gs.size() && gs[bottom + 1] >= plateau) ++bottom;
-  const double upper = top == 0 || std::isnan(gs[top - 1]) ? ys[top] : ys[top] + 0.001 * (gs[top] - plateau) / (gs[top] - gs[top - 1]);
-  const double lower = bottom + 1 == gs.size() || std::isnan(gs[bottom + 1])
-                           ? ys[bottom]
-                           : ys[bottom] - 0.001 * (gs[bottom] - plateau) / (gs[bottom] - gs[bottom + 1]);
-  r.bust_height = 0.5 * (upper + lower);
+  // ys descends: the profile ascending for peak_centre.
+  const double fullest = gs[best];
+  std::reverse(ys.begin(), ys.end());
+  std::reverse(gs.begin(), gs.end());
+  r.bust_height = peak_centre(ys, gs, gs.size() - 1 - best, fullest - 0.003);
   // The girth: the fullest within 3 cm of that level, up to the band's end, in 1 mm steps.
   r.bust = 0;
   const double search_top = std::min(r.bust_height + 0.03, arms_separate - 0.01);

@@ -34,21 +34,17 @@ TEST(Measurements, GirthsMatchTheGroundTruthOnAllSixteenSubjects) {
 TEST(Measurements, RemeshingLeavesTheGirthsUnchangedOnAllSixteenSubjects) {
   POSEKIT_REQUIRE_MAKEHUMAN();
   // Both are measured on the smooth surface through their vertices, and the remesh samples the
-  // original's smooth surface. Measured worst of 16, mm: knee, calf, ankle, waist, hip, upper arm,
-  // wrist, neck 0.91 (upper arm, f08); bust 1.26 (m08: the arms separate 2.3 mm lower, which ends the
-  // band, and a man's chest still grows there); thigh 1.18 (f07: the crotch moves 0.5 mm and the
-  // thigh girth 2 cm below it changes by 2 mm per mm there); underbust 2.58 (f01: on her flat chest
-  // the bust level, which the underbust band hangs from, moves by 3.7 mm).
+  // original's smooth surface. Measured worst of 16, mm: upper arm 0.91 (f08), wrist 0.73, hip
+  // 0.72, bust 0.54, thigh 0.54, waist 0.52, ankle 0.43, underbust 0.41, knee 0.40, calf 0.40,
+  // neck 0.23. Before the bust level became a weighted peak centre, the arms' separation a 5 mm
+  // clearance and the crotch a fitted arch, bust, thigh and underbust moved by up to 2.6 mm.
   for (const auto& s : make_subject_specs(model, 1, 16)) {
     const Body b = build_body(model, s.spec);
     const BodyMeasurements a = measure_body(b.mesh.V, b.mesh.F);
     const TriangleMesh r = remesh_body(b.mesh, 12400);
     const BodyMeasurements c = measure_body(r.V, r.F);
-    for (const char* name : {"waist", "hip", "knee", "calf", "ankle", "upper_arm", "wrist", "neck"})
+    for (const char* name : {"bust", "underbust", "waist", "hip", "thigh", "knee", "calf", "ankle", "upper_arm", "wrist", "neck"})
       EXPECT_NEAR(a.find(name)->value, c.find(name)->value, 0.001) << s.id << " " << name;
-    EXPECT_NEAR(a.find("bust")->value, c.find("bust")->value, 0.0015) << s.id;
-    EXPECT_NEAR(a.find("thigh")->value, c.find("thigh")->value, 0.0015) << s.id;
-    EXPECT_NEAR(a.find("underbust")->value, c.find("underbust")->value, 0.003) << s.id;
   }
 }
 

@@ -5,9 +5,12 @@
 #include <algorithm>
 #include <cmath>
 #include <limits>
+#include <utility>
 
 #include "posekit/core/error.h"
 #include "posekit/core/mesh_geometry.h"
+#include "posekit/core/mesh_slice.h"
+#include "posekit/core/profile.h"
 #include "posekit/core/triangle_mesh.h"
 
 namespace posekit {
@@ -16,6 +19,8 @@ namespace {
 constexpr double kBustBandStart = 0.62;   ///< of the crotch-to-armpit span
 constexpr double kBustBelowArmpits = 0.01;  ///< m: the bust band ends this far below the arms' separation
 constexpr int kRefineSteps = 5;  ///< finer sections per step that place the arms' separation (the crotch: 4x)
+constexpr double kArmClearance = 0.005;  ///< m: the arms separate where they stand this clear of the torso
+constexpr int kArmClearanceSections = 8;  ///< sections below the armpit level searched for that clearance
 constexpr double kBustPlateau = 0.003;   ///< m of girth: levels this close to the fullest count as the bust
 constexpr double kWaistBandStart = 0.33;
 constexpr double kWaistTieTolerance = 0.002;  ///< m of girth
@@ -333,6 +338,7 @@ BodyFeatures find_body_features(const SectionStack& st, const HorizontalSections
         if (loop.closed && contains_xz(loop, f.axis_x, crotch_track_z)) f.crotch_y = heights[k];
   }
   f.crotch = Eigen::Vector3d(f.axis_x, f.crotch_y, torso_shape[crotch].centroid.z());
+  f.crotch_axis_z = crotch_track_z;
 
   // Arms: going down from high on the chest, the first level where a separate loop appears on a side
   // is that side's armpit.
@@ -380,8 +386,11 @@ BodyFeatures find_body_features(const SectionStack& st, const HorizontalSections
                          " arm separates from the torso only at " +
                          std::to_string(static_cast<int>(100 * (f.armpit[side].y() - f.floor_y) / f.stature)) +
                          "% of the height (armpits are at 70-78%): arms touching the body?");
-  // The arms separate between the armpit level (separate) and the next one up (joined): with finer
-  // sections, at the highest of them below which the arm's loop is no longer the torso's.
+  // The arms separate where each arm first stands kArmClearance clear of the torso. Where its loop
+  // parts from the torso's depends on how the narrow crease of a heavy armpit is tessellated (by
+  // 2 mm when remeshed); the gap a little lower widens steadily. Between the armpit level (separate)
+  // and the next one up (joined), finer sections find where the loops part; the gap is then
+  // followed down the sections to the clearance, and that bracket refined with finer sections.
   f.arms_separate_y = std::numeric_limits<double>::infinity();
   {
     const double fine_step = st.step / kRefineSteps;
@@ -389,22 +398,66 @@ BodyFeatures find_body_features(const SectionStack& st, const HorizontalSections
     for (int side : {kLeft, kRight})
       for (int k = 1; k < kRefineSteps; ++k) heights.push_back(st.y[armpit_level[side]] + k * fine_step);
     const auto fine = sections_at ? sections_at(heights) : std::vector<std::vector<SectionLoop>>{};
+    Eigen::Vector3d torso_centre[2], arm_centre[2];
+    // The gap between the loops nearest the torso's and the arm's centres at the armpit (0 when
+    // they are one loop, -1 when either is missing).
+    auto gap = [&](int side, const std::vector<SectionLoop>& loops, double y) {
+      const int t = nearest_loop(loops, Eigen::Vector3d(torso_centre[side].x(), y, torso_centre[side].z()));
+      const int a = nearest_loop(loops, Eigen::Vector3d(arm_centre[side].x(), y, arm_centre[side].z()));
+      return t < 0 || a < 0 ? -1.0 : t == a ? 0.0 : loop_distance(loops[static_cast<size_t>(t)], loops[static_cast<size_t>(a)]);
+    };
+    std::vector<std::pair<double, double>> profile[2];  // (level, gap), descending levels
     for (int side : {kLeft, kRight}) {
       const int i = armpit_level[side];
-      const Eigen::Vector3d torso_centre = torso_shape[i].centroid, arm_centre = shape_of(st.loops[i][side_loops(i, side).front()]).centroid;
-      double separate = st.y[i], joined = st.y[i] + st.step;
+      torso_centre[side] = torso_shape[i].centroid;
+      arm_centre[side] = shape_of(st.loops[i][side_loops(i, side).front()]).centroid;
+      std::vector<std::pair<double, double>> above;  // ascending from the armpit level
       for (int k = 1; k < kRefineSteps && !fine.empty(); ++k) {
         const double y = st.y[i] + k * fine_step;
-        const auto& loops = fine[static_cast<size_t>(side * (kRefineSteps - 1) + k - 1)];
-        const int t = nearest_loop(loops, Eigen::Vector3d(torso_centre.x(), y, torso_centre.z()));
-        const int a = nearest_loop(loops, Eigen::Vector3d(arm_centre.x(), y, arm_centre.z()));
-        if (t < 0 || a < 0 || t == a) {
-          joined = y;
-          break;
-        }
-        separate = y;
+        above.emplace_back(y, gap(side, fine[static_cast<size_t>(side * (kRefineSteps - 1) + k - 1)], y));
+        if (above.back().second <= 0) break;
       }
-      f.arms_separate_y = std::min(f.arms_separate_y, 0.5 * (separate + joined));
+      if (above.empty() || above.back().second > 0) above.emplace_back(st.y[i] + st.step, 0.0);
+      profile[side].assign(above.rbegin(), above.rend());
+      for (int j = i; j > crotch && j >= i - kArmClearanceSections; --j) {
+        const double g = gap(side, st.loops[j], st.y[j]);
+        if (g <= 0) continue;
+        profile[side].emplace_back(st.y[j], g);
+        if (g >= kArmClearance) break;
+      }
+    }
+    // The first level at or past the clearance, and the one above it.
+    auto bracket = [&](int side) {
+      const auto& p = profile[side];
+      for (size_t k = 1; k < p.size(); ++k)
+        if (p[k].second >= kArmClearance) return k;
+      return size_t{0};
+    };
+    if (sections_at) {
+      std::vector<double> refine;
+      std::vector<int> refine_side;
+      for (int side : {kLeft, kRight}) {
+        const size_t k = bracket(side);
+        if (k > 0 && profile[side][k - 1].first - profile[side][k].first > 1.5 * fine_step)
+          for (int r = 1; r < kRefineSteps; ++r) refine.push_back(profile[side][k].first + r * fine_step), refine_side.push_back(side);
+      }
+      const auto sections = refine.empty() ? std::vector<std::vector<SectionLoop>>{} : sections_at(refine);
+      for (size_t r = 0; r < refine.size(); ++r) {
+        const double g = gap(refine_side[r], sections[r], refine[r]);
+        if (g >= 0) profile[refine_side[r]].emplace_back(refine[r], g);
+      }
+      for (auto& p : profile)
+        std::sort(p.begin(), p.end(), [](const auto& u, const auto& v) { return u.first > v.first; });
+    }
+    for (int side : {kLeft, kRight}) {
+      const size_t k = bracket(side);
+      double level = profile[side].back().first;  // never that clear: the lowest level followed
+      if (k > 0) {
+        const auto [y0, g0] = profile[side][k - 1];
+        const auto [y1, g1] = profile[side][k];
+        level = y0 + (y1 - y0) * (kArmClearance - g0) / (g1 - g0);
+      }
+      f.arms_separate_y = std::min(f.arms_separate_y, level);
     }
   }
   const int armpit_low = std::min(armpit_level[kLeft], armpit_level[kRight]);
@@ -608,25 +661,19 @@ BodyFeatures find_body_features(const SectionStack& st, const HorizontalSections
     return *index < 0 ? 0.0 : refined_level(*index, from_y, to_y, want_max);
   };
   // Bust: the fullest level up to 1 cm below where the arms separate (the breasts, or a man's chest
-  // under the armpits). A flat chest has near-equal maxima far apart: the level is the middle of the
-  // span around the fullest section where the girth stays within kBustPlateau of it.
+  // under the armpits). A flat chest has near-equal maxima far apart: the level is the centre of the
+  // span around the fullest section where the girth stays within kBustPlateau of it, weighted by
+  // how much fuller than that each level is (peak_centre: stable when the body is remeshed).
   int bust = -1, underbust = -1, waist = -1, hip = -1;
   const int bust_from = std::min(n - 1, crotch + static_cast<int>(kBustBandStart * span));
   const double bust_to_y = f.arms_separate_y - kBustBelowArmpits;
   const int bust_to = last_at_or_below(bust_to_y);
   bust = argbest(bust_from, bust_to, true);
   if (bust >= 0) {
-    const double plateau = girth(bust) - kBustPlateau;
-    int up = bust, down = bust;
-    while (up < bust_to && girth(up + 1) >= plateau) ++up;
-    while (down > bust_from && girth(down - 1) >= plateau) --down;
-    const double upper = up == bust_to ? bust_to_y
-                         : std::isnan(girth(up + 1)) ? st.y[up]
-                                                     : st.y[up] + st.step * (girth(up) - plateau) / (girth(up) - girth(up + 1));
-    const double lower = down == bust_from || std::isnan(girth(down - 1))
-                             ? st.y[down]
-                             : st.y[down] - st.step * (girth(down) - plateau) / (girth(down) - girth(down - 1));
-    f.bust_y = 0.5 * (lower + upper);
+    std::vector<double> ys, gs;
+    for (int i = bust_from; i <= bust_to; ++i) ys.push_back(st.y[i]), gs.push_back(girth(i));
+    if (bust_to_y > st.y[bust_to] + 1e-9) ys.push_back(bust_to_y), gs.push_back(girth(bust_to));  // on to the band's end
+    f.bust_y = peak_centre(ys, gs, static_cast<size_t>(bust - bust_from), girth(bust) - kBustPlateau);
   }
   f.torso_levels_doubtful = bust == bust_from && better(bust - 1, bust, true);
   if (f.torso_levels_doubtful)

@@ -1,22 +1,29 @@
 #include "posekit/shape/measurements.h"
 
+#include <Eigen/Cholesky>
 #include <Eigen/Geometry>
 #include <algorithm>
-#include <cmath>
 #include <array>
+#include <cmath>
+#include <limits>
 #include <map>
 #include <numeric>
 #include <utility>
 
 #include "posekit/core/error.h"
 #include "posekit/core/mesh_geometry.h"
+#include "posekit/core/profile.h"
 
 namespace posekit {
 namespace {
 
 constexpr double kMaxGapDeg = 40.0;
 constexpr double kBustSearch = 0.03;        ///< m each side of the bust level searched for the fullest girth
+constexpr double kBustProfile = 0.04;       ///< m each side of the features' bust level sectioned again
+constexpr double kBustPlateau = 0.003;      ///< m of girth: levels this close to the fullest count as the bust
+constexpr double kUnderbustBand[2] = {0.03, 0.12};  ///< m below the bust level: the underbust band
 constexpr double kBustBelowArmpits = 0.01;  ///< m: the bust band's end below the arms' separation (as in the features)
+constexpr double kCrotchArchHalfWidth = 0.015;  ///< m each side of the body axis fitted (crotch_on_smooth_surface)
 constexpr double kClusterCell = 0.012;  ///< m: scan points closer than about this belong to one section
 
 /// A section from scattered planar points (in the plane with normal n): the median radius about
@@ -138,22 +145,41 @@ BodyMeasurements measure(const BodyFeatures& f, Section&& section) {
   const Eigen::Vector3d up = Eigen::Vector3d::UnitY();
   const Eigen::Vector3d centre(f.axis_x, 0, f.crotch.z());
   auto torso = [&](double y) { return Eigen::Vector3d(centre.x(), y, centre.z()); };
-  // Bust: the fullest level within 3 cm of the bust level (the middle of the chest's plateau; see
-  // find_body_features), not above the band's end, in 1 mm steps. On a flat chest the girth there
-  // hardly depends on the tessellation, where the plateau's middle moves by millimetres.
-  double bust_y = f.bust_y, fullest = -1;
-  const double band_top = f.arms_separate_y > f.bust_y ? f.arms_separate_y - kBustBelowArmpits : f.bust_y;
-  std::vector<double> levels;
-  const double search_top = std::min(f.bust_y + kBustSearch, band_top);
-  for (double y = f.bust_y - kBustSearch; y < search_top; y += 0.001) levels.push_back(y);
-  levels.push_back(search_top);  // the band's exact end: a man's chest is often fullest there
-  for (const double y : levels) {
-    const SectionLoop loop = section(torso(y), up);
-    if (!loop.closed || loop.points.rows() < 3) continue;
-    const double g = convex_hull_perimeter(loop.points, up);
-    if (g > fullest) fullest = g, bust_y = y;
+  // Bust and underbust levels again, on 1 mm sections of the surface the girths are measured on:
+  // the 5 mm sections of find_body_features place a flat chest's bust level only to a few mm, and
+  // the underbust band hangs from it. The bust level is the centre of the peak of the girth profile
+  // (peak_centre, as in find_body_features), the bust girth the fullest within kBustSearch of it,
+  // the underbust the narrowest level from 12 to 3 cm below it, in 2 mm steps.
+  double bust_y = f.bust_y;  // where the tape goes round: the fullest level
+  if (!f.torso_levels_doubtful) {
+    const double band_top = f.arms_separate_y > f.bust_y ? f.arms_separate_y - kBustBelowArmpits : f.bust_y;
+    std::vector<double> ys, gs;
+    const double top = std::min(f.bust_y + kBustProfile, band_top);
+    for (double y = f.bust_y - kBustProfile; y < top - 1e-6; y += 0.001) ys.push_back(y);
+    ys.push_back(top);  // the band's exact end: a man's chest is often fullest there
+    size_t best = 0;
+    for (size_t k = 0; k < ys.size(); ++k) {
+      const SectionLoop loop = section(torso(ys[k]), up);
+      gs.push_back(loop.closed && loop.points.rows() >= 3 ? convex_hull_perimeter(loop.points, up)
+                                                          : std::numeric_limits<double>::quiet_NaN());
+      if (std::isnan(gs[best]) || gs[k] > gs[best]) best = k;
+    }
+    if (std::isfinite(gs[best])) {
+      const double level = peak_centre(ys, gs, best, gs[best] - kBustPlateau);
+      double fullest = -1;
+      for (size_t k = 0; k < ys.size(); ++k)
+        if (std::abs(ys[k] - level) <= kBustSearch && gs[k] > fullest) fullest = gs[k], bust_y = ys[k];
+      double narrowest = std::numeric_limits<double>::max();
+      for (double y = level - kUnderbustBand[0]; y >= level - kUnderbustBand[1] - 1e-9; y -= 0.002) {
+        const SectionLoop loop = section(torso(y), up);
+        if (!loop.closed || loop.points.rows() < 3) continue;
+        const double g = convex_hull_perimeter(loop.points, up);
+        if (g < narrowest) narrowest = g, m.features.underbust_y = y;
+      }
+      m.features.bust_y = level;
+    }
   }
-  for (const auto& [name, y] : {std::pair<const char*, double>{"bust", bust_y}, {"underbust", f.underbust_y}, {"waist", f.waist_y}}) {
+  for (const auto& [name, y] : {std::pair<const char*, double>{"bust", bust_y}, {"underbust", m.features.underbust_y}, {"waist", f.waist_y}}) {
     if (!f.torso_levels_doubtful) {
       add(name, torso(y), up);
       continue;
@@ -206,9 +232,39 @@ const Girth* BodyMeasurements::find(const std::string& name) const {
   return nullptr;
 }
 
+namespace {
+
+/// The crotch on the smooth surface: the top of the arch between the legs in the frontal section
+/// through the axis point that the features' crotch sections enclose (a least-squares parabola
+/// through the arch's points within kCrotchArchHalfWidth of the axis, evaluated at the axis). The
+/// features' crotch, the lowest flat section enclosing that point, moves by up to 1 mm when the
+/// body is remeshed, and the thigh girth 2 cm below it changes by up to 2 mm per mm there. The
+/// features' crotch where no arch is found.
+double crotch_on_smooth_surface(const Eigen::MatrixXd& V, const Eigen::MatrixXi& F, const Eigen::MatrixXd& N, const BodyFeatures& f) {
+  const Eigen::Vector3d frontal = Eigen::Vector3d::UnitZ();
+  const SectionLoop loop = mesh_section(V, F, N, Eigen::Vector3d(f.axis_x, f.crotch_y, f.crotch_axis_z), frontal);
+  Eigen::Matrix3d normal_matrix = Eigen::Matrix3d::Zero();
+  Eigen::Vector3d rhs = Eigen::Vector3d::Zero();
+  int count = 0;
+  for (Eigen::Index i = 0; i < loop.points.rows(); ++i) {
+    const double dx = loop.points(i, 0) - f.axis_x, y = loop.points(i, 1);
+    if (std::abs(dx) > kCrotchArchHalfWidth || std::abs(y - f.crotch_y) > kCrotchArchHalfWidth) continue;
+    const Eigen::Vector3d basis(1, dx, dx * dx);
+    normal_matrix += basis * basis.transpose();
+    rhs += basis * y;
+    ++count;
+  }
+  if (count < 5) return f.crotch_y;
+  const Eigen::Vector3d c = normal_matrix.ldlt().solve(rhs);
+  return std::abs(c[0] - f.crotch_y) < kCrotchArchHalfWidth && c[2] < 0 ? c[0] : f.crotch_y;
+}
+
+}  // namespace
+
 BodyMeasurements measure_body(const Eigen::MatrixXd& V, const Eigen::MatrixXi& F) {
-  const BodyFeatures f = find_body_features(V, F);  // wrists refined with perpendicular sections
+  BodyFeatures f = find_body_features(V, F);  // wrists refined with perpendicular sections
   const Eigen::MatrixXd N = vertex_normals(V, F);
+  f.crotch_y = f.crotch.y() = crotch_on_smooth_surface(V, F, N, f);
   return measure(f, [&](const Eigen::Vector3d& p, const Eigen::Vector3d& n) { return mesh_section(V, F, N, p, n); });
 }
 

@@ -25,14 +25,16 @@ struct BodyFeatures {
   double floor_y = 0, top_y = 0, stature = 0;  ///< soles, top of head (m)
   double axis_x = 0;                           ///< x of the body's sagittal plane
   double crotch_y = 0, hip_y = 0, waist_y = 0, underbust_y = 0, bust_y = 0, neck_y = 0;  ///< levels (m)
-  Eigen::Vector3d crotch = Eigen::Vector3d::Zero();
+  Eigen::Vector3d crotch = Eigen::Vector3d::Zero();    ///< on the axis, at the lowest torso section's centre
+  double crotch_axis_z = 0;                             ///< z of the axis point the crotch's sections enclose
   Eigen::Vector3d neck_base = Eigen::Vector3d::Zero();  ///< centre of the neck's lowest section
   Eigen::Vector3d neck_top = Eigen::Vector3d::Zero();   ///< centre of the neck's narrowest section
   Eigen::Vector3d neck_joint = Eigen::Vector3d::Zero();  ///< neck joint centre (regressed on the neck's levels)
   Eigen::Vector3d head_joint = Eigen::Vector3d::Zero();  ///< head joint centre, inside the lower head
   Eigen::Vector3d armpit[2], shoulder[2];        ///< armpit surface points; shoulder joint centres
-  double arms_separate_y = 0;                    ///< highest level at which both arms are separate from
-                                                 ///< the torso (to 1 mm on meshes, 5 mm on clouds)
+  double arms_separate_y = 0;                    ///< highest level at which both arms stand 5 mm clear
+                                                 ///< of the torso (between 1 mm sections on meshes,
+                                                 ///< 5 mm on clouds)
   Eigen::Vector3d elbow[2], wrist[2];            ///< joint centres (inside the limb)
   Eigen::Vector3d knee[2], ankle[2];
   Eigen::Vector3d hand_tip[2];                   ///< farthest point of each hand from the shoulder

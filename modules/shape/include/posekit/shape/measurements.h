@@ -21,6 +21,8 @@ struct Girth {
 struct BodyMeasurements {
   double stature = 0;  ///< m
   std::vector<Girth> girths;
+  /// As find_body_features found them, with the bust and underbust levels found again on 1 mm
+  /// sections (and, on a mesh, the crotch on the smooth surface) where the girths are measured.
   BodyFeatures features;
   const Girth* find(const std::string& name) const;
 };
