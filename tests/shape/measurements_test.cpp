@@ -95,3 +95,19 @@ TEST(Measurements, ScanOfAHeavyWomanFlagsTheBustBandInsteadOfGuessing) {
   EXPECT_TRUE(scan.find("hip")->measured);
   EXPECT_NEAR(scan.find("hip")->value, mesh.find("hip")->value, 0.01);
 }
+
+TEST(Measurements, ThighsThatTouchInAScanAreReportedNotMeasuredTwice) {
+  POSEKIT_REQUIRE_MAKEHUMAN();
+  // f05: the scanner does not see the narrow gap between her thighs 2 cm below the crotch, so the
+  // section there goes round both legs (it measured 36 cm too much before this was checked).
+  const Body b = build_body(model, make_subject_specs(model, 1, 16)[4].spec);
+  const BodyMeasurements mesh = measure_body(b.mesh.V, b.mesh.F);
+  const BodyMeasurements scan = measure_point_cloud(simulate_scan(b.mesh).cloud.P);
+  ASSERT_TRUE(mesh.find("thigh")->measured) << mesh.find("thigh")->note;
+  EXPECT_FALSE(scan.find("thigh")->measured) << scan.find("thigh")->value;
+  EXPECT_NE(scan.find("thigh")->note.find("legs touch"), std::string::npos) << scan.find("thigh")->note;
+  for (const char* name : {"knee", "calf"}) {
+    ASSERT_TRUE(scan.find(name)->measured) << name << ": " << scan.find(name)->note;
+    EXPECT_NEAR(scan.find(name)->value, mesh.find(name)->value, 0.01) << name;
+  }
+}

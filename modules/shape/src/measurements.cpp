@@ -126,7 +126,12 @@ BodyMeasurements measure(const BodyFeatures& f, Section&& section) {
   BodyMeasurements m;
   m.features = f;
   m.stature = f.stature;
-  auto add = [&](const std::string& name, const Eigen::Vector3d& point, const Eigen::Vector3d& normal) {
+  // One leg's section must lie on its side of the body axis: thighs that touch (or a scan that
+  // cannot see the gap between them) give one section round both.
+  auto spans_axis = [&](const SectionLoop& loop) {
+    return loop.points.col(0).minCoeff() < f.axis_x && loop.points.col(0).maxCoeff() > f.axis_x;
+  };
+  auto add = [&](const std::string& name, const Eigen::Vector3d& point, const Eigen::Vector3d& normal, bool one_leg = false) {
     Girth g;
     g.name = name;
     g.point = point;
@@ -136,6 +141,8 @@ BodyMeasurements measure(const BodyFeatures& f, Section&& section) {
       g.note = "no section found";
     } else if (!loop.closed) {
       g.note = "section not closed (a hole in the surface or scan)";
+    } else if (one_leg && spans_axis(loop)) {
+      g.note = "the legs touch at this level: one section holds both (or the scan does not see the gap between them)";
     } else {
       g.value = convex_hull_perimeter(loop.points, g.normal);
       g.measured = true;
@@ -191,8 +198,8 @@ BodyMeasurements measure(const BodyFeatures& f, Section&& section) {
   }
   add("hip", torso(f.hip_y), up);
   // Thigh: the left leg's section 2 cm below the crotch (the section nearest a point on the leg).
-  add("thigh", Eigen::Vector3d(f.knee[kLeft].x(), f.crotch_y - 0.02, f.knee[kLeft].z()), up);
-  add("knee", f.knee[kLeft], up);
+  add("thigh", Eigen::Vector3d(f.knee[kLeft].x(), f.crotch_y - 0.02, f.knee[kLeft].z()), up, true);
+  add("knee", f.knee[kLeft], up, true);
   // Calf: the fullest, and ankle: the thinnest, horizontal leg section between ankle joint and knee.
   auto extreme_leg_level = [&](double from, double to, bool fullest) {
     Eigen::Vector3d best_point = f.ankle[kLeft] + from * (f.knee[kLeft] - f.ankle[kLeft]);
@@ -206,8 +213,8 @@ BodyMeasurements measure(const BodyFeatures& f, Section&& section) {
     }
     return best_point;
   };
-  add("calf", extreme_leg_level(0.3, 0.8, true), up);
-  add("ankle", extreme_leg_level(0.05, 0.4, false), up);
+  add("calf", extreme_leg_level(0.3, 0.8, true), up, true);
+  add("ankle", extreme_leg_level(0.05, 0.4, false), up, true);
   if (f.arm_found[kLeft]) {
     add("upper_arm", 0.5 * (f.shoulder[kLeft] + f.elbow[kLeft]), f.elbow[kLeft] - f.shoulder[kLeft]);
     add("wrist", f.wrist[kLeft], f.wrist[kLeft] - f.elbow[kLeft]);
