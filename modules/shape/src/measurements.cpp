@@ -24,7 +24,7 @@ constexpr double kBustPlateau = 0.003;      ///< m of girth: levels this close t
 constexpr double kUnderbustBand[2] = {0.03, 0.12};  ///< m below the bust level: the underbust band
 constexpr double kBustBelowArmpits = 0.01;  ///< m: the bust band's end below the arms' separation (as in the features)
 constexpr double kCrotchArchHalfWidth = 0.015;  ///< m each side of the body axis fitted (crotch_on_smooth_surface)
-constexpr double kClusterCell = 0.012;  ///< m: scan points closer than about this belong to one section
+constexpr double kClusterCell = 0.008;  ///< m: scan points closer than about this belong to one section
 
 /// A section from scattered planar points (in the plane with normal n): the median radius about
 /// their centroid in each 5-degree sector, which also removes the scanner's noise; closed when no
