@@ -126,3 +126,22 @@ TEST(BodyFeatures, RejectsBodiesThatAreNotStanding) {
     EXPECT_NE(std::string(e.what()).find("arms touching the body"), std::string::npos) << e.what();
   }
 }
+
+TEST(BodyFeatures, WarnsWhenAnArmStaysAgainstTheTorsoBelowTheArmpit) {
+  POSEKIT_REQUIRE_MAKEHUMAN();
+  // f08 with her arms lowered by 0.4 rad: they part from the torso at the armpit but stay against
+  // it below, so the arms' separation (and the bust band's end) cannot be placed as defined.
+  const Body b = build_body(model, make_subject_specs(model, 1, 16)[7].spec);
+  auto clear_warnings = [](const BodyFeatures& f) {
+    int n = 0;
+    for (const auto& w : f.warnings) n += w.find("mm clear of the torso") != std::string::npos;
+    return n;
+  };
+  EXPECT_EQ(clear_warnings(find_body_features(b.mesh.V, b.mesh.F)), 0);
+  PartPose lowered;
+  lowered.joint_rotation[find_joint_index("left_shoulder")] = Eigen::Vector3d(0, 0, -0.4);
+  lowered.joint_rotation[find_joint_index("right_shoulder")] = Eigen::Vector3d(0, 0, 0.4);
+  const Eigen::MatrixXd V = linear_blend_skinning(
+      b.mesh.V, model.weights, pose_bone_transforms(model.rig, b.bone_heads, bone_pose_from_part_pose(model.rig, lowered)));
+  EXPECT_EQ(clear_warnings(find_body_features(V, b.mesh.F)), 2);
+}

@@ -450,12 +450,17 @@ BodyFeatures find_body_features(const SectionStack& st, const HorizontalSections
         std::sort(p.begin(), p.end(), [](const auto& u, const auto& v) { return u.first > v.first; });
     }
     for (int side : {kLeft, kRight}) {
+      const auto& p = profile[side];
       const size_t k = bracket(side);
-      double level = profile[side].back().first;  // never that clear: the lowest level followed
+      double level = 0;
       if (k > 0) {
-        const auto [y0, g0] = profile[side][k - 1];
-        const auto [y1, g1] = profile[side][k];
-        level = y0 + (y1 - y0) * (kArmClearance - g0) / (g1 - g0);
+        level = p[k - 1].first + (p[k].first - p[k - 1].first) * (kArmClearance - p[k - 1].second) / (p[k].second - p[k - 1].second);
+      } else {
+        level = p.size() > 1 ? 0.5 * (p[0].first + p[1].first) : p[0].first;  // where the loops part
+        f.warnings.push_back(std::string("arms: the ") + (side == kLeft ? "left" : "right") + " arm is nowhere " +
+                             std::to_string(static_cast<int>(kArmClearance * 1000)) + " mm clear of the torso within " +
+                             std::to_string(static_cast<int>(kArmClearanceSections * st.step * 100)) +
+                             " cm below the armpit (arm touching the body?): the bust band may end too low");
       }
       f.arms_separate_y = std::min(f.arms_separate_y, level);
     }
