@@ -31,12 +31,14 @@ TriangleMesh extract_faces(const TriangleMesh& mesh, const std::vector<bool>& ke
   out.V.resize(nv, 3);
   if (mesh.has_normals()) out.N.resize(nv, 3);
   if (mesh.has_colors()) out.C.resize(nv, 3);
+  if (mesh.has_uv()) out.UV.resize(nv, 2);
   for (const auto& [name, values] : mesh.vertex_scalars) out.vertex_scalars[name].resize(nv);
   for (Eigen::Index i = 0; i < nv; ++i) {
     const int v = old_index[i];
     out.V.row(i) = mesh.V.row(v);
     if (mesh.has_normals()) out.N.row(i) = mesh.N.row(v);
     if (mesh.has_colors()) out.C.row(i) = mesh.C.row(v);
+    if (mesh.has_uv()) out.UV.row(i) = mesh.UV.row(v);
     for (const auto& [name, values] : mesh.vertex_scalars) out.vertex_scalars[name][i] = values[v];
   }
   out.F.resize(kept, 3);

@@ -6,9 +6,9 @@
 #include <string>
 #include <vector>
 
-namespace posekit {
+#include "posekit/core/point_cloud.h"
 
-using RowMatrixX3u8 = Eigen::Matrix<std::uint8_t, Eigen::Dynamic, 3>;
+namespace posekit {
 
 /// A triangle mesh in metres, Y up, subject facing +Z.
 struct TriangleMesh {
@@ -16,6 +16,7 @@ struct TriangleMesh {
   Eigen::MatrixXi F;  ///< #F x 3 vertex indices, counter-clockwise seen from outside
   Eigen::MatrixXd N;  ///< #V x 3 per-vertex normals, or empty
   RowMatrixX3u8 C;    ///< #V x 3 per-vertex RGB colours, or empty
+  Eigen::MatrixXd UV; ///< #V x 2 per-vertex texture coordinates, or empty
   /// Named per-vertex scalar fields, each of length #V (e.g. "error_mm", "part").
   std::map<std::string, Eigen::VectorXd> vertex_scalars;
   /// Per-face group index into group_names (OBJ `g`), or empty when the mesh has no groups.
@@ -26,6 +27,7 @@ struct TriangleMesh {
   Eigen::Index num_faces() const { return F.rows(); }
   bool has_normals() const { return N.rows() == V.rows() && N.rows() > 0; }
   bool has_colors() const { return C.rows() == V.rows() && C.rows() > 0; }
+  bool has_uv() const { return UV.rows() == V.rows() && UV.rows() > 0 && UV.cols() == 2; }
 };
 
 /// The faces of one group with only the vertices they use, re-indexed; per-vertex attributes follow.
