@@ -71,6 +71,13 @@ TEST(Parts, PartPoseJsonRoundTripsAndRejectsBadInput) {
   EXPECT_THROW(part_pose_from_json(R"({"joints": {"left_elbow": [0, 1]}})", "p.json"), InvalidInput);
   EXPECT_THROW(part_pose_from_json(R"({"joints": {"left_elbow": [0, "x", 1]}})", "p.json"), InvalidInput);
   EXPECT_THROW(part_pose_from_json(R"({"joints": {}, "scale": 2})", "p.json"), InvalidInput);
+  // A joint given twice would silently lose the first rotation: refused, naming the joint.
+  try {
+    part_pose_from_json(R"({"joints": {"left_knee": [1.2, 0, 0], "left_knee": [0, 0, 0]}})", "p.json");
+    FAIL() << "duplicate joint accepted";
+  } catch (const InvalidInput& e) {
+    EXPECT_NE(std::string(e.what()).find("'left_knee' appears twice in 'joints'"), std::string::npos) << e.what();
+  }
 }
 
 TEST(Parts, PartPoseRotatesTheChildPartAboutItsJoint) {

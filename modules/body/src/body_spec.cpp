@@ -4,6 +4,7 @@
 #include <nlohmann/json.hpp>
 
 #include "posekit/core/error.h"
+#include "posekit/io/json.h"
 #include "posekit/io/atomic_file.h"
 
 namespace posekit {
@@ -21,12 +22,7 @@ double slider(const nlohmann::json& j, const std::string& key, const std::string
 }  // namespace
 
 BodySpec body_spec_from_json(const std::string& text, const std::string& context) {
-  nlohmann::json j;
-  try {
-    j = nlohmann::json::parse(text);
-  } catch (const nlohmann::json::exception& e) {
-    throw IoError(context + ": not valid JSON (" + e.what() + ")");
-  }
+  const nlohmann::json j = parse_json(text, context);
   if (!j.is_object()) throw InvalidInput(context + ": expected a JSON object of sliders");
   BodySpec spec;
   for (auto it = j.begin(); it != j.end(); ++it) {

@@ -5,6 +5,7 @@
 #include <nlohmann/json.hpp>
 
 #include "posekit/core/error.h"
+#include "posekit/io/json.h"
 #include "posekit/io/atomic_file.h"
 
 namespace posekit {
@@ -106,12 +107,7 @@ Eigen::Matrix3d rotation_from_axis_angle(const Eigen::Vector3d& aa) {
 }
 
 PartPose part_pose_from_json(const std::string& text, const std::string& context) {
-  nlohmann::json j;
-  try {
-    j = nlohmann::json::parse(text);
-  } catch (const nlohmann::json::exception& e) {
-    throw IoError(context + ": not valid JSON (" + e.what() + ")");
-  }
+  const nlohmann::json j = parse_json(text, context);
   if (!j.is_object()) throw InvalidInput(context + ": expected a JSON object with 'joints'");
   PartPose pose;
   for (auto it = j.begin(); it != j.end(); ++it) {

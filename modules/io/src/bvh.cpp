@@ -1,8 +1,8 @@
 #include "posekit/io/bvh.h"
 
+#include <algorithm>
 #include <Eigen/Geometry>
 #include <cmath>
-#include <functional>
 #include <iomanip>
 
 #include "parse_util.h"
@@ -135,15 +135,18 @@ BvhMotion read_bvh(const std::string& path, Unit unit) {
   BvhMotion motion;
   int channel_count = 0;
   if (ts.expect("HIERARCHY") != "HIERARCHY") ts.lines().fail("expected 'HIERARCHY' (not a BVH file?)");
-  std::function<void(int)> parse_joint = [&](int parent) {
+  // The hierarchy is walked with an explicit stack of open joints, so a corrupt or hostile file
+  // nesting joints 100,000 deep costs memory in proportion to its size, never the call stack.
+  std::vector<int> open;
+  std::string_view t;  // the token after the part just read
+  auto open_joint = [&](int parent) {
     BvhJoint joint;
     joint.parent = parent;
     joint.name = std::string(ts.expect("a joint name"));
     ts.expect_word("{");
     ts.expect_word("OFFSET");
     for (int k = 0; k < 3; ++k) joint.offset[k] = ts.number("an OFFSET value") * scale;
-    const int index = static_cast<int>(motion.joints.size());
-    std::string_view t = ts.expect("CHANNELS, JOINT, End Site or }");
+    t = ts.expect("CHANNELS, JOINT, End Site or }");
     if (t == "CHANNELS") {
       const double n = ts.number("the channel count");
       if (n < 0 || n > 6 || n != std::floor(n)) ts.lines().fail("CHANNELS count must be 0..6");
@@ -158,28 +161,34 @@ BvhMotion read_bvh(const std::string& path, Unit unit) {
       channel_count += static_cast<int>(n);
       t = ts.expect("JOINT, End Site or }");
     }
-    motion.joints.push_back(joint);
-    while (t != "}") {
+    open.push_back(static_cast<int>(motion.joints.size()));
+    motion.joints.push_back(std::move(joint));
+  };
+  t = ts.expect("ROOT");
+  while (t == "ROOT") {
+    open_joint(-1);
+    while (!open.empty()) {
       if (t == "JOINT") {
-        parse_joint(index);
-      } else if (t == "End") {
+        open_joint(open.back());
+        continue;
+      }
+      if (t == "End") {
         ts.expect_word("Site");
         ts.expect_word("{");
         ts.expect_word("OFFSET");
         Eigen::Vector3d end;
         for (int k = 0; k < 3; ++k) end[k] = ts.number("an End Site OFFSET value") * scale;
         ts.expect_word("}");
-        motion.joints[index].has_end_site = true;
-        motion.joints[index].end_offset = end;
+        motion.joints[open.back()].has_end_site = true;
+        motion.joints[open.back()].end_offset = end;
+      } else if (t == "}") {
+        open.pop_back();
+        if (open.empty()) break;
       } else {
         ts.lines().fail("expected JOINT, End Site or }, got '" + printable(t) + "'");
       }
       t = ts.expect("JOINT, End Site or }");
     }
-  };
-  std::string_view t = ts.expect("ROOT");
-  while (t == "ROOT") {
-    parse_joint(-1);
     t = ts.expect("MOTION");
   }
   if (motion.joints.empty()) ts.lines().fail("expected 'ROOT'");
@@ -190,6 +199,8 @@ BvhMotion read_bvh(const std::string& path, Unit unit) {
   ts.expect_word("Frame");
   ts.expect_word("Time:");
   motion.frame_time = ts.number("the frame time");
+  if (!std::isfinite(motion.frame_time) || motion.frame_time <= 0)
+    ts.lines().fail("Frame Time must be a positive number of seconds, got " + std::to_string(motion.frame_time));
   const auto nf = static_cast<Eigen::Index>(nframes);
   if (static_cast<double>(nf) * channel_count > static_cast<double>(bytes.size()))
     ts.lines().fail("the header declares " + std::to_string(nf) + " frames of " + std::to_string(channel_count) +
@@ -215,8 +226,24 @@ void write_bvh(const std::string& path, const BvhMotion& motion, Unit unit) {
   const double scale = 1.0 / metres_per_unit(unit);
   write_file_atomically(path, [&](std::ostream& out) {
     out << std::setprecision(10) << "HIERARCHY\n";
-    std::function<void(int, int)> emit = [&](int j, int depth) {
-      const std::string pad(static_cast<size_t>(depth), '\t');
+    // Children lists once, then a depth-first walk with an explicit stack (no recursion).
+    std::vector<std::vector<int>> children(motion.joints.size());
+    for (size_t k = 0; k < motion.joints.size(); ++k)
+      if (motion.joints[k].parent >= 0) children.at(motion.joints[k].parent).push_back(static_cast<int>(k));
+    struct Visit {
+      int joint;
+      size_t next_child;
+    };
+    auto close = [&](int j, size_t depth) {
+      const std::string pad(std::min<size_t>(depth, 32), '\t');  // readers ignore indentation
+      const BvhJoint& joint = motion.joints[j];
+      if (joint.has_end_site)
+        out << pad << "\tEnd Site\n" << pad << "\t{\n" << pad << "\t\tOFFSET " << joint.end_offset.x() * scale << ' '
+            << joint.end_offset.y() * scale << ' ' << joint.end_offset.z() * scale << '\n' << pad << "\t}\n";
+      out << pad << "}\n";
+    };
+    auto open = [&](int j, size_t depth) {
+      const std::string pad(std::min<size_t>(depth, 32), '\t');  // readers ignore indentation
       const BvhJoint& joint = motion.joints[j];
       out << pad << (joint.parent < 0 ? "ROOT " : "JOINT ") << joint.name << "\n" << pad << "{\n";
       out << pad << "\tOFFSET " << joint.offset.x() * scale << ' ' << joint.offset.y() * scale << ' '
@@ -226,15 +253,23 @@ void write_bvh(const std::string& path, const BvhMotion& motion, Unit unit) {
         for (BvhChannel c : joint.channels) out << ' ' << channel_name(c);
         out << '\n';
       }
-      for (size_t k = 0; k < motion.joints.size(); ++k)
-        if (motion.joints[k].parent == j) emit(static_cast<int>(k), depth + 1);
-      if (joint.has_end_site)
-        out << pad << "\tEnd Site\n" << pad << "\t{\n" << pad << "\t\tOFFSET " << joint.end_offset.x() * scale << ' '
-            << joint.end_offset.y() * scale << ' ' << joint.end_offset.z() * scale << '\n' << pad << "\t}\n";
-      out << pad << "}\n";
     };
-    for (size_t j = 0; j < motion.joints.size(); ++j)
-      if (motion.joints[j].parent < 0) emit(static_cast<int>(j), 0);
+    for (size_t root = 0; root < motion.joints.size(); ++root) {
+      if (motion.joints[root].parent >= 0) continue;
+      std::vector<Visit> stack{{static_cast<int>(root), 0}};
+      open(static_cast<int>(root), 0);
+      while (!stack.empty()) {
+        Visit& top = stack.back();
+        if (top.next_child < children[top.joint].size()) {
+          const int child = children[top.joint][top.next_child++];
+          open(child, stack.size());
+          stack.push_back({child, 0});
+        } else {
+          close(top.joint, stack.size() - 1);
+          stack.pop_back();
+        }
+      }
+    }
     out << "MOTION\nFrames: " << motion.frames.rows() << "\nFrame Time: " << motion.frame_time << '\n';
     for (Eigen::Index f = 0; f < motion.frames.rows(); ++f) {
       for (const BvhJoint& joint : motion.joints)

@@ -1,8 +1,11 @@
 #pragma once
 // Internal helpers shared by the readers: line scanning and number parsing with file:line errors.
+#include <algorithm>
 #include <charconv>
+#include <cmath>
 #include <cstdint>
 #include <cstring>
+#include <ostream>
 #include <string>
 #include <string_view>
 #include <vector>
@@ -30,6 +33,40 @@ inline void split(std::string_view s, std::vector<std::string_view>& out) {
     if (j > i) out.push_back(s.substr(i, j - i));
     i = j;
   }
+}
+
+/// Parses a whole token as a number: decimal or scientific, a leading '+' allowed, nan/inf kept.
+inline bool parse_double(std::string_view token, double& value) {
+  if (token.size() > 1 && token.front() == '+' && token[1] != '+' && token[1] != '-') token.remove_prefix(1);
+  const auto [ptr, ec] = std::from_chars(token.data(), token.data() + token.size(), value);
+  return ec == std::errc() && ptr == token.data() + token.size();
+}
+
+/// Writes `value * scale` as text with as many significant digits as the shortest exact text of
+/// `value` has: a change of unit by a power of ten adds no rounding noise (0.0453607 m is written
+/// 45.3607 mm, not 45.360699999999994), and at scale 1 the text reads back to the same double.
+inline void put_number(std::ostream& out, double value, double scale = 1.0) {
+  char buf[64];
+  if (scale == 1.0) {
+    const auto r = std::to_chars(buf, buf + sizeof(buf), value);
+    out.write(buf, r.ptr - buf);
+    return;
+  }
+  const auto shortest = std::to_chars(buf, buf + sizeof(buf), value, std::chars_format::scientific);
+  int digits = 0;
+  for (const char* p = buf; p < shortest.ptr && *p != 'e'; ++p) digits += (*p >= '0' && *p <= '9');
+  const double scaled = value * scale;
+  const double magnitude = std::abs(scaled);
+  const int exponent = magnitude > 0 ? static_cast<int>(std::floor(std::log10(magnitude))) : 0;
+  const auto r = exponent >= -5 && exponent < 16
+                     ? std::to_chars(buf, buf + sizeof(buf), scaled, std::chars_format::fixed, std::max(0, digits - 1 - exponent))
+                     : std::to_chars(buf, buf + sizeof(buf), scaled, std::chars_format::general, digits);
+  out.write(buf, r.ptr - buf);
+}
+
+/// Appends a reader's or writer's warning where the caller asked for them (nullptr: nowhere).
+inline void warn(std::vector<std::string>* sink, std::string message) {
+  if (sink) sink->push_back(std::move(message));
 }
 
 inline std::string printable(std::string_view s) {
@@ -64,8 +101,7 @@ class LineScanner {
   }
   double to_double(std::string_view token, const char* what) const {
     double value = 0;
-    const auto [ptr, ec] = std::from_chars(token.data(), token.data() + token.size(), value);
-    if (ec != std::errc() || ptr != token.data() + token.size())
+    if (!parse_double(token, value))
       fail(std::string("expected a number for ") + what + ", got '" + printable(token) + "'");
     return value;
   }

@@ -66,17 +66,30 @@ bool read_binary_value(ByteReader& r, PlyType t, double& out) {
 }
 
 /// Where each vertex property goes.
-enum class VertexSlot { kX, kY, kZ, kNx, kNy, kNz, kRed, kGreen, kBlue, kScalar, kIgnore };
+enum class VertexSlot { kX, kY, kZ, kNx, kNy, kNz, kRed, kGreen, kBlue, kU, kV, kScalar, kIgnore };
+
+/// Bytes one value of `t` takes in a binary file.
+size_t type_size(PlyType t) {
+  switch (t) {
+    case PlyType::kInt8: case PlyType::kUint8: return 1;
+    case PlyType::kInt16: case PlyType::kUint16: return 2;
+    case PlyType::kInt32: case PlyType::kUint32: case PlyType::kFloat32: return 4;
+    case PlyType::kFloat64: return 8;
+  }
+  return 1;
+}
 
 class PlyParser {
  public:
-  PlyParser(const std::string& path, double scale) : path_(path), scale_(scale) {}
+  PlyParser(const std::string& path, double scale, bool finite_only, std::vector<std::string>* warnings)
+      : path_(path), scale_(scale), finite_only_(finite_only), warnings_(warnings) {}
 
   PlyContent parse() {
     bytes_ = read_file_bytes(path_);
     if (bytes_.size() < 3 || bytes_.compare(0, 3, "ply") != 0)
       throw IoError(path_ + ": not a PLY file (expected the first line 'ply')");
     parse_header();
+    check_counts_fit();
     const char* data_begin = bytes_.data() + header_end_;
     const char* data_end = bytes_.data() + bytes_.size();
     if (encoding_ == PlyEncoding::kAscii) {
@@ -115,6 +128,8 @@ class PlyParser {
         have_format = true;
       } else if (tok[0] == "element") {
         if (tok.size() != 3) lines.fail("expected 'element <name> <count>'");
+        for (const auto& other : elements_)
+          if (other.name == tok[1]) lines.fail("element '" + printable(tok[1]) + "' is declared twice");
         PlyElement e;
         e.name = std::string(tok[1]);
         e.count = lines.to_int(tok[2], "the element count");
@@ -134,15 +149,41 @@ class PlyParser {
         } else {
           lines.fail("expected 'property <type> <name>' or 'property list <ctype> <type> <name>'");
         }
+        for (const auto& other : elements_.back().properties)
+          if (other.name == p.name)
+            lines.fail("property '" + p.name + "' of element '" + elements_.back().name + "' is declared twice");
         elements_.back().properties.push_back(std::move(p));
       } else if (tok[0] == "end_header") {
         break;
+      } else if (elements_.empty()) {
+        // Some exporters write notes such as "Created by ..." without 'comment'.
+        warn(warnings_, path_ + ":" + std::to_string(lines.line_number()) + ": skipped the header line '" +
+                            printable(line) + "' (not a PLY keyword)");
       } else {
+        // After an element a misspelt 'property' would shift every value: refuse it.
         lines.fail("unexpected header keyword '" + printable(tok[0]) + "'");
       }
     }
     if (!have_format) throw IoError(path_ + ": PLY header has no 'format' line");
     header_end_ = end;
+  }
+
+  /// Refuses element counts the data cannot hold before anything is allocated for them: a binary
+  /// record takes at least its fixed-size properties and list counts, an ascii one a value and a
+  /// separator per property.
+  void check_counts_fit() const {
+    const double available = static_cast<double>(bytes_.size() - std::min(header_end_, bytes_.size())) + 1;
+    double needed = 0;
+    for (const auto& e : elements_) {
+      double record = 0;
+      for (const auto& p : e.properties)
+        record += encoding_ == PlyEncoding::kAscii ? 2.0 : static_cast<double>(type_size(p.is_list ? p.count_type : p.type));
+      needed += record * static_cast<double>(e.count);
+      if (needed > available)
+        throw IoError(path_ + ": element '" + e.name + "' claims " + std::to_string(e.count) +
+                      " entries, more than the " + std::to_string(bytes_.size() - header_end_) +
+                      " bytes of data can hold (truncated or corrupt file)");
+    }
   }
 
   size_t find_end_header() {
@@ -175,7 +216,8 @@ class PlyParser {
       else if (p.name == "red" || p.name == "r") s = VertexSlot::kRed;
       else if (p.name == "green" || p.name == "g") s = VertexSlot::kGreen;
       else if (p.name == "blue" || p.name == "b") s = VertexSlot::kBlue;
-      else if (p.name == "alpha") s = VertexSlot::kIgnore;
+      else if (p.name == "u" || p.name == "s" || p.name == "texture_u" || p.name == "texture_s") s = VertexSlot::kU;
+      else if (p.name == "v" || p.name == "t" || p.name == "texture_v" || p.name == "texture_t") s = VertexSlot::kV;
       slots.push_back(s);
     }
     auto has = [&](VertexSlot s) { return std::find(slots.begin(), slots.end(), s) != slots.end(); };
@@ -183,12 +225,21 @@ class PlyParser {
       throw IoError(path_ + ": element 'vertex' has no x, y, z properties");
     has_normals_ = has(VertexSlot::kNx) && has(VertexSlot::kNy) && has(VertexSlot::kNz);
     has_colors_ = has(VertexSlot::kRed) && has(VertexSlot::kGreen) && has(VertexSlot::kBlue);
+    has_uv_ = has(VertexSlot::kU) && has(VertexSlot::kV);
     const auto n = e.count;
     out_.V.resize(n, 3);
     if (has_normals_) out_.N.resize(n, 3);
     if (has_colors_) out_.C.resize(n, 3);
-    for (size_t i = 0; i < slots.size(); ++i)
-      if (slots[i] == VertexSlot::kScalar) out_.scalars[e.properties[i].name].resize(n);
+    if (has_uv_) out_.UV.resize(n, 2);
+    for (size_t i = 0; i < slots.size(); ++i) {
+      // A lone colour channel or texture coordinate is kept as a scalar field, not lost.
+      VertexSlot& slot = slots[i];
+      if ((!has_normals_ && (slot == VertexSlot::kNx || slot == VertexSlot::kNy || slot == VertexSlot::kNz)) ||
+          (!has_colors_ && (slot == VertexSlot::kRed || slot == VertexSlot::kGreen || slot == VertexSlot::kBlue)) ||
+          (!has_uv_ && (slot == VertexSlot::kU || slot == VertexSlot::kV)))
+        slot = VertexSlot::kScalar;
+      if (slot == VertexSlot::kScalar) out_.scalars[e.properties[i].name].resize(n);
+    }
     return slots;
   }
 
@@ -198,12 +249,14 @@ class PlyParser {
       case VertexSlot::kX: out_.V(v, 0) = value * scale_; break;
       case VertexSlot::kY: out_.V(v, 1) = value * scale_; break;
       case VertexSlot::kZ: out_.V(v, 2) = value * scale_; break;
-      case VertexSlot::kNx: if (has_normals_) out_.N(v, 0) = value; break;
-      case VertexSlot::kNy: if (has_normals_) out_.N(v, 1) = value; break;
-      case VertexSlot::kNz: if (has_normals_) out_.N(v, 2) = value; break;
-      case VertexSlot::kRed: if (has_colors_) out_.C(v, 0) = to_color(value, e.properties[prop].type); break;
-      case VertexSlot::kGreen: if (has_colors_) out_.C(v, 1) = to_color(value, e.properties[prop].type); break;
-      case VertexSlot::kBlue: if (has_colors_) out_.C(v, 2) = to_color(value, e.properties[prop].type); break;
+      case VertexSlot::kNx: out_.N(v, 0) = value; break;
+      case VertexSlot::kNy: out_.N(v, 1) = value; break;
+      case VertexSlot::kNz: out_.N(v, 2) = value; break;
+      case VertexSlot::kRed: out_.C(v, 0) = to_color(value, e.properties[prop].type); break;
+      case VertexSlot::kGreen: out_.C(v, 1) = to_color(value, e.properties[prop].type); break;
+      case VertexSlot::kBlue: out_.C(v, 2) = to_color(value, e.properties[prop].type); break;
+      case VertexSlot::kU: out_.UV(v, 0) = value; break;
+      case VertexSlot::kV: out_.UV(v, 1) = value; break;
       case VertexSlot::kScalar: out_.scalars[e.properties[prop].name][v] = value; break;
       case VertexSlot::kIgnore: break;
     }
@@ -245,7 +298,8 @@ class PlyParser {
     if (plan.is_vertex) plan.slots = vertex_slots(e);
     if (plan.is_face) {
       plan.list_index = face_list_index(e);
-      if (plan.list_index < 0) throw IoError(path_ + ": element 'face' has no vertex_indices list");
+      // PCL's pcl_pcd2ply writes 'element face 0' with no properties.
+      if (plan.list_index < 0 && e.count > 0) throw IoError(path_ + ": element 'face' has no vertex_indices list");
       tris_.reserve(tris_.size() + static_cast<size_t>(e.count) * 3);
     }
     return plan;
@@ -322,15 +376,16 @@ class PlyParser {
           }
           if (keep) add_polygon(e, i, poly);
         }
+        if (t < tok.size())
+          fail_element(e, i, std::to_string(tok.size() - t) + " more value(s) on the line than the " +
+                                 std::to_string(e.properties.size()) + " properties declared");
       }
     }
   }
 
   double to_number(std::string_view token, const PlyElement& e, long long i) const {
     double value = 0;
-    const auto [ptr, ec] = std::from_chars(token.data(), token.data() + token.size(), value);
-    if (ec != std::errc() || ptr != token.data() + token.size())
-      fail_element(e, i, "expected a number, got '" + printable(token) + "'");
+    if (!parse_double(token, value)) fail_element(e, i, "expected a number, got '" + printable(token) + "'");
     return value;
   }
 
@@ -338,7 +393,8 @@ class PlyParser {
     bool have_vertex = false;
     for (const auto& e : elements_) have_vertex |= e.name == "vertex";
     if (!have_vertex) throw IoError(path_ + ": PLY has no 'vertex' element");
-    for (Eigen::Index v = 0; v < out_.V.rows(); ++v)
+    // A PLY without faces is a point cloud, whose reader drops such points instead.
+    for (Eigen::Index v = 0; finite_only_ && !tris_.empty() && v < out_.V.rows(); ++v)
       if (!out_.V.row(v).allFinite())
         throw IoError(path_ + ": element 'vertex' #" + std::to_string(v) + " has a non-finite coordinate");
     out_.F.resize(static_cast<Eigen::Index>(tris_.size() / 3), 3);
@@ -348,12 +404,15 @@ class PlyParser {
 
   std::string path_;
   double scale_;
+  bool finite_only_;
+  std::vector<std::string>* warnings_;
   std::string bytes_;
   size_t header_end_ = 0;
   PlyEncoding encoding_ = PlyEncoding::kAscii;
   std::vector<PlyElement> elements_;
   bool has_normals_ = false;
   bool has_colors_ = false;
+  bool has_uv_ = false;
   std::vector<int> tris_;
   PlyContent out_;
 };
@@ -365,12 +424,15 @@ void put(std::ostream& out, T value) {
 
 }  // namespace
 
-PlyContent read_ply(const std::string& path, double scale) { return PlyParser(path, scale).parse(); }
+PlyContent read_ply(const std::string& path, double scale, bool finite_only, std::vector<std::string>* warnings) {
+  return PlyParser(path, scale, finite_only, warnings).parse();
+}
 
 void write_ply(const std::string& path, const PlyContent& c, bool binary, double scale) {
   const Eigen::Index n = c.V.rows();
   const bool normals = c.N.rows() == n && n > 0;
   const bool colors = c.C.rows() == n && n > 0;
+  const bool uv = c.UV.rows() == n && c.UV.cols() == 2 && n > 0;
   for (const auto& [name, values] : c.scalars)
     if (values.size() != n)
       throw InvalidInput(path + ": scalar field '" + name + "' has " + std::to_string(values.size()) +
@@ -382,6 +444,7 @@ void write_ply(const std::string& path, const PlyContent& c, bool binary, double
         << "\nproperty double x\nproperty double y\nproperty double z\n";
     if (normals) out << "property double nx\nproperty double ny\nproperty double nz\n";
     if (colors) out << "property uchar red\nproperty uchar green\nproperty uchar blue\n";
+    if (uv) out << "property double texture_u\nproperty double texture_v\n";
     for (const auto& kv : c.scalars) out << "property double " << kv.first << "\n";
     if (c.F.rows() > 0) out << "element face " << c.F.rows() << "\nproperty list uchar int vertex_indices\n";
     out << "end_header\n";
@@ -390,6 +453,7 @@ void write_ply(const std::string& path, const PlyContent& c, bool binary, double
         for (int k = 0; k < 3; ++k) put(out, c.V(v, k) * scale);
         if (normals) for (int k = 0; k < 3; ++k) put(out, c.N(v, k));
         if (colors) for (int k = 0; k < 3; ++k) put(out, c.C(v, k));
+        if (uv) for (int k = 0; k < 2; ++k) put(out, c.UV(v, k));
         for (const auto& kv : c.scalars) put(out, kv.second[v]);
       }
       for (Eigen::Index f = 0; f < c.F.rows(); ++f) {
@@ -397,12 +461,15 @@ void write_ply(const std::string& path, const PlyContent& c, bool binary, double
         for (int k = 0; k < 3; ++k) put<std::int32_t>(out, c.F(f, k));
       }
     } else {
-      out << std::setprecision(17);
       for (Eigen::Index v = 0; v < n; ++v) {
-        out << c.V(v, 0) * scale << ' ' << c.V(v, 1) * scale << ' ' << c.V(v, 2) * scale;
-        if (normals) out << ' ' << c.N(v, 0) << ' ' << c.N(v, 1) << ' ' << c.N(v, 2);
+        for (int k = 0; k < 3; ++k) {
+          if (k) out << ' ';
+          put_number(out, c.V(v, k), scale);
+        }
+        if (normals) for (int k = 0; k < 3; ++k) out << ' ', put_number(out, c.N(v, k));
         if (colors) out << ' ' << int(c.C(v, 0)) << ' ' << int(c.C(v, 1)) << ' ' << int(c.C(v, 2));
-        for (const auto& kv : c.scalars) out << ' ' << kv.second[v];
+        if (uv) for (int k = 0; k < 2; ++k) out << ' ', put_number(out, c.UV(v, k));
+        for (const auto& kv : c.scalars) out << ' ', put_number(out, kv.second[v]);
         out << '\n';
       }
       for (Eigen::Index f = 0; f < c.F.rows(); ++f)

@@ -3,6 +3,7 @@
 #include <Eigen/Core>
 #include <map>
 #include <string>
+#include <vector>
 
 #include "posekit/core/triangle_mesh.h"
 
@@ -12,12 +13,15 @@ struct PlyContent {
   Eigen::MatrixXd V;  ///< #V x 3 (already scaled to metres)
   Eigen::MatrixXd N;
   RowMatrixX3u8 C;
+  Eigen::MatrixXd UV;  ///< #V x 2 texture coordinates, or empty
   std::map<std::string, Eigen::VectorXd> scalars;
   Eigen::MatrixXi F;  ///< triangulated faces, empty when the file has none
 };
 
-/// `scale` multiplies coordinates (file unit -> metres).
-PlyContent read_ply(const std::string& path, double scale);
+/// `scale` multiplies coordinates (file unit -> metres). With `finite_only` a vertex with a NaN or
+/// infinite coordinate is an error (meshes); otherwise it is returned for the caller to drop.
+PlyContent read_ply(const std::string& path, double scale, bool finite_only,
+                    std::vector<std::string>* warnings);
 
 /// `scale` multiplies coordinates (metres -> file unit). F may be empty (point cloud).
 void write_ply(const std::string& path, const PlyContent& content, bool binary, double scale);

@@ -2,12 +2,15 @@
 
 #include <pcl/io/lzf.h>
 
+#include <algorithm>
+#include <cctype>
 #include <cmath>
 #include <cstring>
 #include <iomanip>
 
 #include "parse_util.h"
 #include "ply_format.h"
+#include "text_mesh_formats.h"
 #include "posekit/core/error.h"
 #include "posekit/io/atomic_file.h"
 
@@ -46,13 +49,23 @@ double pcd_value(const char* p, const PcdField& f) {
   return 0.0;
 }
 
+bool is_packed_color(const PcdField& f) { return (f.name == "rgb" || f.name == "rgba") && f.size == 4; }
+
+/// The 32 bits of a packed PCD colour field, whatever TYPE the file gave it.
+std::uint32_t packed_color_bits(const char* p) {
+  std::uint32_t bits;
+  std::memcpy(&bits, p, 4);
+  return bits;
+}
+
 PointCloud read_pcd(const std::string& path, double scale) {
   const std::string bytes = read_file_bytes(path);
   LineScanner lines(bytes, path);
   std::string_view line;
   std::vector<std::string_view> tok;
   std::vector<PcdField> fields;
-  long long width = -1, height = 1, points = -1;
+  long long width = -1, height = -1, points = -1;
+  bool have_size = false, have_type = false;
   std::string data;
   while (lines.next(line)) {
     split(line, tok);
@@ -62,7 +75,11 @@ PointCloud read_pcd(const std::string& path, double scale) {
     if (key == "VERSION" || key == "VIEWPOINT") continue;
     if (key == "FIELDS" || key == "COLUMNS") {
       fields.clear();
-      for (size_t i = 1; i < tok.size(); ++i) fields.push_back({std::string(tok[i])});
+      for (size_t i = 1; i < tok.size(); ++i) {
+        for (const PcdField& other : fields)
+          if (other.name == tok[i] && other.name != "_") lines.fail("field '" + printable(tok[i]) + "' is declared twice");
+        fields.push_back({std::string(tok[i])});
+      }
     } else if (key == "SIZE" || key == "TYPE" || key == "COUNT") {
       if (nvals != fields.size())
         lines.fail(std::string(key) + " has " + std::to_string(nvals) + " entries, expected one per field (" +
@@ -79,6 +96,7 @@ PointCloud read_pcd(const std::string& path, double scale) {
           (key == "SIZE" ? fields[i].size : fields[i].count) = static_cast<int>(v);
         }
       }
+      (key == "SIZE" ? have_size : have_type) |= key != "COUNT";
     } else if (key == "WIDTH" && nvals == 1) {
       width = lines.to_int(tok[1], "WIDTH");
     } else if (key == "HEIGHT" && nvals == 1) {
@@ -93,13 +111,23 @@ PointCloud read_pcd(const std::string& path, double scale) {
     }
   }
   if (data.empty()) throw IoError(path + ": PCD header has no DATA line (not a PCD file?)");
+  std::string missing;
+  if (fields.empty()) missing += " FIELDS";
+  if (!have_size) missing += " SIZE";
+  if (!have_type) missing += " TYPE";
+  if (width < 0) missing += " WIDTH";
+  if (height < 0) missing += " HEIGHT";
+  if (!missing.empty()) throw IoError(path + ": PCD header lacks" + missing + " (or gives a negative value)");
   if (points < 0) points = width * height;
-  if (points < 0 || width < 0 || height < 0) throw IoError(path + ": PCD header has negative WIDTH/HEIGHT/POINTS");
-  int ix = -1, iy = -1, iz = -1, inx = -1, iny = -1, inz = -1;
-  size_t record = 0;
+  if (points != width * height)
+    throw IoError(path + ": PCD header declares POINTS " + std::to_string(points) + " but WIDTH x HEIGHT = " +
+                  std::to_string(width) + " x " + std::to_string(height) + " = " + std::to_string(width * height));
+  int ix = -1, iy = -1, iz = -1, inx = -1, iny = -1, inz = -1, icolor = -1;
+  size_t record = 0, values_per_point = 0;
   for (size_t i = 0; i < fields.size(); ++i) {
     fields[i].offset = record;
     record += static_cast<size_t>(fields[i].size) * fields[i].count;
+    values_per_point += static_cast<size_t>(fields[i].count);
     const std::string& n = fields[i].name;
     if (n == "x") ix = static_cast<int>(i);
     else if (n == "y") iy = static_cast<int>(i);
@@ -107,13 +135,29 @@ PointCloud read_pcd(const std::string& path, double scale) {
     else if (n == "normal_x") inx = static_cast<int>(i);
     else if (n == "normal_y") iny = static_cast<int>(i);
     else if (n == "normal_z") inz = static_cast<int>(i);
+    else if (is_packed_color(fields[i]) && icolor < 0) icolor = static_cast<int>(i);
   }
   if (ix < 0 || iy < 0 || iz < 0) throw IoError(path + ": PCD has no x, y, z fields");
   const bool normals = inx >= 0 && iny >= 0 && inz >= 0;
-  // Raw values per point, field-major: values[field][point].
-  std::vector<std::vector<double>> values(fields.size(), std::vector<double>(static_cast<size_t>(points)));
+  // The header's count must fit the data before anything is allocated for it: a binary point takes
+  // `record` bytes, an ascii one at least a character and a separator per value.
   const size_t data_start = lines.offset();
+  const double available = static_cast<double>(bytes.size() - data_start);
+  const double needed = data == "binary" ? static_cast<double>(record) * static_cast<double>(points)
+                        : data == "ascii" ? 2.0 * static_cast<double>(values_per_point) * static_cast<double>(points) - 1
+                                          : 0.0;
+  if (needed > available)
+    throw IoError(path + ": the header declares " + std::to_string(points) + " points of " + std::to_string(record) +
+                  " bytes, more than the " + std::to_string(bytes.size() - data_start) +
+                  " bytes of data can hold (truncated file)");
+  // Raw values per point, field-major: values[field][point]; packed colours keep their 32 bits.
+  std::vector<std::vector<double>> values;
+  auto allocate = [&] { values.assign(fields.size(), std::vector<double>(static_cast<size_t>(points))); };
+  auto decode = [&](const char* p, size_t f) {
+    return is_packed_color(fields[f]) ? static_cast<double>(packed_color_bits(p)) : pcd_value(p, fields[f]);
+  };
   if (data == "ascii") {
+    allocate();
     for (long long p = 0; p < points; ++p) {
       do {
         if (!lines.next(line))
@@ -121,145 +165,387 @@ PointCloud read_pcd(const std::string& path, double scale) {
                         ": file ends early (the header declares more points than the file has)");
         split(line, tok);
       } while (tok.empty());
+      if (tok.size() != values_per_point)
+        lines.fail("point #" + std::to_string(p) + ": " + std::to_string(tok.size()) + " values, expected " +
+                   std::to_string(values_per_point) + " (one per field and count)");
       size_t t = 0;
       for (size_t f = 0; f < fields.size(); ++f)
         for (int c = 0; c < fields[f].count; ++c, ++t) {
-          if (t >= tok.size()) lines.fail("point #" + std::to_string(p) + ": too few values");
-          const double v = (tok[t] == "nan" || tok[t] == "NaN") ? NAN : lines.to_double(tok[t], "a field value");
-          if (c == 0) values[f][p] = v;
+          if (c != 0) continue;
+          double v = lines.to_double(tok[t], "a field value");
+          if (is_packed_color(fields[f]) && fields[f].type == 'F' &&
+              tok[t].find_first_of(".eE") != std::string_view::npos) {
+            // Older PCL wrote the packed colour as the float with the same bits.
+            const float as_float = static_cast<float>(v);
+            v = static_cast<double>(packed_color_bits(reinterpret_cast<const char*>(&as_float)));
+          }
+          values[f][p] = v;
         }
     }
   } else if (data == "binary") {
-    const size_t need = record * static_cast<size_t>(points);
-    if (bytes.size() - data_start < need)
-      throw IoError(path + ": binary data holds " + std::to_string((bytes.size() - data_start) / std::max<size_t>(record, 1)) +
-                    " points, the header declares " + std::to_string(points) + " (truncated file)");
+    allocate();
     const char* base = bytes.data() + data_start;
     for (long long p = 0; p < points; ++p)
-      for (size_t f = 0; f < fields.size(); ++f) values[f][p] = pcd_value(base + p * record + fields[f].offset, fields[f]);
+      for (size_t f = 0; f < fields.size(); ++f) values[f][p] = decode(base + p * record + fields[f].offset, f);
   } else if (data == "binary_compressed") {
     if (bytes.size() - data_start < 8) throw IoError(path + ": binary_compressed data is truncated");
     std::uint32_t compressed = 0, uncompressed = 0;
     std::memcpy(&compressed, bytes.data() + data_start, 4);
     std::memcpy(&uncompressed, bytes.data() + data_start + 4, 4);
-    if (compressed > bytes.size() - data_start - 8 || uncompressed != record * static_cast<size_t>(points))
-      throw IoError(path + ": binary_compressed sizes do not match the header (truncated or corrupt)");
+    // LZF turns at most 3 bytes into 264: a larger ratio is a corrupt header.
+    constexpr double kLzfMaxRatio = 264.0 / 3.0;
+    if (compressed > bytes.size() - data_start - 8 || uncompressed != record * static_cast<size_t>(points) ||
+        static_cast<double>(uncompressed) > kLzfMaxRatio * compressed + 8)
+      throw IoError(path + ": binary_compressed sizes (" + std::to_string(compressed) + " -> " +
+                    std::to_string(uncompressed) + " bytes) do not match the header's " + std::to_string(points) +
+                    " points of " + std::to_string(record) + " bytes (truncated or corrupt)");
     std::vector<char> raw(uncompressed);
     if (uncompressed > 0 &&
         pcl::lzfDecompress(bytes.data() + data_start + 8, compressed, raw.data(), uncompressed) != uncompressed)
       throw IoError(path + ": binary_compressed data does not decompress (corrupt)");
+    allocate();
     size_t off = 0;
     for (size_t f = 0; f < fields.size(); ++f) {
       const size_t stride = static_cast<size_t>(fields[f].size) * fields[f].count;
-      for (long long p = 0; p < points; ++p) values[f][p] = pcd_value(raw.data() + off + p * stride, fields[f]);
+      for (long long p = 0; p < points; ++p) values[f][p] = decode(raw.data() + off + p * stride, f);
       off += stride * static_cast<size_t>(points);
     }
   } else {
     throw IoError(path + ": unknown DATA '" + data + "': expected ascii, binary or binary_compressed");
   }
-  // Organised clouds mark missing returns with NaN: those points are dropped.
-  std::vector<long long> keep;
-  keep.reserve(static_cast<size_t>(points));
-  for (long long p = 0; p < points; ++p)
-    if (std::isfinite(values[ix][p]) && std::isfinite(values[iy][p]) && std::isfinite(values[iz][p])) keep.push_back(p);
   PointCloud cloud;
-  const auto n = static_cast<Eigen::Index>(keep.size());
+  const auto n = static_cast<Eigen::Index>(points);
   cloud.P.resize(n, 3);
   if (normals) cloud.N.resize(n, 3);
+  if (icolor >= 0) cloud.C.resize(n, 3);
   for (size_t f = 0; f < fields.size(); ++f) {
     const int fi = static_cast<int>(f);
-    if (fi == ix || fi == iy || fi == iz || fi == inx || fi == iny || fi == inz || fields[f].count != 1 ||
-        fields[f].name == "rgb" || fields[f].name == "rgba" || fields[f].name == "_")
+    if (fi == ix || fi == iy || fi == iz || fi == inx || fi == iny || fi == inz || fi == icolor ||
+        fields[f].count != 1 || fields[f].name == "_")
       continue;
     cloud.point_scalars[fields[f].name].resize(n);
   }
   for (Eigen::Index i = 0; i < n; ++i) {
-    const long long p = keep[i];
-    cloud.P.row(i) << values[ix][p] * scale, values[iy][p] * scale, values[iz][p] * scale;
-    if (normals) cloud.N.row(i) << values[inx][p], values[iny][p], values[inz][p];
-    for (size_t f = 0; f < fields.size(); ++f) {
-      auto it = cloud.point_scalars.find(fields[f].name);
-      if (it != cloud.point_scalars.end()) it->second[i] = values[f][p];
+    cloud.P.row(i) << values[ix][i] * scale, values[iy][i] * scale, values[iz][i] * scale;
+    if (normals) cloud.N.row(i) << values[inx][i], values[iny][i], values[inz][i];
+    if (icolor >= 0) {
+      const auto bits = static_cast<std::uint32_t>(values[icolor][i]);
+      cloud.C.row(i) << static_cast<std::uint8_t>(bits >> 16), static_cast<std::uint8_t>(bits >> 8),
+          static_cast<std::uint8_t>(bits);
     }
   }
+  for (size_t f = 0; f < fields.size(); ++f) {
+    auto it = cloud.point_scalars.find(fields[f].name);
+    if (it != cloud.point_scalars.end()) it->second = Eigen::Map<const Eigen::VectorXd>(values[f].data(), n);
+  }
   return cloud;
+}
+
+/// True when storing every value as float32 moves none by more than `tolerance`.
+template <typename Values>
+bool float_is_enough(const Values& values, double scale, double tolerance) {
+  for (Eigen::Index i = 0; i < values.size(); ++i) {
+    const double v = values(i) * scale;
+    if (std::abs(v - static_cast<double>(static_cast<float>(v))) > tolerance) return false;
+  }
+  return true;
 }
 
 void write_pcd(const std::string& path, const PointCloud& cloud, double scale, bool binary) {
   const Eigen::Index n = cloud.size();
   const bool normals = cloud.has_normals();
+  const bool colors = cloud.has_colors();
+  // Coordinates as float32 only where that moves no point by more than 1 micrometre.
+  const bool p64 = !float_is_enough(cloud.P.reshaped(), scale, 1e-6 * scale);
+  std::vector<bool> s64;
+  for (const auto& kv : cloud.point_scalars) s64.push_back(!float_is_enough(kv.second, 1.0, 1e-6));
   write_file_atomically(path, [&](std::ostream& out) {
-    std::string names = "x y z", sizes = "4 4 4", types = "F F F", counts = "1 1 1";
+    const char* ps = p64 ? " 8" : " 4";
+    std::string names = "x y z", sizes = std::string(ps) + ps + ps, types = "F F F", counts = "1 1 1";
     if (normals) { names += " normal_x normal_y normal_z"; sizes += " 4 4 4"; types += " F F F"; counts += " 1 1 1"; }
-    for (const auto& kv : cloud.point_scalars) { names += " " + kv.first; sizes += " 4"; types += " F"; counts += " 1"; }
-    out << "# .PCD v0.7 - written by posekit\nVERSION 0.7\nFIELDS " << names << "\nSIZE " << sizes << "\nTYPE "
-        << types << "\nCOUNT " << counts << "\nWIDTH " << n << "\nHEIGHT 1\nVIEWPOINT 0 0 0 1 0 0 0\nPOINTS " << n
-        << "\nDATA " << (binary ? "binary" : "ascii") << "\n";
-    if (!binary) out << std::setprecision(9);
-    std::vector<float> rec;
-    for (Eigen::Index i = 0; i < n; ++i) {
-      rec.clear();
-      for (int k = 0; k < 3; ++k) rec.push_back(static_cast<float>(cloud.P(i, k) * scale));
-      if (normals) for (int k = 0; k < 3; ++k) rec.push_back(static_cast<float>(cloud.N(i, k)));
-      for (const auto& kv : cloud.point_scalars) rec.push_back(static_cast<float>(kv.second[i]));
+    if (colors) { names += " rgb"; sizes += " 4"; types += " U"; counts += " 1"; }  // packed as PCL 1.13 writes it
+    size_t k = 0;
+    for (const auto& kv : cloud.point_scalars) {
+      names += " " + kv.first;
+      sizes += s64[k++] ? " 8" : " 4";
+      types += " F";
+      counts += " 1";
+    }
+    out << "# .PCD v0.7 - written by posekit\nVERSION 0.7\nFIELDS " << names << "\nSIZE " << sizes.substr(1)
+        << "\nTYPE " << types << "\nCOUNT " << counts << "\nWIDTH " << n << "\nHEIGHT 1\nVIEWPOINT 0 0 0 1 0 0 0\nPOINTS "
+        << n << "\nDATA " << (binary ? "binary" : "ascii") << "\n";
+    std::string rec;
+    auto put_value = [&](double v, bool wide) {
       if (binary) {
-        out.write(reinterpret_cast<const char*>(rec.data()), static_cast<std::streamsize>(rec.size() * 4));
-      } else {
-        for (size_t k = 0; k < rec.size(); ++k) out << (k ? " " : "") << rec[k];
-        out << '\n';
+        if (wide) rec.append(reinterpret_cast<const char*>(&v), 8);
+        else {
+          const float f = static_cast<float>(v);
+          rec.append(reinterpret_cast<const char*>(&f), 4);
+        }
       }
+    };
+    for (Eigen::Index i = 0; i < n; ++i) {
+      std::uint32_t bits = 0;
+      if (colors) bits = (std::uint32_t(cloud.C(i, 0)) << 16) | (std::uint32_t(cloud.C(i, 1)) << 8) | cloud.C(i, 2);
+      if (binary) {
+        rec.clear();
+        for (int c = 0; c < 3; ++c) put_value(cloud.P(i, c) * scale, p64);
+        if (normals) for (int c = 0; c < 3; ++c) put_value(cloud.N(i, c), false);
+        if (colors) rec.append(reinterpret_cast<const char*>(&bits), 4);
+        k = 0;
+        for (const auto& kv : cloud.point_scalars) put_value(kv.second[i], s64[k++]);
+        out.write(rec.data(), static_cast<std::streamsize>(rec.size()));
+        continue;
+      }
+      // ascii: the text of each value as the binary file would hold it
+      for (int c = 0; c < 3; ++c) {
+        if (c) out << ' ';
+        if (p64) put_number(out, cloud.P(i, c), scale);
+        else put_number(out, static_cast<float>(cloud.P(i, c) * scale));
+      }
+      if (normals) for (int c = 0; c < 3; ++c) out << ' ', put_number(out, static_cast<float>(cloud.N(i, c)));
+      if (colors) out << ' ' << bits;
+      k = 0;
+      for (const auto& kv : cloud.point_scalars) {
+        out << ' ';
+        if (s64[k++]) put_number(out, kv.second[i]);
+        else put_number(out, static_cast<float>(kv.second[i]));
+      }
+      out << '\n';
     }
   });
 }
 
-PointCloud read_xyz(const std::string& path, double scale) {
+// ---------------------------------------------------------------- XYZ / PTS / TXT columns
+enum class Column { kX, kY, kZ, kNx, kNy, kNz, kRed, kGreen, kBlue, kScalar };
+
+/// A column name of a `//X Y Z R G B ...` header (CloudCompare, Agisoft) or of a bare name line.
+Column column_of_name(std::string name) {
+  std::transform(name.begin(), name.end(), name.begin(), [](unsigned char c) { return std::tolower(c); });
+  if (name == "x") return Column::kX;
+  if (name == "y") return Column::kY;
+  if (name == "z") return Column::kZ;
+  if (name == "nx" || name == "normal_x" || name == "normalx") return Column::kNx;
+  if (name == "ny" || name == "normal_y" || name == "normaly") return Column::kNy;
+  if (name == "nz" || name == "normal_z" || name == "normalz") return Column::kNz;
+  if (name == "r" || name == "red") return Column::kRed;
+  if (name == "g" || name == "green") return Column::kGreen;
+  if (name == "b" || name == "blue") return Column::kBlue;
+  return Column::kScalar;
+}
+
+/// Names from a header line: "//X,Y,Z,R,G,B", "# x y z nx ny nz", "X Y Z Intensity".
+std::vector<std::string> header_names(std::string_view line) {
+  while (!line.empty() && (line.front() == '/' || line.front() == '#' || is_space(line.front()))) line.remove_prefix(1);
+  std::string text(line);
+  std::replace(text.begin(), text.end(), ',', ' ');
+  std::replace(text.begin(), text.end(), ';', ' ');
+  std::vector<std::string_view> tok;
+  split(text, tok);
+  return std::vector<std::string>(tok.begin(), tok.end());
+}
+
+/// A line of names only ("X Y Z Intensity"): no token is a number.
+bool is_name_line(const std::vector<std::string_view>& tok) {
+  double v;
+  return std::none_of(tok.begin(), tok.end(), [&](std::string_view t) { return parse_double(t, v); });
+}
+
+/// How to read unnamed columns 4.. of an XYZ file from their values (#rows x #cols, row-major):
+/// three unit-length columns are normals, three integer 0..255 columns (not all 0/1) colours, a
+/// fourth column of a 4- or 7-column file is intensity (PTS), anything else a scalar field.
+std::vector<Column> guess_columns(const std::vector<double>& v, size_t cols, std::vector<std::string>& names,
+                                  const std::string& path, std::vector<std::string>* warnings) {
+  const size_t rows = v.size() / cols;
+  std::vector<Column> out(cols, Column::kScalar);
+  out[0] = Column::kX, out[1] = Column::kY, out[2] = Column::kZ;
+  names.assign(cols, "");
+  auto is_normals = [&](size_t c) {
+    for (size_t r = 0; r < rows; ++r) {
+      const double* p = &v[r * cols + c];
+      const double len2 = p[0] * p[0] + p[1] * p[1] + p[2] * p[2];
+      if (!(std::abs(len2 - 1.0) < 2e-3)) return false;
+    }
+    return true;
+  };
+  auto is_colors = [&](size_t c) {
+    bool above_one = false;
+    for (size_t r = 0; r < rows; ++r)
+      for (size_t k = c; k < c + 3; ++k) {
+        const double x = v[r * cols + k];
+        if (!(x >= 0 && x <= 255 && x == std::floor(x))) return false;
+        above_one |= x > 1;
+      }
+    return above_one;
+  };
+  size_t c = 3;
+  std::string said;
+  if ((cols == 4 || cols == 7) && rows > 0) {
+    names[3] = "intensity";
+    said += ", column 4 as intensity";
+    c = 4;
+  }
+  while (c < cols) {
+    if (c + 3 <= cols && is_normals(c)) {
+      out[c] = Column::kNx, out[c + 1] = Column::kNy, out[c + 2] = Column::kNz;
+      said += ", columns " + std::to_string(c + 1) + "-" + std::to_string(c + 3) + " as normals (unit length)";
+      c += 3;
+    } else if (c + 3 <= cols && is_colors(c)) {
+      out[c] = Column::kRed, out[c + 1] = Column::kGreen, out[c + 2] = Column::kBlue;
+      said += ", columns " + std::to_string(c + 1) + "-" + std::to_string(c + 3) + " as RGB colours (0..255)";
+      c += 3;
+    } else {
+      names[c] = "column_" + std::to_string(c + 1);
+      said += ", column " + std::to_string(c + 1) + " as the scalar field " + names[c];
+      ++c;
+    }
+  }
+  if (!said.empty())
+    warn(warnings, path + ": no header names the columns: read" + said.substr(1) +
+                       " (name them with a first line such as '//X Y Z R G B')");
+  return out;
+}
+
+PointCloud read_xyz(const std::string& path, double scale, std::vector<std::string>* warnings) {
   const std::string bytes = read_file_bytes(path);
   if (bytes.find('\0') != std::string::npos) throw IoError(path + ": contains NUL bytes: expected a text XYZ file");
   LineScanner lines(bytes, path);
   std::string_view line;
   std::vector<std::string_view> tok;
-  std::vector<double> p, nrm;
+  std::vector<double> values;
+  std::vector<std::string> names;
   size_t columns = 0;
+  long long declared = -1;  // sum of PTS count lines
   std::string buffer;
   while (lines.next(line)) {
-    if (line.find(',') != std::string_view::npos) {
-      buffer.assign(line);
-      std::replace(buffer.begin(), buffer.end(), ',', ' ');
-      line = buffer;
+    const std::string_view text = trim(line);
+    if (text.empty()) continue;
+    if (text[0] == '#' || text[0] == '/' || text[0] == '%') {
+      if (columns == 0) names = header_names(text);  // the last comment before the data may name the columns
+      continue;
     }
-    split(line, tok);
-    if (tok.empty() || tok[0][0] == '#' || tok[0][0] == '/') continue;
+    if (text.find_first_of(",;") != std::string_view::npos) {
+      buffer.assign(text);
+      std::replace(buffer.begin(), buffer.end(), ',', ' ');
+      std::replace(buffer.begin(), buffer.end(), ';', ' ');
+      split(buffer, tok);
+    } else {
+      split(text, tok);
+    }
+    if (tok.size() == 1) {  // PTS (Leica, Open3D): a point count before the points
+      declared = std::max(declared, 0LL) + lines.to_int(tok[0], "the point count of a PTS file");
+      continue;
+    }
+    if (columns == 0 && is_name_line(tok)) {  // a bare header line such as "X Y Z Intensity"
+      names = header_names(text);
+      continue;
+    }
     if (columns == 0) {
       columns = tok.size();
-      if (columns < 3) lines.fail("expected 'x y z [nx ny nz]'");
+      if (columns < 3) lines.fail("expected 'x y z [more columns]'");
+      if (names.size() != columns) names.clear();
     }
     if (tok.size() != columns)
       lines.fail("expected " + std::to_string(columns) + " values like the first point, got " + std::to_string(tok.size()));
-    for (int k = 0; k < 3; ++k) {
-      const double x = lines.to_double(tok[k], "a coordinate");
-      if (!std::isfinite(x)) lines.fail("non-finite coordinate");
-      p.push_back(x * scale);
-    }
-    if (columns >= 6)
-      for (int k = 3; k < 6; ++k) nrm.push_back(lines.to_double(tok[k], "a normal component"));
+    for (size_t k = 0; k < columns; ++k) values.push_back(lines.to_double(tok[k], k < 3 ? "a coordinate" : "a value"));
   }
-  if (p.empty()) throw IoError(path + ": no points: expected lines 'x y z [nx ny nz]'");
+  if (values.empty()) throw IoError(path + ": no points: expected lines 'x y z [more columns]'");
+  const auto n = static_cast<Eigen::Index>(values.size() / columns);
+  if (declared >= 0 && declared != n)
+    throw IoError(path + ": the point count line(s) declare " + std::to_string(declared) + " points, the file has " +
+                  std::to_string(n));
+  std::vector<Column> kind;
+  if (!names.empty()) {
+    for (const std::string& name : names) kind.push_back(column_of_name(name));
+  } else {
+    kind = guess_columns(values, columns, names, path, warnings);
+  }
+  auto index_of = [&](Column c) {
+    const auto it = std::find(kind.begin(), kind.end(), c);
+    return it == kind.end() ? -1 : static_cast<int>(it - kind.begin());
+  };
+  const int ix = index_of(Column::kX), iy = index_of(Column::kY), iz = index_of(Column::kZ);
+  if (ix < 0 || iy < 0 || iz < 0) throw IoError(path + ": the header names no X, Y and Z columns");
+  const int inx = index_of(Column::kNx), iny = index_of(Column::kNy), inz = index_of(Column::kNz);
+  const int ir = index_of(Column::kRed), ig = index_of(Column::kGreen), ib = index_of(Column::kBlue);
+  const bool normals = inx >= 0 && iny >= 0 && inz >= 0, colors = ir >= 0 && ig >= 0 && ib >= 0;
+  double color_unit = 1.0;  // named colours may be 0..1 floats
+  if (colors) {
+    double top = 0;
+    for (Eigen::Index i = 0; i < n; ++i)
+      for (int c : {ir, ig, ib}) top = std::max(top, values[i * columns + c]);
+    if (top <= 1.0) color_unit = 255.0;
+  }
   PointCloud cloud;
-  const auto n = static_cast<Eigen::Index>(p.size() / 3);
-  cloud.P = Eigen::Map<Eigen::Matrix<double, Eigen::Dynamic, 3, Eigen::RowMajor>>(p.data(), n, 3);
-  if (nrm.size() == p.size()) cloud.N = Eigen::Map<Eigen::Matrix<double, Eigen::Dynamic, 3, Eigen::RowMajor>>(nrm.data(), n, 3);
+  cloud.P.resize(n, 3);
+  if (normals) cloud.N.resize(n, 3);
+  if (colors) cloud.C.resize(n, 3);
+  for (size_t k = 0; k < columns; ++k) {
+    const bool used = kind[k] != Column::kScalar && (kind[k] <= Column::kZ || (normals && kind[k] <= Column::kNz) ||
+                                                     (colors && kind[k] >= Column::kRed));
+    if (!used) cloud.point_scalars[names[k].empty() ? "column_" + std::to_string(k + 1) : names[k]].resize(n);
+  }
+  for (Eigen::Index i = 0; i < n; ++i) {
+    const double* row = &values[i * columns];
+    cloud.P.row(i) << row[ix] * scale, row[iy] * scale, row[iz] * scale;
+    if (normals) cloud.N.row(i) << row[inx], row[iny], row[inz];
+    if (colors)
+      for (int c = 0; c < 3; ++c)
+        cloud.C(i, c) = static_cast<std::uint8_t>(std::clamp(std::lround(row[(c == 0 ? ir : c == 1 ? ig : ib)] * color_unit), 0L, 255L));
+    for (size_t k = 0; k < columns; ++k) {
+      auto it = cloud.point_scalars.find(names[k].empty() ? "column_" + std::to_string(k + 1) : names[k]);
+      if (it != cloud.point_scalars.end()) it->second[i] = row[k];
+    }
+  }
   return cloud;
 }
 
 void write_xyz(const std::string& path, const PointCloud& cloud, double scale) {
   write_file_atomically(path, [&](std::ostream& out) {
-    out << std::setprecision(17);
+    const bool normals = cloud.has_normals(), colors = cloud.has_colors();
+    if (normals || colors || !cloud.point_scalars.empty()) {  // name the columns beyond x y z
+      out << "//X Y Z";
+      if (colors) out << " R G B";
+      if (normals) out << " Nx Ny Nz";
+      for (const auto& kv : cloud.point_scalars) out << ' ' << kv.first;
+      out << '\n';
+    }
     for (Eigen::Index i = 0; i < cloud.size(); ++i) {
-      out << cloud.P(i, 0) * scale << ' ' << cloud.P(i, 1) * scale << ' ' << cloud.P(i, 2) * scale;
-      if (cloud.has_normals()) out << ' ' << cloud.N(i, 0) << ' ' << cloud.N(i, 1) << ' ' << cloud.N(i, 2);
+      for (int k = 0; k < 3; ++k) {
+        if (k) out << ' ';
+        put_number(out, cloud.P(i, k), scale);
+      }
+      if (colors) out << ' ' << int(cloud.C(i, 0)) << ' ' << int(cloud.C(i, 1)) << ' ' << int(cloud.C(i, 2));
+      if (normals) for (int k = 0; k < 3; ++k) out << ' ', put_number(out, cloud.N(i, k));
+      for (const auto& kv : cloud.point_scalars) out << ' ', put_number(out, kv.second[i]);
       out << '\n';
     }
   }, false);
+}
+
+/// The one rule for every cloud format: points with a NaN or infinite coordinate are dropped
+/// (organised clouds mark missing returns so), and the caller is told how many.
+void drop_non_finite_points(PointCloud& cloud, const std::string& path, std::vector<std::string>* warnings) {
+  std::vector<Eigen::Index> keep;
+  keep.reserve(static_cast<size_t>(cloud.size()));
+  for (Eigen::Index i = 0; i < cloud.size(); ++i)
+    if (cloud.P.row(i).allFinite()) keep.push_back(i);
+  const auto n = static_cast<Eigen::Index>(keep.size());
+  if (n == cloud.size()) return;
+  warn(warnings, path + ": dropped " + std::to_string(cloud.size() - n) + " of " + std::to_string(cloud.size()) +
+                     " points with a NaN or infinite coordinate");
+  PointCloud kept;
+  kept.P.resize(n, 3);
+  if (cloud.has_normals()) kept.N.resize(n, 3);
+  if (cloud.has_colors()) kept.C.resize(n, 3);
+  for (const auto& kv : cloud.point_scalars) kept.point_scalars[kv.first].resize(n);
+  for (Eigen::Index i = 0; i < n; ++i) {
+    kept.P.row(i) = cloud.P.row(keep[i]);
+    if (cloud.has_normals()) kept.N.row(i) = cloud.N.row(keep[i]);
+    if (cloud.has_colors()) kept.C.row(i) = cloud.C.row(keep[i]);
+    for (auto& kv : kept.point_scalars) kv.second[i] = cloud.point_scalars.at(kv.first)[keep[i]];
+  }
+  cloud = std::move(kept);
 }
 
 CloudFormat resolve(const std::string& path, CloudFormat format) {
@@ -267,7 +553,7 @@ CloudFormat resolve(const std::string& path, CloudFormat format) {
   const CloudFormat f = cloud_format_from_path(path);
   if (f == CloudFormat::kAuto)
     throw IoError(path + ": unknown point cloud extension '" + lower_extension(path) +
-                  "': expected .pcd, .ply, .xyz, .txt or .pts");
+                  "': expected .pcd, .ply, .xyz, .txt, .pts, .obj or .off");
   return f;
 }
 
@@ -278,24 +564,37 @@ CloudFormat cloud_format_from_path(const std::string& path) {
   if (ext == ".pcd") return CloudFormat::kPcd;
   if (ext == ".ply") return CloudFormat::kPly;
   if (ext == ".xyz" || ext == ".txt" || ext == ".pts") return CloudFormat::kXyz;
+  if (ext == ".obj") return CloudFormat::kObj;
+  if (ext == ".off") return CloudFormat::kOff;
   return CloudFormat::kAuto;
 }
 
 PointCloud read_point_cloud(const std::string& path, const CloudReadOptions& options) {
   const double scale = metres_per_unit(options.unit);
   PointCloud cloud;
+  auto take_mesh_vertices = [&](TriangleMesh mesh) {
+    cloud.P = std::move(mesh.V);
+    cloud.N = std::move(mesh.N);
+    cloud.C = std::move(mesh.C);
+    cloud.point_scalars = std::move(mesh.vertex_scalars);
+  };
   switch (resolve(path, options.format)) {
     case CloudFormat::kPcd: cloud = read_pcd(path, scale); break;
-    case CloudFormat::kXyz: cloud = read_xyz(path, scale); break;
+    case CloudFormat::kXyz: cloud = read_xyz(path, scale, options.warnings); break;
+    case CloudFormat::kObj: take_mesh_vertices(read_obj(path, scale, nullptr)); break;
+    case CloudFormat::kOff: take_mesh_vertices(read_off(path, scale)); break;
     case CloudFormat::kPly: {
-      PlyContent c = read_ply(path, scale);
+      PlyContent c = read_ply(path, scale, false, options.warnings);
       cloud.P = std::move(c.V);
       cloud.N = std::move(c.N);
+      cloud.C = std::move(c.C);
       cloud.point_scalars = std::move(c.scalars);
+      if (c.UV.rows() > 0) cloud.point_scalars["texture_u"] = c.UV.col(0), cloud.point_scalars["texture_v"] = c.UV.col(1);
       break;
     }
     case CloudFormat::kAuto: break;
   }
+  drop_non_finite_points(cloud, path, options.warnings);
   return cloud;
 }
 
@@ -313,10 +612,25 @@ void write_point_cloud(const std::string& path, const PointCloud& cloud, const C
     case CloudFormat::kPcd: write_pcd(path, cloud, scale, options.binary); break;
     case CloudFormat::kXyz: write_xyz(path, cloud, scale); break;
     case CloudFormat::kPly:
-      write_ply(path, PlyContent{cloud.P, cloud.has_normals() ? cloud.N : Eigen::MatrixXd(), RowMatrixX3u8(),
-                                 cloud.point_scalars, Eigen::MatrixXi()},
+      write_ply(path, PlyContent{cloud.P, cloud.has_normals() ? cloud.N : Eigen::MatrixXd(),
+                                 cloud.has_colors() ? cloud.C : RowMatrixX3u8(), Eigen::MatrixXd(), cloud.point_scalars,
+                                 Eigen::MatrixXi()},
                 options.binary, scale);
       break;
+    case CloudFormat::kObj:
+    case CloudFormat::kOff: {
+      // A point cloud as a mesh file without faces: the vertices, their normals and colours.
+      TriangleMesh points;
+      points.V = cloud.P;
+      if (cloud.has_normals()) points.N = cloud.N;
+      if (cloud.has_colors()) points.C = cloud.C;
+      for (const auto& kv : cloud.point_scalars)
+        warn(options.warnings, path + ": " + (resolve(path, options.format) == CloudFormat::kObj ? "OBJ" : "OFF") +
+                                   " cannot hold the scalar field " + kv.first + ": not written");
+      if (resolve(path, options.format) == CloudFormat::kObj) write_obj(path, points, scale);
+      else write_off(path, points, scale);
+      break;
+    }
     case CloudFormat::kAuto: break;
   }
 }

@@ -1,6 +1,7 @@
 #pragma once
 // Triangle mesh files: OBJ, PLY (ascii, binary), OFF, STL (ascii, binary).
 #include <string>
+#include <vector>
 
 #include "posekit/core/triangle_mesh.h"
 #include "posekit/core/units.h"
@@ -15,22 +16,31 @@ MeshFormat mesh_format_from_path(const std::string& path);
 struct MeshReadOptions {
   Unit unit = Unit::kMetre;           ///< unit the file is written in; the mesh comes back in metres
   MeshFormat format = MeshFormat::kAuto;  ///< kAuto: from the extension
+  /// Receives what was read with a caveat (texture seams, skipped header lines); nullptr: ignored.
+  std::vector<std::string>* warnings = nullptr;
 };
 
 struct MeshWriteOptions {
   Unit unit = Unit::kMetre;           ///< unit to write coordinates in
   MeshFormat format = MeshFormat::kAuto;
   bool binary = true;                 ///< PLY and STL: binary (default) or ascii
+  /// Receives one line per attribute the format cannot hold (not written); nullptr: ignored.
+  std::vector<std::string>* warnings = nullptr;
 };
 
-/// Reads a mesh; polygons are fan-triangulated, OBJ groups kept as face_group, PLY vertex
-/// properties beyond x,y,z / normals / colours kept as vertex_scalars. Throws IoError naming
-/// the file, the line or element, and what was expected.
+/// Reads a mesh; polygons are fan-triangulated. Kept: OBJ groups (face_group), normals, vertex
+/// colours (PLY, OBJ `v x y z r g b`, COFF), texture coordinates (PLY u/v, OBJ vt when each vertex
+/// has one), and PLY vertex properties beyond those as vertex_scalars (alpha included).
+/// Throws IoError naming the file, the line or element, and what was expected.
 TriangleMesh read_mesh(const std::string& path, const MeshReadOptions& options = {});
 
-/// Writes a mesh (to a temporary file, renamed when complete). PLY keeps normals, colours and
-/// scalar fields; OBJ keeps normals and groups; OFF and STL keep geometry only.
+/// Writes a mesh (to a temporary file, renamed when complete). PLY keeps normals, colours, texture
+/// coordinates and scalar fields; OBJ normals, colours, texture coordinates and groups; OFF normals
+/// and colours; STL geometry only. What the format cannot hold goes to options.warnings.
 /// Throws IoError (unwritable path, unknown extension) or InvalidInput (unusable mesh).
 void write_mesh(const std::string& path, const TriangleMesh& mesh, const MeshWriteOptions& options = {});
+
+/// What `format` cannot hold of `mesh`, one line each (empty when nothing is lost).
+std::vector<std::string> mesh_attributes_lost(const TriangleMesh& mesh, MeshFormat format);
 
 }  // namespace posekit

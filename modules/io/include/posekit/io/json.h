@@ -1,0 +1,14 @@
+#pragma once
+// JSON input with the checks posekit's own files need.
+#include <string>
+
+#include <nlohmann/json_fwd.hpp>
+
+namespace posekit {
+
+/// Parses JSON text, refusing a key repeated in one object (nlohmann would keep the last one, so a
+/// pose with a joint given twice would silently lose the first). `context` (a file name) starts
+/// every message. Throws IoError (not JSON) or InvalidInput (a duplicate key, named with its object).
+nlohmann::json parse_json(const std::string& text, const std::string& context);
+
+}  // namespace posekit
