@@ -4,11 +4,13 @@
 
 #include <filesystem>
 #include <fstream>
+#include <random>
 
 #include "posekit/core/error.h"
 #include "posekit/deformation/segmentation_calibration.h"
 #include "posekit/evaluation/pose_evaluation.h"
 #include "posekit/io/atomic_file.h"
+#include "posekit/io/checksum.h"
 #include "testing/makehuman_fixture.h"
 #include "testing/small_dataset.h"
 
@@ -40,19 +42,56 @@ TEST(PoseModel, FitsTheTrainingPosesAndSavesLosslessly) {
   const std::string bytes = read_file_bytes(dir.file("m.pkm"));
   dir.write("cut.pkm", bytes.substr(0, bytes.size() / 2));
   dir.write("foreign.pkm", "ply\nformat ascii 1.0\n");
+  // Edits below are re-sealed with a fresh CRC, so each reaches the check it is aimed at.
+  auto sealed = [](std::string b) {
+    const std::uint32_t crc = crc32(b.data(), b.size() - 4);
+    std::memcpy(&b[b.size() - 4], &crc, 4);
+    return b;
+  };
   std::string nan_bytes = bytes;
   const double nan = std::nan("");
-  // The last coefficient, before the (empty) segmentation prior's count and neighbours.
-  std::memcpy(&nan_bytes[nan_bytes.size() - 8 - sizeof(double)], &nan, sizeof(double));
-  dir.write("nan.pkm", nan_bytes);
-  for (const char* name : {"cut.pkm", "foreign.pkm", "nan.pkm", "missing.pkm"}) {
+  // The last coefficient, before the (empty) segmentation prior's count and neighbours and the CRC.
+  std::memcpy(&nan_bytes[nan_bytes.size() - 4 - 8 - sizeof(double)], &nan, sizeof(double));
+  dir.write("nan.pkm", sealed(nan_bytes));
+  std::string rms_bytes = bytes;
+  std::memcpy(&rms_bytes[8 + 4 * 5 + 4], &nan, sizeof(double));  // after the magic, 5 counts and the pose count
+  dir.write("nan_rms.pkm", sealed(rms_bytes));
+  std::string huge = bytes;
+  const std::uint32_t forty_million = 40000000;
+  std::memcpy(&huge[12], &forty_million, 4);  // the vertex count: 960 MB if allocated before the size check
+  dir.write("huge.pkm", sealed(huge));
+  const std::vector<std::pair<const char*, const char*>> bad = {
+      {"cut.pkm", "checksum"},          {"foreign.pkm", "not a posekit pose model"},
+      {"nan.pkm", "NaN"},               {"nan_rms.pkm", "fit RMS nan"},
+      {"huge.pkm", "40000000 x 3 values"}, {"missing.pkm", "missing.pkm"}};
+  for (const auto& [name, phrase] : bad) {
     try {
       read_pose_model(dir.file(name));
       FAIL() << name;
     } catch (const IoError& e) {
       EXPECT_NE(std::string(e.what()).find(name), std::string::npos) << e.what();
+      EXPECT_NE(std::string(e.what()).find(phrase), std::string::npos) << e.what();
     }
   }
+  // Any flipped bit is refused (the fuzzer found 15 of 18 accepted before the checksum).
+  std::mt19937 rng(11);
+  int refused = 0;
+  constexpr int kFlips = 40;
+  for (int k = 0; k < kFlips; ++k) {
+    std::string flipped = bytes;
+    flipped[rng() % flipped.size()] ^= static_cast<char>(1u << (rng() % 8));
+    try {
+      read_pose_model(dir.write("flip.pkm", flipped));
+    } catch (const IoError& e) {
+      refused += std::string(e.what()).find("flip.pkm") != std::string::npos;
+    }
+  }
+  EXPECT_EQ(refused, kFlips);
+  // Version 2 files (no checksum) are still read.
+  std::string v2 = bytes.substr(0, bytes.size() - 4);
+  const std::uint32_t two = 2;
+  std::memcpy(&v2[8], &two, 4);
+  EXPECT_TRUE(read_pose_model(dir.write("v2.pkm", v2)).coefficients == model.coefficients);
 }
 
 TEST(PoseModel, KeepsItsSegmentationPrior) {

@@ -15,6 +15,7 @@ namespace posekit {
 struct PoseDataset;
 
 constexpr int kPoseFeatures = 7;  ///< twists of two joints (3 + 3) and a bias
+constexpr int kPoseCoefficients = 9 * kPoseFeatures;  ///< per triangle: each entry of T^Q times each feature
 
 struct PoseModel {
   Eigen::MatrixXd template_V;          ///< #V x 3 rest pose of the training template (m)
