@@ -159,21 +159,34 @@ Progress::~Progress() {
   if (tty_ && shown_ && !finished_) std::fprintf(stderr, "\n");  // abandoned (an error): no 100%
 }
 
+std::vector<std::string>* io_warnings() {
+  static std::vector<std::string> warnings;
+  return &warnings;
+}
+
+void flush_warnings() {
+  for (const std::string& w : *io_warnings()) std::cerr << "warning: " << w << "\n";
+  io_warnings()->clear();
+}
+
 BodyInput read_body_input(const std::string& path, Unit unit) {
   BodyInput in;
   const CloudFormat cf = cloud_format_from_path(path);
   in.is_cloud = cf == CloudFormat::kPcd || cf == CloudFormat::kXyz;
   if (!in.is_cloud) {
     try {
-      in.mesh = read_mesh(path, {unit});
+      in.mesh = read_mesh(path, {unit, MeshFormat::kAuto, io_warnings()});
+      flush_warnings();
       return in;
     } catch (const IoError& e) {
-      // A PLY without faces is a point cloud.
-      if (cf != CloudFormat::kPly || std::string(e.what()).find("no faces") == std::string::npos) throw;
+      // A PLY, OBJ or OFF without faces is a point cloud.
+      if (std::string(e.what()).find("no faces") == std::string::npos) throw;
+      io_warnings()->clear();
       in.is_cloud = true;
     }
   }
-  in.cloud = read_point_cloud(path, {unit});
+  in.cloud = read_point_cloud(path, {unit, CloudFormat::kAuto, io_warnings()});
+  flush_warnings();
   return in;
 }
 

@@ -85,6 +85,12 @@ struct BodyInput {
 };
 BodyInput read_body_input(const std::string& path, Unit unit);
 
+/// Where the CLI's readers and writers put their warnings (what was read with a caveat, what a
+/// format cannot hold). flush_warnings() prints them as "warning: ..." on stderr; main calls it
+/// after every command, failed or not, and commands call it after reading their inputs.
+std::vector<std::string>* io_warnings();
+void flush_warnings();
+
 /// Prints JSON to stdout, pretty, with a trailing newline.
 void print_json(const nlohmann::json& value);
 

@@ -155,7 +155,7 @@ int run_body(int argc, char** argv) {
     write_file_atomically(args.get("joints"), [&](std::ostream& out) { out << text; }, false);
   }
   if (args.has("out")) {
-    write_mesh(args.get("out"), body.mesh, {parse_unit(args.get("unit"))});
+    write_mesh(args.get("out"), body.mesh, {parse_unit(args.get("unit")), MeshFormat::kAuto, true, io_warnings()});
     report["out"] = args.get("out");
   }
   if (args.flag_set("json")) {

@@ -62,7 +62,7 @@ int run_compare(int argc, char** argv) {
       .flag("json", "results as JSON on stdout")
       .example("posekit compare out/dataset/subjects/f01/rest.ply out/dataset/scans/f01/rest.pcd --measure --png f01.png");
   if (!args.parse(argc, argv)) return 0;
-  const TriangleMesh model = read_mesh(args.positionals()[0], {parse_unit(args.get("model-unit"))});
+  const TriangleMesh model = read_mesh(args.positionals()[0], {parse_unit(args.get("model-unit")), MeshFormat::kAuto, io_warnings()});
   const BodyInput scan_input = read_body_input(args.positionals()[1], parse_unit(args.get("scan-unit")));
   PointCloud scan = scan_input.cloud;
   if (!scan_input.is_cloud) scan.P = scan_input.mesh.V;
@@ -88,12 +88,12 @@ int run_compare(int argc, char** argv) {
     Eigen::VectorXd covered(model.V.rows());
     for (Eigen::Index v = 0; v < covered.size(); ++v) covered[v] = std::isfinite(r.model_to_scan[v]) ? 1 : 0;
     out.vertex_scalars["covered"] = covered;
-    write_mesh(args.get("out"), out, {parse_unit(args.get("model-unit"))});
+    write_mesh(args.get("out"), out, {parse_unit(args.get("model-unit")), MeshFormat::kAuto, true, io_warnings()});
   }
   if (args.has("scan-out")) {
     PointCloud out = scan;
     out.point_scalars["signed_distance_mm"] = 1000 * r.scan_to_model;
-    write_point_cloud(args.get("scan-out"), out, {parse_unit(args.get("scan-unit"))});
+    write_point_cloud(args.get("scan-out"), out, {parse_unit(args.get("scan-unit")), CloudFormat::kAuto, true, io_warnings()});
   }
   if (args.has("png")) {
     ViewOptions v;

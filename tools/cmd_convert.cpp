@@ -11,9 +11,11 @@ namespace posekit::cli {
 
 int run_convert(int argc, char** argv) {
   ArgParser args("convert",
-                 "Converts a mesh (OBJ, PLY, OFF, STL) or a point cloud (PCD, PLY, XYZ) to another format\n"
-                 "and/or unit. Formats follow the extensions. Point clouds stay point clouds; a mesh written\n"
-                 "to .pcd or .xyz keeps its vertices. The output appears only when complete.");
+                 "Converts a mesh (OBJ, PLY, OFF, STL) or a point cloud (PCD, PLY, XYZ/PTS/TXT, or an OBJ/OFF/PLY\n"
+                 "without faces) to another format and/or unit. Formats follow the extensions. Point clouds stay\n"
+                 "point clouds; a mesh written to .pcd or .xyz keeps its vertices. Colours, normals, texture\n"
+                 "coordinates and scalar fields are kept where the target format can hold them; a warning names\n"
+                 "what it cannot. The output appears only when complete.");
   args.positional("in", "input file").positional("out", "output file")
       .option("from-unit", "U", "unit of the input: m, dm, cm, mm", "m")
       .option("to-unit", "U", "unit of the output: m, dm, cm, mm", "m")
@@ -25,28 +27,32 @@ int run_convert(int argc, char** argv) {
   const std::string in = args.positionals()[0], out = args.positionals()[1];
   const Unit from = parse_unit(args.get("from-unit")), to = parse_unit(args.get("to-unit"));
   const bool binary = !args.flag_set("ascii");
-  const bool in_cloud = cloud_format_from_path(in) == CloudFormat::kPcd || cloud_format_from_path(in) == CloudFormat::kXyz;
   const bool out_cloud = cloud_format_from_path(out) == CloudFormat::kPcd || cloud_format_from_path(out) == CloudFormat::kXyz;
-  if (in_cloud && mesh_format_from_path(out) != MeshFormat::kAuto && mesh_format_from_path(out) != MeshFormat::kPly)
-    throw InvalidInput(in + " is a point cloud: it can be written as .pcd, .ply or .xyz, not " + out);
-  if (in_cloud) {
-    const PointCloud cloud = read_point_cloud(in, {from});
-    write_point_cloud(out, cloud, {to, CloudFormat::kAuto, binary});
-    std::cerr << "wrote " << out << ": " << cloud.size() << " points (" << unit_name(to) << ")\n";
+  BodyInput input = read_body_input(in, from);
+  if (input.is_cloud) {
+    if (args.has("group")) throw InvalidInput(in + " is a point cloud: it has no groups for --group");
+    if (mesh_format_from_path(out) == MeshFormat::kStl)
+      throw InvalidInput(in + " is a point cloud: STL holds triangles only; write .pcd, .ply, .xyz, .obj or .off");
+    write_point_cloud(out, input.cloud, {to, CloudFormat::kAuto, binary, io_warnings()});
+    flush_warnings();
+    std::cerr << "wrote " << out << ": " << input.cloud.size() << " points (" << unit_name(to) << ")\n";
     return 0;
   }
-  TriangleMesh mesh = read_mesh(in, {from});
+  TriangleMesh& mesh = input.mesh;
   if (args.has("group")) mesh = extract_group(mesh, args.get("group"));
   if (out_cloud) {
     PointCloud cloud;
     cloud.P = mesh.V;
     if (mesh.has_normals()) cloud.N = mesh.N;
+    if (mesh.has_colors()) cloud.C = mesh.C;
     cloud.point_scalars = mesh.vertex_scalars;
-    write_point_cloud(out, cloud, {to, CloudFormat::kAuto, binary});
+    write_point_cloud(out, cloud, {to, CloudFormat::kAuto, binary, io_warnings()});
+    flush_warnings();
     std::cerr << "wrote " << out << ": " << cloud.size() << " points (" << unit_name(to) << ")\n";
     return 0;
   }
-  write_mesh(out, mesh, {to, MeshFormat::kAuto, binary});
+  write_mesh(out, mesh, {to, MeshFormat::kAuto, binary, io_warnings()});
+  flush_warnings();
   std::cerr << "wrote " << out << ": " << mesh.num_vertices() << " vertices, " << mesh.num_faces() << " triangles ("
             << unit_name(to) << ")\n";
   return 0;

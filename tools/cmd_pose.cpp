@@ -132,7 +132,7 @@ int run_pose(int argc, char** argv) {
     if (!args.has(required)) throw UsageError(std::string("--") + required + " is required");
   const PoseMethod method = parse_pose_method(args.get("method"));
   const auto model = std::make_shared<const PoseModel>(read_pose_model(args.get("model")));
-  const TriangleMesh subject = read_mesh(args.get("subject"), {parse_unit(args.get("unit"))});
+  const TriangleMesh subject = read_mesh(args.get("subject"), {parse_unit(args.get("unit")), MeshFormat::kAuto, io_warnings()});
   check_subject(subject, args.get("subject"));
   std::vector<PartPose> poses;
   const std::string pose_path = args.get("pose");
@@ -174,7 +174,7 @@ int run_pose(int argc, char** argv) {
       name << out.stem().string() << "_" << std::setw(4) << std::setfill('0') << i << out.extension().string();
       path = (out.parent_path() / name.str()).string();
     }
-    write_mesh(path, posed, {parse_unit(args.get("unit"))});
+    write_mesh(path, posed, {parse_unit(args.get("unit")), MeshFormat::kAuto, true, io_warnings()});
     written.push_back(path);
     progress.update(static_cast<long>(i + 1));
   }
@@ -210,7 +210,7 @@ int run_segment(int argc, char** argv) {
       .flag("json", "summary as JSON on stdout")
       .example("posekit segment out/dataset/subjects/m01/rest.ply --model model.pkm --out m01_parts.ply");
   if (!args.parse(argc, argv)) return 0;
-  const TriangleMesh mesh = read_mesh(args.positionals()[0], {parse_unit(args.get("unit"))});
+  const TriangleMesh mesh = read_mesh(args.positionals()[0], {parse_unit(args.get("unit")), MeshFormat::kAuto, io_warnings()});
   require_usable_mesh(mesh, args.positionals()[0]);
   const auto t0 = std::chrono::steady_clock::now();
   const BodyFeatures features = find_body_features(mesh.V, mesh.F);
@@ -229,7 +229,7 @@ int run_segment(int argc, char** argv) {
   if (args.has("out")) {
     TriangleMesh labelled = mesh;
     labelled.vertex_scalars["part"] = seg.vertex_part.cast<double>();
-    write_mesh(args.get("out"), labelled, {parse_unit(args.get("unit"))});
+    write_mesh(args.get("out"), labelled, {parse_unit(args.get("unit")), MeshFormat::kAuto, true, io_warnings()});
   }
   nlohmann::ordered_json jj;
   jj["units"] = "m";

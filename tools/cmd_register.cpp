@@ -29,8 +29,8 @@ int run_register(int argc, char** argv) {
       .example("posekit register dataset/template/rest.ply dataset/subjects/f01/rest.ply --out corr.json --deformed d.ply");
   if (!args.parse(argc, argv)) return 0;
   const Unit unit = parse_unit(args.get("unit"));
-  const TriangleMesh source = read_mesh(args.positionals()[0], {unit});
-  const TriangleMesh target = read_mesh(args.positionals()[1], {unit});
+  const TriangleMesh source = read_mesh(args.positionals()[0], {unit, MeshFormat::kAuto, io_warnings()});
+  const TriangleMesh target = read_mesh(args.positionals()[1], {unit, MeshFormat::kAuto, io_warnings()});
   RegistrationOptions o;
   o.method = parse_registration_method(args.get("method"));
   o.icp_iterations = static_cast<int>(args.get_int("iterations"));
@@ -49,7 +49,7 @@ int run_register(int argc, char** argv) {
     TriangleMesh d;
     d.V = r.deformed_source;
     d.F = source.F;
-    write_mesh(args.get("deformed"), d, {unit});
+    write_mesh(args.get("deformed"), d, {unit, MeshFormat::kAuto, true, io_warnings()});
   }
   nlohmann::ordered_json s = {{"method", args.get("method")}, {"source_vertices", source.num_vertices()},
                               {"target_triangles", target.num_faces()}, {"seconds", r.seconds},

@@ -53,6 +53,10 @@ int main(int argc, char** argv) {
   const std::string name = argv[1];
   for (const auto& c : kCommands) {
     if (name != c.name) continue;
+    // Warnings of readers and writers are printed however the command ends.
+    struct FlushWarnings {
+      ~FlushWarnings() { posekit::cli::flush_warnings(); }
+    } flush;
     try {
       return c.run(argc - 2, argv + 2);
     } catch (const posekit::cli::UsageError& e) {

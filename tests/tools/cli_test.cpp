@@ -6,6 +6,7 @@
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
+#include <iterator>
 #include <nlohmann/json.hpp>
 #include <string>
 
@@ -87,6 +88,41 @@ TEST(Cli, ConvertChangesFormatAndUnit) {
   ASSERT_EQ(run("convert " + dir.file("c.off") + " " + dir.file("c.pcd") + " --from-unit mm --to-unit mm").code, 0);
   EXPECT_EQ(run("convert " + dir.file("c.pcd") + " " + dir.file("x.stl")).code, 1);
   EXPECT_EQ(dir.count(), 3);
+}
+
+TEST(Cli, ConvertTakesPointCloudPlyAndSaysWhatATargetCannotHold) {
+  test::TempDir dir;
+  // A coloured point-cloud PLY (as Open3D and PCL write them): PLY -> PCD -> PLY, and a unit change.
+  const std::string ply = dir.write("scan.ply", "ply\nformat ascii 1.0\nelement vertex 2\nproperty float x\nproperty float y\n"
+                                              "property float z\nproperty uchar red\nproperty uchar green\n"
+                                              "property uchar blue\nend_header\n0.5 1 2 255 0 0\n1.5 1 2 0 0 255\n");
+  ASSERT_EQ(run("convert " + ply + " " + dir.file("scan.pcd")).code, 0);
+  ASSERT_EQ(run("convert " + dir.file("scan.pcd") + " " + dir.file("back.ply") + " --to-unit mm").code, 0);
+  std::ifstream back(dir.file("back.ply"));
+  const std::string text((std::istreambuf_iterator<char>(back)), std::istreambuf_iterator<char>());
+  EXPECT_NE(text.find("property uchar red"), std::string::npos) << "colours kept";
+  // A mesh with a scalar field written to OBJ: the field is named in a warning, exit 0.
+  TriangleMesh m = test::icosphere(1);
+  m.vertex_scalars["signed_distance_mm"] = Eigen::VectorXd::Zero(m.V.rows());
+  write_mesh(dir.file("err.ply"), m);
+  const CommandResult r = run("convert " + dir.file("err.ply") + " " + dir.file("err.obj"), true);
+  EXPECT_EQ(r.code, 0);
+  EXPECT_NE(r.out.find("warning: " + dir.file("err.obj") + ": OBJ cannot hold the vertex scalar field(s) signed_distance_mm"),
+            std::string::npos) << r.out;
+}
+
+TEST(Cli, AMotionFileNested100000DeepIsAnErrorNotACrash) {
+  const std::string root = test::test_data_root();
+  ASSERT_FALSE(root.empty());
+  test::TempDir dir;
+  std::string text = "HIERARCHY\nROOT j0\n{\nOFFSET 0 0 0\n";
+  for (int j = 1; j < 100000; ++j) text += "JOINT j" + std::to_string(j) + "\n{\nOFFSET 0 0.001 0\n";
+  for (int j = 0; j < 100000; ++j) text += "}\n";
+  text += "MOTION\nFrames: 1\nFrame Time: 0.01\n\n";
+  const std::string bvh = dir.write("deep.bvh", text);
+  const CommandResult r = run("body --pose " + bvh + " --out " + dir.file("b.ply"), true);
+  EXPECT_EQ(r.code, 1) << r.out;  // was 139: a stack overflow in the recursive parser
+  EXPECT_NE(r.out.find("MakeHuman default rig"), std::string::npos) << r.out;
 }
 
 TEST(Cli, InfoOnTheMakeHumanBodyGroup) {

@@ -59,7 +59,8 @@ std::string unit_mismatch(const TriangleMesh& model, const PointCloud& scan) {
   if (ratio > 0.2 && ratio < 5) return "";
   std::ostringstream msg;
   msg.precision(4);
-  msg << "scan extent " << s << " units against a " << m << " m model";
+  // Both extents are in metres as read: the file's unit is what the hint is about.
+  msg << "the scan is " << s << " m across as read, against a " << m << " m model";
   if (ratio > 500 && ratio < 2000) msg << ": did you mean mm?";
   else if (ratio > 50 && ratio < 200) msg << ": did you mean cm?";
   else if (ratio > 5 && ratio < 20) msg << ": did you mean dm?";
