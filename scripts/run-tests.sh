@@ -1,6 +1,7 @@
 #!/usr/bin/env bash
-# Set-up command 2: install what is missing, build, run every test in a release build and again
-# under AddressSanitizer + UndefinedBehaviorSanitizer.
+# Set-up command 2: install what is missing, build, run every test in a release build, fuzz every
+# file reader briefly (POSEKIT_FUZZ_SECONDS per target, default 20; 0 skips; scripts/fuzz.sh runs
+# them for longer), then run every test again under AddressSanitizer + UndefinedBehaviorSanitizer.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 bash scripts/install-deps.sh
@@ -9,6 +10,11 @@ jobs=$(nproc 2>/dev/null || echo 2)
 bash scripts/build.sh release
 echo "== tests (release)"
 (cd build/release && ctest --output-on-failure -j"$jobs")
+fuzz_seconds=${POSEKIT_FUZZ_SECONDS:-20}
+if [ "$fuzz_seconds" -gt 0 ]; then
+  echo "== fuzzing every file reader for ${fuzz_seconds} s (libFuzzer, AddressSanitizer + UndefinedBehaviorSanitizer)"
+  bash scripts/fuzz.sh "$fuzz_seconds"
+fi
 bash scripts/build.sh asan
 echo "== tests (AddressSanitizer + UndefinedBehaviorSanitizer)"
 export ASAN_OPTIONS=detect_leaks=1:abort_on_error=1 UBSAN_OPTIONS=print_stacktrace=1:halt_on_error=1

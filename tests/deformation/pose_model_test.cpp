@@ -2,6 +2,7 @@
 
 #include <gtest/gtest.h>
 
+#include <cstdlib>
 #include <filesystem>
 #include <fstream>
 #include <random>
@@ -197,4 +198,43 @@ TEST(PoseModel, LearnsFromAFolderOfRegisteredMeshesWithoutLabels) {
   o.subjects = false;
   const PoseEvaluation ev = evaluate_poses(ds.root, std::make_shared<const PoseModel>(model), o);
   EXPECT_LT(ev.template_errors.front().all.mean_mm, 10.0);  // measured 5.7 mm on the full dataset
+}
+
+TEST(PoseModel, WritesFuzzSeedsThatReadBack) {
+  // Seeds of the .pkm fuzz target (scripts/fuzz.sh): a model small enough to mutate quickly,
+  // with and without a segmentation prior, as version 3 and as version 2 (no checksum, so
+  // mutations reach the counts and values). Written to $POSEKIT_FUZZ_SEEDS/pkm when set.
+  test::TempDir tmp;
+  const char* root = std::getenv("POSEKIT_FUZZ_SEEDS");
+  const std::string dir = (root && *root ? std::string(root) : tmp.path()) + "/pkm";
+  std::filesystem::create_directories(dir);
+  PoseModel m;
+  m.template_V = Eigen::MatrixXd::Random(4, 3);
+  m.template_F.resize(2, 3);
+  m.template_F << 0, 1, 2, 0, 2, 3;
+  m.triangle_part = Eigen::VectorXi::Zero(2);
+  m.joint_centres = Eigen::MatrixXd::Zero(kNumJoints, 3);
+  m.triangle_joints = Eigen::MatrixXi::Constant(2, 2, -1);
+  m.coefficients.setZero(2, kPoseCoefficients);
+  m.training_poses = 3;
+  m.fit_rms = 0.01;
+  write_pose_model(dir + "/plain.pkm", m);
+  CalibrationBody body;
+  body.shape.region.assign(kShapeRegions, Eigen::VectorXf::Ones(2));
+  body.labels = Eigen::Matrix<std::uint8_t, Eigen::Dynamic, 1>::Constant(4, 3);
+  body.skeleton.joints.triangle = Eigen::VectorXi::Zero(kNumJoints);
+  body.skeleton.joints.bary = Eigen::MatrixXd::Constant(kNumJoints, 3, 1.0 / 3);
+  body.skeleton.joints.offset = Eigen::MatrixXd::Zero(kNumJoints, 3);
+  m.segmentation_prior.bodies = {body, body};
+  write_pose_model(dir + "/prior.pkm", m);
+  std::string v2 = read_file_bytes(dir + "/prior.pkm");
+  v2.resize(v2.size() - 4);
+  const std::uint32_t two = 2;
+  std::memcpy(&v2[8], &two, 4);
+  write_file_atomically(dir + "/prior_v2.pkm", [&](std::ostream& out) { out << v2; });
+  for (const char* name : {"plain.pkm", "prior.pkm", "prior_v2.pkm"}) {
+    const PoseModel back = read_pose_model(dir + "/" + name);
+    EXPECT_TRUE(back.template_V == m.template_V) << name;
+  }
+  EXPECT_EQ(read_pose_model(dir + "/prior.pkm").segmentation_prior.bodies.size(), 2u);
 }

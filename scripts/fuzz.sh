@@ -1,0 +1,60 @@
+#!/usr/bin/env bash
+# scripts/fuzz.sh [SECONDS] [TARGET...]: fuzz posekit's file readers with libFuzzer under
+# AddressSanitizer + UndefinedBehaviorSanitizer, each target for SECONDS (default 60), two at a time.
+# Targets: ply obj off stl pcd xyz bvh pose_json pkm (default: all).
+#   1. builds the targets with clang into build/fuzz (-DPOSEKIT_FUZZ=ON),
+#   2. writes the seed corpus with the tests (release build: FuzzSeeds.*, PoseModel.WritesFuzzSeeds*),
+#   3. runs each target on build/fuzz/corpus/<target> (kept between runs) plus the seeds.
+# A finding (crash, sanitizer report, an exception other than posekit::Error, a single allocation over
+# 256 MB, over 1 GB resident, an input taking over 10 s) fails the run; its input is kept as
+# build/fuzz/findings/<target>-<kind>-<hash>. Prints executions and executions per second per target.
+set -euo pipefail
+cd "$(dirname "$0")/.."
+seconds=${1:-60}
+shift || true
+targets=("$@")
+[ ${#targets[@]} -gt 0 ] || targets=(ply obj off stl pcd xyz bvh pose_json pkm)
+case "$seconds" in ''|*[!0-9]*) echo "fuzz.sh: SECONDS must be a whole number, got '$seconds'" >&2; exit 2 ;; esac
+command -v clang++ >/dev/null || { echo "fuzz.sh: needs clang (apt-get install clang libclang-rt-14-dev)" >&2; exit 1; }
+
+generator=()
+command -v ninja >/dev/null && generator=(-G Ninja)
+if [ ! -f build/fuzz/CMakeCache.txt ]; then
+  CC=clang CXX=clang++ cmake -S . -B build/fuzz "${generator[@]}" -DCMAKE_BUILD_TYPE=RelWithDebInfo -DPOSEKIT_FUZZ=ON >/dev/null
+fi
+jobs=$(nproc 2>/dev/null || echo 2)
+cmake --build build/fuzz --parallel "$jobs" --target $(printf 'fuzz_%s ' "${targets[@]}")
+
+bash scripts/build.sh release posekit_io_tests posekit_deformation_tests
+seeds=$PWD/build/fuzz/seeds
+rm -rf "$seeds" && mkdir -p "$seeds" build/fuzz/findings
+POSEKIT_FUZZ_SEEDS=$seeds build/release/tests/posekit_io_tests --gtest_filter='FuzzSeeds.*' >/dev/null
+POSEKIT_FUZZ_SEEDS=$seeds build/release/tests/posekit_deformation_tests --gtest_filter='PoseModel.WritesFuzzSeeds*' >/dev/null
+
+export ASAN_OPTIONS=detect_leaks=1:abort_on_error=1 UBSAN_OPTIONS=print_stacktrace=1:halt_on_error=1
+run_one() {
+  local target=$1 seconds=$2 log=build/fuzz/$1.log
+  mkdir -p "build/fuzz/corpus/$target" "$seeds/$target"
+  local tmp
+  tmp=$(mktemp -d)
+  if TMPDIR=$tmp "build/fuzz/tests/fuzz/fuzz_$target" "build/fuzz/corpus/$target" "$seeds/$target" \
+      -max_total_time="$seconds" -rss_limit_mb=1024 -malloc_limit_mb=256 -timeout=10 -max_len=16384 \
+      -print_final_stats=1 -artifact_prefix="build/fuzz/findings/$target-" >"$log" 2>&1; then
+    local runs rate
+    runs=$(sed -n 's/^stat::number_of_executed_units: *//p' "$log")
+    rate=$(sed -n 's/^stat::average_exec_per_sec: *//p' "$log")
+    printf 'fuzz %-10s %3ss  %10s executions  %6s/s  corpus %s files  no finding\n' \
+      "$target" "$seconds" "$runs" "$rate" "$(ls "build/fuzz/corpus/$target" | wc -l)"
+  else
+    printf 'fuzz %-10s FINDING (see %s):\n' "$target" "$log"
+    grep -E "ERROR|SUMMARY|fuzz: not a posekit|Test unit written" "$log" | head -5 | sed 's/^/    /'
+    rm -rf "$tmp"
+    return 1
+  fi
+  rm -rf "$tmp"
+}
+export -f run_one
+export seeds
+status=0
+printf '%s\n' "${targets[@]}" | xargs -P "$jobs" -I{} bash -c 'run_one "$@"' _ {} "$seconds" || status=1
+exit $status
