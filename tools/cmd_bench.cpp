@@ -2,10 +2,12 @@
 #include <unistd.h>
 
 #include <chrono>
+#include <cstdlib>
 #include <algorithm>
 #include <cmath>
 #include <random>
 #include <filesystem>
+#include <fstream>
 #include <iomanip>
 #include <iostream>
 #include <nlohmann/json.hpp>
@@ -331,14 +333,98 @@ int bench_pose(int argc, char** argv) {
   return 0;
 }
 
+/// Wall seconds of a shell command (its output to `log`); -1 when it fails.
+double timed_command(const std::string& command, const std::string& log) {
+  const auto t0 = Clock::now();
+  const int status = std::system((command + " >" + log + " 2>&1").c_str());
+  const double seconds = std::chrono::duration<double>(Clock::now() - t0).count();
+  return status == 0 ? seconds : -1;
+}
+
+/// The same comparison run by the tools users would pick instead, on the same files.
+struct PeerResult {
+  std::string name, what;
+  double compute_s = -1, wall_s = -1;  ///< median; -1 when the tool is missing or failed
+  std::string note;
+};
+
+PeerResult run_open3d(const std::string& dir, int runs) {
+  PeerResult r{"Open3D", "RaycastingScene BVH build + compute_distance (unsigned, scan to model)"};
+  // Debian's python3-open3d is for the system interpreter, which another python3 on PATH may hide.
+  std::string python;
+  for (const char* candidate : {"python3", "/usr/bin/python3"})
+    if (std::system((std::string(candidate) + " -c 'import open3d' >/dev/null 2>&1").c_str()) == 0) {
+      python = candidate;
+      break;
+    }
+  if (python.empty()) {
+    r.note = "not installed (Debian: python3-open3d)";
+    return r;
+  }
+  const std::string script = dir + "/open3d_c2m.py";
+  write_file_atomically(script, [&](std::ostream& out) {
+    out << "import sys, time, statistics\nimport numpy as np\nimport open3d as o3d\n"
+           "t0 = time.perf_counter()\n"
+           "mesh = o3d.t.geometry.TriangleMesh.from_legacy(o3d.io.read_triangle_mesh(sys.argv[1]))\n"
+           "pts = o3d.core.Tensor(np.asarray(o3d.io.read_point_cloud(sys.argv[2]).points, dtype=np.float32))\n"
+           "load = time.perf_counter() - t0\n"
+           "times = []\n"
+           "for _ in range(int(sys.argv[3])):\n"
+           "    t = time.perf_counter()\n"
+           "    scene = o3d.t.geometry.RaycastingScene()\n"
+           "    scene.add_triangles(mesh)\n"
+           "    d = scene.compute_distance(pts).numpy()\n"
+           "    times.append(time.perf_counter() - t)\n"
+           "print(statistics.median(times), load, float(d.mean()))\n";
+  }, false);
+  const std::string log = dir + "/open3d.log";
+  const double wall = timed_command(python + " " + script + " " + dir + "/model.ply " + dir + "/scan.ply " + std::to_string(runs), log);
+  std::ifstream in(log);
+  double median = -1, load = -1, mean = 0;
+  if (wall < 0 || !(in >> median >> load >> mean)) {
+    r.note = "failed (see " + log + ")";
+    return r;
+  }
+  r.compute_s = median;
+  r.wall_s = load + median;
+  r.note = "mean distance " + std::to_string(1000 * mean).substr(0, 5) + " mm";
+  return r;
+}
+
+PeerResult run_cloudcompare(const std::string& dir, int runs) {
+  PeerResult r{"CloudCompare", "-c2m_dist (scan to model), computation = wall(load + c2m) - wall(load)"};
+  if (std::system("command -v CloudCompare >/dev/null 2>&1") != 0) {
+    r.note = "not installed (Debian: cloudcompare)";
+    return r;
+  }
+  const std::string base = "QT_QPA_PLATFORM=offscreen CloudCompare -SILENT -NO_TIMESTAMP -AUTO_SAVE OFF -O " + dir +
+                           "/scan.ply -O " + dir + "/model.ply";
+  std::vector<double> load, full;
+  for (int k = 0; k < runs; ++k) {
+    load.push_back(timed_command(base, dir + "/cc_load.log"));
+    full.push_back(timed_command(base + " -c2m_dist", dir + "/cc_c2m.log"));
+  }
+  if (*std::min_element(load.begin(), load.end()) < 0 || *std::min_element(full.begin(), full.end()) < 0) {
+    r.note = "failed (see " + dir + "/cc_c2m.log)";
+    return r;
+  }
+  r.wall_s = stats_of(full).median;
+  r.compute_s = std::max(0.0, r.wall_s - stats_of(load).median);
+  return r;
+}
+
 int bench_compare(int argc, char** argv) {
   ArgParser args("bench compare",
                  "Times posekit compare: a MakeHuman body (26,756 triangles) against a synthetic scan of N points\n"
-                 "sampled uniformly on it with Gaussian noise (both directions, coverage, statistics).");
+                 "sampled uniformly on it with Gaussian noise (both directions, signs, coverage, statistics).\n"
+                 "With --peers, the same model and scan go through CloudCompare (-c2m_dist) and Open3D\n"
+                 "(RaycastingScene) when they are installed, and the ratio of the times is printed. Those\n"
+                 "compute one direction, unsigned; posekit computes both, signed.");
   args.option("data", "DIR", "MakeHuman data root")
       .option("points", "N", "scan points", "1000000")
       .option("threads", "T", "threads (0: all cores)", "0")
       .option("runs", "R", "timed runs (median reported)", "5")
+      .flag("peers", "also time CloudCompare and Open3D on the same files")
       .flag("json", "machine-readable results on stdout");
   if (!args.parse(argc, argv)) return 0;
   const int runs = static_cast<int>(args.get_int("runs"));
@@ -365,24 +451,68 @@ int bench_compare(int argc, char** argv) {
     scan.P.row(i) = (1 - a - b) * body.mesh.V.row(F[0]) + a * body.mesh.V.row(F[1]) + b * body.mesh.V.row(F[2]) +
                     noise(rng) * normals.row(static_cast<Eigen::Index>(f));
   }
+  // The files every tool reads: binary PLY in metres.
+  const std::string dir = (std::filesystem::temp_directory_path() / ("posekit-bench-" + std::to_string(::getpid()))).string();
+  std::filesystem::create_directories(dir);
+  struct RemoveDir {
+    std::string path;
+    ~RemoveDir() { std::error_code ec; std::filesystem::remove_all(path, ec); }
+  } cleanup{dir};
+  write_mesh(dir + "/model.ply", body.mesh);
+  write_point_cloud(dir + "/scan.ply", scan);
+  std::vector<double> load;
+  for (int k = 0; k < runs; ++k) {
+    const auto t0 = Clock::now();
+    (void)read_point_cloud(dir + "/scan.ply");
+    (void)read_mesh(dir + "/model.ply");
+    load.push_back(std::chrono::duration<double>(Clock::now() - t0).count());
+  }
   ScanComparisonOptions o;
   o.threads = static_cast<int>(args.get_int("threads"));
-  std::vector<double> seconds;
+  std::vector<double> seconds, build, s2m, m2s, stats;
   ScanComparison r;
   Progress progress("bench compare", runs);
   for (int k = 0; k < runs; ++k) {
     const auto t0 = Clock::now();
     r = compare_with_scan(body.mesh, scan, o);
     seconds.push_back(std::chrono::duration<double>(Clock::now() - t0).count());
+    build.push_back(r.build_seconds);
+    s2m.push_back(r.scan_to_model_seconds);
+    m2s.push_back(r.model_to_scan_seconds);
+    stats.push_back(r.stats_seconds);
     progress.update(k + 1);
   }
   progress.finish();
   const Stats t = stats_of(seconds);
+  const double load_s = stats_of(load).median;
+  std::vector<PeerResult> peers;
+  if (args.flag_set("peers")) {
+    std::cerr << "bench compare: timing the peers on the same files\n";
+    peers.push_back(run_cloudcompare(dir, runs));
+    peers.push_back(run_open3d(dir, runs));
+  }
+  double best_peer = -1;
+  std::string best_name;
+  for (const PeerResult& p : peers)
+    if (p.compute_s > 0 && (best_peer < 0 || p.compute_s < best_peer)) best_peer = p.compute_s, best_name = p.name;
   nlohmann::ordered_json out = {{"benchmark", "compare"}, {"model_triangles", body.mesh.F.rows()}, {"scan_points", n},
                                 {"threads", o.threads}, {"runs", runs}, {"median_s", t.median}, {"min_s", t.min},
-                                {"max_s", t.max}, {"scan_to_model_mean_mm", r.scan_stats.mean_mm},
+                                {"max_s", t.max},
+                                {"stages_median_s", {{"load", load_s}, {"build", stats_of(build).median},
+                                                     {"scan_to_model", stats_of(s2m).median},
+                                                     {"model_to_scan", stats_of(m2s).median},
+                                                     {"stats", stats_of(stats).median}}},
+                                {"scan_to_model_mean_mm", r.scan_stats.mean_mm},
                                 {"scan_to_model_rms_mm", r.scan_stats.rms_mm}, {"coverage", r.coverage},
                                 {"peak_rss_mib", peak_rss_mib()}};
+  if (!peers.empty()) {
+    nlohmann::ordered_json jp = nlohmann::ordered_json::array();
+    for (const PeerResult& p : peers)
+      jp.push_back({{"name", p.name}, {"what", p.what}, {"compute_median_s", p.compute_s}, {"wall_median_s", p.wall_s},
+                    {"note", p.note}});
+    out["peers"] = jp;
+    out["ratio_to_best_peer"] = best_peer > 0 ? nlohmann::ordered_json(t.median / best_peer) : nlohmann::ordered_json();
+  }
   if (args.flag_set("json")) {
     print_json(out);
     return 0;
@@ -391,7 +521,18 @@ int bench_compare(int argc, char** argv) {
             << " triangles, threads " << (o.threads > 0 ? std::to_string(o.threads) : std::string("all")) << ": median "
             << t.median << " s (min " << t.min << ", max " << t.max << ") over " << runs << " runs; RMS "
             << std::setprecision(2) << r.scan_stats.rms_mm << " mm (noise sigma 1.5 mm); peak RSS " << std::setprecision(0)
-            << peak_rss_mib() << " MiB\n";
+            << peak_rss_mib() << " MiB\n"
+            << std::setprecision(3) << "  stages (median s): load " << load_s << ", build " << stats_of(build).median
+            << ", scan-to-model " << stats_of(s2m).median << ", model-to-scan " << stats_of(m2s).median << ", stats "
+            << stats_of(stats).median << "\n";
+  for (const PeerResult& p : peers) {
+    std::cout << "  " << std::left << std::setw(13) << p.name << std::right;
+    if (p.compute_s < 0) std::cout << p.note << "\n";
+    else std::cout << "computation " << p.compute_s << " s, wall " << p.wall_s << " s: " << p.what
+                   << (p.note.empty() ? "" : "; " + p.note) << "\n";
+  }
+  if (best_peer > 0)
+    std::cout << "  posekit / best peer (" << best_name << "): " << std::setprecision(2) << t.median / best_peer << "\n";
   return 0;
 }
 

@@ -52,6 +52,28 @@ TEST(ClosestPoint, MatchesABruteForceSearch) {
     ASSERT_NEAR(cp.distance[i], best, 1e-12) << i;
     ASSERT_NEAR((cp.point.row(i) - P.row(i)).norm(), best, 1e-12);
   }
+  // Queries near the surface (as a scan's), in random order, on 1 and 2 threads: each query starts
+  // from its Morton predecessor's triangle, and face, barycentrics and point must still agree.
+  Eigen::MatrixXd Q(2000, 3);
+  std::normal_distribution<double> noise(0, 0.003);
+  for (Eigen::Index i = 0; i < Q.rows(); ++i) {
+    const Eigen::Vector3d dir(u(rng), u(rng), u(rng));
+    Q.row(i) = (dir.normalized() * (0.5 + noise(rng))).transpose();
+  }
+  for (const int threads : {1, 2}) {
+    const ClosestPoints near = tree.closest(Q, threads);
+    for (Eigen::Index i = 0; i < Q.rows(); ++i) {
+      double best = 1e300;
+      for (Eigen::Index f = 0; f < s.F.rows(); ++f)
+        best = std::min(best, (closest_point_on_triangle(Q.row(i), s.V.row(s.F(f, 0)), s.V.row(s.F(f, 1)),
+                                                         s.V.row(s.F(f, 2))) - Q.row(i).transpose()).norm());
+      ASSERT_NEAR(near.distance[i], best, 1e-12) << i;
+      const int f = near.face[i];
+      const Eigen::RowVector3d from_bary = near.bary(i, 0) * s.V.row(s.F(f, 0)) + near.bary(i, 1) * s.V.row(s.F(f, 1)) +
+                                           near.bary(i, 2) * s.V.row(s.F(f, 2));
+      ASSERT_LT((from_bary - near.point.row(i)).norm(), 1e-12) << i;
+    }
+  }
   // Vertex, edge and face regions of one triangle.
   const Eigen::Vector3d a(0, 0, 0), b(1, 0, 0), c(0, 1, 0);
   EXPECT_TRUE(closest_point_on_triangle({-1, -1, 2}, a, b, c).isApprox(a));

@@ -1,6 +1,7 @@
 #include "posekit/core/closest_point.h"
 
 #include <algorithm>
+#include <cstdint>
 #include <exception>
 #include <numeric>
 #include <thread>
@@ -82,7 +83,9 @@ struct TriangleTree::Impl {
   };
   Eigen::MatrixXd V;
   Eigen::MatrixXi F;
-  std::vector<int> order;
+  std::vector<int> order;       // face of each leaf slot
+  std::vector<int> slot_of;     // leaf slot of each face
+  std::vector<double> corners;  // 9 per leaf slot: the triangle's corners, contiguous for the search
   std::vector<Node> nodes;
 
   int build(int begin, int end, const Eigen::MatrixXd& centroid, const Eigen::MatrixXd& lo, const Eigen::MatrixXd& hi) {
@@ -116,7 +119,103 @@ struct TriangleTree::Impl {
     const Eigen::Vector3d d = (n.lo - p).cwiseMax(p - n.hi).cwiseMax(0.0);
     return d.squaredNorm();
   }
+
+  Eigen::Vector3d corner(int slot, int c) const {
+    return Eigen::Map<const Eigen::Vector3d>(&corners[static_cast<size_t>(9 * slot + 3 * c)]);
+  }
+
+  struct Hit {
+    double sq_distance;
+    int slot;
+    Eigen::Vector3d point, bary;
+  };
+
+  /// Branch and bound from an initial hit (slot -1: none); exact whatever the start.
+  void search(const Eigen::Vector3d& p, Hit& best) const {
+    int stack[128];
+    int top = 0;
+    stack[top++] = 0;
+    Eigen::Vector3d bary;
+    while (top > 0) {
+      const Node& n = nodes[static_cast<size_t>(stack[--top])];
+      if (box_sq_distance(n, p) >= best.sq_distance) continue;
+      if (n.left < 0) {
+        for (int i = n.begin; i < n.end; ++i) {
+          if (i == best.slot) continue;
+          const Eigen::Vector3d q = closest_point_on_triangle(p, corner(i, 0), corner(i, 1), corner(i, 2), &bary);
+          const double d = (q - p).squaredNorm();
+          if (d < best.sq_distance) best = {d, i, q, bary};
+        }
+        continue;
+      }
+      const double dl = box_sq_distance(nodes[static_cast<size_t>(n.left)], p);
+      const double dr = box_sq_distance(nodes[static_cast<size_t>(n.right)], p);
+      // Push the farther child first so that the nearer one is searched first.
+      if (dl < dr) {
+        if (dr < best.sq_distance) stack[top++] = n.right;
+        if (dl < best.sq_distance) stack[top++] = n.left;
+      } else {
+        if (dl < best.sq_distance) stack[top++] = n.left;
+        if (dr < best.sq_distance) stack[top++] = n.right;
+      }
+    }
+  }
+
+  /// The hit of `slot` itself: a bound to start the search from.
+  Hit hit_of(const Eigen::Vector3d& p, int slot) const {
+    Hit h{std::numeric_limits<double>::infinity(), -1, Eigen::Vector3d::Zero(), Eigen::Vector3d::Zero()};
+    if (slot < 0) return h;
+    h.slot = slot;
+    h.point = closest_point_on_triangle(p, corner(slot, 0), corner(slot, 1), corner(slot, 2), &h.bary);
+    h.sq_distance = (h.point - p).squaredNorm();
+    return h;
+  }
 };
+
+namespace {
+
+/// Spreads the low 10 bits of x to every third bit.
+std::uint32_t spread_bits(std::uint32_t x) {
+  x &= 0x3FFu;
+  x = (x | (x << 16)) & 0x030000FFu;
+  x = (x | (x << 8)) & 0x0300F00Fu;
+  x = (x | (x << 4)) & 0x030C30C3u;
+  x = (x | (x << 2)) & 0x09249249u;
+  return x;
+}
+
+/// Rows of P in Morton (Z-curve) order of a 1024^3 grid over their box, by a radix sort: nearby
+/// queries follow one another, so each starts from a tight bound and touches warm memory.
+std::vector<int> morton_order(const Eigen::MatrixXd& P) {
+  const Eigen::Index n = P.rows();
+  std::vector<int> out(static_cast<size_t>(n));
+  std::iota(out.begin(), out.end(), 0);
+  if (n < 2) return out;
+  const Eigen::RowVector3d lo = P.colwise().minCoeff(), span = (P.colwise().maxCoeff() - lo).cwiseMax(1e-300);
+  std::vector<std::uint32_t> code(static_cast<size_t>(n)), code2(static_cast<size_t>(n));
+  for (Eigen::Index i = 0; i < n; ++i) {
+    std::uint32_t c = 0;
+    for (int k = 0; k < 3; ++k)
+      c |= spread_bits(static_cast<std::uint32_t>(std::min(1023.0, (P(i, k) - lo[k]) / span[k] * 1024.0))) << k;
+    code[static_cast<size_t>(i)] = c;
+  }
+  std::vector<int> tmp(static_cast<size_t>(n));
+  for (int shift = 0; shift < 30; shift += 10) {  // three passes of 10 bits
+    std::vector<size_t> count(1025, 0);
+    for (size_t i = 0; i < out.size(); ++i) ++count[((code[i] >> shift) & 1023u) + 1];
+    for (size_t b = 1; b < count.size(); ++b) count[b] += count[b - 1];
+    for (size_t i = 0; i < out.size(); ++i) {
+      const size_t dst = count[(code[i] >> shift) & 1023u]++;
+      tmp[dst] = out[i];
+      code2[dst] = code[i];
+    }
+    out.swap(tmp);
+    code.swap(code2);
+  }
+  return out;
+}
+
+}  // namespace
 
 TriangleTree::TriangleTree(const Eigen::MatrixXd& V, const Eigen::MatrixXi& F) : impl_(std::make_unique<Impl>()) {
   if (F.rows() == 0) throw InvalidInput("TriangleTree: the mesh has no triangles");
@@ -136,48 +235,25 @@ TriangleTree::TriangleTree(const Eigen::MatrixXd& V, const Eigen::MatrixXi& F) :
   std::iota(s.order.begin(), s.order.end(), 0);
   s.nodes.reserve(static_cast<size_t>(F.rows() / 2 + 16));
   s.build(0, static_cast<int>(F.rows()), centroid, lo, hi);
+  s.slot_of.resize(s.order.size());
+  s.corners.resize(9 * s.order.size());
+  for (size_t i = 0; i < s.order.size(); ++i) {
+    const int f = s.order[i];
+    s.slot_of[static_cast<size_t>(f)] = static_cast<int>(i);
+    for (int c = 0; c < 3; ++c)
+      for (int k = 0; k < 3; ++k) s.corners[9 * i + 3 * c + k] = V(F(f, c), k);
+  }
 }
 
 TriangleTree::~TriangleTree() = default;
 
 int TriangleTree::closest(const Eigen::Vector3d& p, Eigen::Vector3d* point, double* distance, double max_distance) const {
   const Impl& s = *impl_;
-  double best = max_distance * max_distance;
-  int best_face = -1;
-  Eigen::Vector3d best_point = Eigen::Vector3d::Zero();
-  int stack[128];
-  int top = 0;
-  stack[top++] = 0;
-  while (top > 0) {
-    const Impl::Node& n = s.nodes[static_cast<size_t>(stack[--top])];
-    if (Impl::box_sq_distance(n, p) >= best) continue;
-    if (n.left < 0) {
-      for (int i = n.begin; i < n.end; ++i) {
-        const int f = s.order[static_cast<size_t>(i)];
-        const Eigen::Vector3d q = closest_point_on_triangle(p, s.V.row(s.F(f, 0)), s.V.row(s.F(f, 1)), s.V.row(s.F(f, 2)));
-        const double d = (q - p).squaredNorm();
-        if (d < best) {
-          best = d;
-          best_face = f;
-          best_point = q;
-        }
-      }
-      continue;
-    }
-    const double dl = Impl::box_sq_distance(s.nodes[static_cast<size_t>(n.left)], p);
-    const double dr = Impl::box_sq_distance(s.nodes[static_cast<size_t>(n.right)], p);
-    // Push the farther child first so that the nearer one is searched first.
-    if (dl < dr) {
-      if (dr < best) stack[top++] = n.right;
-      if (dl < best) stack[top++] = n.left;
-    } else {
-      if (dl < best) stack[top++] = n.left;
-      if (dr < best) stack[top++] = n.right;
-    }
-  }
-  if (point) *point = best_point;
-  if (distance) *distance = best_face >= 0 ? std::sqrt(best) : std::numeric_limits<double>::infinity();
-  return best_face;
+  Impl::Hit best{max_distance * max_distance, -1, Eigen::Vector3d::Zero(), Eigen::Vector3d::Zero()};
+  s.search(p, best);
+  if (point) *point = best.point;
+  if (distance) *distance = best.slot >= 0 ? std::sqrt(best.sq_distance) : std::numeric_limits<double>::infinity();
+  return best.slot >= 0 ? s.order[static_cast<size_t>(best.slot)] : -1;
 }
 
 ClosestPoints TriangleTree::closest(const Eigen::MatrixXd& P, int threads) const {
@@ -187,18 +263,20 @@ ClosestPoints TriangleTree::closest(const Eigen::MatrixXd& P, int threads) const
   out.point.resize(P.rows(), 3);
   out.bary.resize(P.rows(), 3);
   out.distance.resize(P.rows());
+  const std::vector<int> visit = morton_order(P);
   parallel_for_ranges(P.rows(), threads, [&](long begin, long end) {
-    for (long i = begin; i < end; ++i) {
-      Eigen::Vector3d q;
-      double d;
+    int previous = -1;
+    for (long k = begin; k < end; ++k) {
+      const int i = visit[static_cast<size_t>(k)];
       const Eigen::Vector3d p = P.row(i).transpose();
-      const int f = closest(p, &q, &d);
-      out.face[i] = f;
-      out.point.row(i) = q.transpose();
-      out.distance[i] = d;
-      Eigen::Vector3d b;
-      closest_point_on_triangle(p, s.V.row(s.F(f, 0)), s.V.row(s.F(f, 1)), s.V.row(s.F(f, 2)), &b);
-      out.bary.row(i) = b.transpose();
+      // The previous (nearby) query's triangle bounds the search from the start.
+      Impl::Hit best = s.hit_of(p, previous);
+      s.search(p, best);
+      previous = best.slot;
+      out.face[i] = s.order[static_cast<size_t>(best.slot)];
+      out.point.row(i) = best.point.transpose();
+      out.distance[i] = std::sqrt(best.sq_distance);
+      out.bary.row(i) = best.bary.transpose();
     }
   });
   return out;

@@ -1,0 +1,62 @@
+#include "posekit/core/point_grid.h"
+
+#include <gtest/gtest.h>
+
+#include <random>
+
+#include "posekit/core/error.h"
+
+using namespace posekit;
+
+namespace {
+
+int brute_nearest(const Eigen::MatrixXd& P, const Eigen::Vector3d& p, int skip, double* sq) {
+  int best = -1;
+  *sq = 1e300;
+  for (Eigen::Index i = 0; i < P.rows(); ++i) {
+    const double d = (P.row(i).transpose() - p).squaredNorm();
+    if (i != skip && d < *sq) *sq = d, best = static_cast<int>(i);
+  }
+  return best;
+}
+
+}  // namespace
+
+TEST(PointGrid, NearestMatchesABruteForceSearchInsideOutsideAndWithinARadius) {
+  std::mt19937 rng(3);
+  std::normal_distribution<double> g(0, 1);
+  // A thin shell (a scan is a surface) plus a far cluster: cells of very different occupancy.
+  Eigen::MatrixXd P(3000, 3);
+  for (Eigen::Index i = 0; i < P.rows(); ++i) {
+    Eigen::Vector3d v(g(rng), g(rng), g(rng));
+    const Eigen::Vector3d q = i < 2900 ? Eigen::Vector3d(v.normalized() * 0.3) : Eigen::Vector3d(v * 0.01 + Eigen::Vector3d(2, 0, 0));
+    P.row(i) = q.transpose();
+  }
+  for (const double cell : {0.0, 0.01, 0.5}) {
+    const PointGrid grid(P, cell);
+    std::uniform_real_distribution<double> u(-1.5, 3.0);
+    for (int q = 0; q < 300; ++q) {
+      const Eigen::Vector3d p(u(rng), u(rng) * 0.5, u(rng) * 0.5);  // many outside the grid's box
+      double sq, expected;
+      const int i = grid.nearest(p, &sq);
+      const int j = brute_nearest(P, p, -1, &expected);
+      ASSERT_EQ(sq, expected) << "cell " << cell << " query " << q;
+      EXPECT_EQ((P.row(i).transpose() - p).squaredNorm(), sq);
+      (void)j;
+      // Within a radius: the same answer when the nearest is inside it, none otherwise.
+      const double radius = 0.2;
+      double sq_r;
+      const int k = grid.nearest(p, &sq_r, radius);
+      if (expected < radius * radius) EXPECT_EQ(sq_r, expected);
+      else EXPECT_EQ(k, -1);
+    }
+    // A point's nearest other point.
+    for (int i = 0; i < 3000; i += 97) {
+      double sq, expected;
+      grid.nearest(P.row(i).transpose(), &sq, std::numeric_limits<double>::infinity(), i);
+      brute_nearest(P, P.row(i).transpose(), i, &expected);
+      ASSERT_EQ(sq, expected) << i;
+    }
+  }
+  EXPECT_THROW(PointGrid(Eigen::MatrixXd(0, 3)), InvalidInput);
+}
