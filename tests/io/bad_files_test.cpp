@@ -71,6 +71,13 @@ std::vector<BadFile> corpus() {
       {"ply_nan_coordinate", ".ply", one_binary_triangle(0, 1, 2, std::nanf("")), "non-finite"},
       {"ply_ascii_word", ".ply", ply_ascii_head + "0 0 0\n1 x 0\n0 1 0\n3 0 1 2\n", "expected a number"},
       {"ply_huge_list", ".ply", binary_ply_header(3, 1) + std::string(36, '\0') + "\xff" + std::string(8, '\0'), "truncated"},
+      // Found by the PLY fuzz target: a float list length or index that is NaN or not whole.
+      {"ply_nan_list_length", ".ply", "ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\nproperty float y\n"
+                                      "property float z\nelement face 1\nproperty list float int vertex_indices\nend_header\n"
+                                      "0 0 0\n1 0 0\n0 1 0\nnan 0 1 2\n", "implausible list length"},
+      {"ply_fractional_index", ".ply", "ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\nproperty float y\n"
+                                       "property float z\nelement face 1\nproperty list uchar float vertex_indices\n"
+                                       "end_header\n0 0 0\n1 0 0\n0 1 0\n3 0 1 nan\n", "is not a whole number"},
       {"ply_no_xyz", ".ply", "ply\nformat ascii 1.0\nelement vertex 1\nproperty float q\nend_header\n1\n", "no x, y, z"},
       {"off_wrong_header", ".off", "PFF\n3 1 0\n", "expected the header 'OFF'"},
       {"off_empty", ".off", "", "file ends early"},

@@ -275,6 +275,19 @@ class PlyParser {
     return -1;
   }
 
+  /// A list length: a whole number up to a million (a float type may hold NaN or 2.5).
+  void check_list_length(const PlyElement& e, long long i, double count) const {
+    if (!(count >= 0 && count <= 1e6) || count != std::floor(count))
+      fail_element(e, i, "implausible list length " + std::to_string(count));
+  }
+
+  /// A vertex index read as a number: a whole number (a float type may hold NaN or 2.5).
+  long long to_index(const PlyElement& e, long long i, double value) const {
+    if (!(std::abs(value) <= 2147483647.0) || value != std::floor(value))
+      fail_element(e, i, "vertex index " + std::to_string(value) + " is not a whole number in range");
+    return static_cast<long long>(value);
+  }
+
   void add_polygon(const PlyElement& e, long long f, const std::vector<long long>& poly) {
     if (poly.size() < 3) fail_element(e, f, "a face needs at least 3 vertices, got " + std::to_string(poly.size()));
     for (long long idx : poly)
@@ -325,13 +338,13 @@ class PlyParser {
           double count = 0;
           if (!read_binary_value(r, prop.count_type, count))
             fail_element(e, i, "file ends early (truncated binary data)");
-          if (count < 0 || count > 1e6) fail_element(e, i, "implausible list length " + std::to_string(count));
+          check_list_length(e, i, count);
           const bool keep = is_face && static_cast<int>(p) == list_index;
           if (keep) poly.clear();
           for (long long k = 0; k < static_cast<long long>(count); ++k) {
             if (!read_binary_value(r, prop.type, value))
               fail_element(e, i, "file ends early (truncated binary data)");
-            if (keep) poly.push_back(static_cast<long long>(value));
+            if (keep) poly.push_back(to_index(e, i, value));
           }
           if (keep) add_polygon(e, i, poly);
         }
@@ -367,12 +380,12 @@ class PlyParser {
             continue;
           }
           const double count = to_number(take(), e, i);
-          if (count < 0 || count > 1e6) fail_element(e, i, "implausible list length");
+          check_list_length(e, i, count);
           const bool keep = is_face && static_cast<int>(p) == list_index;
           if (keep) poly.clear();
           for (long long k = 0; k < static_cast<long long>(count); ++k) {
             const double value = to_number(take(), e, i);
-            if (keep) poly.push_back(static_cast<long long>(value));
+            if (keep) poly.push_back(to_index(e, i, value));
           }
           if (keep) add_polygon(e, i, poly);
         }
