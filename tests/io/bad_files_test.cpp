@@ -89,6 +89,8 @@ std::vector<BadFile> corpus() {
       {"stl_empty", ".stl", "", "not an STL file"},
       {"stl_ascii_partial_facet", ".stl", "solid x\nfacet normal 0 0 1\nouter loop\nvertex 0 0 0\nvertex 1 0 0\nendloop\nendfacet\nendsolid\n", "facets of 3"},
       {"stl_binary_nan", ".stl", std::string(80, ' ') + bytes_of<std::uint32_t>(1) + std::string(12, '\0') + bytes_of(std::nanf("")) + std::string(32 + 2, '\0'), "non-finite"},
+      {"pcd_width_times_height_overflows", ".pcd", "FIELDS x y z\nSIZE 4 4 4\nTYPE F F F\nWIDTH 4294967296\n"
+                                                   "HEIGHT 4294967296\nDATA binary\n", "more points than any file can hold"},
       {"pcd_no_data", ".pcd", "VERSION 0.7\nFIELDS x y z\n", "no DATA"},
       {"pcd_truncated_binary", ".pcd", pcd_head + "DATA binary\n" + std::string(20, '\0'), "truncated"},
       {"pcd_truncated_ascii", ".pcd", pcd_head + "DATA ascii\n1 2 3\n", "truncated"},

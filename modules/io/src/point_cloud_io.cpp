@@ -118,6 +118,10 @@ PointCloud read_pcd(const std::string& path, double scale) {
   if (width < 0) missing += " WIDTH";
   if (height < 0) missing += " HEIGHT";
   if (!missing.empty()) throw IoError(path + ": PCD header lacks" + missing + " (or gives a negative value)");
+  constexpr long long kMaxSide = 1LL << 31;  // keeps WIDTH x HEIGHT within 64 bits
+  if (width > kMaxSide || height > kMaxSide || points > kMaxSide * kMaxSide)
+    throw IoError(path + ": PCD header declares WIDTH " + std::to_string(width) + ", HEIGHT " + std::to_string(height) +
+                  ", POINTS " + std::to_string(points) + ": more points than any file can hold");
   if (points < 0) points = width * height;
   if (points != width * height)
     throw IoError(path + ": PCD header declares POINTS " + std::to_string(points) + " but WIDTH x HEIGHT = " +
