@@ -437,7 +437,9 @@ PointCloud read_xyz(const std::string& path, double scale, std::vector<std::stri
       split(text, tok);
     }
     if (tok.size() == 1) {  // PTS (Leica, Open3D): a point count before the points
-      declared = std::max(declared, 0LL) + lines.to_int(tok[0], "the point count of a PTS file");
+      const long long count = lines.to_int(tok[0], "the point count of a PTS file");
+      if (count < 0 || count > static_cast<long long>(bytes.size())) lines.fail("implausible point count " + std::to_string(count));
+      declared = std::max(declared, 0LL) + count;
       continue;
     }
     if (columns == 0 && is_name_line(tok)) {  // a bare header line such as "X Y Z Intensity"
