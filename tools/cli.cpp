@@ -216,6 +216,13 @@ std::pair<double, double> parse_number_pair(const std::string& text, char separa
   }
 }
 
+bool reset_peak_rss() {
+  std::ofstream clear("/proc/self/clear_refs");
+  clear << "5";
+  clear.flush();
+  return static_cast<bool>(clear);
+}
+
 double peak_rss_mib() {
   std::ifstream status("/proc/self/status");
   std::string line;

@@ -106,4 +106,8 @@ std::pair<double, double> parse_number_pair(const std::string& text, char separa
 /// Peak resident set size of this process so far, in MiB (from /proc/self/status).
 double peak_rss_mib();
 
+/// Resets that peak to the current resident size (Linux 4.0+, /proc/self/clear_refs), so that the
+/// peak of one stage of a benchmark can be read; false where the kernel does not allow it.
+bool reset_peak_rss();
+
 }  // namespace posekit::cli
