@@ -19,6 +19,6 @@ bash scripts/build.sh asan
 echo "== tests (AddressSanitizer + UndefinedBehaviorSanitizer)"
 export ASAN_OPTIONS=detect_leaks=1:abort_on_error=1 UBSAN_OPTIONS=print_stacktrace=1:halt_on_error=1
 # The sweeps over all sixteen subjects repeat, per subject, what the single-body tests check; they
-# run in the release pass above and are left out here (about 6 of the 12 sanitizer minutes).
+# run in the release pass above and are left out here (382 s of test time, about 3 min at -j2).
 (cd build/asan && ctest --output-on-failure -j"$jobs" \
    -E 'AllSixteen|SixteenOriginal|SixteenRemeshed|SubjectsAgreeWithTheRigLabels|EverySubjectGetsTheSameTopology')
