@@ -171,6 +171,16 @@ TEST(Pcd, GeoreferencedCoordinatesKeepMicrometres) {
   EXPECT_LT((read_point_cloud(dir.file("body.pcd")).P - body.P).cwiseAbs().maxCoeff(), 1e-6);
 }
 
+TEST(Pcd, AsciiFloatFieldsAreWrittenWithoutWideningNoise) {
+  test::TempDir dir;
+  PointCloud c;
+  c.P.resize(1, 3);
+  c.P << 0.1, 0.25, 1.7;
+  write_point_cloud(dir.file("a.pcd"), c, {Unit::kMetre, CloudFormat::kAuto, false});
+  const std::string text = slurp(dir.file("a.pcd"));
+  EXPECT_NE(text.find("\n0.1 0.25 1.7\n"), std::string::npos) << text;
+}
+
 TEST(Pcd, PackedColoursAreReadInEveryEncodingAndWritten) {
   test::TempDir dir;
   const std::uint32_t orange = (255u << 16) | (128u << 8) | 7u;

@@ -64,6 +64,14 @@ inline void put_number(std::ostream& out, double value, double scale = 1.0) {
   out.write(buf, r.ptr - buf);
 }
 
+/// Writes a float32 value (PCD fields stored as float) with the shortest text that reads back to it,
+/// not the 17 digits of its double widening (0.1f is "0.1", not "0.10000000149011612").
+inline void put_number(std::ostream& out, float value) {
+  char buf[32];
+  const auto r = std::to_chars(buf, buf + sizeof(buf), value);
+  out.write(buf, r.ptr - buf);
+}
+
 /// Appends a reader's or writer's warning where the caller asked for them (nullptr: nowhere).
 inline void warn(std::vector<std::string>* sink, std::string message) {
   if (sink) sink->push_back(std::move(message));
