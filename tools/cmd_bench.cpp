@@ -4,6 +4,7 @@
 #include <chrono>
 #include <cstdlib>
 #include <algorithm>
+#include <atomic>
 #include <cmath>
 #include <random>
 #include <filesystem>
@@ -17,6 +18,7 @@
 #include "posekit/body/makehuman_model.h"
 #include "posekit/body/parts.h"
 #include "posekit/body/skinning.h"
+#include "posekit/core/closest_point.h"
 #include "posekit/core/data_root.h"
 #include "posekit/core/error.h"
 #include "posekit/core/mesh_geometry.h"
@@ -255,12 +257,19 @@ int bench_pose(int argc, char** argv) {
       .option("runs", "R", "training runs and set-up runs per subject", "5")
       .option("poses", "P", "poses timed per subject (the dataset's poses, cycled)", "50")
       .option("subjects", "N", "use only the first N subjects (0: all)", "0")
+      .option("frames", "N", "a motion of N frames (the dataset's poses blended in sequence) posed by the learned "
+                             "method on the first subject",
+              "1000")
+      .option("threads", "T", "threads for the motion", "2")
       .flag("json", "results as JSON on stdout");
   if (!args.parse(argc, argv)) return 0;
   if (!args.has("dataset")) throw UsageError("--dataset DIR is required");
   const std::string dir = args.get("dataset");
   const int runs = static_cast<int>(args.get_int("runs")), pose_count = static_cast<int>(args.get_int("poses"));
+  const long frame_count = args.get_int("frames");
+  const int motion_threads = static_cast<int>(args.get_int("threads"));
   if (runs < 1 || pose_count < 1) throw UsageError("--runs and --poses must be at least 1");
+  if (frame_count < 1 || motion_threads < 1) throw UsageError("--frames and --threads must be at least 1");
   const PoseDataset data = load_pose_dataset(dir);
   std::vector<double> train_s;
   std::shared_ptr<const PoseModel> model;
@@ -282,9 +291,22 @@ int bench_pose(int argc, char** argv) {
   reset_peak_rss();
   const auto manifest = nlohmann::json::parse(read_file_bytes(dir + "/manifest.json"));
   const int limit = static_cast<int>(args.get_int("subjects"));
-  std::vector<double> setup_s, pose_ms, rigid_ms, lbs_ms;
+  std::vector<double> setup_s, pose_ms, rigid_ms, lbs_ms, motion_s;
   long vertices = 0;
   int count = 0;
+  // The motion: consecutive dataset poses blended (joint by joint, axis-angle), about 10 frames
+  // apart, as a capture at a steady rate would sample them.
+  std::vector<PartPose> motion(static_cast<size_t>(frame_count));
+  for (long f = 0; f < frame_count; ++f) {
+    const double at = static_cast<double>(f) / 10.0;
+    const size_t i = static_cast<size_t>(at) % data.poses.size(), next = (i + 1) % data.poses.size();
+    const double w = at - std::floor(at);
+    PartPose& p = motion[static_cast<size_t>(f)];
+    for (int j = 0; j < kNumJoints; ++j)
+      p.joint_rotation[static_cast<size_t>(j)] = (1 - w) * data.poses[i].joint_rotation[static_cast<size_t>(j)] +
+                                                 w * data.poses[next].joint_rotation[static_cast<size_t>(j)];
+    p.root_rotation = (1 - w) * data.poses[i].root_rotation + w * data.poses[next].root_rotation;
+  }
   Progress subjects_progress("bench pose subjects", static_cast<long>(manifest["subjects"].size()));
   for (const auto& s : manifest["subjects"]) {
     if (limit > 0 && count >= limit) break;
@@ -296,16 +318,31 @@ int bench_pose(int argc, char** argv) {
       synth = std::make_unique<PoseSynthesizer>(model, subject);
       setup_s.push_back(std::chrono::duration<double>(Clock::now() - t0).count());
     }
-    for (int i = 0; i < pose_count; ++i) {
-      const PartPose& pose = data.poses[static_cast<size_t>(i) % data.poses.size()];
-      for (auto [method, out] : {std::pair{PoseMethod::kLearned, &pose_ms}, std::pair{PoseMethod::kRigid, &rigid_ms},
-                                 std::pair{PoseMethod::kLbs, &lbs_ms}}) {
+    // Each method over its own run of poses, as a user posing a motion with it would.
+    for (auto [method, out] : {std::pair{PoseMethod::kLearned, &pose_ms}, std::pair{PoseMethod::kRigid, &rigid_ms},
+                               std::pair{PoseMethod::kLbs, &lbs_ms}})
+      for (int i = 0; i < pose_count; ++i) {
+        const PartPose& pose = data.poses[static_cast<size_t>(i) % data.poses.size()];
         const auto t0 = Clock::now();
         const Eigen::MatrixXd X = synth->pose(pose, method);
         out->push_back(1000 * std::chrono::duration<double>(Clock::now() - t0).count());
         if (!X.allFinite()) throw InvalidInput("posing produced a non-finite vertex");
       }
-    }
+    if (count == 0)
+      for (int r = 0; r < runs; ++r) {
+        // Each thread poses its share of the frames into its own buffer, as a player or exporter would.
+        std::atomic<long> non_finite{0};
+        const auto t0 = Clock::now();
+        parallel_for_ranges(frame_count, motion_threads, [&](long begin, long end) {
+          Eigen::MatrixXd X;
+          for (long f = begin; f < end; ++f) {
+            synth->pose(motion[static_cast<size_t>(f)], PoseMethod::kLearned, &X);
+            if (!X.allFinite()) ++non_finite;
+          }
+        }, 1);
+        motion_s.push_back(std::chrono::duration<double>(Clock::now() - t0).count());
+        if (non_finite > 0) throw InvalidInput("posing the motion produced non-finite vertices");
+      }
     ++count;
     subjects_progress.update(count);
   }
@@ -313,12 +350,13 @@ int bench_pose(int argc, char** argv) {
   const double pose_peak = peak_rss_mib();
   auto j = [](const Stats& st) { return nlohmann::ordered_json{{"median", st.median}, {"min", st.min}, {"max", st.max}}; };
   const Stats train = stats_of(train_s), setup = stats_of(setup_s), learned = stats_of(pose_ms), rigid = stats_of(rigid_ms),
-              lbs = stats_of(lbs_ms);
+              lbs = stats_of(lbs_ms), moving = stats_of(motion_s);
   nlohmann::ordered_json out = {{"benchmark", "pose"}, {"training_poses", model->training_poses},
                                 {"template_vertices", model->template_V.rows()}, {"subjects", count},
                                 {"mean_subject_vertices", vertices / std::max(count, 1)}, {"runs", runs},
                                 {"poses_per_subject", pose_count}, {"train_s", j(train)}, {"setup_s", j(setup)},
                                 {"pose_ms_learned", j(learned)}, {"pose_ms_rigid", j(rigid)}, {"pose_ms_lbs", j(lbs)},
+                                {"motion_frames", frame_count}, {"motion_threads", motion_threads}, {"motion_s", j(moving)},
                                 {"segmentation_prior_bodies", prior.bodies}, {"segmentation_prior_s", prior.seconds},
                                 {"peak_rss_mib", per_stage ? nlohmann::ordered_json{{"train", train_peak}, {"pose", pose_peak}}
                                                            : nlohmann::ordered_json(peak_rss_mib())}};
@@ -335,6 +373,8 @@ int bench_pose(int argc, char** argv) {
             << "| one pose, learned (ms) | " << learned.median << " | " << learned.min << " | " << learned.max << " |\n"
             << "| one pose, rigid (ms) | " << rigid.median << " | " << rigid.min << " | " << rigid.max << " |\n"
             << "| one pose, 16-part LBS (ms) | " << lbs.median << " | " << lbs.min << " | " << lbs.max << " |\n"
+            << "| motion of " << frame_count << " frames, learned, " << motion_threads << " threads (s) | " << moving.median
+            << " | " << moving.min << " | " << moving.max << " |\n"
             << "\npeak RSS " << std::setprecision(0);
   if (per_stage) std::cout << "training (with the prior) " << train_peak << " MiB, set-up and posing " << pose_peak << " MiB\n";
   else std::cout << peak_rss_mib() << " MiB (whole run)\n";

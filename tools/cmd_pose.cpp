@@ -107,7 +107,7 @@ int run_train(int argc, char** argv) {
   if (prior.bodies > 0)
     std::cout << "; segmentation prior of " << prior.bodies << " bodies in " << std::setprecision(2) << prior.seconds << " s"
               << (prior.skipped ? " (" + std::to_string(prior.skipped) + " left out: features not found)" : "");
-  std::cout << "; wrote " << args.get("out") << "\n";
+  std::cout << "; peak RSS " << std::setprecision(0) << peak_rss_mib() << " MiB; wrote " << args.get("out") << "\n";
   return 0;
 }
 
@@ -164,7 +164,7 @@ int run_pose(int argc, char** argv) {
   for (size_t i = 0; i < poses.size(); ++i) {
     const auto t1 = std::chrono::steady_clock::now();
     TriangleMesh posed;
-    posed.V = synth.pose(poses[i], method);
+    synth.pose(poses[i], method, &posed.V);
     pose_seconds += seconds_since(t1);
     posed.F = subject.F;
     posed.vertex_scalars["part"] = vertex_labels_from_triangles(subject.V, subject.F, synth.info().triangle_part).cast<double>();
@@ -182,7 +182,8 @@ int run_pose(int argc, char** argv) {
   nlohmann::ordered_json s = {{"subject", args.get("subject")}, {"method", pose_method_name(method)},
                               {"poses", poses.size()}, {"setup_seconds", setup},
                               {"pose_ms_mean", 1000 * pose_seconds / static_cast<double>(poses.size())},
-                              {"normal_failures", synth.info().normal_failures}, {"written", written}};
+                              {"normal_failures", synth.info().normal_failures}, {"written", written},
+                              {"peak_rss_mib", peak_rss_mib()}};
   if (args.flag_set("json")) {
     print_json(s);
     return 0;
@@ -190,8 +191,8 @@ int run_pose(int argc, char** argv) {
   std::cout << "posed " << args.get("subject") << " (" << subject.num_vertices() << " vertices) in " << poses.size()
             << (poses.size() == 1 ? " pose" : " poses") << " by the " << pose_method_name(method) << " method: set-up "
             << std::fixed << std::setprecision(3) << setup << " s, " << std::setprecision(2)
-            << 1000 * pose_seconds / static_cast<double>(poses.size()) << " ms per pose; wrote " << written.front()
-            << (written.size() > 1 ? " ..." : "") << "\n";
+            << 1000 * pose_seconds / static_cast<double>(poses.size()) << " ms per pose, peak RSS " << std::setprecision(0)
+            << peak_rss_mib() << " MiB; wrote " << written.front() << (written.size() > 1 ? " ..." : "") << "\n";
   return 0;
 }
 

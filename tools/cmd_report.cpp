@@ -40,7 +40,8 @@ int run_report(int argc, char** argv) {
   if (progress) progress->finish();
   for (const auto& w : s.warnings) std::cerr << "posekit report: warning: " << w << "\n";
   std::cout << "wrote " << args.get("out") << "/index.html (" << s.files.size() << " files, " << s.warnings.size()
-            << " warnings) in " << static_cast<int>(s.seconds + 0.5) << " s\n";
+            << " warnings) in " << static_cast<int>(s.seconds + 0.5) << " s, peak RSS " << static_cast<int>(peak_rss_mib() + 0.5)
+            << " MiB\n";
   return 0;
 }
 

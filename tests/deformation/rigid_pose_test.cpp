@@ -3,9 +3,11 @@
 #include <gtest/gtest.h>
 
 #include <Eigen/Geometry>
+#include <Eigen/SparseLU>
 #include <random>
 
 #include "posekit/core/error.h"
+#include "posekit/core/mesh_geometry.h"
 #include "posekit/deformation/poisson_solver.h"
 #include "posekit/deformation/pose_model.h"
 #include "testing/makehuman_fixture.h"
@@ -103,4 +105,41 @@ TEST(PoissonSolver, RecoversARigidMotionAndPlacesTheAnchor) {
   two.F.bottomRows(s.F.rows()) = s.F.array() + static_cast<int>(s.V.rows());
   EXPECT_THROW(PoissonSolver(two.V, two.F), InvalidInput);
   EXPECT_THROW(solver.solve(Eigen::MatrixXd::Zero(3, 9), Eigen::VectorXd::Ones(s.F.rows()), R, t), InvalidInput);
+}
+
+TEST(PoissonSolver, MatchesADirectSolveOfEq6ForNonRigidTransformations) {
+  const TriangleMesh s = test::icosphere(3);
+  std::srand(7);
+  Eigen::MatrixXd T = Eigen::MatrixXd::Random(s.F.rows(), 9) * 0.3;
+  for (Eigen::Index k = 0; k < T.rows(); ++k) T(k, 0) += 1, T(k, 4) += 1, T(k, 8) += 1;
+  const Eigen::VectorXd weight = (Eigen::VectorXd::Random(s.V.rows()).array() + 1.0) * 0.01;
+  const Eigen::MatrixXd targets = Eigen::MatrixXd::Random(s.V.rows(), 3);
+  // Reference: the normal equations of Eq. 6 assembled here and solved by a general sparse LU.
+  const Eigen::VectorXd area = face_areas(s.V, s.F);
+  std::vector<Eigen::Triplet<double>> entries;
+  Eigen::MatrixXd rhs = (targets.array().colwise() * weight.array()).matrix();
+  for (Eigen::Index k = 0; k < s.F.rows(); ++k) {
+    const double w = area[k] + 1e-6 * area.mean();
+    Eigen::Matrix3d Tk;
+    for (int e = 0; e < 9; ++e) Tk(e / 3, e % 3) = T(k, e);
+    for (int c = 0; c < 3; ++c) {
+      const int i = s.F(k, c), j = s.F(k, (c + 1) % 3);
+      entries.insert(entries.end(), {{i, i, w}, {j, j, w}, {i, j, -w}, {j, i, -w}});
+      const Eigen::RowVector3d d = w * (Tk * (s.V.row(j) - s.V.row(i)).transpose()).transpose();
+      rhs.row(j) += d;
+      rhs.row(i) -= d;
+    }
+  }
+  for (Eigen::Index v = 0; v < s.V.rows(); ++v) entries.emplace_back(v, v, weight[v]);
+  Eigen::SparseMatrix<double> A(s.V.rows(), s.V.rows());
+  A.setFromTriplets(entries.begin(), entries.end());
+  Eigen::SparseLU<Eigen::SparseMatrix<double>> lu(A);
+  const Eigen::MatrixXd expected = lu.solve(rhs);
+  const PoissonSolver solver(s.V, s.F, weight);
+  for (bool avx2 : {true, false}) {  // the AVX2 kernels where the CPU has them, and the baseline ones
+    use_avx2_kernels(avx2);
+    const Eigen::MatrixXd X = solver.solve(T, targets);
+    use_avx2_kernels(true);
+    EXPECT_LT((X - expected).cwiseAbs().maxCoeff(), 1e-9 * expected.cwiseAbs().maxCoeff()) << "avx2 " << avx2;
+  }
 }

@@ -18,6 +18,7 @@
 #include "posekit/segmentation/skeleton_embedding.h"
 #include "posekit/shape/body_features.h"
 #include "posekit/shape/layered_representation.h"
+#include "simd.h"
 
 namespace posekit {
 
@@ -68,10 +69,18 @@ struct PoseSynthesizer::Impl {
   SubjectSetupInfo info;
   Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor> coefficients;  // #F x 63, from the template
   Eigen::MatrixXi triangle_joints;    // #F x 2
+  Eigen::Matrix<int, Eigen::Dynamic, 2, Eigen::RowMajor> triangle_joints_by_row;
   Eigen::VectorXd pelvis_area;        // #F: the area of pelvis triangles, 0 elsewhere
   Eigen::VectorXi vertex_part;        // #V
   Eigen::MatrixXd lbs_weights;        // #V x 16
   std::unique_ptr<PoissonSolver> solver;
+  /// Eq. 4 folded into the solver's right-hand side: B_kf e_c (x y z), B_kf the 3 x 3 map of feature
+  /// f of triangle k and e_c the solver's weighted rest edge c. Per triangle in order: the bias
+  /// (f = 6) for c = 0, 1, 2, then for each of its joints (slot 0, then 1, if any) the three twist
+  /// axes. Float: the regression's own residual is 1e4 times larger than the rounding.
+  std::vector<float> edge_coefficients;
+  /// The solver's right-hand side for `method` (its per-thread buffer, see PoissonSolver::finish).
+  double* right_hand_side(const PartPose& pose, const PartTransforms& T, PoseMethod method) const;
 };
 
 namespace {
@@ -144,6 +153,7 @@ PoseSynthesizer::PoseSynthesizer(std::shared_ptr<const PoseModel> model, const T
     s.coefficients.row(k) = M.coefficients.row(s.info.template_triangle[k]);
     s.triangle_joints.row(k) = M.triangle_joints.row(s.info.template_triangle[k]);
   }
+  s.triangle_joints_by_row = s.triangle_joints;
   s.vertex_part = vertex_labels_from_triangles(s.V, s.F, s.info.triangle_part);
 
   const Eigen::VectorXd face_area = face_areas(s.V, s.F);
@@ -176,6 +186,21 @@ PoseSynthesizer::PoseSynthesizer(std::shared_ptr<const PoseModel> model, const T
   }
   s.solver = std::make_unique<PoissonSolver>(s.V, s.F, position_weight);
   s.info.seconds_factorisation = seconds_since(t0);
+  const PoissonSolver::EdgeMatrix& rest_edges = s.solver->weighted_rest_edges();
+  s.edge_coefficients.clear();
+  s.edge_coefficients.reserve(static_cast<size_t>(s.F.rows()) * 9 * kPoseFeatures);
+  for (Eigen::Index k = 0; k < s.F.rows(); ++k) {
+    for (int f : {6, 0, 1, 2, 3, 4, 5}) {
+      if (f < 6 && s.triangle_joints(k, f / 3) < 0) continue;
+      Eigen::Matrix3d B;
+      for (int m = 0; m < 9; ++m) B(m / 3, m % 3) = s.coefficients(k, m * kPoseFeatures + f);
+      for (int c = 0; c < 3; ++c) {
+        const Eigen::Vector3d b = B * rest_edges.row(k).segment<3>(4 * c).transpose();
+        for (int d = 0; d < 3; ++d) s.edge_coefficients.push_back(static_cast<float>(b[d]));
+      }
+    }
+  }
+
   s.pelvis_area = Eigen::VectorXd::Zero(s.F.rows());
   for (Eigen::Index k = 0; k < s.F.rows(); ++k)
     if (s.info.triangle_part[k] == kPelvis) s.pelvis_area[k] = face_area[k];
@@ -195,27 +220,142 @@ PoseSynthesizer::~PoseSynthesizer() = default;
 
 const SubjectSetupInfo& PoseSynthesizer::info() const { return impl_->info; }
 
+namespace {
+/// Per-thread buffers of pose(), so that posing a motion does not allocate per frame.
+struct PoseScratch {
+  PoissonSolver::RowMatrixX3d targets;
+  Eigen::Matrix<double, Eigen::Dynamic, 12, Eigen::RowMajor> blend;
+};
+PoseScratch& pose_scratch() {
+  thread_local PoseScratch scratch;
+  return scratch;
+}
+}  // namespace
+
+namespace {
+/// The right-hand side of Eq. 6 for one pose, straight into the solver's buffer: per triangle the
+/// transformed weighted edges e_c = R_part (sum_f x_f B_kf) e_c (Eq. 4 and Eq. 1, with the products
+/// B_kf e_c precomputed), or e_c = R_part e_c for the rigid method (`coefficients` null, `rest` the
+/// solver's weighted rest edges), and their divergence at the corners.
+struct RightHandSideInput {
+  long triangles;
+  const int* triangle_part;
+  const int* triangle_joints;  // 2 per triangle, -1: none
+  const float* coefficients;   // PoseSynthesizer::Impl::edge_coefficients, or null
+  const double* rest;          // #F x 12
+  const double* part_columns;  // per part the three columns of R, four doubles each (the fourth 0)
+  const double* joint_rotation;  // 3 per joint
+  const int* corners;          // PoissonSolver::factor_corners()
+  double* rhs;                 // PoissonSolver::start_right_hand_side()
+};
+
+inline __attribute__((always_inline)) void right_hand_side_body(const RightHandSideInput& in) {
+  using simd::Double4;
+  const Double4* columns = reinterpret_cast<const Double4*>(in.part_columns);
+  Double4* rows = reinterpret_cast<Double4*>(in.rhs);
+  const float* b = in.coefficients;
+  float x[2 * 3 + 1];
+  for (long k = 0; k < in.triangles; ++k) {
+    double g[9];
+    if (b) {
+      // sum_f x_f B_kf e_c in float: 8 entries in one register, the ninth apart.
+      int features = 0;
+      x[features++] = 1;  // the bias
+      for (int slot = 0; slot < 2; ++slot) {
+        const int joint = in.triangle_joints[2 * k + slot];
+        if (joint < 0) continue;
+        for (int axis = 0; axis < 3; ++axis) x[features++] = static_cast<float>(in.joint_rotation[3 * joint + axis]);
+      }
+      simd::Float8u head = x[0] * *reinterpret_cast<const simd::Float8u*>(b);
+      float last = b[8];
+      for (int f = 1; f < features; ++f) {
+        head += x[f] * *reinterpret_cast<const simd::Float8u*>(b + 9 * f);
+        last += x[f] * b[9 * f + 8];
+      }
+      b += 9 * features;
+      for (int i = 0; i < 8; ++i) g[i] = head[i];
+      g[8] = last;
+    } else {
+      for (int c = 0; c < 3; ++c)
+        for (int d = 0; d < 3; ++d) g[3 * c + d] = in.rest[12 * k + 4 * c + d];
+    }
+    const Double4* R = columns + 3 * in.triangle_part[k];
+    Double4 e[3];
+    for (int c = 0; c < 3; ++c) e[c] = g[3 * c] * R[0] + g[3 * c + 1] * R[1] + g[3 * c + 2] * R[2];
+    const int* corner = in.corners + 3 * k;
+    rows[corner[0]] += e[2] - e[0];
+    rows[corner[1]] += e[0] - e[1];
+    rows[corner[2]] += e[1] - e[2];
+  }
+}
+POSEKIT_TARGET_AVX2 void right_hand_side_avx2(const RightHandSideInput& in) { right_hand_side_body(in); }
+void right_hand_side_portable(const RightHandSideInput& in) { right_hand_side_body(in); }
+}  // namespace
+
+double* PoseSynthesizer::Impl::right_hand_side(const PartPose& pose, const PartTransforms& T, PoseMethod method) const {
+  alignas(32) double part_columns[kNumParts * 12];
+  for (int p = 0; p < kNumParts; ++p)
+    for (int c = 0; c < 3; ++c) {
+      for (int d = 0; d < 3; ++d) part_columns[12 * p + 4 * c + d] = T.R[static_cast<size_t>(p)](d, c);
+      part_columns[12 * p + 4 * c + 3] = 0;
+    }
+  double* rhs = solver->start_right_hand_side();
+  const RightHandSideInput input{F.rows(),
+                                 info.triangle_part.data(),
+                                 triangle_joints_by_row.data(),
+                                 method == PoseMethod::kLearned ? edge_coefficients.data() : nullptr,
+                                 solver->weighted_rest_edges().data(),
+                                 part_columns,
+                                 pose.joint_rotation[0].data(),
+                                 solver->factor_corners(),
+                                 rhs};
+  (simd::has_avx2() ? right_hand_side_avx2 : right_hand_side_portable)(input);
+  return rhs;
+}
+
 Eigen::MatrixXd PoseSynthesizer::pose(const PartPose& pose, PoseMethod method) const {
+  Eigen::MatrixXd X;
+  this->pose(pose, method, &X);
+  return X;
+}
+
+void PoseSynthesizer::pose(const PartPose& pose, PoseMethod method, Eigen::MatrixXd* X) const {
   const Impl& s = *impl_;
   validate_part_pose(pose, "pose");
   const PartTransforms T = part_transforms(pose, s.info.joint_centres);
+  PoseScratch& scratch = pose_scratch();
   if (method == PoseMethod::kLbs) {
-    Eigen::MatrixXd X = Eigen::MatrixXd::Zero(s.V.rows(), 3);
+    // Per vertex the weighted sum of the 16 part motions [R_p | t_p], as one dense product.
+    Eigen::Matrix<double, kNumParts, 12, Eigen::RowMajor> motions;
     for (int p = 0; p < kNumParts; ++p) {
-      const Eigen::MatrixXd moved =
-          (s.V * T.R[static_cast<size_t>(p)].transpose()).rowwise() + T.t[static_cast<size_t>(p)].transpose();
-      X.array() += moved.array().colwise() * s.lbs_weights.col(p).array();
+      for (int m = 0; m < 9; ++m) motions(p, m) = T.R[static_cast<size_t>(p)](m / 3, m % 3);
+      motions.row(p).tail<3>() = T.t[static_cast<size_t>(p)].transpose();
     }
-    return X;
+    scratch.blend.noalias() = s.lbs_weights * motions;
+    X->resize(s.V.rows(), 3);
+    for (Eigen::Index v = 0; v < s.V.rows(); ++v) {
+      const double* m = scratch.blend.data() + 12 * v;
+      for (int d = 0; d < 3; ++d)
+        (*X)(v, d) = m[3 * d] * s.V(v, 0) + m[3 * d + 1] * s.V(v, 1) + m[3 * d + 2] * s.V(v, 2) + m[9 + d];
+    }
+    return;
   }
-  Eigen::MatrixXd M(s.F.rows(), 9);
+  double* rhs = s.right_hand_side(pose, T, method);
+  if (s.solver->has_position_weights()) {
+    scratch.targets.resize(s.V.rows(), 3);
+    for (Eigen::Index v = 0; v < s.V.rows(); ++v) {
+      const size_t p = static_cast<size_t>(s.vertex_part[v]);
+      scratch.targets.row(v) = (T.R[p] * s.V.row(v).transpose() + T.t[p]).transpose();
+    }
+    s.solver->finish(rhs, scratch.targets, X);
+    return;
+  }
   // Anchor: the pelvis where it stays rigid (T^Q near the identity), so that skin moving at the hips
   // does not drag the body along.
   Eigen::VectorXd anchor = s.pelvis_area;
-  for (Eigen::Index k = 0; k < s.F.rows(); ++k) {
-    const Eigen::Matrix3d& R = T.R[static_cast<size_t>(s.info.triangle_part[k])];
-    Eigen::Matrix3d Tk = R;
-    if (method == PoseMethod::kLearned) {
+  if (method == PoseMethod::kLearned) {
+    for (Eigen::Index k = 0; k < s.F.rows(); ++k) {
+      if (!(anchor[k] > 0)) continue;
       Eigen::Matrix<double, kPoseFeatures, 1> x = Eigen::Matrix<double, kPoseFeatures, 1>::Zero();
       const int a = s.triangle_joints(k, 0), b = s.triangle_joints(k, 1);
       if (a >= 0) x.segment<3>(0) = pose.joint_rotation[static_cast<size_t>(a)];
@@ -223,23 +363,12 @@ Eigen::MatrixXd PoseSynthesizer::pose(const PartPose& pose, PoseMethod method) c
       x[6] = 1;
       const Eigen::Map<const Eigen::Matrix<double, 9, kPoseFeatures, Eigen::RowMajor>> B(s.coefficients.row(k).data());
       const Eigen::Matrix<double, 9, 1> q = B * x;
-      Eigen::Matrix3d Q;
-      Q << q[0], q[1], q[2], q[3], q[4], q[5], q[6], q[7], q[8];
-      Tk = R * Q;  // Eq. 1: T^R T^Q
-      if (anchor[k] > 0) anchor[k] *= std::exp(-(Q - Eigen::Matrix3d::Identity()).squaredNorm() / (0.02 * 0.02));
+      const Eigen::Map<const Eigen::Matrix<double, 3, 3, Eigen::RowMajor>> Q(q.data());
+      anchor[k] *= std::exp(-(Q - Eigen::Matrix3d::Identity()).squaredNorm() / (0.02 * 0.02));
     }
-    for (int entry = 0; entry < 9; ++entry) M(k, entry) = Tk(entry / 3, entry % 3);
-  }
-  if (s.solver->has_position_weights()) {
-    Eigen::MatrixXd targets(s.V.rows(), 3);
-    for (Eigen::Index v = 0; v < s.V.rows(); ++v) {
-      const size_t p = static_cast<size_t>(s.vertex_part[v]);
-      targets.row(v) = (T.R[p] * s.V.row(v).transpose() + T.t[p]).transpose();
-    }
-    return s.solver->solve(M, targets);
   }
   if (!(anchor.sum() > 1e-6 * s.pelvis_area.sum())) anchor = s.pelvis_area;
-  return s.solver->solve(M, anchor, T.R[kPelvis], T.t[kPelvis]);
+  s.solver->finish(rhs, anchor, T.R[kPelvis], T.t[kPelvis], X);
 }
 
 }  // namespace posekit

@@ -61,6 +61,9 @@ class PoseSynthesizer {
 
   /// The posed subject, #V x 3. Throws InvalidInput on a NaN or unknown pose.
   Eigen::MatrixXd pose(const PartPose& pose, PoseMethod method = PoseMethod::kLearned) const;
+  /// The same into `X` (resized when needed): posing a motion this way allocates nothing per frame.
+  /// Safe to call from several threads at once.
+  void pose(const PartPose& pose, PoseMethod method, Eigen::MatrixXd* X) const;
 
   const SubjectSetupInfo& info() const;
 
