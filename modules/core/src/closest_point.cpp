@@ -86,6 +86,7 @@ struct TriangleTree::Impl {
   std::vector<int> order;       // face of each leaf slot
   std::vector<int> slot_of;     // leaf slot of each face
   std::vector<double> corners;  // 9 per leaf slot: the triangle's corners, contiguous for the search
+  std::vector<double> boxes;    // 6 per leaf slot: the triangle's box (lo, hi), a cheap lower bound
   std::vector<Node> nodes;
 
   int build(int begin, int end, const Eigen::MatrixXd& centroid, const Eigen::MatrixXd& lo, const Eigen::MatrixXd& hi) {
@@ -142,6 +143,13 @@ struct TriangleTree::Impl {
       if (n.left < 0) {
         for (int i = n.begin; i < n.end; ++i) {
           if (i == best.slot) continue;
+          const double* box = &boxes[static_cast<size_t>(6 * i)];
+          double gap = 0;
+          for (int k = 0; k < 3; ++k) {
+            const double g = std::max({box[k] - p[k], p[k] - box[3 + k], 0.0});
+            gap += g * g;
+          }
+          if (gap >= best.sq_distance) continue;
           const Eigen::Vector3d q = closest_point_on_triangle(p, corner(i, 0), corner(i, 1), corner(i, 2), &bary);
           const double d = (q - p).squaredNorm();
           if (d < best.sq_distance) best = {d, i, q, bary};
@@ -237,11 +245,16 @@ TriangleTree::TriangleTree(const Eigen::MatrixXd& V, const Eigen::MatrixXi& F) :
   s.build(0, static_cast<int>(F.rows()), centroid, lo, hi);
   s.slot_of.resize(s.order.size());
   s.corners.resize(9 * s.order.size());
+  s.boxes.resize(6 * s.order.size());
   for (size_t i = 0; i < s.order.size(); ++i) {
     const int f = s.order[i];
     s.slot_of[static_cast<size_t>(f)] = static_cast<int>(i);
     for (int c = 0; c < 3; ++c)
       for (int k = 0; k < 3; ++k) s.corners[9 * i + 3 * c + k] = V(F(f, c), k);
+    for (int k = 0; k < 3; ++k) {
+      s.boxes[6 * i + k] = lo(f, k);
+      s.boxes[6 * i + 3 + k] = hi(f, k);
+    }
   }
 }
 
@@ -265,18 +278,37 @@ ClosestPoints TriangleTree::closest(const Eigen::MatrixXd& P, int threads) const
   out.distance.resize(P.rows());
   const std::vector<int> visit = morton_order(P);
   parallel_for_ranges(P.rows(), threads, [&](long begin, long end) {
+    // Queries go in blocks: the block's points are gathered into a contiguous copy and the results
+    // scattered back afterwards, so that the search loop itself never waits on a far-away row.
+    constexpr long kBlock = 2048;
+    struct Result {
+      Eigen::Vector3d point, bary;
+      double distance;
+      int face;
+    };
+    std::vector<Eigen::Vector3d> points(static_cast<size_t>(kBlock));
+    std::vector<Result> results(static_cast<size_t>(kBlock));
     int previous = -1;
-    for (long k = begin; k < end; ++k) {
-      const int i = visit[static_cast<size_t>(k)];
-      const Eigen::Vector3d p = P.row(i).transpose();
-      // The previous (nearby) query's triangle bounds the search from the start.
-      Impl::Hit best = s.hit_of(p, previous);
-      s.search(p, best);
-      previous = best.slot;
-      out.face[i] = s.order[static_cast<size_t>(best.slot)];
-      out.point.row(i) = best.point.transpose();
-      out.distance[i] = std::sqrt(best.sq_distance);
-      out.bary.row(i) = best.bary.transpose();
+    for (long block = begin; block < end; block += kBlock) {
+      const long count = std::min(kBlock, end - block);
+      for (long k = 0; k < count; ++k) points[static_cast<size_t>(k)] = P.row(visit[static_cast<size_t>(block + k)]).transpose();
+      for (long k = 0; k < count; ++k) {
+        const Eigen::Vector3d& p = points[static_cast<size_t>(k)];
+        // The previous (nearby) query's triangle bounds the search from the start.
+        Impl::Hit best = s.hit_of(p, previous);
+        s.search(p, best);
+        previous = best.slot;
+        results[static_cast<size_t>(k)] = {best.point, best.bary, std::sqrt(best.sq_distance),
+                                           s.order[static_cast<size_t>(best.slot)]};
+      }
+      for (long k = 0; k < count; ++k) {
+        const int i = visit[static_cast<size_t>(block + k)];
+        const Result& r = results[static_cast<size_t>(k)];
+        out.face[i] = r.face;
+        out.point.row(i) = r.point.transpose();
+        out.distance[i] = r.distance;
+        out.bary.row(i) = r.bary.transpose();
+      }
     }
   });
   return out;
