@@ -14,12 +14,17 @@ function(posekit_add_module name)
   set_target_properties(posekit_${name} PROPERTIES POSITION_INDEPENDENT_CODE ON)
 endfunction()
 
-# posekit_add_test(<module> SOURCES ... LIBS ...): one gtest binary per module, registered with CTest.
+# posekit_add_test(<module> [SHARED_DATASET] SOURCES ... LIBS ...): one gtest binary per module,
+# registered with CTest; SHARED_DATASET: its tests read the small dataset made once per CTest run.
 function(posekit_add_test module)
-  cmake_parse_arguments(ARG "" "" "SOURCES;LIBS" ${ARGN})
+  cmake_parse_arguments(ARG "SHARED_DATASET" "" "SOURCES;LIBS" ${ARGN})
   set(target posekit_${module}_tests)
   add_executable(${target} ${ARG_SOURCES})
   target_link_libraries(${target} PRIVATE posekit_${module} posekit_testing ${ARG_LIBS} GTest::gtest_main)
+  set(shared "")
+  if(ARG_SHARED_DATASET)
+    set(shared ${POSEKIT_SHARED_DATASET_PROPERTIES})
+  endif()
   gtest_discover_tests(${target} DISCOVERY_TIMEOUT 60
-                       PROPERTIES ENVIRONMENT "POSEKIT_DATA=${POSEKIT_DEFAULT_DATA_ROOT}")
+                       PROPERTIES ENVIRONMENT "POSEKIT_DATA=${POSEKIT_DEFAULT_DATA_ROOT}" ${shared})
 endfunction()

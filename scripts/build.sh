@@ -6,8 +6,9 @@ kind=${1:-release}; shift || true
 case "$kind" in
   release) flags=(-DCMAKE_BUILD_TYPE=Release) ;;
   # Line tables only (-g1): sanitizer reports keep file:line, and the build is lighter than with -g.
-  asan)    flags=(-DCMAKE_BUILD_TYPE=RelWithDebInfo "-DCMAKE_CXX_FLAGS_RELWITHDEBINFO=-O2 -g1 -DNDEBUG"
-                  "-DCMAKE_C_FLAGS_RELWITHDEBINFO=-O2 -g1 -DNDEBUG" -DPOSEKIT_SANITIZE=ON) ;;
+  # -O1: half the compile time of -O2 under the sanitizers (report.cpp: 25 s against 54 s).
+  asan)    flags=(-DCMAKE_BUILD_TYPE=RelWithDebInfo "-DCMAKE_CXX_FLAGS_RELWITHDEBINFO=-O1 -g1 -DNDEBUG"
+                  "-DCMAKE_C_FLAGS_RELWITHDEBINFO=-O1 -g1 -DNDEBUG" -DPOSEKIT_SANITIZE=ON) ;;
   *) echo "build.sh: unknown build '$kind' (release|asan)" >&2; exit 2 ;;
 esac
 # ccache keys on paths relative to the checkout, so every clone (CI's included) shares one cache.
