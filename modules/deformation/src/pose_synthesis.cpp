@@ -68,8 +68,7 @@ struct PoseSynthesizer::Impl {
   Eigen::MatrixXi F;
   SubjectSetupInfo info;
   Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor> coefficients;  // #F x 63, from the template
-  Eigen::MatrixXi triangle_joints;    // #F x 2
-  Eigen::Matrix<int, Eigen::Dynamic, 2, Eigen::RowMajor> triangle_joints_by_row;
+  Eigen::Matrix<int, Eigen::Dynamic, 2, Eigen::RowMajor> triangle_joints;  // #F x 2
   Eigen::VectorXd pelvis_area;        // #F: the area of pelvis triangles, 0 elsewhere
   Eigen::VectorXi vertex_part;        // #V
   Eigen::MatrixXd lbs_weights;        // #V x 16
@@ -153,7 +152,6 @@ PoseSynthesizer::PoseSynthesizer(std::shared_ptr<const PoseModel> model, const T
     s.coefficients.row(k) = M.coefficients.row(s.info.template_triangle[k]);
     s.triangle_joints.row(k) = M.triangle_joints.row(s.info.template_triangle[k]);
   }
-  s.triangle_joints_by_row = s.triangle_joints;
   s.vertex_part = vertex_labels_from_triangles(s.V, s.F, s.info.triangle_part);
 
   const Eigen::VectorXd face_area = face_areas(s.V, s.F);
@@ -230,9 +228,7 @@ PoseScratch& pose_scratch() {
   thread_local PoseScratch scratch;
   return scratch;
 }
-}  // namespace
 
-namespace {
 /// The right-hand side of Eq. 6 for one pose, straight into the solver's buffer: per triangle the
 /// transformed weighted edges e_c = R_part (sum_f x_f B_kf) e_c (Eq. 4 and Eq. 1, with the products
 /// B_kf e_c precomputed), or e_c = R_part e_c for the rigid method (`coefficients` null, `rest` the
@@ -302,7 +298,7 @@ double* PoseSynthesizer::Impl::right_hand_side(const PartPose& pose, const PartT
   double* rhs = solver->start_right_hand_side();
   const RightHandSideInput input{F.rows(),
                                  info.triangle_part.data(),
-                                 triangle_joints_by_row.data(),
+                                 triangle_joints.data(),
                                  method == PoseMethod::kLearned ? edge_coefficients.data() : nullptr,
                                  solver->weighted_rest_edges().data(),
                                  part_columns,

@@ -49,7 +49,8 @@ class PoissonSolver {
   /// per-thread buffer of #V rows of 4 doubles (x y z, then a pad left 0), 32-byte aligned, in the
   /// factor's row order. Corner c of triangle k is row factor_corners()[3 k + c] and receives
   /// e_{c-1} - e_c, the transformed edges as in solve_transformed_edges(). finish() then adds the
-  /// position targets (or places the anchor), solves in place and writes X.
+  /// position targets (or places the anchor), solves in place and writes X. The buffer is the
+  /// thread's own and is reused by this thread's next solve with any PoissonSolver.
   double* start_right_hand_side() const;
   const int* factor_corners() const;
   void finish(double* right_hand_side, const RowMatrixX3d& position_targets, Eigen::MatrixXd* X) const;
