@@ -22,7 +22,7 @@ echo "== the evaluation dataset: template, pose dataset, 16 subjects with ground
 "$posekit" dataset info "$out/dataset"
 echo "== measurements of a customized subject, from its mesh and from its simulated scan (ground truth in measurements.json)"
 "$posekit" measure "$out/dataset/subjects/f01/rest.ply"
-"$posekit" measure "$out/dataset/scans/f01/rest.pcd" --unit mm
+"$posekit" measure "$out/dataset/scans/f01/rest.pcd"
 echo "== ct-FFD registration of the template to a subject (Table 1 is in the report below)"
 "$posekit" register "$out/dataset/template/rest.ply" "$out/dataset/subjects/f01/rest.ply" \
   --out "$out/f01_correspondence.json" --deformed "$out/template_on_f01.ply"

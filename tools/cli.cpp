@@ -5,11 +5,13 @@
 #include <algorithm>
 #include <cstdio>
 #include <fstream>
+#include <iomanip>
 #include <iostream>
 #include <nlohmann/json.hpp>
 #include <sstream>
 
 #include "posekit/core/error.h"
+#include "posekit/core/units.h"
 #include "posekit/io/mesh_io.h"
 #include "posekit/io/point_cloud_io.h"
 
@@ -187,6 +189,46 @@ BodyInput read_body_input(const std::string& path, Unit unit) {
   }
   in.cloud = read_point_cloud(path, {unit, CloudFormat::kAuto, io_warnings()});
   flush_warnings();
+  return in;
+}
+
+std::string BodyUnit::describe() const {
+  std::ostringstream text;
+  text << unit_name(unit);
+  if (detected) text << " (detected from the body's largest extent, " << std::setprecision(4) << extent << ")";
+  else text << " (given)";
+  return text.str();
+}
+
+BodyInput read_body_input(const std::string& path, const std::string& unit_option, const std::string& command,
+                          BodyUnit* chosen) {
+  const bool automatic = unit_option == "auto";
+  BodyUnit u;
+  u.unit = automatic ? Unit::kMetre : parse_unit(unit_option);
+  BodyInput in = read_body_input(path, u.unit);
+  Eigen::MatrixXd& points = in.is_cloud ? in.cloud.P : in.mesh.V;
+  // The body's extent, robust to a scanner's stray points: the 0.5th to 99.5th percentile per axis.
+  for (Eigen::Index axis = 0; axis < points.cols() && points.rows() > 0; ++axis) {
+    std::vector<double> values(points.col(axis).data(), points.col(axis).data() + points.rows());
+    const auto at = [&](double fraction) {
+      auto nth = values.begin() + static_cast<long>(fraction * static_cast<double>(values.size() - 1));
+      std::nth_element(values.begin(), nth, values.end());
+      return *nth;
+    };
+    u.extent = std::max(u.extent, (at(0.995) - at(0.005)) / metres_per_unit(u.unit));
+  }
+  if (automatic) {
+    if (!guess_body_unit(u.extent, &u.unit)) {
+      std::ostringstream msg;
+      msg << path << ": cannot tell its unit: its largest extent (stray points aside), " << std::setprecision(4) << u.extent
+          << ", is no standing body or torso (0.5 to 3 m) in m, dm, cm or mm; give the unit (e.g. --unit mm)";
+      throw InvalidInput(msg.str());
+    }
+    u.detected = true;
+    points *= metres_per_unit(u.unit);
+    std::cerr << "posekit " << command << ": " << path << ": unit " << u.describe() << "\n";
+  }
+  if (chosen) *chosen = u;
   return in;
 }
 

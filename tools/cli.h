@@ -85,6 +85,21 @@ struct BodyInput {
 };
 BodyInput read_body_input(const std::string& path, Unit unit);
 
+/// The unit a body file was read in: given, or detected from its largest extent.
+struct BodyUnit {
+  Unit unit = Unit::kMetre;
+  bool detected = false;
+  double extent = 0;  ///< the largest extent (0.5th to 99.5th percentile per axis), in the file's numbers
+  /// e.g. "mm (detected from the body's largest extent, 1712)" or "m (given)".
+  std::string describe() const;
+};
+/// One unit rule for meshes and scans: `unit_option` is a unit (m, dm, cm, mm) or "auto", where the
+/// largest extent (stray points aside) tells (a standing body or a torso, 0.5 to 3 m, in m, dm, cm or mm). A detected
+/// unit is announced on stderr by `command`; an extent no unit explains is an error naming the
+/// file and asking for the unit.
+BodyInput read_body_input(const std::string& path, const std::string& unit_option, const std::string& command,
+                          BodyUnit* chosen);
+
 /// Where the CLI's readers and writers put their warnings (what was read with a caveat, what a
 /// format cannot hold). flush_warnings() prints them as "warning: ..." on stderr; main calls it
 /// after every command, failed or not, and commands call it after reading their inputs.

@@ -44,12 +44,12 @@ int run_compare(int argc, char** argv) {
   ArgParser args("compare",
                  "Compares a model mesh with a scan (point cloud or mesh): scan-to-model point-to-triangle distance\n"
                  "(exact, AABB tree over the model's triangles) and model-to-scan distance (nearest scan point,\n"
-                 "FLANN KD-tree) where the scan has data; vertices in scan holes are reported as uncovered, not as\n"
+                 "uniform grid) where the scan has data; vertices in scan holes are reported as uncovered, not as\n"
                  "error. Distances are signed by the model's outward normal (+: the scan lies outside the model).\n"
                  "All figures are in millimetres.");
   args.positional("model", "model mesh (PLY/OBJ/OFF/STL)").positional("scan", "scan: PCD/PLY/XYZ cloud, or a mesh")
-      .option("model-unit", "U", "unit of the model", "m")
-      .option("scan-unit", "U", "unit of the scan (posekit's simulated scans are mm)", "mm")
+      .option("model-unit", "U", "unit of the model: m, dm, cm, mm, or auto (its largest extent tells)", "auto")
+      .option("scan-unit", "U", "unit of the scan, as --model-unit", "auto")
       .option("threshold", "MM", "points beyond this distance are outliers, counted apart", "20")
       .option("coverage", "MM", "a vertex with no scan point this close is uncovered (0: 4x scan spacing, >= 10)", "0")
       .option("threads", "N", "threads (0: all cores)", "0")
@@ -62,8 +62,12 @@ int run_compare(int argc, char** argv) {
       .flag("json", "results as JSON on stdout")
       .example("posekit compare out/dataset/subjects/f01/rest.ply out/dataset/scans/f01/rest.pcd --measure --png f01.png");
   if (!args.parse(argc, argv)) return 0;
-  const TriangleMesh model = read_mesh(args.positionals()[0], {parse_unit(args.get("model-unit")), MeshFormat::kAuto, io_warnings()});
-  const BodyInput scan_input = read_body_input(args.positionals()[1], parse_unit(args.get("scan-unit")));
+  BodyUnit model_unit, scan_unit;
+  BodyInput model_input = read_body_input(args.positionals()[0], args.get("model-unit"), "compare", &model_unit);
+  if (model_input.is_cloud)
+    throw InvalidInput(args.positionals()[0] + ": the model must be a mesh (triangles); this file has only points");
+  const TriangleMesh model = std::move(model_input.mesh);
+  const BodyInput scan_input = read_body_input(args.positionals()[1], args.get("scan-unit"), "compare", &scan_unit);
   PointCloud scan = scan_input.cloud;
   if (!scan_input.is_cloud) scan.P = scan_input.mesh.V;
   if (scan.P.rows() == 0) throw InvalidInput(args.positionals()[1] + ": the scan has no points");
@@ -79,8 +83,17 @@ int run_compare(int argc, char** argv) {
     throw InvalidInput(args.positionals()[1] + " against " + args.positionals()[0] + ": " + e.what() +
                        " (set --scan-unit / --model-unit)");
   }
+  // The girths are an optional extra: when they cannot be taken, the distances still stand.
   std::vector<GirthDiscrepancy> girths;
-  if (args.flag_set("measure")) girths = girth_discrepancies(model, scan);
+  std::vector<std::string> warnings;
+  if (args.flag_set("measure")) {
+    try {
+      girths = girth_discrepancies(model, scan);
+    } catch (const InvalidInput& e) {
+      warnings.push_back(std::string("girths not compared: ") + e.what());
+      std::cerr << "posekit compare: warning: " << warnings.back() << "\n";
+    }
+  }
 
   if (args.has("out")) {
     TriangleMesh out = model;
@@ -88,12 +101,12 @@ int run_compare(int argc, char** argv) {
     Eigen::VectorXd covered(model.V.rows());
     for (Eigen::Index v = 0; v < covered.size(); ++v) covered[v] = std::isfinite(r.model_to_scan[v]) ? 1 : 0;
     out.vertex_scalars["covered"] = covered;
-    write_mesh(args.get("out"), out, {parse_unit(args.get("model-unit")), MeshFormat::kAuto, true, io_warnings()});
+    write_mesh(args.get("out"), out, {model_unit.unit, MeshFormat::kAuto, true, io_warnings()});
   }
   if (args.has("scan-out")) {
     PointCloud out = scan;
     out.point_scalars["signed_distance_mm"] = 1000 * r.scan_to_model;
-    write_point_cloud(args.get("scan-out"), out, {parse_unit(args.get("scan-unit")), CloudFormat::kAuto, true, io_warnings()});
+    write_point_cloud(args.get("scan-out"), out, {scan_unit.unit, CloudFormat::kAuto, true, io_warnings()});
   }
   if (args.has("png")) {
     ViewOptions v;
@@ -124,7 +137,10 @@ int run_compare(int argc, char** argv) {
                                 {"hausdorff_mm", r.hausdorff_mm}, {"coverage", r.coverage},
                                 {"uncovered_vertices", r.uncovered_vertices}, {"coverage_radius_mm", 1000 * r.coverage_radius},
                                 {"outlier_threshold_mm", 1000 * o.outlier_threshold}, {"seconds", r.seconds}};
+  out["model_unit"] = {{"unit", unit_name(model_unit.unit)}, {"detected", model_unit.detected}};
+  out["scan_unit"] = {{"unit", unit_name(scan_unit.unit)}, {"detected", scan_unit.detected}};
   if (!girths.empty()) out["girths"] = g;
+  out["warnings"] = warnings;
   if (args.flag_set("json")) {
     print_json(out);
     return 0;
@@ -138,6 +154,7 @@ int run_compare(int argc, char** argv) {
               << " | " << s->signed_mean_mm << " | " << s->outliers << " |\n";
   std::cout << "\nHausdorff " << r.hausdorff_mm << " mm; coverage " << std::setprecision(1) << 100 * r.coverage << "% ("
             << r.uncovered_vertices << " model vertices without scan data within " << 1000 * r.coverage_radius << " mm)\n";
+  for (const auto& w : warnings) std::cout << "\nwarning: " << w << "\n";
   if (!girths.empty()) {
     std::cout << "\n| measure | model cm | scan cm | difference cm | ISO 20685-1 tolerance mm | within |\n|---|---|---|---|---|---|\n";
     for (const auto& d : girths) {

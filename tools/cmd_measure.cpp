@@ -25,14 +25,14 @@ int run_measure(int argc, char** argv) {
                  "perimeters, definitions in the README), and the features they hang on. Works on meshes of any\n"
                  "topology and on scans (point clouds): a girth whose scan section has a hole is reported, not guessed.");
   args.positional("file", "body mesh (OBJ/PLY/OFF/STL) or scan (PCD/PLY/XYZ)")
-      .option("unit", "U", "unit of the file: m, dm, cm, mm (scans are usually mm)", "m")
+      .option("unit", "U", "unit of the file: m, dm, cm, mm, or auto (its largest extent tells)", "auto")
       .flag("json", "machine-readable results on stdout (metres)")
       .example("posekit measure subjects/f01/rest.ply")
-      .example("posekit measure scans/f01/rest.pcd --unit mm --json");
+      .example("posekit measure scans/f01/rest.pcd --json");
   if (!args.parse(argc, argv)) return 0;
   const std::string path = args.positionals()[0];
-  const Unit unit = parse_unit(args.get("unit"));
-  const BodyInput in = read_body_input(path, unit);
+  BodyUnit unit;
+  const BodyInput in = read_body_input(path, args.get("unit"), "measure", &unit);
   const bool cloud = in.is_cloud;
   const BodyMeasurements m = cloud ? measure_point_cloud(in.cloud.P) : measure_body(in.mesh.V, in.mesh.F);
   const BodyFeatures& f = m.features;
@@ -41,6 +41,7 @@ int run_measure(int argc, char** argv) {
     j["file"] = path;
     j["kind"] = cloud ? "point cloud" : "mesh";
     j["units"] = "m";
+    j["file_unit"] = {{"unit", unit_name(unit.unit)}, {"detected", unit.detected}, {"largest_extent", unit.extent}};
     j["stature"] = m.stature;
     for (const auto& g : m.girths) {
       nlohmann::ordered_json e = {{"measured", g.measured}, {"point", vec(g.point)}, {"normal", vec(g.normal)}};

@@ -12,6 +12,7 @@
 
 #include "posekit/io/bvh.h"
 #include "posekit/io/mesh_io.h"
+#include "posekit/io/point_cloud_io.h"
 #include "testing/small_dataset.h"
 #include "testing/temp_dir.h"
 #include "testing/test_meshes.h"
@@ -300,6 +301,54 @@ TEST(Cli, CompareMeasureAndView) {
   dir.write("empty.xyz", "");
   EXPECT_EQ(run("compare " + subject + " " + dir.file("empty.xyz")).code, 1);
   EXPECT_FALSE(std::filesystem::exists(dir.file("x.png")));
+}
+
+// One unit rule: a scan in metres, or in millimetres, just works; the detected unit is reported.
+TEST(Cli, CompareAndMeasureTellTheUnitFromTheExtent) {
+  ASSERT_FALSE(test::test_data_root().empty());
+  test::TempDir dir;
+  const std::string ds = test::small_dataset().root;
+  const std::string subject = ds + "/subjects/m01/rest.ply", scan_mm = ds + "/scans/m01/rest.pcd";
+  ASSERT_EQ(run("convert " + scan_mm + " " + dir.file("scan_m.ply") + " --from-unit mm --to-unit m").code, 0);
+  CommandResult r = run("compare " + subject + " " + dir.file("scan_m.ply") + " --json");
+  ASSERT_EQ(r.code, 0) << r.out;
+  auto j = nlohmann::json::parse(r.out);
+  EXPECT_EQ(j["scan_unit"]["unit"], "m");
+  EXPECT_TRUE(j["scan_unit"]["detected"].get<bool>());
+  EXPECT_EQ(j["model_unit"]["unit"], "m");
+  EXPECT_LT(j["scan_to_model"]["rms_mm"].get<double>(), 2.5);
+  r = run("measure " + scan_mm + " --json");
+  ASSERT_EQ(r.code, 0) << r.out;
+  j = nlohmann::json::parse(r.out);
+  EXPECT_EQ(j["file_unit"]["unit"], "mm");
+  EXPECT_GT(j["stature"].get<double>(), 1.4);
+  EXPECT_LT(j["stature"].get<double>(), 2.1);
+  // A 4-unit box is no body in any unit (4 m, 0.4 m, 4 cm, 4 mm): the error asks for the unit.
+  TriangleMesh box = test::unit_cube();
+  box.V *= 4;
+  write_mesh(dir.file("box.ply"), box);
+  r = run("measure " + dir.file("box.ply"), true);
+  EXPECT_EQ(r.code, 1);
+  EXPECT_NE(r.out.find("cannot tell its unit"), std::string::npos) << r.out;
+  // Only the lower 60% of the body scanned: the scan cannot be measured, but the distances stand,
+  // and the girths' failure is a warning beside them (it used to drop the whole comparison).
+  const PointCloud full = read_point_cloud(scan_mm, {Unit::kMillimetre});
+  const double cut = full.P.col(1).minCoeff() + 0.6 * (full.P.col(1).maxCoeff() - full.P.col(1).minCoeff());
+  PointCloud lower;
+  lower.P.resize(full.P.rows(), 3);
+  Eigen::Index kept = 0;
+  for (Eigen::Index i = 0; i < full.P.rows(); ++i)
+    if (full.P(i, 1) < cut) lower.P.row(kept++) = full.P.row(i);
+  lower.P.conservativeResize(kept, 3);
+  write_point_cloud(dir.file("lower.pcd"), lower, {Unit::kMillimetre});
+  r = run("compare " + subject + " " + dir.file("lower.pcd") + " --measure --json");
+  ASSERT_EQ(r.code, 0) << r.out;
+  j = nlohmann::json::parse(r.out);
+  EXPECT_EQ(j["scan_unit"]["unit"], "mm");
+  EXPECT_EQ(j["scan_to_model"]["count"].get<long>() + j["scan_to_model"]["outliers"].get<long>(), kept);
+  EXPECT_FALSE(j.contains("girths"));
+  ASSERT_EQ(j["warnings"].size(), 1u);
+  EXPECT_NE(j["warnings"][0].get<std::string>().find("measuring the scan"), std::string::npos) << j["warnings"];
 }
 
 // The report through the CLI (the sanitizer pass leaves it out: Report.* runs the same report in process).

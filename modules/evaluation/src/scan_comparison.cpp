@@ -152,8 +152,15 @@ ScanComparison compare_with_scan(const TriangleMesh& model, const PointCloud& sc
 }
 
 std::vector<GirthDiscrepancy> girth_discrepancies(const TriangleMesh& model, const PointCloud& scan) {
-  const BodyMeasurements a = measure_body(model.V, model.F);
-  const BodyMeasurements b = measure_point_cloud(scan.P);
+  auto measured = [](const std::string& which, const auto& measure) {
+    try {
+      return measure();
+    } catch (const InvalidInput& e) {
+      throw InvalidInput("measuring the " + which + ": " + e.what());
+    }
+  };
+  const BodyMeasurements a = measured("model", [&] { return measure_body(model.V, model.F); });
+  const BodyMeasurements b = measured("scan", [&] { return measure_point_cloud(scan.P); });
   std::vector<GirthDiscrepancy> out;
   GirthDiscrepancy stature;
   stature.name = "stature";
