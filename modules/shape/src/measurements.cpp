@@ -3,6 +3,7 @@
 #include <Eigen/Cholesky>
 #include <Eigen/Geometry>
 #include <algorithm>
+#include <sstream>
 #include <array>
 #include <cmath>
 #include <limits>
@@ -228,10 +229,50 @@ BodyMeasurements measure(const BodyFeatures& f, Section&& section) {
   }
   // Neck: perpendicular to the neck axis (neck joint to head joint), a third of the way up.
   add("neck", f.neck_joint + (f.head_joint - f.neck_joint) / 3.0, f.head_joint - f.neck_joint);
+  reject_implausible_girths(&m);
   return m;
 }
 
 }  // namespace
+
+void reject_implausible_girths(BodyMeasurements* m) {
+  auto girth = [&](const std::string& name) -> Girth* {
+    for (Girth& g : m->girths)
+      if (g.name == name) return &g;
+    return nullptr;
+  };
+  auto reject = [](Girth* g, const std::string& why) {
+    std::ostringstream note;
+    note.precision(1);
+    note << std::fixed << "rejected as implausible: " << 100 * g->value << " cm " << why;
+    g->measured = false;
+    g->note = note.str();
+  };
+  // A limb or the neck is never as big round as 0.6 of the stature, a torso girth never 1.5 times it.
+  if (m->stature > 0)
+    for (Girth& g : m->girths) {
+      const bool torso = g.name == "bust" || g.name == "underbust" || g.name == "waist" || g.name == "hip";
+      const double limit = (torso ? 1.5 : 0.6) * m->stature;
+      if (g.measured && g.value > limit) {
+        std::ostringstream why;
+        why.precision(1);
+        why << std::fixed << "is more than " << (torso ? "1.5 times" : "0.6 of") << " the stature (" << 100 * m->stature
+            << " cm): the section did not isolate the " << g.name;
+        reject(&g, why.str());
+      }
+    }
+  // Anatomical order: the distal or smaller part is thinner than the one it hangs from.
+  const std::pair<const char*, const char*> smaller_than[] = {
+      {"neck", "bust"}, {"neck", "hip"}, {"wrist", "upper_arm"}, {"ankle", "calf"}, {"knee", "thigh"}, {"calf", "thigh"}};
+  for (const auto& [small, large] : smaller_than) {
+    Girth *a = girth(small), *b = girth(large);
+    if (!a || !b || !a->measured || !b->measured || a->value < b->value) continue;
+    std::ostringstream why;
+    why.precision(1);
+    why << std::fixed << "is not smaller than the " << large << " (" << 100 * b->value << " cm), as it is on every body";
+    reject(a, why.str());
+  }
+}
 
 const Girth* BodyMeasurements::find(const std::string& name) const {
   for (const auto& g : girths)

@@ -27,6 +27,12 @@ struct BodyMeasurements {
   const Girth* find(const std::string& name) const;
 };
 
+/// Sanity checks on measured girths, applied by measure_body and measure_point_cloud: a limb or
+/// neck girth over 0.6 of the stature, a torso girth over 1.5 times it, or a girth not smaller than
+/// the one anatomy puts above it (neck < bust and hip, wrist < upper arm, ankle < calf, knee and calf
+/// < thigh) is marked not measured, its note saying why.
+void reject_implausible_girths(BodyMeasurements* m);
+
 /// Measures a standing body mesh. Throws InvalidInput as find_body_features does.
 BodyMeasurements measure_body(const Eigen::MatrixXd& V, const Eigen::MatrixXi& F);
 
