@@ -136,35 +136,29 @@ TEST(Measurements, ThighsThatTouchInAScanAreReportedNotMeasuredTwice) {
 // The impossible numbers seen on real bodies (a 156.9 cm neck, a 130.9 cm upper arm) are reported
 // as not measured, with the reason; plausible girths stay.
 TEST(Measurements, ImplausibleGirthsAreRejectedWithTheReason) {
-  BodyMeasurements m;
-  m.stature = 1.75;
-  for (auto [name, value] : std::initializer_list<std::pair<const char*, double>>{
-           {"bust", 1.02}, {"waist", 0.88}, {"hip", 1.01}, {"thigh", 0.58}, {"knee", 0.39}, {"calf", 0.38},
-           {"ankle", 0.23}, {"upper_arm", 1.309}, {"wrist", 0.17}, {"neck", 1.569}}) {
-    Girth g;
-    g.name = name;
-    g.value = value;
-    g.measured = true;
-    m.girths.push_back(g);
-  }
-  reject_implausible_girths(&m);
+  auto measured = [](std::initializer_list<std::pair<const char*, double>> girths) {
+    BodyMeasurements m;
+    m.stature = 1.75;
+    for (auto [name, value] : girths) {
+      Girth g;
+      g.name = name;
+      g.value = value;
+      g.measured = true;
+      m.girths.push_back(g);
+    }
+    reject_implausible_girths(&m);
+    return m;
+  };
+  const BodyMeasurements m = measured({{"bust", 1.02}, {"waist", 0.88}, {"hip", 1.01}, {"thigh", 0.58}, {"knee", 0.39},
+                                       {"calf", 0.38}, {"ankle", 0.23}, {"upper_arm", 1.309}, {"wrist", 0.17},
+                                       {"neck", 1.569}});
   for (const Girth& g : m.girths) {
     const bool implausible = g.name == "upper_arm" || g.name == "neck";
     EXPECT_EQ(g.measured, !implausible) << g.name;
     if (implausible) EXPECT_NE(g.note.find("0.6 of the stature"), std::string::npos) << g.note;
   }
   // A neck fuller than the chest, and an ankle fuller than the calf, but each under 0.6 of the stature.
-  BodyMeasurements order;
-  order.stature = 1.75;
-  for (auto [name, value] : std::initializer_list<std::pair<const char*, double>>{
-           {"bust", 0.80}, {"hip", 0.95}, {"neck", 0.85}, {"calf", 0.36}, {"ankle", 0.40}}) {
-    Girth g;
-    g.name = name;
-    g.value = value;
-    g.measured = true;
-    order.girths.push_back(g);
-  }
-  reject_implausible_girths(&order);
+  const BodyMeasurements order = measured({{"bust", 0.80}, {"hip", 0.95}, {"neck", 0.85}, {"calf", 0.36}, {"ankle", 0.40}});
   EXPECT_FALSE(order.find("neck")->measured);
   EXPECT_NE(order.find("neck")->note.find("not smaller than the bust"), std::string::npos) << order.find("neck")->note;
   EXPECT_FALSE(order.find("ankle")->measured);
