@@ -207,17 +207,8 @@ BodyInput read_body_input(const std::string& path, const std::string& unit_optio
   u.unit = automatic ? Unit::kMetre : parse_unit(unit_option);
   BodyInput in = read_body_input(path, u.unit);
   Eigen::MatrixXd& points = in.is_cloud ? in.cloud.P : in.mesh.V;
-  // The body's extent, robust to a scanner's stray points: the 0.5th to 99.5th percentile per axis.
-  for (Eigen::Index axis = 0; axis < points.cols() && points.rows() > 0; ++axis) {
-    std::vector<double> values(points.col(axis).data(), points.col(axis).data() + points.rows());
-    const auto at = [&](double fraction) {
-      auto nth = values.begin() + static_cast<long>(fraction * static_cast<double>(values.size() - 1));
-      std::nth_element(values.begin(), nth, values.end());
-      return *nth;
-    };
-    u.extent = std::max(u.extent, (at(0.995) - at(0.005)) / metres_per_unit(u.unit));
-  }
   if (automatic) {
+    u.extent = robust_largest_extent(points);
     if (!guess_body_unit(u.extent, &u.unit)) {
       std::ostringstream msg;
       msg << path << ": cannot tell its unit: its largest extent (stray points aside), " << std::setprecision(4) << u.extent

@@ -89,7 +89,7 @@ BodyInput read_body_input(const std::string& path, Unit unit);
 struct BodyUnit {
   Unit unit = Unit::kMetre;
   bool detected = false;
-  double extent = 0;  ///< the largest extent (0.5th to 99.5th percentile per axis), in the file's numbers
+  double extent = 0;  ///< when detected: robust_largest_extent() in the file's numbers
   /// e.g. "mm (detected from the body's largest extent, 1712)" or "m (given)".
   std::string describe() const;
 };

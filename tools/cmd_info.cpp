@@ -94,7 +94,7 @@ int run_info(int argc, char** argv) {
     const BoundingBox box = bounding_box(points);
     report["bounding_box"] = box_json(box, to_unit);
     Unit guess;
-    const double extent_in_file_units = box.extent().maxCoeff() * to_unit;
+    const double extent_in_file_units = robust_largest_extent(points) * to_unit;  // as measure and compare tell it
     if (guess_body_unit(extent_in_file_units, &guess)) {
       report["unit_guess_for_a_body"] = unit_name(guess);
       if (guess != unit)

@@ -26,3 +26,16 @@ TEST(Units, GuessesTheUnitOfAStandingBody) {
   EXPECT_EQ(u, Unit::kMillimetre);
   EXPECT_FALSE(guess_body_unit(1e7, &u));
 }
+
+TEST(Units, RobustExtentIgnoresAFewStrayPoints) {
+  // 1000 points over a 1.7 m column and 3 strays 40 m away: the extent is the column's.
+  Eigen::MatrixXd P(1003, 3);
+  for (int i = 0; i < 1000; ++i) P.row(i) << 0.1 * (i % 3), 1.7 * i / 999.0, 0.05 * (i % 5);
+  P.bottomRows(3) << 40, 0, 0, 0, 40, 0, 0, 0, -40;
+  EXPECT_NEAR(robust_largest_extent(P), 1.7, 0.02);
+  EXPECT_GT((P.colwise().maxCoeff() - P.colwise().minCoeff()).maxCoeff(), 40.0);  // the plain box
+  Unit unit;
+  ASSERT_TRUE(guess_body_unit(robust_largest_extent(P * 1000), &unit));
+  EXPECT_EQ(unit, Unit::kMillimetre);
+  EXPECT_EQ(robust_largest_extent(Eigen::MatrixXd(0, 3)), 0.0);
+}

@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cctype>
+#include <vector>
 
 #include "posekit/core/error.h"
 
@@ -49,6 +50,20 @@ bool guess_body_unit(double largest_extent, Unit* unit) {
     }
   }
   return false;
+}
+
+double robust_largest_extent(const Eigen::MatrixXd& P) {
+  double extent = 0;
+  for (Eigen::Index axis = 0; axis < P.cols() && P.rows() > 0; ++axis) {
+    std::vector<double> values(P.col(axis).data(), P.col(axis).data() + P.rows());
+    const auto at = [&](double fraction) {
+      auto nth = values.begin() + static_cast<long>(fraction * static_cast<double>(values.size() - 1));
+      std::nth_element(values.begin(), nth, values.end());
+      return *nth;
+    };
+    extent = std::max(extent, at(0.995) - at(0.005));
+  }
+  return extent;
 }
 
 }  // namespace posekit

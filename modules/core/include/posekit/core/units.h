@@ -1,4 +1,5 @@
 #pragma once
+#include <Eigen/Core>
 #include <string>
 
 namespace posekit {
@@ -19,5 +20,9 @@ std::string unit_name(Unit unit);
 /// Guess of the unit a human body file was written in from its largest bounding-box extent
 /// (a standing adult is 1.4-2.1 m). Returns false when the extent fits no unit.
 bool guess_body_unit(double largest_extent, Unit* unit);
+
+/// A body's largest extent, robust to a scanner's stray points: the largest 0.5th-to-99.5th
+/// percentile range of the coordinates (#P x 3) along an axis. 0 for no points.
+double robust_largest_extent(const Eigen::MatrixXd& P);
 
 }  // namespace posekit
