@@ -223,6 +223,60 @@ BodyInput read_body_input(const std::string& path, const std::string& unit_optio
   return in;
 }
 
+void add_orientation_options(ArgParser* args, const std::string& prefix, const std::string& what) {
+  args->option(prefix + "up", "AXIS", "the axis " + what + " stands along (+X, -Y, ...) or auto (detected)", "auto")
+      .option(prefix + "forward", "AXIS", "the axis " + what + " faces, or auto (the feet tell)", "auto");
+}
+
+BodyOrientation orient_body_input(BodyInput* in, const std::string& up_option, const std::string& forward_option,
+                                  const std::string& path, const std::string& command) {
+  OrientationOptions o;
+  if (up_option != "auto") o.up = parse_axis(up_option);
+  if (forward_option != "auto") o.forward = parse_axis(forward_option);
+  BodyOrientation orientation;
+  try {
+    if (in->is_cloud) {
+      orientation = detect_body_orientation(in->cloud.P, {}, o);
+    } else {
+      if (in->mesh.F.rows() == 0) throw InvalidInput("the mesh has no faces");
+      orientation = detect_mesh_orientation(in->mesh.V, in->mesh.F, o);
+    }
+  } catch (const InvalidInput& e) {
+    throw InvalidInput(path + ": " + e.what());
+  }
+  const Eigen::Matrix3d Rt = orientation.rotation.transpose();
+  auto turn = [&](Eigen::MatrixXd* M) {
+    if (M->rows() > 0) *M = (*M * Rt).eval();
+  };
+  if (!orientation.is_identity()) {
+    turn(&in->cloud.P);
+    turn(&in->cloud.N);
+    turn(&in->mesh.V);
+    turn(&in->mesh.N);
+  }
+  std::cerr << "posekit " << command << ": " << path << ": " << orientation.describe()
+            << (orientation.is_identity() ? ", posekit's own frame" : ": turned into posekit's frame (Y up, facing +Z)")
+            << "\n";
+  for (const auto& w : orientation.warnings) std::cerr << "warning: " << path << ": " << w << "\n";
+  return orientation;
+}
+
+Eigen::MatrixXd in_file_frame(const BodyOrientation& orientation, const Eigen::MatrixXd& P) {
+  return P * orientation.rotation;  // rows: (R^T p)^T = p^T R
+}
+
+Eigen::Vector3d in_file_frame(const BodyOrientation& orientation, const Eigen::Vector3d& p) {
+  return orientation.rotation.transpose() * p;
+}
+
+nlohmann::ordered_json orientation_json(const BodyOrientation& orientation) {
+  nlohmann::ordered_json R = nlohmann::ordered_json::array();
+  for (int r = 0; r < 3; ++r) R.push_back({orientation.rotation(r, 0), orientation.rotation(r, 1), orientation.rotation(r, 2)});
+  return {{"up", axis_name(orientation.up())}, {"forward", axis_name(orientation.forward())},
+          {"up_detected", orientation.up_detected}, {"forward_detected", orientation.forward_detected},
+          {"posekit_from_file", R}, {"warnings", orientation.warnings}};
+}
+
 void print_json(const nlohmann::json& value) { std::cout << value.dump(2) << std::endl; }
 
 Stats stats_of(std::vector<double> v) {

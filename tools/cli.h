@@ -11,6 +11,7 @@
 #include "posekit/core/point_cloud.h"
 #include "posekit/core/triangle_mesh.h"
 #include "posekit/core/units.h"
+#include "posekit/shape/body_orientation.h"
 
 namespace posekit::cli {
 
@@ -99,6 +100,23 @@ struct BodyUnit {
 /// file and asking for the unit.
 BodyInput read_body_input(const std::string& path, const std::string& unit_option, const std::string& command,
                           BodyUnit* chosen);
+
+/// Adds --<prefix>up and --<prefix>forward (an axis such as +X or -Z, or auto) for `what`.
+void add_orientation_options(ArgParser* args, const std::string& prefix = "", const std::string& what = "the body");
+
+/// Turns a body read from `path` into posekit's frame (Y up, facing +Z, left +X): the options are
+/// axes or "auto" (detected from the body's shape). Announces the orientation on stderr from
+/// `command`, with any doubt as warnings; normals turn too. Returns the orientation applied.
+BodyOrientation orient_body_input(BodyInput* in, const std::string& up_option, const std::string& forward_option,
+                                  const std::string& path, const std::string& command);
+
+/// Points (#P x 3, rows) in posekit's frame written back in the file's frame.
+Eigen::MatrixXd in_file_frame(const BodyOrientation& orientation, const Eigen::MatrixXd& P);
+/// A single point back in the file's frame.
+Eigen::Vector3d in_file_frame(const BodyOrientation& orientation, const Eigen::Vector3d& p);
+
+/// {"up": "+X", "forward": "-Z", "up_detected": .., "forward_detected": .., "posekit_from_file": [[..]], "warnings": []}.
+nlohmann::ordered_json orientation_json(const BodyOrientation& orientation);
 
 /// Where the CLI's readers and writers put their warnings (what was read with a caveat, what a
 /// format cannot hold). flush_warnings() prints them as "warning: ..." on stderr; main calls it

@@ -50,6 +50,10 @@ int run_compare(int argc, char** argv) {
   args.positional("model", "model mesh (PLY/OBJ/OFF/STL)").positional("scan", "scan: PCD/PLY/XYZ cloud, or a mesh")
       .option("model-unit", "U", "unit of the model: m, dm, cm, mm, or auto (its largest extent tells)", "auto")
       .option("scan-unit", "U", "unit of the scan, as --model-unit", "auto")
+      .option("model-up", "AXIS", "the axis the model stands along (+X, -Y, ...) or auto (detected)", "auto")
+      .option("model-forward", "AXIS", "the axis the model faces, or auto (the feet tell)", "auto")
+      .option("scan-up", "AXIS", "the same for the scan", "auto")
+      .option("scan-forward", "AXIS", "the same for the scan", "auto")
       .option("threshold", "MM", "points beyond this distance are outliers, counted apart", "20")
       .option("coverage", "MM", "a vertex with no scan point this close is uncovered (0: 4x scan spacing, >= 10)", "0")
       .option("threads", "N", "threads (0: all cores)", "0")
@@ -66,8 +70,12 @@ int run_compare(int argc, char** argv) {
   BodyInput model_input = read_body_input(args.positionals()[0], args.get("model-unit"), "compare", &model_unit);
   if (model_input.is_cloud)
     throw InvalidInput(args.positionals()[0] + ": the model must be a mesh (triangles); this file has only points");
+  const BodyOrientation model_orientation =
+      orient_body_input(&model_input, args.get("model-up"), args.get("model-forward"), args.positionals()[0], "compare");
   const TriangleMesh model = std::move(model_input.mesh);
-  const BodyInput scan_input = read_body_input(args.positionals()[1], args.get("scan-unit"), "compare", &scan_unit);
+  BodyInput scan_input = read_body_input(args.positionals()[1], args.get("scan-unit"), "compare", &scan_unit);
+  const BodyOrientation scan_orientation =
+      orient_body_input(&scan_input, args.get("scan-up"), args.get("scan-forward"), args.positionals()[1], "compare");
   PointCloud scan = scan_input.cloud;
   if (!scan_input.is_cloud) scan.P = scan_input.mesh.V;
   if (scan.P.rows() == 0) throw InvalidInput(args.positionals()[1] + ": the scan has no points");
@@ -96,7 +104,9 @@ int run_compare(int argc, char** argv) {
   }
 
   if (args.has("out")) {
-    TriangleMesh out = model;
+    TriangleMesh out = model;  // written in the model file's own frame
+    out.V = in_file_frame(model_orientation, model.V);
+    if (out.has_normals()) out.N = in_file_frame(model_orientation, model.N);
     out.vertex_scalars["signed_distance_mm"] = 1000 * r.model_to_scan;
     Eigen::VectorXd covered(model.V.rows());
     for (Eigen::Index v = 0; v < covered.size(); ++v) covered[v] = std::isfinite(r.model_to_scan[v]) ? 1 : 0;
@@ -104,7 +114,9 @@ int run_compare(int argc, char** argv) {
     write_mesh(args.get("out"), out, {model_unit.unit, MeshFormat::kAuto, true, io_warnings()});
   }
   if (args.has("scan-out")) {
-    PointCloud out = scan;
+    PointCloud out = scan;  // in the scan file's own frame
+    out.P = in_file_frame(scan_orientation, scan.P);
+    if (out.has_normals()) out.N = in_file_frame(scan_orientation, scan.N);
     out.point_scalars["signed_distance_mm"] = 1000 * r.scan_to_model;
     write_point_cloud(args.get("scan-out"), out, {scan_unit.unit, CloudFormat::kAuto, true, io_warnings()});
   }
@@ -139,6 +151,8 @@ int run_compare(int argc, char** argv) {
                                 {"outlier_threshold_mm", 1000 * o.outlier_threshold}, {"seconds", r.seconds}};
   out["model_unit"] = {{"unit", unit_name(model_unit.unit)}, {"detected", model_unit.detected}};
   out["scan_unit"] = {{"unit", unit_name(scan_unit.unit)}, {"detected", scan_unit.detected}};
+  out["model_orientation"] = orientation_json(model_orientation);
+  out["scan_orientation"] = orientation_json(scan_orientation);
   if (!girths.empty()) out["girths"] = g;
   out["warnings"] = warnings;
   if (args.flag_set("json")) {

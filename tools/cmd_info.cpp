@@ -10,6 +10,7 @@
 #include "posekit/core/mesh_validation.h"
 #include "posekit/io/mesh_io.h"
 #include "posekit/io/point_cloud_io.h"
+#include "posekit/shape/body_orientation.h"
 
 namespace posekit::cli {
 namespace {
@@ -97,6 +98,13 @@ int run_info(int argc, char** argv) {
     const double extent_in_file_units = robust_largest_extent(points) * to_unit;  // as measure and compare tell it
     if (guess_body_unit(extent_in_file_units, &guess)) {
       report["unit_guess_for_a_body"] = unit_name(guess);
+      try {  // which way a body in this file stands, as measure, segment and compare will find it
+        const BodyOrientation o = as_cloud ? detect_body_orientation(points) : detect_mesh_orientation(mesh.V, mesh.F);
+        report["orientation_guess_for_a_body"] = o.describe();
+        if (!o.warnings.empty()) report["orientation_doubts"] = o.warnings;
+      } catch (const InvalidInput& e) {
+        report["orientation_guess_for_a_body"] = std::string("none: ") + e.what();
+      }
       if (guess != unit)
         report["warning"] = "largest extent " + std::to_string(extent_in_file_units) + " " + unit_name(unit) +
                             ": if this is a human body, the file is probably in " + unit_name(guess) +
@@ -139,6 +147,8 @@ int run_info(int argc, char** argv) {
     std::cout << "  extent:      " << d("extent", 0) << " x " << d("extent", 1) << " x " << d("extent", 2) << " "
               << unit_name(unit) << "\n";
   }
+  if (report.contains("orientation_guess_for_a_body"))
+    std::cout << "  as a body:   " << report["orientation_guess_for_a_body"].get<std::string>() << "\n";
   if (report.contains("warning")) std::cout << "  warning:     " << report["warning"].get<std::string>() << "\n";
   return 0;
 }

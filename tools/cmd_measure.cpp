@@ -9,6 +9,7 @@
 #include "posekit/core/error.h"
 #include "posekit/io/mesh_io.h"
 #include "posekit/io/point_cloud_io.h"
+#include "posekit/shape/body_orientation.h"
 #include "posekit/shape/measurements.h"
 
 namespace posekit::cli {
@@ -16,23 +17,33 @@ namespace {
 
 nlohmann::json vec(const Eigen::Vector3d& v) { return {v.x(), v.y(), v.z()}; }
 
+/// A point of the results in the frame asked for.
+nlohmann::json point_in(const BodyOrientation& frame, const Eigen::Vector3d& p) { return vec(in_file_frame(frame, p)); }
+
 }  // namespace
 
 int run_measure(int argc, char** argv) {
   ArgParser args("measure",
-                 "Measures a standing body (A-pose, Y up, facing +Z) from its geometry alone: stature and the\n"
+                 "Measures a standing body (A-pose, in any axis convention) from its geometry alone: stature and the\n"
                  "girths bust, underbust, waist, hip, thigh, knee, calf, ankle, upper arm, wrist, neck (convex-hull\n"
                  "perimeters, definitions in the README), and the features they hang on. Works on meshes of any\n"
                  "topology and on scans (point clouds): a girth whose scan section has a hole is reported, not guessed.");
   args.positional("file", "body mesh (OBJ/PLY/OFF/STL) or scan (PCD/PLY/XYZ)")
       .option("unit", "U", "unit of the file: m, dm, cm, mm, or auto (its largest extent tells)", "auto")
       .flag("json", "machine-readable results on stdout (metres)")
+      .option("frame", "F", "frame of the points in the results: input (the file's axes) or posekit (Y up, facing +Z; levels_y are always heights in it)", "input")
       .example("posekit measure subjects/f01/rest.ply")
-      .example("posekit measure scans/f01/rest.pcd --json");
+      .example("posekit measure scans/f01/rest.pcd --json")
+      .example("posekit measure registration_x_up.ply --up +X --forward -Z");
+  add_orientation_options(&args);
   if (!args.parse(argc, argv)) return 0;
   const std::string path = args.positionals()[0];
   BodyUnit unit;
-  const BodyInput in = read_body_input(path, args.get("unit"), "measure", &unit);
+  BodyInput in = read_body_input(path, args.get("unit"), "measure", &unit);
+  const std::string frame = args.get("frame");
+  if (frame != "input" && frame != "posekit") throw UsageError("--frame expects input or posekit, got '" + frame + "'");
+  const BodyOrientation orientation = orient_body_input(&in, args.get("up"), args.get("forward"), path, "measure");
+  const BodyOrientation shown = frame == "input" ? orientation : BodyOrientation{};
   const bool cloud = in.is_cloud;
   const BodyMeasurements m = cloud ? measure_point_cloud(in.cloud.P) : measure_body(in.mesh.V, in.mesh.F);
   const BodyFeatures& f = m.features;
@@ -42,9 +53,11 @@ int run_measure(int argc, char** argv) {
     j["kind"] = cloud ? "point cloud" : "mesh";
     j["units"] = "m";
     j["file_unit"] = {{"unit", unit_name(unit.unit)}, {"detected", unit.detected}, {"largest_extent", unit.extent}};
+    j["orientation"] = orientation_json(orientation);
+    j["frame"] = frame;
     j["stature"] = m.stature;
     for (const auto& g : m.girths) {
-      nlohmann::ordered_json e = {{"measured", g.measured}, {"point", vec(g.point)}, {"normal", vec(g.normal)}};
+      nlohmann::ordered_json e = {{"measured", g.measured}, {"point", point_in(shown, g.point)}, {"normal", point_in(shown, g.normal)}};
       if (g.measured) e["value"] = g.value;
       else e["note"] = g.note;
       j["girths"][g.name] = e;
@@ -52,14 +65,14 @@ int run_measure(int argc, char** argv) {
     j["levels_y"] = {{"crotch", f.crotch_y}, {"hip", f.hip_y}, {"waist", f.waist_y}, {"underbust", f.underbust_y},
                      {"bust", f.bust_y}, {"arms_separate", f.arms_separate_y}, {"neck", f.neck_y},
                      {"floor", f.floor_y}, {"top", f.top_y}};
-    j["features"] = {{"crotch", vec(f.crotch)}, {"neck_base", vec(f.neck_base)},
-                     {"neck_joint", vec(f.neck_joint)}, {"head_joint", vec(f.head_joint)},
-                     {"left_armpit", vec(f.armpit[kLeft])}, {"right_armpit", vec(f.armpit[kRight])},
-                     {"left_shoulder", vec(f.shoulder[kLeft])}, {"right_shoulder", vec(f.shoulder[kRight])},
-                     {"left_elbow", vec(f.elbow[kLeft])}, {"right_elbow", vec(f.elbow[kRight])},
-                     {"left_wrist", vec(f.wrist[kLeft])}, {"right_wrist", vec(f.wrist[kRight])},
-                     {"left_knee", vec(f.knee[kLeft])}, {"right_knee", vec(f.knee[kRight])},
-                     {"left_ankle", vec(f.ankle[kLeft])}, {"right_ankle", vec(f.ankle[kRight])}};
+    j["features"] = {{"crotch", point_in(shown, f.crotch)}, {"neck_base", point_in(shown, f.neck_base)},
+                     {"neck_joint", point_in(shown, f.neck_joint)}, {"head_joint", point_in(shown, f.head_joint)},
+                     {"left_armpit", point_in(shown, f.armpit[kLeft])}, {"right_armpit", point_in(shown, f.armpit[kRight])},
+                     {"left_shoulder", point_in(shown, f.shoulder[kLeft])}, {"right_shoulder", point_in(shown, f.shoulder[kRight])},
+                     {"left_elbow", point_in(shown, f.elbow[kLeft])}, {"right_elbow", point_in(shown, f.elbow[kRight])},
+                     {"left_wrist", point_in(shown, f.wrist[kLeft])}, {"right_wrist", point_in(shown, f.wrist[kRight])},
+                     {"left_knee", point_in(shown, f.knee[kLeft])}, {"right_knee", point_in(shown, f.knee[kRight])},
+                     {"left_ankle", point_in(shown, f.ankle[kLeft])}, {"right_ankle", point_in(shown, f.ankle[kRight])}};
     j["warnings"] = f.warnings;
     std::cout << j.dump(2) << std::endl;
     return 0;

@@ -118,21 +118,27 @@ int run_pose(int argc, char** argv) {
                  "carried over by the ct-FFD correspondence, and one prefactorised solve per pose gives the mesh.\n"
                  "A pose is a 16-part pose JSON or a BVH of the MakeHuman skeleton (one mesh per frame).");
   args.option("model", "FILE", "trained model (.pkm, posekit train)")
-      .option("subject", "FILE", "the body to pose (PLY/OBJ/OFF/STL), standing, Y up")
+      .option("subject", "FILE", "the body to pose (PLY/OBJ/OFF/STL), standing; posed meshes come out in its frame")
       .option("pose", "FILE", "pose.json (16-part pose) or motion.bvh")
       .option("out", "FILE", "posed mesh; several BVH frames go to <stem>_0000<ext>, <stem>_0001<ext>, ...")
       .option("method", "M", "learned (the paper's), rigid (parts only) or lbs (16-part skinning)", "learned")
-      .option("unit", "U", "unit of the subject mesh", "m")
+      .option("unit", "U", "unit of the subject mesh: m, dm, cm, mm, or auto (its largest extent tells)", "auto")
       .option("frames", "A:B", "BVH frames A to B-1 (default: all)")
       .option("data", "DIR", "MakeHuman data root, for the BVH skeleton (default: POSEKIT_DATA or ../shared/...)")
       .flag("json", "summary as JSON on stdout")
       .example("posekit pose --model model.pkm --subject out/dataset/subjects/f01/rest.ply --pose out/dataset/subjects/f01/posed/squat_half.json --out posed.ply");
+  add_orientation_options(&args, "", "the subject");
   if (!args.parse(argc, argv)) return 0;
   for (const char* required : {"model", "subject", "pose", "out"})
     if (!args.has(required)) throw UsageError(std::string("--") + required + " is required");
   const PoseMethod method = parse_pose_method(args.get("method"));
   const auto model = std::make_shared<const PoseModel>(read_pose_model(args.get("model")));
-  const TriangleMesh subject = read_mesh(args.get("subject"), {parse_unit(args.get("unit")), MeshFormat::kAuto, io_warnings()});
+  BodyUnit unit;
+  BodyInput subject_input = read_body_input(args.get("subject"), args.get("unit"), "pose", &unit);
+  if (subject_input.is_cloud) throw InvalidInput(args.get("subject") + ": the subject must be a mesh (triangles); this file has only points");
+  const BodyOrientation orientation =
+      orient_body_input(&subject_input, args.get("up"), args.get("forward"), args.get("subject"), "pose");
+  const TriangleMesh subject = std::move(subject_input.mesh);
   check_subject(subject, args.get("subject"));
   std::vector<PartPose> poses;
   const std::string pose_path = args.get("pose");
@@ -174,7 +180,8 @@ int run_pose(int argc, char** argv) {
       name << out.stem().string() << "_" << std::setw(4) << std::setfill('0') << i << out.extension().string();
       path = (out.parent_path() / name.str()).string();
     }
-    write_mesh(path, posed, {parse_unit(args.get("unit")), MeshFormat::kAuto, true, io_warnings()});
+    if (!orientation.is_identity()) posed.V = in_file_frame(orientation, posed.V);  // the subject file's frame
+    write_mesh(path, posed, {unit.unit, MeshFormat::kAuto, true, io_warnings()});
     written.push_back(path);
     progress.update(static_cast<long>(i + 1));
   }
@@ -205,13 +212,24 @@ int run_segment(int argc, char** argv) {
                  "ankles) and part borders (hips).");
   args.positional("mesh", "body mesh (PLY/OBJ/OFF/STL)")
       .option("model", "FILE", "trained model (.pkm) whose segmentation prior labels the representation")
-      .option("unit", "U", "unit of the mesh", "m")
+      .option("unit", "U", "unit of the mesh: m, dm, cm, mm, or auto (its largest extent tells)", "auto")
       .option("out", "FILE", "mesh with vertex scalar 'part' (0..15); PLY keeps it for other tools")
       .option("joints", "FILE", "write the joint centres as JSON")
+      .option("frame", "F", "frame of the joints written and printed: input (the file's axes) or posekit", "input")
       .flag("json", "summary as JSON on stdout")
-      .example("posekit segment out/dataset/subjects/m01/rest.ply --model model.pkm --out m01_parts.ply");
+      .example("posekit segment out/dataset/subjects/m01/rest.ply --model model.pkm --out m01_parts.ply")
+      .example("posekit segment registration_z_up.obj --up +Z --joints joints.json");
+  add_orientation_options(&args);
   if (!args.parse(argc, argv)) return 0;
-  const TriangleMesh mesh = read_mesh(args.positionals()[0], {parse_unit(args.get("unit")), MeshFormat::kAuto, io_warnings()});
+  const std::string frame = args.get("frame");
+  if (frame != "input" && frame != "posekit") throw UsageError("--frame expects input or posekit, got '" + frame + "'");
+  BodyUnit unit;
+  BodyInput input = read_body_input(args.positionals()[0], args.get("unit"), "segment", &unit);
+  if (input.is_cloud) throw InvalidInput(args.positionals()[0] + ": segment needs a mesh (triangles); this file has only points");
+  const Eigen::MatrixXd file_vertices = input.mesh.V;
+  const BodyOrientation orientation =
+      orient_body_input(&input, args.get("up"), args.get("forward"), args.positionals()[0], "segment");
+  const TriangleMesh& mesh = input.mesh;
   require_usable_mesh(mesh, args.positionals()[0]);
   const auto t0 = std::chrono::steady_clock::now();
   const BodyFeatures features = find_body_features(mesh.V, mesh.F);
@@ -228,12 +246,17 @@ int run_segment(int argc, char** argv) {
   }
   const double seconds = seconds_since(t0);
   if (args.has("out")) {
-    TriangleMesh labelled = mesh;
+    TriangleMesh labelled = mesh;  // in the file's own frame and unit
+    labelled.V = file_vertices;
+    if (labelled.has_normals()) labelled.N = in_file_frame(orientation, mesh.N);
     labelled.vertex_scalars["part"] = seg.vertex_part.cast<double>();
-    write_mesh(args.get("out"), labelled, {parse_unit(args.get("unit")), MeshFormat::kAuto, true, io_warnings()});
+    write_mesh(args.get("out"), labelled, {unit.unit, MeshFormat::kAuto, true, io_warnings()});
   }
+  if (frame == "input") joints = in_file_frame(orientation, joints);
   nlohmann::ordered_json jj;
   jj["units"] = "m";
+  jj["frame"] = frame;
+  jj["orientation"] = orientation_json(orientation);
   for (int j = 0; j < kNumJoints; ++j) jj["joints"][joint_name(j)] = {joints(j, 0), joints(j, 1), joints(j, 2)};
   if (args.has("joints")) {
     const std::string text = jj.dump(2) + "\n";

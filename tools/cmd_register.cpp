@@ -18,19 +18,28 @@ int run_register(int argc, char** argv) {
                  "every target triangle to the source triangle with the nearest centroid facing the same way\n"
                  "(Eq. 2b/2c). ctffd: ct-FFD through the layered representations (section 3.3.3); icp: rigid\n"
                  "ICP (PCL) for --iterations, the paper's Table 1 baseline; nicp: optimal-step non-rigid ICP\n"
-                 "(Amberg et al. 2007). Both bodies standing, Y up, metres.");
+                 "(Amberg et al. 2007). Both bodies standing, in any axis convention and unit (detected, or given).");
   args.positional("source", "source mesh").positional("target", "target mesh")
       .option("method", "M", "ctffd, icp or nicp", "ctffd")
       .option("iterations", "N", "ICP iterations", "6")
-      .option("unit", "U", "unit of both meshes", "m")
+      .option("unit", "U", "unit of both meshes: m, dm, cm, mm, or auto (each one's largest extent tells)", "auto")
       .option("out", "FILE", "correspondence JSON: for each target triangle its source triangle")
       .option("deformed", "FILE", "write the source deformed onto the target (mesh)")
       .flag("json", "summary as JSON on stdout")
       .example("posekit register dataset/template/rest.ply dataset/subjects/f01/rest.ply --out corr.json --deformed d.ply");
+  add_orientation_options(&args, "source-", "the source");
+  add_orientation_options(&args, "target-", "the target");
   if (!args.parse(argc, argv)) return 0;
-  const Unit unit = parse_unit(args.get("unit"));
-  const TriangleMesh source = read_mesh(args.positionals()[0], {unit, MeshFormat::kAuto, io_warnings()});
-  const TriangleMesh target = read_mesh(args.positionals()[1], {unit, MeshFormat::kAuto, io_warnings()});
+  auto read_body = [&](const std::string& path, const std::string& prefix, BodyUnit* unit, BodyOrientation* orientation) {
+    BodyInput in = read_body_input(path, args.get("unit"), "register", unit);
+    if (in.is_cloud) throw InvalidInput(path + ": register needs a mesh (triangles); this file has only points");
+    *orientation = orient_body_input(&in, args.get(prefix + "up"), args.get(prefix + "forward"), path, "register");
+    return std::move(in.mesh);
+  };
+  BodyUnit source_unit, target_unit;
+  BodyOrientation source_orientation, target_orientation;
+  const TriangleMesh source = read_body(args.positionals()[0], "source-", &source_unit, &source_orientation);
+  const TriangleMesh target = read_body(args.positionals()[1], "target-", &target_unit, &target_orientation);
   RegistrationOptions o;
   o.method = parse_registration_method(args.get("method"));
   o.icp_iterations = static_cast<int>(args.get_int("iterations"));
@@ -47,9 +56,9 @@ int run_register(int argc, char** argv) {
   }
   if (args.has("deformed")) {
     TriangleMesh d;
-    d.V = r.deformed_source;
+    d.V = in_file_frame(target_orientation, r.deformed_source);  // it lies on the target: the target file's frame
     d.F = source.F;
-    write_mesh(args.get("deformed"), d, {unit, MeshFormat::kAuto, true, io_warnings()});
+    write_mesh(args.get("deformed"), d, {target_unit.unit, MeshFormat::kAuto, true, io_warnings()});
   }
   nlohmann::ordered_json s = {{"method", args.get("method")}, {"source_vertices", source.num_vertices()},
                               {"target_triangles", target.num_faces()}, {"seconds", r.seconds},

@@ -351,6 +351,65 @@ TEST(Cli, CompareAndMeasureTellTheUnitFromTheExtent) {
   EXPECT_NE(j["warnings"][0].get<std::string>().find("measuring the scan"), std::string::npos) << j["warnings"];
 }
 
+// A registration written by another program: X up, facing -Z, in millimetres. measure, segment and
+// compare find its orientation, work in posekit's frame and answer in the file's own frame.
+TEST(Cli, AnXUpRegistrationInMillimetresIsMeasuredSegmentedAndCompared) {
+  ASSERT_FALSE(test::test_data_root().empty());
+  test::TempDir dir;
+  const std::string ds = test::small_dataset().root;
+  const std::string subject = ds + "/subjects/m01/rest.ply", scan = ds + "/scans/m01/rest.pcd";
+  TriangleMesh file = read_mesh(subject);
+  Eigen::Matrix3d file_from_posekit;  // columns: the subject's left, up and forward in the file's axes
+  file_from_posekit << 0, 1, 0, 1, 0, 0, 0, 0, -1;
+  file.V = (file.V * file_from_posekit.transpose()).eval();
+  file.N.resize(0, 3);
+  write_mesh(dir.file("x_up.obj"), file, {Unit::kMillimetre});
+
+  CommandResult r = run("measure " + dir.file("x_up.obj") + " --json");
+  ASSERT_EQ(r.code, 0) << r.out;
+  const auto turned = nlohmann::json::parse(r.out);
+  r = run("measure " + subject + " --json");
+  ASSERT_EQ(r.code, 0) << r.out;
+  const auto upright = nlohmann::json::parse(r.out);
+  EXPECT_EQ(turned["file_unit"]["unit"], "mm");
+  EXPECT_EQ(turned["orientation"]["up"], "+X");
+  EXPECT_EQ(turned["orientation"]["forward"], "-Z");
+  EXPECT_EQ(upright["orientation"]["up"], "+Y");
+  for (const char* g : {"bust", "waist", "hip", "thigh", "neck"})
+    EXPECT_NEAR(turned["girths"][g]["value"].get<double>(), upright["girths"][g]["value"].get<double>(), 5e-4) << g;
+  auto point = [](const nlohmann::json& p) { return Eigen::Vector3d(p[0].get<double>(), p[1].get<double>(), p[2].get<double>()); };
+  const Eigen::Vector3d knee = point(upright["features"]["left_knee"]);
+  EXPECT_LT((point(turned["features"]["left_knee"]) - file_from_posekit * knee).norm(), 1e-3);  // the file's frame
+  EXPECT_GT(knee.x(), 0);  // the subject's left is +X in posekit's frame
+
+  // Given axes are taken as given; a wrong one is a warning, then the features' own error.
+  r = run("measure " + dir.file("x_up.obj") + " --up +Y --forward +Z", true);
+  EXPECT_EQ(r.code, 1);
+  EXPECT_NE(r.out.find("not the body's long axis"), std::string::npos) << r.out;
+  EXPECT_EQ(run("measure " + dir.file("x_up.obj") + " --up +Q").code, 1);
+
+  // Segment: the joints and the labelled mesh in the file's frame and unit.
+  r = run("segment " + dir.file("x_up.obj") + " --out " + dir.file("parts.ply") + " --joints " + dir.file("joints.json") + " --json");
+  ASSERT_EQ(r.code, 0) << r.out;
+  const auto seg = nlohmann::json::parse(r.out);
+  r = run("segment " + subject + " --json");
+  ASSERT_EQ(r.code, 0) << r.out;
+  const auto seg_upright = nlohmann::json::parse(r.out);
+  for (const char* joint : {"left_hip", "right_shoulder", "left_ankle"})
+    EXPECT_LT((point(seg["joints"][joint]) - file_from_posekit * point(seg_upright["joints"][joint])).norm(), 2e-3) << joint;
+  const TriangleMesh parts = read_mesh(dir.file("parts.ply"), {Unit::kMillimetre});
+  EXPECT_LT((parts.V - file.V).cwiseAbs().maxCoeff(), 1e-6);
+
+  // Compare the X-up model with the Y-up scan: both are turned, the error mesh is in the model's frame.
+  r = run("compare " + dir.file("x_up.obj") + " " + scan + " --json --out " + dir.file("err.ply"));
+  ASSERT_EQ(r.code, 0) << r.out;
+  const auto cmp = nlohmann::json::parse(r.out);
+  EXPECT_LT(cmp["scan_to_model"]["rms_mm"].get<double>(), 2.5);
+  EXPECT_EQ(cmp["model_orientation"]["up"], "+X");
+  EXPECT_EQ(cmp["scan_orientation"]["up"], "+Y");
+  EXPECT_LT((read_mesh(dir.file("err.ply"), {Unit::kMillimetre}).V - file.V).cwiseAbs().maxCoeff(), 1e-6);
+}
+
 // The report through the CLI (the sanitizer pass leaves it out: Report.* runs the same report in process).
 TEST(Cli, Report) {
   ASSERT_FALSE(test::test_data_root().empty());
