@@ -25,6 +25,7 @@
 #include "posekit/core/mesh_validation.h"
 #include "posekit/segmentation/segmentation.h"
 #include "posekit/segmentation/segmentation_prior.h"
+#include "posekit/segmentation/skeleton_checks.h"
 #include "posekit/segmentation/skeleton_embedding.h"
 #include "posekit/shape/body_features.h"
 #include "posekit/shape/layered_representation.h"
@@ -163,6 +164,8 @@ int run_pose(int argc, char** argv) {
   const auto t0 = std::chrono::steady_clock::now();
   const PoseSynthesizer synth(model, subject);
   const double setup = seconds_since(t0);
+  for (const auto& problem : synth.info().skeleton_problems)
+    std::cerr << "warning: " << args.get("subject") << ": the subject's skeleton looks wrong: " << problem << "\n";
   Progress progress("pose", static_cast<long>(poses.size()));
   double pose_seconds = 0;
   std::vector<std::string> written;
@@ -216,6 +219,7 @@ int run_segment(int argc, char** argv) {
       .option("out", "FILE", "mesh with vertex scalar 'part' (0..15); PLY keeps it for other tools")
       .option("joints", "FILE", "write the joint centres as JSON")
       .option("frame", "F", "frame of the joints written and printed: input (the file's axes) or posekit", "input")
+      .flag("unchecked", "write the result even when it fails the sanity checks (they become warnings)")
       .flag("json", "summary as JSON on stdout")
       .example("posekit segment out/dataset/subjects/m01/rest.ply --model model.pkm --out m01_parts.ply")
       .example("posekit segment registration_z_up.obj --up +Z --joints joints.json");
@@ -245,6 +249,14 @@ int run_segment(int argc, char** argv) {
     joints = joint_centres_from_features(mesh.V, mesh.F, seg.triangle_part, rep, features);
   }
   const double seconds = seconds_since(t0);
+  // Left is left, parts whole and in proportion, joints at their borders: never a wrong skeleton silently.
+  const SkeletonCheck check = check_skeleton(mesh.V, mesh.F, seg.triangle_part, joints);
+  if (!check.ok()) {
+    if (!args.flag_set("unchecked"))
+      throw InvalidInput(args.positionals()[0] + ": the segmentation fails its sanity checks: " + check.summary() +
+                         "; nothing written (--unchecked writes it anyway)");
+    for (const auto& p : check.problems) std::cerr << "warning: " << args.positionals()[0] << ": " << p << "\n";
+  }
   if (args.has("out")) {
     TriangleMesh labelled = mesh;  // in the file's own frame and unit
     labelled.V = file_vertices;
@@ -272,7 +284,8 @@ int run_segment(int argc, char** argv) {
   }
   nlohmann::ordered_json s = {{"mesh", args.positionals()[0]}, {"seconds", seconds},
                               {"normal_failures", seg.normal_failures}, {"relabelled_by_cleanup", seg.relabelled},
-                              {"parts", parts}, {"joints", jj["joints"]}};
+                              {"parts", parts}, {"joints", jj["joints"]},
+                              {"checks", {{"ok", check.ok()}, {"problems", check.problems}}}};
   if (args.flag_set("json")) {
     print_json(s);
     return 0;

@@ -15,6 +15,7 @@
 #include "posekit/registration/ctffd.h"
 #include "posekit/segmentation/segmentation.h"
 #include "posekit/segmentation/segmentation_prior.h"
+#include "posekit/segmentation/skeleton_checks.h"
 #include "posekit/segmentation/skeleton_embedding.h"
 #include "posekit/shape/body_features.h"
 #include "posekit/shape/layered_representation.h"
@@ -121,6 +122,7 @@ PoseSynthesizer::PoseSynthesizer(std::shared_ptr<const PoseModel> model, const T
     const Segmentation seg = segment_body(s.V, s.F, rep, representation_labels_from_prior(prior, rep));
     s.info.triangle_part = seg.triangle_part;
     s.info.joint_centres = embed_skeleton(prior, rep);
+    s.info.skeleton_problems = check_skeleton(s.V, s.F, s.info.triangle_part, s.info.joint_centres).problems;
     s.info.seconds_segmentation = seconds_since(t0);
     t0 = std::chrono::steady_clock::now();
     const Eigen::MatrixXd deformed = ctffd_evaluate(ctffd_parametrize(M.template_V, template_rep), rep);

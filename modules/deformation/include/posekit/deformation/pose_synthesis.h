@@ -6,6 +6,7 @@
 #include <Eigen/Core>
 #include <memory>
 #include <string>
+#include <vector>
 
 #include "posekit/body/parts.h"
 #include "posekit/core/triangle_mesh.h"
@@ -45,6 +46,9 @@ struct SubjectSetupInfo {
   Eigen::VectorXi triangle_part;    ///< #F
   Eigen::MatrixXd joint_centres;    ///< #joints x 3
   Eigen::VectorXi template_triangle;  ///< #F, the corresponding template triangle
+  /// What check_skeleton found wrong with the subject's segmentation and joints (empty: none, or
+  /// the template itself). Posing goes on; callers show these as warnings.
+  std::vector<std::string> skeleton_problems;
 };
 
 /// A subject prepared for posing: build once (segmentation, skeleton, correspondence,
