@@ -11,6 +11,7 @@
 #include <fstream>
 #include <iomanip>
 #include <iostream>
+#include <map>
 #include <nlohmann/json.hpp>
 
 #include "cli.h"
@@ -22,6 +23,7 @@
 #include "posekit/core/data_root.h"
 #include "posekit/core/error.h"
 #include "posekit/core/mesh_geometry.h"
+#include "posekit/core/mesh_topology.h"
 #include "posekit/datasets/dataset.h"
 #include "posekit/datasets/remesh.h"
 #include "posekit/io/atomic_file.h"
@@ -33,6 +35,8 @@
 #include "posekit/registration/registration.h"
 #include "posekit/io/mesh_io.h"
 #include "posekit/io/point_cloud_io.h"
+#include "posekit/shape/body_orientation.h"
+#include "posekit/shape/measurements.h"
 
 namespace posekit::cli {
 namespace {
@@ -461,6 +465,155 @@ PeerResult run_cloudcompare(const std::string& dir, int runs) {
   return r;
 }
 
+/// n points uniform by area on a mesh, with Gaussian noise of `sigma` (m) along the face normal: a
+/// stand-in for a scanner's cloud.
+PointCloud sample_surface(const TriangleMesh& mesh, long n, double sigma, unsigned seed) {
+  const Eigen::VectorXd area = face_areas(mesh.V, mesh.F);
+  const Eigen::MatrixXd normals = face_normals(mesh.V, mesh.F);
+  std::vector<double> cdf(static_cast<size_t>(area.size()));
+  double acc = 0;
+  for (Eigen::Index f = 0; f < area.size(); ++f) cdf[static_cast<size_t>(f)] = acc += area[f];
+  std::mt19937_64 rng(seed);
+  std::uniform_real_distribution<double> u(0, 1);
+  std::normal_distribution<double> noise(0, sigma);
+  PointCloud scan;
+  scan.P.resize(n, 3);
+  for (long i = 0; i < n; ++i) {
+    const size_t f = std::min(cdf.size() - 1, static_cast<size_t>(std::lower_bound(cdf.begin(), cdf.end(), u(rng) * acc) - cdf.begin()));
+    double a = u(rng), b = u(rng);
+    if (a + b > 1) a = 1 - a, b = 1 - b;
+    const auto F = mesh.F.row(static_cast<Eigen::Index>(f));
+    scan.P.row(i) = (1 - a - b) * mesh.V.row(F[0]) + a * mesh.V.row(F[1]) + b * mesh.V.row(F[2]) +
+                    noise(rng) * normals.row(static_cast<Eigen::Index>(f));
+  }
+  return scan;
+}
+
+/// A temporary folder removed on scope exit.
+struct ScratchDir {
+  std::string path;
+  ScratchDir() : path((std::filesystem::temp_directory_path() / ("posekit-bench-" + std::to_string(::getpid()))).string()) {
+    std::filesystem::create_directories(path);
+  }
+  ~ScratchDir() {
+    std::error_code ec;
+    std::filesystem::remove_all(path, ec);
+  }
+};
+
+/// Each triangle split into four at its edge midpoints (the surface unchanged): 4x the triangles.
+TriangleMesh subdivide_midpoints(const TriangleMesh& mesh) {
+  const Eigen::MatrixXi E = unique_edges(mesh.F);
+  std::map<std::pair<int, int>, int> midpoint;
+  TriangleMesh out;
+  out.V.resize(mesh.V.rows() + E.rows(), 3);
+  out.V.topRows(mesh.V.rows()) = mesh.V;
+  for (Eigen::Index e = 0; e < E.rows(); ++e) {
+    out.V.row(mesh.V.rows() + e) = 0.5 * (mesh.V.row(E(e, 0)) + mesh.V.row(E(e, 1)));
+    midpoint[{E(e, 0), E(e, 1)}] = static_cast<int>(mesh.V.rows() + e);
+  }
+  auto mid = [&](int a, int b) { return midpoint.at({std::min(a, b), std::max(a, b)}); };
+  out.F.resize(4 * mesh.F.rows(), 3);
+  for (Eigen::Index f = 0; f < mesh.F.rows(); ++f) {
+    const int a = mesh.F(f, 0), b = mesh.F(f, 1), c = mesh.F(f, 2), ab = mid(a, b), bc = mid(b, c), ca = mid(c, a);
+    out.F.row(4 * f) << a, ab, ca;
+    out.F.row(4 * f + 1) << ab, b, bc;
+    out.F.row(4 * f + 2) << ca, bc, c;
+    out.F.row(4 * f + 3) << ab, bc, ca;
+  }
+  return out;
+}
+
+int bench_measure(int argc, char** argv) {
+  ArgParser args("bench measure",
+                 "Times `posekit measure` in process on a large mesh and a large scan of the default body, per\n"
+                 "stage: reading the binary PLY, telling unit and orientation, and measuring (sections, features,\n"
+                 "girths). The mesh is the body remeshed to --vertices; the scan, --points samples with 1.5 mm noise.\n"
+                 "Median, min and max over --runs. No peer tool measures girths, so there is no comparison.");
+  args.option("vertices", "N", "vertices of the mesh", "300000")
+      .option("points", "N", "points of the scan", "300000")
+      .option("runs", "R", "runs", "5")
+      .option("data", "DIR", "MakeHuman data root (default: POSEKIT_DATA or ../shared/...)")
+      .flag("json", "results as JSON on stdout");
+  if (!args.parse(argc, argv)) return 0;
+  const int runs = static_cast<int>(args.get_int("runs"));
+  const long vertices = args.get_int("vertices"), points = args.get_int("points");
+  if (runs < 1 || vertices < 1000 || points < 1000) throw UsageError("--runs must be at least 1, --vertices and --points 1000");
+  const auto model = load_makehuman_model(find_data_root(args.get("data")));
+  const Body body = build_body(*model, BodySpec{});
+  // A fine mesh of another connectivity: midpoint subdivisions up to the size asked for, then
+  // remeshed (Loop subdivision and decimation) to it.
+  std::cerr << "bench measure: remeshing the body to " << vertices << " vertices\n";
+  TriangleMesh fine = body.mesh;
+  while (fine.V.rows() < vertices / 3) fine = subdivide_midpoints(fine);
+  const TriangleMesh mesh = remesh_body(fine, static_cast<int>(vertices));
+  const PointCloud scan = sample_surface(body.mesh, points, 0.0015, 11);
+  ScratchDir dir;
+  write_mesh(dir.path + "/body.ply", mesh);
+  write_point_cloud(dir.path + "/scan.ply", scan);
+  struct Stage {
+    std::vector<double> read, orient, measure, total;
+  } stages[2];
+  BodyMeasurements last[2];
+  reset_peak_rss();
+  Progress progress("bench measure", 2L * runs);
+  for (int k = 0; k < runs; ++k)
+    for (int kind = 0; kind < 2; ++kind) {
+      const std::string path = dir.path + (kind == 0 ? "/body.ply" : "/scan.ply");
+      auto t0 = Clock::now();
+      BodyInput in = read_body_input(path, Unit::kMetre);
+      Unit unit;
+      (void)guess_body_unit(robust_largest_extent(kind == 0 ? in.mesh.V : in.cloud.P), &unit);
+      auto t1 = Clock::now();
+      const BodyOrientation o = kind == 0 ? detect_mesh_orientation(in.mesh.V, in.mesh.F) : detect_body_orientation(in.cloud.P);
+      if (!o.is_identity()) throw InvalidInput("bench measure: the body was not found upright: " + o.describe());
+      auto t2 = Clock::now();
+      last[kind] = kind == 0 ? measure_body(in.mesh.V, in.mesh.F) : measure_point_cloud(in.cloud.P);
+      auto t3 = Clock::now();
+      Stage& s = stages[kind];
+      s.read.push_back(std::chrono::duration<double>(t1 - t0).count());
+      s.orient.push_back(std::chrono::duration<double>(t2 - t1).count());
+      s.measure.push_back(std::chrono::duration<double>(t3 - t2).count());
+      s.total.push_back(std::chrono::duration<double>(t3 - t0).count());
+      progress.update(2L * k + kind + 1);
+    }
+  progress.finish();
+  const double peak = peak_rss_mib();
+  nlohmann::ordered_json out = {{"runs", runs}, {"mesh_vertices", mesh.V.rows()}, {"mesh_triangles", mesh.F.rows()},
+                                {"scan_points", scan.P.rows()}, {"units", "s"}, {"peak_rss_mib", peak}};
+  auto stats_j = [](const std::vector<double>& v) {
+    const Stats st = stats_of(v);
+    return nlohmann::ordered_json{{"median", st.median}, {"min", st.min}, {"max", st.max}};
+  };
+  for (int kind = 0; kind < 2; ++kind) {
+    nlohmann::ordered_json g;
+    for (const auto& m : last[kind].girths)
+      if (m.name == "bust" || m.name == "waist" || m.name == "hip") g[m.name] = m.measured ? nlohmann::json(m.value) : nlohmann::json(m.note);
+    out[kind == 0 ? "mesh" : "scan"] = {{"read", stats_j(stages[kind].read)}, {"unit_and_orientation", stats_j(stages[kind].orient)},
+                                        {"measure", stats_j(stages[kind].measure)}, {"total", stats_j(stages[kind].total)},
+                                        {"girths_m", g}};
+  }
+  if (args.flag_set("json")) {
+    print_json(out);
+    return 0;
+  }
+  std::cout << std::fixed << std::setprecision(3) << "measure, median of " << runs << " runs (min-max), seconds\n\n"
+            << "| input | read | unit + orientation | measure | total |\n|---|---|---|---|---|\n";
+  for (int kind = 0; kind < 2; ++kind) {
+    const Stage& s = stages[kind];
+    auto cell = [](const std::vector<double>& v) {
+      const Stats st = stats_of(v);
+      std::ostringstream c;
+      c << std::fixed << std::setprecision(3) << st.median << " (" << st.min << "-" << st.max << ")";
+      return c.str();
+    };
+    std::cout << "| " << (kind == 0 ? std::to_string(mesh.V.rows()) + "-vertex mesh" : std::to_string(scan.P.rows()) + "-point scan")
+              << " | " << cell(s.read) << " | " << cell(s.orient) << " | " << cell(s.measure) << " | " << cell(s.total) << " |\n";
+  }
+  std::cout << "\npeak RSS " << std::setprecision(0) << peak << " MiB\n";
+  return 0;
+}
+
 int bench_compare(int argc, char** argv) {
   ArgParser args("bench compare",
                  "Times posekit compare: a MakeHuman body (26,756 triangles) against a synthetic scan of N points\n"
@@ -480,32 +633,10 @@ int bench_compare(int argc, char** argv) {
   if (runs < 1 || n < 1) throw UsageError("--runs and --points must be at least 1");
   const auto model = load_makehuman_model(find_data_root(args.get("data")));
   const Body body = build_body(*model, BodySpec{});
-  // Uniform samples by area, with 1.5 mm noise along the normal.
-  const Eigen::VectorXd area = face_areas(body.mesh.V, body.mesh.F);
-  const Eigen::MatrixXd normals = face_normals(body.mesh.V, body.mesh.F);
-  std::vector<double> cdf(static_cast<size_t>(area.size()));
-  double acc = 0;
-  for (Eigen::Index f = 0; f < area.size(); ++f) cdf[static_cast<size_t>(f)] = acc += area[f];
-  std::mt19937_64 rng(7);
-  std::uniform_real_distribution<double> u(0, 1);
-  std::normal_distribution<double> noise(0, 0.0015);
-  PointCloud scan;
-  scan.P.resize(n, 3);
-  for (long i = 0; i < n; ++i) {
-    const size_t f = std::min(cdf.size() - 1, static_cast<size_t>(std::lower_bound(cdf.begin(), cdf.end(), u(rng) * acc) - cdf.begin()));
-    double a = u(rng), b = u(rng);
-    if (a + b > 1) a = 1 - a, b = 1 - b;
-    const auto F = body.mesh.F.row(static_cast<Eigen::Index>(f));
-    scan.P.row(i) = (1 - a - b) * body.mesh.V.row(F[0]) + a * body.mesh.V.row(F[1]) + b * body.mesh.V.row(F[2]) +
-                    noise(rng) * normals.row(static_cast<Eigen::Index>(f));
-  }
+  const PointCloud scan = sample_surface(body.mesh, n, 0.0015, 7);
   // The files every tool reads: binary PLY in metres.
-  const std::string dir = (std::filesystem::temp_directory_path() / ("posekit-bench-" + std::to_string(::getpid()))).string();
-  std::filesystem::create_directories(dir);
-  struct RemoveDir {
-    std::string path;
-    ~RemoveDir() { std::error_code ec; std::filesystem::remove_all(path, ec); }
-  } cleanup{dir};
+  const ScratchDir scratch;
+  const std::string& dir = scratch.path;
   write_mesh(dir + "/model.ply", body.mesh);
   write_point_cloud(dir + "/scan.ply", scan);
   std::vector<double> load;
@@ -594,7 +725,8 @@ int run_bench(int argc, char** argv) {
       "  body  building and posing a MakeHuman body\n"
       "  registration  the paper's Table 1: ct-FFD vs ICP on a dataset, with correspondence accuracy\n"
       "  pose  training, per-subject set-up and per-pose time of the pose deformation\n"
-      "  compare  a 1M-point scan against a 25k-triangle model\n";
+      "  compare  a 1M-point scan against a 25k-triangle model\n"
+      "  measure  measuring a 300k-vertex mesh and a 300k-point scan\n";
   if (argc < 1 || std::string(argv[0]) == "--help" || std::string(argv[0]) == "-h") {
     std::cout << usage;
     return argc < 1 ? 2 : 0;
@@ -605,6 +737,7 @@ int run_bench(int argc, char** argv) {
   if (what == "registration") return bench_registration(argc - 1, argv + 1);
   if (what == "pose") return bench_pose(argc - 1, argv + 1);
   if (what == "compare") return bench_compare(argc - 1, argv + 1);
+  if (what == "measure") return bench_measure(argc - 1, argv + 1);
   throw UsageError("unknown benchmark '" + what + "'\n" + usage);
 }
 
