@@ -51,14 +51,19 @@ struct Band {
   Eigen::Vector3d mean = Eigen::Vector3d::Zero();
 };
 
-/// Weight and weighted mean of the samples whose height lies in [from, to).
-Band band_of(const Eigen::MatrixXd& P, const std::vector<double>& w, const std::vector<double>& h, double from, double to) {
+/// Weight and weighted mean of the samples whose height lies in [from, to) and, when `side` is not
+/// zero, whose coordinate along `side` lies in [side_from, side_to].
+Band band_of(const Eigen::MatrixXd& P, const std::vector<double>& w, const std::vector<double>& h, double from, double to,
+             const Eigen::Vector3d& side = Eigen::Vector3d::Zero(), double side_from = 0, double side_to = 0) {
+  const bool sideways = side.squaredNorm() > 0;
   Band b;
-  for (size_t i = 0; i < h.size(); ++i)
-    if (h[i] >= from && h[i] < to) {
-      b.weight += w[i];
-      b.mean += w[i] * P.row(static_cast<Eigen::Index>(i)).transpose();
-    }
+  for (size_t i = 0; i < h.size(); ++i) {
+    if (h[i] < from || h[i] >= to) continue;
+    const auto p = P.row(static_cast<Eigen::Index>(i));
+    if (sideways && (p.dot(side) < side_from || p.dot(side) > side_to)) continue;
+    b.weight += w[i];
+    b.mean += w[i] * p.transpose();
+  }
   if (b.weight > 0) b.mean /= b.weight;
   return b;
 }
@@ -229,16 +234,9 @@ BodyOrientation detect_body_orientation(const Eigen::MatrixXd& P, const Eigen::V
         feet_w.push_back(w[static_cast<size_t>(i)]);
       }
     Band shanks;
-    if (!feet_side.empty()) {
-      const double side_lo = quantile(feet_side, feet_w, 0.02), side_hi = quantile(feet_side, feet_w, 0.98);
-      for (Eigen::Index i = 0; i < n; ++i) {
-        const double hv = h[static_cast<size_t>(i)], sv = P.row(i).dot(side);
-        if (hv < lo + kShankBand[0] * height || hv >= lo + kShankBand[1] * height || sv < side_lo || sv > side_hi) continue;
-        shanks.weight += w[static_cast<size_t>(i)];
-        shanks.mean += w[static_cast<size_t>(i)] * P.row(i).transpose();
-      }
-      if (shanks.weight > 0) shanks.mean /= shanks.weight;
-    }
+    if (!feet_side.empty())
+      shanks = band_of(P, w, h, lo + kShankBand[0] * height, lo + kShankBand[1] * height, side,
+                       quantile(feet_side, feet_w, 0.02), quantile(feet_side, feet_w, 0.98));
     const double lead = feet.weight > 0 && shanks.weight > 0 ? (feet.mean - shanks.mean).dot(forward) / height : 0;
     if (std::abs(lead) > kFootCue) {
       if (lead < 0) forward = -forward;
