@@ -128,6 +128,21 @@ TEST(HostileFiles, PcdClaimingTwoToThe31Points) {
   expect_refused_cheaply(path, "200000000 points", [&] { read_point_cloud(path); });
 }
 
+// Found by the PCD fuzzer: an rgb value no 32-bit packed colour can hold (negative, huge, NaN).
+TEST(HostileFiles, PcdColourOutsideAPackedRgbIsAnError) {
+  test::TempDir dir;
+  for (const std::string rgb : {"131586000000000", "-1", "nan"}) {
+    const std::string path = dir.write("rgb.pcd", "VERSION 0.7\nFIELDS x y z rgb\nSIZE 4 4 4 4\nTYPE F F F U\nCOUNT 1 1 1 1\n"
+                                                  "WIDTH 2\nHEIGHT 1\nPOINTS 2\nDATA ascii\n0 0 0 255\n1 0 0 " + rgb + "\n");
+    try {
+      read_point_cloud(path);
+      FAIL() << "rgb " << rgb << " was read";
+    } catch (const IoError& e) {
+      EXPECT_NE(std::string(e.what()).find("point 1: colour field 'rgb'"), std::string::npos) << e.what();
+    }
+  }
+}
+
 TEST(HostileFiles, StlAndOffClaimingTwoToThe31Elements) {
   test::TempDir dir;
   std::string stl(80, ' ');

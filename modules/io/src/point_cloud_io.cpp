@@ -233,7 +233,11 @@ PointCloud read_pcd(const std::string& path, double scale) {
     cloud.P.row(i) << values[ix][i] * scale, values[iy][i] * scale, values[iz][i] * scale;
     if (normals) cloud.N.row(i) << values[inx][i], values[iny][i], values[inz][i];
     if (icolor >= 0) {
-      const auto bits = static_cast<std::uint32_t>(values[icolor][i]);
+      const double packed = values[icolor][i];
+      if (!(packed >= 0 && packed < 4294967296.0))  // not a packed 0x00RRGGBB: casting it would be undefined
+        throw IoError(path + ": point " + std::to_string(i) + ": colour field '" + fields[static_cast<size_t>(icolor)].name +
+                      "' is " + std::to_string(packed) + ", not a packed 24-bit RGB value");
+      const auto bits = static_cast<std::uint32_t>(packed);
       cloud.C.row(i) << static_cast<std::uint8_t>(bits >> 16), static_cast<std::uint8_t>(bits >> 8),
           static_cast<std::uint8_t>(bits);
     }
