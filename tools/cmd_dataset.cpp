@@ -4,23 +4,66 @@
 #include <iostream>
 #include <nlohmann/json.hpp>
 #include <optional>
+#include <sstream>
 
 #include "cli.h"
 #include "commands.h"
 #include "posekit/core/data_root.h"
 #include "posekit/core/error.h"
 #include "posekit/datasets/dataset.h"
+#include "posekit/datasets/robustness.h"
 #include "posekit/io/atomic_file.h"
 
 namespace posekit::cli {
 namespace {
 
+std::vector<std::string> split_list(const std::string& text) {
+  std::vector<std::string> items;
+  std::stringstream in(text);
+  std::string item;
+  while (std::getline(in, item, ','))
+    if (!item.empty()) items.push_back(item);
+  return items;
+}
+
+int make_robustness(const ArgParser& args) {
+  RobustnessOptions o;
+  o.data_root = find_data_root(args.get("data"));
+  const long seed = args.get_int("seed"), shapes = args.get_int("shapes");
+  if (seed < 0) throw UsageError("--seed must be non-negative");
+  if (shapes < 1 || shapes > 100) throw UsageError("--shapes must be 1..100");
+  o.seed = static_cast<unsigned>(seed);
+  o.shapes = static_cast<int>(shapes);
+  o.only = split_list(args.get("variations"));
+  o.force = args.flag_set("force");
+  std::optional<Progress> progress;
+  o.progress = [&](int done, int total, const std::string&) {
+    if (!progress) progress.emplace("dataset make --robustness", total);
+    progress->update(done);
+  };
+  const RobustnessSummary s = make_robustness_set(args.get("out"), o);
+  if (progress) progress->finish();
+  if (args.flag_set("json")) {
+    print_json({{"out", args.get("out")}, {"bodies", s.bodies}, {"shapes", s.shapes}, {"variations", s.variations},
+                {"seconds", s.seconds}});
+    return 0;
+  }
+  std::cout << "wrote " << args.get("out") << ": robustness set of " << s.bodies << " bodies (" << s.shapes << " shapes x "
+            << s.variations << " variations) in " << std::fixed << std::setprecision(1) << s.seconds
+            << " s; evaluate with: posekit eval bodies --dataset " << args.get("out") << "\n";
+  return 0;
+}
+
 int dataset_make(int argc, char** argv) {
+  std::string variations;
+  for (const auto& v : robustness_variations()) variations += "\n      " + v.name + ": " + v.description;
   ArgParser args("dataset make",
                  "Generates the evaluation dataset from the MakeHuman model: the template, a registered pose\n"
                  "dataset (train/test split), customized subjects in the four BMI classes in their own topology\n"
                  "with ground-truth measurements, correspondence and posed meshes, simulated booth scans (mm)\n"
-                 "and front/side photos with silhouette masks. Written to a temporary folder, renamed when done.");
+                 "and front/side photos with silhouette masks. Written to a temporary folder, renamed when done.\n\n"
+                 "With --robustness, the robustness set instead: --shapes bodies (women, men, mixed; BMI about 15\n"
+                 "to 40) each in every variation, with the rig's joints, girths and part labels as truth:" + variations);
   args.option("out", "DIR", "output folder (must not exist unless --force)")
       .option("data", "DIR", "MakeHuman data root")
       .option("seed", "N", "random seed (same seed, same bytes)", "1")
@@ -28,12 +71,17 @@ int dataset_make(int argc, char** argv) {
       .option("noise-mm", "S", "scan noise sigma along the ray (mm)", "1.5")
       .option("outliers", "F", "fraction of outlier points added to each scan", "0.001")
       .flag("small", "a third of the poses and 2 subjects (quick)")
+      .flag("robustness", "write the robustness set (for posekit eval bodies) instead")
+      .option("shapes", "N", "robustness set: body shapes, each in every variation", "10")
+      .option("variations", "LIST", "robustness set: only these variations (comma-separated names)")
       .flag("force", "replace an existing output folder")
       .flag("json", "summary as JSON on stdout")
       .example("posekit dataset make --out dataset")
-      .example("posekit dataset make --out small --small --seed 7");
+      .example("posekit dataset make --out small --small --seed 7")
+      .example("posekit dataset make --robustness --out robustness");
   if (!args.parse(argc, argv)) return 0;
   if (!args.has("out")) throw UsageError("--out DIR is required");
+  if (args.flag_set("robustness")) return make_robustness(args);
   DatasetOptions o;
   o.data_root = find_data_root(args.get("data"));
   const long seed = args.get_int("seed");

@@ -300,8 +300,12 @@ int run_segment(int argc, char** argv) {
 }
 
 int run_eval(int argc, char** argv) {
+  if (argc >= 1 && std::string(argv[0]) == "bodies") return run_eval_bodies(argc - 1, argv + 1);
   if (argc < 1 || std::string(argv[0]) != "pose") {
-    std::cout << "usage: posekit eval pose --dataset DIR [--model FILE] [--json]\n";
+    std::cout << "usage: posekit eval pose --dataset DIR [--model FILE] [--json]\n"
+                 "       posekit eval bodies --dataset DIR [--model FILE] [--json]\n\n"
+                 "  pose     pose accuracy on a posekit dataset's held-out poses and subjects\n"
+                 "  bodies   body understanding on a robustness set (posekit dataset make --robustness)\n";
     return argc >= 1 && (std::string(argv[0]) == "--help" || std::string(argv[0]) == "-h") ? 0 : 2;
   }
   ArgParser args("eval pose",

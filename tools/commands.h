@@ -13,6 +13,7 @@ int run_train(int argc, char** argv);
 int run_pose(int argc, char** argv);
 int run_segment(int argc, char** argv);
 int run_eval(int argc, char** argv);
+int run_eval_bodies(int argc, char** argv);
 int run_compare(int argc, char** argv);
 int run_view(int argc, char** argv);
 int run_report(int argc, char** argv);

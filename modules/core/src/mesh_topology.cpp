@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cstdint>
+#include <map>
 #include <numeric>
 #include <unordered_map>
 
@@ -134,6 +135,28 @@ VertexFaces vertex_faces(const Eigen::MatrixXi& F, int num_vertices) {
   for (Eigen::Index f = 0; f < F.rows(); ++f)
     for (int c = 0; c < 3; ++c) vf.face_index[fill[F(f, c)]++] = static_cast<int>(f);
   return vf;
+}
+
+TriangleMesh subdivide_midpoints(const TriangleMesh& mesh) {
+  const Eigen::MatrixXi E = unique_edges(mesh.F);
+  std::map<std::pair<int, int>, int> midpoint;
+  TriangleMesh out;
+  out.V.resize(mesh.V.rows() + E.rows(), 3);
+  out.V.topRows(mesh.V.rows()) = mesh.V;
+  for (Eigen::Index e = 0; e < E.rows(); ++e) {
+    out.V.row(mesh.V.rows() + e) = 0.5 * (mesh.V.row(E(e, 0)) + mesh.V.row(E(e, 1)));
+    midpoint[{E(e, 0), E(e, 1)}] = static_cast<int>(mesh.V.rows() + e);
+  }
+  auto mid = [&](int a, int b) { return midpoint.at({std::min(a, b), std::max(a, b)}); };
+  out.F.resize(4 * mesh.F.rows(), 3);
+  for (Eigen::Index f = 0; f < mesh.F.rows(); ++f) {
+    const int a = mesh.F(f, 0), b = mesh.F(f, 1), c = mesh.F(f, 2), ab = mid(a, b), bc = mid(b, c), ca = mid(c, a);
+    out.F.row(4 * f) << a, ab, ca;
+    out.F.row(4 * f + 1) << ab, b, bc;
+    out.F.row(4 * f + 2) << ca, bc, c;
+    out.F.row(4 * f + 3) << ab, bc, ca;
+  }
+  return out;
 }
 
 }  // namespace posekit

@@ -3,6 +3,8 @@
 #include <Eigen/Core>
 #include <vector>
 
+#include "posekit/core/triangle_mesh.h"
+
 namespace posekit {
 
 /// Unique undirected edges, #E x 2 with E(e,0) < E(e,1), sorted.
@@ -27,5 +29,10 @@ struct VertexFaces {
   std::vector<int> face_index;
 };
 VertexFaces vertex_faces(const Eigen::MatrixXi& F, int num_vertices);
+
+/// Midpoint subdivision: every triangle split into four by its edge midpoints, the surface unchanged
+/// (a finer tessellation of the same polygons). Triangle f becomes triangles 4f .. 4f+3. Only V and F
+/// are carried over.
+TriangleMesh subdivide_midpoints(const TriangleMesh& mesh);
 
 }  // namespace posekit

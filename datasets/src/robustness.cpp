@@ -1,0 +1,519 @@
+#include "posekit/datasets/robustness.h"
+
+#include <unistd.h>
+
+#include <Eigen/Geometry>
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <filesystem>
+#include <nlohmann/json.hpp>
+#include <random>
+
+#include "posekit/body/makehuman_model.h"
+#include "posekit/body/parts.h"
+#include "posekit/body/pose_units.h"
+#include "posekit/body/skinning.h"
+#include "posekit/core/error.h"
+#include "posekit/core/mesh_geometry.h"
+#include "posekit/core/mesh_slice.h"
+#include "posekit/core/mesh_topology.h"
+#include "posekit/datasets/pose_set.h"
+#include "posekit/datasets/remesh.h"
+#include "posekit/datasets/scanner.h"
+#include "posekit/datasets/subjects.h"
+#include "posekit/io/atomic_file.h"
+#include "posekit/io/mesh_io.h"
+#include "posekit/io/point_cloud_io.h"
+#include "posekit/shape/body_orientation.h"
+
+namespace posekit {
+namespace fs = std::filesystem;
+
+namespace {
+
+constexpr double kDeg = M_PI / 180.0;
+
+/// A body of the set in posekit's frame (Y up, facing +Z, metres) with its truth.
+struct Sample {
+  TriangleMesh mesh;
+  Eigen::VectorXi triangle_part;  ///< rig label per triangle, -1 for added bits
+  Eigen::MatrixXd joints;         ///< #joints x 3
+  Measurements girths;            ///< the rig's measurements of this surface
+  std::string girth_truth = "this pose";
+  nlohmann::ordered_json facts = nlohmann::ordered_json::object();  ///< what was done, for the truth file
+};
+
+/// How a sample is written: file axes, unit, format; or as a booth scan.
+struct FileForm {
+  std::string up = "+Y", forward = "+Z";
+  Unit unit = Unit::kMetre;
+  std::string extension = "ply";
+  bool scan = false;
+};
+
+const std::vector<RobustnessVariation> kVariations = {
+    {"apose", "MakeHuman's rest A-pose, feet apart"},
+    {"arms_close", "arms hanging 10-15 degrees from the vertical, close to the torso"},
+    {"elbows_bent", "elbows bent 25-45 degrees"},
+    {"fists", "fingers closed into fists"},
+    {"feet_together", "ankles 10-13 cm apart"},
+    {"feet_wide", "ankles about shoulder width apart"},
+    {"thighs_touch", "a heavier version of the shape, feet together, thighs pressed until they overlap"},
+    {"torso_twist", "upper body twisted 10-20 degrees"},
+    {"xup_mm_bent", "X up, millimetres, elbows bent 30-40 degrees, fists, feet apart (an X-up registration)"},
+    {"zup", "Z up, facing -Y (metres, OBJ)"},
+    {"facing_back_cm", "Y up, facing -Z, centimetres"},
+    {"res_5k", "remeshed to about 5,000 vertices"},
+    {"res_200k", "subdivided to about 210,000 vertices"},
+    {"head_cut", "top 5-10% of the height cut off (an anonymised scan), hole left open"},
+    {"no_head", "head cut off below the chin"},
+    {"hands_cut", "hands cut off at the wrists, holes left open"},
+    {"holes", "25 holes of 1-5 cm across"},
+    {"noise", "vertices moved along the normal, 1 mm sigma, clipped at 3 mm"},
+    {"components", "4 floating bits and 32 loose vertices beside the body"},
+    {"scanner", "head cut, hands cut, soles open, 25 holes, 4 floating bits, 32 loose vertices, 1 mm noise"},
+    {"scan_cloud", "a simulated 8-camera booth scan (points, mm): 1.5 mm noise, occlusion holes, outliers"},
+};
+
+nlohmann::ordered_json vec(const Eigen::Vector3d& v) { return {v.x(), v.y(), v.z()}; }
+
+Eigen::Vector3d joint(const Eigen::MatrixXd& J, const std::string& name) { return J.row(find_joint_index(name)).transpose(); }
+
+/// Poses a shaped body by a 16-part pose and optional MakeHuman pose units (fingers), dual
+/// quaternion skinning; the result carries the posed bone heads, so the rig measures it.
+Body pose_body(const MakeHumanModel& model, const PoseUnits& units, const Body& body, const PartPose& pose,
+               const std::vector<std::pair<std::string, double>>& unit_weights) {
+  BonePose bones = bone_pose_from_part_pose(model.rig, pose);
+  if (!unit_weights.empty()) {
+    const BonePose extra = bone_pose_from_pose_units(model.rig, body, units, unit_weights);
+    for (size_t b = 0; b < bones.local.size(); ++b) bones.local[b] = bones.local[b] * extra.local[b];
+  }
+  const BoneTransforms T = pose_bone_transforms(model.rig, body.bone_heads, bones);
+  Body posed = body;
+  posed.mesh.V = dual_quaternion_skinning(body.mesh.V, model.weights, T);
+  for (int b = 0; b < model.rig.num_bones(); ++b) {
+    posed.bone_heads.row(b) = (T.R[b] * body.bone_heads.row(b).transpose() + T.t[b]).transpose();
+    posed.bone_tails.row(b) = (T.R[b] * body.bone_tails.row(b).transpose() + T.t[b]).transpose();
+  }
+  return posed;
+}
+
+/// Rotation about the forward axis that brings each arm to `abduction` from the vertical.
+void set_arm_abduction(const Eigen::MatrixXd& J, double abduction, PartPose* pose) {
+  for (const char* side : {"left", "right"}) {
+    const bool left = side[0] == 'l';
+    const Eigen::Vector3d d = joint(J, std::string(side) + "_elbow") - joint(J, std::string(side) + "_shoulder");
+    const double current = std::atan2(std::abs(d.x()), -d.y());
+    const double turn = (left ? -1.0 : 1.0) * (current - abduction);
+    pose->joint_rotation[find_joint_index(std::string(side) + "_shoulder")] = turn * Eigen::Vector3d::UnitZ();
+  }
+}
+
+/// Hip rotations about the forward axis that put the ankle centres `separation` apart.
+void set_ankle_separation(const Eigen::MatrixXd& J, double separation, PartPose* pose) {
+  const double mid = 0.5 * (joint(J, "left_hip").x() + joint(J, "right_hip").x());
+  for (const char* side : {"left", "right"}) {
+    const bool left = side[0] == 'l';
+    const double s = left ? 1.0 : -1.0;
+    const Eigen::Vector3d hip = joint(J, std::string(side) + "_hip"), ankle = joint(J, std::string(side) + "_ankle");
+    const double drop = hip.y() - ankle.y();
+    const double now = std::atan2(s * (ankle.x() - hip.x()), drop);
+    const double want = std::atan2(separation / 2 - s * (hip.x() - mid), drop);
+    pose->joint_rotation[find_joint_index(std::string(side) + "_hip")] = s * (want - now) * Eigen::Vector3d::UnitZ();
+  }
+}
+
+void set_elbow_flexion(const Eigen::MatrixXd& J, double angle, PartPose* pose) {
+  const JointAxes ax = joint_axes(J);
+  pose->joint_rotation[find_joint_index("left_elbow")] = angle * ax.left_elbow_flex;
+  pose->joint_rotation[find_joint_index("right_elbow")] = angle * ax.right_elbow_flex;
+}
+
+const std::vector<std::pair<std::string, double>> kFists = {
+    {"Finger1CloseLeft", 0.8}, {"Finger2CloseLeft", 1.0}, {"Finger3CloseLeft", 1.0}, {"Finger4CloseLeft", 1.0},
+    {"Finger5CloseLeft", 1.0}, {"Finger1CloseRight", 0.8}, {"Finger2CloseRight", 1.0}, {"Finger3CloseRight", 1.0},
+    {"Finger4CloseRight", 1.0}, {"Finger5CloseRight", 1.0}};
+
+/// The gap (m) between the thighs 4 cm below the crotch: inner surfaces' x (negative: they overlap).
+double thigh_gap(const Body& body, const Eigen::MatrixXd& J) {
+  const double y = 0.5 * (joint(J, "left_hip").y() + joint(J, "right_hip").y()) - 0.04;
+  const double mid = 0.5 * (joint(J, "left_hip").x() + joint(J, "right_hip").x());
+  const auto loops = slice_mesh(body.mesh.V, body.mesh.F, Eigen::Vector3d::UnitY(), y);
+  double left_inner = 1e9, right_inner = -1e9;
+  for (const auto& loop : loops) {
+    const double cx = loop.points.col(0).mean();
+    if (cx > mid) left_inner = std::min(left_inner, loop.points.col(0).minCoeff());
+    else right_inner = std::max(right_inner, loop.points.col(0).maxCoeff());
+  }
+  return left_inner - right_inner;
+}
+
+/// Keeps the faces `keep` says; labels follow, unreferenced vertices stay (as in a raw scan).
+void keep_faces(Sample* s, const std::vector<bool>& keep) {
+  Eigen::Index n = 0;
+  for (Eigen::Index f = 0; f < s->mesh.F.rows(); ++f)
+    if (keep[static_cast<size_t>(f)]) {
+      s->mesh.F.row(n) = s->mesh.F.row(f);
+      s->triangle_part[n] = s->triangle_part[f];
+      ++n;
+    }
+  s->mesh.F.conservativeResize(n, 3);
+  s->triangle_part.conservativeResize(n);
+}
+
+/// Drops faces with a vertex for which `cut` is true; returns how many went.
+template <class Cut>
+long cut_faces(Sample* s, Cut cut) {
+  std::vector<bool> keep(static_cast<size_t>(s->mesh.F.rows()), true);
+  long removed = 0;
+  for (Eigen::Index f = 0; f < s->mesh.F.rows(); ++f)
+    for (int c = 0; c < 3 && keep[static_cast<size_t>(f)]; ++c)
+      if (cut(s->mesh.V.row(s->mesh.F(f, c)).transpose())) keep[static_cast<size_t>(f)] = false, ++removed;
+  keep_faces(s, keep);
+  return removed;
+}
+
+void cut_head(Sample* s, double fraction_of_height) {
+  const double top = s->mesh.V.col(1).maxCoeff(), floor = s->mesh.V.col(1).minCoeff();
+  const double level = top - fraction_of_height * (top - floor);
+  cut_faces(s, [&](const Eigen::Vector3d& v) { return v.y() > level; });
+  s->facts["head_cut_at_y"] = level;
+}
+
+void cut_hands(Sample* s, std::mt19937* rng) {
+  std::uniform_real_distribution<double> offset(-0.01, 0.015);
+  for (const char* side : {"left", "right"}) {
+    const Eigen::Vector3d wrist = joint(s->joints, std::string(side) + "_wrist");
+    const Eigen::Vector3d dir = (wrist - joint(s->joints, std::string(side) + "_elbow")).normalized();
+    const double at = offset(*rng);
+    cut_faces(s, [&](const Eigen::Vector3d& v) { return (v - wrist).norm() < 0.3 && (v - wrist).dot(dir) > at; });
+    s->facts[std::string(side) + "_hand_cut_beyond_wrist_m"] = at;
+  }
+}
+
+void open_soles(Sample* s) {
+  const double floor = s->mesh.V.col(1).minCoeff();
+  const Eigen::MatrixXd N = face_normals(s->mesh.V, s->mesh.F);
+  std::vector<bool> keep(static_cast<size_t>(s->mesh.F.rows()), true);
+  for (Eigen::Index f = 0; f < s->mesh.F.rows(); ++f) {
+    bool low = true;
+    for (int c = 0; c < 3; ++c) low = low && s->mesh.V(s->mesh.F(f, c), 1) < floor + 0.012;
+    keep[static_cast<size_t>(f)] = !(low && N(f, 1) < -0.5);
+  }
+  keep_faces(s, keep);
+  s->facts["soles_open"] = true;
+}
+
+void punch_holes(Sample* s, int count, std::mt19937* rng) {
+  const Eigen::MatrixXd C = face_centroids(s->mesh.V, s->mesh.F);
+  const Eigen::VectorXd A = face_areas(s->mesh.V, s->mesh.F);
+  std::discrete_distribution<Eigen::Index> pick(A.data(), A.data() + A.size());
+  std::uniform_real_distribution<double> radius(0.005, 0.025);
+  std::vector<bool> keep(static_cast<size_t>(s->mesh.F.rows()), true);
+  for (int h = 0; h < count; ++h) {
+    const Eigen::RowVector3d centre = C.row(pick(*rng));
+    const double r = radius(*rng);
+    for (Eigen::Index f = 0; f < C.rows(); ++f)
+      if ((C.row(f) - centre).norm() < r) keep[static_cast<size_t>(f)] = false;
+  }
+  keep_faces(s, keep);
+  s->facts["holes"] = count;
+}
+
+void add_noise(Sample* s, double sigma, std::mt19937* rng) {
+  const Eigen::MatrixXd N = vertex_normals(s->mesh.V, s->mesh.F);
+  std::normal_distribution<double> g(0.0, sigma);
+  for (Eigen::Index v = 0; v < s->mesh.V.rows(); ++v) s->mesh.V.row(v) += std::clamp(g(*rng), -3 * sigma, 3 * sigma) * N.row(v);
+  s->facts["noise_sigma_m"] = sigma;
+}
+
+/// Floating bits a booth picks up (a strap, a hair clump, the floor): small closed blobs 15-50 cm
+/// from the body, and loose vertices (no face) near its surface.
+void add_floating_bits(Sample* s, int blobs, int loose, std::mt19937* rng) {
+  const BoundingBox box = bounding_box(s->mesh.V);
+  std::uniform_real_distribution<double> u(0.0, 1.0);
+  const double t = (1 + std::sqrt(5.0)) / 2;
+  Eigen::MatrixXd ico(12, 3);
+  ico << -1, t, 0, 1, t, 0, -1, -t, 0, 1, -t, 0, 0, -1, t, 0, 1, t, 0, -1, -t, 0, 1, -t, t, 0, -1, t, 0, 1, -t, 0, -1, -t, 0, 1;
+  ico.rowwise().normalize();
+  Eigen::MatrixXi ico_f(20, 3);
+  ico_f << 0, 11, 5, 0, 5, 1, 0, 1, 7, 0, 7, 10, 0, 10, 11, 1, 5, 9, 5, 11, 4, 11, 10, 2, 10, 7, 6, 7, 1, 8, 3, 9, 4, 3, 4, 2,
+      3, 2, 6, 3, 6, 8, 3, 8, 9, 4, 9, 5, 2, 4, 11, 6, 2, 10, 8, 6, 7, 9, 8, 1;
+  for (int b = 0; b < blobs; ++b) {
+    const double r = 0.01 + 0.03 * u(*rng);
+    const double angle = 2 * M_PI * u(*rng), away = 0.15 + 0.35 * u(*rng);
+    const Eigen::Vector3d at(box.center().x() + (0.5 * box.extent().x() + away) * std::cos(angle),
+                             box.min.y() + r + (box.extent().y() - 2 * r) * u(*rng),
+                             box.center().z() + (0.5 * box.extent().z() + away) * std::sin(angle));
+    const Eigen::Index base = s->mesh.V.rows();
+    s->mesh.V.conservativeResize(base + 12, 3);
+    s->mesh.V.bottomRows(12) = (r * ico).rowwise() + at.transpose();
+    s->mesh.F.conservativeResize(s->mesh.F.rows() + 20, 3);
+    s->mesh.F.bottomRows(20) = ico_f.array() + static_cast<int>(base);
+    s->triangle_part.conservativeResize(s->triangle_part.size() + 20);
+    s->triangle_part.tail(20).setConstant(-1);
+  }
+  std::uniform_int_distribution<Eigen::Index> vertex(0, s->mesh.V.rows() - 1);
+  const Eigen::Index base = s->mesh.V.rows();
+  s->mesh.V.conservativeResize(base + loose, 3);
+  std::normal_distribution<double> jitter(0.0, 0.01);
+  for (int k = 0; k < loose; ++k)
+    s->mesh.V.row(base + k) = s->mesh.V.row(vertex(*rng)) + Eigen::RowVector3d(jitter(*rng), jitter(*rng), jitter(*rng));
+  s->facts["floating_bits"] = blobs;
+  s->facts["loose_vertices"] = loose;
+}
+
+/// The set's shapes: women, men and mixed, BMI about 15 to 40 (make_calibration_specs).
+std::vector<BodySpec> robustness_shapes(unsigned seed, int count) { return make_calibration_specs(seed * 7919u + 20261123u, count); }
+
+}  // namespace
+
+const std::vector<RobustnessVariation>& robustness_variations() { return kVariations; }
+
+RobustnessSummary make_robustness_set(const std::string& out_dir, const RobustnessOptions& o) {
+  const auto t0 = std::chrono::steady_clock::now();
+  std::vector<RobustnessVariation> chosen;
+  for (const auto& name : o.only) {
+    auto it = std::find_if(kVariations.begin(), kVariations.end(), [&](const RobustnessVariation& v) { return v.name == name; });
+    if (it == kVariations.end()) {
+      std::string known;
+      for (const auto& v : kVariations) known += (known.empty() ? "" : ", ") + v.name;
+      throw InvalidInput("robustness set: unknown variation '" + name + "' (known: " + known + ")");
+    }
+  }
+  for (const auto& v : kVariations)
+    if (o.only.empty() || std::find(o.only.begin(), o.only.end(), v.name) != o.only.end()) chosen.push_back(v);
+  if (o.shapes < 1) throw InvalidInput("robustness set: at least one shape is needed");
+
+  const fs::path out = fs::absolute(out_dir).lexically_normal();
+  std::error_code ec;
+  if (fs::exists(out, ec) && !o.force) throw IoError(out.string() + ": already exists (choose another --out or pass --force)");
+  const fs::path tmp = out.string() + ".tmp-" + std::to_string(::getpid());
+  fs::remove_all(tmp, ec);
+  if (!fs::create_directories(tmp / "bodies", ec) || ec)
+    throw IoError(tmp.string() + ": cannot create the output folder (" + ec.message() + ")");
+  fs::create_directories(tmp / "truth", ec);
+  try {
+    const auto model = load_makehuman_model(o.data_root);
+    const PoseUnits units = read_pose_units(model->data_root + "/poseunits/body-poseunits.json");
+    const Eigen::VectorXi rest_labels = triangle_part_labels(model->body_F, vertex_part_labels(*model));
+    const auto specs = robustness_shapes(o.seed, o.shapes);
+    nlohmann::ordered_json bodies = nlohmann::ordered_json::array();
+    const int total = o.shapes * static_cast<int>(chosen.size());
+    int done = 0;
+    for (int k = 0; k < o.shapes; ++k) {
+      char id[16];
+      std::snprintf(id, sizeof id, "s%02d", k + 1);
+      std::mt19937 rng(o.seed * 1000003u + static_cast<unsigned>(k));
+      std::uniform_real_distribution<double> u(0.0, 1.0);
+      const Body rest = build_body(*model, specs[static_cast<size_t>(k)]);
+      const Eigen::MatrixXd J = joint_centres(model->rig, rest);
+      const BodyStats stats = body_stats(rest.mesh);
+      Measurements rest_girths;
+      try {
+        rest_girths = measure_makehuman_body(*model, rest);
+      } catch (const InvalidInput& e) {
+        throw InvalidInput(std::string("robustness set: shape ") + id + ": the rig cannot measure its rest pose: " + e.what());
+      }
+      auto sample_of = [&](const Body& body, const nlohmann::ordered_json& facts) {
+        Sample s;
+        s.mesh = body.mesh;
+        s.triangle_part = rest_labels;
+        s.joints = joint_centres(model->rig, body);
+        s.facts = facts;
+        try {
+          s.girths = measure_makehuman_body(*model, body);
+        } catch (const InvalidInput&) {  // arms never clear of the torso: torso girths from rest
+          s.girths = rest_girths;
+          s.girth_truth = "rest pose (the rig cannot measure this pose)";
+        }
+        return s;
+      };
+      auto posed = [&](const PartPose& pose, const std::vector<std::pair<std::string, double>>& fingers,
+                       const nlohmann::ordered_json& facts, const Body& base) {
+        return sample_of(pose_body(*model, units, base, pose, fingers), facts);
+      };
+      const Sample apose = sample_of(rest, {});
+      for (const auto& variation : chosen) {
+        const std::string& v = variation.name;
+        FileForm form;
+        Sample s;
+        PartPose pose;
+        if (v == "apose") {
+          s = apose;
+        } else if (v == "arms_close") {
+          const double a = (10 + 5 * u(rng)) * kDeg;
+          set_arm_abduction(J, a, &pose);
+          s = posed(pose, {}, {{"arm_abduction_deg", a / kDeg}}, rest);
+        } else if (v == "elbows_bent") {
+          const double a = (25 + 20 * u(rng)) * kDeg;
+          set_elbow_flexion(J, a, &pose);
+          s = posed(pose, {}, {{"elbow_flexion_deg", a / kDeg}}, rest);
+        } else if (v == "fists") {
+          s = posed(pose, kFists, {{"fists", true}}, rest);
+        } else if (v == "feet_together") {
+          const double d = 0.10 + 0.03 * u(rng);
+          set_ankle_separation(J, d, &pose);
+          s = posed(pose, {}, {{"ankle_separation_m", d}}, rest);
+        } else if (v == "feet_wide") {
+          const double d = (joint(J, "left_shoulder") - joint(J, "right_shoulder")).norm() * (0.9 + 0.2 * u(rng));
+          set_ankle_separation(J, d, &pose);
+          s = posed(pose, {}, {{"ankle_separation_m", d}}, rest);
+        } else if (v == "thighs_touch") {
+          BodySpec heavy = specs[static_cast<size_t>(k)];
+          heavy.weight = std::max(heavy.weight, 0.85);
+          const Body body = build_body(*model, heavy);
+          const Eigen::MatrixXd HJ = joint_centres(model->rig, body);
+          const double d = 0.12;
+          set_ankle_separation(HJ, d, &pose);
+          Body together = pose_body(*model, units, body, pose, {});
+          double gap = thigh_gap(together, joint_centres(model->rig, together));
+          // Press the thighs in (about the hips) until they overlap by 5 mm, at most 6 degrees more.
+          const double lever = 0.04;  // the gap is measured 4 cm below the hip joints
+          const double extra = std::clamp((gap + 0.005) / 2 / lever, 0.0, 6 * kDeg);
+          pose.joint_rotation[find_joint_index("left_hip")] -= extra * Eigen::Vector3d::UnitZ();
+          pose.joint_rotation[find_joint_index("right_hip")] += extra * Eigen::Vector3d::UnitZ();
+          together = pose_body(*model, units, body, pose, {});
+          gap = thigh_gap(together, joint_centres(model->rig, together));
+          Measurements heavy_rest = measure_makehuman_body(*model, body);
+          s = sample_of(together, {{"weight_slider", heavy.weight}, {"thigh_gap_m", gap}, {"extra_adduction_deg", extra / kDeg}});
+          if (s.girth_truth != "this pose") s.girths = heavy_rest;
+        } else if (v == "torso_twist") {
+          const double a = (10 + 10 * u(rng)) * kDeg * (u(rng) < 0.5 ? -1 : 1);
+          pose.joint_rotation[find_joint_index("upper_back")] = a * Eigen::Vector3d::UnitY();
+          s = posed(pose, {}, {{"twist_deg", a / kDeg}}, rest);
+        } else if (v == "xup_mm_bent") {
+          const double a = (30 + 10 * u(rng)) * kDeg;
+          set_elbow_flexion(J, a, &pose);
+          set_ankle_separation(J, 0.30, &pose);
+          s = posed(pose, kFists, {{"elbow_flexion_deg", a / kDeg}, {"fists", true}, {"ankle_separation_m", 0.30}}, rest);
+          form.up = "+X";
+          form.forward = "+Z";
+          form.unit = Unit::kMillimetre;
+        } else if (v == "zup") {
+          s = apose;
+          form.up = "+Z";
+          form.forward = "-Y";
+          form.extension = "obj";
+        } else if (v == "facing_back_cm") {
+          s = apose;
+          form.forward = "-Z";
+          form.unit = Unit::kCentimetre;
+        } else if (v == "res_5k") {
+          s = apose;
+          SurfacePoints corr;
+          s.mesh = remesh_body(apose.mesh, 5000, &corr);
+          s.triangle_part.resize(s.mesh.F.rows());
+          for (Eigen::Index f = 0; f < s.mesh.F.rows(); ++f) {
+            const int a = apose.triangle_part[corr.face[s.mesh.F(f, 0)]], b = apose.triangle_part[corr.face[s.mesh.F(f, 1)]],
+                      c = apose.triangle_part[corr.face[s.mesh.F(f, 2)]];
+            s.triangle_part[f] = (b == c) ? b : a;
+          }
+        } else if (v == "res_200k") {
+          s = apose;
+          s.mesh = subdivide_midpoints(subdivide_midpoints(apose.mesh));
+          s.triangle_part.resize(s.mesh.F.rows());
+          for (Eigen::Index f = 0; f < s.mesh.F.rows(); ++f) s.triangle_part[f] = apose.triangle_part[f / 16];
+        } else if (v == "head_cut") {
+          s = apose;
+          cut_head(&s, 0.05 + 0.05 * u(rng));
+        } else if (v == "no_head") {
+          s = apose;
+          const double chin = joint(s.joints, "neck").y() + 0.45 * (rest.bone_heads(model->rig.find_bone("head"), 1) - joint(s.joints, "neck").y());
+          const double top = s.mesh.V.col(1).maxCoeff(), floor = s.mesh.V.col(1).minCoeff();
+          cut_head(&s, (top - chin) / (top - floor));
+        } else if (v == "hands_cut") {
+          s = apose;
+          cut_hands(&s, &rng);
+        } else if (v == "holes") {
+          s = apose;
+          punch_holes(&s, 25, &rng);
+        } else if (v == "noise") {
+          s = apose;
+          add_noise(&s, 0.001, &rng);
+        } else if (v == "components") {
+          s = apose;
+          add_floating_bits(&s, 4, 32, &rng);
+        } else if (v == "scanner") {
+          s = apose;
+          cut_head(&s, 0.05 + 0.05 * u(rng));
+          cut_hands(&s, &rng);
+          open_soles(&s);
+          punch_holes(&s, 25, &rng);
+          add_noise(&s, 0.001, &rng);
+          add_floating_bits(&s, 4, 32, &rng);
+        } else if (v == "scan_cloud") {
+          s = apose;
+          form.scan = true;
+        }
+        const std::string name = std::string(id) + "_" + v;
+        const std::string file = "bodies/" + name + "." + (form.scan ? "ply" : form.extension);
+        const BodyOrientation orientation = orientation_from_axes(parse_axis(form.up), parse_axis(form.forward));
+        // p_posekit = R p_file: rows p_file^T = p_posekit^T R.
+        auto to_file = [&](const Eigen::MatrixXd& P) { return Eigen::MatrixXd(P * orientation.rotation); };
+        if (form.scan) {
+          ScannerOptions so;
+          so.views_around = 8;
+          so.seed = rng();
+          SimulatedScan scan = simulate_scan(s.mesh, so);
+          PointCloud cloud;
+          cloud.P = to_file(scan.cloud.P);
+          write_point_cloud((tmp / file).string(), cloud, {Unit::kMillimetre});
+          s.facts["scan_points"] = cloud.P.rows();
+          form.unit = Unit::kMillimetre;
+        } else {
+          TriangleMesh m;
+          m.V = to_file(s.mesh.V);
+          m.F = s.mesh.F;
+          write_mesh((tmp / file).string(), m, {form.unit});
+        }
+        nlohmann::ordered_json truth;
+        truth["format"] = "posekit robustness truth 1";
+        truth["variation"] = v;
+        truth["shape"] = id;
+        truth["kind"] = form.scan ? "scan" : "mesh";
+        truth["file"] = {{"path", file}, {"unit", unit_name(form.unit)}, {"up", form.up}, {"forward", form.forward}};
+        truth["body"] = {{"gender", specs[static_cast<size_t>(k)].gender}, {"weight", specs[static_cast<size_t>(k)].weight},
+                         {"bmi", stats.bmi}, {"stature_m", stats.stature_m}};
+        truth["done"] = s.facts;
+        truth["frame"] = "posekit (Y up, facing +Z, left +X), metres";
+        for (int j = 0; j < kNumJoints; ++j) truth["joints"][joint_name(j)] = vec(s.joints.row(j).transpose());
+        const Measurements& g = s.girths;
+        truth["girths"] = {{"bust", g.bust}, {"underbust", g.underbust}, {"waist", g.waist}, {"hip", g.hip},
+                           {"thigh", g.thigh}, {"upper_arm", g.upper_arm}, {"neck", g.neck}};
+        truth["girths_from"] = s.girth_truth;
+        truth["levels_y"] = {{"crotch", g.crotch_height}, {"hip", g.hip_height}, {"waist", g.waist_height}, {"bust", g.bust_height}};
+        if (!form.scan) truth["triangle_part"] = std::vector<int>(s.triangle_part.data(), s.triangle_part.data() + s.triangle_part.size());
+        const std::string truth_file = "truth/" + name + ".json";
+        const std::string text = truth.dump() + "\n";
+        write_file_atomically((tmp / truth_file).string(), [&](std::ostream& os) { os << text; }, false);
+        bodies.push_back({{"name", name}, {"variation", v}, {"shape", id}, {"file", file}, {"truth", truth_file}});
+        if (o.progress) o.progress(++done, total, name);
+      }
+    }
+    nlohmann::ordered_json manifest;
+    manifest["format"] = "posekit robustness set 1";
+    manifest["generator"] = {{"seed", o.seed}, {"shapes", o.shapes}, {"source", "MakeHuman CC0 assets (data root)"},
+                             {"posing", "163-bone rig, MakeHuman skinning weights, dual quaternion skinning"}};
+    nlohmann::ordered_json vars = nlohmann::ordered_json::array();
+    for (const auto& v : chosen) vars.push_back({{"name", v.name}, {"description", v.description}});
+    manifest["variations"] = vars;
+    manifest["bodies"] = bodies;
+    const std::string text = manifest.dump(2) + "\n";
+    write_file_atomically((tmp / "manifest.json").string(), [&](std::ostream& os) { os << text; }, false);
+    if (o.force) fs::remove_all(out, ec);
+    fs::rename(tmp, out);
+    RobustnessSummary r;
+    r.bodies = total;
+    r.shapes = o.shapes;
+    r.variations = static_cast<int>(chosen.size());
+    r.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+    return r;
+  } catch (...) {
+    fs::remove_all(tmp, ec);
+    throw;
+  }
+}
+
+}  // namespace posekit

@@ -1,0 +1,199 @@
+#include "posekit/evaluation/body_evaluation.h"
+
+#include <Eigen/Geometry>
+#include <chrono>
+#include <cmath>
+#include <filesystem>
+#include <memory>
+#include <nlohmann/json.hpp>
+
+#include "posekit/body/parts.h"
+#include "posekit/core/error.h"
+#include "posekit/core/mesh_geometry.h"
+#include "posekit/core/units.h"
+#include "posekit/deformation/pose_model.h"
+#include "posekit/io/atomic_file.h"
+#include "posekit/io/mesh_io.h"
+#include "posekit/io/point_cloud_io.h"
+#include "posekit/segmentation/segmentation.h"
+#include "posekit/segmentation/segmentation_prior.h"
+#include "posekit/segmentation/skeleton_checks.h"
+#include "posekit/segmentation/skeleton_embedding.h"
+#include "posekit/shape/body_orientation.h"
+#include "posekit/shape/layered_representation.h"
+#include "posekit/shape/measurements.h"
+
+namespace posekit {
+namespace fs = std::filesystem;
+
+namespace {
+
+constexpr double kSilentJoint = 0.05, kSilentAgreement = 0.80, kSilentGirth = 0.05;  // m, fraction, m
+
+Eigen::Vector3d vec3(const nlohmann::json& j) { return Eigen::Vector3d(j[0].get<double>(), j[1].get<double>(), j[2].get<double>()); }
+
+/// One body through unit, orientation, measurement and segmentation, compared with its truth.
+BodyResult evaluate_body(const fs::path& dir, const nlohmann::json& entry, const SegmentationPrior* prior) {
+  const auto t0 = std::chrono::steady_clock::now();
+  BodyResult r;
+  r.name = entry.at("name").get<std::string>();
+  r.variation = entry.at("variation").get<std::string>();
+  r.shape = entry.at("shape").get<std::string>();
+  const std::string truth_path = (dir / entry.at("truth").get<std::string>()).string();
+  const nlohmann::json truth = nlohmann::json::parse(read_file_bytes(truth_path));
+  r.kind = truth.at("kind").get<std::string>();
+  const std::string path = (dir / truth.at("file").at("path").get<std::string>()).string();
+  const bool scan = r.kind == "scan";
+
+  // Read as a user's file: unit from the extent, orientation from the shape.
+  TriangleMesh mesh;
+  PointCloud cloud;
+  if (scan) cloud = read_point_cloud(path);
+  else mesh = read_mesh(path);
+  Eigen::MatrixXd& P = scan ? cloud.P : mesh.V;
+  Unit unit = Unit::kMetre;
+  if (!guess_body_unit(robust_largest_extent(P), &unit)) {
+    r.measure_error = r.segment_error = "cannot tell the unit from the largest extent";
+    return r;
+  }
+  r.unit_right = unit_name(unit) == truth.at("file").at("unit").get<std::string>();
+  P *= metres_per_unit(unit);
+  BodyOrientation orientation;
+  try {
+    orientation = scan ? detect_body_orientation(P, {}) : detect_mesh_orientation(mesh.V, mesh.F);
+  } catch (const InvalidInput& e) {
+    r.measure_error = r.segment_error = std::string("orientation: ") + e.what();
+    return r;
+  }
+  r.orientation = orientation.describe();
+  for (const auto& w : orientation.warnings) r.warnings.push_back("orientation: " + w);
+  const BodyOrientation expected = orientation_from_axes(parse_axis(truth.at("file").at("up").get<std::string>()),
+                                                         parse_axis(truth.at("file").at("forward").get<std::string>()));
+  // Right within 15 degrees: a twisted torso has no single facing direction to the degree.
+  const double off = Eigen::AngleAxisd(orientation.rotation * expected.rotation.transpose()).angle();
+  r.orientation_right = off < 15 * M_PI / 180;
+  P = (P * orientation.rotation.transpose()).eval();
+
+  // Measure.
+  BodyMeasurements m;
+  try {
+    m = scan ? measure_point_cloud(P) : measure_body(mesh.V, mesh.F);
+    r.measured = true;
+    for (const auto& w : m.features.warnings) r.warnings.push_back(w);
+    for (const auto& [name, value] : truth.at("girths").items()) {
+      const Girth* g = m.find(name);
+      if (!g) continue;
+      if (g->measured) r.girth_error[name] = g->value - value.get<double>();
+      else r.girth_not_measured[name] = g->note;
+    }
+  } catch (const InvalidInput& e) {
+    r.measure_error = e.what();
+  }
+
+  // Segment and embed the skeleton, as `posekit segment` does.
+  if (!scan) {
+    try {
+      const BodyFeatures features = find_body_features(mesh.V, mesh.F);
+      const LayeredRepresentation rep = build_layered_representation(mesh.V, mesh.F, features);
+      Segmentation seg;
+      Eigen::MatrixXd joints;
+      if (prior) {
+        seg = segment_body(mesh.V, mesh.F, rep, representation_labels_from_prior(*prior, rep));
+        joints = embed_skeleton(*prior, rep);
+      } else {
+        seg = segment_body(mesh.V, mesh.F, rep);
+        joints = joint_centres_from_features(mesh.V, mesh.F, seg.triangle_part, rep, features);
+      }
+      const SkeletonCheck check = check_skeleton(mesh.V, mesh.F, seg.triangle_part, joints);
+      r.segmented = check.ok();
+      if (!check.ok()) r.segment_error = "fails its sanity checks: " + check.summary();
+      // Accuracy, also of a result the checks refused (to see whether they refused rightly).
+      const auto& labels = truth.at("triangle_part");
+      if (labels.size() == static_cast<size_t>(mesh.F.rows())) {
+        const Eigen::VectorXd area = face_areas(mesh.V, mesh.F);
+        double same = 0, all = 0;
+        for (Eigen::Index f = 0; f < mesh.F.rows(); ++f) {
+          const int t = labels[static_cast<size_t>(f)].get<int>();
+          if (t < 0) continue;
+          all += area[f];
+          if (t == seg.triangle_part[f]) same += area[f];
+        }
+        r.segmentation_agreement = all > 0 ? same / all : 0.0;
+      }
+      // Joints compared where the user gets them, in the file's frame.
+      r.joint_error_max = r.joint_error_mean = 0;
+      for (int j = 0; j < kNumJoints; ++j) {
+        const Eigen::Vector3d ours = orientation.rotation.transpose() * joints.row(j).transpose();
+        const Eigen::Vector3d rig = expected.rotation.transpose() * vec3(truth.at("joints").at(joint_name(j)));
+        const double e = (ours - rig).norm();
+        r.joint_error[joint_name(j)] = e;
+        r.joint_error_mean += e / kNumJoints;
+        if (e > r.joint_error_max) r.joint_error_max = e, r.worst_joint = joint_name(j);
+      }
+    } catch (const InvalidInput& e) {
+      r.segment_error = e.what();
+    }
+  }
+
+  // What a user would take for good and is not.
+  if (!r.orientation_right && (r.measured || r.segmented) && orientation.warnings.empty())
+    r.silent_nonsense.push_back("orientation " + r.orientation + " is wrong, without a warning");
+  if (r.segmented && r.joint_error_max > kSilentJoint)
+    r.silent_nonsense.push_back("skeleton passed its checks with the " + r.worst_joint + " " +
+                                std::to_string(static_cast<int>(std::lround(r.joint_error_max * 1000))) + " mm off");
+  if (r.segmented && r.segmentation_agreement < kSilentAgreement)
+    r.silent_nonsense.push_back("segmentation passed its checks agreeing with the rig on only " +
+                                std::to_string(static_cast<int>(std::lround(100 * r.segmentation_agreement))) + "% of the area");
+  for (const auto& [name, e] : r.girth_error)
+    if (std::abs(e) > kSilentGirth)
+      r.silent_nonsense.push_back(name + " girth returned as measured " + std::to_string(static_cast<int>(std::lround(e * 1000))) +
+                                  " mm off");
+  r.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  return r;
+}
+
+}  // namespace
+
+double iso_allowable_girth_error(const std::string& girth) {
+  if (girth == "bust") return 0.015;
+  if (girth == "waist" || girth == "hip") return 0.012;
+  return std::numeric_limits<double>::quiet_NaN();
+}
+
+BodyEvaluation evaluate_bodies(const std::string& dir, const BodyEvaluationOptions& o) {
+  const auto t0 = std::chrono::steady_clock::now();
+  const fs::path root(dir);
+  const fs::path manifest_path = root / "manifest.json";
+  if (!fs::is_regular_file(manifest_path))
+    throw IoError(dir + ": no manifest.json: not a robustness set (make one with posekit dataset make --robustness)");
+  nlohmann::json manifest;
+  try {
+    manifest = nlohmann::json::parse(read_file_bytes(manifest_path.string()));
+  } catch (const nlohmann::json::exception& e) {
+    throw IoError(manifest_path.string() + ": not valid JSON (" + e.what() + ")");
+  }
+  if (manifest.value("format", "") != "posekit robustness set 1")
+    throw IoError(manifest_path.string() + ": format is not 'posekit robustness set 1' (a pose dataset? use posekit eval pose)");
+  std::unique_ptr<SegmentationPrior> prior;
+  if (!o.model_path.empty()) prior = std::make_unique<SegmentationPrior>(segmentation_prior_of(read_pose_model(o.model_path)));
+  BodyEvaluation ev;
+  for (const auto& v : manifest.at("variations"))
+    if (o.only.empty() || std::find(o.only.begin(), o.only.end(), v.at("name").get<std::string>()) != o.only.end())
+      ev.variations.push_back(v.at("name").get<std::string>());
+  std::vector<nlohmann::json> entries;
+  for (const auto& b : manifest.at("bodies"))
+    if (std::find(ev.variations.begin(), ev.variations.end(), b.at("variation").get<std::string>()) != ev.variations.end())
+      entries.push_back(b);
+  for (size_t k = 0; k < entries.size(); ++k) {
+    try {
+      ev.bodies.push_back(evaluate_body(root, entries[k], prior.get()));
+    } catch (const nlohmann::json::exception& e) {
+      throw IoError(dir + ": the truth of " + entries[k].value("name", "?") + " is malformed (" + e.what() + ")");
+    }
+    if (o.progress) o.progress(static_cast<int>(k + 1), static_cast<int>(entries.size()), ev.bodies.back().name);
+  }
+  ev.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  return ev;
+}
+
+}  // namespace posekit
