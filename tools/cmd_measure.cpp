@@ -56,6 +56,7 @@ int run_measure(int argc, char** argv) {
     j["orientation"] = orientation_json(orientation);
     j["frame"] = frame;
     j["stature"] = m.stature;
+    if (!m.stature_measured) j["stature_note"] = m.stature_note + " (not measured)";
     for (const auto& g : m.girths) {
       nlohmann::ordered_json e = {{"measured", g.measured}, {"point", point_in(shown, g.point)}, {"normal", point_in(shown, g.normal)}};
       if (g.measured) e["value"] = g.value;
@@ -78,7 +79,8 @@ int run_measure(int argc, char** argv) {
     return 0;
   }
   std::cout << path << " (" << (cloud ? "point cloud" : "mesh") << ")\n" << std::fixed << std::setprecision(1)
-            << "  stature      " << m.stature * 100 << " cm\n";
+            << "  stature      " << m.stature * 100 << " cm"
+            << (m.stature_measured ? "" : " (not measured: " + m.stature_note + ")") << "\n";
   for (const auto& g : m.girths) {
     std::cout << "  " << std::left << std::setw(12) << g.name << std::right << " ";
     if (g.measured) std::cout << g.value * 100 << " cm\n";

@@ -233,10 +233,13 @@ int run_segment(int argc, char** argv) {
   const Eigen::MatrixXd file_vertices = input.mesh.V;
   const BodyOrientation orientation =
       orient_body_input(&input, args.get("up"), args.get("forward"), args.positionals()[0], "segment");
-  const TriangleMesh& mesh = input.mesh;
-  require_usable_mesh(mesh, args.positionals()[0]);
+  require_usable_mesh(input.mesh, args.positionals()[0]);
+  std::string left_out;
+  std::vector<int> surface_vertex;  // index in the file of each vertex segmented
+  const TriangleMesh mesh = body_surface(input.mesh.V, input.mesh.F, &left_out, &surface_vertex);
+  if (!left_out.empty()) std::cerr << "warning: " << args.positionals()[0] << ": " << left_out << " (floating pieces are labelled -1)\n";
   const auto t0 = std::chrono::steady_clock::now();
-  const BodyFeatures features = find_body_features(mesh.V, mesh.F);
+  const BodyFeatures features = find_body_features(input.mesh.V, input.mesh.F);  // sees the openings (cut hands, head)
   const LayeredRepresentation rep = build_layered_representation(mesh.V, mesh.F, features);
   Segmentation seg;
   Eigen::MatrixXd joints;
@@ -244,6 +247,9 @@ int run_segment(int argc, char** argv) {
     const SegmentationPrior prior = segmentation_prior_of(read_pose_model(args.get("model")));
     seg = segment_body(mesh.V, mesh.F, rep, representation_labels_from_prior(prior, rep));
     joints = embed_skeleton(prior, rep);
+    std::vector<std::string> replaced;
+    joints = reconcile_limb_joints(joints, features, 0.03, &replaced);
+    for (const auto& r : replaced) std::cerr << "note: " << args.positionals()[0] << ": " << r << "\n";
   } else {
     seg = segment_body(mesh.V, mesh.F, rep);
     joints = joint_centres_from_features(mesh.V, mesh.F, seg.triangle_part, rep, features);
@@ -258,10 +264,13 @@ int run_segment(int argc, char** argv) {
     for (const auto& p : check.problems) std::cerr << "warning: " << args.positionals()[0] << ": " << p << "\n";
   }
   if (args.has("out")) {
-    TriangleMesh labelled = mesh;  // in the file's own frame and unit
+    TriangleMesh labelled = input.mesh;  // in the file's own frame and unit, every face and vertex
     labelled.V = file_vertices;
-    if (labelled.has_normals()) labelled.N = in_file_frame(orientation, mesh.N);
-    labelled.vertex_scalars["part"] = seg.vertex_part.cast<double>();
+    if (labelled.has_normals()) labelled.N = in_file_frame(orientation, input.mesh.N);
+    Eigen::VectorXd part = Eigen::VectorXd::Constant(labelled.V.rows(), -1.0);
+    for (size_t v = 0; v < surface_vertex.size(); ++v)
+      if (surface_vertex[v] >= 0) part[surface_vertex[v]] = seg.vertex_part[static_cast<Eigen::Index>(v)];
+    labelled.vertex_scalars["part"] = part;
     write_mesh(args.get("out"), labelled, {unit.unit, MeshFormat::kAuto, true, io_warnings()});
   }
   if (frame == "input") joints = in_file_frame(orientation, joints);

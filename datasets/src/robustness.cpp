@@ -18,7 +18,6 @@
 #include "posekit/core/mesh_geometry.h"
 #include "posekit/core/mesh_slice.h"
 #include "posekit/core/mesh_topology.h"
-#include "posekit/datasets/pose_set.h"
 #include "posekit/datasets/remesh.h"
 #include "posekit/datasets/scanner.h"
 #include "posekit/datasets/subjects.h"
@@ -55,11 +54,11 @@ struct FileForm {
 const std::vector<RobustnessVariation> kVariations = {
     {"apose", "MakeHuman's rest A-pose, feet apart"},
     {"arms_close", "arms hanging 10-15 degrees from the vertical, close to the torso"},
-    {"elbows_bent", "elbows bent 25-45 degrees"},
+    {"elbows_bent", "elbows anywhere from straight to bent 45 degrees"},
     {"fists", "fingers closed into fists"},
     {"feet_together", "ankles 10-13 cm apart"},
     {"feet_wide", "ankles about shoulder width apart"},
-    {"thighs_touch", "a heavier version of the shape, feet together, thighs pressed until they overlap"},
+    {"thighs_touch", "a heavier version of the shape (weight slider >= 0.9), feet brought together until the thighs press together"},
     {"torso_twist", "upper body twisted 10-20 degrees"},
     {"xup_mm_bent", "X up, millimetres, elbows bent 30-40 degrees, fists, feet apart (an X-up registration)"},
     {"zup", "Z up, facing -Y (metres, OBJ)"},
@@ -124,10 +123,16 @@ void set_ankle_separation(const Eigen::MatrixXd& J, double separation, PartPose*
   }
 }
 
-void set_elbow_flexion(const Eigen::MatrixXd& J, double angle, PartPose* pose) {
-  const JointAxes ax = joint_axes(J);
-  pose->joint_rotation[find_joint_index("left_elbow")] = angle * ax.left_elbow_flex;
-  pose->joint_rotation[find_joint_index("right_elbow")] = angle * ax.right_elbow_flex;
+/// Elbow rotations in each arm's own bending plane that make the angle between upper arm and
+/// forearm `flexion` (0: straight). MakeHuman's rest A-pose is bent about 45 degrees already.
+void set_elbow_flexion(const Eigen::MatrixXd& J, double flexion, PartPose* pose) {
+  for (const char* side : {"left", "right"}) {
+    const std::string s(side);
+    const Eigen::Vector3d upper = (joint(J, s + "_elbow") - joint(J, s + "_shoulder")).normalized();
+    const Eigen::Vector3d fore = (joint(J, s + "_wrist") - joint(J, s + "_elbow")).normalized();
+    const double rest = std::acos(std::clamp(upper.dot(fore), -1.0, 1.0));
+    pose->joint_rotation[find_joint_index(s + "_elbow")] = (flexion - rest) * upper.cross(fore).normalized();
+  }
 }
 
 const std::vector<std::pair<std::string, double>> kFists = {
@@ -347,7 +352,7 @@ RobustnessSummary make_robustness_set(const std::string& out_dir, const Robustne
           set_arm_abduction(J, a, &pose);
           s = posed(pose, {}, {{"arm_abduction_deg", a / kDeg}}, rest);
         } else if (v == "elbows_bent") {
-          const double a = (25 + 20 * u(rng)) * kDeg;
+          const double a = 45 * u(rng) * kDeg;
           set_elbow_flexion(J, a, &pose);
           s = posed(pose, {}, {{"elbow_flexion_deg", a / kDeg}}, rest);
         } else if (v == "fists") {
@@ -361,24 +366,26 @@ RobustnessSummary make_robustness_set(const std::string& out_dir, const Robustne
           set_ankle_separation(J, d, &pose);
           s = posed(pose, {}, {{"ankle_separation_m", d}}, rest);
         } else if (v == "thighs_touch") {
+          // A heavier version of the shape, feet brought together (20 cm down to 8 cm between the
+          // ankles) until the thighs press together 4 cm below the hips, as they do on heavy people.
           BodySpec heavy = specs[static_cast<size_t>(k)];
-          heavy.weight = std::max(heavy.weight, 0.85);
+          heavy.weight = std::max(heavy.weight, 0.9);
           const Body body = build_body(*model, heavy);
           const Eigen::MatrixXd HJ = joint_centres(model->rig, body);
-          const double d = 0.12;
-          set_ankle_separation(HJ, d, &pose);
-          Body together = pose_body(*model, units, body, pose, {});
-          double gap = thigh_gap(together, joint_centres(model->rig, together));
-          // Press the thighs in (about the hips) until they overlap by 5 mm, at most 6 degrees more.
-          const double lever = 0.04;  // the gap is measured 4 cm below the hip joints
-          const double extra = std::clamp((gap + 0.005) / 2 / lever, 0.0, 6 * kDeg);
-          pose.joint_rotation[find_joint_index("left_hip")] -= extra * Eigen::Vector3d::UnitZ();
-          pose.joint_rotation[find_joint_index("right_hip")] += extra * Eigen::Vector3d::UnitZ();
-          together = pose_body(*model, units, body, pose, {});
-          gap = thigh_gap(together, joint_centres(model->rig, together));
-          Measurements heavy_rest = measure_makehuman_body(*model, body);
-          s = sample_of(together, {{"weight_slider", heavy.weight}, {"thigh_gap_m", gap}, {"extra_adduction_deg", extra / kDeg}});
-          if (s.girth_truth != "this pose") s.girths = heavy_rest;
+          Body together;
+          double d = 0.20, gap = 1;
+          for (double separation = 0.20; separation >= 0.08 - 1e-9; separation -= 0.02) {
+            d = separation;
+            pose = PartPose{};
+            set_ankle_separation(HJ, d, &pose);
+            together = pose_body(*model, units, body, pose, {});
+            gap = thigh_gap(together, joint_centres(model->rig, together));
+            if (gap < -0.003) break;
+          }
+          const BodyStats heavy_stats = body_stats(body.mesh);
+          s = sample_of(together, {{"weight_slider", heavy.weight}, {"bmi", heavy_stats.bmi}, {"ankle_separation_m", d},
+                                   {"thigh_gap_m", gap}});
+          if (s.girth_truth != "this pose") s.girths = measure_makehuman_body(*model, body);
         } else if (v == "torso_twist") {
           const double a = (10 + 10 * u(rng)) * kDeg * (u(rng) < 0.5 ? -1 : 1);
           pose.joint_rotation[find_joint_index("upper_back")] = a * Eigen::Vector3d::UnitY();

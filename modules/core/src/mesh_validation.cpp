@@ -4,6 +4,7 @@
 #include <algorithm>
 #include <array>
 #include <cmath>
+#include <cstdio>
 #include <vector>
 
 #include "posekit/core/error.h"
@@ -81,6 +82,30 @@ void require_usable_mesh(const TriangleMesh& mesh, const std::string& what) {
         throw InvalidInput(what + ": face " + std::to_string(f) + " has vertex index " +
                            std::to_string(mesh.F(f, c)) + ", expected 0.." +
                            std::to_string(mesh.V.rows() - 1));
+}
+
+FloatingBits find_floating_bits(const Eigen::MatrixXd& V, const Eigen::MatrixXi& F, double min_area_fraction) {
+  FloatingBits r;
+  r.keep_face.assign(static_cast<size_t>(F.rows()), true);
+  if (F.rows() == 0) return r;
+  Eigen::VectorXi component;
+  const int count = connected_components(F, static_cast<int>(V.rows()), &component);
+  if (count < 2) return r;
+  const Eigen::VectorXd face_area = face_areas(V, F);
+  std::vector<double> area(static_cast<size_t>(count), 0.0);
+  for (Eigen::Index f = 0; f < F.rows(); ++f) area[static_cast<size_t>(component[f])] += face_area[f];
+  const double largest = *std::max_element(area.begin(), area.end());
+  for (int c = 0; c < count; ++c)
+    if (area[static_cast<size_t>(c)] < min_area_fraction * largest) ++r.bits, r.area += area[static_cast<size_t>(c)];
+  for (Eigen::Index f = 0; f < F.rows(); ++f)
+    r.keep_face[static_cast<size_t>(f)] = !(area[static_cast<size_t>(component[f])] < min_area_fraction * largest);
+  return r;
+}
+
+std::string FloatingBits::describe() const {
+  char text[160];
+  std::snprintf(text, sizeof text, "left out %d floating piece%s (%.4g m^2 in all) apart from the body", bits, bits == 1 ? "" : "s", area);
+  return text;
 }
 
 }  // namespace posekit

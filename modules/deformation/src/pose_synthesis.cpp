@@ -111,7 +111,8 @@ PoseSynthesizer::PoseSynthesizer(std::shared_ptr<const PoseModel> model, const T
   } else {
     const LayeredRepresentation template_rep =
         build_layered_representation(M.template_V, M.template_F, find_body_features(M.template_V, M.template_F));
-    const LayeredRepresentation rep = build_layered_representation(s.V, s.F, find_body_features(s.V, s.F));
+    const BodyFeatures features = find_body_features(s.V, s.F);
+    const LayeredRepresentation rep = build_layered_representation(s.V, s.F, features);
     s.info.seconds_representation = seconds_since(t0);
     t0 = std::chrono::steady_clock::now();
     SegmentationPrior template_alone;  // a model without a prior: the template's own labelling
@@ -121,7 +122,7 @@ PoseSynthesizer::PoseSynthesizer(std::shared_ptr<const PoseModel> model, const T
     const SegmentationPrior& prior = template_alone.bodies.empty() ? M.segmentation_prior : template_alone;
     const Segmentation seg = segment_body(s.V, s.F, rep, representation_labels_from_prior(prior, rep));
     s.info.triangle_part = seg.triangle_part;
-    s.info.joint_centres = embed_skeleton(prior, rep);
+    s.info.joint_centres = reconcile_limb_joints(embed_skeleton(prior, rep), features);
     s.info.skeleton_problems = check_skeleton(s.V, s.F, s.info.triangle_part, s.info.joint_centres).problems;
     s.info.seconds_segmentation = seconds_since(t0);
     t0 = std::chrono::steady_clock::now();

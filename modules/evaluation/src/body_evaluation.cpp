@@ -10,6 +10,7 @@
 #include "posekit/body/parts.h"
 #include "posekit/core/error.h"
 #include "posekit/core/mesh_geometry.h"
+#include "posekit/core/mesh_validation.h"
 #include "posekit/core/units.h"
 #include "posekit/deformation/pose_model.h"
 #include "posekit/io/atomic_file.h"
@@ -19,6 +20,7 @@
 #include "posekit/segmentation/segmentation_prior.h"
 #include "posekit/segmentation/skeleton_checks.h"
 #include "posekit/segmentation/skeleton_embedding.h"
+#include "posekit/shape/body_features.h"
 #include "posekit/shape/body_orientation.h"
 #include "posekit/shape/layered_representation.h"
 #include "posekit/shape/measurements.h"
@@ -93,13 +95,18 @@ BodyResult evaluate_body(const fs::path& dir, const nlohmann::json& entry, const
   // Segment and embed the skeleton, as `posekit segment` does.
   if (!scan) {
     try {
-      const BodyFeatures features = find_body_features(mesh.V, mesh.F);
+      // As `posekit segment` does: floating bits are left out (and not counted in the agreement).
+      std::vector<int> surface_face;
+      const TriangleMesh whole = mesh;
+      mesh = body_surface(whole.V, whole.F, nullptr, nullptr, &surface_face);
+      const BodyFeatures features = find_body_features(whole.V, whole.F);  // sees the openings (cut hands, head)
       const LayeredRepresentation rep = build_layered_representation(mesh.V, mesh.F, features);
       Segmentation seg;
       Eigen::MatrixXd joints;
       if (prior) {
         seg = segment_body(mesh.V, mesh.F, rep, representation_labels_from_prior(*prior, rep));
         joints = embed_skeleton(*prior, rep);
+        joints = reconcile_limb_joints(joints, features);
       } else {
         seg = segment_body(mesh.V, mesh.F, rep);
         joints = joint_centres_from_features(mesh.V, mesh.F, seg.triangle_part, rep, features);
@@ -109,14 +116,17 @@ BodyResult evaluate_body(const fs::path& dir, const nlohmann::json& entry, const
       if (!check.ok()) r.segment_error = "fails its sanity checks: " + check.summary();
       // Accuracy, also of a result the checks refused (to see whether they refused rightly).
       const auto& labels = truth.at("triangle_part");
-      if (labels.size() == static_cast<size_t>(mesh.F.rows())) {
-        const Eigen::VectorXd area = face_areas(mesh.V, mesh.F);
+      if (labels.size() == static_cast<size_t>(whole.F.rows())) {
+        const Eigen::VectorXd area = face_areas(whole.V, whole.F);
         double same = 0, all = 0;
-        for (Eigen::Index f = 0; f < mesh.F.rows(); ++f) {
+        Eigen::VectorXi ours = Eigen::VectorXi::Constant(whole.F.rows(), -1);
+        for (size_t k = 0; k < surface_face.size(); ++k)
+          if (surface_face[k] >= 0) ours[surface_face[k]] = seg.triangle_part[static_cast<Eigen::Index>(k)];
+        for (Eigen::Index f = 0; f < whole.F.rows(); ++f) {
           const int t = labels[static_cast<size_t>(f)].get<int>();
           if (t < 0) continue;
           all += area[f];
-          if (t == seg.triangle_part[f]) same += area[f];
+          if (t == ours[f]) same += area[f];
         }
         r.segmentation_agreement = all > 0 ? same / all : 0.0;
       }

@@ -1,5 +1,6 @@
 #include "posekit/segmentation/skeleton_embedding.h"
 
+#include <cmath>
 #include <string>
 
 #include "posekit/body/parts.h"
@@ -36,6 +37,32 @@ Eigen::MatrixXd embed_skeleton(const SkeletonPrior& prior, const LayeredRepresen
   const auto [lo, hi] = torso_span(rep);
   for (int j = 0; j < 3; ++j) joints(j, 1) = lo + prior.torso_fraction[j] * (hi - lo);
   return joints;
+}
+
+Eigen::MatrixXd reconcile_limb_joints(const Eigen::MatrixXd& joints, const BodyFeatures& f, double tolerance,
+                                      std::vector<std::string>* replaced) {
+  if (joints.rows() != kNumJoints || joints.cols() != 3)
+    throw InvalidInput("reconcile_limb_joints: expected " + std::to_string(kNumJoints) + " x 3 joint centres");
+  Eigen::MatrixXd J = joints;
+  auto take = [&](int part, const Eigen::Vector3d& feature) {
+    const int j = part - 1;
+    const double d = (J.row(j).transpose() - feature).norm();
+    if (!(d > tolerance)) return;
+    if (replaced)
+      replaced->push_back(joint_name(j) + ": the prior's joint lies " + std::to_string(static_cast<int>(std::lround(d * 1000))) +
+                          " mm from the body's own; the body's taken");
+    J.row(j) = feature.transpose();
+  };
+  for (int side : {kLeft, kRight}) {
+    const bool left = side == kLeft;
+    if (f.arm_found[side]) {
+      take(left ? kLeftForearm : kRightForearm, f.elbow[side]);
+      take(left ? kLeftHand : kRightHand, f.wrist[side]);
+    }
+    take(left ? kLeftShank : kRightShank, f.knee[side]);
+    take(left ? kLeftFoot : kRightFoot, f.ankle[side]);
+  }
+  return J;
 }
 
 Eigen::Vector3d typical_torso_fractions() { return Eigen::Vector3d(0.262, 0.495, 1.004); }

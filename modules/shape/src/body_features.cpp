@@ -4,12 +4,15 @@
 #include <Eigen/Geometry>
 #include <algorithm>
 #include <cmath>
+#include <cstdio>
 #include <limits>
 #include <utility>
 
 #include "posekit/core/error.h"
 #include "posekit/core/mesh_geometry.h"
 #include "posekit/core/mesh_slice.h"
+#include "posekit/core/mesh_topology.h"
+#include "posekit/core/mesh_validation.h"
 #include "posekit/core/profile.h"
 #include "posekit/core/triangle_mesh.h"
 
@@ -17,6 +20,16 @@ namespace posekit {
 namespace {
 
 constexpr double kBustBandStart = 0.62;   ///< of the crotch-to-armpit span
+/// A section within 1 cm of the top wider round than this (m) is a cut, not a crown: a head of 10 cm
+/// radius whose top 2 cm a booth's cameras do not see (a scan's crown) is under 0.38 m round there;
+/// a head cut 5 cm down (an anonymised scan) is over 0.5 m. A mesh's cut is told by its opening.
+constexpr double kCutTopGirth = 0.42;
+/// Height where the arms separate over stature: 0.739 to 0.761 on the 10 bodies of the robustness
+/// set (MakeHuman, women and men, BMI 15 to 40). Only used to estimate the stature of a body whose
+/// head is cut, a stature then reported as not measured; the crotch (0.43 to 0.50) is too variable.
+constexpr double kStatureFromArmsSeparate = 0.75;
+constexpr double kCrotchOverStature = 0.465;
+constexpr double kArmSectionArea = 1.5e-3;  ///< m^2: a thin adult upper arm's section is over 30 cm^2, an ear under 10  ///< the first, rougher estimate, before the arms are found
 constexpr double kBustBelowArmpits = 0.01;  ///< m: the bust band ends this far below the arms' separation
 constexpr int kRefineSteps = 5;  ///< finer sections per step that place the arms' separation (the crotch: 4x)
 constexpr double kArmClearance = 0.005;  ///< m: the arms separate where they stand this clear of the torso
@@ -191,7 +204,7 @@ SectionStack horizontal_sections(const Eigen::MatrixXd& V, const Eigen::MatrixXi
 void refine_wrists(const SectionAt& section, BodyFeatures* features) {
   BodyFeatures& f = *features;
   for (int side : {kLeft, kRight}) {
-    if (!f.arm_found[side]) continue;
+    if (!f.arm_found[side] || f.hand_cut[side]) continue;
     const double reach = (f.hand_tip[side] - f.elbow[side]).norm();
     Eigen::Vector3d dir = (f.wrist[side] - f.elbow[side]).normalized(), at = f.elbow[side];
     std::vector<Eigen::Vector3d> centres, dirs;
@@ -226,17 +239,114 @@ void refine_wrists(const SectionAt& section, BodyFeatures* features) {
   }
 }
 
-BodyFeatures find_body_features(const Eigen::MatrixXd& V, const Eigen::MatrixXi& F) {
+TriangleMesh body_surface(const Eigen::MatrixXd& V, const Eigen::MatrixXi& F, std::string* note, std::vector<int>* vertex_map,
+                          std::vector<int>* face_map) {
+  const FloatingBits bits = find_floating_bits(V, F);
+  TriangleMesh whole;
+  whole.V = V;
+  whole.F = F;
+  std::vector<int> vmap;
+  TriangleMesh body = extract_faces(whole, bits.keep_face, &vmap);
+  if (face_map) {
+    face_map->clear();
+    for (Eigen::Index f = 0; f < F.rows(); ++f)
+      if (bits.keep_face[static_cast<size_t>(f)]) face_map->push_back(static_cast<int>(f));
+  }
+  // Holes: boundary loops follow the faces' half-edges a->b, so a cap triangle runs b->a.
+  int filled = 0, too_big = 0;
+  double largest = 0;
+  std::vector<Eigen::RowVector3d> centres;
+  std::vector<Eigen::Vector3i> caps;
+  for (const auto& loop : boundary_loops(body.F)) {
+    if (loop.size() < 3) continue;
+    double length = 0;
+    Eigen::RowVector3d centre = Eigen::RowVector3d::Zero();
+    for (size_t k = 0; k < loop.size(); ++k) {
+      length += (body.V.row(loop[k]) - body.V.row(loop[(k + 1) % loop.size()])).norm();
+      centre += body.V.row(loop[k]);
+    }
+    if (length > kMaxFilledHole) {
+      ++too_big;
+      continue;
+    }
+    const int c = static_cast<int>(body.V.rows() + static_cast<Eigen::Index>(centres.size()));
+    centres.push_back(centre / static_cast<double>(loop.size()));
+    for (size_t k = 0; k < loop.size(); ++k) caps.emplace_back(loop[(k + 1) % loop.size()], loop[k], c);
+    ++filled;
+    largest = std::max(largest, length);
+  }
+  if (!caps.empty()) {
+    const Eigen::Index nv = body.V.rows(), nf = body.F.rows();
+    body.V.conservativeResize(nv + static_cast<Eigen::Index>(centres.size()), 3);
+    for (size_t k = 0; k < centres.size(); ++k) body.V.row(nv + static_cast<Eigen::Index>(k)) = centres[k];
+    body.F.conservativeResize(nf + static_cast<Eigen::Index>(caps.size()), 3);
+    for (size_t k = 0; k < caps.size(); ++k) body.F.row(nf + static_cast<Eigen::Index>(k)) = caps[k].transpose();
+    body.N.resize(0, 3);  // attributes of the fill's vertices are not known
+    body.C.resize(0, 3);
+    body.UV.resize(0, 2);
+    body.vertex_scalars.clear();
+    body.face_group.resize(0);
+    vmap.resize(static_cast<size_t>(body.V.rows()), -1);
+    if (face_map) face_map->resize(static_cast<size_t>(body.F.rows()), -1);
+  }
+  if (note) {
+    *note = bits.bits ? bits.describe() : "";
+    if (filled) {
+      char text[200];
+      std::snprintf(text, sizeof text, "closed %d hole%s (the largest %.0f cm round) to section across them", filled,
+                    filled == 1 ? "" : "s", 100 * largest);
+      *note += (note->empty() ? "" : "; ") + std::string(text);
+    }
+    if (too_big) *note += (note->empty() ? "" : "; ") + std::to_string(too_big) + " opening(s) over 80 cm round left open";
+  }
+  if (vertex_map) *vertex_map = std::move(vmap);
+  return body;
+}
+
+BodyFeatures find_body_features(const Eigen::MatrixXd& V_in, const Eigen::MatrixXi& F_in) {
+  std::string left_out;
+  const TriangleMesh surface = body_surface(V_in, F_in, &left_out);
+  const Eigen::MatrixXd& V = surface.V;
+  const Eigen::MatrixXi& F = surface.F;
+  if (V.rows() == 0) throw InvalidInput("body features: the mesh has no faces");
   const BoundingBox box = bounding_box(V);
+  // A cut head: an opening over 25 cm round within 6 cm of the top (its edge is jagged: a
+  // scanner's or a cutter's, so the sections just under it are no clean ring).
+  bool top_is_cut = false;
+  std::vector<std::pair<double, Eigen::Vector3d>> openings;  // (length, centre)
+  for (const auto& loop : boundary_loops(F_in)) {
+    double length = 0, low = box.max.y();
+    Eigen::Vector3d centre = Eigen::Vector3d::Zero();
+    for (size_t k = 0; k < loop.size(); ++k) {
+      length += (V_in.row(loop[k]) - V_in.row(loop[(k + 1) % loop.size()])).norm();
+      low = std::min(low, V_in(loop[k], 1));
+      centre += V_in.row(loop[k]).transpose() / static_cast<double>(loop.size());
+    }
+    if (length > 0.25 && low > box.max.y() - 0.06) top_is_cut = true;
+    openings.emplace_back(length, centre);
+  }
   const double height = box.extent().y();
   if (height < 0.8 || height > 2.6)
     throw InvalidInput("body features: the mesh is " + std::to_string(height) +
                        " m tall along Y: expected a standing human in metres with Y up (wrong unit or axis?)");
   if (box.extent().z() > height || box.extent().x() > 1.3 * height)
     throw InvalidInput("body features: the mesh is wider than it is tall: expected a standing body with Y up, not a lying one");
-  BodyFeatures f = find_body_features(horizontal_sections(V, F), [&](const std::vector<double>& heights) {
-    return slice_mesh_stack(V, F, Eigen::Vector3d::UnitY(), heights);
-  });
+  BodyFeatures f = find_body_features(
+      horizontal_sections(V, F),
+      [&](const std::vector<double>& heights) { return slice_mesh_stack(V, F, Eigen::Vector3d::UnitY(), heights); },
+      top_is_cut);
+  // A hand cut off (a scan's wrists): the arm ends in an opening as big round as a wrist or
+  // forearm (10 to 35 cm) within 5 cm of where it was followed to. The wrist is the cut's centre.
+  for (int side : {kLeft, kRight}) {
+    if (!f.arm_found[side]) continue;
+    for (const auto& [length, centre] : openings)
+      if (length > 0.10 && length < 0.35 && (centre - f.hand_tip[side]).norm() < 0.05) {
+        f.hand_cut[side] = true;
+        f.wrist[side] = centre;
+        f.warnings.push_back(std::string("the ") + (side == kLeft ? "left" : "right") +
+                             " hand is cut off (the arm ends in an opening): its wrist is placed at the cut's centre");
+      }
+  }
   // Forearm sections slice only the faces within reach of each elbow: the whole mesh, about 120
   // times, would cost more than all the horizontal sections.
   TriangleMesh arm[2];  // re-indexed, so that a section visits only the arm's vertices too
@@ -258,16 +368,25 @@ BodyFeatures find_body_features(const Eigen::MatrixXd& V, const Eigen::MatrixXi&
     const int k = nearest_loop(loops, point);
     return k < 0 ? SectionLoop{} : loops[static_cast<size_t>(k)];
   }, &f);
+  if (!left_out.empty()) f.warnings.insert(f.warnings.begin(), left_out);
   return f;
 }
 
-BodyFeatures find_body_features(const SectionStack& st, const HorizontalSectionsAt& sections_at) {
+BodyFeatures find_body_features(const SectionStack& st, const HorizontalSectionsAt& sections_at, bool top_is_cut) {
   BodyFeatures f;
   f.floor_y = st.floor_y;
-  f.top_y = st.top_y;
+  f.top_y = f.crown_y = st.top_y;
   f.stature = st.top_y - st.floor_y;
   const int n = static_cast<int>(st.y.size());
-  auto level_at = [&](double fraction) { return std::clamp(static_cast<int>(fraction * n), 0, n - 1); };
+  if (n < 20) throw InvalidInput("body features: too few sections (" + std::to_string(n) + ") for a standing body");
+  double scale = f.stature;  // the body's height the fractions below refer to (estimated when the head is cut)
+  auto level_at = [&](double fraction) { return std::clamp(static_cast<int>(fraction * scale / st.step), 0, n - 1); };
+  // A cut top: the sections within 1 cm of it are a wide ring, not a crown.
+  double top_girth = 0;
+  for (int i = std::max(0, n - static_cast<int>(std::ceil(0.01 / st.step))); i < n; ++i)
+    for (const auto& loop : st.loops[i])
+      if (loop.points.rows() >= 3) top_girth = std::max(top_girth, convex_hull_perimeter(loop.points, Eigen::Vector3d::UnitY()));
+  f.head_cut = top_is_cut || top_girth > kCutTopGirth;
   // Standing, not upside-down: the top 12% (head and neck) is one large section at nearly every
   // level, the bottom 12% (feet and shins) never is.
   auto single_fraction = [&](double from, double to) {
@@ -278,7 +397,7 @@ BodyFeatures find_body_features(const SectionStack& st, const HorizontalSections
   const double low_single = single_fraction(0.02, 0.12), high_single = single_fraction(0.88, 0.98);
   if (low_single > 0.5 && high_single < 0.5)
     throw InvalidInput("body features: one section near the bottom and several near the top: the body seems upside-down");
-  if (high_single < 0.5)
+  if (high_single < 0.5 && !f.head_cut)
     throw InvalidInput("body features: no single head section in the top 12% of the height: not a standing body");
   const int low = count_closed(st.loops[level_at(0.08)], 1e-3);
   if (low < 2)
@@ -338,6 +457,7 @@ BodyFeatures find_body_features(const SectionStack& st, const HorizontalSections
         if (loop.closed && contains_xz(loop, f.axis_x, crotch_track_z)) f.crotch_y = heights[k];
   }
   f.crotch = Eigen::Vector3d(f.axis_x, f.crotch_y, torso_shape[crotch].centroid.z());
+  if (f.head_cut) scale = std::max(scale, (f.crotch_y - f.floor_y) / kCrotchOverStature);
   f.crotch_axis_z = crotch_track_z;
 
   // Arms: going down from high on the chest, the first level where a separate loop appears on a side
@@ -349,14 +469,25 @@ BodyFeatures find_body_features(const SectionStack& st, const HorizontalSections
       if (static_cast<int>(k) == torso[i]) continue;  // open loops count: a scan's arm has gaps near the armpit
       const LoopShape s = shape_of(st.loops[i][k]);
       if (s.area < 2e-5) continue;
-      if ((side == kLeft) == (s.centroid.x() > f.axis_x)) out.push_back(static_cast<int>(k));
+      // Well to the side: a loop in front of a cut head (the chin) is no arm.
+      const double reach = side == kLeft ? torso_shape[i].max_x - f.axis_x : f.axis_x - torso_shape[i].min_x;
+      if ((side == kLeft ? s.centroid.x() - f.axis_x : f.axis_x - s.centroid.x()) > 0.4 * reach) out.push_back(static_cast<int>(k));
     }
     return out;
+  };
+  // An arm, not an ear (a cut head's ears can lie below 86% of the estimated stature): within 4 cm
+  // below, a side loop as big as an arm's section.
+  auto arm_sized_below = [&](int i, int side) {
+    for (int j = i; j > crotch && j >= i - static_cast<int>(0.04 / st.step); --j)
+      for (int k : side_loops(j, side))
+        if (shape_of(st.loops[j][static_cast<size_t>(k)]).area >= kArmSectionArea) return true;
+    return false;
   };
   int armpit_level[2] = {-1, -1};
   for (int side : {kLeft, kRight})
     for (int i = level_at(0.86); i > crotch; --i)
-      if (!side_loops(i, side).empty() && !side_loops(i - 1, side).empty() && !side_loops(i - 2, side).empty()) {
+      if (!side_loops(i, side).empty() && !side_loops(i - 1, side).empty() && !side_loops(i - 2, side).empty() &&
+          arm_sized_below(i, side)) {
         armpit_level[side] = i;
         break;
       }
@@ -381,10 +512,10 @@ BodyFeatures find_body_features(const SectionStack& st, const HorizontalSections
     f.armpit[side].y() = st.y[i] + st.step / 2;
   }
   for (int side : {kLeft, kRight})
-    if (f.armpit[side].y() < f.floor_y + 0.62 * f.stature)
+    if (f.armpit[side].y() < f.floor_y + 0.62 * scale)
       throw InvalidInput(std::string("body features: the ") + (side == kLeft ? "left" : "right") +
                          " arm separates from the torso only at " +
-                         std::to_string(static_cast<int>(100 * (f.armpit[side].y() - f.floor_y) / f.stature)) +
+                         std::to_string(static_cast<int>(100 * (f.armpit[side].y() - f.floor_y) / scale)) +
                          "% of the height (armpits are at 70-78%): arms touching the body?");
   // The arms separate where each arm first stands kArmClearance clear of the torso. Where its loop
   // parts from the torso's depends on how the narrow crease of a heavy armpit is tessellated (by
@@ -457,6 +588,7 @@ BodyFeatures find_body_features(const SectionStack& st, const HorizontalSections
         level = p[k - 1].first + (p[k].first - p[k - 1].first) * (kArmClearance - p[k - 1].second) / (p[k].second - p[k - 1].second);
       } else {
         level = p.size() > 1 ? 0.5 * (p[0].first + p[1].first) : p[0].first;  // where the loops part
+        f.arm_touches_torso[side] = true;
         f.warnings.push_back(std::string("arms: the ") + (side == kLeft ? "left" : "right") + " arm is nowhere " +
                              std::to_string(static_cast<int>(kArmClearance * 1000)) + " mm clear of the torso within " +
                              std::to_string(static_cast<int>(kArmClearanceSections * st.step * 100)) +
@@ -464,6 +596,16 @@ BodyFeatures find_body_features(const SectionStack& st, const HorizontalSections
       }
       f.arms_separate_y = std::min(f.arms_separate_y, level);
     }
+  }
+  if (f.head_cut) {
+    scale = std::max(f.stature, (f.arms_separate_y - f.floor_y) / kStatureFromArmsSeparate);
+    f.stature = scale;
+    f.crown_y = f.floor_y + scale;
+    f.warnings.push_back(std::string("the top of the body is cut (") +
+                         (top_is_cut ? "an opening there" : "a section within 1 cm of the top is " +
+                                                                std::to_string(static_cast<int>(std::lround(top_girth * 100))) + " cm round") +
+                         ", no crown): the head is missing or partial; stature and crown estimated from the level "
+                         "where the arms separate (" + std::to_string(static_cast<int>(std::lround(scale * 100))) + " cm)");
   }
   const int armpit_low = std::min(armpit_level[kLeft], armpit_level[kRight]);
   const int armpit_high = std::max(armpit_level[kLeft], armpit_level[kRight]);
@@ -481,7 +623,10 @@ BodyFeatures find_body_features(const SectionStack& st, const HorizontalSections
 
   // Neck: the narrowest section between the shoulders and the head; its base is where the girth
   // starts to widen into the shoulders.
-  const int neck = argbest(armpit_high + static_cast<int>(0.05 / st.step), level_at(0.95) - static_cast<int>(0.1 / st.step), false);
+  // Below the chin; with the head cut, anywhere up to 1 cm under the cut.
+  const int neck_band_top = f.head_cut ? std::max(level_at(0.95) - static_cast<int>(0.1 / st.step), n - 1 - static_cast<int>(0.01 / st.step))
+                                       : level_at(0.95) - static_cast<int>(0.1 / st.step);
+  const int neck = argbest(armpit_high + static_cast<int>(0.05 / st.step), neck_band_top, false);
   if (neck < 0) throw InvalidInput("body features: could not find the neck");
   f.neck_y = st.y[neck];
   int base = neck;
@@ -499,10 +644,10 @@ BodyFeatures find_body_features(const SectionStack& st, const HorizontalSections
     widening_y -= st.step * (threshold - girth(base)) / (girth(base - 1) - girth(base));
   const double* w = kNeckJointFromBase;
   f.neck_joint = Eigen::Vector3d(f.neck_base.x(),
-                                 widening_y + w[0] + w[1] * (f.neck_y - widening_y) + w[2] * (f.top_y - widening_y) +
+                                 widening_y + w[0] + w[1] * (f.neck_y - widening_y) + w[2] * (f.crown_y - widening_y) +
                                      w[3] * (widening_y - f.crotch_y),
                                  f.neck_base.z() + kNeckJointForward);
-  const double head_y = f.neck_base.y() + kHeadJointFraction * (f.top_y - f.neck_base.y());
+  const double head_y = f.neck_base.y() + kHeadJointFraction * (f.crown_y - f.neck_base.y());
   const int head_level = std::clamp(static_cast<int>(std::lround((head_y - st.y[0]) / st.step)), 0, n - 1);
   Eigen::Vector3d head_centre = f.neck_top;  // over a hole, the nearest closed head section within 2.5 cm
   for (int d = 0; d <= 5; ++d) {

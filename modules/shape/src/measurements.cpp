@@ -187,9 +187,40 @@ BodyMeasurements measure(const BodyFeatures& f, Section&& section) {
       m.features.bust_y = level;
     }
   }
+  // An arm hanging close can touch the torso below the armpit: the torso's section there then
+  // reaches the arm's axis (shoulder - elbow - wrist), and its girth holds the arm.
+  auto arm_x_at = [&](int side, double y, double* x) {
+    const Eigen::Vector3d chain[3] = {f.shoulder[side], f.elbow[side], f.wrist[side]};
+    for (int k = 0; k < 2; ++k)
+      if (y <= chain[k].y() && y >= chain[k + 1].y() && chain[k].y() > chain[k + 1].y()) {
+        *x = chain[k].x() + (chain[k + 1].x() - chain[k].x()) * (chain[k].y() - y) / (chain[k].y() - chain[k + 1].y());
+        return true;
+      }
+    return false;
+  };
+  auto holds_an_arm = [&](const Girth& g) {
+    if (!g.measured) return false;
+    const SectionLoop loop = section(g.point, up);
+    for (int side : {kLeft, kRight}) {
+      double x = 0;
+      if (!f.arm_found[side] || !arm_x_at(side, g.point.y(), &x)) continue;
+      constexpr double kArmRadius = 0.025;  // m: the section reaching this near the arm's axis holds some of it
+      if (side == kLeft ? loop.points.col(0).maxCoeff() > x - kArmRadius : loop.points.col(0).minCoeff() < x + kArmRadius)
+        return true;
+    }
+    return false;
+  };
   for (const auto& [name, y] : {std::pair<const char*, double>{"bust", bust_y}, {"underbust", m.features.underbust_y}, {"waist", f.waist_y}}) {
     if (!f.torso_levels_doubtful) {
       add(name, torso(y), up);
+      const bool chest = std::string(name) != "waist";
+      if (chest && (f.arm_touches_torso[kLeft] || f.arm_touches_torso[kRight]) && m.girths.back().measured) {
+        m.girths.back().measured = false;
+        m.girths.back().note = "the arms touch the torso below the armpits: the chest's section would hold them (hold the arms away from the body)";
+      } else if (holds_an_arm(m.girths.back())) {
+        m.girths.back().measured = false;
+        m.girths.back().note = "an arm touches the torso at this level: its section holds the arm (hold the arms away from the body)";
+      }
       continue;
     }
     Girth g;
@@ -228,7 +259,16 @@ BodyMeasurements measure(const BodyFeatures& f, Section&& section) {
     }
   }
   // Neck: perpendicular to the neck axis (neck joint to head joint), a third of the way up.
-  add("neck", f.neck_joint + (f.head_joint - f.neck_joint) / 3.0, f.head_joint - f.neck_joint);
+  const Eigen::Vector3d neck_point = f.neck_joint + (f.head_joint - f.neck_joint) / 3.0;
+  add("neck", neck_point, f.head_joint - f.neck_joint);
+  if (f.head_cut) {
+    m.girths.back().measured = false;
+    m.girths.back().note = "the head is cut off: the neck's tape level hangs on the head joint, which needs the whole head";
+  }
+  if (f.head_cut) {
+    m.stature_measured = false;
+    m.stature_note = "the head is cut off: stature estimated from the level where the arms separate";
+  }
   reject_implausible_girths(&m);
   return m;
 }
@@ -309,8 +349,11 @@ double crotch_on_smooth_surface(const Eigen::MatrixXd& V, const Eigen::MatrixXi&
 
 }  // namespace
 
-BodyMeasurements measure_body(const Eigen::MatrixXd& V, const Eigen::MatrixXi& F) {
-  BodyFeatures f = find_body_features(V, F);  // wrists refined with perpendicular sections
+BodyMeasurements measure_body(const Eigen::MatrixXd& V_in, const Eigen::MatrixXi& F_in) {
+  BodyFeatures f = find_body_features(V_in, F_in);  // wrists refined with perpendicular sections
+  const TriangleMesh surface = body_surface(V_in, F_in);  // sectioned as the features were
+  const Eigen::MatrixXd& V = surface.V;
+  const Eigen::MatrixXi& F = surface.F;
   const Eigen::MatrixXd N = vertex_normals(V, F);
   f.crotch_y = f.crotch.y() = crotch_on_smooth_surface(V, F, N, f);
   return measure(f, [&](const Eigen::Vector3d& p, const Eigen::Vector3d& n) { return mesh_section(V, F, N, p, n); });

@@ -1,5 +1,6 @@
 #pragma once
 #include <string>
+#include <vector>
 
 #include "posekit/core/triangle_mesh.h"
 
@@ -32,5 +33,17 @@ MeshReport validate_mesh(const TriangleMesh& mesh);
 /// Throws InvalidInput naming `what` and the first bad element when indices are out of range or
 /// a coordinate is not finite. Used at every I/O and API boundary.
 void require_usable_mesh(const TriangleMesh& mesh, const std::string& what);
+
+/// Small pieces apart from a scanned body (a strap, a clump of hair, a bit of the booth): the
+/// connected components (faces joined through shared vertices) whose area is under
+/// `min_area_fraction` of the largest one's. Their faces are false in the result, #F. Unreferenced
+/// vertices are no faces and need no removal.
+struct FloatingBits {
+  std::vector<bool> keep_face;  ///< #F: false for the faces of floating bits
+  int bits = 0;                 ///< components dropped
+  double area = 0;              ///< their total area (m^2 when V is in metres)
+  std::string describe() const; ///< "dropped 4 floating pieces (0.012 m^2) apart from the body"
+};
+FloatingBits find_floating_bits(const Eigen::MatrixXd& V, const Eigen::MatrixXi& F, double min_area_fraction = 0.05);
 
 }  // namespace posekit

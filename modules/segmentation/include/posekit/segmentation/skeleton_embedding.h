@@ -36,6 +36,14 @@ Eigen::MatrixXd joint_centres_from_features(const Eigen::MatrixXd& V, const Eige
                                             const Eigen::VectorXi& triangle_part, const LayeredRepresentation& rep,
                                             const BodyFeatures& features);
 
+/// A prior's skeleton (embed_skeleton) follows the limbs as its labelled bodies held them (the
+/// A-pose). Where this body's limb is held otherwise (feet together, elbows bent or straight) or
+/// cut (a hand), a limb joint of the prior's lies away from the joint the body's own sections give
+/// (BodyFeatures: elbows, wrists, knees, ankles). Each such joint more than `tolerance` (m) from the
+/// feature's is replaced by it; `replaced` (optional) receives one line per joint replaced.
+Eigen::MatrixXd reconcile_limb_joints(const Eigen::MatrixXd& joints, const BodyFeatures& features, double tolerance = 0.03,
+                                      std::vector<std::string>* replaced = nullptr);
+
 /// Typical torso joint heights as fractions of the crotch (0) to neck-base (1) span: lower back,
 /// upper back, neck; measured on the MakeHuman rig over 17 bodies of both sexes, BMI 16 to 35.
 Eigen::Vector3d typical_torso_fractions();

@@ -7,6 +7,7 @@
 #include <vector>
 
 #include "posekit/core/mesh_slice.h"
+#include "posekit/core/triangle_mesh.h"
 
 namespace posekit {
 
@@ -22,7 +23,11 @@ SectionStack horizontal_sections(const Eigen::MatrixXd& V, const Eigen::MatrixXi
 enum Side : int { kLeft = 0, kRight = 1 };  ///< the subject's left is +X
 
 struct BodyFeatures {
-  double floor_y = 0, top_y = 0, stature = 0;  ///< soles, top of head (m)
+  double floor_y = 0, top_y = 0;  ///< soles, top of the surface (m)
+  /// A cut top (no crown: an anonymised scan's head, or no head at all). The stature and the crown
+  /// are then estimated from the level where the arms separate (kStatureFromArmsSeparate).
+  bool head_cut = false;
+  double crown_y = 0, stature = 0;  ///< top of the head (top_y unless head_cut), crown minus soles (m)
   double axis_x = 0;                           ///< x of the body's sagittal plane
   double crotch_y = 0, hip_y = 0, waist_y = 0, underbust_y = 0, bust_y = 0, neck_y = 0;  ///< levels (m)
   Eigen::Vector3d crotch = Eigen::Vector3d::Zero();    ///< on the axis, at the lowest torso section's centre
@@ -38,6 +43,8 @@ struct BodyFeatures {
   Eigen::Vector3d elbow[2], wrist[2];            ///< joint centres (inside the limb)
   Eigen::Vector3d knee[2], ankle[2];
   Eigen::Vector3d hand_tip[2];                   ///< farthest point of each hand from the shoulder
+  bool arm_touches_torso[2] = {false, false};   ///< nowhere clear of the torso just below the armpit
+  bool hand_cut[2] = {false, false};            ///< the arm ends in an opening: wrist = the cut's centre
   bool arm_found[2] = {true, true};              ///< false: that arm could not be followed (shoulder,
                                                  ///< elbow, wrist, hand tip are then not valid)
   bool torso_levels_doubtful = false;           ///< the torso is fuller below the bust band (a belly, or a
@@ -46,7 +53,18 @@ struct BodyFeatures {
   std::vector<std::string> warnings;             ///< features found with doubt
 };
 
-/// Finds the features of a standing human body mesh. Throws InvalidInput naming what failed for
+/// The surface features are found on: the mesh without floating bits (find_floating_bits: pieces
+/// under 5% of the body's area, e.g. a scan's strap or hair clump) and vertices no face uses, with
+/// every hole up to kMaxFilledHole round (a scan's gaps, cut wrists, a cut head, open soles) closed
+/// by a fan from its centre, so that sections across it are closed. A tape bridges such a gap too.
+/// `note` (optional) receives what was left out and filled, or stays empty; `vertex_map` and
+/// `face_map` (optional) the index in V and F of each vertex and face of the result (-1 for the
+/// fill's).
+constexpr double kMaxFilledHole = 0.8;  ///< m of boundary length
+TriangleMesh body_surface(const Eigen::MatrixXd& V, const Eigen::MatrixXi& F, std::string* note = nullptr,
+                          std::vector<int>* vertex_map = nullptr, std::vector<int>* face_map = nullptr);
+
+/// Finds the features of a standing human body mesh (its body_surface; what it left out is a warning). Throws InvalidInput naming what failed for
 /// a mesh that is not a standing human (lying, upside-down, arms touching the torso, too small);
 /// an arm that cannot be followed to the hand (a hole in a scan) is flagged in arm_found and warnings.
 BodyFeatures find_body_features(const Eigen::MatrixXd& V, const Eigen::MatrixXi& F);
@@ -56,7 +74,10 @@ using HorizontalSectionsAt = std::function<std::vector<std::vector<SectionLoop>>
 
 /// The same from precomputed sections (`horizontal_sections`), without refine_wrists. With
 /// `sections_at`, the level where the arms separate is refined between the stack's sections.
-BodyFeatures find_body_features(const SectionStack& stack, const HorizontalSectionsAt& sections_at = {});
+/// `top_is_cut`: the caller knows the top is an opening (a mesh's boundary there), which the
+/// sections alone tell only when the cut is clean.
+BodyFeatures find_body_features(const SectionStack& stack, const HorizontalSectionsAt& sections_at = {},
+                                bool top_is_cut = false);
 
 /// A cross-section of the body through `point` with plane normal `normal` (the loop nearest the point).
 using SectionAt = std::function<SectionLoop(const Eigen::Vector3d& point, const Eigen::Vector3d& normal)>;

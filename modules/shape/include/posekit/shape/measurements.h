@@ -20,6 +20,8 @@ struct Girth {
 
 struct BodyMeasurements {
   double stature = 0;  ///< m
+  bool stature_measured = true;  ///< false when the head is cut: stature is then an estimate
+  std::string stature_note;      ///< why it is not measured
   std::vector<Girth> girths;
   /// As find_body_features found them, with the bust and underbust levels found again on 1 mm
   /// sections (and, on a mesh, the crotch on the smooth surface) where the girths are measured.

@@ -1,0 +1,91 @@
+#include "posekit/evaluation/body_evaluation.h"
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <nlohmann/json.hpp>
+
+#include "posekit/core/data_root.h"
+#include "posekit/core/error.h"
+#include "posekit/datasets/robustness.h"
+#include "posekit/io/atomic_file.h"
+#include "posekit/io/mesh_io.h"
+#include "posekit/shape/body_features.h"
+#include "posekit/shape/measurements.h"
+#include "testing/temp_dir.h"
+
+namespace posekit {
+namespace {
+
+/// The failures real data showed, reproduced on generated bodies: an X-up registration in mm with
+/// bent arms and fists, a booth scan with its head anonymised, hands cut, soles open, holes and
+/// floating bits, cut hands alone, a head cut off below the chin, floating bits alone.
+std::string make_set(const test::TempDir& dir) {
+  RobustnessOptions o;
+  o.data_root = test::test_data_root();
+  o.shapes = 1;
+  o.only = {"xup_mm_bent", "scanner", "hands_cut", "no_head", "components"};
+  const std::string out = dir.file("set");
+  make_robustness_set(out, o);
+  return out;
+}
+
+TEST(RobustnessSet, RealDataFailuresAreMeasuredSegmentedOrNamedNeverSilent) {
+  ASSERT_FALSE(test::test_data_root().empty()) << "POSEKIT_DATA does not point at the MakeHuman assets";
+  test::TempDir dir;
+  const std::string set = make_set(dir);
+  const BodyEvaluation ev = evaluate_bodies(set);
+  ASSERT_EQ(ev.bodies.size(), 5u);
+  for (const BodyResult& b : ev.bodies) {
+    EXPECT_TRUE(b.unit_right) << b.name;
+    EXPECT_TRUE(b.orientation_right) << b.name << ": " << b.orientation;
+    // Each used to be refused as "not a standing body" or "an arm was not found".
+    EXPECT_TRUE(b.measured) << b.name << ": " << b.measure_error;
+    for (const char* g : {"bust", "waist", "hip"}) {
+      auto it = b.girth_error.find(g);
+      if (it != b.girth_error.end())
+        EXPECT_LE(std::abs(it->second), iso_allowable_girth_error(g)) << b.name << " " << g;
+      else
+        EXPECT_FALSE(b.girth_not_measured.at(g).empty()) << b.name << " " << g << " has no reason";
+    }
+    // Without a trained model's prior the torso joints sit at typical fractions, several cm off by
+    // design (posekit segment --model is the accurate path; eval bodies --model measures it): only
+    // orientation and girths are held to "never silent" here.
+    for (const auto& s : b.silent_nonsense)
+      EXPECT_EQ(s.rfind("skeleton passed", 0), 0u) << b.name << ": " << s;
+    if (!b.segmented) EXPECT_FALSE(b.segment_error.empty()) << b.name;  // refused loudly, with the cause
+  }
+}
+
+TEST(RobustnessSet, CutHandsPutTheWristsAtTheCutAndACutHeadLeavesTheStatureUnmeasured) {
+  ASSERT_FALSE(test::test_data_root().empty());
+  test::TempDir dir;
+  const std::string set = make_set(dir);
+  const auto truth = nlohmann::json::parse(read_file_bytes(set + "/truth/s01_hands_cut.json"));
+  const TriangleMesh hands = read_mesh(set + "/bodies/s01_hands_cut.ply");
+  const BodyFeatures f = find_body_features(hands.V, hands.F);
+  for (int side : {kLeft, kRight}) {
+    EXPECT_TRUE(f.hand_cut[side]);
+    const auto& w = truth["joints"][side == kLeft ? "left_wrist" : "right_wrist"];
+    EXPECT_LT((f.wrist[side] - Eigen::Vector3d(w[0], w[1], w[2])).norm(), 0.02);
+  }
+  const TriangleMesh headless = read_mesh(set + "/bodies/s01_no_head.ply");
+  const BodyMeasurements m = measure_body(headless.V, headless.F);
+  EXPECT_TRUE(m.features.head_cut);
+  EXPECT_FALSE(m.stature_measured);
+  EXPECT_NEAR(m.stature, nlohmann::json::parse(read_file_bytes(set + "/truth/s01_no_head.json"))["body"]["stature_m"].get<double>(),
+              0.06);  // estimated from where the arms separate
+  EXPECT_FALSE(m.find("neck")->measured);
+}
+
+TEST(RobustnessSet, AnUnknownVariationOrAFolderThatIsNoSetIsANamedError) {
+  test::TempDir dir;
+  RobustnessOptions o;
+  o.data_root = test::test_data_root();
+  o.only = {"moonwalk"};
+  EXPECT_THROW(make_robustness_set(dir.file("x"), o), InvalidInput);
+  EXPECT_THROW(evaluate_bodies(dir.path()), IoError);
+}
+
+}  // namespace
+}  // namespace posekit
