@@ -69,10 +69,14 @@ void print_row(const std::string& name, const Tally& t) {
             << percent(t.measured, t.bodies) << " | " << percent(t.segmented, t.meshes) << " | " << percent(t.agree, t.meshes)
             << " | " << percent(t.joints, t.meshes) << " |";
   for (int g = 0; g < 3; ++g) std::cout << " " << percent(t.iso_within[g], t.iso_measured[g]) << " |";
-  const double j = median_of(t.joint_max), a = median_of(t.agreement);
-  std::cout << std::fixed << std::setprecision(1) << " " << (std::isnan(j) ? std::string("-") : std::to_string(j * 1000).substr(0, std::to_string(j * 1000).find('.') + 2))
-            << " | " << (std::isnan(a) ? std::string("-") : std::to_string(100 * a).substr(0, std::to_string(100 * a).find('.') + 2))
-            << " | " << t.silent << " |\n";
+  auto one_decimal = [](double v) {
+    if (std::isnan(v)) return std::string("-");
+    std::ostringstream s;
+    s << std::fixed << std::setprecision(1) << v;
+    return s.str();
+  };
+  std::cout << " " << one_decimal(1000 * median_of(t.joint_max)) << " | " << one_decimal(100 * median_of(t.agreement)) << " | "
+            << t.silent << " |\n";
 }
 
 }  // namespace

@@ -28,8 +28,8 @@ constexpr double kCutTopGirth = 0.42;
 /// set (MakeHuman, women and men, BMI 15 to 40). Only used to estimate the stature of a body whose
 /// head is cut, a stature then reported as not measured; the crotch (0.43 to 0.50) is too variable.
 constexpr double kStatureFromArmsSeparate = 0.75;
-constexpr double kCrotchOverStature = 0.465;
-constexpr double kArmSectionArea = 1.5e-3;  ///< m^2: a thin adult upper arm's section is over 30 cm^2, an ear under 10  ///< the first, rougher estimate, before the arms are found
+constexpr double kCrotchOverStature = 0.465;  ///< the first, rougher estimate, before the arms are found
+constexpr double kArmSectionArea = 1.5e-3;  ///< m^2: a thin adult upper arm's section is over 30 cm^2, an ear under 10
 constexpr double kBustBelowArmpits = 0.01;  ///< m: the bust band ends this far below the arms' separation
 constexpr int kRefineSteps = 5;  ///< finer sections per step that place the arms' separation (the crotch: 4x)
 constexpr double kArmClearance = 0.005;  ///< m: the arms separate where they stand this clear of the torso
@@ -304,8 +304,14 @@ TriangleMesh body_surface(const Eigen::MatrixXd& V, const Eigen::MatrixXi& F, st
 }
 
 BodyFeatures find_body_features(const Eigen::MatrixXd& V_in, const Eigen::MatrixXi& F_in) {
+  return find_body_features(V_in, F_in, nullptr);
+}
+
+BodyFeatures find_body_features(const Eigen::MatrixXd& V_in, const Eigen::MatrixXi& F_in, TriangleMesh* surface_out) {
   std::string left_out;
-  const TriangleMesh surface = body_surface(V_in, F_in, &left_out);
+  TriangleMesh owned;
+  TriangleMesh& surface = surface_out ? *surface_out : owned;
+  surface = body_surface(V_in, F_in, &left_out);
   const Eigen::MatrixXd& V = surface.V;
   const Eigen::MatrixXi& F = surface.F;
   if (V.rows() == 0) throw InvalidInput("body features: the mesh has no faces");

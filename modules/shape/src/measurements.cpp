@@ -350,8 +350,8 @@ double crotch_on_smooth_surface(const Eigen::MatrixXd& V, const Eigen::MatrixXi&
 }  // namespace
 
 BodyMeasurements measure_body(const Eigen::MatrixXd& V_in, const Eigen::MatrixXi& F_in) {
-  BodyFeatures f = find_body_features(V_in, F_in);  // wrists refined with perpendicular sections
-  const TriangleMesh surface = body_surface(V_in, F_in);  // sectioned as the features were
+  TriangleMesh surface;  // sectioned as the features were
+  BodyFeatures f = find_body_features(V_in, F_in, &surface);  // wrists refined with perpendicular sections
   const Eigen::MatrixXd& V = surface.V;
   const Eigen::MatrixXi& F = surface.F;
   const Eigen::MatrixXd N = vertex_normals(V, F);

@@ -68,6 +68,8 @@ TriangleMesh body_surface(const Eigen::MatrixXd& V, const Eigen::MatrixXi& F, st
 /// a mesh that is not a standing human (lying, upside-down, arms touching the torso, too small);
 /// an arm that cannot be followed to the hand (a hole in a scan) is flagged in arm_found and warnings.
 BodyFeatures find_body_features(const Eigen::MatrixXd& V, const Eigen::MatrixXi& F);
+/// The same, also giving the body_surface the features were found on.
+BodyFeatures find_body_features(const Eigen::MatrixXd& V, const Eigen::MatrixXi& F, TriangleMesh* surface);
 
 /// Horizontal sections at the given heights (one loop list per height), for finer levels than a stack's.
 using HorizontalSectionsAt = std::function<std::vector<std::vector<SectionLoop>>(const std::vector<double>& heights)>;
