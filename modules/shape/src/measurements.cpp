@@ -259,13 +259,10 @@ BodyMeasurements measure(const BodyFeatures& f, Section&& section) {
     }
   }
   // Neck: perpendicular to the neck axis (neck joint to head joint), a third of the way up.
-  const Eigen::Vector3d neck_point = f.neck_joint + (f.head_joint - f.neck_joint) / 3.0;
-  add("neck", neck_point, f.head_joint - f.neck_joint);
+  add("neck", f.neck_joint + (f.head_joint - f.neck_joint) / 3.0, f.head_joint - f.neck_joint);
   if (f.head_cut) {
     m.girths.back().measured = false;
     m.girths.back().note = "the head is cut off: the neck's tape level hangs on the head joint, which needs the whole head";
-  }
-  if (f.head_cut) {
     m.stature_measured = false;
     m.stature_note = "the head is cut off: stature estimated from the level where the arms separate";
   }
