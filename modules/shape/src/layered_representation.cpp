@@ -2,7 +2,9 @@
 
 #include <Eigen/Geometry>
 #include <algorithm>
+#include <array>
 #include <cmath>
+#include <limits>
 #include <map>
 
 #include "posekit/body/parts.h"
@@ -125,8 +127,11 @@ class Builder {
  private:
   /// Adds one layer from the section polygon chosen by `pick` on the plane through `centre`.
   /// hull_of_nearby: the hull of the loops whose centres lie within nearby_radius of `centre`.
+  /// same_side_of_x: for legs, neighbours must lie on the centre's side of this x (the other leg
+  /// may be nearer than nearby_radius when the feet are together).
   void add_layer(int chain, const Eigen::Vector3d& centre, const Eigen::Vector3d& normal, int part, bool hull_of_nearby,
-                 const TriangleMesh* part_mesh = nullptr, double nearby_radius = 0.05) {
+                 const TriangleMesh* part_mesh = nullptr, double nearby_radius = 0.05,
+                 double same_side_of_x = std::numeric_limits<double>::quiet_NaN()) {
     const Eigen::Vector3d n = normal.normalized();
     const bool horizontal = !part_mesh && n == Eigen::Vector3d::UnitY();
     if (collecting_) {
@@ -149,7 +154,9 @@ class Builder {
     if (hull_of_nearby) {  // limbs: the nearest loop and its neighbours (fingers), as a tape would go
       for (size_t k = 0; k < loops.size(); ++k) {
         const Eigen::Vector3d c = loops[k].points.colwise().mean().transpose();
-        if (static_cast<int>(k) != nearest && (c - centre).norm() > nearby_radius) continue;
+        if (static_cast<int>(k) != nearest &&
+            ((c - centre).norm() > nearby_radius || (c.x() - same_side_of_x) * (centre.x() - same_side_of_x) < 0))
+          continue;
         for (Eigen::Index r = 0; r < loops[k].points.rows(); ++r) polygon.push_back(loops[k].points.row(r).transpose());
       }
       polygon = planar_hull(polygon, n, front);
@@ -200,18 +207,24 @@ class Builder {
   }
 
   void leg(int side) {
-    const Eigen::Vector3d knee = f_.knee[side], ankle = f_.ankle[side];
-    const Eigen::Vector3d top(knee.x() + 0.5 * (f_.axis_x - knee.x()) * 0.5, f_.crotch_y - 0.015, knee.z());
-    const Eigen::Vector3d sole(ankle.x(), f_.floor_y + 0.005, ankle.z() + 0.03);
-    const Eigen::Vector3d keys[] = {top, knee, ankle, sole};
+    auto keys_of = [&](int which) {
+      const Eigen::Vector3d knee = f_.knee[which], ankle = f_.ankle[which];
+      const Eigen::Vector3d top(knee.x() + 0.5 * (f_.axis_x - knee.x()) * 0.5, f_.crotch_y - 0.015, knee.z());
+      const Eigen::Vector3d sole(ankle.x(), f_.floor_y + 0.005, ankle.z() + 0.03);
+      return std::array<Eigen::Vector3d, 4>{top, knee, ankle, sole};
+    };
+    const auto keys = keys_of(side), other = keys_of(1 - side);
     const int parts[] = {side == kLeft ? kLeftThigh : kRightThigh, side == kLeft ? kLeftShank : kRightShank,
                          side == kLeft ? kLeftFoot : kRightFoot};
     for (int s = 0; s < 3; ++s)
       for (int k = 0; k < kLegSegments[s] + (s == 2); ++k) {
-        const Eigen::Vector3d c = keys[s] + (keys[s + 1] - keys[s]) * (static_cast<double>(k) / kLegSegments[s]);
+        const double t = static_cast<double>(k) / kLegSegments[s];
+        const Eigen::Vector3d c = keys[s] + (keys[s + 1] - keys[s]) * t;
+        const Eigen::Vector3d mirror = other[s] + (other[s + 1] - other[s]) * t;
         // Low on a high-arched foot the heel and the ball are separate loops 10-15 cm apart: the
-        // foot's layers take both (the other foot is over 25 cm away).
-        add_layer(2 + side, c, Eigen::Vector3d::UnitY(), parts[s], true, nullptr, s == 2 ? 0.15 : 0.05);
+        // foot's layers take both, but never a loop on the other leg's side of the two legs' middle.
+        add_layer(2 + side, c, Eigen::Vector3d::UnitY(), parts[s], true, nullptr, s == 2 ? 0.15 : 0.05,
+                  0.5 * (c.x() + mirror.x()));
       }
   }
 
