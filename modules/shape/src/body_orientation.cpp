@@ -9,6 +9,7 @@
 
 #include "posekit/core/error.h"
 #include "posekit/core/mesh_geometry.h"
+#include "posekit/core/mesh_validation.h"
 
 namespace posekit {
 namespace {
@@ -20,6 +21,8 @@ constexpr double kSlabRatioCue = 3;      ///< surface in the lowest slab over th
 constexpr double kCentreCue = 0.03;      ///< of the height, the surface's centre above mid-height, typical
 constexpr double kMinUpScore = 0.5;      ///< below, the head end is a guess
 constexpr double kChestBand[2] = {0.55, 0.75};  ///< of the height: where width beats depth
+constexpr double kHipBand[2] = {0.42, 0.55};    ///< of the height: compared with the chest's
+constexpr double kTwistWarning = 8;              ///< degrees between chest and hips said
 constexpr double kMinWidthOverDepth = 1.1;       ///< spreads (SD) of the chest band
 constexpr double kFootBand = 0.04, kShankBand[2] = {0.06, 0.10};  ///< of the height
 constexpr double kFootCue = 0.01;        ///< of the height: the feet's lead over the shanks, to count
@@ -202,22 +205,36 @@ BodyOrientation detect_body_orientation(const Eigen::MatrixXd& P, const Eigen::V
     if (std::abs(forward.dot(up)) > std::sin(kPi / 180))
       throw InvalidInput("orientation: forward " + axis_name(forward) + " is not perpendicular to up " + axis_name(up));
   } else {
-    Eigen::Matrix2d c2 = Eigen::Matrix2d::Zero();
-    const Band chest = band_of(P, w, h, lo + kChestBand[0] * height, lo + kChestBand[1] * height);
-    for (Eigen::Index i = 0; i < n; ++i) {
-      const double hv = h[static_cast<size_t>(i)];
-      if (hv < lo + kChestBand[0] * height || hv >= lo + kChestBand[1] * height) continue;
-      const Eigen::Vector3d d = P.row(i).transpose() - chest.mean;
-      const Eigen::Vector2d q(d.dot(e1), d.dot(e2));
-      c2 += w[static_cast<size_t>(i)] * q * q.transpose();
-    }
-    const Eigen::SelfAdjointEigenSolver<Eigen::Matrix2d> chest_pca(c2);
-    const Eigen::Vector2d chest_spread = chest_pca.eigenvalues().cwiseMax(0).cwiseSqrt();
-    const Eigen::Vector2d depth2 = chest_pca.eigenvectors().col(0);
-    forward = (depth2[0] * e1 + depth2[1] * e2).normalized();
-    if (!(chest_spread[1] > kMinWidthOverDepth * chest_spread[0]))
-      o.warnings.push_back("could not tell side from front: the chest band is about as deep as it is wide (" +
-                           fixed(chest_spread[1] / (chest_spread[0] + 1e-30), 2) + "); give --forward");
+    // Left-right is the wider direction of the chest band (shoulders and arms), which the body's
+    // features and representation need; a torso twisted on the pelvis turns it away from where the
+    // hips and feet face, which is said.
+    auto band_spread = [&](const double (&band)[2], Eigen::Vector3d* depth, double* width_over_depth) {
+      const Band b = band_of(P, w, h, lo + band[0] * height, lo + band[1] * height);
+      Eigen::Matrix2d c2 = Eigen::Matrix2d::Zero();
+      for (Eigen::Index i = 0; i < n; ++i) {
+        const double hv = h[static_cast<size_t>(i)];
+        if (hv < lo + band[0] * height || hv >= lo + band[1] * height) continue;
+        const Eigen::Vector3d d = P.row(i).transpose() - b.mean;
+        const Eigen::Vector2d q(d.dot(e1), d.dot(e2));
+        c2 += w[static_cast<size_t>(i)] * q * q.transpose();
+      }
+      const Eigen::SelfAdjointEigenSolver<Eigen::Matrix2d> pca2(c2);
+      const Eigen::Vector2d spread2 = pca2.eigenvalues().cwiseMax(0).cwiseSqrt();
+      const Eigen::Vector2d d2 = pca2.eigenvectors().col(0);
+      *depth = (d2[0] * e1 + d2[1] * e2).normalized();
+      *width_over_depth = spread2[1] / (spread2[0] + 1e-30);
+    };
+    double ratio = 0, hip_ratio = 0;
+    Eigen::Vector3d hip_forward;
+    band_spread(kChestBand, &forward, &ratio);
+    band_spread(kHipBand, &hip_forward, &hip_ratio);
+    if (!(ratio > kMinWidthOverDepth))
+      o.warnings.push_back("could not tell side from front: the chest band is about as deep as it is wide (" + fixed(ratio, 2) +
+                           "); give --forward");
+    const double twist = std::acos(std::min(1.0, std::abs(forward.dot(hip_forward)))) * 180 / kPi;
+    if (ratio > kMinWidthOverDepth && hip_ratio > kMinWidthOverDepth && twist > kTwistWarning)
+      o.warnings.push_back("the chest is turned " + fixed(twist, 0) +
+                           " degrees from the hips (a twisted torso): posekit's frame follows the chest; give --forward for the hips'");
     // Snap to the file's axis nearest in the horizontal plane.
     const Eigen::Vector3d snapped = snap_to_axis(forward, options.snap_degrees);
     if (std::abs(snapped.dot(up)) < 1e-9) forward = snapped;
@@ -256,7 +273,12 @@ BodyOrientation detect_body_orientation(const Eigen::MatrixXd& P, const Eigen::V
 BodyOrientation detect_mesh_orientation(const Eigen::MatrixXd& V, const Eigen::MatrixXi& F,
                                         const OrientationOptions& options) {
   if (F.rows() == 0) throw InvalidInput("orientation: the mesh has no faces");
-  return detect_body_orientation(face_centroids(V, F), face_areas(V, F), options);
+  // Floating bits (a scan's floor patch, a strap) would sway the end slabs and the feet's lead.
+  Eigen::VectorXd area = face_areas(V, F);
+  const FloatingBits bits = find_floating_bits(V, F);
+  for (Eigen::Index f = 0; f < F.rows(); ++f)
+    if (!bits.keep_face[static_cast<size_t>(f)]) area[f] = 0;
+  return detect_body_orientation(face_centroids(V, F), area, options);
 }
 
 }  // namespace posekit
