@@ -89,6 +89,41 @@ TEST(BodyFeatures, LimbJointsOnTheSixteenOriginalMeshes) {
   EXPECT_LE(worst(e.elbow), 2.0);
 }
 
+TEST(BodyFeatures, NearlyStraightArmsHaveTheirElbowsBetweenShoulderAndWrist) {
+  POSEKIT_REQUIRE_MAKEHUMAN();
+  // Real registrations stand with arms nearly straight; MakeHuman's rest pose bends them about 40
+  // degrees. The kink of a straight arm's axis is no cue: the elbow drifted 6-14 cm along it.
+  const Body b = build_body(model, make_subject_specs(model, 1, 1)[0].spec);
+  const Eigen::MatrixXd J = joint_centres(model.rig, b);
+  for (double flexion_deg : {5.0, 20.0}) {
+    PartPose pose;
+    for (const char* side : {"left", "right"}) {
+      const std::string s(side);
+      const Eigen::Vector3d shoulder = J.row(find_joint_index(s + "_shoulder")).transpose();
+      const Eigen::Vector3d elbow = J.row(find_joint_index(s + "_elbow")).transpose();
+      const Eigen::Vector3d wrist = J.row(find_joint_index(s + "_wrist")).transpose();
+      const Eigen::Vector3d upper = (elbow - shoulder).normalized(), fore = (wrist - elbow).normalized();
+      const double rest = std::acos(std::clamp(upper.dot(fore), -1.0, 1.0));
+      pose.joint_rotation[find_joint_index(s + "_elbow")] = (flexion_deg * M_PI / 180 - rest) * upper.cross(fore).normalized();
+    }
+    const BoneTransforms T = pose_bone_transforms(model.rig, b.bone_heads, bone_pose_from_part_pose(model.rig, pose));
+    Body posed = b;
+    posed.mesh.V = dual_quaternion_skinning(b.mesh.V, model.weights, T);
+    for (int k = 0; k < model.rig.num_bones(); ++k) {
+      posed.bone_heads.row(k) = (T.R[k] * b.bone_heads.row(k).transpose() + T.t[k]).transpose();
+      posed.bone_tails.row(k) = (T.R[k] * b.bone_tails.row(k).transpose() + T.t[k]).transpose();
+    }
+    const Eigen::MatrixXd posed_joints = joint_centres(model.rig, posed);
+    const BodyFeatures f = find_body_features(posed.mesh.V, posed.mesh.F);
+    for (int side : {kLeft, kRight}) {
+      const std::string s(side == kLeft ? "left" : "right");
+      const Eigen::Vector3d truth = posed_joints.row(find_joint_index(s + "_elbow")).transpose();
+      EXPECT_LT((f.elbow[side] - truth).norm(), 0.03)
+          << s << " elbow at " << flexion_deg << " degrees: found " << f.elbow[side].transpose() << ", rig " << truth.transpose();
+    }
+  }
+}
+
 TEST(BodyFeatures, RejectsBodiesThatAreNotStanding) {
   POSEKIT_REQUIRE_MAKEHUMAN();
   const Body b = build_body(model, BodySpec{});

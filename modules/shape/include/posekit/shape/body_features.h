@@ -43,6 +43,7 @@ struct BodyFeatures {
   Eigen::Vector3d elbow[2], wrist[2];            ///< joint centres (inside the limb)
   Eigen::Vector3d knee[2], ankle[2];
   Eigen::Vector3d hand_tip[2];                   ///< farthest point of each hand from the shoulder
+  std::vector<Eigen::Vector3d> arm_axis[2];      ///< centroids of the arm's horizontal sections, armpit down
   bool arm_touches_torso[2] = {false, false};   ///< nowhere clear of the torso just below the armpit
   bool hand_cut[2] = {false, false};            ///< the arm ends in an opening: wrist = the cut's centre
   bool arm_found[2] = {true, true};              ///< false: that arm could not be followed (shoulder,
@@ -87,7 +88,14 @@ using SectionAt = std::function<SectionLoop(const Eigen::Vector3d& point, const 
 /// Re-finds each found wrist with sections perpendicular to the forearm, followed from the elbow
 /// by their centres: the narrowest before the palm (the first section 15% fuller than the narrowest
 /// so far). Horizontal sections cannot do it when the forearm points forward. A wrist whose forearm
-/// cannot be followed keeps its estimate from horizontal sections, with a warning.
+/// cannot be followed keeps its estimate from horizontal sections, with a warning. Then re-places
+/// the elbows between the shoulders and the wrists found (refine_elbows).
 void refine_wrists(const SectionAt& section, BodyFeatures* features);
+
+/// Re-places each found elbow of a nearly straight arm: at the kink of a two-line fit to the arm
+/// axis between the shoulder and the wrist, where the fit's RMS error plus a prior on where between
+/// shoulder and wrist the elbow lies (kElbowPathFraction, kElbowPriorWeight) is least. A clearly
+/// bent arm (over 42 degrees) keeps its elbow; between 32 and 42 degrees the two blend.
+void refine_elbows(BodyFeatures* features);
 
 }  // namespace posekit
