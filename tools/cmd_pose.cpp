@@ -23,6 +23,7 @@
 #include "posekit/io/mesh_io.h"
 #include "posekit/core/mesh_geometry.h"
 #include "posekit/core/mesh_validation.h"
+#include "posekit/segmentation/body_segmentation.h"
 #include "posekit/segmentation/segmentation.h"
 #include "posekit/segmentation/segmentation_prior.h"
 #include "posekit/segmentation/skeleton_checks.h"
@@ -241,22 +242,15 @@ int run_segment(int argc, char** argv) {
   const auto t0 = std::chrono::steady_clock::now();
   const BodyFeatures features = find_body_features(input.mesh.V, input.mesh.F);  // sees the openings (cut hands, head)
   const LayeredRepresentation rep = build_layered_representation(mesh.V, mesh.F, features);
-  Segmentation seg;
-  Eigen::MatrixXd joints;
-  if (args.has("model")) {
-    const SegmentationPrior prior = segmentation_prior_of(read_pose_model(args.get("model")));
-    seg = segment_body(mesh.V, mesh.F, rep, representation_labels_from_prior(prior, rep));
-    joints = embed_skeleton(prior, rep);
-    std::vector<std::string> replaced;
-    joints = reconcile_limb_joints(joints, features, 0.03, &replaced);
-    for (const auto& r : replaced) std::cerr << "note: " << args.positionals()[0] << ": " << r << "\n";
-  } else {
-    seg = segment_body(mesh.V, mesh.F, rep);
-    joints = joint_centres_from_features(mesh.V, mesh.F, seg.triangle_part, rep, features);
-  }
+  SegmentationPrior prior;
+  if (args.has("model")) prior = segmentation_prior_of(read_pose_model(args.get("model")));
+  BodySegmentation result = segment_standing_body(mesh.V, mesh.F, rep, features, args.has("model") ? &prior : nullptr);
+  for (const auto& r : result.notes) std::cerr << "note: " << args.positionals()[0] << ": " << r << "\n";
+  const Segmentation& seg = result.segmentation;
+  Eigen::MatrixXd& joints = result.joints;
   const double seconds = seconds_since(t0);
   // Left is left, parts whole and in proportion, joints at their borders: never a wrong skeleton silently.
-  const SkeletonCheck check = check_skeleton(mesh.V, mesh.F, seg.triangle_part, joints);
+  const SkeletonCheck& check = result.check;
   if (!check.ok()) {
     if (!args.flag_set("unchecked"))
       throw InvalidInput(args.positionals()[0] + ": the segmentation fails its sanity checks: " + check.summary() +

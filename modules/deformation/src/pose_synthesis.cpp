@@ -13,6 +13,7 @@
 #include "posekit/deformation/rigid_pose.h"
 #include "posekit/registration/correspondence.h"
 #include "posekit/registration/ctffd.h"
+#include "posekit/segmentation/body_segmentation.h"
 #include "posekit/segmentation/segmentation.h"
 #include "posekit/segmentation/segmentation_prior.h"
 #include "posekit/segmentation/skeleton_checks.h"
@@ -120,10 +121,10 @@ PoseSynthesizer::PoseSynthesizer(std::shared_ptr<const PoseModel> model, const T
       template_alone.bodies.push_back(
           make_calibration_body(M.template_V, M.template_F, M.triangle_part, M.joint_centres, template_rep));
     const SegmentationPrior& prior = template_alone.bodies.empty() ? M.segmentation_prior : template_alone;
-    const Segmentation seg = segment_body(s.V, s.F, rep, representation_labels_from_prior(prior, rep));
-    s.info.triangle_part = seg.triangle_part;
-    s.info.joint_centres = reconcile_limb_joints(embed_skeleton(prior, rep), features);
-    s.info.skeleton_problems = check_skeleton(s.V, s.F, s.info.triangle_part, s.info.joint_centres).problems;
+    BodySegmentation result = segment_standing_body(s.V, s.F, rep, features, &prior);
+    s.info.triangle_part = std::move(result.segmentation.triangle_part);
+    s.info.joint_centres = std::move(result.joints);
+    s.info.skeleton_problems = std::move(result.check.problems);
     s.info.seconds_segmentation = seconds_since(t0);
     t0 = std::chrono::steady_clock::now();
     const Eigen::MatrixXd deformed = ctffd_evaluate(ctffd_parametrize(M.template_V, template_rep), rep);

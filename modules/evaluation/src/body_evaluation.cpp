@@ -16,6 +16,7 @@
 #include "posekit/io/atomic_file.h"
 #include "posekit/io/mesh_io.h"
 #include "posekit/io/point_cloud_io.h"
+#include "posekit/segmentation/body_segmentation.h"
 #include "posekit/segmentation/segmentation.h"
 #include "posekit/segmentation/segmentation_prior.h"
 #include "posekit/segmentation/skeleton_checks.h"
@@ -101,17 +102,10 @@ BodyResult evaluate_body(const fs::path& dir, const nlohmann::json& entry, const
       mesh = body_surface(whole.V, whole.F, nullptr, nullptr, &surface_face);
       const BodyFeatures features = find_body_features(whole.V, whole.F);  // sees the openings (cut hands, head)
       const LayeredRepresentation rep = build_layered_representation(mesh.V, mesh.F, features);
-      Segmentation seg;
-      Eigen::MatrixXd joints;
-      if (prior) {
-        seg = segment_body(mesh.V, mesh.F, rep, representation_labels_from_prior(*prior, rep));
-        joints = embed_skeleton(*prior, rep);
-        joints = reconcile_limb_joints(joints, features);
-      } else {
-        seg = segment_body(mesh.V, mesh.F, rep);
-        joints = joint_centres_from_features(mesh.V, mesh.F, seg.triangle_part, rep, features);
-      }
-      const SkeletonCheck check = check_skeleton(mesh.V, mesh.F, seg.triangle_part, joints);
+      const BodySegmentation result = segment_standing_body(mesh.V, mesh.F, rep, features, prior);
+      const Segmentation& seg = result.segmentation;
+      const Eigen::MatrixXd& joints = result.joints;
+      const SkeletonCheck& check = result.check;
       r.segmented = check.ok();
       if (!check.ok()) r.segment_error = "fails its sanity checks: " + check.summary();
       // Accuracy, also of a result the checks refused (to see whether they refused rightly).

@@ -68,8 +68,11 @@ SkeletonCheck check_skeleton(const Eigen::MatrixXd& V, const Eigen::MatrixXi& F,
       midline += part_area[p] * part_centre[p].x();
     }
   }
+  auto cut_off = [&](int p) {
+    return std::find(options.cut_off_parts.begin(), options.cut_off_parts.end(), p) != options.cut_off_parts.end();
+  };
   for (int p = 0; p < kNumParts; ++p)
-    if (part_area[p] == 0) check.problems.push_back("no triangle is labelled " + part_name(p));
+    if (part_area[p] == 0 && !cut_off(p)) check.problems.push_back("no triangle is labelled " + part_name(p));
   if (torso_area == 0) return check;
   midline /= torso_area;
 
@@ -131,6 +134,7 @@ SkeletonCheck check_skeleton(const Eigen::MatrixXd& V, const Eigen::MatrixXi& F,
   // Joints at their parts' border: border edges between child and parent, length-weighted.
   for (int j = 0; j < kNumJoints; ++j) {
     const int child = j + 1, parent = part_parent(child);
+    if (cut_off(child)) continue;
     Eigen::Vector3d centre = Eigen::Vector3d::Zero();
     std::vector<std::pair<Eigen::Vector3d, double>> edges;
     double length = 0;

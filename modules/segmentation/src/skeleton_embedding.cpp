@@ -32,6 +32,37 @@ SkeletonPrior make_skeleton_prior(const Eigen::MatrixXd& template_joints, const 
   return prior;
 }
 
+namespace {
+
+/// Length-weighted centre of each joint's border edges; weight 0 where the parts do not touch.
+Eigen::MatrixXd border_centres(const Eigen::MatrixXd& V, const Eigen::MatrixXi& F, const Eigen::VectorXi& triangle_part,
+                               Eigen::VectorXd* weight) {
+  const Eigen::MatrixXi TT = face_adjacency(F);
+  Eigen::MatrixXd sum = Eigen::MatrixXd::Zero(kNumJoints, 3);
+  Eigen::VectorXd& w = *weight;
+  w = Eigen::VectorXd::Zero(kNumJoints);
+  for (Eigen::Index f = 0; f < F.rows(); ++f) {
+    for (int c = 0; c < 3; ++c) {
+      const int g = TT(f, c);
+      if (g < f) continue;  // each edge once; skips boundaries (-1)
+      const int a = triangle_part[f], b = triangle_part[g];
+      int child = -1;
+      if (part_parent(a) == b) child = a;
+      else if (part_parent(b) == a) child = b;
+      if (child < 1) continue;
+      const Eigen::RowVector3d p = V.row(F(f, c)), q = V.row(F(f, (c + 1) % 3));
+      const double len = (p - q).norm();
+      sum.row(child - 1) += len * 0.5 * (p + q);
+      w[child - 1] += len;
+    }
+  }
+  for (int j = 0; j < kNumJoints; ++j)
+    if (w[j] > 0) sum.row(j) /= w[j];
+  return sum;
+}
+
+}  // namespace
+
 Eigen::MatrixXd embed_skeleton(const SkeletonPrior& prior, const LayeredRepresentation& rep) {
   Eigen::MatrixXd joints = ctffd_evaluate(prior.joints, rep);
   const auto [lo, hi] = torso_span(rep);
@@ -70,7 +101,8 @@ Eigen::Vector3d typical_torso_fractions() { return Eigen::Vector3d(0.262, 0.495,
 Eigen::MatrixXd joint_centres_from_features(const Eigen::MatrixXd& V, const Eigen::MatrixXi& F,
                                             const Eigen::VectorXi& triangle_part, const LayeredRepresentation& rep,
                                             const BodyFeatures& f) {
-  Eigen::MatrixXd J = joint_centres_from_segmentation(V, F, triangle_part);
+  Eigen::VectorXd weight;
+  Eigen::MatrixXd J = border_centres(V, F, triangle_part, &weight);
   const auto [lo, hi] = torso_span(rep);
   const Eigen::Vector3d fraction = typical_torso_fractions();
   for (int j = 0; j < 3; ++j) {
@@ -97,35 +129,21 @@ Eigen::MatrixXd joint_centres_from_features(const Eigen::MatrixXd& V, const Eige
     J.row((left ? kLeftShank : kRightShank) - 1) = f.knee[side].transpose();
     J.row((left ? kLeftFoot : kRightFoot) - 1) = f.ankle[side].transpose();
   }
+  // The hips are the joints left at their part borders: those must exist.
+  for (int thigh : {kLeftThigh, kRightThigh})
+    if (weight[thigh - 1] <= 0)
+      throw InvalidInput("joint centres: the parts of joint '" + joint_name(thigh - 1) + "' do not touch");
   return J;
 }
 
 Eigen::MatrixXd joint_centres_from_segmentation(const Eigen::MatrixXd& V, const Eigen::MatrixXi& F,
                                                 const Eigen::VectorXi& triangle_part) {
-  const Eigen::MatrixXi TT = face_adjacency(F);
-  Eigen::MatrixXd sum = Eigen::MatrixXd::Zero(kNumJoints, 3);
-  Eigen::VectorXd weight = Eigen::VectorXd::Zero(kNumJoints);
-  for (Eigen::Index f = 0; f < F.rows(); ++f) {
-    for (int c = 0; c < 3; ++c) {
-      const int g = TT(f, c);
-      if (g < f) continue;  // each edge once; skips boundaries (-1)
-      const int a = triangle_part[f], b = triangle_part[g];
-      int child = -1;
-      if (part_parent(a) == b) child = a;
-      else if (part_parent(b) == a) child = b;
-      if (child < 1) continue;
-      const Eigen::RowVector3d p = V.row(F(f, c)), q = V.row(F(f, (c + 1) % 3));
-      const double len = (p - q).norm();
-      sum.row(child - 1) += len * 0.5 * (p + q);
-      weight[child - 1] += len;
-    }
-  }
-  for (int j = 0; j < kNumJoints; ++j) {
+  Eigen::VectorXd weight;
+  const Eigen::MatrixXd J = border_centres(V, F, triangle_part, &weight);
+  for (int j = 0; j < kNumJoints; ++j)
     if (weight[j] <= 0)
       throw InvalidInput("joint_centres_from_segmentation: the parts of joint '" + joint_name(j) + "' do not touch");
-    sum.row(j) /= weight[j];
-  }
-  return sum;
+  return J;
 }
 
 }  // namespace posekit

@@ -16,6 +16,9 @@ struct SkeletonCheckOptions {
   /// A joint may lie this many times the mean radius of its parts' border away from the border's
   /// centre (a hip inside the pelvis, above its oblique thigh border, included).
   double border_radii = 2.5;
+  /// Parts the scan cut off (a hand cut at the wrist): they may have no triangles, and their joint
+  /// is not checked against a border.
+  std::vector<int> cut_off_parts;
 };
 
 /// What check_skeleton found: one sentence per problem, naming the joint or part and the reason.
@@ -30,7 +33,7 @@ struct SkeletonCheck {
 /// facing +Z, the subject's left +X):
 /// - each left joint and part lies left of the body's midline (the torso parts' centroid), each
 ///   right one right of it;
-/// - every part is present and one edge-connected piece; each pair of left and right limb parts
+/// - every part is present (but options.cut_off_parts) and one edge-connected piece; each pair of left and right limb parts
 ///   has similar areas (no part swallowing its neighbour);
 /// - each joint lies within options.border_radii border radii of the centre of the border between
 ///   its two parts, and those parts touch;
