@@ -279,13 +279,15 @@ int run_segment(int argc, char** argv) {
   }
   const Eigen::VectorXd area = face_areas(mesh.V, mesh.F);
   nlohmann::ordered_json parts;
+  int present = 0;
   for (int p = 0; p < kNumParts; ++p) {
     double a = 0;
     for (Eigen::Index f = 0; f < mesh.F.rows(); ++f)
       if (seg.triangle_part[f] == p) a += area[f];
     parts[part_name(p)] = {{"area_m2", a}};
+    present += a > 0;
   }
-  nlohmann::ordered_json s = {{"mesh", args.positionals()[0]}, {"seconds", seconds},
+  nlohmann::ordered_json s = {{"mesh", args.positionals()[0]}, {"seconds", seconds}, {"notes", result.notes},
                               {"normal_failures", seg.normal_failures}, {"relabelled_by_cleanup", seg.relabelled},
                               {"parts", parts}, {"joints", jj["joints"]},
                               {"checks", {{"ok", check.ok()}, {"problems", check.problems}}}};
@@ -293,7 +295,7 @@ int run_segment(int argc, char** argv) {
     print_json(s);
     return 0;
   }
-  std::cout << "segmented " << args.positionals()[0] << " into 16 parts in " << std::fixed << std::setprecision(3) << seconds
+  std::cout << "segmented " << args.positionals()[0] << " into " << present << " parts (of " << kNumParts << ") in " << std::fixed << std::setprecision(3) << seconds
             << " s (" << seg.normal_failures << " triangles without a representation triangle facing the same way, "
             << seg.relabelled << " moved by the clean-up)\n";
   for (int j = 0; j < kNumJoints; ++j)

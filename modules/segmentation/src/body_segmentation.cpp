@@ -4,6 +4,9 @@
 #include "posekit/segmentation/skeleton_embedding.h"
 
 namespace posekit {
+namespace {
+constexpr double kSaidDisagreement = 0.03;  ///< m between the prior's joint and the body's own
+}  // namespace
 
 BodySegmentation segment_standing_body(const Eigen::MatrixXd& V, const Eigen::MatrixXi& F, const LayeredRepresentation& rep,
                                        const BodyFeatures& features, const SegmentationPrior* prior) {
@@ -21,7 +24,11 @@ BodySegmentation segment_standing_body(const Eigen::MatrixXd& V, const Eigen::Ma
   }
   out.segmentation = segment_body(V, F, rep, labels);
   if (prior) {
-    out.joints = reconcile_limb_joints(embed_skeleton(*prior, rep), features, 0.0, &out.notes);
+    // The limb joints are always the body's own (features follow a straight or cut arm, which the
+    // prior's ct-FFD embedding does not); a prior more than 3 cm away is said.
+    const Eigen::MatrixXd embedded = embed_skeleton(*prior, rep);
+    reconcile_limb_joints(embedded, features, kSaidDisagreement, &out.notes);
+    out.joints = reconcile_limb_joints(embedded, features, 0.0);
   } else {
     out.joints = joint_centres_from_features(V, F, out.segmentation.triangle_part, rep, features);
   }
