@@ -19,6 +19,7 @@
 namespace posekit {
 namespace {
 
+constexpr double kStraddleRatio = 1.0 / 3;  ///< straddles(): shorter over longer side of the axis
 constexpr double kBustBandStart = 0.62;   ///< of the crotch-to-armpit span
 /// A section within 1 cm of the top wider round than this (m) is a cut, not a crown: a head of 10 cm
 /// radius whose top 2 cm a booth's cameras do not see (a scan's crown) is under 0.38 m round there;
@@ -143,6 +144,13 @@ bool contains_xz(const SectionLoop& loop, double x, double z) {
   for (Eigen::Index i = 0, j = P.rows() - 1; i < P.rows(); j = i++)
     if ((P(i, 2) > z) != (P(j, 2) > z) && x < (P(j, 0) - P(i, 0)) * (z - P(i, 2)) / (P(j, 2) - P(i, 2)) + P(i, 0)) in = !in;
   return in;
+}
+
+/// A loop spanning x on both sides, the shorter side at least a third of the longer (the pelvis),
+/// not one thigh pressed over the midline.
+bool straddles(const LoopShape& s, double x) {
+  const double a = x - s.min_x, b = s.max_x - x;
+  return a > 0 && b > 0 && std::min(a, b) >= kStraddleRatio * std::max(a, b);
 }
 
 /// Closed loops of a section larger than min_area, not counting loops nested inside another one
@@ -485,7 +493,9 @@ BodyFeatures find_body_features(const SectionStack& st, const HorizontalSections
     // spans the axis near the tracked centre (the neck, not the chin beside it).
     int found = -1;
     for (size_t k = 0; k < st.loops[i].size(); ++k)
-      if (st.loops[i][k].closed && contains_xz(st.loops[i][k], f.axis_x, z_track)) found = static_cast<int>(k);
+      if (st.loops[i][k].closed && contains_xz(st.loops[i][k], f.axis_x, z_track) &&
+          (crotch >= 0 || straddles(shape_of(st.loops[i][k]), f.axis_x)))
+        found = static_cast<int>(k);
     if (crotch >= 0) {
       double best_area = found >= 0 ? shape_of(st.loops[i][found]).area : 0.0;
       for (size_t k = 0; k < st.loops[i].size(); ++k) {
@@ -516,7 +526,7 @@ BodyFeatures find_body_features(const SectionStack& st, const HorizontalSections
     const auto fine = sections_at(heights);
     for (size_t k = 0; k < heights.size() && f.crotch_y == st.y[crotch]; ++k)
       for (const auto& loop : fine[k])
-        if (loop.closed && contains_xz(loop, f.axis_x, crotch_track_z)) f.crotch_y = heights[k];
+        if (loop.closed && contains_xz(loop, f.axis_x, crotch_track_z) && straddles(shape_of(loop), f.axis_x)) f.crotch_y = heights[k];
   }
   f.crotch = Eigen::Vector3d(f.axis_x, f.crotch_y, torso_shape[crotch].centroid.z());
   if (f.head_cut) scale = std::max(scale, (f.crotch_y - f.floor_y) / kCrotchOverStature);
