@@ -124,6 +124,29 @@ TEST(BodyFeatures, NearlyStraightArmsHaveTheirElbowsBetweenShoulderAndWrist) {
   }
 }
 
+TEST(BodyFeatures, AThighPressedOverTheMidlineIsNotTakenForThePelvis) {
+  POSEKIT_REQUIRE_MAKEHUMAN();
+  // A heavy body with its thighs drawn in 14 degrees each: below the crotch each thigh's section
+  // reaches over the body's axis. The lowest section enclosing the axis was a thigh, and the crotch
+  // fell 49 cm here (14-17 cm on the robustness set's touching thighs).
+  BodySpec heavy = make_subject_specs(model, 1, 1)[0].spec;
+  heavy.weight = 1.0;
+  const Body b = build_body(model, heavy);
+  PartPose pose;
+  for (const char* side : {"left", "right"})
+    pose.joint_rotation[find_joint_index(std::string(side) + "_hip")] = (side[0] == 'l' ? -1.0 : 1.0) * 0.25 * Eigen::Vector3d::UnitZ();
+  const BoneTransforms T = pose_bone_transforms(model.rig, b.bone_heads, bone_pose_from_part_pose(model.rig, pose));
+  Body posed = b;
+  posed.mesh.V = dual_quaternion_skinning(b.mesh.V, model.weights, T);
+  for (int k = 0; k < model.rig.num_bones(); ++k) {
+    posed.bone_heads.row(k) = (T.R[k] * b.bone_heads.row(k).transpose() + T.t[k]).transpose();
+    posed.bone_tails.row(k) = (T.R[k] * b.bone_tails.row(k).transpose() + T.t[k]).transpose();
+  }
+  const Measurements gt = measure_makehuman_body(model, posed);
+  const BodyFeatures f = find_body_features(posed.mesh.V, posed.mesh.F);
+  EXPECT_NEAR(f.crotch_y, gt.crotch_height, 0.02);
+}
+
 TEST(BodyFeatures, RejectsBodiesThatAreNotStanding) {
   POSEKIT_REQUIRE_MAKEHUMAN();
   const Body b = build_body(model, BodySpec{});
