@@ -5,7 +5,7 @@
 
 namespace posekit {
 namespace {
-constexpr double kSaidDisagreement = 0.03;  ///< m between the prior's joint and the body's own
+constexpr double kReconcileTolerance = 0.03;  ///< m between the prior's limb joint and the body's own
 }  // namespace
 
 BodySegmentation segment_standing_body(const Eigen::MatrixXd& V, const Eigen::MatrixXi& F, const LayeredRepresentation& rep,
@@ -24,11 +24,10 @@ BodySegmentation segment_standing_body(const Eigen::MatrixXd& V, const Eigen::Ma
   }
   out.segmentation = segment_body(V, F, rep, labels);
   if (prior) {
-    // The limb joints are always the body's own (features follow a straight or cut arm, which the
-    // prior's ct-FFD embedding does not); a prior more than 3 cm away is said.
-    const Eigen::MatrixXd embedded = embed_skeleton(*prior, rep);
-    reconcile_limb_joints(embedded, features, kSaidDisagreement, &out.notes);
-    out.joints = reconcile_limb_joints(embedded, features, 0.0);
+    // A limb joint the prior puts over 3 cm from the body's own (a straight or cut arm, which the
+    // ct-FFD embedding does not follow) is the body's. Closer, the prior's is kept: taking every
+    // limb joint from the features made the 16 subjects' posed error 2.82 -> 3.31 mm.
+    out.joints = reconcile_limb_joints(embed_skeleton(*prior, rep), features, kReconcileTolerance, &out.notes);
   } else {
     out.joints = joint_centres_from_features(V, F, out.segmentation.triangle_part, rep, features);
   }
