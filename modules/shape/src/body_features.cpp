@@ -398,9 +398,9 @@ BodyFeatures find_body_features(const Eigen::MatrixXd& V_in, const Eigen::Matrix
   const double height = box.extent().y();
   if (height < 0.8 || height > 2.6)
     throw InvalidInput("body features: the mesh is " + std::to_string(height) +
-                       " m tall along Y: expected a standing human in metres with Y up (wrong unit or axis?)");
+                       " m tall along its up axis (posekit's Y): expected a standing human in metres (wrong unit, or up axis?)");
   if (box.extent().z() > height || box.extent().x() > 1.3 * height)
-    throw InvalidInput("body features: the mesh is wider than it is tall: expected a standing body with Y up, not a lying one");
+    throw InvalidInput("body features: the mesh is wider than it is tall along its up axis (posekit's Y): expected a standing body, not a lying one (wrong --up?)");
   BodyFeatures f = find_body_features(
       horizontal_sections(V, F),
       [&](const std::vector<double>& heights) { return slice_mesh_stack(V, F, Eigen::Vector3d::UnitY(), heights); },

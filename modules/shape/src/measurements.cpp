@@ -416,7 +416,7 @@ BodyMeasurements measure_point_cloud(const Eigen::MatrixXd& scan) {
   // The unit first: a body in mm read as metres has no neighbours within 2 cm at all.
   const double tall = bounding_box(scan).extent().y();
   if (tall > 500 && tall < 2600)
-    throw InvalidInput("measure: the cloud is " + std::to_string(tall) + " units tall along Y: did you mean --unit mm?");
+    throw InvalidInput("measure: the cloud is " + std::to_string(tall) + " units tall along its up axis (posekit's Y): did you mean --unit mm?");
   const Eigen::MatrixXd P = drop_isolated_points(scan);
   if (P.rows() < 1000)
     throw InvalidInput("measure: only " + std::to_string(P.rows()) + " of " + std::to_string(scan.rows()) +
@@ -424,7 +424,7 @@ BodyMeasurements measure_point_cloud(const Eigen::MatrixXd& scan) {
   const BoundingBox box = bounding_box(P);
   if (box.extent().y() < 0.8 || box.extent().y() > 2.6)
     throw InvalidInput("measure: the cloud is " + std::to_string(box.extent().y()) +
-                       " m tall along Y: expected a standing human in metres (wrong --unit?)");
+                       " m tall along its up axis (posekit's Y): expected a standing human in metres (wrong unit, or up axis?)");
   auto section = [&](const Eigen::Vector3d& p, const Eigen::Vector3d& n) { return cloud_section(P, p, n); };
   BodyFeatures f = find_body_features(sections_of_clean_points(P, 0.005, kMaxGapDeg));
   refine_wrists(section, &f);
