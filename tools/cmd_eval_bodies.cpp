@@ -29,7 +29,7 @@ double median_of(std::vector<double> v) {
 struct Tally {
   int bodies = 0, meshes = 0, frame_right = 0, measured = 0, segmented = 0, agree = 0, joints = 0, silent = 0;
   int iso_within[3] = {0, 0, 0}, iso_measured[3] = {0, 0, 0};
-  std::vector<double> joint_max, agreement;
+  std::vector<double> joint_max, agreement, roughness, truth_roughness;
   void add(const BodyResult& b) {
     ++bodies;
     meshes += b.kind == "mesh";
@@ -40,6 +40,8 @@ struct Tally {
     joints += b.segmented && b.joint_error_max <= kJointBar;
     silent += !b.silent_nonsense.empty();
     if (b.kind == "mesh") joint_max.push_back(b.joint_error_max), agreement.push_back(b.segmentation_agreement);
+    if (!std::isnan(b.border_roughness)) roughness.push_back(b.border_roughness);
+    if (!std::isnan(b.truth_border_roughness)) truth_roughness.push_back(b.truth_border_roughness);
     for (int g = 0; g < 3; ++g) {
       auto it = b.girth_error.find(kIsoGirths[g]);
       if (it == b.girth_error.end()) continue;
@@ -53,7 +55,8 @@ struct Tally {
     return {{"bodies", bodies}, {"meshes", meshes}, {"unit_and_orientation_right", frame_right}, {"measured", measured},
             {"segmented", segmented}, {"agreement_at_least_95", agree}, {"joints_within_3cm", joints},
             {"girths_iso_20685", iso}, {"median_joint_error_max_mm", 1000 * median_of(joint_max)},
-            {"median_agreement", median_of(agreement)}, {"silent_nonsense", silent}};
+            {"median_agreement", median_of(agreement)}, {"median_border_roughness", median_of(roughness)},
+            {"median_truth_border_roughness", median_of(truth_roughness)}, {"silent_nonsense", silent}};
   }
 };
 
@@ -132,6 +135,8 @@ int run_eval_bodies(int argc, char** argv) {
     if (!b.measure_error.empty()) j["measure_error"] = b.measure_error;
     if (!b.segment_error.empty()) j["segment_error"] = b.segment_error;
     if (!std::isnan(b.segmentation_agreement)) j["segmentation_agreement"] = b.segmentation_agreement;
+    if (!std::isnan(b.border_roughness)) j["border_roughness"] = b.border_roughness;
+    if (!std::isnan(b.truth_border_roughness)) j["truth_border_roughness"] = b.truth_border_roughness;
     if (!std::isnan(b.joint_error_max)) {
       j["joint_error_max_mm"] = 1000 * b.joint_error_max;
       j["joint_error_mean_mm"] = 1000 * b.joint_error_mean;
@@ -161,7 +166,10 @@ int run_eval_bodies(int argc, char** argv) {
   for (size_t v = 0; v < per.size(); ++v) print_row(ev.variations[v], per[v]);
   print_row("**all**", all);
   std::cout << "\nsegmented, agreement and joints count meshes (scans are measured only); a girth's ISO column counts\n"
-               "the bodies where it was measured.\n";
+               "the bodies where it was measured.\n"
+            << "part borders' roughness (edge length over the hull's perimeter, median of the joints' borders; 1 is a\n"
+               "smooth ring): median " << std::setprecision(3) << median_of(all.roughness) << " ours, "
+            << median_of(all.truth_roughness) << " the rig's labels\n";
   bool header = false;
   for (const auto& b : ev.bodies) {
     if (b.measured && (b.segmented || b.kind == "scan") && b.silent_nonsense.empty()) continue;

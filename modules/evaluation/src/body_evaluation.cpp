@@ -123,7 +123,11 @@ BodyResult evaluate_body(const fs::path& dir, const nlohmann::json& entry, const
           if (t == ours[f]) same += area[f];
         }
         r.segmentation_agreement = all > 0 ? same / all : 0.0;
+        Eigen::VectorXi theirs(whole.F.rows());
+        for (Eigen::Index f = 0; f < whole.F.rows(); ++f) theirs[f] = labels[static_cast<size_t>(f)].get<int>();
+        r.truth_border_roughness = border_roughness(whole.V, whole.F, theirs);
       }
+      r.border_roughness = border_roughness(mesh.V, mesh.F, seg.triangle_part);
       // Joints compared where the user gets them, in the file's frame.
       r.joint_error_max = r.joint_error_mean = 0;
       for (int j = 0; j < kNumJoints; ++j) {

@@ -1,6 +1,9 @@
 #include "posekit/segmentation/segmentation.h"
 
+#include <Eigen/Eigenvalues>
 #include <algorithm>
+#include <cmath>
+#include <limits>
 #include <map>
 #include <string>
 #include <vector>
@@ -27,6 +30,10 @@ Segmentation segment_body(const Eigen::MatrixXd& V, const Eigen::MatrixXi& F, co
   out.triangle_part.resize(F.rows());
   for (Eigen::Index f = 0; f < F.rows(); ++f) out.triangle_part[f] = rep_labels[match[f]];
   if (options.clean) out.relabelled = clean_part_labels(V, F, &out.triangle_part);
+  if (options.border_smoothing > 0) {
+    smooth_part_borders(V, F, options.border_smoothing, &out.triangle_part);
+    if (options.clean) out.relabelled += clean_part_labels(V, F, &out.triangle_part);
+  }
   out.vertex_part = vertex_labels_from_triangles(V, F, out.triangle_part);
   return out;
 }
@@ -140,6 +147,94 @@ double label_agreement(const Eigen::MatrixXd& V, const Eigen::MatrixXi& F, const
   for (Eigen::Index f = 0; f < F.rows(); ++f)
     if (a[f] == b[f]) same += area[f];
   return same / std::max(area.sum(), 1e-300);
+}
+
+void smooth_part_borders(const Eigen::MatrixXd& V, const Eigen::MatrixXi& F, double radius, Eigen::VectorXi* triangle_part) {
+  Eigen::VectorXi& L = *triangle_part;
+  if (L.size() != F.rows())
+    throw InvalidInput("smooth_part_borders: " + std::to_string(L.size()) + " labels for " + std::to_string(F.rows()) + " triangles");
+  if (!(radius > 0) || F.rows() == 0) return;
+  // Per vertex, the share of each part among its triangles (by area), diffused over the edges:
+  // after k rounds of neighbour averaging a label has spread about sqrt(k) mean edges.
+  const Eigen::VectorXi vertex_part = vertex_labels_from_triangles(V, F, L);
+  std::vector<std::vector<int>> neighbours(static_cast<size_t>(V.rows()));
+  double edge_sum = 0;
+  for (Eigen::Index f = 0; f < F.rows(); ++f)
+    for (int c = 0; c < 3; ++c) {
+      const int a = F(f, c), b = F(f, (c + 1) % 3);
+      neighbours[static_cast<size_t>(a)].push_back(b);
+      neighbours[static_cast<size_t>(b)].push_back(a);
+      edge_sum += (V.row(a) - V.row(b)).norm();
+    }
+  const double mean_edge = edge_sum / static_cast<double>(3 * F.rows());
+  const int rounds = std::clamp(static_cast<int>(std::lround(std::pow(radius / std::max(mean_edge, 1e-12), 2))), 1, 200);
+  Eigen::MatrixXf share = Eigen::MatrixXf::Zero(V.rows(), kNumParts), next(V.rows(), kNumParts);
+  for (Eigen::Index v = 0; v < V.rows(); ++v) share(v, vertex_part[v]) = 1;
+  for (int r = 0; r < rounds; ++r) {
+    for (Eigen::Index v = 0; v < V.rows(); ++v) {
+      const auto& n = neighbours[static_cast<size_t>(v)];
+      next.row(v) = share.row(v);
+      for (int u : n) next.row(v) += share.row(u);
+      next.row(v) /= static_cast<float>(n.size() + 1);
+    }
+    share.swap(next);
+  }
+  for (Eigen::Index f = 0; f < F.rows(); ++f) {
+    const Eigen::RowVectorXf s = share.row(F(f, 0)) + share.row(F(f, 1)) + share.row(F(f, 2));
+    Eigen::Index best;
+    s.maxCoeff(&best);
+    L[f] = static_cast<int>(best);
+  }
+}
+
+double border_roughness(const Eigen::MatrixXd& V, const Eigen::MatrixXi& F, const Eigen::VectorXi& triangle_part) {
+  if (triangle_part.size() != F.rows())
+    throw InvalidInput("border_roughness: " + std::to_string(triangle_part.size()) + " labels for " + std::to_string(F.rows()) + " triangles");
+  const Eigen::MatrixXi TT = face_adjacency(F);
+  std::vector<std::vector<Eigen::Vector3d>> points(kNumParts);  // border edge midpoints, by child part
+  std::vector<double> length(kNumParts, 0.0);
+  for (Eigen::Index f = 0; f < F.rows(); ++f)
+    for (int c = 0; c < 3; ++c) {
+      const int g = TT(f, c), child = triangle_part[f];
+      if (g < 0 || child < 1 || child >= kNumParts || triangle_part[g] != part_parent(child)) continue;
+      const Eigen::Vector3d a = V.row(F(f, c)).transpose(), b = V.row(F(f, (c + 1) % 3)).transpose();
+      points[static_cast<size_t>(child)].push_back(0.5 * (a + b));
+      length[static_cast<size_t>(child)] += (b - a).norm();
+    }
+  std::vector<double> ratios;
+  for (int p = 1; p < kNumParts; ++p) {
+    const auto& P = points[static_cast<size_t>(p)];
+    if (P.size() < 6) continue;
+    Eigen::Vector3d mean = Eigen::Vector3d::Zero();
+    for (const auto& q : P) mean += q / static_cast<double>(P.size());
+    Eigen::Matrix3d cov = Eigen::Matrix3d::Zero();
+    for (const auto& q : P) cov += (q - mean) * (q - mean).transpose();
+    const Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> pca(cov);
+    const Eigen::Vector3d u = pca.eigenvectors().col(2), w = pca.eigenvectors().col(1);
+    // Perimeter of the convex hull of the midpoints in the border's plane (monotone chain).
+    std::vector<Eigen::Vector2d> q;
+    for (const auto& x : P) q.emplace_back((x - mean).dot(u), (x - mean).dot(w));
+    std::sort(q.begin(), q.end(), [](const auto& a, const auto& b) { return a.x() != b.x() ? a.x() < b.x() : a.y() < b.y(); });
+    auto cross = [](const Eigen::Vector2d& o, const Eigen::Vector2d& a, const Eigen::Vector2d& b) {
+      return (a - o).x() * (b - o).y() - (a - o).y() * (b - o).x();
+    };
+    std::vector<Eigen::Vector2d> hull(2 * q.size());
+    size_t k = 0;
+    for (size_t i = 0; i < q.size(); ++i) {
+      while (k >= 2 && cross(hull[k - 2], hull[k - 1], q[i]) <= 0) --k;
+      hull[k++] = q[i];
+    }
+    for (size_t i = q.size() - 1, t = k + 1; i-- > 0;) {
+      while (k >= t && cross(hull[k - 2], hull[k - 1], q[i]) <= 0) --k;
+      hull[k++] = q[i];
+    }
+    double perimeter = 0;
+    for (size_t i = 0; i + 1 < k; ++i) perimeter += (hull[i + 1] - hull[i]).norm();
+    if (perimeter > 0) ratios.push_back(length[static_cast<size_t>(p)] / perimeter);
+  }
+  if (ratios.empty()) return std::numeric_limits<double>::quiet_NaN();
+  std::nth_element(ratios.begin(), ratios.begin() + static_cast<std::ptrdiff_t>(ratios.size() / 2), ratios.end());
+  return ratios[ratios.size() / 2];
 }
 
 }  // namespace posekit

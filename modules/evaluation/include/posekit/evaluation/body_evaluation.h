@@ -26,6 +26,8 @@ struct BodyResult {
   std::map<std::string, double> girth_error; ///< measured minus truth (m), girths the rig defines
   std::map<std::string, std::string> girth_not_measured;  ///< girth -> the reason given
   double segmentation_agreement = std::numeric_limits<double>::quiet_NaN();  ///< of the truth-labelled area
+  double border_roughness = std::numeric_limits<double>::quiet_NaN();        ///< ours (see border_roughness)
+  double truth_border_roughness = std::numeric_limits<double>::quiet_NaN();  ///< the rig's labels'
   double joint_error_max = std::numeric_limits<double>::quiet_NaN();         ///< m
   double joint_error_mean = std::numeric_limits<double>::quiet_NaN();        ///< m
   std::string worst_joint;
