@@ -167,20 +167,46 @@ void smooth_part_borders(const Eigen::MatrixXd& V, const Eigen::MatrixXi& F, dou
       edge_sum += (V.row(a) - V.row(b)).norm();
     }
   const double mean_edge = edge_sum / static_cast<double>(3 * F.rows());
+  for (auto& n : neighbours) {  // each edge was met from both its triangles
+    std::sort(n.begin(), n.end());
+    n.erase(std::unique(n.begin(), n.end()), n.end());
+  }
   const int rounds = std::clamp(static_cast<int>(std::lround(std::pow(radius / std::max(mean_edge, 1e-12), 2))), 1, 200);
-  Eigen::MatrixXf share = Eigen::MatrixXf::Zero(V.rows(), kNumParts), next(V.rows(), kNumParts);
+  using Shares = Eigen::Matrix<float, Eigen::Dynamic, kNumParts, Eigen::RowMajor>;  // a vertex's shares together
+  Shares share = Shares::Zero(V.rows(), kNumParts), next(V.rows(), kNumParts);
   for (Eigen::Index v = 0; v < V.rows(); ++v) share(v, vertex_part[v]) = 1;
+  // Only a band round the borders changes enough to matter (1.5 radii of rings); the rest keeps
+  // its one part.
+  std::vector<int> band, ring_of(static_cast<size_t>(V.rows()), -1);
+  for (Eigen::Index v = 0; v < V.rows(); ++v)
+    for (int u : neighbours[static_cast<size_t>(v)])
+      if (vertex_part[u] != vertex_part[v]) {
+        ring_of[static_cast<size_t>(v)] = 0;
+        band.push_back(static_cast<int>(v));
+        break;
+      }
+  const int rings = static_cast<int>(std::ceil(1.5 * radius / std::max(mean_edge, 1e-12)));
+  for (size_t i = 0; i < band.size(); ++i) {
+    const int v = band[i];
+    if (ring_of[static_cast<size_t>(v)] >= rings) continue;
+    for (int u : neighbours[static_cast<size_t>(v)])
+      if (ring_of[static_cast<size_t>(u)] < 0) {
+        ring_of[static_cast<size_t>(u)] = ring_of[static_cast<size_t>(v)] + 1;
+        band.push_back(u);
+      }
+  }
+  next = share;
   for (int r = 0; r < rounds; ++r) {
-    for (Eigen::Index v = 0; v < V.rows(); ++v) {
+    for (int v : band) {
       const auto& n = neighbours[static_cast<size_t>(v)];
       next.row(v) = share.row(v);
       for (int u : n) next.row(v) += share.row(u);
       next.row(v) /= static_cast<float>(n.size() + 1);
     }
-    share.swap(next);
+    for (int v : band) share.row(v) = next.row(v);
   }
   for (Eigen::Index f = 0; f < F.rows(); ++f) {
-    const Eigen::RowVectorXf s = share.row(F(f, 0)) + share.row(F(f, 1)) + share.row(F(f, 2));
+    const Eigen::Matrix<float, 1, kNumParts> s = share.row(F(f, 0)) + share.row(F(f, 1)) + share.row(F(f, 2));
     Eigen::Index best;
     s.maxCoeff(&best);
     L[f] = static_cast<int>(best);
