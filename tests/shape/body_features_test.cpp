@@ -52,6 +52,18 @@ const FeatureErrors& subject_errors(const MakeHumanModel& model) {
   return e;
 }
 
+/// The body in a 16-part pose (the rig's skinning), its bones moved with it.
+Body posed_body(const MakeHumanModel& model, const Body& b, const PartPose& pose) {
+  const BoneTransforms T = pose_bone_transforms(model.rig, b.bone_heads, bone_pose_from_part_pose(model.rig, pose));
+  Body posed = b;
+  posed.mesh.V = dual_quaternion_skinning(b.mesh.V, model.weights, T);
+  for (int k = 0; k < model.rig.num_bones(); ++k) {
+    posed.bone_heads.row(k) = (T.R[k] * b.bone_heads.row(k).transpose() + T.t[k]).transpose();
+    posed.bone_tails.row(k) = (T.R[k] * b.bone_tails.row(k).transpose() + T.t[k]).transpose();
+  }
+  return posed;
+}
+
 double worst(const std::vector<double>& v) { return *std::max_element(v.begin(), v.end()); }
 }  // namespace
 
@@ -106,13 +118,7 @@ TEST(BodyFeatures, NearlyStraightArmsHaveTheirElbowsBetweenShoulderAndWrist) {
       const double rest = std::acos(std::clamp(upper.dot(fore), -1.0, 1.0));
       pose.joint_rotation[find_joint_index(s + "_elbow")] = (flexion_deg * M_PI / 180 - rest) * upper.cross(fore).normalized();
     }
-    const BoneTransforms T = pose_bone_transforms(model.rig, b.bone_heads, bone_pose_from_part_pose(model.rig, pose));
-    Body posed = b;
-    posed.mesh.V = dual_quaternion_skinning(b.mesh.V, model.weights, T);
-    for (int k = 0; k < model.rig.num_bones(); ++k) {
-      posed.bone_heads.row(k) = (T.R[k] * b.bone_heads.row(k).transpose() + T.t[k]).transpose();
-      posed.bone_tails.row(k) = (T.R[k] * b.bone_tails.row(k).transpose() + T.t[k]).transpose();
-    }
+    const Body posed = posed_body(model, b, pose);
     const Eigen::MatrixXd posed_joints = joint_centres(model.rig, posed);
     const BodyFeatures f = find_body_features(posed.mesh.V, posed.mesh.F);
     for (int side : {kLeft, kRight}) {
@@ -135,13 +141,7 @@ TEST(BodyFeatures, AThighPressedOverTheMidlineIsNotTakenForThePelvis) {
   PartPose pose;
   for (const char* side : {"left", "right"})
     pose.joint_rotation[find_joint_index(std::string(side) + "_hip")] = (side[0] == 'l' ? -1.0 : 1.0) * 0.25 * Eigen::Vector3d::UnitZ();
-  const BoneTransforms T = pose_bone_transforms(model.rig, b.bone_heads, bone_pose_from_part_pose(model.rig, pose));
-  Body posed = b;
-  posed.mesh.V = dual_quaternion_skinning(b.mesh.V, model.weights, T);
-  for (int k = 0; k < model.rig.num_bones(); ++k) {
-    posed.bone_heads.row(k) = (T.R[k] * b.bone_heads.row(k).transpose() + T.t[k]).transpose();
-    posed.bone_tails.row(k) = (T.R[k] * b.bone_tails.row(k).transpose() + T.t[k]).transpose();
-  }
+  const Body posed = posed_body(model, b, pose);
   const Measurements gt = measure_makehuman_body(model, posed);
   const BodyFeatures f = find_body_features(posed.mesh.V, posed.mesh.F);
   EXPECT_NEAR(f.crotch_y, gt.crotch_height, 0.02);

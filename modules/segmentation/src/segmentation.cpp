@@ -11,6 +11,7 @@
 #include "posekit/body/parts.h"
 #include "posekit/core/error.h"
 #include "posekit/core/mesh_geometry.h"
+#include "posekit/core/mesh_slice.h"
 #include "posekit/core/mesh_topology.h"
 #include "posekit/registration/correspondence.h"
 
@@ -236,26 +237,9 @@ double border_roughness(const Eigen::MatrixXd& V, const Eigen::MatrixXi& F, cons
     Eigen::Matrix3d cov = Eigen::Matrix3d::Zero();
     for (const auto& q : P) cov += (q - mean) * (q - mean).transpose();
     const Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> pca(cov);
-    const Eigen::Vector3d u = pca.eigenvectors().col(2), w = pca.eigenvectors().col(1);
-    // Perimeter of the convex hull of the midpoints in the border's plane (monotone chain).
-    std::vector<Eigen::Vector2d> q;
-    for (const auto& x : P) q.emplace_back((x - mean).dot(u), (x - mean).dot(w));
-    std::sort(q.begin(), q.end(), [](const auto& a, const auto& b) { return a.x() != b.x() ? a.x() < b.x() : a.y() < b.y(); });
-    auto cross = [](const Eigen::Vector2d& o, const Eigen::Vector2d& a, const Eigen::Vector2d& b) {
-      return (a - o).x() * (b - o).y() - (a - o).y() * (b - o).x();
-    };
-    std::vector<Eigen::Vector2d> hull(2 * q.size());
-    size_t k = 0;
-    for (size_t i = 0; i < q.size(); ++i) {
-      while (k >= 2 && cross(hull[k - 2], hull[k - 1], q[i]) <= 0) --k;
-      hull[k++] = q[i];
-    }
-    for (size_t i = q.size() - 1, t = k + 1; i-- > 0;) {
-      while (k >= t && cross(hull[k - 2], hull[k - 1], q[i]) <= 0) --k;
-      hull[k++] = q[i];
-    }
-    double perimeter = 0;
-    for (size_t i = 0; i + 1 < k; ++i) perimeter += (hull[i + 1] - hull[i]).norm();
+    Eigen::MatrixXd M(static_cast<Eigen::Index>(P.size()), 3);
+    for (size_t i = 0; i < P.size(); ++i) M.row(static_cast<Eigen::Index>(i)) = P[i].transpose();
+    const double perimeter = convex_hull_perimeter(M, pca.eigenvectors().col(0));  // in the border's plane
     if (perimeter > 0) ratios.push_back(length[static_cast<size_t>(p)] / perimeter);
   }
   if (ratios.empty()) return std::numeric_limits<double>::quiet_NaN();
