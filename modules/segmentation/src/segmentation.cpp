@@ -155,8 +155,8 @@ void smooth_part_borders(const Eigen::MatrixXd& V, const Eigen::MatrixXi& F, dou
   if (L.size() != F.rows())
     throw InvalidInput("smooth_part_borders: " + std::to_string(L.size()) + " labels for " + std::to_string(F.rows()) + " triangles");
   if (!(radius > 0) || F.rows() == 0) return;
-  // Per vertex, the share of each part among its triangles (by area), diffused over the edges:
-  // after k rounds of neighbour averaging a label has spread about sqrt(k) mean edges.
+  // Each vertex starts wholly in its triangles' majority part; the shares are diffused over the
+  // edges: after k rounds of neighbour averaging a label has spread about sqrt(k) mean edges.
   const Eigen::VectorXi vertex_part = vertex_labels_from_triangles(V, F, L);
   std::vector<std::vector<int>> neighbours(static_cast<size_t>(V.rows()));
   double edge_sum = 0;

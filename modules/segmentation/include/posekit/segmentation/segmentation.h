@@ -41,8 +41,8 @@ int clean_part_labels(const Eigen::MatrixXd& V, const Eigen::MatrixXi& F, Eigen:
 Eigen::VectorXi vertex_labels_from_triangles(const Eigen::MatrixXd& V, const Eigen::MatrixXi& F,
                                              const Eigen::VectorXi& triangle_part);
 
-/// Smooths the borders between parts: each vertex's part shares (from its triangles) are diffused
-/// over about `radius` metres of edges, and each triangle takes the part with the largest share at
+/// Smooths the borders between parts: each vertex starts wholly in its triangles' majority part,
+/// and these part shares are diffused over about `radius` metres of edges (near the borders only), and each triangle takes the part with the largest share at
 /// its corners. A border that zigzags across triangle rows (each triangle labelled by its own
 /// nearest representation triangle) becomes the level line of the diffused shares, smooth at the
 /// scale of the radius. Throws InvalidInput on a label count other than F.rows().
