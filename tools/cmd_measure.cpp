@@ -72,6 +72,7 @@ int run_measure(int argc, char** argv) {
                      {"left_shoulder", point_in(shown, f.shoulder[kLeft])}, {"right_shoulder", point_in(shown, f.shoulder[kRight])},
                      {"left_elbow", point_in(shown, f.elbow[kLeft])}, {"right_elbow", point_in(shown, f.elbow[kRight])},
                      {"left_wrist", point_in(shown, f.wrist[kLeft])}, {"right_wrist", point_in(shown, f.wrist[kRight])},
+                     {"left_hip_joint", point_in(shown, f.hip[kLeft])}, {"right_hip_joint", point_in(shown, f.hip[kRight])},
                      {"left_knee", point_in(shown, f.knee[kLeft])}, {"right_knee", point_in(shown, f.knee[kRight])},
                      {"left_ankle", point_in(shown, f.ankle[kLeft])}, {"right_ankle", point_in(shown, f.ankle[kRight])}};
     j["warnings"] = f.warnings;

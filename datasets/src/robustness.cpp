@@ -140,9 +140,10 @@ const std::vector<std::pair<std::string, double>> kFists = {
     {"Finger5CloseLeft", 1.0}, {"Finger1CloseRight", 0.8}, {"Finger2CloseRight", 1.0}, {"Finger3CloseRight", 1.0},
     {"Finger4CloseRight", 1.0}, {"Finger5CloseRight", 1.0}};
 
-/// The gap (m) between the thighs 4 cm below the crotch: inner surfaces' x (negative: they overlap).
-double thigh_gap(const Body& body, const Eigen::MatrixXd& J) {
-  const double y = 0.5 * (joint(J, "left_hip").y() + joint(J, "right_hip").y()) - 0.04;
+/// The gap (m) between the thighs 4 cm below the crotch (the rig's upperleg02 heads): inner
+/// surfaces' x (negative: they overlap).
+double thigh_gap(const Rig& rig, const Body& body, const Eigen::MatrixXd& J) {
+  const double y = 0.5 * (body.bone_heads(rig.find_bone("upperleg02.L"), 1) + body.bone_heads(rig.find_bone("upperleg02.R"), 1)) - 0.04;
   const double mid = 0.5 * (joint(J, "left_hip").x() + joint(J, "right_hip").x());
   const auto loops = slice_mesh(body.mesh.V, body.mesh.F, Eigen::Vector3d::UnitY(), y);
   double left_inner = 1e9, right_inner = -1e9;
@@ -379,7 +380,7 @@ RobustnessSummary make_robustness_set(const std::string& out_dir, const Robustne
             pose = PartPose{};
             set_ankle_separation(HJ, d, &pose);
             together = pose_body(*model, units, body, pose, {});
-            gap = thigh_gap(together, joint_centres(model->rig, together));
+            gap = thigh_gap(model->rig, together, joint_centres(model->rig, together));
             if (gap < -0.003) break;
           }
           const BodyStats heavy_stats = body_stats(body.mesh);

@@ -183,7 +183,7 @@ Measurements measure_makehuman_body(const MakeHumanModel& model, const Body& bod
   r.stature = m.V.col(1).maxCoeff() - m.V.col(1).minCoeff();
   auto torso = [&](double y) { return section(m, N, up, Eigen::Vector3d(0, y, 0), torso_centre(J, y)); };
   const double lower_back = J(find_joint_index("lower_back"), 1), upper_back = J(find_joint_index("upper_back"), 1);
-  const double shoulder = J(find_joint_index("left_shoulder"), 1), hip_joint = J(find_joint_index("left_hip"), 1);
+  const double shoulder = J(find_joint_index("left_shoulder"), 1);
   constexpr double kStep = 0.002;
   constexpr double kArmClearance = 0.005;  // m, as in find_body_features
   // Arms' separation: down from the shoulder joints, the first level (1 mm steps) from which on for
@@ -252,9 +252,12 @@ Measurements measure_makehuman_body(const MakeHumanModel& model, const Body& bod
     if (s.closed && s.girth < r.waist) r.waist = s.girth, r.waist_height = y;
   }
   // Crotch: the lowest level whose section still encloses the body axis.
-  const Eigen::Vector3d axis = torso_centre(J, hip_joint);
-  r.crotch_height = hip_joint;
-  for (double y = hip_joint; y > hip_joint - 0.3; y -= kStep) {
+  // Down from the head of the rig's upperleg02 (at the crotch; the hip joint, upperleg01's head, is
+  // at the femoral head 7-10 cm higher) to the last torso section enclosing the axis.
+  const Eigen::Vector3d crotch_bone = body.bone_heads.row(model.rig.find_bone("upperleg02.L")).transpose();
+  const Eigen::Vector3d axis = torso_centre(J, crotch_bone.y());
+  r.crotch_height = crotch_bone.y();
+  for (double y = crotch_bone.y(); y > crotch_bone.y() - 0.3; y -= kStep) {
     const Section s = torso(y);
     if (!s.closed || !inside_xz(s.points, axis.x(), axis.z())) break;
     r.crotch_height = y;
@@ -265,9 +268,8 @@ Measurements measure_makehuman_body(const MakeHumanModel& model, const Body& bod
     if (s.closed && s.girth > r.hip) r.hip = s.girth, r.hip_height = y;
   }
   // Thigh: the left leg 2 cm below the crotch.
-  const Eigen::Vector3d left_hip = J.row(find_joint_index("left_hip")).transpose();
   r.thigh = section(m, N, up, Eigen::Vector3d(0, r.crotch_height - 0.02, 0),
-                    Eigen::Vector3d(left_hip.x(), r.crotch_height - 0.02, left_hip.z())).girth;
+                    Eigen::Vector3d(crotch_bone.x(), r.crotch_height - 0.02, crotch_bone.z())).girth;
   // Upper arm: perpendicular to the left upper arm, midway between shoulder and elbow.
   const Eigen::Vector3d sh = J.row(find_joint_index("left_shoulder")).transpose(), el = J.row(find_joint_index("left_elbow")).transpose();
   const Eigen::Vector3d mid = 0.5 * (sh + el);

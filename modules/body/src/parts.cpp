@@ -23,7 +23,7 @@ const std::array<std::string, kNumJoints> kJointNames = {
 /// The MakeHuman bone that starts each part (".L" is the subject's left, +X).
 const std::array<std::string, kNumParts> kPartRootBone = {
     "root", "spine04", "spine02", "neck01", "upperarm01.L", "lowerarm01.L", "wrist.L", "upperarm01.R",
-    "lowerarm01.R", "wrist.R", "upperleg02.L", "lowerleg01.L", "foot.L", "upperleg02.R", "lowerleg01.R", "foot.R"};
+    "lowerarm01.R", "wrist.R", "upperleg01.L", "lowerleg01.L", "foot.L", "upperleg01.R", "lowerleg01.R", "foot.R"};
 
 Eigen::Vector3d vec3(const nlohmann::json& j, const std::string& key, const std::string& context) {
   if (!j.is_array() || j.size() != 3) throw InvalidInput(context + ": '" + key + "' must be an array of 3 numbers");

@@ -75,9 +75,10 @@ Eigen::MatrixXd reconcile_limb_joints(const Eigen::MatrixXd& joints, const BodyF
   if (joints.rows() != kNumJoints || joints.cols() != 3)
     throw InvalidInput("reconcile_limb_joints: expected " + std::to_string(kNumJoints) + " x 3 joint centres");
   Eigen::MatrixXd J = joints;
-  auto take = [&](int part, const Eigen::Vector3d& feature) {
+  auto take = [&](int part, const Eigen::Vector3d& feature, bool always = false) {
     const int j = part - 1;
     const double d = (J.row(j).transpose() - feature).norm();
+    if (always) J.row(j) = feature.transpose();
     if (!(d > tolerance)) return;
     if (replaced)
       replaced->push_back(joint_name(j) + ": the prior's joint lies " + std::to_string(static_cast<int>(std::lround(d * 1000))) +
@@ -90,6 +91,7 @@ Eigen::MatrixXd reconcile_limb_joints(const Eigen::MatrixXd& joints, const BodyF
       take(left ? kLeftForearm : kRightForearm, f.elbow[side]);
       take(left ? kLeftHand : kRightHand, f.wrist[side]);
     }
+    take(left ? kLeftThigh : kRightThigh, f.hip[side], true);
     take(left ? kLeftShank : kRightShank, f.knee[side]);
     take(left ? kLeftFoot : kRightFoot, f.ankle[side]);
   }
@@ -126,13 +128,10 @@ Eigen::MatrixXd joint_centres_from_features(const Eigen::MatrixXd& V, const Eige
       J.row((left ? kLeftForearm : kRightForearm) - 1) = f.elbow[side].transpose();
       J.row((left ? kLeftHand : kRightHand) - 1) = f.wrist[side].transpose();
     }
+    J.row((left ? kLeftThigh : kRightThigh) - 1) = f.hip[side].transpose();
     J.row((left ? kLeftShank : kRightShank) - 1) = f.knee[side].transpose();
     J.row((left ? kLeftFoot : kRightFoot) - 1) = f.ankle[side].transpose();
   }
-  // The hips are the joints left at their part borders: those must exist.
-  for (int thigh : {kLeftThigh, kRightThigh})
-    if (weight[thigh - 1] <= 0)
-      throw InvalidInput("joint centres: the parts of joint '" + joint_name(thigh - 1) + "' do not touch");
   return J;
 }
 

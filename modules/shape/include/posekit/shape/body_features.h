@@ -42,6 +42,7 @@ struct BodyFeatures {
                                                  ///< 5 mm on clouds)
   Eigen::Vector3d elbow[2], wrist[2];            ///< joint centres (inside the limb)
   Eigen::Vector3d knee[2], ankle[2];
+  Eigen::Vector3d hip[2];                        ///< hip joint centres: the femoral heads, above the crotch
   Eigen::Vector3d hand_tip[2];                   ///< farthest point of each hand from the shoulder
   std::vector<Eigen::Vector3d> arm_axis[2];      ///< centroids of the arm's horizontal sections, armpit down
   bool arm_touches_torso[2] = {false, false};   ///< nowhere clear of the torso just below the armpit
