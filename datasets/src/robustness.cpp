@@ -59,6 +59,7 @@ const std::vector<RobustnessVariation> kVariations = {
     {"feet_together", "ankles 10-13 cm apart"},
     {"feet_wide", "ankles about shoulder width apart"},
     {"thighs_touch", "a heavier version of the shape (weight slider >= 0.9), feet brought together until the thighs press together"},
+    {"thighs_fused", "the same pressed 1 cm together, the thighs joined into one surface where they touch (a scan's reconstruction)"},
     {"torso_twist", "upper body twisted 10-20 degrees"},
     {"xup_mm_bent", "X up, millimetres, elbows bent 30-40 degrees, fists, feet apart (an X-up registration)"},
     {"zup", "Z up, facing -Y (metres, OBJ)"},
@@ -340,6 +341,30 @@ RobustnessSummary make_robustness_set(const std::string& out_dir, const Robustne
                        const nlohmann::ordered_json& facts, const Body& base) {
         return sample_of(pose_body(*model, units, base, pose, fingers), facts);
       };
+      // A heavier version of the shape, feet brought together (20 cm down to 8 cm between the ankles)
+      // until the thighs press `overlap` (m) into each other 4 cm below the crotch, as on heavy people.
+      auto thighs_pressed = [&](int shape, double overlap) {
+        BodySpec heavy = specs[static_cast<size_t>(shape)];
+        heavy.weight = std::max(heavy.weight, 0.9);
+        const Body body = build_body(*model, heavy);
+        const Eigen::MatrixXd HJ = joint_centres(model->rig, body);
+        Body together;
+        double d = 0.20, gap = 1;
+        PartPose pose;
+        for (double separation = 0.20; separation >= 0.08 - 1e-9; separation -= 0.02) {
+          d = separation;
+          pose = PartPose{};
+          set_ankle_separation(HJ, d, &pose);
+          together = pose_body(*model, units, body, pose, {});
+          gap = thigh_gap(model->rig, together, joint_centres(model->rig, together));
+          if (gap < -overlap) break;
+        }
+        const BodyStats heavy_stats = body_stats(body.mesh);
+        Sample pressed = sample_of(together, {{"weight_slider", heavy.weight}, {"bmi", heavy_stats.bmi}, {"ankle_separation_m", d},
+                                              {"thigh_gap_m", gap}});
+        if (pressed.girth_truth != "this pose") pressed.girths = measure_makehuman_body(*model, body);
+        return pressed;
+      };
       const Sample apose = sample_of(rest, {});
       for (const auto& variation : chosen) {
         const std::string& v = variation.name;
@@ -367,26 +392,22 @@ RobustnessSummary make_robustness_set(const std::string& out_dir, const Robustne
           set_ankle_separation(J, d, &pose);
           s = posed(pose, {}, {{"ankle_separation_m", d}}, rest);
         } else if (v == "thighs_touch") {
-          // A heavier version of the shape, feet brought together (20 cm down to 8 cm between the
-          // ankles) until the thighs press together 4 cm below the hips, as they do on heavy people.
-          BodySpec heavy = specs[static_cast<size_t>(k)];
-          heavy.weight = std::max(heavy.weight, 0.9);
-          const Body body = build_body(*model, heavy);
-          const Eigen::MatrixXd HJ = joint_centres(model->rig, body);
-          Body together;
-          double d = 0.20, gap = 1;
-          for (double separation = 0.20; separation >= 0.08 - 1e-9; separation -= 0.02) {
-            d = separation;
-            pose = PartPose{};
-            set_ankle_separation(HJ, d, &pose);
-            together = pose_body(*model, units, body, pose, {});
-            gap = thigh_gap(model->rig, together, joint_centres(model->rig, together));
-            if (gap < -0.003) break;
-          }
-          const BodyStats heavy_stats = body_stats(body.mesh);
-          s = sample_of(together, {{"weight_slider", heavy.weight}, {"bmi", heavy_stats.bmi}, {"ankle_separation_m", d},
-                                   {"thigh_gap_m", gap}});
-          if (s.girth_truth != "this pose") s.girths = measure_makehuman_body(*model, body);
+          s = thighs_pressed(k, 0.003);
+        } else if (v == "thighs_fused") {
+          // As a scan's reconstruction joins them: the thighs pressed 1 cm into each other, the
+          // surfaces inside the other removed and the two holes zipped into one seam (on the mesh
+          // subdivided once, so the seam follows the contact curve within about 5 mm).
+          const Sample pressed = thighs_pressed(k, 0.01);
+          s = pressed;
+          std::vector<int> origin;
+          // Between the knees and 2 cm below the crotch, where the thighs meet (the toes and lips that
+          // touch stay as they are, and so does the groin's skin folding into itself).
+          const Eigen::AlignedBox3d thighs(
+              Eigen::Vector3d(-1, std::max(joint(pressed.joints, "left_knee").y(), joint(pressed.joints, "right_knee").y()), -1),
+              Eigen::Vector3d(1, pressed.girths.crotch_height - 0.02, 1));
+          s.mesh = fuse_interpenetrating_surfaces(subdivide_midpoints(pressed.mesh), thighs, &origin);
+          s.triangle_part.resize(s.mesh.F.rows());
+          for (Eigen::Index f = 0; f < s.mesh.F.rows(); ++f) s.triangle_part[f] = pressed.triangle_part[origin[static_cast<size_t>(f)] / 4];
         } else if (v == "torso_twist") {
           const double a = (10 + 10 * u(rng)) * kDeg * (u(rng) < 0.5 ? -1 : 1);
           pose.joint_rotation[find_joint_index("upper_back")] = a * Eigen::Vector3d::UnitY();

@@ -7,6 +7,7 @@
 #include "posekit/datasets/remesh.h"
 #include "posekit/datasets/scanner.h"
 #include "testing/makehuman_fixture.h"
+#include "testing/test_meshes.h"
 
 using namespace posekit;
 
@@ -87,4 +88,34 @@ TEST(Scanner, PointsLieOnTheSurfaceExceptDeclaredOutliersAndSolesAreUnseen) {
   }
   ASSERT_GT(sole_faces, 20);
   EXPECT_LT(seen_sole_faces, sole_faces / 20) << seen_sole_faces << " of " << sole_faces << " sole triangles seen";
+}
+
+TEST(Scanner, InterpenetratingSpheresAreFusedIntoOneClosedSurface) {
+  // Two spheres of radius 1 whose centres are 1.6 apart: each pokes 0.4 into the other, as
+  // thighs pressed together do. The fused surface is the union's: closed, one piece, no vertex
+  // inside either sphere, the volume of the union.
+  TriangleMesh a = test::icosphere(4), b = test::icosphere(4);
+  b.V.col(0).array() += 1.6;
+  TriangleMesh both;
+  both.V.resize(a.V.rows() + b.V.rows(), 3);
+  both.V << a.V, b.V;
+  both.F.resize(a.F.rows() + b.F.rows(), 3);
+  both.F << a.F, (b.F.array() + static_cast<int>(a.V.rows())).matrix();
+  std::vector<int> origin;
+  const TriangleMesh fused = fuse_interpenetrating_surfaces(both, Eigen::AlignedBox3d(Eigen::Vector3d::Constant(-5), Eigen::Vector3d::Constant(5)), &origin);
+  const MeshReport report = validate_mesh(fused);
+  EXPECT_TRUE(report.watertight);
+  EXPECT_EQ(report.components, 1);
+  EXPECT_EQ(origin.size(), static_cast<size_t>(fused.F.rows()));
+  // The caps inside reach 0.2 deep; what is left of them is within an edge (0.08) of the seam.
+  for (Eigen::Index v = 0; v < fused.V.rows(); ++v) {
+    EXPECT_GT(fused.V.row(v).norm(), 0.92);
+    EXPECT_GT((fused.V.row(v) - Eigen::RowVector3d(1.6, 0, 0)).norm(), 0.92);
+  }
+  // Union of two unit spheres 1.6 apart: 2 (4/3 pi) - 2 caps of height 0.2.
+  const double cap = M_PI * 0.2 * 0.2 * (3 - 0.2) / 3;
+  EXPECT_NEAR(signed_volume(fused.V, fused.F), 2 * (4.0 / 3 * M_PI) - 2 * cap, 0.02);
+  // Outside the region nothing is removed; spheres apart are left as they are.
+  const TriangleMesh untouched = fuse_interpenetrating_surfaces(both, Eigen::AlignedBox3d(Eigen::Vector3d::Constant(10), Eigen::Vector3d::Constant(11)));
+  EXPECT_EQ(untouched.F.rows(), both.F.rows());
 }

@@ -1,6 +1,7 @@
 #pragma once
 // A simulated body-scanning booth: several depth cameras around the subject, rays cast to the
 // surface, noise along the ray, natural occlusion holes, optional outliers.
+#include <Eigen/Geometry>
 #include <vector>
 
 #include "posekit/core/point_cloud.h"
@@ -30,5 +31,16 @@ struct SimulatedScan {
 
 /// Scans a mesh standing on the floor (its lowest point), booth axis through its centre.
 SimulatedScan simulate_scan(const TriangleMesh& mesh, const ScannerOptions& options = {});
+
+/// A scanner's watertight reconstruction of a body whose surfaces press into each other (thighs
+/// together): the triangles within `region` inside the body elsewhere are removed, and each pair of facing holes
+/// this leaves (one on each surface, along the curve where they meet) is zipped into one seam, so
+/// the touching thighs become one surface, as a scan's reconstruction makes them. `mesh` must be
+/// closed and outward-oriented. `face_origin` (optional) receives, for each triangle of the result,
+/// the triangle of `mesh` it is or whose hole it closes. Throws InvalidInput when a hole has no
+/// facing partner or the result is not a closed manifold; returns `mesh` unchanged where nothing
+/// interpenetrates.
+TriangleMesh fuse_interpenetrating_surfaces(const TriangleMesh& mesh, const Eigen::AlignedBox3d& region,
+                                             std::vector<int>* face_origin = nullptr);
 
 }  // namespace posekit
