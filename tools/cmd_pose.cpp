@@ -212,8 +212,8 @@ int run_segment(int argc, char** argv) {
                  "Segments a standing body mesh into the 16 rigid parts (Eq. 2a-2c) and embeds the 15-joint\n"
                  "skeleton. With --model, the representation's labels and the skeleton come from the model's\n"
                  "segmentation prior: the labelled bodies shaped most like this one (recommended); without, from\n"
-                 "the representation's own layer labels, the body's features (shoulders, elbows, wrists, knees,\n"
-                 "ankles) and part borders (hips).");
+                 "the representation's own layer labels and the body's features. Either way the hips are the\n"
+                 "femoral heads found from the body's own pelvis, and limb joints follow the body's features.");
   args.positional("mesh", "body mesh (PLY/OBJ/OFF/STL)")
       .option("model", "FILE", "trained model (.pkm) whose segmentation prior labels the representation")
       .option("unit", "U", "unit of the mesh: m, dm, cm, mm, or auto (its largest extent tells)", "auto")

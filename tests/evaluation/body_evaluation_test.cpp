@@ -7,6 +7,7 @@
 
 #include "posekit/core/data_root.h"
 #include "posekit/core/error.h"
+#include "posekit/core/mesh_validation.h"
 #include "posekit/datasets/robustness.h"
 #include "posekit/io/atomic_file.h"
 #include "posekit/io/mesh_io.h"
@@ -117,6 +118,30 @@ TEST(RobustnessSet, CutHandsPutTheWristsAtTheCutAndACutHeadLeavesTheStatureUnmea
   EXPECT_NEAR(m.stature, nlohmann::json::parse(read_file_bytes(set + "/truth/s01_no_head.json"))["body"]["stature_m"].get<double>(),
               0.06);  // estimated from where the arms separate
   EXPECT_FALSE(m.find("neck")->measured);
+}
+
+TEST(RobustnessSet, ThighsJoinedIntoOneSurfaceLeaveTheCrotchAboveTheJoin) {
+  ASSERT_FALSE(test::test_data_root().empty());
+  test::TempDir dir;
+  RobustnessOptions o;
+  o.data_root = test::test_data_root();
+  o.shapes = 3;
+  o.only = {"thighs_fused"};
+  make_robustness_set(dir.file("set"), o);
+  // A scan's reconstruction joins touching thighs into one surface: its sections there enclose the
+  // body's axis, and were taken for the pelvis. s03's crotch fell 13 cm and its hips with it.
+  for (const char* name : {"s01_thighs_fused", "s02_thighs_fused", "s03_thighs_fused"}) {
+    const auto truth = nlohmann::json::parse(read_file_bytes(dir.file("set") + "/truth/" + name + ".json"));
+    const TriangleMesh mesh = read_mesh(dir.file("set") + "/bodies/" + name + ".ply");
+    ASSERT_TRUE(validate_mesh(mesh).watertight) << name;
+    const BodyFeatures f = find_body_features(mesh.V, mesh.F);
+    EXPECT_NEAR(f.crotch_y, truth["levels_y"]["crotch"].get<double>(), 0.02) << name;
+    EXPECT_LT((f.hip[kLeft] - truth_joint(truth, "left_hip")).norm(), 0.03) << name;
+    EXPECT_LT((f.hip[kRight] - truth_joint(truth, "right_hip")).norm(), 0.03) << name;
+    bool said = false;
+    for (const std::string& w : f.warnings) said = said || w.find("thighs are joined") != std::string::npos;
+    EXPECT_TRUE(said) << name;
+  }
 }
 
 TEST(RobustnessSet, AnUnknownVariationOrAFolderThatIsNoSetIsANamedError) {

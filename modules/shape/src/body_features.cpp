@@ -19,6 +19,9 @@
 namespace posekit {
 namespace {
 
+/// A gap between joined thighs (thighs_apart): two thigh sections (at least kThighMinArea, centroids
+/// within kThighMaxOffset of the axis; a forearm's is under 60 cm^2) below kJoinedThighsBelow of the height.
+constexpr double kThighMinArea = 0.006, kThighMaxOffset = 0.2, kJoinedThighsBelow = 0.5;
 constexpr double kStraddleRatio = 1.0 / 3;  ///< straddles(): shorter over longer side of the axis
 constexpr double kBustBandStart = 0.62;   ///< of the crotch-to-armpit span
 /// A section within 1 cm of the top wider round than this (m) is a cut, not a crown: a head of 10 cm
@@ -167,6 +170,20 @@ bool straddles(const LoopShape& s, double x) {
 
 /// Closed loops of a section larger than min_area, not counting loops nested inside another one
 /// (cavities such as the inside of the mouth: they are holes of the outer section, not body parts).
+/// The two thighs apart (maybe pressed into each other, as a mesh's can be): a thigh-sized closed
+/// loop each side of x and none that straddles it as the pelvis or joined thighs do.
+bool thighs_apart(const std::vector<SectionLoop>& loops, double x) {
+  bool left = false, right = false;
+  for (const SectionLoop& loop : loops) {
+    if (!loop.closed) continue;
+    const LoopShape s = shape_of(loop);
+    if (straddles(s, x)) return false;
+    if (s.area < kThighMinArea || std::abs(s.centroid.x() - x) > kThighMaxOffset) continue;
+    (s.centroid.x() > x ? left : right) = true;
+  }
+  return left && right;
+}
+
 int count_closed(const std::vector<SectionLoop>& loops, double min_area) {
   int n = 0;
   for (size_t i = 0; i < loops.size(); ++i) {
@@ -499,7 +516,8 @@ BodyFeatures find_body_features(const SectionStack& st, const HorizontalSections
   std::vector<int> torso(n, -1);
   std::vector<LoopShape> torso_shape(n);
   int crotch = -1;
-  double crotch_track_z = 0;
+  double crotch_track_z = 0, joined_from = 0, joined_to = 0;
+  bool joined = false;
   for (int i = level_at(0.2); i < level_at(0.97); ++i) {
     // Below the crotch only a loop enclosing the axis point counts; above it, the largest loop that
     // spans the axis near the tracked centre (the neck, not the chin beside it).
@@ -518,6 +536,15 @@ BodyFeatures find_body_features(const SectionStack& st, const HorizontalSections
           best_area = sh.area, found = static_cast<int>(k);
       }
     }
+    // The thighs apart above sections that held both: they were joined below (a scan's
+    // reconstruction of touching thighs), and the crotch is above this gap between them.
+    if (crotch >= 0 && st.y[i] < f.floor_y + kJoinedThighsBelow * (st.top_y - f.floor_y) &&
+        thighs_apart(st.loops[i], f.axis_x) && thighs_apart(st.loops[i - 1], f.axis_x)) {
+      joined = true, joined_from = st.y[crotch], joined_to = std::max(st.y[crotch], st.y[i - 2]);
+      for (int j = crotch; j < i; ++j) torso[j] = -1;
+      crotch = -1;
+      continue;
+    }
     if (found < 0) {
       if (crotch >= 0 && i - crotch > 3) torso[i] = torso[i - 1] >= 0 ? -2 : -1;  // hole: keep tracking
       continue;
@@ -528,6 +555,9 @@ BodyFeatures find_body_features(const SectionStack& st, const HorizontalSections
     z_track = torso_shape[i].centroid.z();
   }
   if (crotch < 0) throw InvalidInput("body features: no section encloses the body axis: could not find the crotch");
+  if (joined)
+    f.warnings.push_back("crotch: the thighs are joined into one surface below it (from " + std::to_string(std::lround(1000 * (joined_to - f.floor_y))) +
+                         " mm above the soles down): taken above the gap between them; sections there hold both thighs");
   // With finer sections (a quarter of the other refinements' step: the thigh girth, 2 cm below,
   // changes by up to 2 mm per mm there), the lowest below st.y[crotch] that still encloses the axis.
   f.crotch_y = st.y[crotch];
