@@ -152,12 +152,21 @@ class Builder {
                          std::to_string(centre.x()) + ", " + std::to_string(centre.y()) + ", " + std::to_string(centre.z()));
     std::vector<Eigen::Vector3d> polygon;
     if (hull_of_nearby) {  // limbs: the nearest loop and its neighbours (fingers), as a tape would go
+      const bool one_side = !std::isnan(same_side_of_x);
+      const double own = centre.x() - same_side_of_x;
       for (size_t k = 0; k < loops.size(); ++k) {
-        const Eigen::Vector3d c = loops[k].points.colwise().mean().transpose();
-        if (static_cast<int>(k) != nearest &&
-            ((c - centre).norm() > nearby_radius || (c.x() - same_side_of_x) * (centre.x() - same_side_of_x) < 0))
+        const Eigen::MatrixXd& P = loops[k].points;
+        const Eigen::Vector3d c = P.colwise().mean().transpose();
+        if (static_cast<int>(k) != nearest && ((c - centre).norm() > nearby_radius || (one_side && (c.x() - same_side_of_x) * own < 0)))
           continue;
-        for (Eigen::Index r = 0; r < loops[k].points.rows(); ++r) polygon.push_back(loops[k].points.row(r).transpose());
+        // A leg's section that reaches past the legs' middle (thighs pressed into each other, or
+        // joined into one surface by a scan) is cut there: the part on this leg's side.
+        for (Eigen::Index r = 0; r < P.rows(); ++r) {
+          const Eigen::Vector3d p = P.row(r).transpose(), q = P.row((r + 1) % P.rows()).transpose();
+          const double dp = p.x() - same_side_of_x, dq = q.x() - same_side_of_x;
+          if (!one_side || dp * own >= 0) polygon.push_back(p);
+          if (one_side && dp * dq < 0) polygon.push_back(p + dp / (dp - dq) * (q - p));
+        }
       }
       polygon = planar_hull(polygon, n, front);
     } else {
