@@ -1,4 +1,5 @@
 // posekit compare / view: a model against a scan, and VTK viewers for meshes with error fields.
+#include <algorithm>
 #include <cmath>
 #include <tuple>
 #include <iomanip>
@@ -7,6 +8,7 @@
 
 #include "cli.h"
 #include "commands.h"
+#include "posekit/body/parts.h"
 #include "posekit/core/error.h"
 #include "posekit/evaluation/scan_comparison.h"
 #include "posekit/io/mesh_io.h"
@@ -28,7 +30,8 @@ ColourMap colour_map_from(const ArgParser& args, ColourMapKind default_kind) {
     const std::string c = args.get("colours");
     if (c == "diverging") map.kind = ColourMapKind::kDiverging;
     else if (c == "sequential") map.kind = ColourMapKind::kSequential;
-    else throw UsageError("--colours expects diverging or sequential, got '" + c + "'");
+    else if (c == "categorical") map.kind = ColourMapKind::kCategorical;
+    else throw UsageError("--colours expects diverging, sequential or categorical, got '" + c + "'");
   }
   if (args.has("range")) {
     std::tie(map.min, map.max) = parse_number_pair(args.get("range"), ':', "--range (mm)");
@@ -198,13 +201,24 @@ int run_view(int argc, char** argv) {
       .option("png", "FILE", "render off-screen to this PNG and exit")
       .option("size", "WxH", "size of each panel in pixels", "480x720")
       .option("range", "MIN:MAX", "colour range (default: automatic)")
-      .option("colours", "KIND", "diverging or sequential", "sequential")
-      .option("title", "TEXT", "colour bar title", "error (mm)")
-      .example("posekit view f01_errors.ply --scalar signed_distance_mm --colours diverging --png f01.png");
+      .option("colours", "KIND", "diverging, sequential or categorical (labels; default for the scalar 'part')")
+      .option("title", "TEXT", "colour bar title (default: the scalar's name, with its unit)")
+      .example("posekit view f01_errors.ply --scalar signed_distance_mm --colours diverging --png f01.png")
+      .example("posekit view parts.ply --scalar part --png parts.png");
   if (!args.parse(argc, argv)) return 0;
   ViewOptions v;
-  v.colour_map = colour_map_from(args, ColourMapKind::kSequential);
-  v.colour_map.title = args.get("title");
+  const std::string scalar = args.has("scalar") ? args.get("scalar") : "";
+  v.colour_map = colour_map_from(args, scalar == "part" ? ColourMapKind::kCategorical : ColourMapKind::kSequential);
+  if (v.colour_map.kind == ColourMapKind::kCategorical) {
+    if (scalar != "part") throw UsageError("--colours categorical: only the scalar 'part' (0..15, posekit segment) has named categories");
+    for (int i = 0; i < kNumParts; ++i) v.colour_map.categories.push_back(part_name(i));
+  }
+  // "signed_distance_mm" -> "signed distance (mm)"
+  std::string title = scalar;
+  const bool in_mm = title.size() > 3 && title.compare(title.size() - 3, 3, "_mm") == 0;
+  if (in_mm) title.resize(title.size() - 3);
+  std::replace(title.begin(), title.end(), '_', ' ');
+  v.colour_map.title = args.has("title") ? args.get("title") : title + (in_mm ? " (mm)" : "");
   const auto [w, h] = parse_number_pair(args.get("size"), 'x', "--size");
   v.panel_width = static_cast<int>(w);
   v.panel_height = static_cast<int>(h);

@@ -3,6 +3,7 @@
 #include <gtest/gtest.h>
 
 #include <opencv2/imgcodecs.hpp>
+#include <opencv2/imgproc.hpp>
 
 #include "posekit/core/error.h"
 #include "testing/temp_dir.h"
@@ -98,4 +99,65 @@ TEST(Viewer, PlainMeshesAndBadScalars) {
   diverging.kind = ColourMapKind::kDiverging;
   const auto r = colour_range(diverging, {&v});
   EXPECT_DOUBLE_EQ(r.first, -r.second);
+}
+
+TEST(Viewer, LabelsGetOneColourEachWithoutBlendsAndALegend) {
+  // Two labels, the lower half 0 and the upper half 1: each half one flat colour (a label is not
+  // interpolated: no third colour where they meet) and the legend shows both swatches.
+  test::TempDir dir;
+  ViewPanel panel;
+  panel.mesh = test::icosphere(4, 0.3);
+  panel.mesh.V.col(1) *= 3;
+  panel.mesh.vertex_scalars["part"] = (panel.mesh.V.col(1).array() > 0).cast<double>().matrix();
+  panel.scalar = "part";
+  ViewOptions o;
+  o.colour_map.kind = ColourMapKind::kCategorical;
+  o.colour_map.categories = {"lower", "upper"};
+  o.colour_map.title = "part";
+  o.panel_width = 300;
+  o.panel_height = 450;
+  render_panels_png({panel}, o, dir.file("labels.png"));
+  const cv::Mat img = cv::imread(dir.file("labels.png"), cv::IMREAD_COLOR);
+  ASSERT_FALSE(img.empty());
+  // Hue of each body pixel: the upper and lower quarters differ, and the body has two hues only
+  // (shading changes brightness, not hue).
+  cv::Mat hsv;
+  cv::cvtColor(img, hsv, cv::COLOR_BGR2HSV);
+  auto hue_at_rows = [&](int from, int to) {
+    std::vector<int> hues;
+    for (int y = from; y < to; ++y)
+      for (int x = 0; x < 300; ++x)
+        if (!is_background(img.at<cv::Vec3b>(y, x)) && hsv.at<cv::Vec3b>(y, x)[1] > 80) hues.push_back(hsv.at<cv::Vec3b>(y, x)[0]);
+    std::sort(hues.begin(), hues.end());
+    return hues.empty() ? -1 : hues[hues.size() / 2];
+  };
+  const int top = hue_at_rows(0, img.rows / 3), bottom = hue_at_rows(2 * img.rows / 3, img.rows);
+  ASSERT_GE(top, 0);
+  ASSERT_GE(bottom, 0);
+  EXPECT_GT(std::abs(top - bottom), 10);
+  // Other hues only where one row of triangles joins the two labels, and at the silhouette's edge.
+  long other = 0, body = 0;
+  for (int y = 0; y < img.rows; ++y)
+    for (int x = 0; x < 300; ++x) {
+      const cv::Vec3b h = hsv.at<cv::Vec3b>(y, x);
+      if (is_background(img.at<cv::Vec3b>(y, x))) continue;
+      ++body;
+      if (h[1] > 80 && std::abs(h[0] - top) > 6 && std::abs(h[0] - bottom) > 6) ++other;
+    }
+  EXPECT_LT(other, 0.03 * static_cast<double>(body)) << other << " of " << body;
+  // The legend holds both colours.
+  long legend_top = 0, legend_bottom = 0;
+  for (int y = 0; y < img.rows; ++y)
+    for (int x = 300; x < img.cols; ++x) {
+      const cv::Vec3b h = hsv.at<cv::Vec3b>(y, x);
+      if (h[1] <= 80) continue;
+      legend_top += std::abs(h[0] - top) <= 6;
+      legend_bottom += std::abs(h[0] - bottom) <= 6;
+    }
+  EXPECT_GT(legend_top, 100);
+  EXPECT_GT(legend_bottom, 100);
+  ColourMap unnamed;
+  unnamed.kind = ColourMapKind::kCategorical;
+  Eigen::VectorXd v = Eigen::VectorXd::LinSpaced(4, 0, 3);
+  EXPECT_THROW(colour_range(unnamed, {&v}), InvalidInput);
 }

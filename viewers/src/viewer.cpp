@@ -13,6 +13,7 @@
 #include <vtkFloatArray.h>
 #include <vtkInteractorStyleTrackballCamera.h>
 #include <vtkLookupTable.h>
+#include <vtkVariant.h>
 #include <vtkNew.h>
 #include <vtkObjectFactory.h>
 #include <vtkPNGWriter.h>
@@ -70,6 +71,10 @@ CameraPreset parse_camera_preset(const std::string& name) {
 }
 
 std::pair<double, double> colour_range(const ColourMap& map, const std::vector<const Eigen::VectorXd*>& values) {
+  if (map.kind == ColourMapKind::kCategorical) {
+    if (map.categories.empty()) throw InvalidInput("colour map: categorical colours need the categories' names");
+    return {0.0, static_cast<double>(map.categories.size() - 1)};
+  }
   if (!map.automatic) {
     if (!(map.max > map.min)) throw InvalidInput("colour range: the maximum must exceed the minimum");
     return {map.min, map.max};
@@ -166,9 +171,32 @@ vtkSmartPointer<vtkColorTransferFunction> make_colours(ColourMapKind kind, doubl
   return f;
 }
 
+/// Distinct colours for categories, cycled beyond 16 (hue steps, alternating light and dark).
+Eigen::Vector3d category_colour(size_t i) {
+  static const double kPalette[16][3] = {
+      {0.90, 0.60, 0.00}, {0.34, 0.71, 0.91}, {0.00, 0.62, 0.45}, {0.94, 0.89, 0.26}, {0.00, 0.45, 0.70},
+      {0.84, 0.37, 0.00}, {0.80, 0.47, 0.65}, {0.55, 0.34, 0.16}, {0.60, 0.60, 0.60}, {0.20, 0.20, 0.55},
+      {0.65, 0.85, 0.35}, {0.75, 0.10, 0.20}, {0.45, 0.25, 0.60}, {0.10, 0.40, 0.25}, {1.00, 0.70, 0.75},
+      {0.30, 0.30, 0.30}};
+  const double* c = kPalette[i % 16];
+  return Eigen::Vector3d(c[0], c[1], c[2]);
+}
+
 vtkSmartPointer<vtkLookupTable> make_lookup(const ColourMap& map, double lo, double hi) {
-  const auto colours = make_colours(map.kind, lo, hi);
   auto table = vtkSmartPointer<vtkLookupTable>::New();
+  if (map.kind == ColourMapKind::kCategorical) {
+    table->IndexedLookupOn();
+    table->SetNumberOfTableValues(static_cast<vtkIdType>(map.categories.size()));
+    for (size_t i = 0; i < map.categories.size(); ++i) {
+      const Eigen::Vector3d c = category_colour(i);
+      table->SetTableValue(static_cast<vtkIdType>(i), c.x(), c.y(), c.z(), 1.0);
+      table->SetAnnotation(vtkVariant(static_cast<double>(i)), map.categories[i]);
+    }
+    table->SetNanColor(0.6, 0.6, 0.6, 1.0);
+    table->Build();
+    return table;
+  }
+  const auto colours = make_colours(map.kind, lo, hi);
   table->SetNumberOfTableValues(256);
   table->SetRange(lo, hi);
   for (int i = 0; i < 256; ++i) {
@@ -302,7 +330,8 @@ Scene build_scene(const std::vector<ViewPanel>& panels, const ViewOptions& o) {
       mapper->SetScalarRange(lo, hi);
       mapper->SetScalarModeToUsePointData();
       mapper->ScalarVisibilityOn();
-      mapper->InterpolateScalarsBeforeMappingOn();
+      // Labels are not interpolated (half-way between two parts is no part).
+      mapper->SetInterpolateScalarsBeforeMapping(o.colour_map.kind != ColourMapKind::kCategorical);
       mapper->SetColorModeToMapScalars();
     }
     actor->GetProperty()->SetSpecular(0.15);
@@ -359,6 +388,19 @@ Scene build_scene(const std::vector<ViewPanel>& panels, const ViewOptions& o) {
     scalar_bar->SetWidth(0.84);
     scalar_bar->SetHeight(0.8);
     scalar_bar->SetBarRatio(0.3);
+    if (o.colour_map.kind == ColourMapKind::kCategorical) {  // a legend: a swatch and a name per value
+      scalar_bar->DrawAnnotationsOn();
+      scalar_bar->SetTextPositionToPrecedeScalarBar();  // the names go on the other side: right of the swatches
+      scalar_bar->GetPositionCoordinate()->SetValue(0.04, 0.06);
+      scalar_bar->SetWidth(0.36);
+      scalar_bar->SetHeight(0.86);
+      scalar_bar->SetBarRatio(0.5);
+      scalar_bar->SetAnnotationLeaderPadding(4);
+      scalar_bar->GetAnnotationTextProperty()->SetColor(0.1, 0.1, 0.1);
+      scalar_bar->GetAnnotationTextProperty()->SetFontSize(13);
+      scalar_bar->GetAnnotationTextProperty()->ItalicOff();
+      scalar_bar->GetAnnotationTextProperty()->ShadowOff();
+    }
     renderer->AddActor2D(scalar_bar);
     scene.window->AddRenderer(renderer);
   }

@@ -12,7 +12,8 @@ namespace posekit {
 
 enum class ColourMapKind {
   kSequential,  ///< blue (low) through cyan and yellow to red (high): unsigned errors
-  kDiverging    ///< blue (negative), white (zero), red (positive): signed errors
+  kDiverging,   ///< blue (negative), white (zero), red (positive): signed errors
+  kCategorical  ///< one colour per integer value 0..n-1, a legend naming each (labels, e.g. parts)
 };
 
 struct ColourMap {
@@ -20,6 +21,7 @@ struct ColourMap {
   bool automatic = true;         ///< range from the data (diverging: symmetric about zero)
   double min = 0, max = 10;      ///< fixed range when not automatic
   std::string title = "error (mm)";
+  std::vector<std::string> categories;  ///< kCategorical: the name of each value 0..n-1
 };
 
 enum class CameraPreset { kFront, kSide, kBack };
