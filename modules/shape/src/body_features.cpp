@@ -168,8 +168,6 @@ bool straddles(const LoopShape& s, double x) {
   return a > 0 && b > 0 && std::min(a, b) >= kStraddleRatio * std::max(a, b);
 }
 
-/// Closed loops of a section larger than min_area, not counting loops nested inside another one
-/// (cavities such as the inside of the mouth: they are holes of the outer section, not body parts).
 /// The two thighs apart (maybe pressed into each other, as a mesh's can be): a thigh-sized closed
 /// loop each side of x and none that straddles it as the pelvis or joined thighs do.
 bool thighs_apart(const std::vector<SectionLoop>& loops, double x) {
@@ -184,6 +182,8 @@ bool thighs_apart(const std::vector<SectionLoop>& loops, double x) {
   return left && right;
 }
 
+/// Closed loops of a section larger than min_area, not counting loops nested inside another one
+/// (cavities such as the inside of the mouth: they are holes of the outer section, not body parts).
 int count_closed(const std::vector<SectionLoop>& loops, double min_area) {
   int n = 0;
   for (size_t i = 0; i < loops.size(); ++i) {
