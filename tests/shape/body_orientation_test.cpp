@@ -151,9 +151,10 @@ TEST(BodyOrientation, StandingVariationsAndTurnedBodies) {
       // The front is the chest band's: a torso twisted 23 degrees (variation 3) is found facing
       // where its chest faces (measured 22.6-22.8 degrees off the pelvis), not where its feet do.
       const double allowed = variation == 3 ? 0.4 * 180 / M_PI + 3 : 6.0;
-      if (variation != 3)
+      if (variation != 3) {
         EXPECT_TRUE(same.is_identity()) << specs[static_cast<size_t>(which)].id << " variation " << variation << ": "
                                         << same.describe();
+      }
       EXPECT_LT(error_degrees(same, Eigen::Matrix3d::Identity()), allowed) << specs[static_cast<size_t>(which)].id;
       // Z-up and turned 37 degrees about the vertical: not an axis convention, found within a few degrees.
       const BodyOrientation turned = detect_mesh_orientation(V * z_up_turned.transpose(), b.mesh.F);

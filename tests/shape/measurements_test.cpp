@@ -130,10 +130,11 @@ TEST(Measurements, ThighsThatTouchInAScanAreMeasuredOneAtATimeAboveTheJoin) {
   for (const std::string& w : scan.features.warnings) said = said || w.find("thighs are joined") != std::string::npos;
   EXPECT_TRUE(said);
   ASSERT_TRUE(mesh.find("thigh")->measured) << mesh.find("thigh")->note;
-  if (scan.find("thigh")->measured)
+  if (scan.find("thigh")->measured) {
     EXPECT_NEAR(scan.find("thigh")->value, mesh.find("thigh")->value, 0.015);
-  else
+  } else {
     EXPECT_NE(scan.find("thigh")->note.find("legs touch"), std::string::npos) << scan.find("thigh")->note;
+  }
   for (const char* name : {"knee", "calf"}) {
     ASSERT_TRUE(scan.find(name)->measured) << name << ": " << scan.find(name)->note;
     EXPECT_NEAR(scan.find(name)->value, mesh.find(name)->value, 0.01) << name;
@@ -162,7 +163,9 @@ TEST(Measurements, ImplausibleGirthsAreRejectedWithTheReason) {
   for (const Girth& g : m.girths) {
     const bool implausible = g.name == "upper_arm" || g.name == "neck";
     EXPECT_EQ(g.measured, !implausible) << g.name;
-    if (implausible) EXPECT_NE(g.note.find("0.6 of the stature"), std::string::npos) << g.note;
+    if (implausible) {
+      EXPECT_NE(g.note.find("0.6 of the stature"), std::string::npos) << g.note;
+    }
   }
   // A neck fuller than the chest, and an ankle fuller than the calf, but each under 0.6 of the stature.
   const BodyMeasurements order = measured({{"bust", 0.80}, {"hip", 0.95}, {"neck", 0.85}, {"calf", 0.36}, {"ankle", 0.40}});

@@ -556,8 +556,10 @@ BodyFeatures find_body_features(const SectionStack& st, const HorizontalSections
   }
   if (crotch < 0) throw InvalidInput("body features: no section encloses the body axis: could not find the crotch");
   if (joined)
-    f.warnings.push_back("crotch: the thighs are joined into one surface below it (from " + std::to_string(std::lround(1000 * (joined_to - f.floor_y))) +
-                         " mm above the soles down): taken above the gap between them; sections there hold both thighs");
+    f.warnings.push_back("crotch: the thighs are joined into one surface below it (" +
+                         std::to_string(std::lround(1000 * (joined_from - f.floor_y))) + " to " +
+                         std::to_string(std::lround(1000 * (joined_to - f.floor_y))) +
+                         " mm above the soles): taken above the gap between them; sections there hold both thighs");
   // With finer sections (a quarter of the other refinements' step: the thigh girth, 2 cm below,
   // changes by up to 2 mm per mm there), the lowest below st.y[crotch] that still encloses the axis.
   f.crotch_y = st.y[crotch];
