@@ -140,16 +140,16 @@ TriangleMesh fuse_interpenetrating_surfaces(const TriangleMesh& mesh, const Eige
   // their kind join their surroundings, so each patch leaves one clean hole.
   const Eigen::MatrixXi TT = face_adjacency(F);
   for (const char kind : {char(1), char(0)}) {
-    std::vector<int> component(static_cast<size_t>(F.rows()), -1);
+    std::vector<char> visited(static_cast<size_t>(F.rows()), 0);
     for (int seed = 0; seed < F.rows(); ++seed) {
-      if (inside[static_cast<size_t>(seed)] != kind || component[static_cast<size_t>(seed)] >= 0) continue;
+      if (inside[static_cast<size_t>(seed)] != kind || visited[static_cast<size_t>(seed)]) continue;
       std::vector<int> members{seed};
-      component[static_cast<size_t>(seed)] = seed;
+      visited[static_cast<size_t>(seed)] = 1;
       for (size_t k = 0; k < members.size(); ++k)
         for (int e = 0; e < 3; ++e) {
           const int g = TT(members[k], e);
-          if (g >= 0 && inside[static_cast<size_t>(g)] == kind && component[static_cast<size_t>(g)] < 0)
-            component[static_cast<size_t>(g)] = seed, members.push_back(g);
+          if (g >= 0 && inside[static_cast<size_t>(g)] == kind && !visited[static_cast<size_t>(g)])
+            visited[static_cast<size_t>(g)] = 1, members.push_back(g);
         }
       if (members.size() <= kSmallPatch)
         for (int g : members) inside[static_cast<size_t>(g)] = static_cast<char>(1 - kind);
@@ -191,8 +191,10 @@ TriangleMesh fuse_interpenetrating_surfaces(const TriangleMesh& mesh, const Eige
       double edge = 0;
       for (size_t k = 0; k < loops[a].size(); ++k) edge += (point(loops[a][k]) - point(loops[a][(k + 1) % loops[a].size()])).norm();
       double best = 2 * edge / static_cast<double>(loops[a].size());
-      for (size_t b = 0; b < loops.size(); ++b)
-        if (b != a && mean_gap(loops[a], loops[b]) < best) best = mean_gap(loops[a], loops[b]), partner[a] = static_cast<int>(b);
+      for (size_t b = 0; b < loops.size(); ++b) {
+        const double gap = b == a ? best : mean_gap(loops[a], loops[b]);
+        if (gap < best) best = gap, partner[a] = static_cast<int>(b);
+      }
       if (partner[a] < 0)
         throw InvalidInput("fuse_interpenetrating_surfaces: a hole of " + std::to_string(loops[a].size()) +
                            " edges left where the surface ran inside the body has no facing hole within two edge lengths");
