@@ -89,14 +89,7 @@ Body pose_body(const MakeHumanModel& model, const PoseUnits& units, const Body& 
     const BonePose extra = bone_pose_from_pose_units(model.rig, body, units, unit_weights);
     for (size_t b = 0; b < bones.local.size(); ++b) bones.local[b] = bones.local[b] * extra.local[b];
   }
-  const BoneTransforms T = pose_bone_transforms(model.rig, body.bone_heads, bones);
-  Body posed = body;
-  posed.mesh.V = dual_quaternion_skinning(body.mesh.V, model.weights, T);
-  for (int b = 0; b < model.rig.num_bones(); ++b) {
-    posed.bone_heads.row(b) = (T.R[b] * body.bone_heads.row(b).transpose() + T.t[b]).transpose();
-    posed.bone_tails.row(b) = (T.R[b] * body.bone_tails.row(b).transpose() + T.t[b]).transpose();
-  }
-  return posed;
+  return skin_body(model, body, bones);
 }
 
 /// Rotation about the forward axis that brings each arm to `abduction` from the vertical.

@@ -55,14 +55,7 @@ const FeatureErrors& subject_errors(const MakeHumanModel& model) {
 
 /// The body in a 16-part pose (the rig's skinning), its bones moved with it.
 Body posed_body(const MakeHumanModel& model, const Body& b, const PartPose& pose) {
-  const BoneTransforms T = pose_bone_transforms(model.rig, b.bone_heads, bone_pose_from_part_pose(model.rig, pose));
-  Body posed = b;
-  posed.mesh.V = dual_quaternion_skinning(b.mesh.V, model.weights, T);
-  for (int k = 0; k < model.rig.num_bones(); ++k) {
-    posed.bone_heads.row(k) = (T.R[k] * b.bone_heads.row(k).transpose() + T.t[k]).transpose();
-    posed.bone_tails.row(k) = (T.R[k] * b.bone_tails.row(k).transpose() + T.t[k]).transpose();
-  }
-  return posed;
+  return skin_body(model, b, bone_pose_from_part_pose(model.rig, pose));
 }
 
 double worst(const std::vector<double>& v) { return *std::max_element(v.begin(), v.end()); }

@@ -88,6 +88,17 @@ Eigen::MatrixXd dual_quaternion_skinning(const Eigen::MatrixXd& V, const Eigen::
   return U;
 }
 
+Body skin_body(const MakeHumanModel& model, const Body& body, const BonePose& pose) {
+  const BoneTransforms T = pose_bone_transforms(model.rig, body.bone_heads, pose);
+  Body posed = body;
+  posed.mesh.V = dual_quaternion_skinning(body.mesh.V, model.weights, T);
+  for (int b = 0; b < model.rig.num_bones(); ++b) {
+    posed.bone_heads.row(b) = (T.R[b] * body.bone_heads.row(b).transpose() + T.t[b]).transpose();
+    posed.bone_tails.row(b) = (T.R[b] * body.bone_tails.row(b).transpose() + T.t[b]).transpose();
+  }
+  return posed;
+}
+
 BonePose bone_pose_from_bvh(const Rig& rig, const BvhMotion& motion, int frame) {
   if (frame < 0 || frame >= motion.num_frames())
     throw InvalidInput("BVH frame " + std::to_string(frame) + " outside 0.." + std::to_string(motion.num_frames() - 1));

@@ -36,6 +36,10 @@ Eigen::MatrixXd linear_blend_skinning(const Eigen::MatrixXd& V, const Eigen::Spa
 Eigen::MatrixXd dual_quaternion_skinning(const Eigen::MatrixXd& V, const Eigen::SparseMatrix<double, Eigen::RowMajor>& W,
                                          const BoneTransforms& transforms);
 
+/// The body in a bone pose: its mesh by dual quaternion skinning with the rig's weights, and its bone
+/// heads and tails moved with their bones.
+Body skin_body(const MakeHumanModel& model, const Body& body, const BonePose& pose);
+
 /// Bone rotations from a BVH frame of the MakeHuman default skeleton (its BVH files are Z-up with an
 /// A-pose rest; rotations are converted to this Y-up frame). Joints are matched by name; a BVH that
 /// shares fewer than half of the rig's bones throws InvalidInput naming the file's skeleton.
