@@ -401,7 +401,7 @@ struct PeerResult {
 };
 
 PeerResult run_open3d(const std::string& dir, int runs) {
-  PeerResult r{"Open3D", "RaycastingScene BVH build + compute_distance (unsigned, scan to model)"};
+  PeerResult r{"Open3D", "RaycastingScene BVH build + compute_distance (unsigned, scan to model)", -1, -1, ""};
   // Debian's python3-open3d is for the system interpreter, which another python3 on PATH may hide.
   std::string python;
   for (const char* candidate : {"python3", "/usr/bin/python3"})
@@ -444,7 +444,7 @@ PeerResult run_open3d(const std::string& dir, int runs) {
 }
 
 PeerResult run_cloudcompare(const std::string& dir, int runs) {
-  PeerResult r{"CloudCompare", "-c2m_dist (scan to model), computation = wall(load + c2m) - wall(load)"};
+  PeerResult r{"CloudCompare", "-c2m_dist (scan to model), computation = wall(load + c2m) - wall(load)", -1, -1, ""};
   if (std::system("command -v CloudCompare >/dev/null 2>&1") != 0) {
     r.note = "not installed (Debian: cloudcompare)";
     return r;

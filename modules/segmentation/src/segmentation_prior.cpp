@@ -1,6 +1,7 @@
 #include "posekit/segmentation/segmentation_prior.h"
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <string>
 
@@ -127,19 +128,35 @@ Eigen::VectorXi representation_labels_from_prior(const SegmentationPrior& prior,
 Eigen::MatrixXd embed_skeleton(const SegmentationPrior& prior, const LayeredRepresentation& rep) {
   const RepresentationShape shape = representation_shape(rep);
   check_prior(prior, rep, shape);
-  const auto nearest = nearest_bodies(prior, prior.neighbours, [&](const CalibrationBody& b) {
-    double squared = 0;
-    for (size_t r = 0; r < shape.region.size(); ++r) squared += (b.shape.region[r] - shape.region[r]).squaredNorm();
-    return std::sqrt(squared);
-  });
+  // Each joint's neighbours are the bodies shaped most like this one, the arms left out unless the
+  // joint is on one: how the arms are held says nothing about where the spine bends or the legs join.
+  const std::vector<int> layer_region = layer_regions(rep);
+  std::array<bool, kShapeRegions> is_arm{};
+  for (size_t l = 0; l < rep.layers.size(); ++l)
+    if (rep.layers[l].part >= kLeftUpperArm && rep.layers[l].part <= kRightHand)
+      is_arm[static_cast<size_t>(layer_region[l])] = true;
+  std::vector<Eigen::MatrixXd> embedded(prior.bodies.size());
   Eigen::MatrixXd joints = Eigen::MatrixXd::Zero(kNumJoints, 3);
-  double total = 0;
-  for (const auto& [distance, b] : nearest) {
-    const double w = inverse_distance_weight(distance);
-    joints += w * embed_skeleton(prior.bodies[static_cast<size_t>(b)].skeleton, rep);
-    total += w;
+  for (int j = 0; j < kNumJoints; ++j) {
+    const int child = j + 1;
+    const bool on_arm = child >= kLeftUpperArm && child <= kRightHand;
+    const auto nearest = nearest_bodies(prior, prior.neighbours, [&](const CalibrationBody& b) {
+      double squared = 0;
+      for (size_t r = 0; r < shape.region.size(); ++r)
+        if (on_arm || !is_arm[r]) squared += (b.shape.region[r] - shape.region[r]).squaredNorm();
+      return std::sqrt(squared);
+    });
+    double total = 0;
+    for (const auto& [distance, b] : nearest) {
+      Eigen::MatrixXd& skeleton = embedded[static_cast<size_t>(b)];
+      if (skeleton.size() == 0) skeleton = embed_skeleton(prior.bodies[static_cast<size_t>(b)].skeleton, rep);
+      const double w = inverse_distance_weight(distance);
+      joints.row(j) += w * skeleton.row(j);
+      total += w;
+    }
+    joints.row(j) /= total;
   }
-  return joints / total;
+  return joints;
 }
 
 }  // namespace posekit
