@@ -108,3 +108,30 @@ TEST(SkeletonChecks, SwallowedSplitAndMissingPartsAreCaught) {
   EXPECT_TRUE(mentions(check, "no triangle is labelled left_hand")) << check.summary();
   EXPECT_THROW(check_skeleton(t.mesh.V, t.mesh.F, t.labels.head(10), t.joints), InvalidInput);
 }
+
+// The prior's limb joints are kept within the tolerance of the body's own, replaced beyond it; the
+// hips are always the body's, and so are the elbow and wrist of a cut hand (the prior's slid up
+// the shortened arm by up to 3.4 cm on the robustness set and stayed within the 3 cm tolerance).
+TEST(SkeletonEmbedding, ReconcileTakesTheBodysHipsCutArmsAndFarLimbJoints) {
+  const Eigen::MatrixXd prior = Eigen::MatrixXd::Zero(kNumJoints, 3);
+  BodyFeatures f;
+  for (int side : {kLeft, kRight}) {
+    f.elbow[side] = f.wrist[side] = f.knee[side] = f.ankle[side] = f.hip[side] = Eigen::Vector3d(0.02, 0, 0);
+  }
+  f.ankle[kRight] = Eigen::Vector3d(0, 0.05, 0);
+  f.hand_cut[kRight] = true;
+  std::vector<std::string> notes;
+  const Eigen::MatrixXd J = reconcile_limb_joints(prior, f, 0.03, &notes);
+  auto row = [&](const char* name) -> Eigen::Vector3d { return J.row(find_joint_index(name)).transpose(); };
+  EXPECT_EQ(row("left_elbow"), Eigen::Vector3d::Zero());  // 2 cm: the prior's kept
+  EXPECT_EQ(row("left_wrist"), Eigen::Vector3d::Zero());
+  EXPECT_EQ(row("left_knee"), Eigen::Vector3d::Zero());
+  EXPECT_EQ(row("right_elbow"), f.elbow[kRight]);  // the hand is cut
+  EXPECT_EQ(row("right_wrist"), f.wrist[kRight]);
+  EXPECT_EQ(row("left_hip"), f.hip[kLeft]);
+  EXPECT_EQ(row("right_ankle"), f.ankle[kRight]);  // 5 cm: replaced, with a note
+  ASSERT_EQ(notes.size(), 1u);
+  EXPECT_NE(notes[0].find("right_ankle"), std::string::npos);
+  EXPECT_EQ(row("upper_back"), Eigen::Vector3d::Zero());
+  EXPECT_THROW(reconcile_limb_joints(Eigen::MatrixXd::Zero(3, 3), f), InvalidInput);
+}

@@ -88,8 +88,9 @@ Eigen::MatrixXd reconcile_limb_joints(const Eigen::MatrixXd& joints, const BodyF
   for (int side : {kLeft, kRight}) {
     const bool left = side == kLeft;
     if (f.arm_found[side]) {
-      take(left ? kLeftForearm : kRightForearm, f.elbow[side]);
-      take(left ? kLeftHand : kRightHand, f.wrist[side]);
+      // A cut hand shortens the arm's chain of layers, and the prior's elbow and wrist slide with it.
+      take(left ? kLeftForearm : kRightForearm, f.elbow[side], f.hand_cut[side]);
+      take(left ? kLeftHand : kRightHand, f.wrist[side], f.hand_cut[side]);
     }
     take(left ? kLeftThigh : kRightThigh, f.hip[side], true);
     take(left ? kLeftShank : kRightShank, f.knee[side]);

@@ -40,7 +40,8 @@ Eigen::MatrixXd joint_centres_from_features(const Eigen::MatrixXd& V, const Eige
 /// A-pose). Where this body's limb is held otherwise (feet together, elbows bent or straight) or
 /// cut (a hand), a limb joint of the prior's lies away from the joint the body's own sections give
 /// (BodyFeatures: elbows, wrists, knees, ankles). Each such joint more than `tolerance` (m) from the
-/// feature's is replaced by it. The hips are always the body's (BodyFeatures::hip, the femoral heads
+/// feature's is replaced by it. A cut hand's elbow and wrist are always the body's (the arm's
+/// chain is shorter, and the prior's joints slide up it). The hips are always the body's (BodyFeatures::hip, the femoral heads
 /// regressed on the pelvis's section: on the robustness set 5.3 mm median and 13 mm at most, where
 /// the prior's layers gave 9.9 and 44 mm, the worst with the legs together or the arms bent).
 /// `replaced` (optional) receives one line per joint over `tolerance` from the prior's.
