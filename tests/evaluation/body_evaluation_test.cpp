@@ -125,12 +125,14 @@ TEST(RobustnessSet, ThighsJoinedIntoOneSurfaceLeaveTheCrotchAboveTheJoin) {
   test::TempDir dir;
   RobustnessOptions o;
   o.data_root = test::test_data_root();
-  o.shapes = 3;
+  o.shapes = 4;
   o.only = {"thighs_fused"};
   make_robustness_set(dir.file("set"), o);
   // A scan's reconstruction joins touching thighs into one surface: its sections there enclose the
-  // body's axis, and were taken for the pelvis. s03's crotch fell 13 cm and its hips with it.
-  for (const char* name : {"s01_thighs_fused", "s02_thighs_fused", "s03_thighs_fused"}) {
+  // body's axis, and were taken for the pelvis. s03's crotch fell 13 cm and its hips with it. s04's
+  // tunnel between the thighs left a small loop inside the crotch's section, taken for the torso:
+  // the crotch moved 18 mm forward and both hips 30 mm.
+  for (const char* name : {"s01_thighs_fused", "s02_thighs_fused", "s03_thighs_fused", "s04_thighs_fused"}) {
     const auto truth = nlohmann::json::parse(read_file_bytes(dir.file("set") + "/truth/" + name + ".json"));
     const TriangleMesh mesh = read_mesh(dir.file("set") + "/bodies/" + name + ".ply");
     ASSERT_TRUE(validate_mesh(mesh).watertight) << name;
@@ -141,8 +143,8 @@ TEST(RobustnessSet, ThighsJoinedIntoOneSurfaceLeaveTheCrotchAboveTheJoin) {
     const BodySegmentation s =
         segment_standing_body(surface.V, surface.F, build_layered_representation(surface.V, surface.F, f), f, nullptr);
     EXPECT_TRUE(s.check.ok()) << name << ": " << s.check.summary();
-    EXPECT_LT((f.hip[kLeft] - truth_joint(truth, "left_hip")).norm(), 0.03) << name;
-    EXPECT_LT((f.hip[kRight] - truth_joint(truth, "right_hip")).norm(), 0.03) << name;
+    EXPECT_LT((f.hip[kLeft] - truth_joint(truth, "left_hip")).norm(), 0.02) << name;
+    EXPECT_LT((f.hip[kRight] - truth_joint(truth, "right_hip")).norm(), 0.02) << name;
     bool said = false;
     for (const std::string& w : f.warnings) said = said || w.find("thighs are joined") != std::string::npos;
     EXPECT_TRUE(said) << name;

@@ -153,6 +153,23 @@ LoopShape shape_of(const SectionLoop& loop, bool with_girth = false) {
   return s;
 }
 
+/// The part of a closed horizontal loop on one side of the plane x = `x` (side +1: x >= it), clipped
+/// along that plane: one thigh's share of a section through thighs joined into one surface.
+SectionLoop half_loop(const SectionLoop& loop, double x, double side) {
+  const Eigen::MatrixXd& P = loop.points;
+  std::vector<Eigen::RowVector3d> out;
+  for (Eigen::Index i = 0, j = P.rows() - 1; i < P.rows(); j = i++) {
+    const double a = side * (P(j, 0) - x), b = side * (P(i, 0) - x);
+    if ((a >= 0) != (b >= 0)) out.push_back(P.row(j) + (a / (a - b)) * (P.row(i) - P.row(j)));
+    if (b >= 0) out.push_back(P.row(i));
+  }
+  SectionLoop half;
+  half.closed = loop.closed;
+  half.points.resize(static_cast<Eigen::Index>(out.size()), 3);
+  for (size_t k = 0; k < out.size(); ++k) half.points.row(static_cast<Eigen::Index>(k)) = out[k];
+  return half;
+}
+
 bool contains_xz(const SectionLoop& loop, double x, double z) {
   const Eigen::MatrixXd& P = loop.points;
   bool in = false;
@@ -519,12 +536,14 @@ BodyFeatures find_body_features(const SectionStack& st, const HorizontalSections
   double crotch_track_z = 0, joined_from = 0, joined_to = 0;
   bool joined = false;
   for (int i = level_at(0.2); i < level_at(0.97); ++i) {
-    // Below the crotch only a loop enclosing the axis point counts; above it, the largest loop that
-    // spans the axis near the tracked centre (the neck, not the chin beside it).
+    // Below the crotch only a loop enclosing the axis point counts (the outer one: a scan's tunnel
+    // between joined thighs leaves a small loop inside); above it, the largest loop that spans the
+    // axis near the tracked centre (the neck, not the chin beside it).
     int found = -1;
     for (size_t k = 0; k < st.loops[i].size(); ++k)
       if (st.loops[i][k].closed && contains_xz(st.loops[i][k], f.axis_x, z_track) &&
-          (crotch >= 0 || straddles(shape_of(st.loops[i][k]), f.axis_x)))
+          (crotch >= 0 || straddles(shape_of(st.loops[i][k]), f.axis_x)) &&
+          (found < 0 || shape_of(st.loops[i][k]).area > shape_of(st.loops[i][found]).area))
         found = static_cast<int>(k);
     if (crotch >= 0) {
       double best_area = found >= 0 ? shape_of(st.loops[i][found]).area : 0.0;
@@ -972,19 +991,24 @@ BodyFeatures find_body_features(const SectionStack& st, const HorizontalSections
     for (int i = crotch - 1; i >= 0; --i) {
       int best = -1;
       double best_d = 0.15;
+      SectionLoop best_loop;
       for (size_t k = 0; k < st.loops[i].size(); ++k) {
         if (!st.loops[i][k].closed) continue;
-        const LoopShape s = shape_of(st.loops[i][k]);
+        // A section across the body's axis holds both thighs (a scan joined them): this leg's half.
+        const bool joined = contains_xz(st.loops[i][k], f.axis_x, f.crotch.z());
+        SectionLoop candidate = joined ? half_loop(st.loops[i][k], f.axis_x, side == kLeft ? 1.0 : -1.0) : st.loops[i][k];
+        if (candidate.points.rows() < 3) continue;
+        const LoopShape s = shape_of(candidate);
         if ((side == kLeft) != (s.centroid.x() > f.axis_x) || s.area < 5e-4) continue;
         const double d = Eigen::Vector2d(s.centroid.x() - previous.x(), s.centroid.z() - previous.z()).norm();
-        if (d < best_d) best = static_cast<int>(k), best_d = d;
+        if (d < best_d) best = static_cast<int>(k), best_d = d, best_loop = std::move(candidate);
       }
       if (best < 0) continue;
-      const LoopShape s = shape_of(st.loops[i][best], true);
+      const LoopShape s = shape_of(best_loop, true);
       axis.push_back(s.centroid);
       g.push_back(s.girth);
-      depth.push_back(st.loops[i][best].points.col(2).maxCoeff() - st.loops[i][best].points.col(2).minCoeff());
-      back.push_back(st.loops[i][best].points.col(2).minCoeff());
+      depth.push_back(best_loop.points.col(2).maxCoeff() - best_loop.points.col(2).minCoeff());
+      back.push_back(best_loop.points.col(2).minCoeff());
       level.push_back(i);
       previous = s.centroid;
     }
