@@ -27,7 +27,7 @@ double median_of(std::vector<double> v) {
 
 /// Counts over a group of bodies (a variation, or all).
 struct Tally {
-  int bodies = 0, meshes = 0, frame_right = 0, measured = 0, segmented = 0, agree = 0, joints = 0, silent = 0;
+  int bodies = 0, meshes = 0, frame_right = 0, measured = 0, segmented = 0, agree = 0, joints = 0, both = 0, silent = 0;
   int iso_within[3] = {0, 0, 0}, iso_measured[3] = {0, 0, 0};
   std::vector<double> joint_max, agreement, roughness, truth_roughness;
   void add(const BodyResult& b) {
@@ -38,6 +38,7 @@ struct Tally {
     segmented += b.segmented;
     agree += b.segmented && b.segmentation_agreement >= kAgreementBar;
     joints += b.segmented && b.joint_error_max <= kJointBar;
+    both += b.segmented && b.segmentation_agreement >= kAgreementBar && b.joint_error_max <= kJointBar;
     silent += !b.silent_nonsense.empty();
     if (b.kind == "mesh") joint_max.push_back(b.joint_error_max), agreement.push_back(b.segmentation_agreement);
     if (!std::isnan(b.border_roughness)) roughness.push_back(b.border_roughness);
@@ -54,6 +55,7 @@ struct Tally {
     for (int g = 0; g < 3; ++g) iso[kIsoGirths[g]] = {{"measured", iso_measured[g]}, {"within_iso", iso_within[g]}};
     return {{"bodies", bodies}, {"meshes", meshes}, {"unit_and_orientation_right", frame_right}, {"measured", measured},
             {"segmented", segmented}, {"agreement_at_least_95", agree}, {"joints_within_3cm", joints},
+            {"agreement_and_joints", both},
             {"girths_iso_20685", iso}, {"median_joint_error_max_mm", 1000 * median_of(joint_max)},
             {"median_agreement", median_of(agreement)}, {"median_border_roughness", median_of(roughness)},
             {"median_truth_border_roughness", median_of(truth_roughness)}, {"silent_nonsense", silent}};
@@ -70,7 +72,7 @@ std::string percent(int part, int whole) {
 void print_row(const std::string& name, const Tally& t) {
   std::cout << "| " << name << " | " << t.bodies << " | " << percent(t.frame_right, t.bodies) << " | "
             << percent(t.measured, t.bodies) << " | " << percent(t.segmented, t.meshes) << " | " << percent(t.agree, t.meshes)
-            << " | " << percent(t.joints, t.meshes) << " |";
+            << " | " << percent(t.joints, t.meshes) << " | " << percent(t.both, t.meshes) << " |";
   for (int g = 0; g < 3; ++g) std::cout << " " << percent(t.iso_within[g], t.iso_measured[g]) << " |";
   auto one_decimal = [](double v) {
     if (std::isnan(v)) return std::string("-");
@@ -90,7 +92,7 @@ int run_eval_bodies(int argc, char** argv) {
                  "a user's file (unit and orientation detected), measured, segmented into 16 parts (Eq. 2) with its\n"
                  "skeleton embedded and checked, and compared with the rig's truth. Prints, per variation, how many\n"
                  "bodies got the right unit and orientation, were measured, were segmented (passing the sanity\n"
-                 "checks), agree with the rig's labels on >= 95% of the area, have every joint within 3 cm, and have\n"
+                 "checks), agree with the rig's labels on >= 95% of the area, have every joint within 3 cm, both, and have\n"
                  "bust, waist and hip girths within the ISO 20685-1 allowable errors (15, 12, 12 mm); then every\n"
                  "failure with its message, and every result returned as good that is far off (silent nonsense).");
   args.option("dataset", "DIR", "a robustness set folder")
@@ -161,12 +163,12 @@ int run_eval_bodies(int argc, char** argv) {
   std::cout << "robustness set " << args.get("dataset") << ": " << ev.bodies.size() << " bodies in " << std::fixed
             << std::setprecision(0) << ev.seconds << " s; segmentation " << (o.model_path.empty() ? "without a model" : "with " + o.model_path)
             << "\n\n| variation | bodies | unit+orientation | measured | segmented (checked) | agreement >= 95% | "
-               "joints <= 3 cm | bust ISO | waist ISO | hip ISO | median worst joint mm | median agreement % | silent nonsense |\n"
-               "|---|---|---|---|---|---|---|---|---|---|---|---|---|\n";
+               "joints <= 3 cm | both | bust ISO | waist ISO | hip ISO | median worst joint mm | median agreement % | silent nonsense |\n"
+               "|---|---|---|---|---|---|---|---|---|---|---|---|---|---|\n";
   for (size_t v = 0; v < per.size(); ++v) print_row(ev.variations[v], per[v]);
   print_row("**all**", all);
-  std::cout << "\nsegmented, agreement and joints count meshes (scans are measured only); a girth's ISO column counts\n"
-               "the bodies where it was measured.\n"
+  std::cout << "\nsegmented, agreement and joints count meshes (scans are measured only); both: agreement and joints\n"
+               "on the same body; a girth's ISO column counts the bodies where it was measured.\n"
             << "part borders' roughness (edge length over the hull's perimeter, median of the joints' borders; 1 is a\n"
                "smooth ring): median " << std::setprecision(3) << median_of(all.roughness) << " ours, "
             << median_of(all.truth_roughness) << " the rig's labels\n";
