@@ -234,6 +234,20 @@ TEST(Cli, TrainPoseSegmentAndEvalOnASmallDataset) {
   EXPECT_LT(ev["template"][0]["all"]["mean_mm"].get<double>(), ev["template"][1]["all"]["mean_mm"].get<double>());
   EXPECT_EQ(ev["subjects"].size(), 2u);
 
+  // The robustness set and its evaluation with the model: per variation, the issue's bars counted
+  // one by one and on the same body ("both").
+  r = run("dataset make --robustness --shapes 1 --variations apose,hands_cut --out " + dir.file("rb") + " --json");
+  ASSERT_EQ(r.code, 0) << r.out;
+  r = run("eval bodies --dataset " + dir.file("rb") + " --model " + dir.file("m.pkm") + " --json");
+  ASSERT_EQ(r.code, 0) << r.out;
+  const auto rb = nlohmann::json::parse(r.out);
+  EXPECT_EQ(rb["all"]["bodies"], 2);
+  EXPECT_EQ(rb["variations"]["apose"]["agreement_and_joints"], 1);
+  for (const auto& [name, v] : rb["variations"].items()) {
+    EXPECT_LE(v["agreement_and_joints"].get<int>(), v["agreement_at_least_95"].get<int>()) << name;
+    EXPECT_LE(v["agreement_and_joints"].get<int>(), v["joints_within_3cm"].get<int>()) << name;
+  }
+
   // Bad input: an unknown joint, degrees instead of radians, a model file that is not one.
   dir.write("bad.json", R"({"joints": {"left_elbw": [0, 0, 1]}})");
   r = run("pose --model " + dir.file("m.pkm") + " --subject " + subject + " --pose " + dir.file("bad.json") + " --out " +
