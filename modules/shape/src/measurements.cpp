@@ -28,10 +28,13 @@ constexpr double kCrotchArchHalfWidth = 0.015;  ///< m each side of the body axi
 constexpr double kClusterCell = 0.008;  ///< m: scan points closer than about this belong to one section
 
 /// A section from scattered planar points (in the plane with normal n): the median radius about
-/// their centroid in each 5-degree sector, which also removes the scanner's noise; closed when no
-/// run of empty sectors spans more than `max_gap_deg`.
+/// their centroid in each sector, which also removes the scanner's noise; closed when no run of
+/// empty sectors spans more than `max_gap_deg`. Sectors are as narrow as kPointsPerSector points
+/// on average allow, from 5 down to 1 degree: a hull through 5-degree sectors' centres cuts the
+/// corners of a hip's section (3 mm of girth short on a dense cloud, 0.4 mm at 1.25 degrees).
 SectionLoop loop_from_points(const std::vector<Eigen::Vector3d>& pts, const Eigen::Vector3d& n, double max_gap_deg) {
-  constexpr int kSectors = 72;
+  constexpr int kPointsPerSector = 12;
+  const int kSectors = std::clamp(static_cast<int>(pts.size()) / kPointsPerSector, 72, 360);
   Eigen::Vector3d c = Eigen::Vector3d::Zero();
   for (const auto& p : pts) c += p;
   c /= static_cast<double>(pts.size());
