@@ -1,17 +1,24 @@
-# posekit_add_module(<name> SOURCES ... DEPS <posekit modules> PRIVATE_LIBS <third-party targets>)
-# Creates the library target posekit_<name> with public headers in modules/<name>/include.
+# posekit_add_module(<name> SOURCES ... DEPS <posekit modules> PUBLIC_LIBS ... PRIVATE_LIBS <third-party targets>)
+# Creates the library target posekit_<name> (posekit::<name>; exported and installed under that
+# name) with public headers in <dir>/include.
 function(posekit_add_module name)
   cmake_parse_arguments(ARG "" "" "SOURCES;DEPS;PUBLIC_LIBS;PRIVATE_LIBS" ${ARGN})
   add_library(posekit_${name} STATIC ${ARG_SOURCES})
   add_library(posekit::${name} ALIAS posekit_${name})
-  target_include_directories(posekit_${name} PUBLIC ${CMAKE_CURRENT_SOURCE_DIR}/include)
+  target_include_directories(posekit_${name} PUBLIC $<BUILD_INTERFACE:${CMAKE_CURRENT_SOURCE_DIR}/include>
+                                                    $<BUILD_INTERFACE:${POSEKIT_GENERATED_INCLUDE_DIR}>
+                                                    $<INSTALL_INTERFACE:${CMAKE_INSTALL_INCLUDEDIR}>)
   set(deps "")
   foreach(dep IN LISTS ARG_DEPS)
     list(APPEND deps posekit_${dep})
   endforeach()
   target_link_libraries(posekit_${name} PUBLIC ${deps} Eigen3::Eigen ${ARG_PUBLIC_LIBS}
                         PRIVATE ${ARG_PRIVATE_LIBS})
-  set_target_properties(posekit_${name} PROPERTIES POSITION_INDEPENDENT_CODE ON)
+  set_target_properties(posekit_${name} PROPERTIES POSITION_INDEPENDENT_CODE ON EXPORT_NAME ${name})
+  install(TARGETS posekit_${name} EXPORT posekitTargets
+          ARCHIVE DESTINATION ${CMAKE_INSTALL_LIBDIR} LIBRARY DESTINATION ${CMAKE_INSTALL_LIBDIR})
+  install(DIRECTORY ${CMAKE_CURRENT_SOURCE_DIR}/include/ DESTINATION ${CMAKE_INSTALL_INCLUDEDIR})
+  set_property(GLOBAL APPEND PROPERTY POSEKIT_MODULES ${name})
 endfunction()
 
 # posekit_add_test(<module> [SHARED_DATASET] SOURCES ... LIBS ...): one gtest binary per module,

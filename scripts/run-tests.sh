@@ -1,5 +1,6 @@
 #!/usr/bin/env bash
-# Set-up command 2: install what is missing, build, run every test in a release build, fuzz every
+# Set-up command 2: install what is missing, build, run every test in a release build, install it
+# and build and run examples/ against the installed package, fuzz every
 # file reader briefly (POSEKIT_FUZZ_SECONDS per target, default 10; 0 skips; scripts/fuzz.sh runs
 # them for longer), then run every test again under AddressSanitizer + UndefinedBehaviorSanitizer.
 set -euo pipefail
@@ -10,6 +11,8 @@ jobs=$(nproc 2>/dev/null || echo 2)
 bash scripts/build.sh release
 echo "== tests (release)"
 (cd build/release && ctest --output-on-failure -j"$jobs")
+echo "== install, and examples/ built against the installed package"
+bash scripts/check-install.sh
 fuzz_seconds=${POSEKIT_FUZZ_SECONDS:-10}
 if [ "$fuzz_seconds" -gt 0 ]; then
   echo "== fuzzing every file reader for ${fuzz_seconds} s (libFuzzer, AddressSanitizer + UndefinedBehaviorSanitizer)"

@@ -227,7 +227,8 @@ int run_view(int argc, char** argv) {
   PointCloud overlay;
   if (args.has("scan")) {
     const BodyInput in = read_body_input(args.get("scan"), parse_unit(args.get("scan-unit")));
-    overlay = in.is_cloud ? in.cloud : PointCloud{in.mesh.V, {}, {}};
+    if (in.is_cloud) overlay = in.cloud;
+    else overlay.P = in.mesh.V;
   }
   std::vector<ViewPanel> panels;
   std::string list = args.positionals()[0];

@@ -6,6 +6,7 @@
 #include "cli.h"
 #include "commands.h"
 #include "posekit/core/error.h"
+#include "posekit/version.h"
 
 namespace {
 
@@ -47,7 +48,7 @@ int main(int argc, char** argv) {
     return argc < 2 ? 2 : 0;
   }
   if (!std::strcmp(argv[1], "--version")) {
-    std::cout << "posekit 0.1.0\n";
+    std::cout << "posekit " << posekit::version() << "\n";
     return 0;
   }
   const std::string name = argv[1];

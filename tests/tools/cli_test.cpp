@@ -13,6 +13,7 @@
 #include "posekit/io/bvh.h"
 #include "posekit/io/mesh_io.h"
 #include "posekit/io/point_cloud_io.h"
+#include "posekit/version.h"
 #include "testing/small_dataset.h"
 #include "testing/temp_dir.h"
 #include "testing/test_meshes.h"
@@ -46,6 +47,10 @@ TEST(Cli, EveryCommandHasHelp) {
   }
   EXPECT_EQ(run("--help").code, 0);
   EXPECT_EQ(run("frobnicate").code, 2);
+  const CommandResult version = run("--version");
+  EXPECT_EQ(version.code, 0);
+  EXPECT_EQ(version.out, std::string("posekit ") + POSEKIT_VERSION_STRING + "\n");
+  EXPECT_EQ(std::string(posekit::version()), POSEKIT_VERSION_STRING);
 }
 
 TEST(Cli, InfoJsonReportsCountsAndValidity) {

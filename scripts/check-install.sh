@@ -1,0 +1,35 @@
+#!/usr/bin/env bash
+# Installs the release build into build/install, builds examples/ against the installed package
+# (find_package(posekit 0.2), not the build tree) and against pkg-config, and runs them on data the
+# installed CLI writes. Called by run-tests.sh after the release tests.
+set -euo pipefail
+cd "$(dirname "$0")/.."
+export POSEKIT_DATA=${POSEKIT_DATA:-$(cd .. && pwd)/shared/datasets/makehuman}
+prefix=$PWD/build/install
+rm -rf "$prefix" build/examples
+cmake --install build/release --prefix "$prefix" > /dev/null
+"$prefix/bin/posekit" --version
+cmake -S examples -B build/examples -DCMAKE_PREFIX_PATH="$prefix" -DCMAKE_BUILD_TYPE=Release > /dev/null
+cmake --build build/examples -j"$(nproc 2>/dev/null || echo 2)" > /dev/null
+work=$(mktemp -d)
+trap 'rm -rf "$work"' EXIT
+"$prefix/bin/posekit" dataset make --small --out "$work/ds" > /dev/null
+"$prefix/bin/posekit" train --dataset "$work/ds" --out "$work/model.pkm" > /dev/null
+build/examples/measure_scan "$work/ds/subjects/f01/rest.ply" | tee "$work/measure.txt"
+grep -Eq "^ +waist +[0-9]+\.[0-9] cm" "$work/measure.txt"
+build/examples/pose_bvh "$work/model.pkm" "$work/ds/subjects/f01/rest.ply" "$POSEKIT_DATA/poses/benchmark.bvh" "$work/posed" 1
+"$prefix/bin/posekit" info "$work/posed_0.ply" --json | grep -q '"watertight": true'
+# pkg-config: a program that prints the library's version and the vertex count of a body.
+cat > "$work/pc.cpp" <<'CPP'
+#include <iostream>
+#include "posekit/io/mesh_io.h"
+#include "posekit/version.h"
+int main(int argc, char** argv) {
+  std::cout << "posekit " << posekit::version() << ": " << posekit::read_mesh(argv[1]).V.rows() << " vertices\n";
+}
+CPP
+export PKG_CONFIG_PATH="$prefix/lib/pkgconfig"
+# shellcheck disable=SC2046
+g++ -std=c++17 "$work/pc.cpp" -o "$work/pc" $(pkg-config --cflags posekit) $(pkg-config --libs --static posekit)
+"$work/pc" "$work/ds/subjects/f01/rest.ply"
+echo "== install check: find_package and pkg-config consumers built and ran"
