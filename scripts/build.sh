@@ -15,6 +15,8 @@ esac
 export CCACHE_BASEDIR=${CCACHE_BASEDIR:-$PWD} CCACHE_NOHASHDIR=${CCACHE_NOHASHDIR:-1}
 generator=()
 command -v ninja >/dev/null && generator=(-G Ninja)
+# The Python module is built for Debian's python3 (numpy, pytest), not another one first on PATH.
+[ -x /usr/bin/python3 ] && flags+=(-DPython3_EXECUTABLE=/usr/bin/python3)
 if [ ! -f "build/$kind/CMakeCache.txt" ]; then
   cmake -S . -B "build/$kind" "${generator[@]}" "${flags[@]}" >/dev/null
 fi

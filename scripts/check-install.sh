@@ -19,6 +19,10 @@ build/examples/measure_scan "$work/ds/subjects/f01/rest.ply" | tee "$work/measur
 grep -Eq "^ +waist +[0-9]+\.[0-9] cm" "$work/measure.txt"
 build/examples/pose_bvh "$work/model.pkm" "$work/ds/subjects/f01/rest.ply" "$POSEKIT_DATA/poses/benchmark.bvh" "$work/posed" 1
 "$prefix/bin/posekit" info "$work/posed_0.ply" --json | grep -q '"watertight": true'
+# Python: the installed module poses a body from numpy arrays.
+(cd "$work" && PYTHONPATH="$prefix/lib/python3/dist-packages" /usr/bin/python3 "$OLDPWD/examples/python/pose_and_measure.py" \
+   "$work/model.pkm" "$work/ds/subjects/f01/rest.ply")
+PYTHONPATH="$prefix/lib/python3/dist-packages" /usr/bin/python3 -c "import posekit, numpy as np; V, F = posekit.read_mesh('$work/posed.ply'); print('import posekit', posekit.__version__, V.shape)"
 # pkg-config: a program that prints the library's version and the vertex count of a body.
 cat > "$work/pc.cpp" <<'CPP'
 #include <iostream>

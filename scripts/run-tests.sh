@@ -1,6 +1,6 @@
 #!/usr/bin/env bash
-# Set-up command 2: install what is missing, build, run every test in a release build, install it
-# and build and run examples/ against the installed package, fuzz every
+# Set-up command 2: install what is missing, build, run every test in a release build and the
+# Python module's tests, install it and build and run examples/ against the installed package, fuzz every
 # file reader briefly (POSEKIT_FUZZ_SECONDS per target, default 10; 0 skips; scripts/fuzz.sh runs
 # them for longer), then run every test again under AddressSanitizer + UndefinedBehaviorSanitizer.
 set -euo pipefail
@@ -11,6 +11,8 @@ jobs=$(nproc 2>/dev/null || echo 2)
 bash scripts/build.sh release
 echo "== tests (release)"
 (cd build/release && ctest --output-on-failure -j"$jobs")
+echo "== Python module (pytest)"
+PYTHONPATH=build/release/python POSEKIT_CLI=$PWD/build/release/bin/posekit /usr/bin/python3 -m pytest -q python/tests
 echo "== install, and examples/ built against the installed package"
 bash scripts/check-install.sh
 fuzz_seconds=${POSEKIT_FUZZ_SECONDS:-10}

@@ -1,0 +1,355 @@
+// Python bindings (pybind11): numpy arrays in and out, posekit's errors as Python exceptions with
+// the same messages, the GIL released in every long call. Metres, posekit's frame (Y up, facing +Z)
+// unless a function says otherwise.
+#include <pybind11/eigen.h>
+#include <pybind11/numpy.h>
+#include <pybind11/pybind11.h>
+#include <pybind11/stl.h>
+
+#include <algorithm>
+#include <memory>
+#include <thread>
+
+#include "posekit/body/parts.h"
+#include "posekit/core/error.h"
+#include "posekit/core/point_cloud.h"
+#include "posekit/core/triangle_mesh.h"
+#include "posekit/deformation/pose_model.h"
+#include "posekit/deformation/pose_synthesis.h"
+#include "posekit/deformation/segmentation_calibration.h"
+#include "posekit/evaluation/pose_evaluation.h"
+#include "posekit/evaluation/scan_comparison.h"
+#include "posekit/io/mesh_io.h"
+#include "posekit/io/point_cloud_io.h"
+#include "posekit/registration/registration.h"
+#include "posekit/segmentation/body_segmentation.h"
+#include "posekit/segmentation/segmentation_prior.h"
+#include "posekit/shape/body_features.h"
+#include "posekit/shape/layered_representation.h"
+#include "posekit/shape/measurements.h"
+#include "posekit/version.h"
+
+namespace py = pybind11;
+using namespace posekit;
+
+namespace {
+
+using Vertices = Eigen::Matrix<double, Eigen::Dynamic, 3, Eigen::RowMajor>;
+using Faces = Eigen::Matrix<int, Eigen::Dynamic, 3, Eigen::RowMajor>;
+
+TriangleMesh mesh_of(const Eigen::Ref<const Vertices>& V, const Eigen::Ref<const Faces>& F) {
+  TriangleMesh m;
+  m.V = V;
+  m.F = F;
+  if (m.F.size() > 0 && (m.F.minCoeff() < 0 || m.F.maxCoeff() >= m.V.rows()))
+    throw InvalidInput("faces refer to vertex " + std::to_string(m.F.minCoeff() < 0 ? m.F.minCoeff() : m.F.maxCoeff()) +
+                       ", outside the " + std::to_string(m.V.rows()) + " vertices");
+  return m;
+}
+
+Vertices rows(const Eigen::MatrixXd& M) { return M; }
+
+py::dict measurements_dict(const BodyMeasurements& m) {
+  py::dict girths;
+  for (const Girth& g : m.girths) {
+    py::dict d;
+    d["value"] = g.value;
+    d["measured"] = g.measured;
+    d["note"] = g.note;
+    d["point"] = Eigen::Vector3d(g.point);
+    girths[py::str(g.name)] = d;
+  }
+  py::dict out;
+  out["stature"] = m.stature;
+  out["stature_measured"] = m.stature_measured;
+  out["stature_note"] = m.stature_note;
+  out["girths"] = girths;
+  out["warnings"] = m.features.warnings;
+  return out;
+}
+
+PartPose part_pose_of(const py::object& pose) {
+  PartPose p;
+  if (py::isinstance<py::dict>(pose)) {
+    for (const auto& [key, value] : pose.cast<py::dict>()) {
+      const std::string name = key.cast<std::string>();
+      const int j = find_joint_index(name);
+      if (j < 0) {
+        std::string known;
+        for (int k = 0; k < kNumJoints; ++k) known += (k ? ", " : "") + joint_name(k);
+        throw InvalidInput("unknown joint '" + name + "' (the joints: " + known + ")");
+      }
+      p.joint_rotation[static_cast<size_t>(j)] = value.cast<Eigen::Vector3d>();
+    }
+  } else {
+    const Eigen::MatrixXd R = pose.cast<Eigen::MatrixXd>();
+    if (R.rows() != kNumJoints || R.cols() != 3)
+      throw InvalidInput("a pose is " + std::to_string(kNumJoints) + " x 3 joint rotations (axis-angle, radians), got " +
+                         std::to_string(R.rows()) + " x " + std::to_string(R.cols()));
+    for (int j = 0; j < kNumJoints; ++j) p.joint_rotation[static_cast<size_t>(j)] = R.row(j).transpose();
+  }
+  for (const auto& r : p.joint_rotation)
+    if (!r.allFinite()) throw InvalidInput("a pose holds a NaN or infinite rotation");
+  return p;
+}
+
+/// A customized body ready for posing (PoseSynthesizer): set-up once, then pose() per pose.
+class Subject {
+ public:
+  Subject(std::shared_ptr<const PoseModel> model, const TriangleMesh& mesh)
+      : faces_(mesh.F), synth_(std::make_unique<PoseSynthesizer>(std::move(model), mesh)) {}
+  Vertices pose(const PartPose& p, PoseMethod method) const { return synth_->pose(p, method); }
+  std::vector<Vertices> pose_batch(const std::vector<PartPose>& poses, PoseMethod method, int threads) const {
+    std::vector<Vertices> out(poses.size());
+    const int n = std::max(1, std::min<int>(threads > 0 ? threads : static_cast<int>(std::thread::hardware_concurrency()),
+                                           static_cast<int>(poses.size())));
+    std::vector<std::thread> pool;
+    std::vector<std::exception_ptr> error(static_cast<size_t>(n));
+    for (int t = 0; t < n; ++t)
+      pool.emplace_back([&, t] {
+        try {
+          Eigen::MatrixXd X;
+          for (size_t i = static_cast<size_t>(t); i < poses.size(); i += static_cast<size_t>(n)) {
+            synth_->pose(poses[i], method, &X);
+            out[i] = X;
+          }
+        } catch (...) {
+          error[static_cast<size_t>(t)] = std::current_exception();
+        }
+      });
+    for (auto& th : pool) th.join();
+    for (const auto& e : error)
+      if (e) std::rethrow_exception(e);
+    return out;
+  }
+  const SubjectSetupInfo& info() const { return synth_->info(); }
+  const Eigen::MatrixXi& faces() const { return faces_; }
+
+ private:
+  Eigen::MatrixXi faces_;
+  std::unique_ptr<PoseSynthesizer> synth_;
+};
+
+}  // namespace
+
+PYBIND11_MODULE(posekit, m) {
+  m.doc() = "posekit: customize, pose and validate human body models (Zhu & Mok). Arrays are numpy; "
+            "lengths in metres, bodies Y up and facing +Z.";
+  m.attr("__version__") = posekit::version();
+  // Error (a RuntimeError); InvalidInput is also a ValueError, IoError also an OSError.
+  py::object type = py::module_::import("builtins").attr("type");
+  auto make_class = [&](const char* name, py::tuple bases, const char* doc) {
+    py::dict body;
+    body["__module__"] = "posekit";
+    body["__doc__"] = doc;
+    py::object cls = type(name, bases, body);
+    m.attr(name) = cls;
+    return cls.release();  // kept for the translator below, never released
+  };
+  static const py::handle error_class = make_class("Error", py::make_tuple(py::handle(PyExc_RuntimeError)), "Any posekit error.");
+  static const py::handle invalid_class = make_class("InvalidInput", py::make_tuple(error_class, py::handle(PyExc_ValueError)),
+                                               "Input that is not what the function needs (the message says what and why).");
+  static const py::handle io_class = make_class("IoError", py::make_tuple(error_class, py::handle(PyExc_OSError)),
+                                          "A file that cannot be read or written (the message names it).");
+  py::register_exception_translator([](std::exception_ptr p) {
+    try {
+      if (p) std::rethrow_exception(p);
+    } catch (const InvalidInput& e) {
+      PyErr_SetString(invalid_class.ptr(), e.what());
+    } catch (const IoError& e) {
+      PyErr_SetString(io_class.ptr(), e.what());
+    } catch (const Error& e) {
+      PyErr_SetString(error_class.ptr(), e.what());
+    }
+  });
+  m.attr("joint_names") = [] {
+    std::vector<std::string> names;
+    for (int j = 0; j < kNumJoints; ++j) names.push_back(joint_name(j));
+    return names;
+  }();
+  m.attr("part_names") = [] {
+    std::vector<std::string> names;
+    for (int p = 0; p < kNumParts; ++p) names.push_back(part_name(p));
+    return names;
+  }();
+
+  m.def("read_mesh", [](const std::string& path) {
+        const TriangleMesh mesh = read_mesh(path);
+        return py::make_tuple(rows(mesh.V), Faces(mesh.F));
+      }, py::arg("path"), "Reads a PLY, OBJ, OFF or STL mesh: (V #V x 3, F #F x 3), in the file's unit.");
+  m.def("write_mesh", [](const std::string& path, const Eigen::Ref<const Vertices>& V, const Eigen::Ref<const Faces>& F) {
+        write_mesh(path, mesh_of(V, F));
+      }, py::arg("path"), py::arg("V"), py::arg("F"), "Writes a mesh (format from the extension), atomically.");
+  m.def("read_point_cloud", [](const std::string& path) { return rows(read_point_cloud(path).P); }, py::arg("path"),
+        "Reads a point cloud (PLY, PCD, XYZ): #P x 3, in the file's unit.");
+  m.def("write_point_cloud", [](const std::string& path, const Eigen::Ref<const Vertices>& P) {
+        PointCloud c;
+        c.P = P;
+        write_point_cloud(path, c);
+      }, py::arg("path"), py::arg("P"), "Writes a point cloud (format from the extension), atomically.");
+
+  m.def("measure", [](const Eigen::Ref<const Vertices>& V, const py::object& F) {
+        BodyMeasurements result;
+        const bool is_mesh = !F.is_none();
+        const TriangleMesh mesh = is_mesh ? mesh_of(V, F.cast<Faces>()) : TriangleMesh{};
+        const Eigen::MatrixXd points = is_mesh ? Eigen::MatrixXd() : Eigen::MatrixXd(V);
+        {
+          py::gil_scoped_release release;
+          result = is_mesh ? measure_body(mesh.V, mesh.F) : measure_point_cloud(points);
+        }
+        return measurements_dict(result);
+      }, py::arg("V"), py::arg("F") = py::none(),
+      "Stature and girths (m) of a standing body: a mesh (V, F) or, without F, a scan's points. Returns "
+      "{'stature', 'stature_measured', 'stature_note', 'girths': {name: {'value', 'measured', 'note', 'point'}}, 'warnings'}.");
+
+  py::class_<PoseModel, std::shared_ptr<PoseModel>>(m, "PoseModel", "A trained pose model (Eq. 3-5; posekit train)")
+      .def_static("load", [](const std::string& path) { return std::make_shared<PoseModel>(read_pose_model(path)); }, py::arg("path"))
+      .def("save", [](const PoseModel& model, const std::string& path) { write_pose_model(path, model); }, py::arg("path"))
+      .def_readonly("training_poses", &PoseModel::training_poses)
+      .def_readonly("fit_rms", &PoseModel::fit_rms)
+      .def_property_readonly("template", [](const PoseModel& model) { return py::make_tuple(rows(model.template_V), Faces(model.template_F)); })
+      .def_property_readonly("calibration_bodies", [](const PoseModel& model) { return model.segmentation_prior.bodies.size(); });
+
+  m.def("train", [](const std::string& dataset, int calibration_bodies, const std::string& data_root) {
+        py::gil_scoped_release release;
+        auto model = std::make_shared<PoseModel>(train_on_dataset(dataset));
+        if (calibration_bodies > 0) {
+          CalibrationOptions o;
+          o.bodies = calibration_bodies;
+          const PriorReport report = add_segmentation_prior(model.get(), data_root, o);
+          if (!report.not_made.empty()) throw InvalidInput("segmentation prior not made: " + report.not_made);
+        }
+        return model;
+      }, py::arg("dataset"), py::arg("calibration_bodies") = 128, py::arg("data_root") = "",
+      "Trains a pose model on a posekit dataset's training split (as posekit train), with a segmentation "
+      "prior of `calibration_bodies` MakeHuman bodies (0: the template alone).");
+
+  m.def("segment", [](const Eigen::Ref<const Vertices>& V, const Eigen::Ref<const Faces>& F,
+                      const std::shared_ptr<PoseModel>& model, bool checked) {
+        BodySegmentation result;
+        TriangleMesh surface;
+        {
+          py::gil_scoped_release release;
+          const TriangleMesh mesh = mesh_of(V, F);
+          std::string left_out;
+          surface = body_surface(mesh.V, mesh.F, &left_out);
+          if (surface.F.rows() != mesh.F.rows())
+            throw InvalidInput("segment: the mesh has floating pieces (" + left_out + "); pass the body alone");
+          const BodyFeatures features = find_body_features(mesh.V, mesh.F);
+          const LayeredRepresentation rep = build_layered_representation(surface.V, surface.F, features);
+          SegmentationPrior prior;
+          if (model) prior = segmentation_prior_of(*model);
+          result = segment_standing_body(surface.V, surface.F, rep, features, model ? &prior : nullptr);
+          if (checked && !result.check.ok())
+            throw InvalidInput("segment: the result fails its sanity checks: " + result.check.summary() +
+                               " (checked=False returns it anyway)");
+        }
+        py::dict out;
+        out["triangle_part"] = Eigen::VectorXi(result.segmentation.triangle_part);
+        out["joints"] = rows(result.joints);
+        out["problems"] = result.check.problems;
+        out["notes"] = result.notes;
+        return out;
+      }, py::arg("V"), py::arg("F"), py::arg("model") = nullptr, py::arg("checked") = true,
+      "Segments a standing body mesh into 16 parts (Eq. 2) and embeds the 15 joints; with a model, from its "
+      "segmentation prior. Returns {'triangle_part' (#F, see part_names), 'joints' (15 x 3, see joint_names), "
+      "'problems', 'notes'}; raises InvalidInput when the result fails the sanity checks (unless checked=False).");
+
+  m.def("register", [](const Eigen::Ref<const Vertices>& source_V, const Eigen::Ref<const Faces>& source_F,
+                       const Eigen::Ref<const Vertices>& target_V, const Eigen::Ref<const Faces>& target_F,
+                       const std::string& method) {
+        RegistrationResult r;
+        {
+          RegistrationOptions o;
+          o.method = parse_registration_method(method);
+          const TriangleMesh source = mesh_of(source_V, source_F), target = mesh_of(target_V, target_F);
+          py::gil_scoped_release release;
+          r = register_bodies(source, target, o);
+        }
+        py::dict out;
+        out["deformed_source"] = rows(r.deformed_source);
+        out["correspondence"] = Eigen::VectorXi(r.correspondence);
+        out["normal_failures"] = r.normal_failures;
+        out["seconds"] = r.seconds;
+        return out;
+      }, py::arg("source_V"), py::arg("source_F"), py::arg("target_V"), py::arg("target_F"), py::arg("method") = "ctffd",
+      "Registers source to target (ctffd, icp or nicp) and matches triangles by nearest centroid. Returns "
+      "{'deformed_source', 'correspondence' (for each target triangle its source triangle), 'normal_failures', 'seconds'}.");
+
+  m.def("compare", [](const Eigen::Ref<const Vertices>& V, const Eigen::Ref<const Faces>& F, const Eigen::Ref<const Vertices>& scan,
+                      double outlier_threshold) {
+        ScanComparison c;
+        {
+          const TriangleMesh mesh = mesh_of(V, F);
+          PointCloud cloud;
+          cloud.P = scan;
+          ScanComparisonOptions o;
+          o.outlier_threshold = outlier_threshold;
+          py::gil_scoped_release release;
+          c = compare_with_scan(mesh, cloud, o);
+        }
+        auto stats = [](const DistanceStats& s) {
+          py::dict d;
+          d["mean_mm"] = s.mean_mm, d["rms_mm"] = s.rms_mm, d["p95_mm"] = s.p95_mm, d["max_mm"] = s.max_mm;
+          d["signed_mean_mm"] = s.signed_mean_mm, d["count"] = s.count, d["outliers"] = s.outliers;
+          return d;
+        };
+        py::dict out;
+        out["scan_to_model"] = Eigen::VectorXd(c.scan_to_model);
+        out["model_to_scan"] = Eigen::VectorXd(c.model_to_scan);
+        out["scan_stats"] = stats(c.scan_stats);
+        out["model_stats"] = stats(c.model_stats);
+        out["hausdorff_mm"] = c.hausdorff_mm;
+        out["coverage"] = c.coverage;
+        return out;
+      }, py::arg("V"), py::arg("F"), py::arg("scan"), py::arg("outlier_threshold") = 0.02,
+      "Distances between a body mesh and a scan (both m): signed scan-to-model and model-to-scan distances (m; "
+      "NaN where uncovered) and their statistics (mm), coverage, Hausdorff distance.");
+
+  py::class_<Subject>(m, "Subject", "A customized body prepared for posing with a model (segmentation, skeleton, "
+                                    "correspondence, factorisation once; then each pose is one solve)")
+      .def(py::init([](std::shared_ptr<PoseModel> model, const Eigen::Ref<const Vertices>& V, const Eigen::Ref<const Faces>& F) {
+             const TriangleMesh mesh = mesh_of(V, F);
+             py::gil_scoped_release release;
+             return std::make_unique<Subject>(std::move(model), mesh);
+           }), py::arg("model"), py::arg("V"), py::arg("F"))
+      .def("pose", [](const Subject& s, const py::object& pose, const std::string& method) {
+             const PartPose p = part_pose_of(pose);
+             const PoseMethod how = parse_pose_method(method);
+             py::gil_scoped_release release;
+             return s.pose(p, how);
+           }, py::arg("pose"), py::arg("method") = "learned",
+           "The posed vertices (#V x 3) for joint rotations (axis-angle, radians, relative to the parent part, "
+           "as posekit's pose JSON): a 15 x 3 array in joint_names order, or a dict {joint name: rotation}. "
+           "method: learned, rigid or lbs.")
+      .def("pose_batch", [](const Subject& s, const py::array_t<double>& poses, const std::string& method, int threads) {
+             if (poses.ndim() != 3 || poses.shape(1) != kNumJoints || poses.shape(2) != 3)
+               throw InvalidInput("pose_batch expects a k x 15 x 3 array of joint rotations");
+             std::vector<PartPose> list(static_cast<size_t>(poses.shape(0)));
+             auto r = poses.unchecked<3>();
+             for (py::ssize_t i = 0; i < poses.shape(0); ++i)
+               for (int j = 0; j < kNumJoints; ++j) {
+                 list[static_cast<size_t>(i)].joint_rotation[static_cast<size_t>(j)] = Eigen::Vector3d(r(i, j, 0), r(i, j, 1), r(i, j, 2));
+                 if (!list[static_cast<size_t>(i)].joint_rotation[static_cast<size_t>(j)].allFinite())
+                   throw InvalidInput("pose " + std::to_string(i) + " holds a NaN or infinite rotation");
+               }
+             const PoseMethod how = parse_pose_method(method);
+             std::vector<Vertices> posed;
+             {
+               py::gil_scoped_release release;
+               posed = s.pose_batch(list, how, threads);
+             }
+             const py::ssize_t n = posed.empty() ? 0 : static_cast<py::ssize_t>(posed[0].rows());
+             py::array_t<double> out({static_cast<py::ssize_t>(posed.size()), n, py::ssize_t{3}});
+             auto w = out.mutable_unchecked<3>();
+             for (size_t i = 0; i < posed.size(); ++i)
+               for (py::ssize_t v = 0; v < n; ++v)
+                 for (int c = 0; c < 3; ++c) w(static_cast<py::ssize_t>(i), v, c) = posed[i](v, c);
+             return out;
+           }, py::arg("poses"), py::arg("method") = "learned", py::arg("threads") = 0,
+           "Poses a k x 15 x 3 array of poses on `threads` threads (0: all cores): k x #V x 3.")
+      .def_property_readonly("triangle_part", [](const Subject& s) { return Eigen::VectorXi(s.info().triangle_part); })
+      .def_property_readonly("joints", [](const Subject& s) { return rows(s.info().joint_centres); })
+      .def_property_readonly("faces", [](const Subject& s) { return Faces(s.faces()); })
+      .def_property_readonly("skeleton_problems", [](const Subject& s) { return s.info().skeleton_problems; });
+}

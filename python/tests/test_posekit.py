@@ -1,0 +1,165 @@
+"""The Python module on real data: the small posekit dataset (made once per session by the CLI),
+every bound function, and its error path."""
+import json
+import os
+import shutil
+import subprocess
+import threading
+
+import numpy as np
+import pytest
+
+import posekit
+
+
+@pytest.fixture(scope="session")
+def dataset(tmp_path_factory):
+    cli = os.environ.get("POSEKIT_CLI") or shutil.which("posekit")
+    assert cli, "set POSEKIT_CLI to the posekit executable"
+    out = tmp_path_factory.mktemp("data") / "ds"
+    subprocess.run([cli, "dataset", "make", "--small", "--out", str(out)], check=True, capture_output=True)
+    return out
+
+
+@pytest.fixture(scope="session")
+def model(dataset):
+    return posekit.train(str(dataset), calibration_bodies=8)
+
+
+@pytest.fixture(scope="session")
+def f01(dataset):
+    return posekit.read_mesh(str(dataset / "subjects" / "f01" / "rest.ply"))
+
+
+def test_version_and_names():
+    assert posekit.__version__.count(".") == 2
+    assert len(posekit.joint_names) == 15 and posekit.joint_names[0] == "lower_back"
+    assert len(posekit.part_names) == 16
+
+
+def test_meshes_and_clouds_round_trip(tmp_path, f01):
+    V, F = f01
+    assert V.shape[1] == 3 and F.shape[1] == 3 and F.dtype == np.int32
+    posekit.write_mesh(str(tmp_path / "b.obj"), V, F)
+    V2, F2 = posekit.read_mesh(str(tmp_path / "b.obj"))
+    assert np.array_equal(F, F2) and np.abs(V - V2).max() < 1e-6
+    posekit.write_point_cloud(str(tmp_path / "p.ply"), V)
+    assert np.array_equal(posekit.read_point_cloud(str(tmp_path / "p.ply")), V)
+    with pytest.raises(posekit.IoError, match="cannot open"):
+        posekit.read_mesh(str(tmp_path / "missing.ply"))
+    with pytest.raises(OSError):  # IoError is an OSError
+        posekit.read_point_cloud(str(tmp_path / "missing.pcd"))
+    with pytest.raises(posekit.InvalidInput, match="outside the"):
+        posekit.write_mesh(str(tmp_path / "bad.ply"), V[:10], F)
+    assert not (tmp_path / "bad.ply").exists()
+
+
+def test_measure_a_mesh_and_its_scan(dataset, f01):
+    V, F = f01
+    truth = json.loads((dataset / "subjects" / "f01" / "measurements.json").read_text())
+    m = posekit.measure(V, F)
+    assert m["stature"] == pytest.approx(truth["stature"], abs=0.01)
+    for name in ("bust", "waist", "hip"):
+        g = m["girths"][name]
+        assert g["measured"], g["note"]
+        assert g["value"] == pytest.approx(truth["girths"][name], abs=0.012), name
+    scan = posekit.read_point_cloud(str(dataset / "scans" / "f01" / "rest.pcd")) / 1000.0  # mm
+    s = posekit.measure(scan)
+    assert s["girths"]["hip"]["value"] == pytest.approx(m["girths"]["hip"]["value"], abs=0.012)
+    with pytest.raises(posekit.InvalidInput, match="tall"):
+        posekit.measure(V * 1000.0, F)  # millimetres read as metres
+    with pytest.raises(ValueError):  # InvalidInput is a ValueError
+        posekit.measure(np.random.default_rng(0).random((100, 3)))
+
+
+def test_train_save_load(tmp_path, dataset, model):
+    assert model.training_poses > 10 and model.calibration_bodies >= 8
+    model.save(str(tmp_path / "m.pkm"))
+    loaded = posekit.PoseModel.load(str(tmp_path / "m.pkm"))
+    assert loaded.training_poses == model.training_poses
+    assert np.array_equal(loaded.template[1], model.template[1])
+    with pytest.raises(posekit.Error):
+        posekit.train(str(tmp_path / "no_dataset"), calibration_bodies=0)
+    (tmp_path / "junk.pkm").write_bytes(b"not a model")
+    with pytest.raises(posekit.Error, match="POSEKPKM"):
+        posekit.PoseModel.load(str(tmp_path / "junk.pkm"))
+
+
+def test_segment(f01, model):
+    V, F = f01
+    s = posekit.segment(V, F, model)
+    parts = np.bincount(s["triangle_part"], minlength=16)
+    assert parts.shape == (16,) and (parts > 20).all()
+    joints = s["joints"]
+    assert joints.shape == (15, 3)
+    left, right = posekit.joint_names.index("left_hip"), posekit.joint_names.index("right_hip")
+    assert joints[left, 0] > joints[right, 0]  # left is +X
+    assert s["problems"] == []
+    assert posekit.segment(V, F)["joints"].shape == (15, 3)  # without a model
+    with pytest.raises(posekit.InvalidInput):
+        posekit.segment(V[:, [1, 0, 2]], F)  # lying on its side
+
+
+def test_register_template_to_subject(f01, model):
+    V, F = f01
+    TV, TF = model.template
+    r = posekit.register(TV, TF, V, F)
+    assert r["correspondence"].shape == (F.shape[0],)
+    assert 0 <= r["correspondence"].min() and r["correspondence"].max() < TF.shape[0]
+    assert r["deformed_source"].shape == TV.shape
+    with pytest.raises(posekit.InvalidInput, match="ctffd"):
+        posekit.register(TV, TF, V, F, method="magic")
+
+
+def test_compare_a_mesh_with_its_scan(dataset, f01):
+    V, F = f01
+    scan = posekit.read_point_cloud(str(dataset / "scans" / "f01" / "rest.pcd")) / 1000.0
+    c = posekit.compare(V, F, scan)
+    assert c["scan_to_model"].shape == (scan.shape[0],)
+    assert c["scan_stats"]["mean_mm"] < 3 and c["coverage"] > 0.9
+    with pytest.raises(posekit.InvalidInput):
+        posekit.compare(V, F, scan * 1000.0)  # a scan in mm against a mesh in m
+    with pytest.raises(posekit.InvalidInput):
+        posekit.compare(V, F, np.zeros((0, 3)))
+
+
+def test_pose_a_subject(dataset, f01, model):
+    V, F = f01
+    subject = posekit.Subject(model, V, F)
+    assert subject.joints.shape == (15, 3) and subject.triangle_part.shape == (F.shape[0],)
+    rest = subject.pose(np.zeros((15, 3)))
+    assert np.abs(rest - V).max() < 1e-6
+    pose = json.loads((dataset / "subjects" / "f01" / "posed" / "squat_half.json").read_text())["joints"]
+    truth, _ = posekit.read_mesh(str(dataset / "subjects" / "f01" / "posed" / "squat_half.ply"))
+    posed = subject.pose(pose)
+    assert np.linalg.norm(posed - truth, axis=1).mean() < 0.012
+    rigid = subject.pose(pose, method="rigid")
+    assert np.linalg.norm(rigid - truth, axis=1).mean() > np.linalg.norm(posed - truth, axis=1).mean()
+    # A batch, on two threads, is the same as one pose at a time.
+    array = np.array([pose[name] for name in posekit.joint_names])
+    batch = subject.pose_batch(np.stack([np.zeros((15, 3)), array, 0.5 * array]), threads=2)
+    assert batch.shape == (3,) + V.shape
+    assert np.abs(batch[1] - posed).max() < 1e-9
+    assert np.abs(batch[2] - subject.pose(0.5 * array)).max() < 1e-9
+    # Python threads pose at once (the GIL is released).
+    results = [None, None]
+
+    def work(i):
+        results[i] = subject.pose(array * (i + 1) * 0.5)
+
+    threads = [threading.Thread(target=work, args=(i,)) for i in range(2)]
+    for t in threads:
+        t.start()
+    for t in threads:
+        t.join()
+    assert np.abs(results[1] - posed).max() < 1e-9
+    with pytest.raises(posekit.InvalidInput, match="left_elbw"):
+        subject.pose({"left_elbw": [0, 0, 1]})
+    with pytest.raises(posekit.InvalidInput, match="NaN"):
+        subject.pose(np.full((15, 3), np.nan))
+    with pytest.raises(posekit.InvalidInput, match="15 x 3"):
+        subject.pose(np.zeros((14, 3)))
+    with pytest.raises(posekit.InvalidInput, match="k x 15 x 3"):
+        subject.pose_batch(np.zeros((2, 15)))
+    with pytest.raises(posekit.InvalidInput):
+        posekit.Subject(model, V[:100], F[:10])
