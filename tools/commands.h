@@ -17,4 +17,5 @@ int run_eval_bodies(int argc, char** argv);
 int run_compare(int argc, char** argv);
 int run_view(int argc, char** argv);
 int run_report(int argc, char** argv);
+int run_batch(int argc, char** argv);
 }  // namespace posekit::cli

@@ -10,6 +10,7 @@
 #include <nlohmann/json.hpp>
 #include <string>
 
+#include "posekit/io/atomic_file.h"
 #include "posekit/io/bvh.h"
 #include "posekit/io/mesh_io.h"
 #include "posekit/io/point_cloud_io.h"
@@ -40,7 +41,7 @@ CommandResult run(const std::string& args, bool merge_stderr = false) {
 
 TEST(Cli, EveryCommandHasHelp) {
   for (const char* c : {"info", "convert", "bench", "body", "dataset", "train", "pose", "segment", "register", "measure",
-                        "compare", "view", "report"}) {
+                        "compare", "view", "report", "batch"}) {
     const CommandResult r = run(std::string(c) + " --help");
     EXPECT_EQ(r.code, 0) << c;
     EXPECT_NE(r.out.find("usage: posekit"), std::string::npos) << c;
@@ -270,6 +271,53 @@ TEST(Cli, TrainPoseSegmentAndEvalOnASmallDataset) {
   EXPECT_NE(r.out.find("POSEKPKM"), std::string::npos) << r.out;
   EXPECT_FALSE(std::filesystem::exists(dir.file("x.ply")));
   EXPECT_EQ(run("pose --model " + dir.file("m.pkm")).code, 2);
+}
+
+TEST(Cli, BatchMeasureListsFailuresResumesAndShardsMergeIntoTheSameSummary) {
+  ASSERT_FALSE(test::test_data_root().empty());
+  test::TempDir dir;
+  const std::string ds = test::small_dataset().root;
+  // Two meshes, a scan in mm and a file that is no body, in another folder.
+  std::filesystem::create_directories(dir.file("in/scans"));
+  std::filesystem::copy_file(ds + "/subjects/f01/rest.ply", dir.file("in/f01.ply"));
+  std::filesystem::copy_file(ds + "/subjects/m01/rest.ply", dir.file("in/m01.ply"));
+  std::filesystem::copy_file(ds + "/scans/m01/rest.pcd", dir.file("in/scans/m01.pcd"));
+  dir.write("in/scans/broken.ply", "ply\nformat ascii 1.0\nelement vertex 3\nend_header\n1 2\n");
+  CommandResult r = run("batch measure --inputs " + dir.file("in") + " --out " + dir.file("all") + " --jobs 2", true);
+  EXPECT_EQ(r.code, 1) << r.out;  // one input failed; the others are measured
+  EXPECT_NE(r.out.find("4 inputs, 4 processed, 0 done earlier, 1 failed"), std::string::npos) << r.out;
+  EXPECT_NE(r.out.find("failed: " + dir.file("in/scans/broken.ply")), std::string::npos) << r.out;
+  const auto summary = nlohmann::json::parse(read_file_bytes(dir.file("all/summary.json")));
+  ASSERT_EQ(summary["results"].size(), 4u);
+  EXPECT_EQ(summary["results"][0]["input"], dir.file("in/f01.ply"));  // sorted by path
+  EXPECT_EQ(summary["results"][3]["input"], dir.file("in/scans/m01.pcd"));
+  EXPECT_EQ(summary["results"][3]["unit"], "mm");
+  EXPECT_FALSE(summary["results"][2]["ok"].get<bool>());
+  // The mesh and the scan of m01 agree on the waist within 1 cm.
+  EXPECT_NEAR(summary["results"][1]["girths"]["waist"]["value"].get<double>(),
+              summary["results"][3]["girths"]["waist"]["value"].get<double>(), 0.01);
+  const std::string csv = read_file_bytes(dir.file("all/summary.csv"));
+  EXPECT_EQ(std::count(csv.begin(), csv.end(), '\n'), 5);
+  EXPECT_NE(csv.find(",failed,"), std::string::npos);
+  // Resumed: nothing processed again but the failure.
+  r = run("batch measure --inputs " + dir.file("in") + " --out " + dir.file("all") + " --jobs 2");
+  EXPECT_NE(r.out.find("4 inputs, 1 processed, 3 done earlier, 1 failed"), std::string::npos) << r.out;
+  // Two shards from a list file, merged: the unsharded run's summary, byte for byte.
+  dir.write("list.txt", "# bodies\n" + dir.file("in/f01.ply") + "\n" + dir.file("in/m01.ply") + "\n\n" + dir.file("in/scans/broken.ply") +
+                            "\n" + dir.file("in/scans/m01.pcd") + "\n");
+  EXPECT_EQ(run("batch measure --inputs " + dir.file("list.txt") + " --out " + dir.file("one")).code, 1);
+  for (const char* shard : {"0/2", "1/2"})
+    run("batch measure --inputs " + dir.file("list.txt") + " --out " + dir.file("two") + " --shard " + shard);
+  EXPECT_EQ(run("batch merge --out " + dir.file("two")).code, 0);
+  EXPECT_EQ(read_file_bytes(dir.file("two/summary.json")), read_file_bytes(dir.file("one/summary.json")));
+  EXPECT_EQ(read_file_bytes(dir.file("two/summary.csv")), read_file_bytes(dir.file("one/summary.csv")));
+  // Usage errors, and a merge with a shard missing.
+  EXPECT_EQ(run("batch measure --inputs " + dir.file("list.txt") + " --out " + dir.file("x") + " --shard 2/2").code, 2);
+  EXPECT_EQ(run("batch measure --out " + dir.file("x")).code, 2);
+  std::filesystem::remove(dir.file("two/summary.shard-1-of-2.json"));
+  r = run("batch merge --out " + dir.file("two"), true);
+  EXPECT_EQ(r.code, 1);
+  EXPECT_NE(r.out.find("shards 1 of 2 have no summary"), std::string::npos) << r.out;
 }
 
 TEST(Cli, CompareMeasureAndView) {
