@@ -135,19 +135,22 @@ Eigen::MatrixXd embed_skeleton(const SegmentationPrior& prior, const LayeredRepr
   for (size_t l = 0; l < rep.layers.size(); ++l)
     if (rep.layers[l].part >= kLeftUpperArm && rep.layers[l].part <= kRightHand)
       is_arm[static_cast<size_t>(layer_region[l])] = true;
+  auto nearest_with_arms = [&](bool arms) {
+    return nearest_bodies(prior, prior.neighbours, [&](const CalibrationBody& b) {
+      double squared = 0;
+      for (size_t r = 0; r < shape.region.size(); ++r)
+        if (arms || !is_arm[r]) squared += (b.shape.region[r] - shape.region[r]).squaredNorm();
+      return std::sqrt(squared);
+    });
+  };
+  const auto arm_neighbours = nearest_with_arms(true), other_neighbours = nearest_with_arms(false);
   std::vector<Eigen::MatrixXd> embedded(prior.bodies.size());
   Eigen::MatrixXd joints = Eigen::MatrixXd::Zero(kNumJoints, 3);
   for (int j = 0; j < kNumJoints; ++j) {
     const int child = j + 1;
     const bool on_arm = child >= kLeftUpperArm && child <= kRightHand;
-    const auto nearest = nearest_bodies(prior, prior.neighbours, [&](const CalibrationBody& b) {
-      double squared = 0;
-      for (size_t r = 0; r < shape.region.size(); ++r)
-        if (on_arm || !is_arm[r]) squared += (b.shape.region[r] - shape.region[r]).squaredNorm();
-      return std::sqrt(squared);
-    });
     double total = 0;
-    for (const auto& [distance, b] : nearest) {
+    for (const auto& [distance, b] : on_arm ? arm_neighbours : other_neighbours) {
       Eigen::MatrixXd& skeleton = embedded[static_cast<size_t>(b)];
       if (skeleton.size() == 0) skeleton = embed_skeleton(prior.bodies[static_cast<size_t>(b)].skeleton, rep);
       const double w = inverse_distance_weight(distance);
