@@ -171,23 +171,28 @@ void flush_warnings() {
   io_warnings()->clear();
 }
 
-BodyInput read_body_input(const std::string& path, Unit unit) {
+BodyInput read_body_input(const std::string& path, Unit unit, std::vector<std::string>* warnings) {
   BodyInput in;
   const CloudFormat cf = cloud_format_from_path(path);
   in.is_cloud = cf == CloudFormat::kPcd || cf == CloudFormat::kXyz;
   if (!in.is_cloud) {
+    const size_t before = warnings->size();
     try {
-      in.mesh = read_mesh(path, {unit, MeshFormat::kAuto, io_warnings()});
-      flush_warnings();
+      in.mesh = read_mesh(path, {unit, MeshFormat::kAuto, warnings});
       return in;
     } catch (const IoError& e) {
       // A PLY, OBJ or OFF without faces is a point cloud.
       if (std::string(e.what()).find("no faces") == std::string::npos) throw;
-      io_warnings()->clear();
+      warnings->resize(before);
       in.is_cloud = true;
     }
   }
-  in.cloud = read_point_cloud(path, {unit, CloudFormat::kAuto, io_warnings()});
+  in.cloud = read_point_cloud(path, {unit, CloudFormat::kAuto, warnings});
+  return in;
+}
+
+BodyInput read_body_input(const std::string& path, Unit unit) {
+  BodyInput in = read_body_input(path, unit, io_warnings());
   flush_warnings();
   return in;
 }

@@ -85,6 +85,8 @@ struct BodyInput {
   PointCloud cloud;
 };
 BodyInput read_body_input(const std::string& path, Unit unit);
+/// The same, quiet: the readers' warnings go to `warnings` (for work on several threads).
+BodyInput read_body_input(const std::string& path, Unit unit, std::vector<std::string>* warnings);
 
 /// The unit a body file was read in: given, or detected from its largest extent.
 struct BodyUnit {

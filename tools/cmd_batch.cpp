@@ -66,19 +66,10 @@ std::string result_name(const std::string& input) {
 /// object of the summary. Throws on failure.
 nlohmann::ordered_json measure_one(const std::string& path) {
   std::vector<std::string> warnings;
-  const CloudFormat cf = cloud_format_from_path(path);
-  bool is_cloud = cf == CloudFormat::kPcd || cf == CloudFormat::kXyz;
-  TriangleMesh mesh;
-  PointCloud cloud;
-  if (!is_cloud) {
-    try {
-      mesh = read_mesh(path, {Unit::kMetre, MeshFormat::kAuto, &warnings});
-    } catch (const IoError& e) {
-      if (std::string(e.what()).find("no faces") == std::string::npos) throw;
-      is_cloud = true;
-    }
-  }
-  if (is_cloud) cloud = read_point_cloud(path, {Unit::kMetre, CloudFormat::kAuto, &warnings});
+  BodyInput in = read_body_input(path, Unit::kMetre, &warnings);
+  const bool is_cloud = in.is_cloud;
+  TriangleMesh& mesh = in.mesh;
+  PointCloud& cloud = in.cloud;
   Eigen::MatrixXd& P = is_cloud ? cloud.P : mesh.V;
   const double extent = robust_largest_extent(P);
   Unit unit = Unit::kMetre;
