@@ -161,3 +161,34 @@ TEST(Viewer, LabelsGetOneColourEachWithoutBlendsAndALegend) {
   Eigen::VectorXd v = Eigen::VectorXd::LinSpaced(4, 0, 3);
   EXPECT_THROW(colour_range(unnamed, {&v}), InvalidInput);
 }
+
+TEST(Viewer, SurfacesFacingUpAreLitNotDark) {
+  // Under VTK's single headlight a surface turned 60 degrees up from the view came out at half the
+  // brightness of one facing the camera: the dark thighs of a squat and the dark feet of the report's
+  // figures. With a key light from above it is at least as bright as three quarters of the front.
+  test::TempDir dir;
+  ViewPanel panel;
+  panel.mesh = test::icosphere(5, 0.5);
+  ViewOptions o;
+  o.panel_width = 400;
+  o.panel_height = 400;
+  render_panels_png({panel}, o, dir.file("sphere.png"));
+  const cv::Mat img = cv::imread(dir.file("sphere.png"), cv::IMREAD_GRAYSCALE);
+  ASSERT_FALSE(img.empty());
+  int top = img.rows, bottom = -1, left = img.cols, right = -1;
+  for (int y = 40; y < img.rows; ++y)  // below the caption
+    for (int x = 0; x < img.cols; ++x)
+      if (img.at<uchar>(y, x) < 245) top = std::min(top, y), bottom = std::max(bottom, y), left = std::min(left, x), right = std::max(right, x);
+  ASSERT_GT(bottom - top, 100);
+  const double cx = 0.5 * (left + right), cy = 0.5 * (top + bottom), r = 0.5 * (bottom - top);
+  auto mean_around = [&](double x, double y) {
+    double sum = 0;
+    int n = 0;
+    for (int dy = -3; dy <= 3; ++dy)
+      for (int dx = -3; dx <= 3; ++dx, ++n) sum += img.at<uchar>(static_cast<int>(y) + dy, static_cast<int>(x) + dx);
+    return sum / n;
+  };
+  const double front = mean_around(cx, cy);
+  const double up60 = mean_around(cx, cy - r * std::sin(M_PI / 3));
+  EXPECT_GT(up60, 0.75 * front) << "front " << front << ", 60 degrees up " << up60;
+}

@@ -12,6 +12,7 @@
 #include <vtkColorTransferFunction.h>
 #include <vtkFloatArray.h>
 #include <vtkInteractorStyleTrackballCamera.h>
+#include <vtkLightKit.h>
 #include <vtkLookupTable.h>
 #include <vtkVariant.h>
 #include <vtkNew.h>
@@ -312,6 +313,12 @@ Scene build_scene(const std::vector<ViewPanel>& panels, const ViewOptions& o) {
     const ViewPanel& p = panels[i];
     auto renderer = vtkSmartPointer<vtkRenderer>::New();
     renderer->SetBackground(1, 1, 1);
+    // A key light above and in front, fill, back and head lights (vtkLightKit) instead of VTK's one
+    // headlight, under which every surface facing up or down (thighs in a squat, forearms and feet
+    // towards the camera) came out dark.
+    vtkNew<vtkLightKit> lights;
+    lights->SetKeyLightIntensity(0.95);
+    lights->AddLightsToRenderer(renderer);
     const double x0 = static_cast<double>(i) * o.panel_width / width, x1 = static_cast<double>(i + 1) * o.panel_width / width;
     renderer->SetViewport(x0, 0, x1, 1);
     vtkNew<vtkPolyDataNormals> normals;

@@ -163,6 +163,13 @@ ColourMap signed_error_map(double range_mm) {
   return map;
 }
 
+/// The view that shows a pose's motion: from the side when the body moved more along the front
+/// camera's line of sight (z) than across it (x), as in squats, reaches and steps; else the front.
+CameraPreset view_showing_motion(const Eigen::MatrixXd& rest, const Eigen::MatrixXd& posed) {
+  const Eigen::MatrixXd moved = (posed - rest).cwiseAbs();
+  return moved.col(2).sum() > moved.col(0).sum() ? CameraPreset::kSide : CameraPreset::kFront;
+}
+
 PartPose novel_pose() {
   PartPose p;
   p.joint_rotation[static_cast<size_t>(find_joint_index("right_shoulder"))] = Eigen::Vector3d(0, 0, -1.6);
@@ -247,14 +254,16 @@ ReportSummary write_report(const std::string& dir, const std::string& out_dir, c
       ViewPanel p;
       p.mesh = templ;
       p.mesh.V = template_synth->pose(pose);
-      p.caption = name;
+      p.camera = view_showing_motion(templ.V, p.mesh.V);
+      p.caption = name + (p.camera == CameraPreset::kSide ? " (side)" : "");
       panels.push_back(std::move(p));
     }
     render(panels, plain, "fig2_template_poses.png",
            {"", "Figure 2: the template in synthesized poses",
             "The pose-dataset template posed by the learned model (T^R T^Q, Eq. 1) from joint rotations alone: " +
                 std::to_string(shown.size() - 1) +
-                " held-out poses of the dataset (not used in training) and one pose that is in no dataset.",
+                " held-out poses of the dataset (not used in training) and one pose that is in no dataset. A pose whose motion is "
+                "mostly along the front camera's line of sight is seen from the side.",
             "posekit pose --model model.pkm --subject " + path_in("template/rest.ply") + " --pose <pose.json> --out posed.ply"});
   }
   tick("figure 2");
@@ -282,13 +291,14 @@ ReportSummary write_report(const std::string& dir, const std::string& out_dir, c
       ViewPanel p;
       p.mesh = rests[transfer_id];
       p.mesh.V = synths[transfer_id]->pose(pose);
-      p.caption = name;
+      p.camera = view_showing_motion(rests[transfer_id].V, p.mesh.V);
+      p.caption = name + (p.camera == CameraPreset::kSide ? " (side)" : "");
       panels.push_back(std::move(p));
     }
     render(panels, plain, "fig3_transferred_poses.png",
            {"", "Figure 3: the same poses transferred to a customized model",
             "Subject " + transfer_id + " (its own mesh and topology) in the poses of Figure 2: its segmentation and skeleton give "
-            "T^R, the template's T^Q comes through the ct-FFD correspondence (section 3.3.3).",
+            "T^R, the template's T^Q comes through the ct-FFD correspondence (section 3.3.3). Views as in Figure 2.",
             "posekit pose --model model.pkm --subject " + path_in("subjects/" + transfer_id + "/rest.ply") +
                 " --pose <pose.json> --out posed.ply"});
   }
