@@ -1,6 +1,7 @@
 // posekit batch: one command over many bodies, on several cores and, by shards, several machines.
 #include <algorithm>
 #include <atomic>
+#include <functional>
 #include <chrono>
 #include <filesystem>
 #include <fstream>
@@ -19,6 +20,15 @@
 #include "posekit/io/checksum.h"
 #include "posekit/io/mesh_io.h"
 #include "posekit/io/point_cloud_io.h"
+#include "posekit/body/makehuman_model.h"
+#include "posekit/core/data_root.h"
+#include "posekit/core/mesh_validation.h"
+#include "posekit/deformation/pose_model.h"
+#include "posekit/deformation/pose_synthesis.h"
+#include "posekit/deformation/rigid_pose.h"
+#include "posekit/evaluation/scan_comparison.h"
+#include "posekit/io/bvh.h"
+#include "posekit/segmentation/segmentation.h"
 #include "posekit/shape/body_orientation.h"
 #include "posekit/shape/measurements.h"
 
@@ -53,37 +63,71 @@ std::vector<std::string> list_inputs(const std::string& inputs) {
   return out;
 }
 
-/// Result file name of an input: its path with separators as "__", so inputs of the same name in
-/// different folders do not collide.
+/// Result name of an input (its result is results/<name>.json): its path with separators and
+/// spaces as "_", so inputs of the same name in different folders do not collide.
 std::string result_name(const std::string& input) {
   std::string name = fs::path(input).lexically_normal().relative_path().string();
   for (char& c : name)
-    if (c == '/' || c == '\\' || c == ':') c = '_';
-  return name + ".json";
+    if (c == '/' || c == '\\' || c == ':' || c == ' ' || c == '\t' || c == ',') c = '_';
+  return name;
 }
 
-/// Measures one file quietly (the unit from its extent, the orientation detected): the result
-/// object of the summary. Throws on failure.
-nlohmann::ordered_json measure_one(const std::string& path) {
-  std::vector<std::string> warnings;
-  BodyInput in = read_body_input(path, Unit::kMetre, &warnings);
-  const bool is_cloud = in.is_cloud;
-  TriangleMesh& mesh = in.mesh;
-  PointCloud& cloud = in.cloud;
-  Eigen::MatrixXd& P = is_cloud ? cloud.P : mesh.V;
-  const double extent = robust_largest_extent(P);
+/// A body file read quietly into posekit's frame (Y up, facing +Z) and metres: the unit from
+/// `unit_option` or the body's extent, the orientation detected.
+struct PreparedBody {
+  BodyInput in;
   Unit unit = Unit::kMetre;
-  if (!guess_body_unit(extent, &unit))
-    throw InvalidInput(path + ": its largest extent is " + std::to_string(extent) + " units, which no unit (m, dm, cm, mm) makes a body");
-  P *= metres_per_unit(unit);
-  const BodyOrientation o = is_cloud ? detect_body_orientation(P) : detect_mesh_orientation(mesh.V, mesh.F);
-  if (!o.is_identity()) P = (P * o.rotation.transpose()).eval();
-  const BodyMeasurements m = is_cloud ? measure_point_cloud(P) : measure_body(mesh.V, mesh.F);
+  BodyOrientation orientation;
+  std::vector<std::string> warnings;
+};
+
+PreparedBody prepare_body(const std::string& path, const std::string& unit_option) {
+  PreparedBody b;
+  b.in = read_body_input(path, Unit::kMetre, &b.warnings);
+  Eigen::MatrixXd& P = b.in.is_cloud ? b.in.cloud.P : b.in.mesh.V;
+  if (unit_option == "auto") {
+    const double extent = robust_largest_extent(P);
+    if (!guess_body_unit(extent, &b.unit))
+      throw InvalidInput(path + ": its largest extent is " + std::to_string(extent) +
+                         " units, which no unit (m, dm, cm, mm) makes a body; give the unit");
+  } else {
+    b.unit = parse_unit(unit_option);
+  }
+  P *= metres_per_unit(b.unit);
+  b.orientation = b.in.is_cloud ? detect_body_orientation(P) : detect_mesh_orientation(b.in.mesh.V, b.in.mesh.F);
+  if (!b.orientation.is_identity()) {
+    P = (P * b.orientation.rotation.transpose()).eval();
+    Eigen::MatrixXd& N = b.in.is_cloud ? b.in.cloud.N : b.in.mesh.N;
+    if (N.rows() > 0) N = (N * b.orientation.rotation.transpose()).eval();
+  }
+  b.warnings.insert(b.warnings.end(), b.orientation.warnings.begin(), b.orientation.warnings.end());
+  return b;
+}
+
+/// One batch command: what it does to an input, the settings its results depend on (a result made
+/// with other settings is made again), and its columns in summary.csv.
+struct BatchColumn {
+  std::string header;
+  std::function<std::string(const nlohmann::ordered_json&)> value;  ///< of a successful result
+};
+struct BatchJob {
+  std::string command;
+  nlohmann::ordered_json settings;
+  /// The result fields of one input; `stem` names its extra output files. Throws on failure.
+  std::function<nlohmann::ordered_json(const std::string& input, const std::string& stem)> process;
+  std::vector<BatchColumn> columns;
+};
+
+nlohmann::ordered_json measure_one(const std::string& path) {
+  PreparedBody b = prepare_body(path, "auto");
+  const bool is_cloud = b.in.is_cloud;
+  const Eigen::MatrixXd& P = is_cloud ? b.in.cloud.P : b.in.mesh.V;
+  const BodyMeasurements m = is_cloud ? measure_point_cloud(P) : measure_body(b.in.mesh.V, b.in.mesh.F);
   nlohmann::ordered_json r;
   r["kind"] = is_cloud ? "point cloud" : "mesh";
-  r["unit"] = unit_name(unit);
-  r["up"] = axis_name(o.up());
-  r["forward"] = axis_name(o.forward());
+  r["unit"] = unit_name(b.unit);
+  r["up"] = axis_name(b.orientation.up());
+  r["forward"] = axis_name(b.orientation.forward());
   r["stature"] = m.stature;
   r["stature_measured"] = m.stature_measured;
   for (const Girth& g : m.girths) {
@@ -92,8 +136,7 @@ nlohmann::ordered_json measure_one(const std::string& path) {
     else e["note"] = g.note;
     r["girths"][g.name] = e;
   }
-  std::vector<std::string> all = warnings;
-  all.insert(all.end(), o.warnings.begin(), o.warnings.end());
+  std::vector<std::string> all = b.warnings;
   all.insert(all.end(), m.features.warnings.begin(), m.features.warnings.end());
   r["warnings"] = all;
   return r;
@@ -106,39 +149,46 @@ std::string csv_field(const std::string& text) {
   return quoted + "\"";
 }
 
-std::string metres(const nlohmann::json& value) {
+std::string number(const nlohmann::json& value, int digits) {
+  if (value.is_null()) return "";
   std::ostringstream s;
-  s << std::fixed << std::setprecision(6) << value.get<double>();
+  s << std::fixed << std::setprecision(digits) << value.get<double>();
   return s.str();
 }
 
 /// summary.json (no timings: shards merge into exactly the unsharded run's file) and summary.csv,
 /// one row per input in input order.
-void write_summary(const fs::path& out, const std::string& stem, const nlohmann::ordered_json& summary) {
+void write_summary(const fs::path& out, const std::string& stem, const nlohmann::ordered_json& summary,
+                   const std::vector<BatchColumn>& columns) {
   write_file_atomically((out / (stem + ".json")).string(), [&](std::ostream& os) { os << summary.dump(2) << "\n"; }, false);
   write_file_atomically((out / (stem + ".csv")).string(), [&](std::ostream& os) {
-    os << "index,input,status,error,kind,unit,up,forward,stature_m,stature_measured";
-    for (const char* g : kGirthNames) os << "," << g << "_m";
+    os << "index,input,status,error";
+    for (const auto& c : columns) os << "," << c.header;
     os << ",warnings\n";
     for (const auto& r : summary["results"]) {
-      os << r["index"].get<long>() << "," << csv_field(r["input"].get<std::string>()) << "," << (r["ok"].get<bool>() ? "ok" : "failed")
-         << "," << csv_field(r.value("error", ""));
-      if (r["ok"].get<bool>()) {
-        os << "," << r["kind"].get<std::string>() << "," << r["unit"].get<std::string>() << "," << r["up"].get<std::string>() << ","
-           << r["forward"].get<std::string>() << "," << metres(r["stature"]) << "," << (r["stature_measured"].get<bool>() ? 1 : 0);
-        for (const char* g : kGirthNames) {
-          const auto& girth = r["girths"][g];
-          os << "," << (girth["measured"].get<bool>() ? metres(girth["value"]) : "");
-        }
-        os << "," << r["warnings"].size();
-      } else {
-        os << ",,,,,,";
-        for (size_t g = 0; g < std::size(kGirthNames); ++g) os << ",";
-        os << ",";
-      }
-      os << "\n";
+      const bool ok = r["ok"].get<bool>();
+      os << r["index"].get<long>() << "," << csv_field(r["input"].get<std::string>()) << "," << (ok ? "ok" : "failed") << ","
+         << csv_field(r.value("error", ""));
+      for (const auto& c : columns) os << "," << (ok ? csv_field(c.value(r)) : "");
+      os << "," << (ok ? std::to_string(r.value("warnings", nlohmann::ordered_json::array()).size()) : "") << "\n";
     }
   }, false);
+}
+
+std::vector<BatchColumn> measure_columns() {
+  std::vector<BatchColumn> c = {
+      {"kind", [](const auto& r) { return r["kind"].template get<std::string>(); }},
+      {"unit", [](const auto& r) { return r["unit"].template get<std::string>(); }},
+      {"up", [](const auto& r) { return r["up"].template get<std::string>(); }},
+      {"forward", [](const auto& r) { return r["forward"].template get<std::string>(); }},
+      {"stature_m", [](const auto& r) { return number(r["stature"], 6); }},
+      {"stature_measured", [](const auto& r) { return std::string(r["stature_measured"].template get<bool>() ? "1" : "0"); }}};
+  for (const char* g : kGirthNames)
+    c.push_back({std::string(g) + "_m", [g](const auto& r) {
+                   const auto& girth = r["girths"][g];
+                   return girth["measured"].template get<bool>() ? number(girth["value"], 6) : std::string();
+                 }});
+  return c;
 }
 
 std::pair<long, long> parse_shard(const std::string& text) {
@@ -162,30 +212,29 @@ std::uint32_t list_checksum(const std::vector<std::string>& inputs) {
   return crc;
 }
 
-int run_batch_measure(int argc, char** argv) {
-  ArgParser args("batch measure",
-                 "Measures many bodies (meshes or scans; unit from each file's extent, orientation detected) on\n"
-                 "--jobs cores: one result file per input in OUT/results, then OUT/summary.json and summary.csv\n"
-                 "(girths in metres, one row per input in input order, failures with their messages). A bad file\n"
-                 "never stops the batch. Resumable: an input whose result exists (and succeeded) is not measured\n"
-                 "again. --shard I/N takes the inputs I, I+N, I+2N ... of the list, so that a scheduler (a Slurm job\n"
-                 "array, a Kubernetes indexed Job, GNU parallel over hosts) spreads a collection over machines that\n"
-                 "share OUT; 'posekit batch merge --out OUT' then joins the shards' summaries into the one an\n"
-                 "unsharded run writes. Throughput and peak memory go to OUT/run*.json and stdout. Exit status 1\n"
-                 "when any input failed.");
-  args.option("inputs", "DIR|LIST", "a folder (its body files, recursively, in sorted order) or a text file of paths, one per line")
-      .option("out", "DIR", "output folder (created; shared by all shards)")
-      .option("jobs", "N", "bodies measured at once (default: the number of cores)")
+/// The options every batch command shares.
+void add_batch_options(ArgParser* args) {
+  args->option("out", "DIR", "output folder (created; shared by all shards)")
+      .option("jobs", "N", "inputs processed at once (default: the number of cores)")
       .option("shard", "I/N", "only the inputs I, I+N, I+2N, ... (0 <= I < N)", "0/1")
-      .flag("json", "the run's statistics as JSON on stdout")
-      .example("posekit batch measure --inputs scans/ --out measured --jobs 2")
-      .example("posekit batch measure --inputs list.txt --out measured --shard $SLURM_ARRAY_TASK_ID/16");
-  if (!args.parse(argc, argv)) return 0;
-  if (!args.has("inputs") || !args.has("out")) throw UsageError("--inputs and --out are required");
+      .flag("json", "the run's statistics as JSON on stdout");
+}
+
+const char* const kBatchCommon =
+    " A bad input never stops the batch: it is listed with\n"
+    "its message. Resumable: an input whose result exists (made with the same settings, and\n"
+    "successful) is not processed again. --shard I/N takes the inputs I, I+N, I+2N ... of the list, so\n"
+    "that a scheduler (a Slurm job array, a Kubernetes indexed Job, GNU parallel over hosts) spreads a\n"
+    "collection over machines that share OUT; 'posekit batch merge --out OUT' then joins the shards'\n"
+    "summaries into the one an unsharded run writes. Throughput and peak memory go to OUT/run*.json\n"
+    "and stdout. Exit status 1 when any input failed.";
+
+/// Runs `job` over the shard's inputs on --jobs threads: results/<name>.json per input, the summary,
+/// run*.json. Returns the exit status.
+int run_batch_job(const ArgParser& args, const BatchJob& job, const std::vector<std::string>& all) {
   const auto [shard, shards] = parse_shard(args.get("shard"));
   const long jobs_option = args.has("jobs") ? args.get_int("jobs") : static_cast<long>(std::max(1u, std::thread::hardware_concurrency()));
   if (jobs_option < 1) throw UsageError("--jobs must be at least 1");
-  const std::vector<std::string> all = list_inputs(args.get("inputs"));
   std::vector<long> mine;
   for (long i = shard; i < static_cast<long>(all.size()); i += shards) mine.push_back(i);
   const fs::path out = args.get("out");
@@ -195,28 +244,30 @@ int run_batch_measure(int argc, char** argv) {
   std::atomic<size_t> next{0};
   std::atomic<long> done{0}, reused{0}, failed{0};
   std::mutex progress_mutex;
-  Progress progress("batch measure", static_cast<long>(mine.size()));
+  Progress progress("batch " + job.command, static_cast<long>(mine.size()));
   const auto t0 = std::chrono::steady_clock::now();
   auto worker = [&] {
     for (size_t k = next++; k < mine.size(); k = next++) {
       const std::string& input = all[static_cast<size_t>(mine[k])];
-      const fs::path result_path = out / "results" / result_name(input);
+      const std::string name = result_name(input);
+      const fs::path result_path = out / "results" / (name + ".json");
       nlohmann::ordered_json r;
       bool have = false;
       if (fs::exists(result_path)) {
         try {
           r = nlohmann::ordered_json::parse(read_file_bytes(result_path.string()));
-          have = r.value("ok", false) && r.value("input", "") == input;
+          have = r.value("ok", false) && r.value("input", "") == input && r.value("command", "") == job.command &&
+                 r.value("settings", nlohmann::ordered_json()) == job.settings;
         } catch (const std::exception&) {
-          have = false;  // unreadable: measured again
+          have = false;  // unreadable: made again
         }
       }
       if (have) {
         ++reused;
       } else {
-        r = nlohmann::ordered_json{{"input", input}};
+        r = nlohmann::ordered_json{{"input", input}, {"command", job.command}, {"settings", job.settings}};
         try {
-          const nlohmann::ordered_json m = measure_one(input);
+          const nlohmann::ordered_json m = job.process(input, name);
           r["ok"] = true;
           for (const auto& [key, value] : m.items()) r[key] = value;
         } catch (const std::exception& e) {
@@ -231,9 +282,9 @@ int run_batch_measure(int argc, char** argv) {
         }
       }
       if (!r["ok"].get<bool>()) ++failed;
-      r.erase("index");
       nlohmann::ordered_json row = {{"index", mine[k]}};
-      for (const auto& [key, value] : r.items()) row[key] = value;
+      for (const auto& [key, value] : r.items())
+        if (key != "index" && key != "command" && key != "settings") row[key] = value;
       results[k] = std::move(row);
       const long d = ++done;
       std::lock_guard<std::mutex> lock(progress_mutex);
@@ -248,7 +299,8 @@ int run_batch_measure(int argc, char** argv) {
   const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
 
   nlohmann::ordered_json summary;
-  summary["command"] = "measure";
+  summary["command"] = job.command;
+  summary["settings"] = job.settings;
   summary["inputs_total"] = all.size();
   summary["inputs_checksum"] = list_checksum(all);
   summary["shard"] = shard;
@@ -257,27 +309,309 @@ int run_batch_measure(int argc, char** argv) {
   summary["ok"] = static_cast<long>(mine.size()) - failed.load();
   summary["failed"] = failed.load();
   summary["results"] = results;
-  write_summary(out, shard_stem(shard, shards), summary);
+  write_summary(out, shard_stem(shard, shards), summary, job.columns);
   const long processed = static_cast<long>(mine.size()) - reused.load();
-  nlohmann::ordered_json run = {{"inputs", mine.size()},   {"processed", processed},
-                                {"reused", reused.load()}, {"failed", failed.load()},
-                                {"jobs", jobs},            {"seconds", seconds},
-                                {"bodies_per_second", processed > 0 ? processed / seconds : 0.0},
+  nlohmann::ordered_json run = {{"command", job.command},    {"inputs", mine.size()},   {"processed", processed},
+                                {"reused", reused.load()},   {"failed", failed.load()}, {"jobs", jobs},
+                                {"seconds", seconds},        {"inputs_per_second", processed > 0 ? processed / seconds : 0.0},
                                 {"peak_rss_mib", peak_rss_mib()}};
   const std::string run_stem = shards == 1 ? "run" : "run.shard-" + std::to_string(shard) + "-of-" + std::to_string(shards);
   write_file_atomically((out / (run_stem + ".json")).string(), [&](std::ostream& os) { os << run.dump(2) << "\n"; }, false);
   if (args.flag_set("json")) {
     print_json(run);
   } else {
-    std::cout << "batch measure: " << mine.size() << " inputs" << (shards > 1 ? " (shard " + args.get("shard") + ")" : "") << ", "
-              << processed << " processed, " << reused.load() << " done earlier, " << failed.load() << " failed, in " << std::fixed
-              << std::setprecision(1) << seconds << " s on " << jobs << " jobs (" << std::setprecision(2)
-              << (processed > 0 ? processed / seconds : 0.0) << " bodies/s), peak RSS " << std::setprecision(0) << peak_rss_mib()
+    std::cout << "batch " << job.command << ": " << mine.size() << " inputs" << (shards > 1 ? " (shard " + args.get("shard") + ")" : "")
+              << ", " << processed << " processed, " << reused.load() << " done earlier, " << failed.load() << " failed, in "
+              << std::fixed << std::setprecision(1) << seconds << " s on " << jobs << " jobs (" << std::setprecision(2)
+              << (processed > 0 ? processed / seconds : 0.0) << " inputs/s), peak RSS " << std::setprecision(0) << peak_rss_mib()
               << " MiB; wrote " << (out / (shard_stem(shard, shards) + ".csv")).string() << "\n";
     for (const auto& r : results)
       if (!r["ok"].get<bool>()) std::cout << "  failed: " << r["input"].get<std::string>() << ": " << r["error"].get<std::string>() << "\n";
   }
   return failed.load() > 0 ? 1 : 0;
+}
+
+int run_batch_measure(int argc, char** argv) {
+  ArgParser args("batch measure",
+                 std::string("Measures many bodies (meshes or scans; unit from each file's extent, orientation detected) on\n"
+                             "--jobs cores: one result file per input in OUT/results, then OUT/summary.json and summary.csv\n"
+                             "(girths in metres, one row per input in input order).") + kBatchCommon);
+  args.option("inputs", "DIR|LIST", "a folder (its body files, recursively, in sorted order) or a text file of paths, one per line");
+  add_batch_options(&args);
+  args.example("posekit batch measure --inputs scans/ --out measured --jobs 2")
+      .example("posekit batch measure --inputs list.txt --out measured --shard $SLURM_ARRAY_TASK_ID/16");
+  if (!args.parse(argc, argv)) return 0;
+  if (!args.has("inputs") || !args.has("out")) throw UsageError("--inputs and --out are required");
+  BatchJob job{"measure", nlohmann::ordered_json::object(), [](const std::string& input, const std::string&) { return measure_one(input); },
+               measure_columns()};
+  return run_batch_job(args, job, list_inputs(args.get("inputs")));
+}
+
+/// "MODEL SCAN" (separated by a tab, a comma or spaces) or, with a shared model, "SCAN".
+std::pair<std::string, std::string> model_and_scan(const std::string& line, const std::string& shared_model) {
+  if (!shared_model.empty()) return {shared_model, line};
+  size_t cut = line.find('\t');
+  if (cut == std::string::npos) cut = line.find(',');
+  if (cut == std::string::npos) cut = line.find(' ');
+  if (cut == std::string::npos)
+    throw InvalidInput("'" + line + "': expected a model and a scan on the line (MODEL SCAN), or give --model for all scans");
+  const size_t scan_start = line.find_first_not_of(" \t,", cut);
+  if (scan_start == std::string::npos) throw InvalidInput("'" + line + "': no scan after the model");
+  return {line.substr(0, cut), line.substr(scan_start)};
+}
+
+nlohmann::ordered_json distance_stats_json(const DistanceStats& s) {
+  return {{"mean_mm", s.mean_mm}, {"rms_mm", s.rms_mm}, {"p95_mm", s.p95_mm}, {"max_mm", s.max_mm},
+          {"signed_mean_mm", s.signed_mean_mm}, {"count", s.count}, {"outliers", s.outliers}};
+}
+
+std::vector<BatchColumn> compare_columns(bool measure) {
+  auto stat = [](const char* direction, const char* key) {
+    return [direction, key](const nlohmann::ordered_json& r) { return number(r[direction][key], 3); };
+  };
+  std::vector<BatchColumn> columns = {
+      {"model", [](const auto& r) { return r["model"].template get<std::string>(); }},
+      {"scan", [](const auto& r) { return r["scan"].template get<std::string>(); }},
+      {"scan_points", [](const auto& r) { return std::to_string(r["scan_points"].template get<long>()); }},
+      {"scan_to_model_mean_mm", stat("scan_to_model", "mean_mm")},
+      {"scan_to_model_rms_mm", stat("scan_to_model", "rms_mm")},
+      {"scan_to_model_p95_mm", stat("scan_to_model", "p95_mm")},
+      {"model_to_scan_mean_mm", stat("model_to_scan", "mean_mm")},
+      {"model_to_scan_p95_mm", stat("model_to_scan", "p95_mm")},
+      {"hausdorff_mm", [](const auto& r) { return number(r["hausdorff_mm"], 3); }},
+      {"coverage", [](const auto& r) { return number(r["coverage"], 4); }}};
+  if (measure)
+    for (const char* g : {"stature", "bust", "waist", "hip"})
+      columns.push_back({std::string(g) + "_difference_cm", [g](const auto& r) {
+                           if (!r.contains("girths") || !r["girths"].contains(g)) return std::string();
+                           const auto& d = r["girths"][g];
+                           return d.value("measured", false) ? number(d["difference_cm"], 2) : std::string();
+                         }});
+  return columns;
+}
+
+std::vector<BatchColumn> pose_columns() {
+  return {{"unit", [](const auto& r) { return r["unit"].template get<std::string>(); }},
+          {"up", [](const auto& r) { return r["up"].template get<std::string>(); }},
+          {"forward", [](const auto& r) { return r["forward"].template get<std::string>(); }},
+          {"vertices", [](const auto& r) { return std::to_string(r["vertices"].template get<long>()); }},
+          {"poses", [](const auto& r) { return std::to_string(r["poses"].template get<long>()); }},
+          {"first_file", [](const auto& r) { return r["files"].empty() ? std::string() : r["files"][0].template get<std::string>(); }}};
+}
+
+/// The summary columns of a command run with these settings (for merge).
+std::vector<BatchColumn> columns_of(const std::string& command, const nlohmann::ordered_json& settings) {
+  if (command == "measure") return measure_columns();
+  if (command == "compare") return compare_columns(settings.value("measure", false));
+  if (command == "pose") return pose_columns();
+  throw InvalidInput("a batch summary of an unknown command '" + command + "'");
+}
+
+int run_batch_compare(int argc, char** argv) {
+  ArgParser args("batch compare",
+                 std::string("Compares many models with their scans (posekit compare, one pair per input): the distances\n"
+                             "both ways in mm, coverage and, with --measure, the girth discrepancies with ISO 20685-1\n"
+                             "tolerances. Units come from each body's extent and orientations are detected. One result per\n"
+                             "pair in OUT/results, OUT/summary.json and summary.csv; --heatmaps adds each model with its\n"
+                             "signed_distance_mm scalar in OUT/heatmaps (PLY, in the model file's frame and unit).") + kBatchCommon);
+  args.option("inputs", "DIR|LIST",
+              "a text file of pairs, one per line: MODEL SCAN (separated by a tab, a comma or a space); with "
+              "--model, a folder or list of scans")
+      .option("model", "FILE", "one model for every scan (e.g. a person's body against the scans of a session)")
+      .option("threshold", "MM", "points beyond this distance are outliers, counted apart", "20")
+      .option("coverage", "MM", "a vertex with no scan point this close is uncovered (0: 4x scan spacing, >= 10)", "0")
+      .flag("measure", "also measure both and report the girth discrepancies (cm)")
+      .flag("heatmaps", "write each model with its signed distances (OUT/heatmaps/<input>.ply)");
+  add_batch_options(&args);
+  args.example("posekit batch compare --inputs pairs.txt --out compared --measure")
+      .example("posekit batch compare --model f01_customized.ply --inputs scans/f01/ --out f01_vs_scans --heatmaps");
+  if (!args.parse(argc, argv)) return 0;
+  if (!args.has("inputs") || !args.has("out")) throw UsageError("--inputs and --out are required");
+  const std::string shared_model = args.has("model") ? args.get("model") : "";
+  if (shared_model.empty() && fs::is_directory(args.get("inputs")))
+    throw UsageError("--inputs " + args.get("inputs") + " is a folder of scans: give --model, or a list of MODEL SCAN pairs");
+  ScanComparisonOptions o;
+  o.outlier_threshold = args.get_double("threshold") / 1000;
+  o.coverage_radius = args.get_double("coverage") / 1000;
+  o.threads = 1;  // one pair per job
+  if (!(o.outlier_threshold > 0)) throw UsageError("--threshold must be positive");
+  const bool measure = args.flag_set("measure"), heatmaps = args.flag_set("heatmaps");
+  const fs::path heatmap_dir = fs::path(args.get("out")) / "heatmaps";
+  if (heatmaps) fs::create_directories(heatmap_dir);
+  BatchJob job;
+  job.command = "compare";
+  job.settings = {{"model", shared_model}, {"threshold_mm", 1000 * o.outlier_threshold}, {"coverage_mm", 1000 * o.coverage_radius},
+                  {"measure", measure}, {"heatmaps", heatmaps}};
+  job.process = [&](const std::string& input, const std::string& stem) {
+    const auto [model_path, scan_path] = model_and_scan(input, shared_model);
+    PreparedBody model = prepare_body(model_path, "auto");
+    if (model.in.is_cloud) throw InvalidInput(model_path + ": the model must be a mesh (triangles); this file has only points");
+    PreparedBody scan = prepare_body(scan_path, "auto");
+    PointCloud cloud = scan.in.cloud;
+    if (!scan.in.is_cloud) cloud.P = scan.in.mesh.V;
+    if (cloud.P.rows() == 0) throw InvalidInput(scan_path + ": the scan has no points");
+    ScanComparison c;
+    try {
+      c = compare_with_scan(model.in.mesh, cloud, o);
+    } catch (const InvalidInput& e) {
+      throw InvalidInput(scan_path + " against " + model_path + ": " + e.what());
+    }
+    nlohmann::ordered_json r = {{"model", model_path}, {"scan", scan_path}, {"model_unit", unit_name(model.unit)},
+                                {"scan_unit", unit_name(scan.unit)}, {"scan_points", cloud.P.rows()},
+                                {"model_vertices", model.in.mesh.V.rows()},
+                                {"scan_to_model", distance_stats_json(c.scan_stats)},
+                                {"model_to_scan", distance_stats_json(c.model_stats)}, {"hausdorff_mm", c.hausdorff_mm},
+                                {"coverage", c.coverage}};
+    std::vector<std::string> warnings = model.warnings;
+    warnings.insert(warnings.end(), scan.warnings.begin(), scan.warnings.end());
+    if (measure) {
+      try {
+        for (const auto& d : girth_discrepancies(model.in.mesh, cloud)) {
+          nlohmann::ordered_json g = {{"measured", d.measured}, {"iso20685_tolerance_mm", d.tolerance_mm}};
+          if (d.measured) g["difference_cm"] = d.difference_cm, g["within_tolerance"] = std::abs(d.difference_cm) * 10 <= d.tolerance_mm;
+          else g["note"] = d.note;
+          r["girths"][d.name] = g;
+        }
+      } catch (const InvalidInput& e) {
+        warnings.push_back(std::string("girths not compared: ") + e.what());
+      }
+    }
+    if (heatmaps) {
+      TriangleMesh shown = model.in.mesh;
+      shown.V = in_file_frame(model.orientation, model.in.mesh.V);
+      if (shown.has_normals()) shown.N = in_file_frame(model.orientation, model.in.mesh.N);
+      shown.vertex_scalars["signed_distance_mm"] = 1000 * c.model_to_scan;
+      const std::string path = (heatmap_dir / (stem + ".ply")).string();
+      std::vector<std::string> io;
+      write_mesh(path, shown, {model.unit, MeshFormat::kPly, true, &io});
+      r["heatmap"] = path;
+      warnings.insert(warnings.end(), io.begin(), io.end());
+    }
+    r["warnings"] = warnings;
+    return r;
+  };
+  job.columns = compare_columns(measure);
+  std::vector<std::string> inputs;
+  if (!shared_model.empty()) {
+    inputs = list_inputs(args.get("inputs"));
+  } else {
+    std::istringstream lines(read_file_bytes(args.get("inputs")));
+    for (std::string line; std::getline(lines, line);) {
+      while (!line.empty() && (line.back() == '\r' || line.back() == ' ')) line.pop_back();
+      if (!line.empty() && line[0] != '#') inputs.push_back(line);
+    }
+    if (inputs.empty()) throw InvalidInput(args.get("inputs") + ": no MODEL SCAN pairs");
+  }
+  return run_batch_job(args, job, inputs);
+}
+
+int run_batch_pose(int argc, char** argv) {
+  ArgParser args("batch pose",
+                 std::string("Poses many bodies with one trained model (posekit pose): each subject mesh is segmented and\n"
+                             "set up once, then put into every pose of --pose (a pose JSON, or the frames of a MakeHuman\n"
+                             "BVH). The posed meshes go to OUT/posed/<input>/<pose>.<format>, in the subject file's frame\n"
+                             "and unit, with the vertex scalar 'part'. One result per subject in OUT/results, OUT/summary.json\n"
+                             "and summary.csv; set-up and posing times in OUT/run*.json.") + kBatchCommon);
+  args.option("inputs", "DIR|LIST", "a folder of subject meshes (recursively, in sorted order) or a text file of paths")
+      .option("model", "FILE", "trained model (.pkm, posekit train)")
+      .option("pose", "FILE", "pose.json (16-part pose) or motion.bvh (MakeHuman skeleton)")
+      .option("method", "M", "learned (the paper's), rigid (parts only) or lbs (16-part skinning)", "learned")
+      .option("frames", "A:B", "BVH frames A to B-1 (default: all)")
+      .option("format", "EXT", "posed mesh format: ply, obj or off", "ply")
+      .option("data", "DIR", "MakeHuman data root, for the BVH skeleton (default: POSEKIT_DATA or ../shared/...)");
+  add_batch_options(&args);
+  args.example("posekit batch pose --inputs subjects.txt --model model.pkm --pose squat.json --out posed --jobs 2");
+  if (!args.parse(argc, argv)) return 0;
+  for (const char* required : {"inputs", "model", "pose", "out"})
+    if (!args.has(required)) throw UsageError(std::string("--") + required + " is required");
+  const std::string format = args.get("format");
+  if (format != "ply" && format != "obj" && format != "off") throw UsageError("--format expects ply, obj or off, got '" + format + "'");
+  const PoseMethod method = parse_pose_method(args.get("method"));
+  const auto model = std::make_shared<const PoseModel>(read_pose_model(args.get("model")));
+  const std::string model_bytes = read_file_bytes(args.get("model"));
+  const std::uint32_t model_crc = crc32(model_bytes.data(), model_bytes.size());  // a retrained model redoes every subject
+  const std::string pose_path = args.get("pose");
+  std::vector<std::pair<std::string, PartPose>> poses;
+  std::string ext = fs::path(pose_path).extension().string();
+  std::transform(ext.begin(), ext.end(), ext.begin(), [](unsigned char c) { return static_cast<char>(std::tolower(c)); });
+  const std::string pose_stem = fs::path(pose_path).stem().string();
+  long first = 0, last = 1;
+  if (ext == ".bvh") {
+    const BvhMotion motion = read_bvh(pose_path);
+    const auto mh = load_makehuman_model(find_data_root(args.has("data") ? args.get("data") : ""));
+    last = motion.frames.rows();
+    if (args.has("frames")) {
+      const auto [a, b] = parse_number_pair(args.get("frames"), ':', "--frames");
+      first = static_cast<long>(a), last = static_cast<long>(b);
+      if (first < 0 || last > motion.frames.rows() || first >= last)
+        throw UsageError("--frames " + args.get("frames") + " is outside the " + std::to_string(motion.frames.rows()) + " frames of " + pose_path);
+    }
+    for (long i = first; i < last; ++i) {
+      std::ostringstream name;
+      name << pose_stem << "_" << std::setw(4) << std::setfill('0') << i;
+      poses.emplace_back(name.str(), part_pose_from_bone_pose(mh->rig, bone_pose_from_bvh(mh->rig, motion, static_cast<int>(i))));
+    }
+  } else {
+    poses.emplace_back(pose_stem, read_part_pose(pose_path));
+  }
+  const fs::path posed_dir = fs::path(args.get("out")) / "posed";
+  std::mutex timing_mutex;
+  std::vector<double> setup_seconds, pose_ms;
+  BatchJob job;
+  job.command = "pose";
+  job.settings = {{"model", args.get("model")}, {"model_checksum", model_crc}, {"pose", pose_path},
+                  {"frames", {first, last}}, {"method", pose_method_name(method)}, {"format", format}};
+  job.process = [&](const std::string& input, const std::string& stem) {
+    PreparedBody subject = prepare_body(input, "auto");
+    if (subject.in.is_cloud) throw InvalidInput(input + ": the subject must be a mesh (triangles); this file has only points");
+    const TriangleMesh& mesh = subject.in.mesh;
+    const MeshReport report = validate_mesh(mesh);
+    if (report.components != 1)
+      throw InvalidInput(input + ": the subject mesh has " + std::to_string(report.components) +
+                         " connected components; posing needs one connected body");
+    std::vector<std::string> warnings = subject.warnings;
+    if (report.boundary_loops > 0)
+      warnings.push_back(std::to_string(report.boundary_loops) + " holes: features near them may be off");
+    const auto t0 = std::chrono::steady_clock::now();
+    const PoseSynthesizer synth = set_up_subject(model, mesh, input);
+    const double setup = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+    for (const auto& problem : synth.info().skeleton_problems) warnings.push_back("the skeleton looks wrong: " + problem);
+    const fs::path dir = posed_dir / stem;
+    fs::create_directories(dir);
+    TriangleMesh posed;
+    posed.F = mesh.F;
+    posed.vertex_scalars["part"] = vertex_labels_from_triangles(mesh.V, mesh.F, synth.info().triangle_part).cast<double>();
+    nlohmann::ordered_json files = nlohmann::ordered_json::array();
+    const auto t1 = std::chrono::steady_clock::now();
+    for (const auto& [name, pose] : poses) {
+      synth.pose(pose, method, &posed.V);
+      if (!subject.orientation.is_identity()) posed.V = in_file_frame(subject.orientation, posed.V);
+      const std::string path = (dir / (name + "." + format)).string();
+      std::vector<std::string> io;
+      write_mesh(path, posed, {subject.unit, MeshFormat::kAuto, true, &io});
+      warnings.insert(warnings.end(), io.begin(), io.end());
+      files.push_back(path);
+    }
+    const double posing = std::chrono::duration<double>(std::chrono::steady_clock::now() - t1).count();
+    {
+      std::lock_guard<std::mutex> lock(timing_mutex);
+      setup_seconds.push_back(setup);
+      pose_ms.push_back(1000 * posing / static_cast<double>(poses.size()));
+    }
+    nlohmann::ordered_json r = {{"unit", unit_name(subject.unit)},  {"up", axis_name(subject.orientation.up())},
+                                {"forward", axis_name(subject.orientation.forward())}, {"vertices", mesh.V.rows()},
+                                {"poses", poses.size()}, {"normal_failures", synth.info().normal_failures},
+                                {"files", files}, {"warnings", warnings}};
+    return r;
+  };
+  job.columns = pose_columns();
+  const int status = run_batch_job(args, job, list_inputs(args.get("inputs")));
+  if (!setup_seconds.empty() && !args.flag_set("json")) {
+    const Stats s = stats_of(setup_seconds), p = stats_of(pose_ms);
+    std::cout << "  per subject: set-up median " << std::setprecision(3) << s.median << " s (" << s.min << " to " << s.max
+              << "), posing median " << std::setprecision(2) << p.median << " ms per pose\n";
+  }
+  return status;
 }
 
 int run_batch_merge(int argc, char** argv) {
@@ -305,7 +639,8 @@ int run_batch_merge(int argc, char** argv) {
       first = s;
       seen.assign(static_cast<size_t>(shards), false);
     }
-    if (s["shards"].get<long>() != shards || s["inputs_checksum"] != first["inputs_checksum"] || s["command"] != first["command"])
+    if (s["shards"].get<long>() != shards || s["inputs_checksum"] != first["inputs_checksum"] || s["command"] != first["command"] ||
+        s.value("settings", nlohmann::ordered_json()) != first.value("settings", nlohmann::ordered_json()))
       throw InvalidInput(p.string() + ": a shard of another run (other inputs, shard count or command) than " + parts.front().string());
     seen[static_cast<size_t>(s["shard"].get<long>())] = true;
     for (const auto& r : s["results"]) rows.push_back(r);
@@ -319,6 +654,7 @@ int run_batch_merge(int argc, char** argv) {
   for (const auto& r : rows) failed += !r["ok"].get<bool>();
   nlohmann::ordered_json summary;
   summary["command"] = first["command"];
+  summary["settings"] = first.value("settings", nlohmann::ordered_json::object());
   summary["inputs_total"] = first["inputs_total"];
   summary["inputs_checksum"] = first["inputs_checksum"];
   summary["shard"] = 0;
@@ -327,7 +663,7 @@ int run_batch_merge(int argc, char** argv) {
   summary["ok"] = static_cast<long>(rows.size()) - failed;
   summary["failed"] = failed;
   summary["results"] = rows;
-  write_summary(out, "summary", summary);
+  write_summary(out, "summary", summary, columns_of(summary["command"].get<std::string>(), summary["settings"]));
   std::cout << "batch merge: " << shards << " shards, " << rows.size() << " inputs (" << failed << " failed) -> "
             << (out / "summary.csv").string() << "\n";
   return 0;
@@ -338,10 +674,16 @@ int run_batch_merge(int argc, char** argv) {
 int run_batch(int argc, char** argv) {
   const std::string sub = argc >= 1 ? argv[0] : "";
   if (sub == "measure") return run_batch_measure(argc - 1, argv + 1);
+  if (sub == "compare") return run_batch_compare(argc - 1, argv + 1);
+  if (sub == "pose") return run_batch_pose(argc - 1, argv + 1);
   if (sub == "merge") return run_batch_merge(argc - 1, argv + 1);
   std::cout << "usage: posekit batch measure --inputs DIR|LIST --out DIR [--jobs N] [--shard I/N]\n"
+               "       posekit batch compare --inputs PAIRS | --model FILE --inputs DIR|LIST --out DIR [--measure] [--heatmaps] ...\n"
+               "       posekit batch pose --inputs DIR|LIST --model FILE --pose FILE --out DIR [--method M] [--frames A:B] ...\n"
                "       posekit batch merge --out DIR\n\n"
                "  measure  measure many bodies, one result per input, a CSV + JSON summary (resumable, shardable)\n"
+               "  compare  compare many models with their scans (distances, coverage, girth discrepancies)\n"
+               "  pose     pose many subjects with one trained model into a pose or a BVH's frames\n"
                "  merge    join the summaries of a sharded run\n";
   return sub == "--help" || sub == "-h" ? 0 : 2;
 }

@@ -57,6 +57,15 @@ nlohmann::ordered_json stats_json(const ErrorStats& s) {
 
 }  // namespace
 
+PoseSynthesizer set_up_subject(std::shared_ptr<const PoseModel> model, const TriangleMesh& subject, const std::string& path) {
+  try {
+    return PoseSynthesizer(std::move(model), subject);
+  } catch (const InvalidInput& e) {
+    throw InvalidInput(path + ": cannot be set up for posing: " + e.what() +
+                       "; a subject must stand upright in the standard pose, arms away from the body");
+  }
+}
+
 int run_train(int argc, char** argv) {
   ArgParser args("train",
                  "Learns the non-rigid pose deformation T^Q (Eq. 3-5): for every template triangle a 9 x 7 linear\n"
@@ -163,7 +172,7 @@ int run_pose(int argc, char** argv) {
     poses.push_back(read_part_pose(pose_path));
   }
   const auto t0 = std::chrono::steady_clock::now();
-  const PoseSynthesizer synth(model, subject);
+  const PoseSynthesizer synth = set_up_subject(model, subject, args.get("subject"));
   const double setup = seconds_since(t0);
   for (const auto& problem : synth.info().skeleton_problems)
     std::cerr << "warning: " << args.get("subject") << ": the subject's skeleton looks wrong: " << problem << "\n";

@@ -1,5 +1,9 @@
 #pragma once
 // One function per `posekit` subcommand; argv excludes the program and subcommand names.
+#include <memory>
+#include <string>
+
+#include "posekit/deformation/pose_synthesis.h"
 
 namespace posekit::cli {
 int run_info(int argc, char** argv);
@@ -18,4 +22,8 @@ int run_compare(int argc, char** argv);
 int run_view(int argc, char** argv);
 int run_report(int argc, char** argv);
 int run_batch(int argc, char** argv);
+
+/// Sets a subject up for posing (segmentation, skeleton, correspondence); a body that cannot be set
+/// up is an InvalidInput naming `path` and the likely cause (it does not stand in the standard pose).
+PoseSynthesizer set_up_subject(std::shared_ptr<const PoseModel> model, const TriangleMesh& subject, const std::string& path);
 }  // namespace posekit::cli

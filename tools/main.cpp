@@ -30,7 +30,7 @@ const Command kCommands[] = {
     {"view", posekit::cli::run_view, "VTK viewer for meshes with error fields (window, or --png off-screen)"},
     {"report", posekit::cli::run_report, "the paper's figures and tables from a dataset, as HTML + Markdown"},
     {"dataset", posekit::cli::run_dataset, "generate the evaluation dataset, or check one"},
-    {"batch", posekit::cli::run_batch, "measure many bodies on several cores or machines (shards), with a CSV summary"},
+    {"batch", posekit::cli::run_batch, "measure, compare or pose many bodies on several cores or machines (shards), with a CSV summary"},
     {"bench", posekit::cli::run_bench, "benchmarks (io) with medians over several runs"},
 };
 

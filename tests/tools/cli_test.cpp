@@ -226,6 +226,28 @@ TEST(Cli, TrainPoseSegmentAndEvalOnASmallDataset) {
   EXPECT_EQ(nlohmann::json::parse(r.out)["written"].size(), 3u);
   for (const char* f : {"walk_0000.ply", "walk_0001.ply", "walk_0002.ply"}) EXPECT_EQ(read_mesh(dir.file(f)).V.rows(), posed.V.rows()) << f;
 
+  // batch pose: the same squat for two subjects and a posed body (not standing: listed as failed,
+  // with the reason), on two jobs; f01's mesh is the one `pose` wrote.
+  dir.write("subjects.txt", subject + "\n" + ds + "/subjects/m01/rest.ply\n" + ds + "/subjects/f01/posed/squat_half.ply\n");
+  const std::string batch_pose = "batch pose --inputs " + dir.file("subjects.txt") + " --model " + dir.file("m.pkm") + " --pose " + ds +
+                                 "/subjects/f01/posed/squat_half.json --out " + dir.file("posed") + " --jobs 2";
+  r = run(batch_pose, true);
+  EXPECT_EQ(r.code, 1) << r.out;
+  EXPECT_NE(r.out.find("3 inputs, 3 processed, 0 done earlier, 1 failed"), std::string::npos) << r.out;
+  auto pose_summary = nlohmann::json::parse(read_file_bytes(dir.file("posed/summary.json")));
+  ASSERT_EQ(pose_summary["results"].size(), 3u);
+  ASSERT_TRUE(pose_summary["results"][0]["ok"].get<bool>());
+  EXPECT_FALSE(pose_summary["results"][2]["ok"].get<bool>());
+  EXPECT_NE(pose_summary["results"][2]["error"].get<std::string>().find("must stand upright"), std::string::npos) << pose_summary["results"][2];
+  const TriangleMesh batch_posed = read_mesh(pose_summary["results"][0]["files"][0].get<std::string>());
+  ASSERT_EQ(batch_posed.V.rows(), posed.V.rows());
+  EXPECT_LT((batch_posed.V - posed.V).cwiseAbs().maxCoeff(), 1e-9);
+  EXPECT_EQ(read_mesh(pose_summary["results"][1]["files"][0].get<std::string>()).vertex_scalars.count("part"), 1u);
+  r = run(batch_pose);  // resumed: only the failure again
+  EXPECT_NE(r.out.find("3 inputs, 1 processed, 2 done earlier, 1 failed"), std::string::npos) << r.out;
+  r = run(batch_pose + " --method rigid");  // other settings: every result made again
+  EXPECT_NE(r.out.find("3 inputs, 3 processed, 0 done earlier, 1 failed"), std::string::npos) << r.out;
+
   // Segment, with joints out.
   r = run("segment " + subject + " --model " + dir.file("m.pkm") + " --out " + dir.file("parts.ply") + " --joints " +
           dir.file("joints.json") + " --json");
@@ -318,6 +340,45 @@ TEST(Cli, BatchMeasureListsFailuresResumesAndShardsMergeIntoTheSameSummary) {
   r = run("batch merge --out " + dir.file("two"), true);
   EXPECT_EQ(r.code, 1);
   EXPECT_NE(r.out.find("shards 1 of 2 have no summary"), std::string::npos) << r.out;
+}
+
+TEST(Cli, BatchCompareAgreesWithCompareAndWritesHeatmaps) {
+  ASSERT_FALSE(test::test_data_root().empty());
+  test::TempDir dir;
+  const std::string ds = test::small_dataset().root;
+  const std::string m01 = ds + "/subjects/m01/rest.ply", m01_scan = ds + "/scans/m01/rest.pcd";
+  // Pairs: tab, comma and space separated; a scan given as the model; a line without a scan.
+  dir.write("pairs.txt", m01 + "\t" + m01_scan + "\n" + ds + "/subjects/f01/rest.ply," + ds + "/scans/f01/rest.pcd\n" + m01_scan +
+                             " " + m01_scan + "\n" + m01 + "\n");
+  CommandResult r = run("batch compare --inputs " + dir.file("pairs.txt") + " --out " + dir.file("c") + " --measure --heatmaps --jobs 2", true);
+  EXPECT_EQ(r.code, 1) << r.out;
+  EXPECT_NE(r.out.find("4 inputs, 4 processed, 0 done earlier, 2 failed"), std::string::npos) << r.out;
+  EXPECT_NE(r.out.find("the model must be a mesh"), std::string::npos) << r.out;
+  EXPECT_NE(r.out.find("expected a model and a scan"), std::string::npos) << r.out;
+  const auto summary = nlohmann::json::parse(read_file_bytes(dir.file("c/summary.json")));
+  const auto& first = summary["results"][0];
+  ASSERT_TRUE(first["ok"].get<bool>()) << first;
+  r = run("compare " + m01 + " " + m01_scan + " --measure --json");
+  ASSERT_EQ(r.code, 0) << r.out;
+  const auto single = nlohmann::json::parse(r.out);
+  for (const char* direction : {"scan_to_model", "model_to_scan"})
+    for (const char* key : {"mean_mm", "rms_mm", "p95_mm"})
+      EXPECT_NEAR(first[direction][key].get<double>(), single[direction][key].get<double>(), 1e-9) << direction << " " << key;
+  for (const auto& g : single["girths"]) {
+    if (!g["measured"].get<bool>()) continue;
+    EXPECT_NEAR(first["girths"][g["name"].get<std::string>()]["difference_cm"].get<double>(), g["difference_cm"].get<double>(), 1e-9);
+  }
+  const TriangleMesh heatmap = read_mesh(first["heatmap"].get<std::string>());
+  EXPECT_EQ(heatmap.vertex_scalars.count("signed_distance_mm"), 1u);
+  const std::string csv = read_file_bytes(dir.file("c/summary.csv"));
+  EXPECT_NE(csv.find("waist_difference_cm"), std::string::npos);
+  EXPECT_EQ(std::count(csv.begin(), csv.end(), '\n'), 5);
+  // One model against a folder of scans; a folder without --model is a usage error.
+  std::filesystem::create_directories(dir.file("scans"));
+  std::filesystem::copy_file(m01_scan, dir.file("scans/a.pcd"));
+  r = run("batch compare --model " + m01 + " --inputs " + dir.file("scans") + " --out " + dir.file("d"));
+  EXPECT_EQ(r.code, 0) << r.out;
+  EXPECT_EQ(run("batch compare --inputs " + dir.file("scans") + " --out " + dir.file("e")).code, 2);
 }
 
 TEST(Cli, CompareMeasureAndView) {

@@ -76,6 +76,7 @@ Eigen::Vector3d resample(const std::vector<Eigen::Vector3d>& polygon, const Eige
 
 /// Convex hull (in the plane) of the given points, counter-clockwise about `normal`.
 std::vector<Eigen::Vector3d> planar_hull(const std::vector<Eigen::Vector3d>& pts, const Eigen::Vector3d& normal, const Eigen::Vector3d& front) {
+  if (pts.size() < 3) return pts;  // no polygon: the caller reports the degenerate section
   const Eigen::Vector3d side = normal.cross(front);
   std::vector<std::pair<Eigen::Vector2d, size_t>> q;
   for (size_t i = 0; i < pts.size(); ++i) q.push_back({Eigen::Vector2d(pts[i].dot(front), pts[i].dot(side)), i});
@@ -173,7 +174,8 @@ class Builder {
       const Eigen::MatrixXd& P = loops[nearest].points;
       for (Eigen::Index r = 0; r < P.rows(); ++r) polygon.push_back(P.row(r).transpose());
     }
-    if (polygon.size() < 3) throw InvalidInput("layered representation: degenerate section of the " + rep_.chain_names[chain]);
+    if (polygon.size() < 3) throw InvalidInput("layered representation: degenerate section of the " + rep_.chain_names[chain] +
+                                              " (is the body standing in the standard pose?)");
     const Eigen::Index row = static_cast<Eigen::Index>(rep_.layers.size()) * n_;
     points_.conservativeResize(row + n_, 3);
     RepresentationLayer layer;
