@@ -484,7 +484,7 @@ int run_batch_compare(int argc, char** argv) {
       const std::string path = (heatmap_dir / (stem + ".ply")).string();
       std::vector<std::string> io;
       write_mesh(path, shown, {model.unit, MeshFormat::kPly, true, &io});
-      r["heatmap"] = path;
+      r["heatmap"] = (fs::path("heatmaps") / (stem + ".ply")).string();  // relative to OUT
       warnings.insert(warnings.end(), io.begin(), io.end());
     }
     r["warnings"] = warnings;
@@ -509,8 +509,8 @@ int run_batch_pose(int argc, char** argv) {
   ArgParser args("batch pose",
                  std::string("Poses many bodies with one trained model (posekit pose): each subject mesh is segmented and\n"
                              "set up once, then put into every pose of --pose (a pose JSON, or the frames of a MakeHuman\n"
-                             "BVH). The posed meshes go to OUT/posed/<input>/<pose>.<format>, in the subject file's frame\n"
-                             "and unit, with the vertex scalar 'part'. One result per subject in OUT/results, OUT/summary.json\n"
+                             "BVH). The posed meshes go to OUT/posed/<input>/<pose>.<format> (listed relative to OUT), in\n"
+                             "the subject file's frame and unit, with the vertex scalar 'part'. One result per subject in OUT/results, OUT/summary.json\n"
                              "and summary.csv; set-up and posing times in OUT/run*.json.") + kBatchCommon);
   args.option("inputs", "DIR|LIST", "a folder of subject meshes (recursively, in sorted order) or a text file of paths")
       .option("model", "FILE", "trained model (.pkm, posekit train)")
@@ -590,7 +590,7 @@ int run_batch_pose(int argc, char** argv) {
       std::vector<std::string> io;
       write_mesh(path, posed, {subject.unit, MeshFormat::kAuto, true, &io});
       warnings.insert(warnings.end(), io.begin(), io.end());
-      files.push_back(path);
+      files.push_back((fs::path("posed") / stem / (name + "." + format)).string());  // relative to OUT: the summary moves with it
     }
     const double posing = std::chrono::duration<double>(std::chrono::steady_clock::now() - t1).count();
     {
@@ -622,6 +622,7 @@ int run_batch_merge(int argc, char** argv) {
   if (!args.parse(argc, argv)) return 0;
   if (!args.has("out")) throw UsageError("--out is required");
   const fs::path out = args.get("out");
+  if (!fs::is_directory(out)) throw InvalidInput(out.string() + ": no such folder (the --out of the sharded batch runs)");
   std::vector<fs::path> parts;
   for (const auto& e : fs::directory_iterator(out)) {
     const std::string name = e.path().filename().string();

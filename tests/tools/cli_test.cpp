@@ -239,10 +239,10 @@ TEST(Cli, TrainPoseSegmentAndEvalOnASmallDataset) {
   ASSERT_TRUE(pose_summary["results"][0]["ok"].get<bool>());
   EXPECT_FALSE(pose_summary["results"][2]["ok"].get<bool>());
   EXPECT_NE(pose_summary["results"][2]["error"].get<std::string>().find("must stand upright"), std::string::npos) << pose_summary["results"][2];
-  const TriangleMesh batch_posed = read_mesh(pose_summary["results"][0]["files"][0].get<std::string>());
+  const TriangleMesh batch_posed = read_mesh(dir.file("posed/" + pose_summary["results"][0]["files"][0].get<std::string>()));
   ASSERT_EQ(batch_posed.V.rows(), posed.V.rows());
   EXPECT_LT((batch_posed.V - posed.V).cwiseAbs().maxCoeff(), 1e-9);
-  EXPECT_EQ(read_mesh(pose_summary["results"][1]["files"][0].get<std::string>()).vertex_scalars.count("part"), 1u);
+  EXPECT_EQ(read_mesh(dir.file("posed/" + pose_summary["results"][1]["files"][0].get<std::string>())).vertex_scalars.count("part"), 1u);
   r = run(batch_pose);  // resumed: only the failure again
   EXPECT_NE(r.out.find("3 inputs, 1 processed, 2 done earlier, 1 failed"), std::string::npos) << r.out;
   r = run(batch_pose + " --method rigid");  // other settings: every result made again
@@ -368,7 +368,7 @@ TEST(Cli, BatchCompareAgreesWithCompareAndWritesHeatmaps) {
     if (!g["measured"].get<bool>()) continue;
     EXPECT_NEAR(first["girths"][g["name"].get<std::string>()]["difference_cm"].get<double>(), g["difference_cm"].get<double>(), 1e-9);
   }
-  const TriangleMesh heatmap = read_mesh(first["heatmap"].get<std::string>());
+  const TriangleMesh heatmap = read_mesh(dir.file("c/" + first["heatmap"].get<std::string>()));
   EXPECT_EQ(heatmap.vertex_scalars.count("signed_distance_mm"), 1u);
   const std::string csv = read_file_bytes(dir.file("c/summary.csv"));
   EXPECT_NE(csv.find("waist_difference_cm"), std::string::npos);
