@@ -494,7 +494,7 @@ BodyMeasurements measure_point_cloud(const Eigen::MatrixXd& scan) {
   BodyFeatures f = find_body_features(sections_of_clean_points(P, 0.005, kMaxGapDeg, slicing));
   refine_wrists(section, &f);
   BodyMeasurements m = measure(f, section);
-  // A sparse cloud bridges gaps under its cluster cell: an arm that near the chest counts as joined
+  // A sparse cloud bridges gaps under its cluster cell: an arm this near the chest counts as joined
   // to it, the arms separate lower, and the bust band ends below the fullest level. On simulated
   // scans of the default body: 3-6 mm short at 100k points (17 mm cells), 11-15 mm at 50k (20 mm),
   // 25-32 mm at 20k (32 mm).
@@ -502,15 +502,13 @@ BodyMeasurements measure_point_cloud(const Eigen::MatrixXd& scan) {
     std::ostringstream why;
     why << std::fixed << std::setprecision(0) << "the cloud's points are " << 1000 * slicing.cell / 2.7
         << " mm apart on its sparser parts: gaps under " << 1000 * slicing.cell << " mm (an arm near the chest) are not seen";
+    const bool too_sparse = slicing.cell > kSparsestBustCell;
     for (Girth& g : m.girths) {
-      if (g.name != "bust" || !g.measured) continue;
-      if (slicing.cell > kSparsestBustCell) {
-        g.measured = false;
-        g.note = why.str() + ", so the arms cannot be told from the chest";
-      } else {
-        m.features.warnings.push_back(why.str() + "; the bust may come out up to 1.5 cm short");
-      }
+      if ((g.name != "bust" && g.name != "underbust") || !g.measured || !too_sparse) continue;  // the underbust hangs from the bust
+      g.measured = false;
+      g.note = why.str() + ", so the arms cannot be told from the chest";
     }
+    if (!too_sparse) m.features.warnings.push_back(why.str() + "; the bust and underbust may come out up to 1.5 cm short");
   }
   return m;
 }
