@@ -703,7 +703,8 @@ int run_bench(int argc, char** argv) {
       "  registration  the paper's Table 1: ct-FFD vs ICP on a dataset, with correspondence accuracy\n"
       "  pose  training, per-subject set-up and per-pose time of the pose deformation\n"
       "  compare  a 1M-point scan against a 25k-triangle model\n"
-      "  measure  measuring a 300k-vertex mesh and a 300k-point scan\n";
+      "  measure  measuring a 300k-vertex mesh and a 300k-point scan\n"
+      "  all   every benchmark above, one table with the date and machine (benchmarks.json, benchmarks.md)\n";
   if (argc < 1 || std::string(argv[0]) == "--help" || std::string(argv[0]) == "-h") {
     std::cout << usage;
     return argc < 1 ? 2 : 0;
@@ -715,6 +716,7 @@ int run_bench(int argc, char** argv) {
   if (what == "pose") return bench_pose(argc - 1, argv + 1);
   if (what == "compare") return bench_compare(argc - 1, argv + 1);
   if (what == "measure") return bench_measure(argc - 1, argv + 1);
+  if (what == "all") return bench_all(argc - 1, argv + 1);
   throw UsageError("unknown benchmark '" + what + "'\n" + usage);
 }
 

@@ -9,6 +9,7 @@ namespace posekit::cli {
 int run_info(int argc, char** argv);
 int run_convert(int argc, char** argv);
 int run_bench(int argc, char** argv);
+int bench_all(int argc, char** argv);  ///< posekit bench all
 int run_body(int argc, char** argv);
 int run_dataset(int argc, char** argv);
 int run_measure(int argc, char** argv);

@@ -46,12 +46,32 @@ TEST(Cli, EveryCommandHasHelp) {
     EXPECT_EQ(r.code, 0) << c;
     EXPECT_NE(r.out.find("usage: posekit"), std::string::npos) << c;
   }
+  for (const char* c : {"batch measure", "batch compare", "batch pose", "batch merge", "bench all"}) {
+    const CommandResult r = run(std::string(c) + " --help");
+    EXPECT_EQ(r.code, 0) << c;
+    EXPECT_NE(r.out.find(std::string("usage: posekit ") + c), std::string::npos) << c;
+  }
   EXPECT_EQ(run("--help").code, 0);
   EXPECT_EQ(run("frobnicate").code, 2);
   const CommandResult version = run("--version");
   EXPECT_EQ(version.code, 0);
   EXPECT_EQ(version.out, std::string("posekit ") + POSEKIT_VERSION_STRING + "\n");
   EXPECT_EQ(std::string(posekit::version()), POSEKIT_VERSION_STRING);
+}
+
+TEST(Cli, BenchAllWritesOneTableWithTheDateAndMachine) {
+  test::TempDir dir;
+  CommandResult r = run("bench all --quick --only io,pose --out " + dir.file("b"));
+  ASSERT_EQ(r.code, 0) << r.out;
+  const std::string md = read_file_bytes(dir.file("b/benchmarks.md"));
+  EXPECT_NE(md.find("Machine: "), std::string::npos) << md;
+  EXPECT_NE(md.find("| io | read ply_binary | "), std::string::npos) << md;
+  EXPECT_NE(md.find("| pose | not run: no --dataset |"), std::string::npos) << md;
+  const auto j = nlohmann::json::parse(read_file_bytes(dir.file("b/benchmarks.json")));
+  ASSERT_EQ(j["benchmarks"].size(), 2u);
+  EXPECT_EQ(j["benchmarks"][0]["rows"].size(), 4u);  // PLY, OBJ, STL, PCD
+  for (const auto& row : j["benchmarks"][0]["rows"]) EXPECT_GT(row["median"].get<double>(), 0) << row;
+  EXPECT_EQ(run("bench all --only nothing --out " + dir.file("c")).code, 2);
 }
 
 TEST(Cli, InfoJsonReportsCountsAndValidity) {
