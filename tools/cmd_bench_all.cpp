@@ -12,6 +12,7 @@
 #include <nlohmann/json.hpp>
 #include <sstream>
 #include <thread>
+#include <algorithm>
 
 #include "cli.h"
 #include "commands.h"
@@ -122,8 +123,8 @@ std::string markdown(const nlohmann::ordered_json& report) {
 
 int bench_all(int argc, char** argv) {
   ArgParser args("bench all",
-                 "Runs every benchmark (io, body, measure, compare, and with --dataset pose and registration), each in\n"
-                 "its own process, and writes one table with the date and the machine: OUT/benchmarks.json (every\n"
+                 "Runs every benchmark (io, body, measure, compare, and with --dataset pose, registration and a\n"
+                 "batch measure of its rest subjects and scans), each in its own process, and writes one table with the date and the machine: OUT/benchmarks.json (every\n"
                  "benchmark's full output) and OUT/benchmarks.md (the table, for docs/). --quick runs each once on\n"
                  "smaller inputs (a smoke test, not figures to report).");
   args.option("dataset", "DIR", "a posekit dataset, for the pose and registration benchmarks (left out without it)")
@@ -156,7 +157,8 @@ int bench_all(int argc, char** argv) {
     for (std::string name; std::getline(list, name, ',');) {
       bool known = false;
       for (const auto& s : specs) known = known || s.name == name;
-      if (!known) throw UsageError("--only: unknown benchmark '" + name + "' (io, body, measure, compare, pose, registration)");
+      if (!known && name != "batch")
+        throw UsageError("--only: unknown benchmark '" + name + "' (io, body, measure, compare, pose, registration, batch)");
       only.push_back(name);
     }
   }
@@ -214,6 +216,60 @@ int bench_all(int argc, char** argv) {
       b["peak_rss_mib"] = most;
     }
     b["result"] = result;
+    report["benchmarks"].push_back(b);
+  }
+  // batch measure: throughput over the dataset's rest subjects and rest scans on 2 jobs, median of 3 runs.
+  if (!dataset.empty() && (only.empty() || std::find(only.begin(), only.end(), "batch") != only.end())) {
+    std::cerr << "bench all: batch\n";
+    nlohmann::ordered_json b = {{"name", "batch"}, {"options", "measure, rest subjects and rest scans of the dataset, --jobs 2"}};
+    const fs::path list = out / ".batch_inputs.txt";
+    long inputs = 0;
+    write_file_atomically(list.string(), [&](std::ostream& os) {
+      for (const char* kind : {"subjects", "scans"}) {
+        if (!fs::is_directory(fs::path(dataset) / kind)) continue;
+        std::vector<std::string> paths;
+        for (const auto& e : fs::directory_iterator(fs::path(dataset) / kind)) {
+          const fs::path rest = e.path() / (std::string(kind) == "subjects" ? "rest.ply" : "rest.pcd");
+          if (fs::is_regular_file(rest)) paths.push_back(rest.string());
+        }
+        std::sort(paths.begin(), paths.end());
+        for (const auto& p : paths) os << p << "\n", ++inputs;
+      }
+    }, false);
+    std::vector<double> rate, seconds, peak;
+    std::string note;
+    for (int run = 0; run < (quick ? 1 : 3) && note.empty(); ++run) {
+      const fs::path dir = out / ".batch_run";
+      fs::remove_all(dir);
+      const std::string json_path = (out / ".batch.json").string(), log = (out / "batch.log").string();
+      const int status = std::system((shell_quote(exe) + " batch measure --inputs " + shell_quote(list.string()) + " --out " +
+                                      shell_quote(dir.string()) + " --jobs 2 --json >" + shell_quote(json_path) + " 2>" + shell_quote(log))
+                                         .c_str());
+      try {
+        if (status != 0) throw IoError("exit status " + std::to_string(status));
+        const auto r = nlohmann::ordered_json::parse(read_file_bytes(json_path));
+        rate.push_back(r["inputs_per_second"].get<double>());
+        seconds.push_back(r["seconds"].get<double>());
+        peak.push_back(r["peak_rss_mib"].get<double>());
+      } catch (const std::exception& e) {
+        note = std::string("failed (") + e.what() + "; see " + log + ")";
+      }
+      fs::remove_all(dir);
+      fs::remove(json_path);
+    }
+    fs::remove(list);
+    if (!note.empty() || inputs == 0) {
+      b["ok"] = false;
+      b["note"] = inputs == 0 ? std::string("no rest subjects or scans in the dataset") : note;
+      ++failed;
+    } else {
+      const Stats r = stats_of(rate), t = stats_of(seconds);
+      b["ok"] = true;
+      b["rows"] = {{{"benchmark", "batch"}, {"case", "measure " + std::to_string(inputs) + " meshes and scans, 2 jobs: throughput"},
+                    {"unit", "inputs/s"}, {"median", r.median}, {"min", r.min}, {"max", r.max}},
+                   {{"benchmark", "batch"}, {"case", "the same: wall time"}, {"unit", "s"}, {"median", t.median}, {"min", t.min}, {"max", t.max}}};
+      b["peak_rss_mib"] = stats_of(peak).max;
+    }
     report["benchmarks"].push_back(b);
   }
   write_file_atomically((out / "benchmarks.json").string(), [&](std::ostream& os) { os << report.dump(2) << "\n"; }, false);
