@@ -2,7 +2,10 @@
 
 #include <gtest/gtest.h>
 
+#include <cstdio>
+#include <cstdlib>
 #include <filesystem>
+#include <nlohmann/json.hpp>
 #include <regex>
 
 #include "posekit/io/atomic_file.h"
@@ -11,7 +14,63 @@
 using namespace posekit;
 namespace fs = std::filesystem;
 
-TEST(Report, OnTheSmallDatasetLinksOnlyFilesThatExist) {
+
+namespace {
+
+/// Checks a report in a real headless browser (Chromium): a copy of index.html with a script that,
+/// once the page has loaded, counts images that did not load, tables without rows, with ragged rows
+/// or not rendered, and links whose target cannot be fetched. Returns the script's findings.
+nlohmann::json check_in_browser(const std::string& report_dir, const std::string& scratch) {
+  const char* script = R"JS(<script>
+window.addEventListener('load', function () {
+  var r = {images: 0, broken_images: [], tables: 0, bad_tables: [], links: 0, broken_links: []};
+  document.querySelectorAll('img').forEach(function (img) {
+    r.images++;
+    if (!img.complete || img.naturalWidth === 0) r.broken_images.push(img.getAttribute('src'));
+  });
+  document.querySelectorAll('table').forEach(function (t, i) {
+    r.tables++;
+    var rows = t.querySelectorAll('tr'), head = rows.length ? rows[0].cells.length : 0, ok = rows.length >= 2;
+    for (var k = 1; k < rows.length; ++k) ok = ok && rows[k].cells.length === head;
+    if (!ok || t.getBoundingClientRect().height === 0) r.bad_tables.push(i);
+  });
+  document.querySelectorAll('a[href]').forEach(function (a) {
+    var h = a.getAttribute('href');
+    if (/^[a-z]+:/i.test(h)) return;
+    r.links++;
+    if (h.charAt(0) === '#') { if (!document.getElementById(h.slice(1))) r.broken_links.push(h); return; }
+    try { var x = new XMLHttpRequest(); x.open('GET', h, false); x.send(); if (x.status !== 0 && x.status !== 200) r.broken_links.push(h); }
+    catch (e) { r.broken_links.push(h); }
+  });
+  var pre = document.createElement('pre'); pre.id = 'posekit-check'; pre.textContent = JSON.stringify(r);
+  document.body.appendChild(pre);
+});
+</script>)JS";
+  std::string html = read_file_bytes(report_dir + "/index.html");
+  const auto body_end = html.rfind("</body>");
+  html.insert(body_end == std::string::npos ? html.size() : body_end, script);
+  const std::string page = report_dir + "/.browser_check.html";
+  write_file_atomically(page, [&](std::ostream& out) { out << html; });
+  const std::string dump = scratch + "/dom.html";
+  const std::string cmd = "timeout 120 chromium --headless --no-sandbox --disable-gpu --allow-file-access-from-files "
+                          "--virtual-time-budget=20000 --user-data-dir=" + scratch + "/profile --dump-dom 'file://" +
+                          fs::absolute(page).string() + "' > " + dump + " 2>/dev/null";
+  const int status = std::system(cmd.c_str());
+  fs::remove(page);
+  if (status != 0) return nlohmann::json{{"error", "chromium failed (exit " + std::to_string(status) + "): " + cmd}};
+  const std::string dom = read_file_bytes(dump);
+  const auto start = dom.find("<pre id=\"posekit-check\">");
+  if (start == std::string::npos) return nlohmann::json{{"error", "the check script left no result"}};
+  const auto from = start + std::string("<pre id=\"posekit-check\">").size();
+  std::string text = dom.substr(from, dom.find("</pre>", from) - from);
+  for (const auto& [entity, c] : {std::pair<std::string, std::string>{"&lt;", "<"}, {"&gt;", ">"}, {"&amp;", "&"}})
+    for (auto at = text.find(entity); at != std::string::npos; at = text.find(entity, at)) text.replace(at, entity.size(), c);
+  return nlohmann::json::parse(text);
+}
+
+}  // namespace
+
+TEST(Report, OnTheSmallDatasetLinksOnlyFilesThatExistAndLoadsInABrowser) {
   const auto& ds = test::small_dataset();
   test::TempDir dir;
   ReportOptions o;
@@ -44,4 +103,22 @@ TEST(Report, OnTheSmallDatasetLinksOnlyFilesThatExist) {
     EXPECT_GT(bytes.size(), 20000u) << f;
   }
   EXPECT_NE(md.find("Made by: `posekit"), std::string::npos);
+
+  // In a real browser: every image loads, every table has rows and renders, no link is broken.
+  ASSERT_EQ(std::system("command -v chromium >/dev/null 2>&1"), 0) << "the browser check needs Chromium (Debian: chromium)";
+  test::TempDir scratch;
+  const nlohmann::json seen = check_in_browser(dir.file("report"), scratch.path());
+  ASSERT_FALSE(seen.contains("error")) << seen;
+  EXPECT_GE(seen["images"].get<int>(), 6) << seen;
+  EXPECT_TRUE(seen["broken_images"].empty()) << seen;
+  EXPECT_GE(seen["tables"].get<int>(), 3) << seen;
+  EXPECT_TRUE(seen["bad_tables"].empty()) << seen;
+  EXPECT_GE(seen["links"].get<int>(), 6) << seen;
+  EXPECT_TRUE(seen["broken_links"].empty()) << seen;
+  // The check sees a missing figure.
+  fs::rename(dir.file("report/fig2_template_poses.png"), dir.file("report/moved.png"));
+  const nlohmann::json broken = check_in_browser(dir.file("report"), scratch.path());
+  ASSERT_FALSE(broken.contains("error")) << broken;
+  EXPECT_EQ(broken["broken_images"].size(), 1u) << broken;
+  EXPECT_EQ(broken["broken_links"].size(), 1u) << broken;
 }
