@@ -192,3 +192,37 @@ TEST(Viewer, SurfacesFacingUpAreLitNotDark) {
   const double up60 = mean_around(cx, cy - r * std::sin(M_PI / 3));
   EXPECT_GT(up60, 0.75 * front) << "front " << front << ", 60 degrees up " << up60;
 }
+
+TEST(Viewer, InteractiveWindowPicksAVertexAndTogglesOverlayAndCamera) {
+  // The interactive viewer in a real (X or private Xvfb) window, driven by synthetic events through
+  // VTK's interactor: a click at the panel's centre picks the sphere's vertex nearest the camera
+  // (front: +Z), 's' hides the scan overlay, 'c' turns to the side view (+X), where the same
+  // click picks a vertex on the +X side.
+  ViewPanel panel;
+  panel.mesh = test::icosphere(4, 0.3);
+  panel.mesh.vertex_scalars["z_mm"] = 1000 * panel.mesh.V.col(2);
+  panel.scalar = "z_mm";
+  panel.overlay.P = panel.mesh.V * 1.02;
+  ViewOptions o;
+  o.panel_width = 300;
+  o.panel_height = 300;
+  const double centre_x = 150.0 / (300 + 200);  // the colour bar takes 200 pixels on the right
+  using Kind = ViewerEvent::Kind;
+  const std::vector<ViewerEvent> script = {{Kind::kClick, centre_x, 0.5, 0}, {Kind::kKey, centre_x, 0.5, 's'},
+                                           {Kind::kKey, centre_x, 0.5, 'c'}, {Kind::kClick, centre_x, 0.5, 0}};
+  const ViewerState state = show_panels({panel}, o, &script);
+  EXPECT_FALSE(state.overlays_visible);
+  EXPECT_EQ(state.camera, CameraPreset::kSide);
+  ASSERT_EQ(state.picks.size(), 2u);
+  auto picked = [&](const std::string& line) {
+    const auto at = line.find(" vertex ");
+    return std::stol(line.substr(at + 8));
+  };
+  const long front = picked(state.picks[0]), side = picked(state.picks[1]);
+  EXPECT_GT(panel.mesh.V(front, 2), 0.28) << state.picks[0];
+  EXPECT_GT(panel.mesh.V(side, 0), 0.28) << state.picks[1];
+  EXPECT_NE(state.picks[0].find("z_mm = "), std::string::npos) << state.picks[0];
+  // Picking a point off the body picks nothing.
+  const std::vector<ViewerEvent> miss = {{Kind::kClick, 0.02, 0.98, 0}};
+  EXPECT_TRUE(show_panels({panel}, o, &miss).picks.empty());
+}

@@ -9,6 +9,8 @@
 #include <vtkCallbackCommand.h>
 #include <vtkCamera.h>
 #include <vtkCellArray.h>
+#include <vtkCellPicker.h>
+#include <vtkCommand.h>
 #include <vtkColorTransferFunction.h>
 #include <vtkFloatArray.h>
 #include <vtkInteractorStyleTrackballCamera.h>
@@ -19,7 +21,6 @@
 #include <vtkObjectFactory.h>
 #include <vtkPNGWriter.h>
 #include <vtkPointData.h>
-#include <vtkPointPicker.h>
 #include <vtkPoints.h>
 #include <vtkPolyData.h>
 #include <vtkPolyDataMapper.h>
@@ -41,6 +42,7 @@
 #include <iostream>
 #include <limits>
 #include <memory>
+#include <sstream>
 #include <string>
 
 #include "posekit/core/error.h"
@@ -421,20 +423,27 @@ class PickingStyle : public vtkInteractorStyleTrackballCamera {
   vtkTypeMacro(PickingStyle, vtkInteractorStyleTrackballCamera);
   Scene* scene = nullptr;
   int preset = 0;
+  ViewerState* state = nullptr;
 
   void OnLeftButtonDown() override {
     int* pos = this->Interactor->GetEventPosition();
-    vtkNew<vtkPointPicker> picker;
-    picker->SetTolerance(0.005);
+    // The surface the ray meets first, then that triangle's corner nearest the hit: a point picker
+    // takes any vertex near the ray, the back of the body as readily as the front.
     for (size_t i = 0; i < scene->renderers.size(); ++i) {
+      vtkNew<vtkCellPicker> picker;
+      picker->SetTolerance(0.0005);
+      picker->PickFromListOn();
+      picker->AddPickList(scene->mesh_actors[i]);
       if (!picker->Pick(pos[0], pos[1], 0, scene->renderers[i]) || picker->GetPointId() < 0) continue;
       const ViewPanel& p = *scene->panels[i];
       const vtkIdType id = picker->GetPointId();
       if (id >= p.mesh.V.rows()) break;
-      std::cout << "panel " << i << (p.caption.empty() ? "" : " (" + p.caption + ")") << " vertex " << id << " at ("
-                << p.mesh.V(id, 0) << ", " << p.mesh.V(id, 1) << ", " << p.mesh.V(id, 2) << ") m";
-      if (!p.scalar.empty()) std::cout << ": " << p.scalar << " = " << p.mesh.vertex_scalars.at(p.scalar)[id];
-      std::cout << std::endl;
+      std::ostringstream line;
+      line << "panel " << i << (p.caption.empty() ? "" : " (" + p.caption + ")") << " vertex " << id << " at ("
+           << p.mesh.V(id, 0) << ", " << p.mesh.V(id, 1) << ", " << p.mesh.V(id, 2) << ") m";
+      if (!p.scalar.empty()) line << ": " << p.scalar << " = " << p.mesh.vertex_scalars.at(p.scalar)[id];
+      std::cout << line.str() << std::endl;
+      state->picks.push_back(line.str());
       break;
     }
     vtkInteractorStyleTrackballCamera::OnLeftButtonDown();
@@ -442,13 +451,15 @@ class PickingStyle : public vtkInteractorStyleTrackballCamera {
   void OnChar() override {
     const char key = this->Interactor->GetKeyCode();
     if (key == 's') {
+      state->overlays_visible = !state->overlays_visible;
       for (auto& a : scene->overlay_actors)
-        if (a) a->SetVisibility(!a->GetVisibility());
+        if (a) a->SetVisibility(state->overlays_visible);
       this->Interactor->Render();
       return;
     }
     if (key == 'c') {
       preset = (preset + 1) % 3;
+      state->camera = static_cast<CameraPreset>(preset);
       for (size_t i = 0; i < scene->renderers.size(); ++i)
         place_camera(scene->renderers[i], scene->mesh_actors[i], static_cast<CameraPreset>(preset), scene->aspect);
       this->Interactor->Render();
@@ -483,20 +494,45 @@ void render_panels_png(const std::vector<ViewPanel>& panels, const ViewOptions& 
   write_file_atomically(png_path, [&](std::ostream& out) { out.write(data, static_cast<std::streamsize>(size)); });
 }
 
-void show_panels(const std::vector<ViewPanel>& panels, const ViewOptions& options) {
+ViewerState show_panels(const std::vector<ViewPanel>& panels, const ViewOptions& options, const std::vector<ViewerEvent>* script) {
   [[maybe_unused]] const RenderingLeakScope leak_scope;
-  Display::require(false);
+  Display::require(script != nullptr);
   Scene scene = build_scene(panels, options);
+  ViewerState state;
   vtkNew<vtkRenderWindowInteractor> interactor;
   interactor->SetRenderWindow(scene.window);
   vtkNew<PickingStyle> style;
   style->scene = &scene;
+  style->state = &state;
   interactor->SetInteractorStyle(style);
-  std::cout << "posekit view: drag to rotate, wheel to zoom, click a vertex to read it, 's' scan on/off, "
-               "'c' front/side/back, 'q' quit"
-            << std::endl;
+  if (!script) {
+    std::cout << "posekit view: drag to rotate, wheel to zoom, click a vertex to read it, 's' scan on/off, "
+                 "'c' front/side/back, 'q' quit"
+              << std::endl;
+    scene.window->Render();
+    interactor->Start();
+    return state;
+  }
+  interactor->Initialize();
   scene.window->Render();
-  interactor->Start();
+  const int* size = scene.window->GetSize();
+  for (const ViewerEvent& e : *script) {
+    const int x = static_cast<int>(std::lround(e.x * (size[0] - 1))), y = static_cast<int>(std::lround(e.y * (size[1] - 1)));
+    if (e.kind == ViewerEvent::Kind::kClick) {
+      interactor->SetEventInformation(x, y, 0, 0, 0, 0, nullptr);
+      interactor->InvokeEvent(vtkCommand::LeftButtonPressEvent, nullptr);
+      interactor->InvokeEvent(vtkCommand::LeftButtonReleaseEvent, nullptr);
+    } else {
+      const char key[2] = {e.key, 0};
+      interactor->SetEventInformation(x, y, 0, 0, e.key, 1, key);
+      interactor->InvokeEvent(vtkCommand::KeyPressEvent, nullptr);
+      interactor->InvokeEvent(vtkCommand::CharEvent, nullptr);
+      interactor->InvokeEvent(vtkCommand::KeyReleaseEvent, nullptr);
+    }
+    scene.window->Render();
+  }
+  scene.window->Finalize();
+  return state;
 }
 
 }  // namespace posekit

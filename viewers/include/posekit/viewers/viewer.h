@@ -50,10 +50,29 @@ struct ViewOptions {
 /// or empty mesh, IoError when the PNG cannot be written or no display can be had.
 void render_panels_png(const std::vector<ViewPanel>& panels, const ViewOptions& options, const std::string& png_path);
 
+/// One synthetic input event for a scripted viewer session: a left click, or a key typed, at a
+/// point given as fractions of the window (0,0 bottom left; 1,1 top right).
+struct ViewerEvent {
+  enum class Kind { kClick, kKey } kind = Kind::kClick;
+  double x = 0.5, y = 0.5;
+  char key = 0;
+};
+
+/// What a session ended with: the overlays' visibility, the camera preset, one line per picked
+/// vertex ("panel 0 vertex 12 at (x, y, z) m: scalar = v").
+struct ViewerState {
+  bool overlays_visible = true;
+  CameraPreset camera = CameraPreset::kFront;
+  std::vector<std::string> picks;
+};
+
 /// Opens an interactive window (rotate, zoom; click a vertex to print its scalar; 's' toggles the
 /// overlays; 'c' cycles front/side/back). Returns when the window is closed. Throws IoError when no
-/// display is available.
-void show_panels(const std::vector<ViewPanel>& panels, const ViewOptions& options);
+/// display is available. With `script`, its events are played through VTK's interactor instead
+/// of waiting for the user (a private Xvfb is started when there is no display) and the window
+/// closes after the last one.
+ViewerState show_panels(const std::vector<ViewPanel>& panels, const ViewOptions& options,
+                        const std::vector<ViewerEvent>* script = nullptr);
 
 /// The range a colour map will use for these values (NaNs ignored).
 std::pair<double, double> colour_range(const ColourMap& map, const std::vector<const Eigen::VectorXd*>& values);
