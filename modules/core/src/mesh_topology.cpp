@@ -77,12 +77,29 @@ Eigen::MatrixXi face_adjacency(const Eigen::MatrixXi& F, int* non_manifold_edges
 }
 
 std::vector<std::vector<int>> boundary_loops(const Eigen::MatrixXi& F) {
-  const Eigen::MatrixXi TT = face_adjacency(F);
+  // Half-edges a->b bucketed by a (a counting sort, linear time); an edge is on the boundary when
+  // one face alone has it (a->b and b->a counted together). Cheaper than sorting every half-edge,
+  // which a body's features need twice.
+  int nv = 0;
+  for (Eigen::Index i = 0; i < F.size(); ++i) nv = std::max(nv, F.data()[i] + 1);
+  std::vector<int> first_out(static_cast<size_t>(nv) + 1, 0);
+  for (Eigen::Index f = 0; f < F.rows(); ++f)
+    for (int c = 0; c < 3; ++c) ++first_out[static_cast<size_t>(F(f, c)) + 1];
+  for (int v = 0; v < nv; ++v) first_out[v + 1] += first_out[v];
+  std::vector<int> head(static_cast<size_t>(first_out[nv]));
+  std::vector<int> fill(first_out.begin(), first_out.end() - 1);
+  for (Eigen::Index f = 0; f < F.rows(); ++f)
+    for (int c = 0; c < 3; ++c) head[static_cast<size_t>(fill[F(f, c)]++)] = F(f, (c + 1) % 3);
+  auto count = [&](int a, int b) {
+    int n = 0;
+    for (int k = first_out[a]; k < first_out[a + 1]; ++k) n += head[k] == b;
+    return n;
+  };
   // Boundary half-edges a->b in face orientation; a loop follows them head to tail.
   std::unordered_multimap<int, int> next;
-  for (Eigen::Index f = 0; f < F.rows(); ++f)
-    for (int c = 0; c < 3; ++c)
-      if (TT(f, c) < 0) next.emplace(F(f, c), F(f, (c + 1) % 3));
+  for (int a = 0; a < nv; ++a)
+    for (int k = first_out[a]; k < first_out[a + 1]; ++k)
+      if (count(a, head[k]) + count(head[k], a) == 1) next.emplace(a, head[k]);
   std::vector<std::vector<int>> loops;
   while (!next.empty()) {
     auto it = next.begin();
