@@ -508,8 +508,8 @@ int run_batch_compare(int argc, char** argv) {
 int run_batch_pose(int argc, char** argv) {
   ArgParser args("batch pose",
                  std::string("Poses many bodies with one trained model (posekit pose): each subject mesh is segmented and\n"
-                             "set up once, then put into every pose of --pose (a pose JSON, or the frames of a MakeHuman\n"
-                             "BVH). The posed meshes go to OUT/posed/<input>/<pose>.<format> (listed relative to OUT), in\n"
+                             "set up once, then put into every pose of --pose (a pose JSON, or the frames of a BVH: MakeHuman's\n"
+                             "skeleton, or any humanoid one retargeted to each subject's joints). The posed meshes go to OUT/posed/<input>/<pose>.<format> (listed relative to OUT), in\n"
                              "the subject file's frame and unit, with the vertex scalar 'part'. One result per subject in OUT/results, OUT/summary.json\n"
                              "and summary.csv; set-up and posing times in OUT/run*.json.") + kBatchCommon);
   args.option("inputs", "DIR|LIST", "a folder of subject meshes (recursively, in sorted order) or a text file of paths")
@@ -518,7 +518,9 @@ int run_batch_pose(int argc, char** argv) {
       .option("method", "M", "learned (the paper's), rigid (parts only) or lbs (16-part skinning)", "learned")
       .option("frames", "A:B", "BVH frames A to B-1 (default: all)")
       .option("format", "EXT", "posed mesh format: ply, obj or off", "ply")
-      .option("data", "DIR", "MakeHuman data root, for the BVH skeleton (default: POSEKIT_DATA or ../shared/...)");
+      .option("data", "DIR", "MakeHuman data root, for the BVH skeleton (default: POSEKIT_DATA or ../shared/...)")
+      .option("joint-map", "FILE", "JSON {\"left_shoulder\": \"<BVH joint>\", ...} for BVH joints the names do not tell")
+      .option("root-motion", "M", "a retargeted BVH's root translation: none, vertical (feet stay down) or all", "vertical");
   add_batch_options(&args);
   args.example("posekit batch pose --inputs subjects.txt --model model.pkm --pose squat.json --out posed --jobs 2");
   if (!args.parse(argc, argv)) return 0;
@@ -531,36 +533,24 @@ int run_batch_pose(int argc, char** argv) {
   const std::string model_bytes = read_file_bytes(args.get("model"));
   const std::uint32_t model_crc = crc32(model_bytes.data(), model_bytes.size());  // a retrained model redoes every subject
   const std::string pose_path = args.get("pose");
-  std::vector<std::pair<std::string, PartPose>> poses;
+  const std::string frames = args.has("frames") ? args.get("frames") : "", data = args.has("data") ? args.get("data") : "";
+  const std::string joint_map = args.has("joint-map") ? args.get("joint-map") : "", root_motion = args.get("root-motion");
+  // Pose JSONs and MakeHuman's BVHs are the same for every subject: loaded once. Other BVHs are
+  // retargeted to each subject's own joints.
   std::string ext = fs::path(pose_path).extension().string();
   std::transform(ext.begin(), ext.end(), ext.begin(), [](unsigned char c) { return static_cast<char>(std::tolower(c)); });
-  const std::string pose_stem = fs::path(pose_path).stem().string();
-  long first = 0, last = 1;
-  if (ext == ".bvh") {
-    const BvhMotion motion = read_bvh(pose_path);
-    const auto mh = load_makehuman_model(find_data_root(args.has("data") ? args.get("data") : ""));
-    last = motion.frames.rows();
-    if (args.has("frames")) {
-      const auto [a, b] = parse_number_pair(args.get("frames"), ':', "--frames");
-      first = static_cast<long>(a), last = static_cast<long>(b);
-      if (first < 0 || last > motion.frames.rows() || first >= last)
-        throw UsageError("--frames " + args.get("frames") + " is outside the " + std::to_string(motion.frames.rows()) + " frames of " + pose_path);
-    }
-    for (long i = first; i < last; ++i) {
-      std::ostringstream name;
-      name << pose_stem << "_" << std::setw(4) << std::setfill('0') << i;
-      poses.emplace_back(name.str(), part_pose_from_bone_pose(mh->rig, bone_pose_from_bvh(mh->rig, motion, static_cast<int>(i))));
-    }
-  } else {
-    poses.emplace_back(pose_stem, read_part_pose(pose_path));
-  }
+  const bool per_subject = ext == ".bvh" && read_bvh(pose_path).find_joint("upperarm01.L") < 0;
+  LoadedPoses shared;
+  if (!per_subject) shared = load_poses(pose_path, frames, data, Eigen::MatrixXd(), "", root_motion);
+  else (void)map_bvh_skeleton(read_bvh(pose_path), {});  // an unmappable skeleton fails once, not per subject
   const fs::path posed_dir = fs::path(args.get("out")) / "posed";
   std::mutex timing_mutex;
   std::vector<double> setup_seconds, pose_ms;
   BatchJob job;
   job.command = "pose";
   job.settings = {{"model", args.get("model")}, {"model_checksum", model_crc}, {"pose", pose_path},
-                  {"frames", {first, last}}, {"method", pose_method_name(method)}, {"format", format}};
+                  {"frames", frames}, {"joint_map", joint_map}, {"root_motion", root_motion}, {"method", pose_method_name(method)},
+                  {"format", format}};
   job.process = [&](const std::string& input, const std::string& stem) {
     PreparedBody subject = prepare_body(input, "auto");
     if (subject.in.is_cloud) throw InvalidInput(input + ": the subject must be a mesh (triangles); this file has only points");
@@ -583,7 +573,11 @@ int run_batch_pose(int argc, char** argv) {
     posed.vertex_scalars["part"] = vertex_labels_from_triangles(mesh.V, mesh.F, synth.info().triangle_part).cast<double>();
     nlohmann::ordered_json files = nlohmann::ordered_json::array();
     const auto t1 = std::chrono::steady_clock::now();
-    for (const auto& [name, pose] : poses) {
+    const LoadedPoses own = per_subject ? load_poses(pose_path, frames, data, synth.info().joint_centres, joint_map, root_motion) : LoadedPoses{};
+    const LoadedPoses& poses = per_subject ? own : shared;
+    for (size_t k = 0; k < poses.poses.size(); ++k) {
+      const std::string& name = poses.names[k];
+      const PartPose& pose = poses.poses[k];
       synth.pose(pose, method, &posed.V);
       if (!subject.orientation.is_identity()) posed.V = in_file_frame(subject.orientation, posed.V);
       const std::string path = (dir / (name + "." + format)).string();
@@ -596,11 +590,11 @@ int run_batch_pose(int argc, char** argv) {
     {
       std::lock_guard<std::mutex> lock(timing_mutex);
       setup_seconds.push_back(setup);
-      pose_ms.push_back(1000 * posing / static_cast<double>(poses.size()));
+      pose_ms.push_back(1000 * posing / static_cast<double>(poses.poses.size()));
     }
     nlohmann::ordered_json r = {{"unit", unit_name(subject.unit)},  {"up", axis_name(subject.orientation.up())},
                                 {"forward", axis_name(subject.orientation.forward())}, {"vertices", mesh.V.rows()},
-                                {"poses", poses.size()}, {"normal_failures", synth.info().normal_failures},
+                                {"poses", poses.poses.size()}, {"normal_failures", synth.info().normal_failures},
                                 {"files", files}, {"warnings", warnings}};
     return r;
   };

@@ -1,9 +1,11 @@
 // posekit train / pose / segment / eval: the pose deformation pipeline of section 3.3.
+#include <algorithm>
 #include <chrono>
 #include <filesystem>
 #include <sstream>
 #include <iomanip>
 #include <iostream>
+#include <map>
 #include <memory>
 #include <nlohmann/json.hpp>
 
@@ -56,6 +58,67 @@ nlohmann::ordered_json stats_json(const ErrorStats& s) {
 }
 
 }  // namespace
+
+LoadedPoses load_poses(const std::string& path, const std::string& frames, const std::string& data_root,
+                       const Eigen::MatrixXd& rest_joints, const std::string& joint_map, const std::string& root_motion) {
+  LoadedPoses out;
+  std::string ext = fs::path(path).extension().string();
+  std::transform(ext.begin(), ext.end(), ext.begin(), [](unsigned char c) { return static_cast<char>(std::tolower(c)); });
+  const std::string stem = fs::path(path).stem().string();
+  if (ext != ".bvh") {
+    out.names.push_back(stem);
+    out.poses.push_back(read_part_pose(path));
+    return out;
+  }
+  const BvhMotion motion = read_bvh(path);
+  if (motion.num_frames() == 0) throw InvalidInput(path + ": the motion has no frames");
+  long first = 0, last = motion.num_frames();
+  if (!frames.empty()) {
+    const auto [a, b] = parse_number_pair(frames, ':', "--frames");
+    first = static_cast<long>(a), last = static_cast<long>(b);
+    if (first < 0 || last > motion.num_frames() || first >= last)
+      throw UsageError("--frames " + frames + " is outside the " + std::to_string(motion.num_frames()) + " frames of " + path);
+  }
+  for (long i = first; i < last; ++i) {
+    std::ostringstream name;
+    name << stem << "_" << std::setw(4) << std::setfill('0') << i;
+    out.names.push_back(last - first > 1 ? name.str() : stem);
+  }
+  if (motion.find_joint("upperarm01.L") >= 0) {  // MakeHuman's own skeleton: through its rig, bone by bone
+    const auto mh = load_makehuman_model(find_data_root(data_root));
+    for (long i = first; i < last; ++i)
+      out.poses.push_back(part_pose_from_bone_pose(mh->rig, bone_pose_from_bvh(mh->rig, motion, static_cast<int>(i))));
+    return out;
+  }
+  std::map<std::string, std::string> overrides;
+  if (!joint_map.empty()) {
+    nlohmann::json j;
+    try {
+      j = nlohmann::json::parse(read_file_bytes(joint_map));
+    } catch (const nlohmann::json::exception& e) {
+      throw InvalidInput(joint_map + ": not JSON (" + e.what() + ")");
+    }
+    if (!j.is_object()) throw InvalidInput(joint_map + ": expected an object {\"left_shoulder\": \"<BVH joint>\", ...}");
+    for (const auto& [key, value] : j.items()) {
+      if (!value.is_string()) throw InvalidInput(joint_map + ": the value of '" + key + "' must be a BVH joint name");
+      overrides[key] = value.get<std::string>();
+    }
+  }
+  const BvhPartMap map = map_bvh_skeleton(motion, overrides);
+  RetargetOptions o;
+  o.first = static_cast<int>(first);
+  o.last = static_cast<int>(last);
+  if (root_motion == "none") o.root_motion = RetargetOptions::RootMotion::kNone;
+  else if (root_motion == "all") o.root_motion = RetargetOptions::RootMotion::kAll;
+  else if (root_motion != "vertical") throw UsageError("--root-motion expects none, vertical or all, got '" + root_motion + "'");
+  out.poses = retarget_bvh(motion, map, rest_joints, o);
+  std::string mapped;
+  for (int p = 0; p < kNumParts; ++p)
+    if (map.joint[p] >= 0) mapped += (mapped.empty() ? "" : ", ") + part_name(p) + "=" + motion.joints[static_cast<size_t>(map.joint[p])].name;
+  out.notes.push_back(path + ": retargeted from its own skeleton (" + mapped + ")");
+  out.notes.insert(out.notes.end(), map.notes.begin(), map.notes.end());
+  return out;
+}
 
 PoseSynthesizer set_up_subject(std::shared_ptr<const PoseModel> model, const TriangleMesh& subject, const std::string& path) {
   try {
@@ -127,7 +190,8 @@ int run_pose(int argc, char** argv) {
                  "Poses a customized body (any topology) with a trained model (section 3.3.3): its own\n"
                  "segmentation and skeleton give the rigid part rotations T^R, the template's learned T^Q is\n"
                  "carried over by the ct-FFD correspondence, and one prefactorised solve per pose gives the mesh.\n"
-                 "A pose is a 16-part pose JSON or a BVH of the MakeHuman skeleton (one mesh per frame).");
+                 "A pose is a 16-part pose JSON or a BVH (one mesh per frame): MakeHuman's skeleton, or any humanoid\n"
+                 "skeleton (CMU, Mixamo, ...) retargeted to the subject's joints.");
   args.option("model", "FILE", "trained model (.pkm, posekit train)")
       .option("subject", "FILE", "the body to pose (PLY/OBJ/OFF/STL), standing; posed meshes come out in its frame")
       .option("pose", "FILE", "pose.json (16-part pose) or motion.bvh")
@@ -136,8 +200,11 @@ int run_pose(int argc, char** argv) {
       .option("unit", "U", "unit of the subject mesh: m, dm, cm, mm, or auto (its largest extent tells)", "auto")
       .option("frames", "A:B", "BVH frames A to B-1 (default: all)")
       .option("data", "DIR", "MakeHuman data root, for the BVH skeleton (default: POSEKIT_DATA or ../shared/...)")
+      .option("joint-map", "FILE", "JSON {\"left_shoulder\": \"<BVH joint>\", ...} for BVH joints the names do not tell")
+      .option("root-motion", "M", "a retargeted BVH's root translation: none, vertical (feet stay down) or all", "vertical")
       .flag("json", "summary as JSON on stdout")
-      .example("posekit pose --model model.pkm --subject out/dataset/subjects/f01/rest.ply --pose out/dataset/subjects/f01/posed/squat_half.json --out posed.ply");
+      .example("posekit pose --model model.pkm --subject out/dataset/subjects/f01/rest.ply --pose out/dataset/subjects/f01/posed/squat_half.json --out posed.ply")
+      .example("posekit pose --model model.pkm --subject body.ply --pose cmu/01_01.bvh --frames 0:100 --out walk/frame.ply");
   add_orientation_options(&args, "", "the subject");
   if (!args.parse(argc, argv)) return 0;
   for (const char* required : {"model", "subject", "pose", "out"})
@@ -151,35 +218,20 @@ int run_pose(int argc, char** argv) {
       orient_body_input(&subject_input, args.get("up"), args.get("forward"), args.get("subject"), "pose");
   const TriangleMesh subject = std::move(subject_input.mesh);
   check_subject(subject, args.get("subject"));
-  std::vector<PartPose> poses;
-  const std::string pose_path = args.get("pose");
-  const bool bvh = fs::path(pose_path).extension() == ".bvh" || fs::path(pose_path).extension() == ".BVH";
-  if (bvh) {
-    const BvhMotion motion = read_bvh(pose_path);
-    const auto mh = load_makehuman_model(find_data_root(args.get("data")));
-    long first = 0, last = motion.frames.rows();
-    if (args.has("frames")) {
-      const auto [a, b] = parse_number_pair(args.get("frames"), ':', "--frames");
-      first = static_cast<long>(a);
-      last = static_cast<long>(b);
-      const std::string f = args.get("frames");
-      if (first < 0 || last > motion.frames.rows() || first >= last)
-        throw UsageError("--frames " + f + " is outside the " + std::to_string(motion.frames.rows()) + " frames of " + pose_path);
-    }
-    for (long i = first; i < last; ++i)
-      poses.push_back(part_pose_from_bone_pose(mh->rig, bone_pose_from_bvh(mh->rig, motion, static_cast<int>(i))));
-  } else {
-    poses.push_back(read_part_pose(pose_path));
-  }
   const auto t0 = std::chrono::steady_clock::now();
   const PoseSynthesizer synth = set_up_subject(model, subject, args.get("subject"));
   const double setup = seconds_since(t0);
   for (const auto& problem : synth.info().skeleton_problems)
     std::cerr << "warning: " << args.get("subject") << ": the subject's skeleton looks wrong: " << problem << "\n";
+  const LoadedPoses loaded = load_poses(args.get("pose"), args.has("frames") ? args.get("frames") : "", args.has("data") ? args.get("data") : "",
+                                        synth.info().joint_centres, args.has("joint-map") ? args.get("joint-map") : "", args.get("root-motion"));
+  for (const auto& note : loaded.notes) std::cerr << "posekit pose: " << note << "\n";
+  const std::vector<PartPose>& poses = loaded.poses;
   Progress progress("pose", static_cast<long>(poses.size()));
   double pose_seconds = 0;
   std::vector<std::string> written;
   const fs::path out = args.get("out");
+  if (!out.parent_path().empty()) fs::create_directories(out.parent_path());
   for (size_t i = 0; i < poses.size(); ++i) {
     const auto t1 = std::chrono::steady_clock::now();
     TriangleMesh posed;
@@ -213,6 +265,50 @@ int run_pose(int argc, char** argv) {
             << std::fixed << std::setprecision(3) << setup << " s, " << std::setprecision(2)
             << 1000 * pose_seconds / static_cast<double>(poses.size()) << " ms per pose, peak RSS " << std::setprecision(0)
             << peak_rss_mib() << " MiB; wrote " << written.front() << (written.size() > 1 ? " ..." : "") << "\n";
+  return 0;
+}
+
+int run_retarget(int argc, char** argv) {
+  ArgParser args("retarget",
+                 "Turns the frames of a humanoid BVH (CMU's namings, Mixamo, generic Hips/Spine/..., any channel\n"
+                 "order and unit, T-pose or A-pose rest) into 16-part pose JSONs, one per frame: the skeleton is\n"
+                 "mapped by names and structure (printed), each part's rest direction turned onto the file's, and\n"
+                 "the file's rotations applied. Poses are made for the default MakeHuman body's joints; `posekit\n"
+                 "pose --pose file.bvh` retargets to the subject's own joints instead.");
+  args.positional("bvh", "motion file (.bvh)")
+      .option("out", "DIR", "folder for <stem>_NNNN.json (created)")
+      .option("frames", "A:B", "frames A to B-1 (default: all)")
+      .option("every", "N", "every N-th frame", "1")
+      .option("joint-map", "FILE", "JSON {\"left_shoulder\": \"<BVH joint>\", ...} for joints the names do not tell")
+      .option("root-motion", "M", "root translation: none, vertical (feet stay down) or all", "vertical")
+      .option("data", "DIR", "MakeHuman data root, for the default body's joints (default: POSEKIT_DATA or ../shared/...)")
+      .flag("json", "summary as JSON on stdout")
+      .example("posekit retarget ../shared/datasets/motions/cmu/01_01.bvh --out poses --every 10");
+  if (!args.parse(argc, argv)) return 0;
+  if (!args.has("out")) throw UsageError("--out DIR is required");
+  const long every = args.get_int("every");
+  if (every < 1) throw UsageError("--every must be at least 1");
+  const auto mh = load_makehuman_model(find_data_root(args.has("data") ? args.get("data") : ""));
+  const Eigen::MatrixXd rest = joint_centres(mh->rig, build_body(*mh, BodySpec{}));
+  const LoadedPoses loaded = load_poses(args.positionals()[0], args.has("frames") ? args.get("frames") : "", args.has("data") ? args.get("data") : "",
+                                        rest, args.has("joint-map") ? args.get("joint-map") : "", args.get("root-motion"));
+  for (const auto& note : loaded.notes) std::cerr << "posekit retarget: " << note << "\n";
+  fs::create_directories(args.get("out"));
+  std::vector<std::string> written;
+  for (size_t i = 0; i < loaded.poses.size(); i += static_cast<size_t>(every)) {
+    const std::string path = (fs::path(args.get("out")) / (loaded.names[i] + ".json")).string();
+    validate_part_pose(loaded.poses[i], path);
+    write_file_atomically(path, [&](std::ostream& out) { out << part_pose_to_json(loaded.poses[i]); });
+    written.push_back(path);
+  }
+  nlohmann::ordered_json s = {{"bvh", args.positionals()[0]}, {"frames", loaded.poses.size()}, {"written", written.size()},
+                              {"mapping", loaded.notes}};
+  if (args.flag_set("json")) {
+    print_json(s);
+    return 0;
+  }
+  std::cout << "retargeted " << loaded.poses.size() << " frames of " << args.positionals()[0] << "; wrote " << written.size()
+            << " pose files to " << args.get("out") << "\n";
   return 0;
 }
 

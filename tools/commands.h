@@ -3,6 +3,7 @@
 #include <memory>
 #include <string>
 
+#include "posekit/body/bvh_retarget.h"
 #include "posekit/deformation/pose_synthesis.h"
 
 namespace posekit::cli {
@@ -16,6 +17,7 @@ int run_measure(int argc, char** argv);
 int run_register(int argc, char** argv);
 int run_train(int argc, char** argv);
 int run_pose(int argc, char** argv);
+int run_retarget(int argc, char** argv);
 int run_segment(int argc, char** argv);
 int run_eval(int argc, char** argv);
 int run_eval_bodies(int argc, char** argv);
@@ -23,6 +25,18 @@ int run_compare(int argc, char** argv);
 int run_view(int argc, char** argv);
 int run_report(int argc, char** argv);
 int run_batch(int argc, char** argv);
+
+/// The poses of a pose JSON or BVH file for a subject with these rest joint centres (posekit's
+/// frame): a BVH of MakeHuman's skeleton through its rig, any other humanoid BVH retargeted
+/// (map_bvh_skeleton, retarget_bvh). `frames` is "" or "A:B"; `joint_map` a JSON file ("" none);
+/// `root_motion` none, vertical or all. Names: the file's stem, with _NNNN per BVH frame when several.
+struct LoadedPoses {
+  std::vector<std::string> names;
+  std::vector<PartPose> poses;
+  std::vector<std::string> notes;  ///< how a BVH skeleton was mapped
+};
+LoadedPoses load_poses(const std::string& path, const std::string& frames, const std::string& data_root,
+                       const Eigen::MatrixXd& rest_joints, const std::string& joint_map, const std::string& root_motion);
 
 /// Sets a subject up for posing (segmentation, skeleton, correspondence); a body that cannot be set
 /// up is an InvalidInput naming `path` and the likely cause (it does not stand in the standard pose).

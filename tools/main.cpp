@@ -25,13 +25,14 @@ const Command kCommands[] = {
     {"segment", posekit::cli::run_segment, "segment a body into 16 parts (Eq. 2) and embed the skeleton"},
     {"train", posekit::cli::run_train, "learn the non-rigid pose deformation from a pose dataset (Eq. 3-5)"},
     {"pose", posekit::cli::run_pose, "pose a customized body from joint angles or a BVH (Eq. 1, 5-6)"},
+    {"retarget", posekit::cli::run_retarget, "16-part pose JSONs from the frames of any humanoid BVH (CMU, Mixamo, ...)"},
     {"eval", posekit::cli::run_eval, "accuracy against ground truth (eval pose, eval bodies)"},
     {"compare", posekit::cli::run_compare, "a model against a scan: distances, coverage, girth discrepancies, heatmap"},
     {"view", posekit::cli::run_view, "VTK viewer for meshes with error fields (window, or --png off-screen)"},
     {"report", posekit::cli::run_report, "the paper's figures and tables from a dataset, as HTML + Markdown"},
     {"dataset", posekit::cli::run_dataset, "generate the evaluation dataset, or check one"},
     {"batch", posekit::cli::run_batch, "measure, compare or pose many bodies on several cores or machines (shards), with a CSV summary"},
-    {"bench", posekit::cli::run_bench, "benchmarks (io) with medians over several runs"},
+    {"bench", posekit::cli::run_bench, "benchmarks with medians over several runs; bench all: one table"},
 };
 
 void print_usage() {

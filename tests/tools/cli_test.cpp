@@ -41,7 +41,7 @@ CommandResult run(const std::string& args, bool merge_stderr = false) {
 
 TEST(Cli, EveryCommandHasHelp) {
   for (const char* c : {"info", "convert", "bench", "body", "dataset", "train", "pose", "segment", "register", "measure",
-                        "compare", "view", "report", "batch"}) {
+                        "compare", "view", "report", "batch", "retarget"}) {
     const CommandResult r = run(std::string(c) + " --help");
     EXPECT_EQ(r.code, 0) << c;
     EXPECT_NE(r.out.find("usage: posekit"), std::string::npos) << c;
@@ -245,6 +245,28 @@ TEST(Cli, TrainPoseSegmentAndEvalOnASmallDataset) {
   ASSERT_EQ(r.code, 0) << r.out;
   EXPECT_EQ(nlohmann::json::parse(r.out)["written"].size(), 3u);
   for (const char* f : {"walk_0000.ply", "walk_0001.ply", "walk_0002.ply"}) EXPECT_EQ(read_mesh(dir.file(f)).V.rows(), posed.V.rows()) << f;
+
+  // Real motion capture (CMU, another skeleton): retargeted to the subject's joints, frame by frame;
+  // `retarget` writes the 16-part poses; a skeleton without a left hand is named as such.
+  const std::string cmu = (std::filesystem::path(test::test_data_root()).parent_path() / "motions/cmu/01_01.bvh").string();
+  r = run("pose --model " + dir.file("m.pkm") + " --subject " + subject + " --pose " + cmu + " --frames 100:103 --out " +
+          dir.file("cmu/f.ply") + " --json");
+  ASSERT_EQ(r.code, 0) << r.out;
+  EXPECT_EQ(nlohmann::json::parse(r.out)["written"].size(), 3u);
+  r = run("retarget " + cmu + " --frames 0:20 --every 10 --out " + dir.file("retargeted") + " --json");
+  ASSERT_EQ(r.code, 0) << r.out;
+  EXPECT_EQ(nlohmann::json::parse(r.out)["written"].get<int>(), 2);
+  EXPECT_TRUE(std::filesystem::is_regular_file(dir.file("retargeted/01_01_0010.json")));
+  BvhMotion handless = read_bvh(cmu);
+  for (auto& j : handless.joints)
+    if (j.name == "LeftHand") j.name = "Paw";
+  handless.frames = handless.frames.topRows(2).eval();
+  write_bvh(dir.file("handless.bvh"), handless);
+  r = run("retarget " + dir.file("handless.bvh") + " --out " + dir.file("x"), true);
+  EXPECT_EQ(r.code, 1);
+  EXPECT_NE(r.out.find("left_hand"), std::string::npos) << r.out;
+  dir.write("map.json", R"({"left_wrist": "Paw"})");
+  EXPECT_EQ(run("retarget " + dir.file("handless.bvh") + " --joint-map " + dir.file("map.json") + " --out " + dir.file("y")).code, 0);
 
   // batch pose: the same squat for two subjects and a posed body (not standing: listed as failed,
   // with the reason), on two jobs; f01's mesh is the one `pose` wrote.
