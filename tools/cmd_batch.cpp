@@ -539,10 +539,12 @@ int run_batch_pose(int argc, char** argv) {
   // retargeted to each subject's own joints.
   std::string ext = fs::path(pose_path).extension().string();
   std::transform(ext.begin(), ext.end(), ext.begin(), [](unsigned char c) { return static_cast<char>(std::tolower(c)); });
-  const bool per_subject = ext == ".bvh" && read_bvh(pose_path).find_joint("upperarm01.L") < 0;
+  BvhMotion motion;
+  if (ext == ".bvh") motion = read_bvh(pose_path);
+  const bool per_subject = ext == ".bvh" && motion.find_joint("upperarm01.L") < 0;
   LoadedPoses shared;
-  if (!per_subject) shared = load_poses(pose_path, frames, data, Eigen::MatrixXd(), "", root_motion);
-  else (void)map_bvh_skeleton(read_bvh(pose_path), {});  // an unmappable skeleton fails once, not per subject
+  if (!per_subject) shared = load_poses(pose_path, frames, data, Eigen::MatrixXd(), "", root_motion, ext == ".bvh" ? &motion : nullptr);
+  else (void)load_poses(pose_path, frames, data, Eigen::MatrixXd::Zero(kNumJoints, 3), joint_map, root_motion, &motion);  // bad input fails once, not per subject
   const fs::path posed_dir = fs::path(args.get("out")) / "posed";
   std::mutex timing_mutex;
   std::vector<double> setup_seconds, pose_ms;
@@ -573,7 +575,8 @@ int run_batch_pose(int argc, char** argv) {
     posed.vertex_scalars["part"] = vertex_labels_from_triangles(mesh.V, mesh.F, synth.info().triangle_part).cast<double>();
     nlohmann::ordered_json files = nlohmann::ordered_json::array();
     const auto t1 = std::chrono::steady_clock::now();
-    const LoadedPoses own = per_subject ? load_poses(pose_path, frames, data, synth.info().joint_centres, joint_map, root_motion) : LoadedPoses{};
+    const LoadedPoses own = per_subject ? load_poses(pose_path, frames, data, synth.info().joint_centres, joint_map, root_motion, &motion)
+                                         : LoadedPoses{};
     const LoadedPoses& poses = per_subject ? own : shared;
     for (size_t k = 0; k < poses.poses.size(); ++k) {
       const std::string& name = poses.names[k];

@@ -60,7 +60,8 @@ nlohmann::ordered_json stats_json(const ErrorStats& s) {
 }  // namespace
 
 LoadedPoses load_poses(const std::string& path, const std::string& frames, const std::string& data_root,
-                       const Eigen::MatrixXd& rest_joints, const std::string& joint_map, const std::string& root_motion) {
+                       const Eigen::MatrixXd& rest_joints, const std::string& joint_map, const std::string& root_motion,
+                       const BvhMotion* parsed) {
   LoadedPoses out;
   std::string ext = fs::path(path).extension().string();
   std::transform(ext.begin(), ext.end(), ext.begin(), [](unsigned char c) { return static_cast<char>(std::tolower(c)); });
@@ -70,7 +71,9 @@ LoadedPoses load_poses(const std::string& path, const std::string& frames, const
     out.poses.push_back(read_part_pose(path));
     return out;
   }
-  const BvhMotion motion = read_bvh(path);
+  BvhMotion read;
+  if (!parsed) read = read_bvh(path);
+  const BvhMotion& motion = parsed ? *parsed : read;
   if (motion.num_frames() == 0) throw InvalidInput(path + ": the motion has no frames");
   long first = 0, last = motion.num_frames();
   if (!frames.empty()) {

@@ -29,14 +29,16 @@ int run_batch(int argc, char** argv);
 /// The poses of a pose JSON or BVH file for a subject with these rest joint centres (posekit's
 /// frame): a BVH of MakeHuman's skeleton through its rig, any other humanoid BVH retargeted
 /// (map_bvh_skeleton, retarget_bvh). `frames` is "" or "A:B"; `joint_map` a JSON file ("" none);
-/// `root_motion` none, vertical or all. Names: the file's stem, with _NNNN per BVH frame when several.
+/// `root_motion` none, vertical or all; `parsed`: the BVH already read from `path`, or null. Names:
+/// the file's stem, with _NNNN per BVH frame when several.
 struct LoadedPoses {
   std::vector<std::string> names;
   std::vector<PartPose> poses;
   std::vector<std::string> notes;  ///< how a BVH skeleton was mapped
 };
 LoadedPoses load_poses(const std::string& path, const std::string& frames, const std::string& data_root,
-                       const Eigen::MatrixXd& rest_joints, const std::string& joint_map, const std::string& root_motion);
+                       const Eigen::MatrixXd& rest_joints, const std::string& joint_map, const std::string& root_motion,
+                       const BvhMotion* parsed = nullptr);
 
 /// Sets a subject up for posing (segmentation, skeleton, correspondence); a body that cannot be set
 /// up is an InvalidInput naming `path` and the likely cause (it does not stand in the standard pose).
