@@ -18,18 +18,49 @@ namespace fs = std::filesystem;
 namespace posekit {
 namespace {
 
-std::pair<double, double> correspondence_error_mm(const TriangleMesh& templ, const TriangleMesh& subject,
-                                                  const SurfacePoints& truth, const Eigen::VectorXi& match) {
-  const Eigen::MatrixXd true_points = face_centroids(evaluate_surface_points(templ.V, templ.F, truth), subject.F);
+struct ErrorStats {
+  double mean = 0, p95 = 0, max = 0;
+};
+
+ErrorStats error_stats(std::vector<double> d) {
+  ErrorStats s;
+  if (d.empty()) return s;
+  for (double x : d) s.mean += x / static_cast<double>(d.size());
+  std::sort(d.begin(), d.end());
+  s.p95 = d[static_cast<size_t>(0.95 * static_cast<double>(d.size() - 1))];
+  s.max = d.back();
+  return s;
+}
+
+/// Triangle match error (mm): for each subject triangle, the distance on the template between the
+/// centroid of its matched template triangle and the true point of its centroid.
+ErrorStats triangle_match_error_mm(const TriangleMesh& templ, const Eigen::MatrixXd& true_centroids, const Eigen::VectorXi& match) {
   const Eigen::MatrixXd source_centroids = face_centroids(templ.V, templ.F);
   std::vector<double> d(static_cast<size_t>(match.size()));
   for (Eigen::Index k = 0; k < match.size(); ++k)
-    d[static_cast<size_t>(k)] = 1000 * (source_centroids.row(match[k]) - true_points.row(k)).norm();
-  double mean = 0;
-  for (double x : d) mean += x;
-  mean /= static_cast<double>(d.size());
-  std::sort(d.begin(), d.end());
-  return {mean, d[static_cast<size_t>(0.95 * static_cast<double>(d.size() - 1))]};
+    d[static_cast<size_t>(k)] = 1000 * (source_centroids.row(match[k]) - true_centroids.row(k)).norm();
+  return error_stats(std::move(d));
+}
+
+/// Point correspondence error (mm): each subject vertex's closest point on the registered source,
+/// taken back to the template by its triangle and barycentric coordinates, against its true point.
+ErrorStats point_error_mm(const TriangleMesh& templ, const Eigen::MatrixXd& deformed, const TriangleMesh& subject,
+                          const Eigen::MatrixXd& true_points) {
+  TriangleMesh registered;
+  registered.V = deformed;
+  registered.F = templ.F;
+  const SurfacePoints found = closest_surface_points(registered, subject.V);
+  const Eigen::MatrixXd on_template = evaluate_surface_points(templ.V, templ.F, found);
+  std::vector<double> d(static_cast<size_t>(subject.V.rows()));
+  for (Eigen::Index k = 0; k < subject.V.rows(); ++k)
+    d[static_cast<size_t>(k)] = 1000 * (on_template.row(k) - true_points.row(k)).norm();
+  return error_stats(std::move(d));
+}
+
+/// The triangle match error of the true correspondence itself: each subject triangle matched to the
+/// template triangle holding its true centroid point. No registration can go below it.
+ErrorStats triangle_match_floor_mm(const TriangleMesh& templ, const Eigen::MatrixXd& true_centroids) {
+  return triangle_match_error_mm(templ, true_centroids, closest_surface_points(templ, true_centroids).face);
 }
 
 }  // namespace
@@ -42,14 +73,16 @@ RegistrationTable measure_registration_table(const std::string& dir, const Regis
     std::string name;
     RegistrationOptions options;
   };
-  std::vector<Method> methods(3);
+  std::vector<Method> methods(4);
   methods[0].name = "ct-FFD";
-  methods[1].name = "ICP (1 iteration)";
-  methods[1].options.method = RegistrationMethod::kIcp;
-  methods[1].options.icp_iterations = 1;
-  methods[2].name = "ICP (6 iterations)";
+  methods[1].name = "ct-FFD + NICP refinement";
+  methods[1].options.refine = true;
+  methods[2].name = "ICP (1 iteration)";
   methods[2].options.method = RegistrationMethod::kIcp;
-  methods[2].options.icp_iterations = 6;
+  methods[2].options.icp_iterations = 1;
+  methods[3].name = "ICP (6 iterations)";
+  methods[3].options.method = RegistrationMethod::kIcp;
+  methods[3].options.icp_iterations = 6;
   if (o.nicp_runs > 0) {
     methods.push_back({"non-rigid ICP (optimal step)", {}});
     methods.back().options.method = RegistrationMethod::kNicp;
@@ -59,7 +92,8 @@ RegistrationTable measure_registration_table(const std::string& dir, const Regis
   table.template_triangles = templ.num_faces();
   table.rows.resize(methods.size());
   for (size_t m = 0; m < methods.size(); ++m) table.rows[m].method = methods[m].name;
-  std::vector<std::vector<double>> p95(methods.size());
+  std::vector<std::vector<ErrorStats>> point(methods.size()), match(methods.size());
+  std::vector<ErrorStats> floor;
   const auto& subjects = manifest.at("subjects");
   const int total = o.subjects > 0 ? std::min<int>(o.subjects, static_cast<int>(subjects.size())) : static_cast<int>(subjects.size());
   long vertices = 0, triangles = 0;
@@ -68,6 +102,9 @@ RegistrationTable measure_registration_table(const std::string& dir, const Regis
     table.subject_ids.push_back(s.value("id", "?"));
     const TriangleMesh subject = read_mesh((fs::path(dir) / s.at("rest").get<std::string>()).string());
     const SurfacePoints truth = load_correspondence((fs::path(dir) / s.at("correspondence").get<std::string>()).string());
+    const Eigen::MatrixXd true_points = evaluate_surface_points(templ.V, templ.F, truth);
+    const Eigen::MatrixXd true_centroids = face_centroids(true_points, subject.F);
+    floor.push_back(triangle_match_floor_mm(templ, true_centroids));
     vertices += subject.num_vertices();
     triangles += subject.num_faces();
     for (size_t m = 0; m < methods.size(); ++m) {
@@ -78,9 +115,10 @@ RegistrationTable measure_registration_table(const std::string& dir, const Regis
         r = register_bodies(templ, subject, methods[m].options);
         table.rows[m].seconds.push_back(r.seconds);
       }
-      const auto [mean, p] = correspondence_error_mm(templ, subject, truth, r.correspondence);
-      table.rows[m].subject_mean_error_mm.push_back(mean);
-      p95[m].push_back(p);
+      match[m].push_back(triangle_match_error_mm(templ, true_centroids, r.correspondence));
+      point[m].push_back(point_error_mm(templ, r.deformed_source, subject, true_points));
+      table.rows[m].subject_mean_error_mm.push_back(match[m].back().mean);
+      table.rows[m].subject_point_mean_mm.push_back(point[m].back().mean);
       ++table.rows[m].subjects;
     }
     if (o.progress) o.progress(si + 1, total);
@@ -95,9 +133,20 @@ RegistrationTable measure_registration_table(const std::string& dir, const Regis
     row.median_s = t.size() % 2 ? t[t.size() / 2] : 0.5 * (t[t.size() / 2 - 1] + t[t.size() / 2]);
     row.min_s = t.front();
     row.max_s = t.back();
-    for (double e : row.subject_mean_error_mm) row.mean_error_mm += e / static_cast<double>(row.subject_mean_error_mm.size());
-    for (double e : p95[m]) row.p95_error_mm += e / static_cast<double>(p95[m].size());
+    const double k = static_cast<double>(match[m].size());
+    for (size_t s = 0; s < match[m].size(); ++s) {
+      row.mean_error_mm += match[m][s].mean / k;
+      row.p95_error_mm += match[m][s].p95 / k;
+      row.point_mean_mm += point[m][s].mean / k;
+      row.point_p95_mm += point[m][s].p95 / k;
+      row.point_max_mm += point[m][s].max / k;
+    }
     row.worst_subject_mean_error_mm = *std::max_element(row.subject_mean_error_mm.begin(), row.subject_mean_error_mm.end());
+    row.worst_subject_point_mean_mm = *std::max_element(row.subject_point_mean_mm.begin(), row.subject_point_mean_mm.end());
+  }
+  for (const ErrorStats& f : floor) {
+    table.triangle_floor_mean_mm += f.mean / static_cast<double>(floor.size());
+    table.triangle_floor_p95_mm += f.p95 / static_cast<double>(floor.size());
   }
   return table;
 }
