@@ -120,6 +120,24 @@ double ArgParser::get_double(const std::string& name) const {
   }
   throw UsageError("--" + name + " expects a number, got '" + v + "'");
 }
+std::vector<double> ArgParser::get_double_list(const std::string& name) const {
+  const std::string& v = get(name);
+  std::vector<double> out;
+  size_t begin = 0;
+  while (begin <= v.size()) {
+    const size_t end = std::min(v.find(',', begin), v.size());
+    const std::string item = v.substr(begin, end - begin);
+    try {
+      size_t used = 0;
+      out.push_back(std::stod(item, &used));
+      if (used != item.size()) throw UsageError("");
+    } catch (...) {
+      throw UsageError("--" + name + " expects numbers separated by commas, got '" + v + "'");
+    }
+    begin = end + 1;
+  }
+  return out;
+}
 long ArgParser::get_int(const std::string& name) const {
   const std::string& v = get(name);
   try {

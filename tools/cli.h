@@ -38,6 +38,7 @@ class ArgParser {
   bool has(const std::string& name) const;
   bool flag_set(const std::string& name) const { return has(name); }
   double get_double(const std::string& name) const;
+  std::vector<double> get_double_list(const std::string& name) const;  ///< "a,b,c"
   long get_int(const std::string& name) const;
   const std::vector<std::string>& positionals() const { return positional_values_; }
   std::string help() const;

@@ -18,13 +18,22 @@ int run_register(int argc, char** argv) {
                  "every target triangle to the source triangle with the nearest centroid facing the same way\n"
                  "(Eq. 2b/2c). ctffd: ct-FFD through the layered representations (section 3.3.3); icp: rigid\n"
                  "ICP (PCL) for --iterations, the paper's Table 1 baseline; nicp: optimal-step non-rigid ICP\n"
-                 "(Amberg et al. 2007). Both bodies standing, in any axis convention and unit (detected, or given).");
+                 "(Amberg et al. 2007: stiffness schedule, automatic landmarks, point-to-plane, rejection). --refine\n"
+                 "adds soft non-rigid ICP steps after ct-FFD. Prints the quality judged without ground truth\n"
+                 "(distance to the target, coverage, normal agreement, fold-overs) and warns when it is poor.\n"
+                 "Both bodies standing, in any axis convention and unit (detected, or given).");
   args.positional("source", "source mesh").positional("target", "target mesh")
       .option("method", "M", "ctffd, icp or nicp", "ctffd")
       .option("iterations", "N", "ICP iterations", "6")
+      .flag("refine", "ctffd: refine by soft non-rigid ICP steps started from ct-FFD's result")
+      .option("stiffness", "A,B,..", "non-rigid ICP stiffness schedule, stiff to soft (default: nicp 100,50,25,12,6,3,1.5; refine 4,2)")
+      .option("landmark-weight", "W", "non-rigid ICP landmark weight at the first stiffness (falls with it)", "1")
+      .option("steps", "N", "non-rigid ICP iterations at most per stiffness (default: nicp 5, refine 2)")
+      .option("point-to-point", "S", "share of point-to-point in non-rigid ICP's data term (0: point-to-plane)", "0.1")
       .option("unit", "U", "unit of both meshes: m, dm, cm, mm, or auto (each one's largest extent tells)", "auto")
       .option("out", "FILE", "correspondence JSON: for each target triangle its source triangle")
       .option("deformed", "FILE", "write the source deformed onto the target (mesh)")
+      .option("quality", "FILE", "write the summary with the quality judged without ground truth (JSON)")
       .flag("json", "summary as JSON on stdout")
       .example("posekit register dataset/template/rest.ply dataset/subjects/f01/rest.ply --out corr.json --deformed d.ply");
   add_orientation_options(&args, "source-", "the source");
@@ -43,6 +52,16 @@ int run_register(int argc, char** argv) {
   RegistrationOptions o;
   o.method = parse_registration_method(args.get("method"));
   o.icp_iterations = static_cast<int>(args.get_int("iterations"));
+  o.refine = args.flag_set("refine");
+  if (o.refine && o.method != RegistrationMethod::kCtffd) throw UsageError("--refine applies to --method ctffd");
+  for (NicpOptions* n : {&o.nicp, &o.refinement}) {
+    if (args.has("stiffness")) n->stiffness = args.get_double_list("stiffness");
+    if (args.has("steps")) n->max_iterations_per_stiffness = static_cast<int>(args.get_int("steps"));
+    n->landmark_weight = args.get_double("landmark-weight");
+    n->point_to_point = args.get_double("point-to-point");
+    if (n->point_to_point < 0 || n->point_to_point > 1) throw UsageError("--point-to-point must be between 0 and 1");
+    if (n->landmark_weight < 0) throw UsageError("--landmark-weight must not be negative");
+  }
   const RegistrationResult r = register_bodies(source, target, o);
   if (args.has("out")) {
     nlohmann::json j;
@@ -60,16 +79,37 @@ int run_register(int argc, char** argv) {
     d.F = source.F;
     write_mesh(args.get("deformed"), d, {target_unit.unit, MeshFormat::kAuto, true, io_warnings()});
   }
-  nlohmann::ordered_json s = {{"method", args.get("method")}, {"source_vertices", source.num_vertices()},
+  const RegistrationQuality q = assess_registration(source, r.deformed_source, target);
+  nlohmann::ordered_json s = {{"method", args.get("method")}, {"refine", o.refine}, {"source_vertices", source.num_vertices()},
                               {"target_triangles", target.num_faces()}, {"seconds", r.seconds},
-                              {"normal_failures", r.normal_failures}};
+                              {"normal_failures", r.normal_failures},
+                              {"quality", {{"mean_distance_mm", q.mean_distance_mm}, {"p95_distance_mm", q.p95_distance_mm},
+                                           {"target_covered", q.target_covered}, {"normals_agree", q.normals_agree},
+                                           {"folded_triangles", q.folded_triangles}, {"warnings", q.warnings}}}};
+  if (!r.nicp.stiffness.empty())
+    s["nicp"] = {{"stiffness", r.nicp.stiffness}, {"iterations", r.nicp.iterations}, {"solves", r.nicp.solves},
+                 {"landmarks", r.nicp.landmarks}, {"accepted_fraction", r.nicp.accepted_fraction}};
+  if (args.has("quality")) {
+    const std::string text = s.dump(2) + "\n";
+    write_file_atomically(args.get("quality"), [&](std::ostream& out) { out << text; }, false);
+  }
+  for (const std::string& w : q.warnings) std::cerr << "posekit register: warning: " << w << "\n";
   if (args.flag_set("json")) {
     std::cout << s.dump(2) << std::endl;
     return 0;
   }
   std::cout << "registered " << args.positionals()[0] << " -> " << args.positionals()[1] << " by " << args.get("method")
             << " in " << std::fixed << std::setprecision(3) << r.seconds << " s; " << target.num_faces()
-            << " target triangles matched (" << r.normal_failures << " without a source triangle facing the same way)\n";
+            << " target triangles matched (" << r.normal_failures << " without a source triangle facing the same way)\n"
+            << "quality: source to target " << std::setprecision(1) << q.mean_distance_mm << " mm mean, " << q.p95_distance_mm
+            << " mm p95; target covered " << 100 * q.target_covered << "%; normals agree " << 100 * q.normals_agree
+            << "%; " << q.folded_triangles << " triangles folded\n";
+  if (!r.nicp.stiffness.empty()) {
+    std::cout << "non-rigid ICP: " << r.nicp.landmarks << " landmarks; stiffness (iterations)";
+    for (size_t k = 0; k < r.nicp.stiffness.size(); ++k)
+      std::cout << " " << std::setprecision(2) << r.nicp.stiffness[k] << " (" << r.nicp.iterations[k] << ")";
+    std::cout << "\n";
+  }
   return 0;
 }
 

@@ -110,8 +110,8 @@ PoseSynthesizer::PoseSynthesizer(std::shared_ptr<const PoseModel> model, const T
     s.info.joint_centres = M.joint_centres;
     s.info.template_triangle = Eigen::VectorXi::LinSpaced(s.F.rows(), 0, static_cast<int>(s.F.rows()) - 1);
   } else {
-    const LayeredRepresentation template_rep =
-        build_layered_representation(M.template_V, M.template_F, find_body_features(M.template_V, M.template_F));
+    const BodyFeatures template_features = find_body_features(M.template_V, M.template_F);
+    const LayeredRepresentation template_rep = build_layered_representation(M.template_V, M.template_F, template_features);
     const BodyFeatures features = find_body_features(s.V, s.F);
     const LayeredRepresentation rep = build_layered_representation(s.V, s.F, features);
     s.info.seconds_representation = seconds_since(t0);
@@ -127,7 +127,10 @@ PoseSynthesizer::PoseSynthesizer(std::shared_ptr<const PoseModel> model, const T
     s.info.skeleton_problems = std::move(result.check.problems);
     s.info.seconds_segmentation = seconds_since(t0);
     t0 = std::chrono::steady_clock::now();
-    const Eigen::MatrixXd deformed = ctffd_evaluate(ctffd_parametrize(M.template_V, template_rep), rep);
+    // ct-FFD's target layers sit at the template's torso proportions (segmentation keeps the features').
+    const LayeredRepresentation rep_in_proportion =
+        build_layered_representation(s.V, s.F, torso_levels_in_proportion(features, template_features));
+    const Eigen::MatrixXd deformed = ctffd_evaluate(ctffd_parametrize(M.template_V, template_rep), rep_in_proportion);
     s.info.template_triangle =
         nearest_centroid_correspondence(deformed, M.template_F, s.V, s.F, &s.info.normal_failures);
     s.info.seconds_correspondence = seconds_since(t0);

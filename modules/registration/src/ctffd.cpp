@@ -1,6 +1,7 @@
 #include "posekit/registration/ctffd.h"
 
 #include <Eigen/Geometry>
+#include <algorithm>
 #include <vector>
 
 #include "posekit/core/error.h"
@@ -88,6 +89,19 @@ CtffdParametrization ctffd_parametrize(const Eigen::MatrixXd& V, const LayeredRe
         d.dot(e3) / radius;
   }
   return p;
+}
+
+BodyFeatures torso_levels_in_proportion(BodyFeatures target, const BodyFeatures& source) {
+  const auto low = [](const BodyFeatures& f) { return 0.5 * (f.hip[0].y() + f.hip[1].y()); };
+  const auto high = [](const BodyFeatures& f) { return 0.5 * (f.shoulder[0].y() + f.shoulder[1].y()); };
+  const double ss = high(source) - low(source), ts = high(target) - low(target);
+  if (!(ss > 0) || !(ts > 0)) return target;
+  const double bottom = target.crotch_y + 0.02, top = std::min(target.armpit[0].y(), target.armpit[1].y()) - 0.02;
+  if (!(top > bottom)) return target;
+  for (auto [t, s] : {std::pair{&target.hip_y, source.hip_y}, {&target.waist_y, source.waist_y},
+                      {&target.underbust_y, source.underbust_y}, {&target.bust_y, source.bust_y}})
+    *t = std::clamp(low(target) + ts * (s - low(source)) / ss, bottom, top);
+  return target;
 }
 
 Eigen::MatrixXd ctffd_evaluate(const CtffdParametrization& p, const LayeredRepresentation& target) {

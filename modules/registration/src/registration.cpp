@@ -4,9 +4,14 @@
 #include <pcl/point_types.h>
 #include <pcl/registration/icp.h>
 
+#include <algorithm>
 #include <chrono>
+#include <cstdio>
+#include <string>
 
+#include "posekit/core/closest_point.h"
 #include "posekit/core/error.h"
+#include "posekit/core/mesh_geometry.h"
 #include "posekit/core/mesh_validation.h"
 #include "posekit/registration/correspondence.h"
 #include "posekit/registration/ctffd.h"
@@ -14,6 +19,97 @@
 #include "posekit/shape/layered_representation.h"
 
 namespace posekit {
+namespace {
+
+/// NICP's landmarks: points of the source's representation on the source surface, to land on the
+/// same points of the target's (the layered representations share one topology).
+std::vector<NicpLandmark> representation_landmarks(const TriangleMesh& source, const LayeredRepresentation& rs,
+                                                   const LayeredRepresentation& rt, int layer_stride, int point_stride) {
+  const int n = rs.points_per_layer;
+  std::vector<Eigen::Index> picked;
+  for (size_t layer = 0; layer < rs.layers.size(); layer += static_cast<size_t>(std::max(layer_stride, 1)))
+    for (int k = 0; k < n; k += std::max(point_stride, 1)) picked.push_back(static_cast<Eigen::Index>(layer) * n + k);
+  Eigen::MatrixXd points(static_cast<Eigen::Index>(picked.size()), 3);
+  for (size_t i = 0; i < picked.size(); ++i) points.row(static_cast<Eigen::Index>(i)) = rs.mesh.V.row(picked[i]);
+  const ClosestPoints on_source = TriangleTree(source.V, source.F).closest(points, 1);
+  std::vector<NicpLandmark> out(picked.size());
+  for (size_t i = 0; i < picked.size(); ++i) {
+    out[i].source_face = on_source.face[static_cast<Eigen::Index>(i)];
+    out[i].source_bary = on_source.bary.row(static_cast<Eigen::Index>(i)).transpose();
+    out[i].target = rt.mesh.V.row(picked[i]).transpose();
+  }
+  return out;
+}
+
+/// Registration compares bodies point by point: both must stand along +Y in one unit.
+void require_comparable_bodies(const TriangleMesh& source, const TriangleMesh& target) {
+  const auto extent = [](const TriangleMesh& m) { return (m.V.colwise().maxCoeff() - m.V.colwise().minCoeff()).eval(); };
+  const auto text = [](const Eigen::RowVector3d& e) {
+    char buf[96];
+    std::snprintf(buf, sizeof buf, "%.4g x %.4g x %.4g", e[0], e[1], e[2]);
+    return std::string(buf);
+  };
+  const Eigen::RowVector3d es = extent(source), et = extent(target);
+  for (const auto& [e, name] : {std::pair{es, "source"}, std::pair{et, "target"}})
+    if (!(e[1] > e[0] && e[1] > e[2]))
+      throw InvalidInput(std::string("registration: the ") + name + " does not stand along +Y (extent x, y, z " + text(e) +
+                         "): turn it into posekit's frame first (posekit register detects the up and forward axes, or "
+                         "takes --" + name + "-up/--" + name + "-forward)");
+  const double ratio = et[1] / es[1];
+  if (!(ratio > 0.5 && ratio < 2.0))
+    throw InvalidInput("registration: the target is " + std::to_string(ratio) + " times the source's height (" +
+                       text(es) + " against " + text(et) + "): the two meshes are in different units; convert one "
+                       "(posekit register --unit, or the file's unit)");
+}
+
+}  // namespace
+
+NicpOptions RegistrationOptions::refinement_defaults() {
+  NicpOptions o;
+  o.stiffness = {4, 2};
+  o.max_iterations_per_stiffness = 2;
+  o.align_landmarks_first = false;
+  return o;
+}
+
+RegistrationQuality assess_registration(const TriangleMesh& source, const Eigen::MatrixXd& deformed, const TriangleMesh& target) {
+  if (deformed.rows() != source.V.rows()) throw InvalidInput("assess_registration: one registered position per source vertex expected");
+  RegistrationQuality q;
+  const ClosestPoints to_target = TriangleTree(target.V, target.F).closest(deformed, 1);
+  std::vector<double> d(to_target.distance.data(), to_target.distance.data() + to_target.distance.size());
+  for (double x : d) q.mean_distance_mm += 1000 * x / static_cast<double>(d.size());
+  std::sort(d.begin(), d.end());
+  q.p95_distance_mm = 1000 * d[static_cast<size_t>(0.95 * static_cast<double>(d.size() - 1))];
+  const ClosestPoints to_source = TriangleTree(deformed, source.F).closest(target.V, 1);
+  q.target_covered = (to_source.distance.array() < 0.010).cast<double>().mean();
+  const Eigen::MatrixXd ns = vertex_normals(deformed, source.F), nt = face_normals(target.V, target.F);
+  int agree = 0;
+  for (Eigen::Index i = 0; i < deformed.rows(); ++i) agree += ns.row(i).dot(nt.row(to_target.face[i])) > 0.5;
+  q.normals_agree = static_cast<double>(agree) / static_cast<double>(deformed.rows());
+  const Eigen::MatrixXd before = face_normals(source.V, source.F), after = face_normals(deformed, source.F);
+  for (Eigen::Index f = 0; f < source.F.rows(); ++f) q.folded_triangles += before.row(f).dot(after.row(f)) < 0;
+  char buf[256];
+  if (q.mean_distance_mm > 3 || q.p95_distance_mm > 10) {
+    std::snprintf(buf, sizeof buf, "the registered source lies %.1f mm (p95 %.1f mm) from the target: it does not follow the "
+                  "target's shape, and the correspondence is poor", q.mean_distance_mm, q.p95_distance_mm);
+    q.warnings.push_back(buf);
+  }
+  if (q.target_covered < 0.95) {
+    std::snprintf(buf, sizeof buf, "%.1f%% of the target is farther than 10 mm from the registered source (a part it "
+                  "did not reach: another pose, or something the source does not have)", 100 * (1 - q.target_covered));
+    q.warnings.push_back(buf);
+  }
+  if (q.normals_agree < 0.95) {
+    std::snprintf(buf, sizeof buf, "%.1f%% of the registered source faces more than 60 degrees away from the target "
+                  "surface it lies on", 100 * (1 - q.normals_agree));
+    q.warnings.push_back(buf);
+  }
+  if (q.folded_triangles > source.F.rows() / 1000) {
+    std::snprintf(buf, sizeof buf, "%d triangles of the source folded over", q.folded_triangles);
+    q.warnings.push_back(buf);
+  }
+  return q;
+}
 
 RegistrationMethod parse_registration_method(const std::string& name) {
   if (name == "ctffd") return RegistrationMethod::kCtffd;
@@ -25,16 +121,27 @@ RegistrationMethod parse_registration_method(const std::string& name) {
 RegistrationResult register_bodies(const TriangleMesh& source, const TriangleMesh& target, const RegistrationOptions& o) {
   require_usable_mesh(source, "registration source");
   require_usable_mesh(target, "registration target");
+  require_comparable_bodies(source, target);
   const auto t0 = std::chrono::steady_clock::now();
   RegistrationResult r;
   if (o.method == RegistrationMethod::kCtffd) {
-    const LayeredRepresentation rs =
-        build_layered_representation(source.V, source.F, find_body_features(source.V, source.F), o.points_per_layer);
-    const LayeredRepresentation rt =
-        build_layered_representation(target.V, target.F, find_body_features(target.V, target.F), o.points_per_layer);
+    const BodyFeatures fs = find_body_features(source.V, source.F);
+    const BodyFeatures ft = find_body_features(target.V, target.F);
+    const LayeredRepresentation rs = build_layered_representation(source.V, source.F, fs, o.points_per_layer);
+    const LayeredRepresentation rt = build_layered_representation(
+        target.V, target.F, torso_levels_in_proportion(ft, fs), o.points_per_layer);
     r.deformed_source = ctffd_evaluate(ctffd_parametrize(source.V, rs), rt);
+    r.ctffd_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+    if (o.refine) {
+      r.nicp = nonrigid_icp(source, target, o.refinement, {}, &r.deformed_source);
+      r.deformed_source = r.nicp.V;
+    }
   } else if (o.method == RegistrationMethod::kNicp) {
-    r.deformed_source = nonrigid_icp(source, target).V;
+    const LayeredRepresentation rs = build_layered_representation(source.V, source.F, find_body_features(source.V, source.F), 16);
+    const LayeredRepresentation rt = build_layered_representation(target.V, target.F, find_body_features(target.V, target.F), 16);
+    r.nicp = nonrigid_icp(source, target, o.nicp,
+                          representation_landmarks(source, rs, rt, o.landmark_layer_stride, o.landmark_point_stride));
+    r.deformed_source = r.nicp.V;
   } else {
     if (o.icp_iterations < 1) throw InvalidInput("ICP needs at least one iteration");
     pcl::PointCloud<pcl::PointXYZ>::Ptr src(new pcl::PointCloud<pcl::PointXYZ>), tgt(new pcl::PointCloud<pcl::PointXYZ>);

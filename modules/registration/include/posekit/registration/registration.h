@@ -4,8 +4,10 @@
 // baseline of the paper's Table 1.
 #include <Eigen/Core>
 #include <string>
+#include <vector>
 
 #include "posekit/core/triangle_mesh.h"
+#include "posekit/registration/nicp.h"
 
 namespace posekit {
 
@@ -15,6 +17,15 @@ struct RegistrationOptions {
   RegistrationMethod method = RegistrationMethod::kCtffd;
   int icp_iterations = 6;            ///< PCL IterativeClosestPoint iterations (kIcp)
   int points_per_layer = 32;         ///< layered representation resolution (kCtffd)
+  /// kCtffd: refine ct-FFD's result by a few soft steps of non-rigid ICP (`refinement`) started from it.
+  bool refine = false;
+  NicpOptions nicp;                  ///< kNicp: the full schedule, landmarks from the layered representations
+  NicpOptions refinement = refinement_defaults();
+  /// Landmarks for kNicp: every `landmark_layer_stride`-th layer of the representation, and on it
+  /// every `landmark_point_stride`-th point.
+  int landmark_layer_stride = 2, landmark_point_stride = 4;
+
+  static NicpOptions refinement_defaults();
 };
 
 struct RegistrationResult {
@@ -22,11 +33,26 @@ struct RegistrationResult {
   Eigen::VectorXi correspondence;    ///< #Ft: for each target triangle, its source triangle (Eq. 2b/2c)
   int normal_failures = 0;           ///< target triangles with no source triangle facing the same way
   double seconds = 0;                ///< wall time of the whole registration
+  double ctffd_seconds = 0;          ///< of which ct-FFD (kCtffd)
+  NicpResult nicp;                   ///< the non-rigid ICP's schedule and last pairs (kNicp, or refine)
 };
 
 /// Registers source to target and matches triangles by nearest centroid. Throws InvalidInput when a
 /// body's features cannot be found (ct-FFD) or a mesh is unusable.
 RegistrationResult register_bodies(const TriangleMesh& source, const TriangleMesh& target, const RegistrationOptions& options = {});
+
+/// What can be judged of a registration without ground truth.
+struct RegistrationQuality {
+  double mean_distance_mm = 0, p95_distance_mm = 0;  ///< registered source vertices to the target surface
+  double target_covered = 0;   ///< share of target vertices within 10 mm of the registered source
+  double normals_agree = 0;    ///< share of registered source vertices facing within 60 degrees of the target there
+  int folded_triangles = 0;    ///< triangles turned over (facing against their own direction on the source)
+  std::vector<std::string> warnings;  ///< what is poor, said plainly
+};
+
+/// Distances, coverage, normal agreement and fold-overs of `deformed` (the source's vertices after
+/// registration) against the target; warnings when the correspondence cannot be good.
+RegistrationQuality assess_registration(const TriangleMesh& source, const Eigen::MatrixXd& deformed, const TriangleMesh& target);
 
 RegistrationMethod parse_registration_method(const std::string& name);  ///< "ctffd", "icp" or "nicp"
 
