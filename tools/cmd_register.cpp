@@ -27,7 +27,7 @@ int run_register(int argc, char** argv) {
       .option("iterations", "N", "ICP iterations", "6")
       .flag("refine", "ctffd: refine by soft non-rigid ICP steps started from ct-FFD's result")
       .option("stiffness", "A,B,..", "non-rigid ICP stiffness schedule, stiff to soft (default: nicp 100,50,25,12,6,3,1.5; refine 4,2)")
-      .option("landmark-weight", "W", "non-rigid ICP landmark weight at the first stiffness (falls with it)", "1")
+      .option("landmark-weight", "W", "non-rigid ICP landmark weight at the first stiffness (falls with it)", "10")
       .option("steps", "N", "non-rigid ICP iterations at most per stiffness (default: nicp 5, refine 2)")
       .option("point-to-point", "S", "share of point-to-point in non-rigid ICP's data term (0: point-to-plane)", "0.1")
       .option("unit", "U", "unit of both meshes: m, dm, cm, mm, or auto (each one's largest extent tells)", "auto")
@@ -86,6 +86,7 @@ int run_register(int argc, char** argv) {
                               {"quality", {{"mean_distance_mm", q.mean_distance_mm}, {"p95_distance_mm", q.p95_distance_mm},
                                            {"target_covered", q.target_covered}, {"normals_agree", q.normals_agree},
                                            {"folded_triangles", q.folded_triangles}, {"warnings", q.warnings}}}};
+  s["warnings"] = r.warnings;
   if (!r.nicp.stiffness.empty())
     s["nicp"] = {{"stiffness", r.nicp.stiffness}, {"iterations", r.nicp.iterations}, {"solves", r.nicp.solves},
                  {"landmarks", r.nicp.landmarks}, {"accepted_fraction", r.nicp.accepted_fraction}};
@@ -93,6 +94,7 @@ int run_register(int argc, char** argv) {
     const std::string text = s.dump(2) + "\n";
     write_file_atomically(args.get("quality"), [&](std::ostream& out) { out << text; }, false);
   }
+  for (const std::string& w : r.warnings) std::cerr << "posekit register: warning: " << w << "\n";
   for (const std::string& w : q.warnings) std::cerr << "posekit register: warning: " << w << "\n";
   if (args.flag_set("json")) {
     std::cout << s.dump(2) << std::endl;

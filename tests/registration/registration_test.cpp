@@ -15,6 +15,7 @@
 #include "posekit/registration/correspondence.h"
 #include "posekit/registration/ctffd.h"
 #include "posekit/registration/nicp.h"
+#include "posekit/shape/body_features.h"
 #include "posekit/shape/measurements.h"
 #include "testing/makehuman_fixture.h"
 #include "testing/test_meshes.h"
@@ -135,6 +136,27 @@ TEST(Registration, EveryMethodGivesTheSameBitsTwice) {
     EXPECT_TRUE(a.deformed_source == b.deformed_source) << static_cast<int>(o.method) << " refine " << o.refine;
     EXPECT_TRUE(a.correspondence == b.correspondence);
   }
+}
+
+TEST(Registration, WarnsWhenALimbsJointsAreImplausible) {
+  POSEKIT_REQUIRE_MAKEHUMAN();
+  // The left forearm cut off half way: the arm ends in an opening, the wrist goes to the cut's
+  // centre, and the forearm comes out far too short against the template's.
+  const Body templ = build_body(model, BodySpec{});
+  const BodyFeatures f = find_body_features(templ.mesh.V, templ.mesh.F);
+  const double cut_x = 0.5 * (f.elbow[0].x() + f.wrist[0].x());
+  const Eigen::MatrixXd C = face_centroids(templ.mesh.V, templ.mesh.F);
+  std::vector<bool> keep(static_cast<size_t>(C.rows()));
+  for (Eigen::Index k = 0; k < C.rows(); ++k) keep[static_cast<size_t>(k)] = C(k, 0) < cut_x;
+  const TriangleMesh cut = extract_faces(templ.mesh, keep);
+  const RegistrationResult r = register_bodies(templ.mesh, cut);
+  const auto has = [&](const std::string& text) {
+    return std::any_of(r.warnings.begin(), r.warnings.end(), [&](const std::string& w) { return w.find(text) != std::string::npos; });
+  };
+  EXPECT_TRUE(has("the target's left forearm is")) << ::testing::PrintToString(r.warnings);
+  EXPECT_TRUE(has("target: ")) << ::testing::PrintToString(r.warnings);
+  EXPECT_FALSE(has("right forearm"));
+  EXPECT_TRUE(register_bodies(templ.mesh, templ.mesh).warnings.empty());
 }
 
 TEST(Registration, RefusesBodiesInOtherUnitsOrLyingDown) {

@@ -132,8 +132,8 @@ NicpResult nonrigid_icp(const TriangleMesh& source, const TriangleMesh& target, 
   Eigen::SimplicialLLT<SparseMatrix> solver;
   solver.analyzePattern(stiffness);
 
-  // Landmarks: each row of D_L mixes its triangle's three corners. Together they weigh as much as
-  // all data pairs when landmark_weight is 1.
+  // Landmarks: each row of D_L mixes its triangle's three corners. Together they weigh
+  // landmark_weight^2 times all data pairs at the first stiffness.
   const double landmark_scale = landmarks.empty() ? 0.0 : static_cast<double>(n) / static_cast<double>(landmarks.size());
   const double cos_limit = std::cos(o.max_normal_angle_deg * M_PI / 180);
   const double max_distance = o.max_distance / scale, convergence = o.convergence / scale;

@@ -43,7 +43,20 @@ std::vector<NicpLandmark> representation_landmarks(const TriangleMesh& source, c
 
 /// Registration compares bodies point by point: both must stand along +Y in one unit.
 void require_comparable_bodies(const TriangleMesh& source, const TriangleMesh& target) {
-  const auto extent = [](const TriangleMesh& m) { return (m.V.colwise().maxCoeff() - m.V.colwise().minCoeff()).eval(); };
+  // The extent between the 1st and 99th percentiles of each coordinate: floating bits and loose
+  // vertices beside a scanned body do not count.
+  const auto extent = [](const TriangleMesh& m) {
+    Eigen::RowVector3d e;
+    for (int c = 0; c < 3; ++c) {
+      std::vector<double> x(m.V.col(c).data(), m.V.col(c).data() + m.V.rows());
+      const size_t lo = x.size() / 100, hi = x.size() - 1 - x.size() / 100;
+      std::nth_element(x.begin(), x.begin() + static_cast<long>(lo), x.end());
+      const double a = x[lo];
+      std::nth_element(x.begin(), x.begin() + static_cast<long>(hi), x.end());
+      e[c] = x[hi] - a;
+    }
+    return e;
+  };
   const auto text = [](const Eigen::RowVector3d& e) {
     char buf[96];
     std::snprintf(buf, sizeof buf, "%.4g x %.4g x %.4g", e[0], e[1], e[2]);
@@ -53,13 +66,44 @@ void require_comparable_bodies(const TriangleMesh& source, const TriangleMesh& t
   for (const auto& [e, name] : {std::pair{es, "source"}, std::pair{et, "target"}})
     if (!(e[1] > e[0] && e[1] > e[2]))
       throw InvalidInput(std::string("registration: the ") + name + " does not stand along +Y (extent x, y, z " + text(e) +
-                         "): turn it into posekit's frame first (posekit register detects the up and forward axes, or "
-                         "takes --" + name + "-up/--" + name + "-forward)");
+                         " between the 1st and 99th percentiles): turn it into posekit's frame first (posekit register "
+                         "detects the up and forward axes, or takes --" + name + "-up/--" + name + "-forward)");
   const double ratio = et[1] / es[1];
   if (!(ratio > 0.5 && ratio < 2.0))
     throw InvalidInput("registration: the target is " + std::to_string(ratio) + " times the source's height (" +
                        text(es) + " against " + text(et) + "): the two meshes are in different units; convert one "
                        "(posekit register --unit, or the file's unit)");
+}
+
+/// Limbs of the target whose length between its found joints, relative to the source's, is far from
+/// the two statures' ratio: ct-FFD's layers on that limb follow wrong features.
+std::vector<std::string> implausible_limbs(const BodyFeatures& source, const BodyFeatures& target) {
+  std::vector<std::string> out;
+  if (!(source.stature > 0) || !(target.stature > 0)) return out;
+  const double scale = target.stature / source.stature;
+  const auto length = [](const BodyFeatures& f, const Eigen::Vector3d* a, const Eigen::Vector3d* b) { return (*a - *b).norm(); };
+  for (int side : {0, 1}) {
+    const std::string s = side == 0 ? "left " : "right ";
+    const std::pair<std::string, double> limbs[] = {
+        {"upper arm", length(target, &target.shoulder[side], &target.elbow[side]) /
+                          length(source, &source.shoulder[side], &source.elbow[side])},
+        {"forearm", length(target, &target.elbow[side], &target.wrist[side]) / length(source, &source.elbow[side], &source.wrist[side])},
+        {"thigh", length(target, &target.hip[side], &target.knee[side]) / length(source, &source.hip[side], &source.knee[side])},
+        {"shank", length(target, &target.knee[side], &target.ankle[side]) / length(source, &source.knee[side], &source.ankle[side])}};
+    for (const auto& [name, ratio] : limbs) {
+      const bool arm = name == "upper arm" || name == "forearm";
+      if (arm && (!target.arm_found[side] || !source.arm_found[side])) continue;
+      const double relative = ratio / scale;
+      if (relative < 0.75 || relative > 1.3) {
+        char buf[320];
+        std::snprintf(buf, sizeof buf, "the target's %s%s is %.2f of the source's length (scaled by stature): its joints were "
+                      "found on wrong features (a hole or a cut taken for the limb's end?) and the correspondence there is "
+                      "not to be trusted", s.c_str(), name.c_str(), relative);
+        out.push_back(buf);
+      }
+    }
+  }
+  return out;
 }
 
 }  // namespace
@@ -127,6 +171,9 @@ RegistrationResult register_bodies(const TriangleMesh& source, const TriangleMes
   if (o.method == RegistrationMethod::kCtffd) {
     const BodyFeatures fs = find_body_features(source.V, source.F);
     const BodyFeatures ft = find_body_features(target.V, target.F);
+    for (const std::string& w : fs.warnings) r.warnings.push_back("source: " + w);
+    for (const std::string& w : ft.warnings) r.warnings.push_back("target: " + w);
+    for (std::string& w : implausible_limbs(fs, ft)) r.warnings.push_back(std::move(w));
     const LayeredRepresentation rs = build_layered_representation(source.V, source.F, fs, o.points_per_layer);
     const LayeredRepresentation rt = build_layered_representation(
         target.V, target.F, torso_levels_in_proportion(ft, fs), o.points_per_layer);

@@ -35,6 +35,9 @@ struct RegistrationResult {
   double seconds = 0;                ///< wall time of the whole registration
   double ctffd_seconds = 0;          ///< of which ct-FFD (kCtffd)
   NicpResult nicp;                   ///< the non-rigid ICP's schedule and last pairs (kNicp, or refine)
+  /// kCtffd: the features' doubts on either body, and limbs whose length between the found joints is
+  /// implausible against the source's (a hole or cut taken for a limb's end).
+  std::vector<std::string> warnings;
 };
 
 /// Registers source to target and matches triangles by nearest centroid. Throws InvalidInput when a
