@@ -1,6 +1,8 @@
 #include "posekit/evaluation/registration_table.h"
 
 #include <algorithm>
+#include <iterator>
+#include <random>
 #include <filesystem>
 #include <nlohmann/json.hpp>
 
@@ -63,6 +65,61 @@ ErrorStats triangle_match_floor_mm(const TriangleMesh& templ, const Eigen::Matri
   return triangle_match_error_mm(templ, true_centroids, closest_surface_points(templ, true_centroids).face);
 }
 
+struct Target {
+  TriangleMesh mesh;
+  Eigen::MatrixXd true_points;  ///< #V x 3: each vertex's true point on the template
+};
+
+/// The subject remeshed to about `vertices` vertices (another topology and resolution), with
+/// `holes` holes of 2-6 cm punched at seeded random vertices (a scan's gaps); truth carried over.
+Target remeshed_target(const TriangleMesh& subject, const Eigen::MatrixXd& true_points, int vertices, int holes, unsigned seed) {
+  SurfacePoints on_subject;
+  TriangleMesh mesh = remesh_body(subject, vertices, &on_subject);
+  Eigen::MatrixXd truth(mesh.V.rows(), 3);
+  for (Eigen::Index v = 0; v < mesh.V.rows(); ++v) {
+    truth.row(v).setZero();
+    for (int c = 0; c < 3; ++c) truth.row(v) += on_subject.bary(v, c) * true_points.row(subject.F(on_subject.face[v], c));
+  }
+  if (holes > 0) {
+    std::mt19937 rng(seed);
+    std::uniform_int_distribution<Eigen::Index> pick(0, mesh.V.rows() - 1);
+    std::uniform_real_distribution<double> radius(0.01, 0.03);
+    std::vector<bool> keep(static_cast<size_t>(mesh.F.rows()), true);
+    const Eigen::MatrixXd centroids = face_centroids(mesh.V, mesh.F);
+    for (int h = 0; h < holes; ++h) {
+      const Eigen::RowVector3d centre = mesh.V.row(pick(rng));
+      const double r = radius(rng);
+      for (Eigen::Index f = 0; f < mesh.F.rows(); ++f)
+        if ((centroids.row(f) - centre).norm() < r) keep[static_cast<size_t>(f)] = false;
+    }
+    std::vector<int> new_index(static_cast<size_t>(mesh.V.rows()), -1);
+    std::vector<Eigen::Vector3i> faces;
+    int next = 0;
+    for (Eigen::Index f = 0; f < mesh.F.rows(); ++f) {
+      if (!keep[static_cast<size_t>(f)]) continue;
+      Eigen::Vector3i t;
+      for (int c = 0; c < 3; ++c) {
+        int& k = new_index[static_cast<size_t>(mesh.F(f, c))];
+        if (k < 0) k = next++;
+        t[c] = k;
+      }
+      faces.push_back(t);
+    }
+    Target out;
+    out.mesh.V.resize(next, 3);
+    out.true_points.resize(next, 3);
+    for (Eigen::Index v = 0; v < mesh.V.rows(); ++v)
+      if (new_index[static_cast<size_t>(v)] >= 0) {
+        out.mesh.V.row(new_index[static_cast<size_t>(v)]) = mesh.V.row(v);
+        out.true_points.row(new_index[static_cast<size_t>(v)]) = truth.row(v);
+      }
+    out.mesh.F.resize(static_cast<Eigen::Index>(faces.size()), 3);
+    for (size_t f = 0; f < faces.size(); ++f) out.mesh.F.row(static_cast<Eigen::Index>(f)) = faces[f].transpose();
+    return out;
+  }
+  return {std::move(mesh), std::move(truth)};
+}
+
 }  // namespace
 
 RegistrationTable measure_registration_table(const std::string& dir, const RegistrationTableOptions& o) {
@@ -87,68 +144,90 @@ RegistrationTable measure_registration_table(const std::string& dir, const Regis
     methods.push_back({"non-rigid ICP (optimal step)", {}});
     methods.back().options.method = RegistrationMethod::kNicp;
   }
-  RegistrationTable table;
-  table.template_vertices = templ.num_vertices();
-  table.template_triangles = templ.num_faces();
-  table.rows.resize(methods.size());
-  for (size_t m = 0; m < methods.size(); ++m) table.rows[m].method = methods[m].name;
-  std::vector<std::vector<ErrorStats>> point(methods.size()), match(methods.size());
-  std::vector<ErrorStats> floor;
   const auto& subjects = manifest.at("subjects");
   const int total = o.subjects > 0 ? std::min<int>(o.subjects, static_cast<int>(subjects.size())) : static_cast<int>(subjects.size());
-  long vertices = 0, triangles = 0;
-  for (int si = 0; si < total; ++si) {
-    const auto& s = subjects[static_cast<size_t>(si)];
-    table.subject_ids.push_back(s.value("id", "?"));
-    const TriangleMesh subject = read_mesh((fs::path(dir) / s.at("rest").get<std::string>()).string());
-    const SurfacePoints truth = load_correspondence((fs::path(dir) / s.at("correspondence").get<std::string>()).string());
-    const Eigen::MatrixXd true_points = evaluate_surface_points(templ.V, templ.F, truth);
-    const Eigen::MatrixXd true_centroids = face_centroids(true_points, subject.F);
-    floor.push_back(triangle_match_floor_mm(templ, true_centroids));
-    vertices += subject.num_vertices();
-    triangles += subject.num_faces();
-    for (size_t m = 0; m < methods.size(); ++m) {
-      const bool nicp = methods[m].options.method == RegistrationMethod::kNicp;
-      if (nicp && o.nicp_subjects > 0 && si >= o.nicp_subjects) continue;
-      RegistrationResult r;
-      for (int k = 0; k < (nicp ? o.nicp_runs : o.runs); ++k) {
-        r = register_bodies(templ, subject, methods[m].options);
-        table.rows[m].seconds.push_back(r.seconds);
+  struct TargetKind {
+    std::string name;
+    int vertices, holes;  // 0 vertices: the subject as it is
+  };
+  std::vector<TargetKind> kinds = {{"the dataset's subjects", 0, 0}};
+  if (o.other_topologies) {
+    kinds.push_back({"the subjects remeshed to ~6,900 vertices", 6900, 0});
+    kinds.push_back({"the subjects remeshed to ~50,000 vertices with 25 holes of 2-6 cm (scan-like)", 50000, 25});
+  }
+  std::vector<RegistrationTable> tables;
+  int done = 0;
+  for (const TargetKind& kind : kinds) {
+    RegistrationTable table;
+    table.targets = kind.name;
+    table.template_vertices = templ.num_vertices();
+    table.template_triangles = templ.num_faces();
+    table.rows.resize(methods.size());
+    for (size_t m = 0; m < methods.size(); ++m) table.rows[m].method = methods[m].name;
+    std::vector<std::vector<ErrorStats>> point(methods.size()), match(methods.size());
+    std::vector<ErrorStats> floor;
+    long vertices = 0, triangles = 0;
+    for (int si = 0; si < total; ++si) {
+      const auto& s = subjects[static_cast<size_t>(si)];
+      table.subject_ids.push_back(s.value("id", "?"));
+      Target target;
+      target.mesh = read_mesh((fs::path(dir) / s.at("rest").get<std::string>()).string());
+      const SurfacePoints truth = load_correspondence((fs::path(dir) / s.at("correspondence").get<std::string>()).string());
+      target.true_points = evaluate_surface_points(templ.V, templ.F, truth);
+      if (kind.vertices > 0)
+        target = remeshed_target(target.mesh, target.true_points, kind.vertices, kind.holes, static_cast<unsigned>(1000 + si));
+      const TriangleMesh& subject = target.mesh;
+      const Eigen::MatrixXd& true_points = target.true_points;
+      const Eigen::MatrixXd true_centroids = face_centroids(true_points, subject.F);
+      floor.push_back(triangle_match_floor_mm(templ, true_centroids));
+      vertices += subject.num_vertices();
+      triangles += subject.num_faces();
+      for (size_t m = 0; m < methods.size(); ++m) {
+        const bool nicp = methods[m].options.method == RegistrationMethod::kNicp;
+        if (nicp && o.nicp_subjects > 0 && si >= o.nicp_subjects) continue;
+        RegistrationResult r;
+        for (int k = 0; k < (nicp ? o.nicp_runs : o.runs); ++k) {
+          r = register_bodies(templ, subject, methods[m].options);
+          table.rows[m].seconds.push_back(r.seconds);
+        }
+        match[m].push_back(triangle_match_error_mm(templ, true_centroids, r.correspondence));
+        point[m].push_back(point_error_mm(templ, r.deformed_source, subject, true_points));
+        table.rows[m].subject_mean_error_mm.push_back(match[m].back().mean);
+        table.rows[m].subject_point_mean_mm.push_back(point[m].back().mean);
+        ++table.rows[m].subjects;
       }
-      match[m].push_back(triangle_match_error_mm(templ, true_centroids, r.correspondence));
-      point[m].push_back(point_error_mm(templ, r.deformed_source, subject, true_points));
-      table.rows[m].subject_mean_error_mm.push_back(match[m].back().mean);
-      table.rows[m].subject_point_mean_mm.push_back(point[m].back().mean);
-      ++table.rows[m].subjects;
+      if (o.progress) o.progress(++done, total * static_cast<int>(kinds.size()));
     }
-    if (o.progress) o.progress(si + 1, total);
-  }
-  table.mean_subject_vertices = vertices / std::max(total, 1);
-  table.mean_subject_triangles = triangles / std::max(total, 1);
-  for (size_t m = 0; m < methods.size(); ++m) {
-    RegistrationTableRow& row = table.rows[m];
-    if (row.seconds.empty()) continue;
-    std::vector<double> t = row.seconds;
-    std::sort(t.begin(), t.end());
-    row.median_s = t.size() % 2 ? t[t.size() / 2] : 0.5 * (t[t.size() / 2 - 1] + t[t.size() / 2]);
-    row.min_s = t.front();
-    row.max_s = t.back();
-    const double k = static_cast<double>(match[m].size());
-    for (size_t s = 0; s < match[m].size(); ++s) {
-      row.mean_error_mm += match[m][s].mean / k;
-      row.p95_error_mm += match[m][s].p95 / k;
-      row.point_mean_mm += point[m][s].mean / k;
-      row.point_p95_mm += point[m][s].p95 / k;
-      row.point_max_mm += point[m][s].max / k;
+    table.mean_subject_vertices = vertices / std::max(total, 1);
+    table.mean_subject_triangles = triangles / std::max(total, 1);
+    for (size_t m = 0; m < methods.size(); ++m) {
+      RegistrationTableRow& row = table.rows[m];
+      if (row.seconds.empty()) continue;
+      std::vector<double> t = row.seconds;
+      std::sort(t.begin(), t.end());
+      row.median_s = t.size() % 2 ? t[t.size() / 2] : 0.5 * (t[t.size() / 2 - 1] + t[t.size() / 2]);
+      row.min_s = t.front();
+      row.max_s = t.back();
+      const double k = static_cast<double>(match[m].size());
+      for (size_t s = 0; s < match[m].size(); ++s) {
+        row.mean_error_mm += match[m][s].mean / k;
+        row.p95_error_mm += match[m][s].p95 / k;
+        row.point_mean_mm += point[m][s].mean / k;
+        row.point_p95_mm += point[m][s].p95 / k;
+        row.point_max_mm += point[m][s].max / k;
+      }
+      row.worst_subject_mean_error_mm = *std::max_element(row.subject_mean_error_mm.begin(), row.subject_mean_error_mm.end());
+      row.worst_subject_point_mean_mm = *std::max_element(row.subject_point_mean_mm.begin(), row.subject_point_mean_mm.end());
     }
-    row.worst_subject_mean_error_mm = *std::max_element(row.subject_mean_error_mm.begin(), row.subject_mean_error_mm.end());
-    row.worst_subject_point_mean_mm = *std::max_element(row.subject_point_mean_mm.begin(), row.subject_point_mean_mm.end());
+    for (const ErrorStats& f : floor) {
+      table.triangle_floor_mean_mm += f.mean / static_cast<double>(floor.size());
+      table.triangle_floor_p95_mm += f.p95 / static_cast<double>(floor.size());
+    }
+    tables.push_back(std::move(table));
   }
-  for (const ErrorStats& f : floor) {
-    table.triangle_floor_mean_mm += f.mean / static_cast<double>(floor.size());
-    table.triangle_floor_p95_mm += f.p95 / static_cast<double>(floor.size());
-  }
-  return table;
+  RegistrationTable result = std::move(tables.front());
+  result.other_targets.assign(std::make_move_iterator(tables.begin() + 1), std::make_move_iterator(tables.end()));
+  return result;
 }
 
 }  // namespace posekit

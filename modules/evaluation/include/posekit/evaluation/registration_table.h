@@ -13,6 +13,9 @@ struct RegistrationTableOptions {
   int nicp_runs = 1;         ///< timed runs of non-rigid ICP (0: leave it out)
   int subjects = 0;          ///< first N subjects (0: all)
   int nicp_subjects = 0;     ///< non-rigid ICP on the first N subjects only (0: all)
+  /// Also register to each subject remeshed to ~6,900 vertices, and to a ~50,000-vertex scan-like
+  /// remesh with 25 holes of 2-6 cm (RegistrationTable::other_targets).
+  bool other_topologies = false;
   std::function<void(int, int)> progress;
 };
 
@@ -35,6 +38,7 @@ struct RegistrationTableRow {
 };
 
 struct RegistrationTable {
+  std::string targets = "the dataset's subjects";  ///< what the template was registered to
   long template_vertices = 0, template_triangles = 0;
   long mean_subject_vertices = 0, mean_subject_triangles = 0;
   std::vector<std::string> subject_ids;
@@ -42,6 +46,7 @@ struct RegistrationTable {
   /// triangle holding its centroid's true point): the floor no registration goes below.
   double triangle_floor_mean_mm = 0, triangle_floor_p95_mm = 0;
   std::vector<RegistrationTableRow> rows;
+  std::vector<RegistrationTable> other_targets;  ///< options.other_topologies: the same per target kind
 };
 
 /// Errors against the dataset's correspondence.csv (subject vertex -> template surface point).
