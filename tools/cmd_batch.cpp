@@ -514,7 +514,7 @@ int run_batch_pose(int argc, char** argv) {
                              "and summary.csv; set-up and posing times in OUT/run*.json.") + kBatchCommon);
   args.option("inputs", "DIR|LIST", "a folder of subject meshes (recursively, in sorted order) or a text file of paths")
       .option("model", "FILE", "trained model (.pkm, posekit train)")
-      .option("pose", "FILE", "pose.json (16-part pose) or motion.bvh (MakeHuman skeleton)")
+      .option("pose", "FILE", "pose.json (16-part pose) or a motion capture .bvh (any humanoid skeleton, retargeted; see --joint-map)")
       .option("method", "M", "learned (the paper's), rigid (parts only) or lbs (16-part skinning)", "learned")
       .option("frames", "A:B", "BVH frames A to B-1 (default: all)")
       .option("format", "EXT", "posed mesh format: ply, obj or off", "ply")
