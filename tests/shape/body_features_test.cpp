@@ -228,3 +228,38 @@ TEST(BodyFeatures, WarnsWhenAnArmStaysAgainstTheTorsoBelowTheArmpit) {
       b.mesh.V, model.weights, pose_bone_transforms(model.rig, b.bone_heads, bone_pose_from_part_pose(model.rig, lowered)));
   EXPECT_EQ(clear_warnings(find_body_features(V, b.mesh.F)), 2);
 }
+
+TEST(BodyFeatures, AHoleInAHandIsNoCutWrist) {
+  POSEKIT_REQUIRE_MAKEHUMAN();
+  // Cut each hand across, at `beyond` metres past the wrist along the forearm (sides: which hands).
+  const Body b = build_body(model, make_subject_specs(model, 1, 16)[1].spec);
+  const BodyFeatures whole = find_body_features(b.mesh.V, b.mesh.F);
+  const auto cut_hands = [&](double beyond, std::initializer_list<int> sides) {
+    std::vector<bool> keep(static_cast<size_t>(b.mesh.F.rows()), true);
+    for (int side : sides) {
+      const Eigen::Vector3d dir = (whole.wrist[side] - whole.elbow[side]).normalized();
+      const Eigen::Vector3d at = whole.wrist[side] + beyond * dir;
+      for (Eigen::Index f = 0; f < b.mesh.F.rows(); ++f)
+        for (int c = 0; c < 3; ++c) {
+          const Eigen::Vector3d v = b.mesh.V.row(b.mesh.F(f, c)).transpose();
+          if ((v - whole.wrist[side]).norm() < 0.3 && (v - at).dot(dir) > 0) keep[static_cast<size_t>(f)] = false;
+        }
+    }
+    const TriangleMesh m = extract_faces(b.mesh, keep);
+    return find_body_features(m.V, m.F);
+  };
+  // The left hand's fingers lost (cut across the palm, 10 cm past the wrist): an opening at the hand
+  // tip as round as a wrist's, but 10 cm beyond where the right arm has its wrist. The wrist stays.
+  const BodyFeatures palm = cut_hands(0.10, {kLeft});
+  EXPECT_FALSE(palm.hand_cut[kLeft]);
+  EXPECT_LT((palm.wrist[kLeft] - whole.wrist[kLeft]).norm(), 0.03);
+  bool said = false;
+  for (const auto& w : palm.warnings) said = said || w.find("a hole in the hand, not a cut wrist") != std::string::npos;
+  EXPECT_TRUE(said) << ::testing::PrintToString(palm.warnings);
+  // Both hands cut at the wrists stay cut, and so does one: the wrist goes to the cut's centre.
+  const BodyFeatures both = cut_hands(0.0, {kLeft, kRight});
+  EXPECT_TRUE(both.hand_cut[kLeft] && both.hand_cut[kRight]);
+  const BodyFeatures one = cut_hands(0.0, {kRight});
+  EXPECT_TRUE(one.hand_cut[kRight]);
+  EXPECT_FALSE(one.hand_cut[kLeft]);
+}

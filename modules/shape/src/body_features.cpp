@@ -453,15 +453,31 @@ BodyFeatures find_body_features(const Eigen::MatrixXd& V_in, const Eigen::Matrix
       top_is_cut);
   // A hand cut off (a scan's wrists): the arm ends in an opening as big round as a wrist or
   // forearm (10 to 35 cm) within 5 cm of where it was followed to. The wrist is the cut's centre.
+  // A hole in one hand (fingers lost) is no cut wrist: an opening that lies well beyond the other
+  // arm's wrist, from its shoulder, while the other hand is whole, is left to the hole filling.
+  std::vector<Eigen::Vector3d> cut_at[2];
   for (int side : {kLeft, kRight}) {
     if (!f.arm_found[side]) continue;
     for (const auto& [length, centre] : openings)
-      if (length > 0.10 && length < 0.35 && (centre - f.hand_tip[side]).norm() < 0.05) {
-        f.hand_cut[side] = true;
-        f.wrist[side] = centre;
-        f.warnings.push_back(std::string("the ") + (side == kLeft ? "left" : "right") +
-                             " hand is cut off (the arm ends in an opening): its wrist is placed at the cut's centre");
+      if (length > 0.10 && length < 0.35 && (centre - f.hand_tip[side]).norm() < 0.05) cut_at[side].push_back(centre);
+  }
+  for (int side : {kLeft, kRight}) {
+    const int other = 1 - side;
+    const char* name = side == kLeft ? "left" : "right";
+    for (const Eigen::Vector3d& centre : cut_at[side]) {
+      if (f.arm_found[other] && cut_at[other].empty()) {
+        const double reach = (centre - f.shoulder[side]).norm(), wrist_reach = (f.wrist[other] - f.shoulder[other]).norm();
+        if (reach > 1.15 * wrist_reach) {
+          f.warnings.push_back(std::string("an opening at the ") + name + " hand lies " +
+                               std::to_string(static_cast<int>(std::lround(100 * (reach - wrist_reach)))) +
+                               " cm beyond where the other arm's wrist is: a hole in the hand, not a cut wrist");
+          continue;
+        }
       }
+      f.hand_cut[side] = true;
+      f.wrist[side] = centre;
+      f.warnings.push_back(std::string("the ") + name + " hand is cut off (the arm ends in an opening): its wrist is placed at the cut's centre");
+    }
   }
   // Forearm sections slice only the faces within reach of each elbow: the whole mesh, about 120
   // times, would cost more than all the horizontal sections.
