@@ -1,16 +1,20 @@
 #include "posekit/evaluation/registration_table.h"
 
 #include <algorithm>
-#include <iterator>
-#include <random>
 #include <filesystem>
+#include <iterator>
 #include <nlohmann/json.hpp>
+#include <numeric>
+#include <random>
 
 #include "manifest.h"
+#include "posekit/body/parts.h"
 #include "posekit/core/error.h"
 #include "posekit/core/mesh_geometry.h"
 #include "posekit/datasets/dataset.h"
 #include "posekit/datasets/remesh.h"
+#include "posekit/deformation/pose_model.h"
+#include "posekit/deformation/pose_synthesis.h"
 #include "posekit/io/atomic_file.h"
 #include "posekit/io/mesh_io.h"
 #include "posekit/registration/registration.h"
@@ -63,6 +67,27 @@ ErrorStats point_error_mm(const TriangleMesh& templ, const Eigen::MatrixXd& defo
 /// template triangle holding its true centroid point. No registration can go below it.
 ErrorStats triangle_match_floor_mm(const TriangleMesh& templ, const Eigen::MatrixXd& true_centroids) {
   return triangle_match_error_mm(templ, true_centroids, closest_surface_points(templ, true_centroids).face);
+}
+
+/// Mean vertex error (mm) of the subject posed by the learned method, with the given correspondence
+/// (subject triangle -> template triangle), against its posed ground truth; -1 without posed truth.
+double pose_transfer_error_mm(const std::shared_ptr<const PoseModel>& model, const std::string& dir,
+                              const nlohmann::json& subject_entry, const TriangleMesh& subject,
+                              const Eigen::VectorXi& template_triangle) {
+  SubjectSetupOptions so;
+  so.template_triangle = template_triangle;
+  const PoseSynthesizer synth(model, subject, so);
+  double sum = 0;
+  long count = 0;
+  for (const auto& p : subject_entry.value("posed", nlohmann::json::array())) {
+    const TriangleMesh truth = read_mesh((fs::path(dir) / p.at("mesh").get<std::string>()).string());
+    if (truth.V.rows() != subject.V.rows()) continue;
+    const Eigen::MatrixXd X = synth.pose(read_part_pose((fs::path(dir) / p.at("pose_json").get<std::string>()).string()),
+                                         PoseMethod::kLearned);
+    sum += (X - truth.V).rowwise().norm().sum();
+    count += X.rows();
+  }
+  return count ? 1000 * sum / static_cast<double>(count) : -1.0;
 }
 
 struct Target {
@@ -166,6 +191,8 @@ RegistrationTable measure_registration_table(const std::string& dir, const Regis
     for (size_t m = 0; m < methods.size(); ++m) table.rows[m].method = methods[m].name;
     std::vector<std::vector<ErrorStats>> point(methods.size()), match(methods.size());
     std::vector<ErrorStats> floor;
+    std::vector<std::vector<double>> pose_transfer(methods.size());
+    std::vector<double> pose_transfer_true;
     long vertices = 0, triangles = 0;
     for (int si = 0; si < total; ++si) {
       const auto& s = subjects[static_cast<size_t>(si)];
@@ -180,6 +207,10 @@ RegistrationTable measure_registration_table(const std::string& dir, const Regis
       const Eigen::MatrixXd& true_points = target.true_points;
       const Eigen::MatrixXd true_centroids = face_centroids(true_points, subject.F);
       floor.push_back(triangle_match_floor_mm(templ, true_centroids));
+      if (o.model && kind.vertices == 0) {
+        const double e = pose_transfer_error_mm(o.model, dir, s, subject, closest_surface_points(templ, true_centroids).face);
+        if (e >= 0) pose_transfer_true.push_back(e);
+      }
       vertices += subject.num_vertices();
       triangles += subject.num_faces();
       for (size_t m = 0; m < methods.size(); ++m) {
@@ -190,7 +221,11 @@ RegistrationTable measure_registration_table(const std::string& dir, const Regis
           r = register_bodies(templ, subject, methods[m].options);
           table.rows[m].seconds.push_back(r.seconds);
         }
-        match[m].push_back(triangle_match_error_mm(templ, true_centroids, r.correspondence));
+        if (o.model && kind.vertices == 0) {
+        const double e = pose_transfer_error_mm(o.model, dir, s, subject, r.correspondence);
+        if (e >= 0) pose_transfer[m].push_back(e);
+      }
+      match[m].push_back(triangle_match_error_mm(templ, true_centroids, r.correspondence));
         point[m].push_back(point_error_mm(templ, r.deformed_source, subject, true_points));
         table.rows[m].subject_mean_error_mm.push_back(match[m].back().mean);
         table.rows[m].subject_point_mean_mm.push_back(point[m].back().mean);
@@ -218,11 +253,17 @@ RegistrationTable measure_registration_table(const std::string& dir, const Regis
       }
       row.worst_subject_mean_error_mm = *std::max_element(row.subject_mean_error_mm.begin(), row.subject_mean_error_mm.end());
       row.worst_subject_point_mean_mm = *std::max_element(row.subject_point_mean_mm.begin(), row.subject_point_mean_mm.end());
+      if (!pose_transfer[m].empty())
+        row.pose_transfer_mm = std::accumulate(pose_transfer[m].begin(), pose_transfer[m].end(), 0.0) /
+                               static_cast<double>(pose_transfer[m].size());
     }
     for (const ErrorStats& f : floor) {
       table.triangle_floor_mean_mm += f.mean / static_cast<double>(floor.size());
       table.triangle_floor_p95_mm += f.p95 / static_cast<double>(floor.size());
     }
+    if (!pose_transfer_true.empty())
+      table.pose_transfer_true_mm = std::accumulate(pose_transfer_true.begin(), pose_transfer_true.end(), 0.0) /
+                                    static_cast<double>(pose_transfer_true.size());
     tables.push_back(std::move(table));
   }
   RegistrationTable result = std::move(tables.front());

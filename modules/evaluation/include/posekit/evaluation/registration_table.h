@@ -3,10 +3,13 @@
 // ct-FFD (as published, and refined), rigid ICP (1 and 6 iterations) and optimal-step non-rigid
 // ICP, timed, with correspondence accuracy against the dataset's ground truth.
 #include <functional>
+#include <memory>
 #include <string>
 #include <vector>
 
 namespace posekit {
+
+struct PoseModel;
 
 struct RegistrationTableOptions {
   int runs = 5;              ///< timed runs per method and subject
@@ -16,6 +19,9 @@ struct RegistrationTableOptions {
   /// Also register to each subject remeshed to ~6,900 vertices, and to a ~50,000-vertex scan-like
   /// remesh with 25 holes of 2-6 cm (RegistrationTable::other_targets).
   bool other_topologies = false;
+  /// With a trained model: each correspondence's pose-transfer error (section 3.3.3) on the
+  /// subjects' posed ground truth, learned method.
+  std::shared_ptr<const PoseModel> model;
   std::function<void(int, int)> progress;
 };
 
@@ -34,6 +40,9 @@ struct RegistrationTableRow {
   double mean_error_mm = 0, p95_error_mm = 0;  ///< averaged over subjects
   double worst_subject_mean_error_mm = 0;
   std::vector<double> subject_mean_error_mm;   ///< per subject, dataset order
+  /// options.model: mean vertex error (mm) of the subjects posed by the learned method with this
+  /// correspondence against their posed ground truth, averaged over subjects (-1: not measured).
+  double pose_transfer_mm = -1;
   int subjects = 0;
 };
 
@@ -45,6 +54,8 @@ struct RegistrationTable {
   /// Triangle match error of the true correspondence (each subject triangle matched to the template
   /// triangle holding its centroid's true point): the floor no registration goes below.
   double triangle_floor_mean_mm = 0, triangle_floor_p95_mm = 0;
+  /// options.model: the pose-transfer error with the true correspondence (-1: not measured).
+  double pose_transfer_true_mm = -1;
   std::vector<RegistrationTableRow> rows;
   std::vector<RegistrationTable> other_targets;  ///< options.other_topologies: the same per target kind
 };
