@@ -5,12 +5,16 @@
 #include <Eigen/Geometry>
 #include <algorithm>
 #include <cmath>
+#include <fstream>
+#include <nlohmann/json.hpp>
 #include <string>
 #include <vector>
 
 #include "posekit/core/error.h"
 #include "posekit/core/mesh_geometry.h"
 #include "posekit/datasets/remesh.h"
+#include "posekit/datasets/robustness.h"
+#include "posekit/io/mesh_io.h"
 #include "posekit/datasets/subjects.h"
 #include "posekit/registration/correspondence.h"
 #include "posekit/registration/ctffd.h"
@@ -18,6 +22,7 @@
 #include "posekit/shape/body_features.h"
 #include "posekit/shape/measurements.h"
 #include "testing/makehuman_fixture.h"
+#include "testing/temp_dir.h"
 #include "testing/test_meshes.h"
 
 using namespace posekit;
@@ -157,6 +162,32 @@ TEST(Registration, WarnsWhenALimbsJointsAreImplausible) {
   EXPECT_TRUE(has("target: ")) << ::testing::PrintToString(r.warnings);
   EXPECT_FALSE(has("right forearm"));
   EXPECT_TRUE(register_bodies(templ.mesh, templ.mesh).warnings.empty());
+}
+
+TEST(Registration, CtffdRegistersEveryBodyWithHolesOfTheRobustnessSet) {
+  POSEKIT_REQUIRE_MAKEHUMAN();
+  // Ten shapes with 25 holes of 1-5 cm each. A section across a hole used to be an open polyline:
+  // s10's head failed ("degenerate section") until sections were cut on the closed surface.
+  test::TempDir dir;
+  RobustnessOptions ro;
+  ro.data_root = test::test_data_root();
+  ro.only = {"holes"};
+  make_robustness_set(dir.file("rb"), ro);
+  const nlohmann::json manifest = nlohmann::json::parse(std::ifstream(dir.file("rb/manifest.json")));
+  const Body templ = build_body(model, BodySpec{});
+  int registered = 0;
+  for (const auto& body : manifest.at("bodies")) {
+    const TriangleMesh target = read_mesh(dir.file("rb/" + body.at("file").get<std::string>()));
+    try {
+      const RegistrationResult r = register_bodies(templ.mesh, target);
+      const RegistrationQuality q = assess_registration(templ.mesh, r.deformed_source, target);
+      EXPECT_LT(q.mean_distance_mm, 3) << body.at("name");
+      ++registered;
+    } catch (const InvalidInput& e) {
+      ADD_FAILURE() << body.at("name") << ": " << e.what();
+    }
+  }
+  EXPECT_EQ(registered, 10);
 }
 
 TEST(Registration, RefusesBodiesInOtherUnitsOrLyingDown) {

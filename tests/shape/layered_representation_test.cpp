@@ -5,6 +5,8 @@
 #include <set>
 
 #include "posekit/body/parts.h"
+#include "posekit/core/triangle_mesh.h"
+#include "posekit/shape/body_features.h"
 #include "posekit/datasets/remesh.h"
 #include "posekit/datasets/subjects.h"
 #include "testing/makehuman_fixture.h"
@@ -44,4 +46,38 @@ TEST(LayeredRepresentation, FeatureLevelsAreLayers) {
     for (const auto& L : rep.layers) found |= L.chain == 0 && std::abs(L.centre.y() - level) < 1e-9;
     EXPECT_TRUE(found) << "no torso layer at " << level;
   }
+}
+
+TEST(LayeredRepresentation, SectionsCrossAScansHolesAndIgnoreItsFloatingBits) {
+  POSEKIT_REQUIRE_MAKEHUMAN();
+  // Holes of 3 cm at the front of the head, the waist and a thigh, and a loose triangle inside the
+  // waist (a scan's debris): the representation stays within a few millimetres of the whole body's.
+  // (Registration.CtffdRegistersEveryBodyWithHolesOfTheRobustnessSet has the holes that once broke it.)
+  const Body b = build_body(model, BodySpec{});
+  const BodyFeatures whole_features = find_body_features(b.mesh.V, b.mesh.F);
+  const LayeredRepresentation whole = build_layered_representation(b.mesh.V, b.mesh.F, whole_features);
+  const auto front_point = [&](double y, double x) {
+    Eigen::Index best = 0;
+    for (Eigen::Index v = 0; v < b.mesh.V.rows(); ++v)
+      if (std::abs(b.mesh.V(v, 1) - y) < 0.01 && std::abs(b.mesh.V(v, 0) - x) < 0.02 && b.mesh.V(v, 2) > b.mesh.V(best, 2)) best = v;
+    return Eigen::Vector3d(b.mesh.V.row(best).transpose());
+  };
+  const Eigen::Vector3d centres[] = {front_point(0.5 * (whole_features.neck_top.y() + whole_features.crown_y), 0.0),
+                                     front_point(whole_features.waist_y, 0.0),
+                                     front_point(0.5 * (whole_features.crotch_y + whole_features.knee[0].y()), whole_features.knee[0].x())};
+  std::vector<bool> keep(static_cast<size_t>(b.mesh.F.rows()), true);
+  for (Eigen::Index f = 0; f < b.mesh.F.rows(); ++f)
+    for (int c = 0; c < 3; ++c)
+      for (const Eigen::Vector3d& centre : centres)
+        if ((b.mesh.V.row(b.mesh.F(f, c)).transpose() - centre).norm() < 0.03) keep[static_cast<size_t>(f)] = false;
+  TriangleMesh holed = extract_faces(b.mesh, keep);
+  const Eigen::Index n = holed.V.rows();
+  holed.V.conservativeResize(n + 3, 3);
+  const double wy = whole_features.waist_y, wx = whole_features.axis_x, wz = whole_features.crotch.z();
+  holed.V.bottomRows(3) << wx, wy - 0.01, wz, wx + 0.01, wy + 0.01, wz, wx - 0.01, wy + 0.01, wz + 0.005;
+  holed.F.conservativeResize(holed.F.rows() + 1, 3);
+  holed.F.bottomRows(1) << static_cast<int>(n), static_cast<int>(n + 1), static_cast<int>(n + 2);
+  const LayeredRepresentation rep = build_layered_representation(holed.V, holed.F, find_body_features(holed.V, holed.F));
+  ASSERT_EQ(rep.mesh.V.rows(), whole.mesh.V.rows());
+  EXPECT_LT((rep.mesh.V - whole.mesh.V).rowwise().norm().mean(), 0.005);
 }

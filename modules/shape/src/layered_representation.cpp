@@ -319,7 +319,10 @@ LayeredRepresentation build_layered_representation(const Eigen::MatrixXd& V, con
   if (points_per_layer < 8) throw InvalidInput("layered representation: at least 8 points per layer");
   for (int side : {kLeft, kRight})
     if (!f.arm_found[side]) throw InvalidInput("layered representation: an arm was not found (see the features' warnings)");
-  return Builder(V, F, f, points_per_layer).build();
+  // Sections are cut from the surface the features were found on: floating bits left out and holes
+  // closed, so that a section across a scan's hole is a closed loop, not an open polyline.
+  const TriangleMesh surface = body_surface(V, F);
+  return Builder(surface.V, surface.F, f, points_per_layer).build();
 }
 
 }  // namespace posekit

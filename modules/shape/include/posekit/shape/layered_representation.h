@@ -34,7 +34,8 @@ struct LayeredRepresentation {
 /// Layers per chain segment (see README); together with points_per_layer they fix the topology.
 int representation_layer_count();
 
-/// Builds the representation of a standing body mesh from its features.
+/// Builds the representation of a standing body mesh from its features, on the same surface the
+/// features are found on (body_surface: floating bits left out, holes up to kMaxFilledHole closed).
 /// Throws InvalidInput when a section cannot be found.
 LayeredRepresentation build_layered_representation(const Eigen::MatrixXd& V, const Eigen::MatrixXi& F,
                                                    const BodyFeatures& features, int points_per_layer = 32);
