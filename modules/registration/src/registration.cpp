@@ -81,24 +81,27 @@ std::vector<std::string> implausible_limbs(const BodyFeatures& source, const Bod
   std::vector<std::string> out;
   if (!(source.stature > 0) || !(target.stature > 0)) return out;
   const double scale = target.stature / source.stature;
-  const auto length = [](const BodyFeatures& f, const Eigen::Vector3d* a, const Eigen::Vector3d* b) { return (*a - *b).norm(); };
+  const auto length = [](const Eigen::Vector3d& a, const Eigen::Vector3d& b) { return (a - b).norm(); };
   for (int side : {0, 1}) {
     const std::string s = side == 0 ? "left " : "right ";
-    const std::pair<std::string, double> limbs[] = {
-        {"upper arm", length(target, &target.shoulder[side], &target.elbow[side]) /
-                          length(source, &source.shoulder[side], &source.elbow[side])},
-        {"forearm", length(target, &target.elbow[side], &target.wrist[side]) / length(source, &source.elbow[side], &source.wrist[side])},
-        {"thigh", length(target, &target.hip[side], &target.knee[side]) / length(source, &source.hip[side], &source.knee[side])},
-        {"shank", length(target, &target.knee[side], &target.ankle[side]) / length(source, &source.knee[side], &source.ankle[side])}};
-    for (const auto& [name, ratio] : limbs) {
-      const bool arm = name == "upper arm" || name == "forearm";
-      if (arm && (!target.arm_found[side] || !source.arm_found[side])) continue;
-      const double relative = ratio / scale;
+    struct Limb {
+      const char* name;
+      double ratio;
+      bool arm;
+    };
+    const Limb limbs[] = {
+        {"upper arm", length(target.shoulder[side], target.elbow[side]) / length(source.shoulder[side], source.elbow[side]), true},
+        {"forearm", length(target.elbow[side], target.wrist[side]) / length(source.elbow[side], source.wrist[side]), true},
+        {"thigh", length(target.hip[side], target.knee[side]) / length(source.hip[side], source.knee[side]), false},
+        {"shank", length(target.knee[side], target.ankle[side]) / length(source.knee[side], source.ankle[side]), false}};
+    for (const Limb& limb : limbs) {
+      if (limb.arm && (!target.arm_found[side] || !source.arm_found[side])) continue;
+      const double relative = limb.ratio / scale;
       if (relative < 0.75 || relative > 1.3) {
         char buf[320];
         std::snprintf(buf, sizeof buf, "the target's %s%s is %.2f of the source's length (scaled by stature): its joints were "
                       "found on wrong features (a hole or a cut taken for the limb's end?) and the correspondence there is "
-                      "not to be trusted", s.c_str(), name.c_str(), relative);
+                      "not to be trusted", s.c_str(), limb.name, relative);
         out.push_back(buf);
       }
     }
