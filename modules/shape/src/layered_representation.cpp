@@ -105,6 +105,19 @@ class Builder {
  public:
   Builder(const Eigen::MatrixXd& V, const Eigen::MatrixXi& F, const BodyFeatures& f, int n) : V_(V), F_(F), f_(f), n_(n) {}
 
+  /// The layers' planes only (centres as placed, before any section): no mesh is read.
+  LayeredRepresentation plan() {
+    planning_ = true;
+    rep_.points_per_layer = n_;
+    rep_.chain_names = {"torso", "head", "left_leg", "right_leg", "left_arm", "right_arm"};
+    torso();
+    head();
+    for (int side : {kLeft, kRight}) leg(side);
+    for (int side : {kLeft, kRight}) arm(side);
+    stitch();
+    return std::move(rep_);
+  }
+
   LayeredRepresentation build() {
     rep_.points_per_layer = n_;
     rep_.chain_names = {"torso", "head", "left_leg", "right_leg", "left_arm", "right_arm"};
@@ -142,6 +155,13 @@ class Builder {
     Eigen::Vector3d front = Eigen::Vector3d::UnitZ() - Eigen::Vector3d::UnitZ().dot(n) * n;
     if (front.norm() < 1e-6) front = n.unitOrthogonal();
     front.normalize();
+    if (planning_) {
+      const Eigen::Index row = static_cast<Eigen::Index>(rep_.layers.size()) * n_;
+      points_.conservativeResize(row + n_, 3);
+      points_.middleRows(row, n_).rowwise() = centre.transpose();
+      rep_.layers.push_back({chain, centre, n, front, n.cross(front), part});
+      return;
+    }
     const auto cached = horizontal ? horizontal_sections_.find(centre.y()) : horizontal_sections_.end();
     std::vector<SectionLoop> sliced;
     if (cached == horizontal_sections_.end())
@@ -246,6 +266,18 @@ class Builder {
     const int parts[] = {side == kLeft ? kLeftUpperArm : kRightUpperArm, side == kLeft ? kLeftForearm : kRightForearm,
                          side == kLeft ? kLeftHand : kRightHand};
     // Arm sections are cut from the faces around the arm only (its box grown by 8 cm).
+    TriangleMesh arm_mesh;
+    if (!planning_) arm_mesh = arm_faces(keys);
+    for (int s = 0; s < 3; ++s)
+      for (int k = 0; k < kArmSegments[s] + (s == 2); ++k) {
+        const Eigen::Vector3d c = keys[s] + (keys[s + 1] - keys[s]) * (static_cast<double>(k) / kArmSegments[s]);
+        Eigen::Vector3d dir = (keys[s + 1] - keys[s]).normalized();
+        if (k == 0 && s > 0) dir = (dir + (keys[s] - keys[s - 1]).normalized()).normalized();  // at a joint
+        add_layer(4 + side, c, -dir, parts[s], true, &arm_mesh);  // normals point up the limb, towards the body
+      }
+  }
+
+  TriangleMesh arm_faces(const Eigen::Vector3d (&keys)[4]) const {
     Eigen::Vector3d lo = keys[0], hi = keys[0];
     for (const auto& k : keys) lo = lo.cwiseMin(k), hi = hi.cwiseMax(k);
     lo.array() -= 0.08;
@@ -258,14 +290,7 @@ class Builder {
     TriangleMesh whole;
     whole.V = V_;
     whole.F = F_;
-    const TriangleMesh arm_mesh = extract_faces(whole, kept_face);  // re-indexed: a section visits only the arm
-    for (int s = 0; s < 3; ++s)
-      for (int k = 0; k < kArmSegments[s] + (s == 2); ++k) {
-        const Eigen::Vector3d c = keys[s] + (keys[s + 1] - keys[s]) * (static_cast<double>(k) / kArmSegments[s]);
-        Eigen::Vector3d dir = (keys[s + 1] - keys[s]).normalized();
-        if (k == 0 && s > 0) dir = (dir + (keys[s] - keys[s - 1]).normalized()).normalized();  // at a joint
-        add_layer(4 + side, c, -dir, parts[s], true, &arm_mesh);  // normals point up the limb, towards the body
-      }
+    return extract_faces(whole, kept_face);  // re-indexed: a section visits only the arm
   }
 
   void stitch() {
@@ -294,7 +319,7 @@ class Builder {
   const Eigen::MatrixXi& F_;
   const BodyFeatures& f_;
   int n_;
-  bool collecting_ = false;
+  bool collecting_ = false, planning_ = false;
   std::vector<double> horizontal_heights_;
   std::map<double, std::vector<SectionLoop>> horizontal_sections_;
   Eigen::MatrixXd points_;
@@ -302,6 +327,13 @@ class Builder {
 };
 
 }  // namespace
+
+LayeredRepresentation plan_layered_representation(const BodyFeatures& f, int points_per_layer) {
+  if (points_per_layer < 8) throw InvalidInput("layered representation: at least 8 points per layer");
+  const Eigen::MatrixXd none;
+  const Eigen::MatrixXi no_faces;
+  return Builder(none, no_faces, f, points_per_layer).plan();
+}
 
 int representation_layer_count() {
   int n = 1 + kHeadSegments;

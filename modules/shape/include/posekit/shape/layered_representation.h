@@ -40,4 +40,10 @@ int representation_layer_count();
 LayeredRepresentation build_layered_representation(const Eigen::MatrixXd& V, const Eigen::MatrixXi& F,
                                                    const BodyFeatures& features, int points_per_layer = 32);
 
+/// The layers' planes that build_layered_representation would cut for these features (chain, part,
+/// normal, in-plane axes, and as centre the point the plane is placed through), with the topology's
+/// mesh.F, triangle_part and triangle_layer; every point of a layer is its centre. For bodies known
+/// by their features only (photos): the caller fills the points.
+LayeredRepresentation plan_layered_representation(const BodyFeatures& features, int points_per_layer = 32);
+
 }  // namespace posekit
