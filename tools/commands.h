@@ -15,6 +15,7 @@ int run_body(int argc, char** argv);
 int run_dataset(int argc, char** argv);
 int run_measure(int argc, char** argv);
 int run_register(int argc, char** argv);
+int run_customize(int argc, char** argv);
 int run_train(int argc, char** argv);
 int run_pose(int argc, char** argv);
 int run_retarget(int argc, char** argv);

@@ -21,6 +21,7 @@ const Command kCommands[] = {
     {"convert", posekit::cli::run_convert, "convert between mesh/cloud formats and units"},
     {"body", posekit::cli::run_body, "build a MakeHuman body from sliders, pose it, write it"},
     {"measure", posekit::cli::run_measure, "stature and girths of a standing body mesh or scan"},
+    {"customize", posekit::cli::run_customize, "a body from a front and a side photo (section 3.2); train, eval"},
     {"register", posekit::cli::run_register, "register a template to a body (ct-FFD or ICP) and match triangles"},
     {"segment", posekit::cli::run_segment, "segment a body into 16 parts (Eq. 2) and embed the skeleton"},
     {"train", posekit::cli::run_train, "learn the non-rigid pose deformation from a pose dataset (Eq. 3-5)"},

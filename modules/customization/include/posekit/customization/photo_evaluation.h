@@ -1,0 +1,55 @@
+#pragma once
+// Photo customization against the dataset's ground truth: per subject, girth and stature errors
+// and the distance to the subject's own mesh, on the photos as given or degraded (robustness).
+#include <string>
+#include <vector>
+
+#include "posekit/customization/photo_customization.h"
+
+namespace posekit {
+
+/// How the photos are given or degraded before customization.
+enum class PhotoVariation {
+  kPhotos,        ///< the photos, silhouettes extracted, with the camera file
+  kMasks,         ///< the dataset's ground-truth masks, with the camera file
+  kErode2,        ///< masks eroded by 2 px
+  kDilate2,       ///< masks dilated by 2 px
+  kHeightPlus1cm, ///< no camera file: the stated height 1 cm over the truth (3 m, focal from it)
+  kNearer20cm,    ///< no camera file: the true height, the camera assumed 20 cm nearer than it was
+  kFarther20cm,   ///< ... 20 cm farther
+  kTurned5deg,    ///< the body turned 5 degrees about the vertical (re-rendered), camera file
+  kJpegNoise,     ///< photos with sensor noise (sigma 4 grey levels) and JPEG quality 60
+};
+const std::vector<PhotoVariation>& all_photo_variations();
+const char* photo_variation_name(PhotoVariation v);
+/// Parses a name (photos, masks, erode2, dilate2, height+1cm, nearer20cm, farther20cm, turned5,
+/// jpeg-noise); throws InvalidInput listing them.
+PhotoVariation parse_photo_variation(const std::string& name);
+
+struct PhotoSubjectResult {
+  std::string id;
+  bool ok = false;
+  std::string error;                        ///< why it failed
+  double stature_mm = 0, bust_mm = 0, waist_mm = 0, hip_mm = 0;  ///< signed errors (customized - truth)
+  bool girths_measured = false;
+  double surface_mm = 0;                    ///< mean distance of the subject's vertices to the result
+  double seconds = 0;                       ///< silhouettes to mesh
+  double silhouette_iou = 1;                ///< of the silhouettes used against the true masks (the lower view)
+  std::vector<std::string> warnings;
+};
+
+struct PhotoEvaluation {
+  PhotoVariation variation = PhotoVariation::kPhotos;
+  std::vector<PhotoSubjectResult> subjects;
+  int failed = 0;
+  double mean_abs_bust_mm = 0, mean_abs_waist_mm = 0, mean_abs_hip_mm = 0, mean_abs_stature_mm = 0, mean_surface_mm = 0;
+  double worst_girth_mm = 0;                ///< largest |bust|, |waist|, |hip| error
+  int within_2cm = 0;                       ///< subjects with bust, waist and hip within 2 cm
+};
+
+/// Customizes every subject of a dataset (its manifest) from its photos under `variation`.
+/// `ids`: only these subjects (empty: all).
+PhotoEvaluation evaluate_photo_customization(const std::string& dataset_dir, const CustomizationModel& model, PhotoVariation variation,
+                                             const std::vector<std::string>& ids = {});
+
+}  // namespace posekit

@@ -1,0 +1,629 @@
+#include <Eigen/Cholesky>
+#include <Eigen/Geometry>
+#include <algorithm>
+#include <atomic>
+#include <chrono>
+#include <cmath>
+#include <fstream>
+#include <map>
+#include <mutex>
+#include <nlohmann/json.hpp>
+#include <opencv2/core.hpp>
+#include <opencv2/imgcodecs.hpp>
+#include <opencv2/imgproc.hpp>
+#include <opencv2/ml.hpp>
+#include <random>
+#include <sstream>
+#include <thread>
+
+#include "posekit/body/makehuman_model.h"
+#include "posekit/core/closest_point.h"
+#include "posekit/core/error.h"
+#include "posekit/customization/photo_customization.h"
+#include "posekit/datasets/subjects.h"
+#include "posekit/io/atomic_file.h"
+#include "posekit/registration/ctffd.h"
+#include "posekit/version.h"
+
+namespace posekit {
+
+struct CustomizationModel::Runtime {
+  BodyFeatures template_features;
+  LayeredRepresentation template_rep;
+  CtffdParametrization param;
+  std::vector<cv::Ptr<cv::ml::ANN_MLP>> mlps;
+};
+
+namespace {
+
+constexpr int kLayerInputs = 12;
+constexpr int kFeatureScalars = 9, kFeaturePoints = 19;
+constexpr int kFeatureTargets = kFeatureScalars + 3 * kFeaturePoints;
+
+std::vector<Eigen::Vector3d*> feature_points(BodyFeatures& f) {
+  return {&f.crotch, &f.neck_base, &f.neck_top, &f.armpit[0], &f.armpit[1], &f.shoulder[0], &f.shoulder[1],
+          &f.elbow[0], &f.elbow[1], &f.wrist[0], &f.wrist[1], &f.hand_tip[0], &f.hand_tip[1],
+          &f.knee[0], &f.knee[1], &f.ankle[0], &f.ankle[1], &f.hip[0] /* 17th below */};
+}
+
+/// The features a layered representation is placed by, relative to the photos' floor and axis.
+Eigen::VectorXd feature_targets(BodyFeatures f, const PhotoLandmarks& L) {
+  Eigen::VectorXd t(kFeatureTargets);
+  int k = 0;
+  for (double y : {f.top_y, f.crotch_y, f.hip_y, f.waist_y, f.underbust_y, f.bust_y, f.arms_separate_y}) t[k++] = y - L.floor_y;
+  t[k++] = f.axis_x - L.axis_x;
+  t[k++] = f.crotch_axis_z - L.axis_z;
+  auto pts = feature_points(f);
+  pts.push_back(&f.hip[1]);
+  for (Eigen::Vector3d* p : pts) {
+    t[k++] = p->x() - L.axis_x;
+    t[k++] = p->y() - L.floor_y;
+    t[k++] = p->z() - L.axis_z;
+  }
+  return t;
+}
+
+BodyFeatures features_from_targets(const Eigen::VectorXd& t, const PhotoLandmarks& L) {
+  BodyFeatures f;
+  int k = 0;
+  for (double* y : {&f.top_y, &f.crotch_y, &f.hip_y, &f.waist_y, &f.underbust_y, &f.bust_y, &f.arms_separate_y}) *y = t[k++] + L.floor_y;
+  f.axis_x = t[k++] + L.axis_x;
+  f.crotch_axis_z = t[k++] + L.axis_z;
+  auto pts = feature_points(f);
+  pts.push_back(&f.hip[1]);
+  for (Eigen::Vector3d* p : pts) {
+    p->x() = t[k++] + L.axis_x;
+    p->y() = t[k++] + L.floor_y;
+    p->z() = t[k++] + L.axis_z;
+  }
+  f.floor_y = L.floor_y;
+  f.crown_y = f.top_y;
+  f.stature = f.crown_y - f.floor_y;
+  f.neck_joint = f.neck_base;
+  f.head_joint = f.neck_top;
+  return f;
+}
+
+Eigen::VectorXd with_bias(const Eigen::VectorXd& x) {
+  Eigen::VectorXd b(x.size() + 1);
+  b << x, 1.0;
+  return b;
+}
+
+/// Ridge regression Y ~ [X 1] W on standardised columns, returned in original units.
+Eigen::MatrixXd ridge(const Eigen::MatrixXd& X, const Eigen::MatrixXd& Y, double lambda) {
+  const Eigen::RowVectorXd mean = X.colwise().mean();
+  Eigen::RowVectorXd scale = ((X.rowwise() - mean).array().square().colwise().mean()).sqrt();
+  for (Eigen::Index c = 0; c < scale.size(); ++c) if (scale[c] < 1e-9) scale[c] = 1;
+  Eigen::MatrixXd Z(X.rows(), X.cols() + 1);
+  Z.leftCols(X.cols()) = (X.rowwise() - mean).array().rowwise() / scale.array();
+  Z.col(X.cols()).setOnes();
+  Eigen::MatrixXd A = Z.transpose() * Z;
+  A.diagonal().head(X.cols()).array() += lambda * X.rows();
+  const Eigen::MatrixXd Ws = A.ldlt().solve(Z.transpose() * Y);
+  // Back to original units: y = ((x - mean) / scale) Ws_top + Ws_bias.
+  Eigen::MatrixXd W(X.cols() + 1, Y.cols());
+  W.topRows(X.cols()) = Ws.topRows(X.cols()).array().colwise() / scale.transpose().array();
+  W.row(X.cols()) = Ws.row(X.cols()) - mean * W.topRows(X.cols());
+  return W;
+}
+
+/// A layer's inputs: its half width and depth and those of two chain neighbours on each side,
+/// relative, and the stature.
+Eigen::VectorXd layer_inputs(const LayeredRepresentation& rep, const std::vector<LayerExtent>& e, size_t i, double stature) {
+  auto hd = [&](size_t k) { return e[k].half_depth > 0 ? e[k].half_depth : e[k].half_width; };
+  auto along = [&](size_t k, int step) {  // k moved by step within its chain (clamped)
+    for (int s = 0; s < std::abs(step); ++s) {
+      const size_t n = step < 0 ? (k > 0 ? k - 1 : k) : k + 1;
+      if (n >= rep.layers.size() || rep.layers[n].chain != rep.layers[k].chain) break;
+      k = n;
+    }
+    return k;
+  };
+  const double w = std::max(e[i].half_width, 1e-3), d = std::max(hd(i), 1e-3);
+  Eigen::VectorXd x(kLayerInputs);
+  int k = 0;
+  x[k++] = w / stature, x[k++] = d / stature, x[k++] = d / w, x[k++] = stature;
+  for (int step : {-2, -1, 1, 2}) {
+    const size_t n = along(i, step);
+    x[k++] = e[n].half_width / w;
+    x[k++] = hd(n) / d;
+  }
+  return x;
+}
+
+/// A layer's section as outputs: its points and centroid relative to the box centre, along the
+/// layer's front axis in half depths and along its side axis in half widths.
+Eigen::VectorXd layer_outputs(const LayeredRepresentation& rep, size_t i, const LayerExtent& e) {
+  const int n = rep.points_per_layer;
+  const RepresentationLayer& L = rep.layers[i];
+  const double w = std::max(e.half_width, 1e-3), d = e.half_depth > 0 ? e.half_depth : w;
+  Eigen::VectorXd y(2 * n + 2);
+  for (int k = 0; k <= n; ++k) {
+    const Eigen::Vector3d p = k < n ? Eigen::Vector3d(rep.mesh.V.row(static_cast<Eigen::Index>(i) * n + k).transpose()) : L.centre;
+    y[2 * k] = (p - e.box_centre).dot(L.front) / d;
+    y[2 * k + 1] = (p - e.box_centre).dot(L.side) / w;
+  }
+  return y;
+}
+
+/// Fills layer i of a planned representation from outputs (inverse of layer_outputs).
+void apply_layer_outputs(LayeredRepresentation* rep, size_t i, const LayerExtent& e, const Eigen::VectorXd& y) {
+  const int n = rep->points_per_layer;
+  RepresentationLayer& L = rep->layers[i];
+  const double w = std::max(e.half_width, 1e-3), d = e.half_depth > 0 ? e.half_depth : w;
+  for (int k = 0; k <= n; ++k) {
+    const Eigen::Vector3d p = e.box_centre + y[2 * k] * d * L.front + y[2 * k + 1] * w * L.side;
+    if (k < n) rep->mesh.V.row(static_cast<Eigen::Index>(i) * n + k) = p.transpose();
+    else L.centre = p;
+  }
+}
+
+double point_error_mm(const Eigen::VectorXd& a, const Eigen::VectorXd& b, double w, double d, int n) {
+  double sum = 0;
+  for (int k = 0; k < n; ++k) sum += std::hypot((a[2 * k] - b[2 * k]) * d, (a[2 * k + 1] - b[2 * k + 1]) * w);
+  return 1000 * sum / n;
+}
+
+std::string mlp_to_string(const cv::Ptr<cv::ml::ANN_MLP>& mlp) {
+  cv::FileStorage fs(".yml", cv::FileStorage::WRITE | cv::FileStorage::MEMORY);
+  fs << "opencv_ml_ann_mlp" << "{";
+  mlp->write(fs);
+  fs << "}";
+  return fs.releaseAndGetString();
+}
+
+cv::Ptr<cv::ml::ANN_MLP> mlp_from_string(const std::string& s) {
+  return cv::Algorithm::loadFromString<cv::ml::ANN_MLP>(s);
+}
+
+cv::Mat to_mat(const Eigen::MatrixXd& M) {
+  cv::Mat m(static_cast<int>(M.rows()), static_cast<int>(M.cols()), CV_32F);
+  for (int r = 0; r < m.rows; ++r)
+    for (int c = 0; c < m.cols; ++c) m.at<float>(r, c) = static_cast<float>(M(r, c));
+  return m;
+}
+
+Eigen::VectorXd predict_layer(const CustomizationModel& model, size_t i, const Eigen::VectorXd& x) {
+  const CustomizationModel::Layer& L = model.layers[i];
+  const Eigen::VectorXd z = (x - L.in_mean).cwiseQuotient(L.in_scale);
+  if (L.use_mlp && model.runtime && i < model.runtime->mlps.size() && model.runtime->mlps[i]) {
+    cv::Mat out;
+    model.runtime->mlps[i]->predict(to_mat(z.transpose()), out);
+    Eigen::VectorXd y(out.cols);
+    for (int c = 0; c < out.cols; ++c) y[c] = out.at<float>(0, c);
+    return L.out_mean + y.cwiseProduct(L.out_scale);
+  }
+  const Eigen::VectorXd y = L.linear.transpose() * with_bias(z);
+  return L.out_mean + y.cwiseProduct(L.out_scale);
+}
+
+struct Sample {
+  bool ok = false;
+  std::string why;
+  double bmi = 0, gender = 0;
+  PhotoLandmarks landmarks;
+  Eigen::VectorXd targets;
+  PhotoCameras cameras;
+  std::vector<std::uint8_t> front_png, side_png;
+  std::vector<Eigen::VectorXd> inputs, outputs;  // per layer
+  std::vector<double> w, d;                      // per layer half extents (m), for errors
+};
+
+std::vector<std::uint8_t> encode(const std::vector<std::uint8_t>& mask, int w, int h) {
+  std::vector<std::uint8_t> buf;
+  cv::imencode(".png", cv::Mat(h, w, CV_8U, const_cast<std::uint8_t*>(mask.data())), buf);
+  return buf;
+}
+
+Silhouette decode(const std::vector<std::uint8_t>& png) {
+  const cv::Mat m = cv::imdecode(png, cv::IMREAD_GRAYSCALE);
+  Silhouette s;
+  s.width = m.cols, s.height = m.rows;
+  s.mask.assign(m.data, m.data + m.total());
+  return s;
+}
+
+void parallel(int n, int threads, const std::function<void(int)>& f) {
+  std::atomic<int> next{0};
+  std::vector<std::thread> pool;
+  std::exception_ptr error;
+  std::mutex m;
+  for (int t = 0; t < std::max(1, threads); ++t)
+    pool.emplace_back([&] {
+      for (int i; (i = next++) < n;) try {
+          f(i);
+        } catch (...) {
+          std::lock_guard<std::mutex> lock(m);
+          if (!error) error = std::current_exception();
+        }
+    });
+  for (auto& t : pool) t.join();
+  if (error) std::rethrow_exception(error);
+}
+
+}  // namespace
+
+BodyFeatures predict_body_features(const CustomizationModel& model, const PhotoLandmarks& L) {
+  if (model.feature_weights.rows() != L.descriptor.size() + 1)
+    throw InvalidInput("customization model: made for another feature descriptor (" + std::to_string(model.feature_weights.rows() - 1) +
+                       " values, the photos give " + std::to_string(L.descriptor.size()) + ")");
+  return features_from_targets(model.feature_weights.transpose() * with_bias(L.descriptor), L);
+}
+
+void prepare_customization_model(CustomizationModel* model) {
+  if (model->template_mesh.V.rows() == 0) throw InvalidInput("customization model: no template mesh");
+  auto rt = std::make_shared<CustomizationModel::Runtime>();
+  rt->template_features = find_body_features(model->template_mesh.V, model->template_mesh.F);
+  rt->template_rep = build_layered_representation(model->template_mesh.V, model->template_mesh.F, rt->template_features,
+                                                  model->points_per_layer);
+  if (rt->template_rep.layers.size() != model->layers.size())
+    throw InvalidInput("customization model: " + std::to_string(model->layers.size()) + " layer models for a representation of " +
+                       std::to_string(rt->template_rep.layers.size()) + " layers");
+  rt->param = ctffd_parametrize(model->template_mesh.V, rt->template_rep);
+  rt->mlps.resize(model->layers.size());
+  for (size_t i = 0; i < model->layers.size(); ++i)
+    if (model->layers[i].use_mlp) {
+      rt->mlps[i] = mlp_from_string(model->layers[i].mlp);
+      if (!rt->mlps[i] || !rt->mlps[i]->isTrained()) throw InvalidInput("customization model: layer " + std::to_string(i) + "'s MLP does not load");
+    }
+  model->runtime = rt;
+}
+
+CustomizedBody customize_from_silhouettes(const Silhouette& front, const Silhouette& side, const PhotoCameras& cams,
+                                          const CustomizationModel& model, double stated_stature) {
+  if (!model.runtime) throw InvalidInput("customize: the model is not prepared (prepare_customization_model)");
+  CustomizedBody out;
+  out.landmarks = find_photo_landmarks(front, side, cams);
+  out.warnings = out.landmarks.warnings;
+  const BodyFeatures predicted = predict_body_features(model, out.landmarks);
+  out.features = torso_levels_in_proportion(predicted, model.runtime->template_features);
+  LayeredRepresentation rep = plan_layered_representation(out.features, model.points_per_layer);
+  if (rep.layers.size() != model.layers.size()) throw InvalidInput("customize: the model's layers do not match the representation");
+  const std::vector<LayerExtent> extents = measure_layers(rep, front, side, cams, out.features.axis_x, out.landmarks.side_arm_occlusion);
+  for (size_t i = 0; i < rep.layers.size(); ++i)
+    apply_layer_outputs(&rep, i, extents[i], predict_layer(model, i, layer_inputs(rep, extents, i, out.landmarks.stature)));
+  out.mesh.V = ctffd_evaluate(model.runtime->param, rep);
+  out.mesh.F = model.template_mesh.F;
+  if (stated_stature > 0) {
+    const double photos = out.landmarks.stature;
+    if (cams.assumed.empty() && std::abs(photos - stated_stature) > 0.02) {
+      std::ostringstream w;
+      w.precision(3);
+      w << "the camera file gives a stature of " << photos << " m, the stated height is " << stated_stature
+        << " m: the body is scaled to the stated height (check the camera file)";
+      out.warnings.push_back(w.str());
+    }
+    out.scale = stated_stature / photos;
+    const Eigen::RowVector3d origin(out.features.axis_x, out.landmarks.floor_y, out.landmarks.axis_z);
+    out.mesh.V = ((out.mesh.V.rowwise() - origin) * out.scale).rowwise() + origin;
+    rep.mesh.V = ((rep.mesh.V.rowwise() - origin) * out.scale).rowwise() + origin;
+    for (auto& L : rep.layers) L.centre = (L.centre.transpose() - origin).transpose() * out.scale + origin.transpose();
+  }
+  out.representation = std::move(rep);
+  return out;
+}
+
+CustomizationModel train_customization_model(const CustomizationTrainingOptions& o) {
+  const auto t0 = std::chrono::steady_clock::now();
+  if (o.bodies < 20) throw InvalidInput("customize train: at least 20 bodies");
+  const auto mh = load_makehuman_model(o.data_root);
+  CustomizationModel model;
+  model.seed = o.seed;
+  model.template_mesh = build_body(*mh, BodySpec{}).mesh;
+  const BodyFeatures template_features = find_body_features(model.template_mesh.V, model.template_mesh.F);
+  const std::vector<BodySpec> specs = make_calibration_specs(o.seed, o.bodies);
+  const int n = static_cast<int>(specs.size());
+  std::vector<Sample> samples(static_cast<size_t>(n));
+  std::atomic<int> done{0};
+  auto report = [&](const std::string& what) {
+    const int d = ++done;
+    if (o.progress) o.progress(d, 2 * n, what);
+  };
+  // Pass 1: bodies, their features, rendered silhouettes, 2-D features.
+  parallel(n, o.threads, [&](int i) {
+    Sample& s = samples[static_cast<size_t>(i)];
+    try {
+      const Body body = build_body(*mh, specs[static_cast<size_t>(i)]);
+      s.bmi = body_stats(body.mesh).bmi;
+      s.gender = specs[static_cast<size_t>(i)].gender;
+      if (o.keep && !o.keep(i, s.bmi, s.gender)) {
+        s.why = "left out";
+        report("body " + std::to_string(i));
+        return;
+      }
+      const BodyFeatures f = find_body_features(body.mesh.V, body.mesh.F);
+      std::mt19937 rng(o.seed * 31u + static_cast<unsigned>(i));
+      std::uniform_real_distribution<double> u(0, 1);
+      const double distance = 2.6 + 0.8 * u(rng);
+      const double mid = 0.5 * (body.mesh.V.col(1).maxCoeff() + body.mesh.V.col(1).minCoeff()) + 0.1 * (u(rng) - 0.5);
+      s.cameras.front = PinholeCamera::look_at(Eigen::Vector3d(0, mid, distance), Eigen::Vector3d(0, mid, 0), Eigen::Vector3d::UnitY(), 800, 1200, 1400);
+      s.cameras.side = PinholeCamera::look_at(Eigen::Vector3d(distance, mid, 0), Eigen::Vector3d(0, mid, 0), Eigen::Vector3d::UnitY(), 800, 1200, 1400);
+      Silhouette sil[2];
+      int k = 0;
+      for (const PinholeCamera* c : {&s.cameras.front, &s.cameras.side}) {
+        const RenderBuffers buf = render_mesh(body.mesh, *c);
+        sil[k].width = buf.width, sil[k].height = buf.height;
+        sil[k].mask.resize(buf.face.size());
+        for (size_t p = 0; p < buf.face.size(); ++p) sil[k].mask[p] = buf.face[p] >= 0 ? 255 : 0;
+        ++k;
+      }
+      s.landmarks = find_photo_landmarks(sil[0], sil[1], s.cameras);
+      s.targets = feature_targets(f, s.landmarks);
+      s.front_png = encode(sil[0].mask, sil[0].width, sil[0].height);
+      s.side_png = encode(sil[1].mask, sil[1].width, sil[1].height);
+      s.ok = true;
+    } catch (const Error& e) {
+      s.why = e.what();
+    }
+    report("body " + std::to_string(i));
+  });
+  std::vector<int> kept;
+  for (int i = 0; i < n; ++i)
+    if (samples[static_cast<size_t>(i)].ok) kept.push_back(i);
+  if (kept.size() < 20) {
+    std::string why;
+    for (const Sample& s : samples)
+      if (!s.ok && s.why != "left out") {
+        why = s.why;
+        break;
+      }
+    throw InvalidInput("customize train: only " + std::to_string(kept.size()) + " usable bodies (e.g.: " + why + ")");
+  }
+  // Validation: every fifth body (by index, so the split does not depend on threads).
+  const int stride = std::max(2, static_cast<int>(std::lround(1.0 / std::max(0.05, o.validation_fraction))));
+  std::vector<int> train, valid;
+  for (int i : kept) (i % stride == stride - 1 ? valid : train).push_back(i);
+  const int descriptor_size = static_cast<int>(samples[static_cast<size_t>(kept[0])].landmarks.descriptor.size());
+  {
+    Eigen::MatrixXd X(static_cast<Eigen::Index>(train.size()), descriptor_size), Y(static_cast<Eigen::Index>(train.size()), kFeatureTargets);
+    for (size_t r = 0; r < train.size(); ++r) {
+      X.row(static_cast<Eigen::Index>(r)) = samples[static_cast<size_t>(train[r])].landmarks.descriptor.transpose();
+      Y.row(static_cast<Eigen::Index>(r)) = samples[static_cast<size_t>(train[r])].targets.transpose();
+    }
+    model.feature_weights = ridge(X, Y, 1e-4);
+    double sum = 0;
+    long count = 0;
+    for (int i : valid) {
+      const Eigen::VectorXd p = model.feature_weights.transpose() * with_bias(samples[static_cast<size_t>(i)].landmarks.descriptor);
+      const Eigen::VectorXd& t = samples[static_cast<size_t>(i)].targets;
+      for (int k = kFeatureScalars; k < kFeatureTargets; k += 3) sum += 1000 * (p.segment<3>(k) - t.segment<3>(k)).norm(), ++count;
+    }
+    model.feature_error_mm = count ? sum / count : 0;
+  }
+  // Pass 2: each body's representation at the predicted features; per layer, silhouette extents
+  // against the true section.
+  std::atomic<int> layer_count{0};
+  parallel(static_cast<int>(kept.size()), o.threads, [&](int j) {
+    Sample& s = samples[static_cast<size_t>(kept[static_cast<size_t>(j)])];
+    try {
+      const BodyFeatures f = torso_levels_in_proportion(predict_body_features(model, s.landmarks), template_features);
+      const LayeredRepresentation planned = plan_layered_representation(f, model.points_per_layer);
+      const Silhouette front = decode(s.front_png), side = decode(s.side_png);
+      const std::vector<LayerExtent> e = measure_layers(planned, front, side, s.cameras, f.axis_x, s.landmarks.side_arm_occlusion);
+      const Body body = build_body(*mh, specs[static_cast<size_t>(kept[static_cast<size_t>(j)])]);
+      const LayeredRepresentation truth = build_layered_representation(body.mesh.V, body.mesh.F, f, model.points_per_layer);
+      for (size_t i = 0; i < truth.layers.size(); ++i) {
+        s.inputs.push_back(layer_inputs(planned, e, i, s.landmarks.stature));
+        s.outputs.push_back(layer_outputs(truth, i, e[i]));
+        s.w.push_back(e[i].half_width);
+        s.d.push_back(e[i].half_depth > 0 ? e[i].half_depth : e[i].half_width);
+      }
+      layer_count = static_cast<int>(truth.layers.size());
+    } catch (const Error& e) {
+      s.ok = false;
+      s.why = e.what();
+    }
+    report("sections " + std::to_string(j));
+  });
+  auto usable = [&](std::vector<int> v) {
+    v.erase(std::remove_if(v.begin(), v.end(), [&](int i) { return !samples[static_cast<size_t>(i)].ok; }), v.end());
+    return v;
+  };
+  train = usable(train), valid = usable(valid);
+  if (train.size() < 15 || valid.empty()) throw InvalidInput("customize train: too few bodies gave sections");
+  const int layers = layer_count;
+  model.layers.resize(static_cast<size_t>(layers));
+  const int n_out = 2 * model.points_per_layer + 2;
+  parallel(layers, o.threads, [&](int i) {
+    CustomizationModel::Layer& L = model.layers[static_cast<size_t>(i)];
+    auto gather = [&](const std::vector<int>& ids, Eigen::MatrixXd* X, Eigen::MatrixXd* Y) {
+      X->resize(static_cast<Eigen::Index>(ids.size()), kLayerInputs);
+      Y->resize(static_cast<Eigen::Index>(ids.size()), n_out);
+      for (size_t r = 0; r < ids.size(); ++r) {
+        X->row(static_cast<Eigen::Index>(r)) = samples[static_cast<size_t>(ids[r])].inputs[static_cast<size_t>(i)].transpose();
+        Y->row(static_cast<Eigen::Index>(r)) = samples[static_cast<size_t>(ids[r])].outputs[static_cast<size_t>(i)].transpose();
+      }
+    };
+    Eigen::MatrixXd X, Y, Xv, Yv;
+    gather(train, &X, &Y);
+    gather(valid, &Xv, &Yv);
+    L.in_mean = X.colwise().mean().transpose();
+    L.in_scale = ((X.rowwise() - L.in_mean.transpose()).array().square().colwise().mean()).sqrt().transpose();
+    L.out_mean = Y.colwise().mean().transpose();
+    L.out_scale = ((Y.rowwise() - L.out_mean.transpose()).array().square().colwise().mean()).sqrt().transpose();
+    for (auto* s : {&L.in_scale, &L.out_scale})
+      for (Eigen::Index c = 0; c < s->size(); ++c) if ((*s)[c] < 1e-9) (*s)[c] = 1;
+    const Eigen::MatrixXd Z = (X.rowwise() - L.in_mean.transpose()).array().rowwise() / L.in_scale.transpose().array();
+    const Eigen::MatrixXd T = (Y.rowwise() - L.out_mean.transpose()).array().rowwise() / L.out_scale.transpose().array();
+    const Eigen::MatrixXd W = ridge(Z, T, 1e-4);  // Z is standardised already: W in its units
+    L.linear = W;
+    L.use_mlp = false;
+    double linear_sum = 0;
+    for (Eigen::Index r = 0; r < Xv.rows(); ++r) {
+      const size_t id = static_cast<size_t>(valid[static_cast<size_t>(r)]);
+      linear_sum += point_error_mm(predict_layer(model, static_cast<size_t>(i), Xv.row(r).transpose()), Yv.row(r).transpose(),
+                                   samples[id].w[static_cast<size_t>(i)], samples[id].d[static_cast<size_t>(i)], model.points_per_layer);
+    }
+    L.linear_error_mm = linear_sum / Xv.rows();
+    L.mlp_error_mm = -1;
+    if (o.mlp) {
+      auto mlp = cv::ml::ANN_MLP::create();
+      cv::Mat sizes = (cv::Mat_<int>(3, 1) << kLayerInputs, o.mlp_hidden, n_out);
+      mlp->setLayerSizes(sizes);
+      mlp->setActivationFunction(cv::ml::ANN_MLP::SIGMOID_SYM, 1, 1);
+      mlp->setTrainMethod(cv::ml::ANN_MLP::RPROP);
+      mlp->setTermCriteria(cv::TermCriteria(cv::TermCriteria::MAX_ITER + cv::TermCriteria::EPS, o.mlp_iterations, 1e-7));
+      cv::setRNGSeed(static_cast<int>(o.seed) + i);
+      mlp->train(cv::ml::TrainData::create(to_mat(Z), cv::ml::ROW_SAMPLE, to_mat(T)));
+      double mlp_sum = 0;
+      for (Eigen::Index r = 0; r < Xv.rows(); ++r) {
+        const size_t id = static_cast<size_t>(valid[static_cast<size_t>(r)]);
+        const Eigen::VectorXd z = (Xv.row(r).transpose() - L.in_mean).cwiseQuotient(L.in_scale);
+        cv::Mat out;
+        mlp->predict(to_mat(z.transpose()), out);
+        Eigen::VectorXd y(out.cols);
+        for (int c = 0; c < out.cols; ++c) y[c] = L.out_mean[c] + out.at<float>(0, c) * L.out_scale[c];
+        mlp_sum += point_error_mm(y, Yv.row(r).transpose(), samples[id].w[static_cast<size_t>(i)], samples[id].d[static_cast<size_t>(i)],
+                                  model.points_per_layer);
+      }
+      L.mlp_error_mm = mlp_sum / Xv.rows();
+      if (L.mlp_error_mm < L.linear_error_mm) {
+        L.use_mlp = true;
+        L.mlp = mlp_to_string(mlp);
+      }
+    }
+  });
+  model.bodies = static_cast<int>(train.size());
+  model.validation_bodies = static_cast<int>(valid.size());
+  std::ostringstream pop;
+  pop << "make_calibration_specs(" << o.seed << ", " << o.bodies << "): " << train.size() << " training and " << valid.size()
+      << " validation bodies";
+  int failed = 0, left_out = 0;
+  for (const Sample& s : samples) (s.why == "left out" ? left_out : failed) += !s.ok;
+  if (left_out) pop << ", " << left_out << " left out (" << (o.population_note.empty() ? "keep" : o.population_note) << ")";
+  if (failed) {
+    std::map<std::string, int> reasons;
+    for (const Sample& s : samples)
+      if (!s.ok && s.why != "left out") ++reasons[s.why.substr(0, s.why.find(':', s.why.find(':') + 1))];
+    pop << ", " << failed << " unusable:";
+    for (const auto& [why, count] : reasons) pop << " " << count << " x '" << why << "';";
+  }
+  model.population = pop.str();
+  prepare_customization_model(&model);
+  model.training_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  return model;
+}
+
+void write_photo_features_png(const std::string& path, const Silhouette& sil, const PinholeCamera& cam, const CustomizedBody& body) {
+  cv::Mat gray(sil.height, sil.width, CV_8U, const_cast<std::uint8_t*>(sil.mask.data()));
+  cv::Mat img;
+  cv::cvtColor(gray / 2 + 64, img, cv::COLOR_GRAY2BGR);
+  const PhotoLandmarks& L = body.landmarks;
+  const double s = body.scale;
+  auto unscaled = [&](const Eigen::Vector3d& p) {  // the result back in the photos' world
+    const Eigen::Vector3d o(body.features.axis_x, L.floor_y, L.axis_z);
+    return Eigen::Vector3d(o + (p - o) / s);
+  };
+  const std::pair<double, cv::Scalar> levels[] = {
+      {L.floor_y, {0, 0, 255}},   {L.crotch_y, {0, 128, 255}}, {L.hip_y, {0, 200, 0}},     {L.waist_y, {255, 128, 0}},
+      {L.bust_y, {255, 0, 255}},  {L.armpit_y[0], {0, 255, 255}}, {L.armpit_y[1], {0, 255, 255}}, {L.neck_y, {255, 255, 0}},
+      {L.crown_y, {0, 0, 255}}};
+  for (const auto& [y, colour] : levels) {
+    const Eigen::Vector2d a = project(cam, Eigen::Vector3d(L.axis_x, y, L.axis_z));
+    cv::line(img, cv::Point(0, static_cast<int>(a.y())), cv::Point(img.cols - 1, static_cast<int>(a.y())), colour, 1);
+  }
+  const cv::Scalar chain_colours[] = {{60, 60, 255}, {255, 200, 0}, {0, 200, 0}, {0, 140, 0}, {255, 0, 200}, {180, 0, 140}};
+  const int n = body.representation.points_per_layer;
+  for (size_t i = 0; i < body.representation.layers.size(); ++i)
+    for (int k = 0; k < n; ++k) {
+      const Eigen::Vector2d p = project(cam, unscaled(body.representation.mesh.V.row(static_cast<Eigen::Index>(i) * n + k).transpose()));
+      cv::circle(img, cv::Point(static_cast<int>(p.x()), static_cast<int>(p.y())), 1,
+                 chain_colours[std::clamp(body.representation.layers[i].chain, 0, 5)], cv::FILLED);
+    }
+  std::vector<std::uint8_t> buf;
+  cv::imencode(".png", img, buf);
+  write_file_atomically(path, [&](std::ostream& os) { os.write(reinterpret_cast<const char*>(buf.data()), static_cast<std::streamsize>(buf.size())); });
+}
+
+void save_customization_model(const std::string& path, const CustomizationModel& m) {
+  nlohmann::json j;
+  auto mat = [](const Eigen::MatrixXd& M) {
+    nlohmann::json a = nlohmann::json::array();
+    for (Eigen::Index r = 0; r < M.rows(); ++r) {
+      std::vector<double> row(static_cast<size_t>(M.cols()));
+      for (Eigen::Index c = 0; c < M.cols(); ++c) row[static_cast<size_t>(c)] = M(r, c);
+      a.push_back(row);
+    }
+    return a;
+  };
+  auto vec = [](const Eigen::VectorXd& v) { return std::vector<double>(v.data(), v.data() + v.size()); };
+  j["format"] = "posekit customization model";
+  j["version"] = 1;
+  j["posekit"] = POSEKIT_VERSION_STRING;
+  j["points_per_layer"] = m.points_per_layer;
+  j["bodies"] = m.bodies;
+  j["validation_bodies"] = m.validation_bodies;
+  j["seed"] = m.seed;
+  j["training_seconds"] = m.training_seconds;
+  j["population"] = m.population;
+  j["feature_error_mm"] = m.feature_error_mm;
+  j["feature_weights"] = mat(m.feature_weights);
+  for (const auto& L : m.layers)
+    j["layers"].push_back({{"model", L.use_mlp ? "mlp" : "linear"}, {"linear", mat(L.linear)}, {"mlp", L.mlp},
+                           {"in_mean", vec(L.in_mean)}, {"in_scale", vec(L.in_scale)}, {"out_mean", vec(L.out_mean)},
+                           {"out_scale", vec(L.out_scale)}, {"linear_error_mm", L.linear_error_mm}, {"mlp_error_mm", L.mlp_error_mm}});
+  j["template"]["V"] = mat(m.template_mesh.V);
+  j["template"]["F"] = mat(m.template_mesh.F.cast<double>());
+  const std::string text = j.dump();
+  write_file_atomically(path, [&](std::ostream& os) { os << text; });
+}
+
+CustomizationModel load_customization_model(const std::string& path) {
+  std::ifstream in(path);
+  if (!in) throw IoError("cannot open customization model '" + path + "'");
+  nlohmann::json j;
+  try {
+    in >> j;
+  } catch (const std::exception& e) {
+    throw InvalidInput("customization model '" + path + "': not JSON (" + e.what() + ")");
+  }
+  if (j.value("format", "") != "posekit customization model")
+    throw InvalidInput("'" + path + "' is not a posekit customization model (make one with: posekit customize train --out FILE)");
+  CustomizationModel m;
+  auto mat = [&](const nlohmann::json& a, const std::string& what) {
+    if (!a.is_array() || a.empty()) throw InvalidInput("customization model '" + path + "': " + what + " is not a matrix");
+    Eigen::MatrixXd M(static_cast<Eigen::Index>(a.size()), static_cast<Eigen::Index>(a[0].size()));
+    for (size_t r = 0; r < a.size(); ++r) {
+      if (a[r].size() != static_cast<size_t>(M.cols())) throw InvalidInput("customization model '" + path + "': ragged " + what);
+      for (size_t c = 0; c < a[r].size(); ++c) M(static_cast<Eigen::Index>(r), static_cast<Eigen::Index>(c)) = a[r][c].get<double>();
+    }
+    return M;
+  };
+  auto vec = [&](const nlohmann::json& a) {
+    const auto v = a.get<std::vector<double>>();
+    return Eigen::VectorXd(Eigen::Map<const Eigen::VectorXd>(v.data(), static_cast<Eigen::Index>(v.size())));
+  };
+  try {
+    m.points_per_layer = j.at("points_per_layer").get<int>();
+    m.bodies = j.at("bodies").get<int>();
+    m.validation_bodies = j.at("validation_bodies").get<int>();
+    m.seed = j.at("seed").get<unsigned>();
+    m.training_seconds = j.at("training_seconds").get<double>();
+    m.population = j.at("population").get<std::string>();
+    m.feature_error_mm = j.at("feature_error_mm").get<double>();
+    m.feature_weights = mat(j.at("feature_weights"), "feature_weights");
+    for (const auto& l : j.at("layers")) {
+      CustomizationModel::Layer L;
+      L.use_mlp = l.at("model").get<std::string>() == "mlp";
+      L.linear = mat(l.at("linear"), "a layer's linear model");
+      L.mlp = l.at("mlp").get<std::string>();
+      L.in_mean = vec(l.at("in_mean")), L.in_scale = vec(l.at("in_scale"));
+      L.out_mean = vec(l.at("out_mean")), L.out_scale = vec(l.at("out_scale"));
+      L.linear_error_mm = l.at("linear_error_mm").get<double>();
+      L.mlp_error_mm = l.at("mlp_error_mm").get<double>();
+      if (L.in_mean.size() != kLayerInputs || L.linear.rows() != kLayerInputs + 1 || L.out_mean.size() != L.linear.cols())
+        throw InvalidInput("customization model '" + path + "': a layer model of the wrong size");
+      m.layers.push_back(std::move(L));
+    }
+    m.template_mesh.V = mat(j.at("template").at("V"), "template vertices");
+    m.template_mesh.F = mat(j.at("template").at("F"), "template faces").cast<int>();
+  } catch (const nlohmann::json::exception& e) {
+    throw InvalidInput("customization model '" + path + "': " + e.what());
+  }
+  if (m.feature_weights.cols() != kFeatureTargets) throw InvalidInput("customization model '" + path + "': feature model of the wrong size");
+  prepare_customization_model(&m);
+  return m;
+}
+
+}  // namespace posekit

@@ -1,0 +1,215 @@
+#include "posekit/customization/photo_evaluation.h"
+
+#include <Eigen/Geometry>
+#include <chrono>
+#include <cmath>
+#include <filesystem>
+#include <fstream>
+#include <nlohmann/json.hpp>
+#include <opencv2/core.hpp>
+#include <opencv2/imgcodecs.hpp>
+#include <opencv2/imgproc.hpp>
+
+#include "posekit/core/closest_point.h"
+#include "posekit/core/error.h"
+#include "posekit/datasets/dataset.h"
+#include "posekit/shape/measurements.h"
+
+namespace posekit {
+namespace fs = std::filesystem;
+namespace {
+
+const std::pair<PhotoVariation, const char*> kNames[] = {
+    {PhotoVariation::kPhotos, "photos"},          {PhotoVariation::kMasks, "masks"},
+    {PhotoVariation::kErode2, "erode2"},          {PhotoVariation::kDilate2, "dilate2"},
+    {PhotoVariation::kHeightPlus1cm, "height+1cm"}, {PhotoVariation::kNearer20cm, "nearer20cm"},
+    {PhotoVariation::kFarther20cm, "farther20cm"}, {PhotoVariation::kTurned5deg, "turned5"},
+    {PhotoVariation::kJpegNoise, "jpeg-noise"}};
+
+nlohmann::json read_json(const fs::path& p) {
+  std::ifstream in(p);
+  if (!in) throw IoError("cannot open '" + p.string() + "'");
+  try {
+    nlohmann::json j;
+    in >> j;
+    return j;
+  } catch (const std::exception& e) {
+    throw InvalidInput("'" + p.string() + "': not JSON (" + e.what() + ")");
+  }
+}
+
+Silhouette morph(Silhouette s, bool erode, int px) {
+  cv::Mat m(s.height, s.width, CV_8U, s.mask.data());
+  const cv::Mat k = cv::getStructuringElement(cv::MORPH_ELLIPSE, {2 * px + 1, 2 * px + 1});
+  cv::Mat out;
+  if (erode) cv::erode(m, out, k);
+  else cv::dilate(m, out, k);
+  s.mask.assign(out.data, out.data + out.total());
+  return s;
+}
+
+Silhouette degraded_photo(const std::string& path, const std::string& what, unsigned seed) {
+  cv::Mat img = cv::imread(path, cv::IMREAD_COLOR);
+  if (img.empty()) throw IoError("cannot read '" + path + "'");
+  cv::Mat noise(img.size(), CV_32FC3);
+  cv::RNG rng(seed);
+  rng.fill(noise, cv::RNG::NORMAL, 0, 4);
+  cv::Mat f;
+  img.convertTo(f, CV_32FC3);
+  f += noise;
+  f.convertTo(img, CV_8UC3);
+  std::vector<std::uint8_t> jpg;
+  cv::imencode(".jpg", img, jpg, {cv::IMWRITE_JPEG_QUALITY, 60});
+  const cv::Mat back = cv::imdecode(jpg, cv::IMREAD_COLOR);
+  return silhouette_from_pixels(back.cols, back.rows, 3, back.data, what);
+}
+
+Silhouette rendered_mask(const TriangleMesh& mesh, const PinholeCamera& cam) {
+  const RenderBuffers b = render_mesh(mesh, cam);
+  Silhouette s;
+  s.width = b.width, s.height = b.height;
+  s.mask.resize(b.face.size());
+  for (size_t k = 0; k < b.face.size(); ++k) s.mask[k] = b.face[k] >= 0 ? 255 : 0;
+  return s;
+}
+
+}  // namespace
+
+const std::vector<PhotoVariation>& all_photo_variations() {
+  static const std::vector<PhotoVariation> v = [] {
+    std::vector<PhotoVariation> out;
+    for (const auto& [k, name] : kNames) out.push_back(k);
+    return out;
+  }();
+  return v;
+}
+
+const char* photo_variation_name(PhotoVariation v) {
+  for (const auto& [k, name] : kNames)
+    if (k == v) return name;
+  return "?";
+}
+
+PhotoVariation parse_photo_variation(const std::string& name) {
+  std::string list;
+  for (const auto& [k, n] : kNames) {
+    if (name == n) return k;
+    list += std::string(list.empty() ? "" : ", ") + n;
+  }
+  throw InvalidInput("unknown photo variation '" + name + "' (one of: " + list + ")");
+}
+
+PhotoEvaluation evaluate_photo_customization(const std::string& dataset_dir, const CustomizationModel& model, PhotoVariation variation,
+                                             const std::vector<std::string>& ids) {
+  const fs::path root(dataset_dir);
+  const nlohmann::json manifest = read_json(root / "manifest.json");
+  PhotoEvaluation ev;
+  ev.variation = variation;
+  double sb = 0, sw = 0, sh = 0, ss = 0, sd = 0;
+  int ok = 0;
+  for (const auto& s : manifest.at("subjects")) {
+    const std::string id = s.at("id").get<std::string>();
+    if (!ids.empty() && std::find(ids.begin(), ids.end(), id) == ids.end()) continue;
+    PhotoSubjectResult r;
+    r.id = id;
+    try {
+      const auto& ph = s.at("photos");
+      const std::string front_photo = (root / ph.at("front").get<std::string>()).string();
+      const std::string side_photo = (root / ph.at("side").get<std::string>()).string();
+      const nlohmann::json meas = read_json(root / s.at("measurements").get<std::string>());
+      const double true_stature = meas.at("stature").get<double>();
+      PhotoCameras cams = read_photo_cameras((root / ph.at("camera").get<std::string>()).string());
+      double stated = 0;
+      const auto t0 = std::chrono::steady_clock::now();
+      Silhouette front, side;
+      TriangleMesh subject = load_subject_mesh((root / s.at("rest").get<std::string>()).string());
+      switch (variation) {
+        case PhotoVariation::kPhotos:
+          front = silhouette_from_photo(front_photo, "front photo of " + id);
+          side = silhouette_from_photo(side_photo, "side photo of " + id);
+          break;
+        case PhotoVariation::kJpegNoise:
+          front = degraded_photo(front_photo, "front photo of " + id, 17);
+          side = degraded_photo(side_photo, "side photo of " + id, 29);
+          break;
+        case PhotoVariation::kTurned5deg: {
+          // The subject turned 5 degrees about the vertical through its centre.
+          const Eigen::RowVector3d c = subject.V.colwise().mean();
+          const Eigen::Matrix3d R = Eigen::AngleAxisd(5 * M_PI / 180, Eigen::Vector3d::UnitY()).toRotationMatrix();
+          TriangleMesh turned = subject;
+          turned.V = ((subject.V.rowwise() - c) * R.transpose()).rowwise() + c;
+          front = rendered_mask(turned, cams.front);
+          side = rendered_mask(turned, cams.side);
+          break;
+        }
+        default:
+          front = read_silhouette_mask((root / ph.at("front_mask").get<std::string>()).string(), "front mask of " + id);
+          side = read_silhouette_mask((root / ph.at("side_mask").get<std::string>()).string(), "side mask of " + id);
+          break;
+      }
+      if (variation == PhotoVariation::kErode2 || variation == PhotoVariation::kDilate2) {
+        front = morph(front, variation == PhotoVariation::kErode2, 2);
+        side = morph(side, variation == PhotoVariation::kErode2, 2);
+      }
+      if (variation == PhotoVariation::kHeightPlus1cm || variation == PhotoVariation::kNearer20cm ||
+          variation == PhotoVariation::kFarther20cm) {
+        const double true_distance = (cams.front.centre() - Eigen::Vector3d(0, cams.front.centre().y(), 0)).norm();
+        const double d = true_distance + (variation == PhotoVariation::kNearer20cm ? -0.2 : variation == PhotoVariation::kFarther20cm ? 0.2 : 0);
+        stated = true_stature + (variation == PhotoVariation::kHeightPlus1cm ? 0.01 : 0);
+        cams = cameras_from_stature(front, side, stated, d);
+      }
+      const CustomizedBody body = customize_from_silhouettes(front, side, cams, model, stated);
+      const double elapsed = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+      if (variation != PhotoVariation::kTurned5deg) {
+        for (const auto& [mine, key] : {std::pair<const Silhouette*, const char*>{&front, "front_mask"}, {&side, "side_mask"}}) {
+          const Silhouette truth = read_silhouette_mask((root / ph.at(key).get<std::string>()).string(), key);
+          long inter = 0, uni = 0;
+          for (size_t k = 0; k < truth.mask.size() && k < mine->mask.size(); ++k)
+            inter += truth.mask[k] && mine->mask[k], uni += truth.mask[k] || mine->mask[k];
+          r.silhouette_iou = std::min(r.silhouette_iou, static_cast<double>(inter) / std::max(1L, uni));
+        }
+      }
+      r.seconds = elapsed;
+      r.warnings = body.warnings;
+      const BodyMeasurements m = measure_body(body.mesh.V, body.mesh.F);
+      r.stature_mm = 1000 * (m.stature - true_stature);
+      const auto& g = meas.at("girths");
+      const Girth *b = m.find("bust"), *w = m.find("waist"), *h = m.find("hip");
+      r.girths_measured = b && w && h && b->measured && w->measured && h->measured;
+      if (!r.girths_measured) throw InvalidInput("bust, waist or hip not measured on the customized body");
+      r.bust_mm = 1000 * (b->value - g.at("bust").get<double>());
+      r.waist_mm = 1000 * (w->value - g.at("waist").get<double>());
+      r.hip_mm = 1000 * (h->value - g.at("hip").get<double>());
+      // Distance from the subject's vertices to the result: the result is where the person is
+      // in the photos' world, and so is the subject's mesh (the dataset's cameras look at it).
+      // Without a camera file the result stands in the assumed cameras' world: it is moved onto the
+      // subject by the difference of the bounding boxes' floor centres (no rotation, no scale).
+      TriangleMesh placed = body.mesh;
+      if (!cams.assumed.empty()) {
+        auto floor_centre = [](const Eigen::MatrixXd& V) {
+          const Eigen::RowVector3d lo = V.colwise().minCoeff(), hi = V.colwise().maxCoeff();
+          return Eigen::RowVector3d(0.5 * (lo.x() + hi.x()), lo.y(), 0.5 * (lo.z() + hi.z()));
+        };
+        placed.V = placed.V.rowwise() + (floor_centre(subject.V) - floor_centre(placed.V));
+      }
+      const TriangleTree tree(placed.V, placed.F);
+      r.surface_mm = 1000 * tree.closest(subject.V, 2).distance.mean();
+      r.ok = true;
+      ++ok;
+      sb += std::abs(r.bust_mm), sw += std::abs(r.waist_mm), sh += std::abs(r.hip_mm), ss += std::abs(r.stature_mm), sd += r.surface_mm;
+      ev.worst_girth_mm = std::max({ev.worst_girth_mm, std::abs(r.bust_mm), std::abs(r.waist_mm), std::abs(r.hip_mm)});
+      ev.within_2cm += std::abs(r.bust_mm) <= 20 && std::abs(r.waist_mm) <= 20 && std::abs(r.hip_mm) <= 20;
+    } catch (const Error& e) {
+      r.error = e.what();
+      ++ev.failed;
+    }
+    ev.subjects.push_back(std::move(r));
+  }
+  if (ok) {
+    ev.mean_abs_bust_mm = sb / ok, ev.mean_abs_waist_mm = sw / ok, ev.mean_abs_hip_mm = sh / ok;
+    ev.mean_abs_stature_mm = ss / ok, ev.mean_surface_mm = sd / ok;
+  }
+  return ev;
+}
+
+}  // namespace posekit

@@ -1,0 +1,233 @@
+#include <gtest/gtest.h>
+
+#include <Eigen/Geometry>
+#include <filesystem>
+#include <fstream>
+#include <nlohmann/json.hpp>
+#include <opencv2/core.hpp>
+#include <opencv2/imgcodecs.hpp>
+
+#include "posekit/body/makehuman_model.h"
+#include "posekit/core/error.h"
+#include "posekit/customization/photo_evaluation.h"
+#include "posekit/datasets/rasterizer.h"
+#include "posekit/shape/body_features.h"
+#include "posekit/shape/measurements.h"
+#include "testing/small_dataset.h"
+#include "testing/temp_dir.h"
+#include "testing/test_meshes.h"
+
+using namespace posekit;
+
+namespace {
+
+/// A MakeHuman body (default or heavier), its front and side cameras as the dataset places them.
+struct Scene {
+  TriangleMesh body;
+  PhotoCameras cameras;
+  RenderBuffers front, side;
+};
+
+const TriangleMesh& default_body() {
+  static const TriangleMesh m = [] {
+    const auto model = load_makehuman_model(test::test_data_root());
+    return build_body(*model, BodySpec{}).mesh;
+  }();
+  return m;
+}
+
+Scene photograph(const TriangleMesh& body, double distance = 3.0) {
+  Scene s;
+  s.body = body;
+  const double mid = 0.5 * (body.V.col(1).maxCoeff() + body.V.col(1).minCoeff());
+  s.cameras.front = PinholeCamera::look_at({0, mid, distance}, {0, mid, 0}, Eigen::Vector3d::UnitY(), 800, 1200, 1400);
+  s.cameras.side = PinholeCamera::look_at({distance, mid, 0}, {0, mid, 0}, Eigen::Vector3d::UnitY(), 800, 1200, 1400);
+  s.front = render_mesh(body, s.cameras.front);
+  s.side = render_mesh(body, s.cameras.side);
+  return s;
+}
+
+Silhouette mask_of(const RenderBuffers& b) {
+  Silhouette s;
+  s.width = b.width, s.height = b.height;
+  for (int f : b.face) s.mask.push_back(f >= 0 ? 255 : 0);
+  return s;
+}
+
+double iou(const Silhouette& a, const Silhouette& b) {
+  long inter = 0, uni = 0;
+  for (size_t k = 0; k < a.mask.size(); ++k) inter += a.mask[k] && b.mask[k], uni += a.mask[k] || b.mask[k];
+  return static_cast<double>(inter) / std::max(1L, uni);
+}
+
+std::string error_of(const std::function<void()>& f) {
+  try {
+    f();
+  } catch (const Error& e) {
+    return e.what();
+  }
+  return "";
+}
+
+}  // namespace
+
+TEST(Silhouette, ThePersonIsSeparatedFromAPlainBackgroundEvenThroughNoiseAndJpeg) {
+  const Scene s = photograph(default_body());
+  const Silhouette truth = mask_of(s.front);
+  const Silhouette found = silhouette_from_pixels(s.front.width, s.front.height, 1, s.front.gray.data(), "front photo");
+  EXPECT_GT(iou(found, truth), 0.985);
+  // Sensor noise (sigma 4) and JPEG at quality 60.
+  cv::Mat img(s.front.height, s.front.width, CV_8U, const_cast<std::uint8_t*>(s.front.gray.data()));
+  cv::Mat noisy, noise(img.size(), CV_32F);
+  cv::RNG rng(3);
+  rng.fill(noise, cv::RNG::NORMAL, 0, 4);
+  img.convertTo(noisy, CV_32F);
+  noisy += noise;
+  noisy.convertTo(noisy, CV_8U);
+  std::vector<std::uint8_t> jpg;
+  cv::imencode(".jpg", noisy, jpg, {cv::IMWRITE_JPEG_QUALITY, 60});
+  const cv::Mat back = cv::imdecode(jpg, cv::IMREAD_GRAYSCALE);
+  const Silhouette degraded = silhouette_from_pixels(back.cols, back.rows, 1, back.data, "front photo");
+  EXPECT_GT(iou(degraded, truth), 0.975);
+}
+
+TEST(Silhouette, PhotosWithoutOnePersonAreRefusedWithTheReason) {
+  std::vector<std::uint8_t> plain(400 * 600, 200);
+  EXPECT_NE(error_of([&] { silhouette_from_pixels(400, 600, 1, plain.data(), "front photo"); }).find("no person"), std::string::npos);
+  // Two bodies side by side.
+  TriangleMesh two = default_body();
+  const Eigen::Index n = two.V.rows(), m = two.F.rows();
+  two.V.conservativeResize(2 * n, 3);
+  two.V.bottomRows(n) = two.V.topRows(n).rowwise() + Eigen::RowVector3d(0.9, 0, 0);
+  two.V.topRows(n).col(0).array() -= 0.9;
+  two.F.conservativeResize(2 * m, 3);
+  two.F.bottomRows(m) = two.F.topRows(m).array() + static_cast<int>(n);
+  Scene s = photograph(two, 4.5);
+  EXPECT_NE(error_of([&] { silhouette_from_pixels(s.front.width, s.front.height, 1, s.front.gray.data(), "front photo"); }).find("two figures"),
+            std::string::npos);
+  // The gap between a forearm and the waist is background enclosed by the person: it stays.
+  Silhouette ring;
+  ring.width = 200, ring.height = 300;
+  ring.mask.assign(200 * 300, 0);
+  for (int v = 50; v < 250; ++v)
+    for (int u = 50; u < 150; ++u) ring.mask[static_cast<size_t>(v) * 200 + u] = (u < 70 || u >= 130 || v < 70 || v >= 230) ? 255 : 0;
+  test::TempDir tmp;
+  write_silhouette_png(tmp.file("ring.png"), ring);
+  const Silhouette read = read_silhouette_mask(tmp.file("ring.png"), "mask");
+  EXPECT_FALSE(read.inside(100, 150)) << "a large enclosed gap is not a hole to fill";
+  ring.mask[static_cast<size_t>(150) * 200 + 100] = 0;
+  // A mask that fills the frame, and a person cut at the top.
+  Silhouette full;
+  full.width = 300, full.height = 500;
+  full.mask.assign(300 * 500, 255);
+  EXPECT_NE(error_of([&] { check_silhouette(full, "front mask"); }).find("of the frame"), std::string::npos);
+  Scene close = photograph(default_body(), 1.2);
+  EXPECT_NE(error_of([&] { check_silhouette(mask_of(close.front), "front mask"); }).find("touches the"), std::string::npos);
+}
+
+TEST(PhotoLandmarks, LevelsAndStatureAgreeWithTheBodysOwnFeatures) {
+  const Scene s = photograph(default_body());
+  const PhotoLandmarks L = find_photo_landmarks(mask_of(s.front), mask_of(s.side), s.cameras);
+  const BodyFeatures f = find_body_features(s.body.V, s.body.F);
+  EXPECT_NEAR(L.floor_y, f.floor_y, 0.01);
+  EXPECT_NEAR(L.crown_y, f.crown_y, 0.01);
+  EXPECT_NEAR(L.crotch_y, f.crotch_y, 0.03);
+  for (int side : {kLeft, kRight}) {
+    EXPECT_NEAR(L.armpit_y[side], f.armpit[side].y(), 0.04) << side;
+    EXPECT_NEAR(L.hand_tip[side].y(), f.hand_tip[side].y(), 0.03) << side;
+    EXPECT_GT(L.hand_tip[side].x() * (side == kLeft ? 1 : -1), 0.3) << "left is +X";
+  }
+  EXPECT_NEAR(L.axis_x, 0, 0.01);
+  EXPECT_GT(L.front_to_side_ratio, 1.2);
+}
+
+// The standard pose's forearms cross in front of the waist in the side photo: the levels where they
+// hide the torso's outline are found, and there the measured depth is the torso's, not the arm's.
+TEST(PhotoLandmarks, ForearmsInFrontOfTheWaistAreSeenAndLeftOutOfTheDepth) {
+  const Scene s = photograph(default_body());
+  const Silhouette front = mask_of(s.front), side = mask_of(s.side);
+  const PhotoLandmarks L = find_photo_landmarks(front, side, s.cameras);
+  ASSERT_EQ(L.side_arm_occlusion.size(), 1u);
+  const auto [lo, hi] = L.side_arm_occlusion.front();
+  EXPECT_GT(lo, L.crotch_y);
+  EXPECT_LT(hi, std::min(L.armpit_y[0], L.armpit_y[1]));
+  EXPECT_GT(hi - lo, 0.02);
+  // Depth at the hidden levels: without the occlusion the arm adds to it; with it, the torso's
+  // depth there lies within the range of the seen levels around.
+  const BodyFeatures f = find_body_features(s.body.V, s.body.F);
+  const LayeredRepresentation planned = plan_layered_representation(f);
+  const auto seen = measure_layers(planned, front, side, s.cameras, f.axis_x, L.side_arm_occlusion);
+  const auto raw = measure_layers(planned, front, side, s.cameras, f.axis_x);
+  const LayeredRepresentation truth = build_layered_representation(s.body.V, s.body.F, f);
+  int hidden = 0;
+  for (size_t i = 0; i < planned.layers.size(); ++i) {
+    if (planned.layers[i].chain != 0 || planned.layers[i].centre.y() < lo || planned.layers[i].centre.y() > hi) continue;
+    ++hidden;
+    double zmin = 1e9, zmax = -1e9;
+    for (int k = 0; k < truth.points_per_layer; ++k) {
+      zmin = std::min(zmin, truth.mesh.V(static_cast<Eigen::Index>(i) * truth.points_per_layer + k, 2));
+      zmax = std::max(zmax, truth.mesh.V(static_cast<Eigen::Index>(i) * truth.points_per_layer + k, 2));
+    }
+    EXPECT_LE(seen[i].half_depth, raw[i].half_depth + 1e-9) << i;
+    EXPECT_NEAR(2 * seen[i].half_depth, zmax - zmin, 0.015) << "layer " << i << ": the torso's own depth";
+  }
+  EXPECT_GT(hidden, 0);
+}
+
+TEST(PhotoLandmarks, SwappedPhotosAndMismatchedCamerasAreErrors) {
+  const Scene s = photograph(default_body());
+  const std::string swapped = error_of([&] { find_photo_landmarks(mask_of(s.side), mask_of(s.front), s.cameras); });
+  EXPECT_FALSE(swapped.empty());
+  EXPECT_TRUE(swapped.find("side photo given as front") != std::string::npos || swapped.find("swapped") != std::string::npos) << swapped;
+  PhotoCameras small = s.cameras;
+  small.front.width = 640;
+  EXPECT_NE(error_of([&] { find_photo_landmarks(mask_of(s.front), mask_of(s.side), small); }).find("but its camera"), std::string::npos);
+}
+
+TEST(PhotoCameras, CameraFilesAreReadAndCheckedAndTheStatureSetsTheScale) {
+  test::TempDir dir;
+  const Scene s = photograph(default_body());
+  const std::string good = dir.file("camera.json");
+  std::ofstream(good) << "{\"front\": " << camera_to_json(s.cameras.front) << ", \"side\": " << camera_to_json(s.cameras.side) << "}";
+  const PhotoCameras read = read_photo_cameras(good);
+  EXPECT_NEAR((read.side.R - s.cameras.side.R).norm(), 0, 1e-9);
+  EXPECT_TRUE(read.assumed.empty());
+  const std::string bad = dir.file("bad.json");
+  std::ofstream(bad) << "{\"front\": " << camera_to_json(s.cameras.front) << "}";
+  EXPECT_NE(error_of([&] { read_photo_cameras(bad); }).find("\"side\": missing"), std::string::npos);
+  // Without a camera file the stated stature fixes the scale: the photos measure it back.
+  const BodyFeatures f = find_body_features(s.body.V, s.body.F);
+  const Silhouette front = mask_of(s.front), side = mask_of(s.side);
+  const PhotoCameras assumed = cameras_from_stature(front, side, f.stature, 3.0);
+  EXPECT_FALSE(assumed.assumed.empty());
+  EXPECT_NEAR(find_photo_landmarks(front, side, assumed).stature, f.stature, 0.015);
+}
+
+// A small population (linear models) customizes the small dataset's subjects from their photos:
+// girths within 3 cm and the surface within 8 mm; the model file round-trips.
+TEST(PhotoCustomization, ASmallPopulationCustomizesTheSubjectsFromTheirPhotos) {
+  const auto& ds = test::small_dataset();
+  ASSERT_FALSE(ds.root.empty());
+  CustomizationTrainingOptions o;
+  o.data_root = test::test_data_root();
+  o.bodies = 40;
+  o.mlp = false;
+  const CustomizationModel model = train_customization_model(o);
+  EXPECT_GE(model.bodies, 25);
+  const PhotoEvaluation ev = evaluate_photo_customization(ds.root, model, PhotoVariation::kPhotos);
+  ASSERT_FALSE(ev.subjects.empty());
+  for (const auto& r : ev.subjects) {
+    ASSERT_TRUE(r.ok) << r.id << ": " << r.error;
+    EXPECT_LT(std::abs(r.stature_mm), 15) << r.id;
+    for (double g : {r.bust_mm, r.waist_mm, r.hip_mm}) EXPECT_LT(std::abs(g), 30) << r.id;
+    EXPECT_LT(r.surface_mm, 8) << r.id;
+  }
+  test::TempDir dir;
+  save_customization_model(dir.file("m.pkc"), model);
+  const CustomizationModel loaded = load_customization_model(dir.file("m.pkc"));
+  const PhotoEvaluation again = evaluate_photo_customization(ds.root, loaded, PhotoVariation::kMasks);
+  const PhotoEvaluation first = evaluate_photo_customization(ds.root, model, PhotoVariation::kMasks);
+  for (size_t k = 0; k < first.subjects.size(); ++k) EXPECT_NEAR(again.subjects[k].bust_mm, first.subjects[k].bust_mm, 1e-6);
+  std::ofstream(dir.file("not.pkc")) << "{\"format\": \"something else\"}";
+  EXPECT_NE(error_of([&] { load_customization_model(dir.file("not.pkc")); }).find("not a posekit customization model"), std::string::npos);
+}
