@@ -41,7 +41,13 @@ echo "== validation against a scan: distances, coverage, girth discrepancies, he
   --png "$out/m05_squat_half_errors.png"
 "$posekit" compare "$out/dataset/subjects/f01/rest.ply" "$out/dataset/scans/f01/rest.pcd" --measure
 "$posekit" bench compare --runs 3
+echo "== customization from two photos (section 3.2): the population model, one subject, all 16 against truth"
+"$posekit" customize train --out "$out/customization.pkc"
+"$posekit" customize --front "$out/dataset/photos/f01/front.png" --side "$out/dataset/photos/f01/side.png" \
+  --camera "$out/dataset/photos/f01/camera.json" --model "$out/customization.pkc" --out "$out/f01_from_photos.ply" --measure
+"$posekit" customize eval --dataset "$out/dataset" --model "$out/customization.pkc" --variation all --json "$out/customization_eval.json"
+"$posekit" bench customize --dataset "$out/dataset" --model "$out/customization.pkc" --runs 3
 echo "== the report: the paper's figures and tables regenerated from the dataset"
-"$posekit" report --dataset "$out/dataset" --model "$out/model.pkm" --out "$out/report"
+"$posekit" report --dataset "$out/dataset" --model "$out/model.pkm" --customization "$out/customization.pkc" --out "$out/report"
 echo "== results in $out/ (PLY files open in MeshLab, CloudCompare, ParaView; scans are PCD in mm)"
 echo "== open $out/report/index.html"

@@ -32,8 +32,6 @@ export ASAN_OPTIONS=detect_leaks=1:abort_on_error=1 UBSAN_OPTIONS=print_stacktra
 # and the 600k-point cloud's girths (21 s: the smaller scans' tests run the same code). The report on
 # the small dataset (120 s under the sanitizers, and the last to finish) runs in the release pass only,
 # and so do the batch measure and compare CLI tests (31 s each: the measurement and comparison code
-# they drive is sanitized by its own tests, and batch pose's runner by Cli.TrainPose...). Training a
-# customization population end to end (about 2 min sanitized) runs in the release pass; its parts
-# (silhouettes, 2-D features, layer measurement, cameras) have sanitized tests of their own.
+# they drive is sanitized by its own tests, and batch pose's runner by Cli.TrainPose...).
 (cd build/asan && ctest --output-on-failure -j"$jobs" \
-   -E 'AllSixteen|SixteenOriginal|SixteenRemeshed|SubjectsAgreeWithTheRigLabels|EverySubjectGetsTheSameTopology|Cli\.Report|StrongNonRigidIcpAndCtffd|EveryMethodGivesTheSameBitsTwice|CtffdRegistersEveryBodyWithHoles|ThighsJoinedIntoOneSurface|DenseScanGirths|Report\.OnTheSmallDataset|Cli\.BatchMeasure|Cli\.BatchCompare|ASmallPopulationCustomizes')
+   -E 'AllSixteen|SixteenOriginal|SixteenRemeshed|SubjectsAgreeWithTheRigLabels|EverySubjectGetsTheSameTopology|Cli\.Report|StrongNonRigidIcpAndCtffd|EveryMethodGivesTheSameBitsTwice|CtffdRegistersEveryBodyWithHoles|ThighsJoinedIntoOneSurface|DenseScanGirths|Report\.OnTheSmallDataset|Cli\.BatchMeasure|Cli\.BatchCompare')

@@ -12,7 +12,7 @@ int run_report(int argc, char** argv) {
   ArgParser args("report",
                  "Regenerates the paper's evaluation figures and tables from a dataset: the template in synthesized\n"
                  "poses (Fig. 2), the same poses on a customized model (Fig. 3), customized models against scans\n"
-                 "(Fig. 4), all female and male subjects (Fig. 7), posed subjects (Fig. 8), posed models beside their\n"
+                 "(Fig. 4, customized from photos), all women and men customized from photos (Figs. 5, 6), all female and male subjects (Fig. 7), posed subjects (Fig. 8), posed models beside their\n"
                  "scans (Fig. 9), the registration timing table (Table 1) and the pose error table, into\n"
                  "OUT/index.html and OUT/report.md with the PNGs (off-screen VTK; no display needed).");
   args.option("dataset", "DIR", "a posekit dataset (posekit dataset make)")
@@ -21,6 +21,8 @@ int run_report(int argc, char** argv) {
       .option("threads", "N", "threads for the scan comparisons (0: all cores)", "0")
       .option("runs", "R", "timed runs per method and subject in Table 1", "3")
       .option("nicp-subjects", "N", "run the slow non-rigid ICP baseline on the first N subjects (0: leave it out)", "2")
+      .option("customization", "FILE", "photo customization model (.pkc); default: train one (customize train)")
+      .option("customization-bodies", "N", "population of a customization model trained here", "2000")
       .example("posekit report --dataset out/dataset --out report");
   if (!args.parse(argc, argv)) return 0;
   if (!args.has("dataset")) throw UsageError("--dataset DIR is required");
@@ -29,6 +31,8 @@ int run_report(int argc, char** argv) {
   o.threads = static_cast<int>(args.get_int("threads"));
   o.registration_runs = static_cast<int>(args.get_int("runs"));
   o.nicp_subjects = static_cast<int>(args.get_int("nicp-subjects"));
+  o.customization_path = args.has("customization") ? args.get("customization") : "";
+  o.customization_bodies = static_cast<int>(args.get_int("customization-bodies"));
   if (o.registration_runs < 1) throw UsageError("--runs must be at least 1");
   o.command_line = "posekit report --dataset " + args.get("dataset") + " --out " + args.get("out");
   std::unique_ptr<Progress> progress;

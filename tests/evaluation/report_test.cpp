@@ -77,15 +77,18 @@ TEST(Report, OnTheSmallDatasetLinksOnlyFilesThatExistAndLoadsInABrowser) {
   o.registration_runs = 1;
   o.nicp_subjects = 1;
   o.calibration_bodies = 8;  // the prior's code path, kept short for the sanitizer build
+  o.customization_bodies = 30;
   const ReportSummary s = write_report(ds.root, dir.file("report"), o);
   const std::string html = read_file_bytes(dir.file("report/index.html"));
   const std::string md = read_file_bytes(dir.file("report/report.md"));
   // Every figure the paper's evaluation has, and both tables.
-  for (const char* figure : {"fig2_template_poses.png", "fig3_transferred_poses.png", "fig4_customization_vs_scan.png",
+  for (const char* figure : {"fig2_template_poses.png", "fig3_transferred_poses.png", "fig4_customization_vs_scan.png", "fig5_female_from_photos.png",
+                             "fig6_male_from_photos.png",
                              "fig7_female_subjects.png", "fig7_male_subjects.png", "fig9_posed_vs_scans.png"})
     EXPECT_NE(html.find(figure), std::string::npos) << figure;
   EXPECT_NE(html.find("Table 1"), std::string::npos);
   EXPECT_NE(html.find("Pose accuracy"), std::string::npos);
+  EXPECT_NE(html.find("Customization from photos"), std::string::npos);
   // Every src/href in the HTML and every image in the Markdown exists.
   int links = 0;
   const std::regex html_link("(?:src|href)=\"([^\"]+)\"");

@@ -41,12 +41,13 @@ CommandResult run(const std::string& args, bool merge_stderr = false) {
 
 TEST(Cli, EveryCommandHasHelp) {
   for (const char* c : {"info", "convert", "bench", "body", "dataset", "train", "pose", "segment", "register", "measure",
-                        "compare", "view", "report", "batch", "retarget"}) {
+                        "compare", "view", "report", "batch", "retarget", "customize"}) {
     const CommandResult r = run(std::string(c) + " --help");
     EXPECT_EQ(r.code, 0) << c;
     EXPECT_NE(r.out.find("usage: posekit"), std::string::npos) << c;
   }
-  for (const char* c : {"batch measure", "batch compare", "batch pose", "batch merge", "bench all"}) {
+  for (const char* c : {"batch measure", "batch compare", "batch pose", "batch merge", "bench all", "customize train", "customize eval",
+                        "bench customize"}) {
     const CommandResult r = run(std::string(c) + " --help");
     EXPECT_EQ(r.code, 0) << c;
     EXPECT_NE(r.out.find(std::string("usage: posekit ") + c), std::string::npos) << c;
@@ -585,7 +586,7 @@ TEST(Cli, Report) {
   ASSERT_FALSE(test::test_data_root().empty());
   test::TempDir dir;
   const std::string ds = test::small_dataset().root;
-  const CommandResult r = run("report --dataset " + ds + " --out " + dir.file("report") + " --runs 1 --nicp-subjects 0");
+  const CommandResult r = run("report --dataset " + ds + " --out " + dir.file("report") + " --runs 1 --nicp-subjects 0 --customization-bodies 30");
   ASSERT_EQ(r.code, 0) << r.out;
   EXPECT_TRUE(std::filesystem::is_regular_file(dir.file("report/index.html")));
   EXPECT_NE(r.out.find("peak RSS"), std::string::npos) << r.out;
