@@ -253,4 +253,9 @@ TEST(Measurements, ImplausibleGirthsAreRejectedWithTheReason) {
   EXPECT_NE(order.find("neck")->note.find("not smaller than the bust"), std::string::npos) << order.find("neck")->note;
   EXPECT_FALSE(order.find("ankle")->measured);
   EXPECT_TRUE(order.find("bust")->measured && order.find("hip")->measured && order.find("calf")->measured);
+  // A bust section round the arms (1.66 m over 1.15 m hips); a big chest (1.30 over 1.15) stays.
+  const BodyMeasurements arms = measured({{"bust", 1.66}, {"hip", 1.15}});
+  EXPECT_FALSE(arms.find("bust")->measured);
+  EXPECT_NE(arms.find("bust")->note.find("took in the arms"), std::string::npos) << arms.find("bust")->note;
+  EXPECT_TRUE(measured({{"bust", 1.30}, {"hip", 1.15}}).find("bust")->measured);
 }

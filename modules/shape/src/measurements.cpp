@@ -328,6 +328,15 @@ void reject_implausible_girths(BodyMeasurements* m) {
     why << std::fixed << "is not smaller than the " << large << " (" << 100 * b->value << " cm), as it is on every body";
     reject(a, why.str());
   }
+  // A bust section that took in the arms (arms held against the chest, or a model whose arms touch
+  // it) is far rounder than the hips: bust / hip is at most 1.13 on the dataset's 16 subjects and
+  // the robustness set's 10 shapes (BMI 16 to 35); a photo-customized man came to 1.44.
+  if (Girth *bust = girth("bust"), *hip = girth("hip"); bust && hip && bust->measured && hip->measured && bust->value > 1.35 * hip->value) {
+    std::ostringstream why;
+    why.precision(1);
+    why << std::fixed << "is over 1.35 times the hip (" << 100 * hip->value << " cm): the section took in the arms";
+    reject(bust, why.str());
+  }
 }
 
 const Girth* BodyMeasurements::find(const std::string& name) const {

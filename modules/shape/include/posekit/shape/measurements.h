@@ -32,7 +32,8 @@ struct BodyMeasurements {
 /// Sanity checks on measured girths, applied by measure_body and measure_point_cloud: a limb or
 /// neck girth over 0.6 of the stature, a torso girth over 1.5 times it, or a girth not smaller than
 /// the one anatomy puts above it (neck < bust and hip, wrist < upper arm, ankle < calf, knee and calf
-/// < thigh) is marked not measured, its note saying why.
+/// < thigh), or a bust over 1.35 times the hip (a section that took in the arms) is marked not
+/// measured, its note saying why.
 void reject_implausible_girths(BodyMeasurements* m);
 
 /// Measures a standing body mesh. Throws InvalidInput as find_body_features does.
