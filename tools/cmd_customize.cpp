@@ -95,15 +95,23 @@ void print_evaluation(const PhotoEvaluation& ev, std::ostream& os) {
       os << " FAILED: " << r.error << "\n";
       continue;
     }
-    os << std::fixed << std::setprecision(1) << std::setw(7) << r.stature_mm << std::setw(7) << r.bust_mm << std::setw(7) << r.waist_mm
-       << std::setw(7) << r.hip_mm << std::setw(8) << r.surface_mm << std::setw(7) << std::setprecision(2) << r.seconds << "s"
+    auto girth = [&](double v) {
+      std::ostringstream t;
+      t << std::fixed << std::setprecision(1) << std::setw(7);
+      if (r.girths_measured) t << v;
+      else t << "n/a";
+      return t.str();
+    };
+    os << std::fixed << std::setprecision(1) << std::setw(7) << r.stature_mm << girth(r.bust_mm) << girth(r.waist_mm)
+       << girth(r.hip_mm) << std::setw(8) << r.surface_mm << std::setw(7) << std::setprecision(2) << r.seconds << "s"
        << std::setw(7) << std::setprecision(3) << r.silhouette_iou
-       << (r.warnings.empty() ? "" : "  warning: " + r.warnings.front()) << "\n";
+       << (!r.error.empty() ? "  " + r.error : r.warnings.empty() ? "" : "  warning: " + r.warnings.front()) << "\n";
   }
   os << std::fixed << std::setprecision(1) << "mean |error|: stature " << ev.mean_abs_stature_mm << ", bust " << ev.mean_abs_bust_mm
      << ", waist " << ev.mean_abs_waist_mm << ", hip " << ev.mean_abs_hip_mm << " mm; surface " << ev.mean_surface_mm
      << " mm; worst girth " << ev.worst_girth_mm << " mm; bust, waist and hip within 2 cm on " << ev.within_2cm << "/"
-     << ev.subjects.size() << (ev.failed ? "; " + std::to_string(ev.failed) + " failed" : "") << "\n\n";
+     << ev.subjects.size() << (ev.girths_not_measured ? "; girths not measured on " + std::to_string(ev.girths_not_measured) : "")
+     << (ev.failed ? "; " + std::to_string(ev.failed) + " failed" : "") << "\n\n";
 }
 
 nlohmann::json evaluation_json(const PhotoEvaluation& ev) {
@@ -111,7 +119,7 @@ nlohmann::json evaluation_json(const PhotoEvaluation& ev) {
   j["variation"] = photo_variation_name(ev.variation);
   j["units"] = "mm, customized - truth";
   for (const auto& r : ev.subjects)
-    j["subjects"].push_back({{"id", r.id}, {"ok", r.ok}, {"error", r.error}, {"stature", r.stature_mm}, {"bust", r.bust_mm},
+    j["subjects"].push_back({{"id", r.id}, {"ok", r.ok}, {"error", r.error}, {"girths_measured", r.girths_measured}, {"stature", r.stature_mm}, {"bust", r.bust_mm},
                              {"waist", r.waist_mm}, {"hip", r.hip_mm}, {"surface", r.surface_mm}, {"seconds", r.seconds},
                              {"silhouette_iou", r.silhouette_iou},
                              {"warnings", r.warnings}});
@@ -120,6 +128,7 @@ nlohmann::json evaluation_json(const PhotoEvaluation& ev) {
   j["worst_girth"] = ev.worst_girth_mm;
   j["within_2cm"] = ev.within_2cm;
   j["failed"] = ev.failed;
+  j["girths_not_measured"] = ev.girths_not_measured;
   return j;
 }
 

@@ -217,7 +217,7 @@ TEST(PhotoCustomization, ASmallPopulationCustomizesTheSubjectsFromTheirPhotos) {
   const PhotoEvaluation ev = evaluate_photo_customization(ds.root, model, PhotoVariation::kPhotos);
   ASSERT_FALSE(ev.subjects.empty());
   for (const auto& r : ev.subjects) {
-    ASSERT_TRUE(r.ok) << r.id << ": " << r.error;
+    ASSERT_TRUE(r.ok && r.girths_measured) << r.id << ": " << r.error;
     EXPECT_LT(std::abs(r.stature_mm), 15) << r.id;
     for (double g : {r.bust_mm, r.waist_mm, r.hip_mm}) EXPECT_LT(std::abs(g), 30) << r.id;
     EXPECT_LT(r.surface_mm, 8) << r.id;

@@ -581,6 +581,23 @@ TEST(Cli, AnXUpRegistrationInMillimetresIsMeasuredSegmentedAndCompared) {
   EXPECT_LT((read_mesh(dir.file("err.ply"), {Unit::kMillimetre}).V - file.V).cwiseAbs().maxCoeff(), 1e-6);
 }
 
+// customize: what is missing is named, and a bad model file is an error naming it.
+TEST(Cli, CustomizeNamesWhatIsMissing) {
+  test::TempDir dir;
+  CommandResult r = run("customize --front x.png", true);
+  EXPECT_EQ(r.code, 2) << r.out;
+  EXPECT_NE(r.out.find("--side"), std::string::npos) << r.out;
+  r = run("customize --front x.png --side y.png", true);
+  EXPECT_EQ(r.code, 2) << r.out;
+  EXPECT_NE(r.out.find("--camera FILE or --height M"), std::string::npos) << r.out;
+  std::ofstream(dir.file("bad.pkc")) << "{}";
+  r = run("customize --front x.png --side y.png --height 1.7 --model " + dir.file("bad.pkc"), true);
+  EXPECT_EQ(r.code, 1) << r.out;
+  EXPECT_NE(r.out.find("not a posekit customization model"), std::string::npos) << r.out;
+  r = run("customize eval --dataset " + dir.path() + " --model " + dir.file("bad.pkc"));
+  EXPECT_EQ(r.code, 1) << r.out;
+}
+
 // The report through the CLI (the sanitizer pass leaves it out: Report.* runs the same report in process).
 TEST(Cli, Report) {
   ASSERT_FALSE(test::test_data_root().empty());

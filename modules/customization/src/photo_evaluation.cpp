@@ -106,7 +106,7 @@ PhotoEvaluation evaluate_photo_customization(const std::string& dataset_dir, con
   PhotoEvaluation ev;
   ev.variation = variation;
   double sb = 0, sw = 0, sh = 0, ss = 0, sd = 0;
-  int ok = 0;
+  int ok = 0, girths_ok = 0;
   for (const auto& s : manifest.at("subjects")) {
     const std::string id = s.at("id").get<std::string>();
     if (!ids.empty() && std::find(ids.begin(), ids.end(), id) == ids.end()) continue;
@@ -176,10 +176,17 @@ PhotoEvaluation evaluate_photo_customization(const std::string& dataset_dir, con
       const auto& g = meas.at("girths");
       const Girth *b = m.find("bust"), *w = m.find("waist"), *h = m.find("hip");
       r.girths_measured = b && w && h && b->measured && w->measured && h->measured;
-      if (!r.girths_measured) throw InvalidInput("bust, waist or hip not measured on the customized body");
-      r.bust_mm = 1000 * (b->value - g.at("bust").get<double>());
-      r.waist_mm = 1000 * (w->value - g.at("waist").get<double>());
-      r.hip_mm = 1000 * (h->value - g.at("hip").get<double>());
+      if (r.girths_measured) {
+        r.bust_mm = 1000 * (b->value - g.at("bust").get<double>());
+        r.waist_mm = 1000 * (w->value - g.at("waist").get<double>());
+        r.hip_mm = 1000 * (h->value - g.at("hip").get<double>());
+      } else {
+        for (const Girth* x : {b, w, h})
+          if (x && !x->measured) {
+            r.error = "the result's " + x->name + " not measured: " + x->note;
+            break;
+          }
+      }
       // Distance from the subject's vertices to the result: the result is where the person is
       // in the photos' world, and so is the subject's mesh (the dataset's cameras look at it).
       // Without a camera file the result stands in the assumed cameras' world: it is moved onto the
@@ -196,19 +203,23 @@ PhotoEvaluation evaluate_photo_customization(const std::string& dataset_dir, con
       r.surface_mm = 1000 * tree.closest(subject.V, 2).distance.mean();
       r.ok = true;
       ++ok;
-      sb += std::abs(r.bust_mm), sw += std::abs(r.waist_mm), sh += std::abs(r.hip_mm), ss += std::abs(r.stature_mm), sd += r.surface_mm;
-      ev.worst_girth_mm = std::max({ev.worst_girth_mm, std::abs(r.bust_mm), std::abs(r.waist_mm), std::abs(r.hip_mm)});
-      ev.within_2cm += std::abs(r.bust_mm) <= 20 && std::abs(r.waist_mm) <= 20 && std::abs(r.hip_mm) <= 20;
+      ss += std::abs(r.stature_mm), sd += r.surface_mm;
+      if (r.girths_measured) {
+        ++girths_ok;
+        sb += std::abs(r.bust_mm), sw += std::abs(r.waist_mm), sh += std::abs(r.hip_mm);
+        ev.worst_girth_mm = std::max({ev.worst_girth_mm, std::abs(r.bust_mm), std::abs(r.waist_mm), std::abs(r.hip_mm)});
+        ev.within_2cm += std::abs(r.bust_mm) <= 20 && std::abs(r.waist_mm) <= 20 && std::abs(r.hip_mm) <= 20;
+      } else {
+        ++ev.girths_not_measured;
+      }
     } catch (const Error& e) {
       r.error = e.what();
       ++ev.failed;
     }
     ev.subjects.push_back(std::move(r));
   }
-  if (ok) {
-    ev.mean_abs_bust_mm = sb / ok, ev.mean_abs_waist_mm = sw / ok, ev.mean_abs_hip_mm = sh / ok;
-    ev.mean_abs_stature_mm = ss / ok, ev.mean_surface_mm = sd / ok;
-  }
+  if (ok) ev.mean_abs_stature_mm = ss / ok, ev.mean_surface_mm = sd / ok;
+  if (girths_ok) ev.mean_abs_bust_mm = sb / girths_ok, ev.mean_abs_waist_mm = sw / girths_ok, ev.mean_abs_hip_mm = sh / girths_ok;
   return ev;
 }
 

@@ -340,7 +340,8 @@ ReportSummary write_report(const std::string& dir, const std::string& out_dir, c
           photo_table.rows.push_back({r.id, "failed: " + r.error, "", "", "", "", ""});
           continue;
         }
-        photo_table.rows.push_back({r.id, fixed(r.stature_mm, 1), fixed(r.bust_mm, 1), fixed(r.waist_mm, 1), fixed(r.hip_mm, 1),
+        auto girth = [&](double v) { return r.girths_measured ? fixed(v, 1) : std::string("n/a"); };
+        photo_table.rows.push_back({r.id, fixed(r.stature_mm, 1), girth(r.bust_mm), girth(r.waist_mm), girth(r.hip_mm),
                                     fixed(r.surface_mm, 2), fixed(r.seconds, 2)});
         photo_json.push_back({{"subject", r.id}, {"stature_mm", r.stature_mm}, {"bust_mm", r.bust_mm}, {"waist_mm", r.waist_mm},
                               {"hip_mm", r.hip_mm}, {"surface_mm", r.surface_mm}, {"seconds", r.seconds}});

@@ -29,9 +29,9 @@ PhotoVariation parse_photo_variation(const std::string& name);
 struct PhotoSubjectResult {
   std::string id;
   bool ok = false;
-  std::string error;                        ///< why it failed
+  std::string error;                        ///< why it failed (or, when ok, why a girth was not measured)
   double stature_mm = 0, bust_mm = 0, waist_mm = 0, hip_mm = 0;  ///< signed errors (customized - truth)
-  bool girths_measured = false;
+  bool girths_measured = false;            ///< bust, waist and hip measured on the result (else the errors are 0)
   double surface_mm = 0;                    ///< mean distance of the subject's vertices to the result
   double seconds = 0;                       ///< silhouettes to mesh
   double silhouette_iou = 1;                ///< of the silhouettes used against the true masks (the lower view)
@@ -41,7 +41,9 @@ struct PhotoSubjectResult {
 struct PhotoEvaluation {
   PhotoVariation variation = PhotoVariation::kPhotos;
   std::vector<PhotoSubjectResult> subjects;
-  int failed = 0;
+  int failed = 0;                           ///< not customized (the reason in each subject's error)
+  int girths_not_measured = 0;              ///< customized, but `measure` declined bust, waist or hip
+  /// Girth means over the subjects with girths measured; stature and surface over all customized.
   double mean_abs_bust_mm = 0, mean_abs_waist_mm = 0, mean_abs_hip_mm = 0, mean_abs_stature_mm = 0, mean_surface_mm = 0;
   double worst_girth_mm = 0;                ///< largest |bust|, |waist|, |hip| error
   int within_2cm = 0;                       ///< subjects with bust, waist and hip within 2 cm
