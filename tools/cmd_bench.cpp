@@ -133,6 +133,20 @@ int bench_io(int argc, char** argv) {
   return 0;
 }
 
+/// A table row of timings in milliseconds: median, min and max of `seconds`.
+nlohmann::json ms_row(const std::string& name, const std::vector<double>& seconds) {
+  const Stats s = stats_of(seconds);
+  return nlohmann::json{{"case", name}, {"median_ms", s.median * 1e3}, {"min_ms", s.min * 1e3}, {"max_ms", s.max * 1e3}};
+}
+
+/// Prints rows of ms_row as a Markdown table.
+void print_ms_table(const nlohmann::json& rows, int precision) {
+  std::cout << "| case | median ms | min ms | max ms |\n|---|---|---|---|\n" << std::fixed << std::setprecision(precision);
+  for (const auto& r : rows)
+    std::cout << "| " << r["case"].get<std::string>() << " | " << r["median_ms"].get<double>() << " | " << r["min_ms"].get<double>()
+              << " | " << r["max_ms"].get<double>() << " |\n";
+}
+
 int bench_body(int argc, char** argv) {
   ArgParser args("bench body", "Times building a MakeHuman body from a spec and posing it (13,380 vertices): the model is\n"
                                "loaded once, then each run shapes a body and skins it into a 16-part pose, single thread.");
@@ -174,12 +188,8 @@ int bench_body(int argc, char** argv) {
     progress.update(r + 1);
   }
   progress.finish();
-  auto row = [](const std::string& name, const std::vector<double>& v) {
-    const Stats s = stats_of(v);
-    return nlohmann::json{{"case", name}, {"median_ms", s.median * 1e3}, {"min_ms", s.min * 1e3}, {"max_ms", s.max * 1e3}};
-  };
-  nlohmann::json results = nlohmann::json::array({row("build body (shape + joints)", build_s), row("pose, LBS", lbs_s),
-                                                   row("pose, DQS", dqs_s), row("build + pose (LBS)", total_s)});
+  nlohmann::json results = nlohmann::json::array({ms_row("build body (shape + joints)", build_s), ms_row("pose, LBS", lbs_s),
+                                                   ms_row("pose, DQS", dqs_s), ms_row("build + pose (LBS)", total_s)});
   nlohmann::json out = {{"benchmark", "body"}, {"vertices", model->num_body_vertices}, {"runs", runs},
                         {"model_load_s", load_s}, {"results", results}, {"peak_rss_mib", peak_rss_mib()},
                         {"checksum", checksum}};
@@ -187,10 +197,7 @@ int bench_body(int argc, char** argv) {
     print_json(out);
     return 0;
   }
-  std::cout << "| case | median ms | min ms | max ms |\n|---|---|---|---|\n" << std::fixed << std::setprecision(2);
-  for (const auto& r : results)
-    std::cout << "| " << r["case"].get<std::string>() << " | " << r["median_ms"].get<double>() << " | "
-              << r["min_ms"].get<double>() << " | " << r["max_ms"].get<double>() << " |\n";
+  print_ms_table(results, 2);
   std::cout << model->num_body_vertices << " vertices, " << runs << " runs, model load " << std::setprecision(3) << load_s
             << " s, peak RSS " << std::setprecision(0) << out["peak_rss_mib"].get<double>() << " MiB\n";
   return 0;
@@ -238,23 +245,16 @@ int bench_customize(int argc, char** argv) {
     }
   }
   progress.finish();
-  auto row = [](const std::string& name, const std::vector<double>& v) {
-    const Stats s = stats_of(v);
-    return nlohmann::json{{"case", name}, {"median_ms", s.median * 1e3}, {"min_ms", s.min * 1e3}, {"max_ms", s.max * 1e3}};
-  };
-  nlohmann::json results = nlohmann::json::array({row("silhouettes from the two photos", sil_s),
-                                                   row("features, sections, ct-FFD to a mesh", body_s),
-                                                   row("photos to mesh", total_s)});
+  nlohmann::json results = nlohmann::json::array({ms_row("silhouettes from the two photos", sil_s),
+                                                   ms_row("features, sections, ct-FFD to a mesh", body_s),
+                                                   ms_row("photos to mesh", total_s)});
   nlohmann::json out = {{"benchmark", "customize"}, {"subjects", manifest.at("subjects").size()}, {"runs", runs},
                         {"model_load_s", load_s}, {"results", results}, {"peak_rss_mib", peak_rss_mib()}};
   if (args.flag_set("json")) {
     print_json(out);
     return 0;
   }
-  std::cout << "| case | median ms | min ms | max ms |\n|---|---|---|---|\n" << std::fixed << std::setprecision(1);
-  for (const auto& r : results)
-    std::cout << "| " << r["case"].get<std::string>() << " | " << r["median_ms"].get<double>() << " | "
-              << r["min_ms"].get<double>() << " | " << r["max_ms"].get<double>() << " |\n";
+  print_ms_table(results, 1);
   std::cout << manifest.at("subjects").size() << " subjects x " << runs << " runs, model load " << std::setprecision(2) << load_s
             << " s, peak RSS " << std::setprecision(0) << out["peak_rss_mib"].get<double>() << " MiB\n";
   return 0;

@@ -108,19 +108,10 @@ class Builder {
   /// The layers' planes only (centres as placed, before any section): no mesh is read.
   LayeredRepresentation plan() {
     planning_ = true;
-    rep_.points_per_layer = n_;
-    rep_.chain_names = {"torso", "head", "left_leg", "right_leg", "left_arm", "right_arm"};
-    torso();
-    head();
-    for (int side : {kLeft, kRight}) leg(side);
-    for (int side : {kLeft, kRight}) arm(side);
-    stitch();
-    return std::move(rep_);
+    return layers();
   }
 
   LayeredRepresentation build() {
-    rep_.points_per_layer = n_;
-    rep_.chain_names = {"torso", "head", "left_leg", "right_leg", "left_arm", "right_arm"};
     // The horizontal layers (torso, head, legs) are sliced in one pass over the faces: a first run
     // only collects their heights.
     collecting_ = true;
@@ -130,6 +121,14 @@ class Builder {
     collecting_ = false;
     const auto sections = slice_mesh_stack(V_, F_, Eigen::Vector3d::UnitY(), horizontal_heights_);
     for (size_t i = 0; i < sections.size(); ++i) horizontal_sections_.emplace(horizontal_heights_[i], sections[i]);
+    return layers();
+  }
+
+ private:
+  /// Every chain's layers in the topology's order, stitched.
+  LayeredRepresentation layers() {
+    rep_.points_per_layer = n_;
+    rep_.chain_names = {"torso", "head", "left_leg", "right_leg", "left_arm", "right_arm"};
     torso();
     head();
     for (int side : {kLeft, kRight}) leg(side);
@@ -138,7 +137,6 @@ class Builder {
     return std::move(rep_);
   }
 
- private:
   /// Adds one layer from the section polygon chosen by `pick` on the plane through `centre`.
   /// hull_of_nearby: the hull of the loops whose centres lie within nearby_radius of `centre`.
   /// same_side_of_x: for legs, neighbours must lie on the centre's side of this x (the other leg
