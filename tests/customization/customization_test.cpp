@@ -47,12 +47,7 @@ Scene photograph(const TriangleMesh& body, double distance = 3.0) {
   return s;
 }
 
-Silhouette mask_of(const RenderBuffers& b) {
-  Silhouette s;
-  s.width = b.width, s.height = b.height;
-  for (int f : b.face) s.mask.push_back(f >= 0 ? 255 : 0);
-  return s;
-}
+Silhouette mask_of(const RenderBuffers& b) { return silhouette_from_render(b); }
 
 double iou(const Silhouette& a, const Silhouette& b) {
   long inter = 0, uni = 0;

@@ -339,15 +339,8 @@ CustomizationModel train_customization_model(const CustomizationTrainingOptions&
       const double mid = 0.5 * (body.mesh.V.col(1).maxCoeff() + body.mesh.V.col(1).minCoeff()) + 0.1 * (u(rng) - 0.5);
       s.cameras.front = PinholeCamera::look_at(Eigen::Vector3d(0, mid, distance), Eigen::Vector3d(0, mid, 0), Eigen::Vector3d::UnitY(), 800, 1200, 1400);
       s.cameras.side = PinholeCamera::look_at(Eigen::Vector3d(distance, mid, 0), Eigen::Vector3d(0, mid, 0), Eigen::Vector3d::UnitY(), 800, 1200, 1400);
-      Silhouette sil[2];
-      int k = 0;
-      for (const PinholeCamera* c : {&s.cameras.front, &s.cameras.side}) {
-        const RenderBuffers buf = render_mesh(body.mesh, *c);
-        sil[k].width = buf.width, sil[k].height = buf.height;
-        sil[k].mask.resize(buf.face.size());
-        for (size_t p = 0; p < buf.face.size(); ++p) sil[k].mask[p] = buf.face[p] >= 0 ? 255 : 0;
-        ++k;
-      }
+      const Silhouette sil[2] = {silhouette_from_render(render_mesh(body.mesh, s.cameras.front)),
+                                 silhouette_from_render(render_mesh(body.mesh, s.cameras.side))};
       s.landmarks = find_photo_landmarks(sil[0], sil[1], s.cameras);
       s.targets = feature_targets(f, s.landmarks);
       s.front_png = encode(sil[0].mask, sil[0].width, sil[0].height);

@@ -64,15 +64,6 @@ Silhouette degraded_photo(const std::string& path, const std::string& what, unsi
   return silhouette_from_pixels(back.cols, back.rows, 3, back.data, what);
 }
 
-Silhouette rendered_mask(const TriangleMesh& mesh, const PinholeCamera& cam) {
-  const RenderBuffers b = render_mesh(mesh, cam);
-  Silhouette s;
-  s.width = b.width, s.height = b.height;
-  s.mask.resize(b.face.size());
-  for (size_t k = 0; k < b.face.size(); ++k) s.mask[k] = b.face[k] >= 0 ? 255 : 0;
-  return s;
-}
-
 }  // namespace
 
 const std::vector<PhotoVariation>& all_photo_variations() {
@@ -138,8 +129,8 @@ PhotoEvaluation evaluate_photo_customization(const std::string& dataset_dir, con
           const Eigen::Matrix3d R = Eigen::AngleAxisd(5 * M_PI / 180, Eigen::Vector3d::UnitY()).toRotationMatrix();
           TriangleMesh turned = subject;
           turned.V = ((subject.V.rowwise() - c) * R.transpose()).rowwise() + c;
-          front = rendered_mask(turned, cams.front);
-          side = rendered_mask(turned, cams.side);
+          front = silhouette_from_render(render_mesh(turned, cams.front));
+          side = silhouette_from_render(render_mesh(turned, cams.side));
           break;
         }
         default:

@@ -206,6 +206,14 @@ Silhouette silhouette_from_pixels(int width, int height, int channels, const std
   return from_mat(person);
 }
 
+Silhouette silhouette_from_render(const RenderBuffers& b) {
+  Silhouette s;
+  s.width = b.width, s.height = b.height;
+  s.mask.resize(b.face.size());
+  for (size_t k = 0; k < b.face.size(); ++k) s.mask[k] = b.face[k] >= 0 ? 255 : 0;
+  return s;
+}
+
 Silhouette silhouette_from_photo(const std::string& path, const std::string& what, const SilhouetteOptions& o) {
   const cv::Mat img = cv::imread(path, cv::IMREAD_COLOR);
   if (img.empty()) throw IoError(what + ": cannot read image '" + path + "'");

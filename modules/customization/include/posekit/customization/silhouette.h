@@ -34,6 +34,8 @@ Silhouette silhouette_from_photo(const std::string& path, const std::string& wha
 /// The same from an 8-bit image in memory (1 or 3 channels, row-major, BGR).
 Silhouette silhouette_from_pixels(int width, int height, int channels, const std::uint8_t* pixels, const std::string& what,
                                   const SilhouetteOptions& options = {});
+/// The true silhouette of a rendered mesh (pixels its triangles cover).
+Silhouette silhouette_from_render(const RenderBuffers& buffers);
 /// A mask image (person > 127): the largest component, holes filled, with the same checks.
 Silhouette read_silhouette_mask(const std::string& path, const std::string& what);
 /// Checks a silhouette as the readers do (throws InvalidInput naming `what`).
