@@ -226,6 +226,9 @@ int run_customize(int argc, char** argv) {
   nlohmann::ordered_json j;
   j["stature_photos"] = L.stature;
   j["scale"] = body.scale;
+  j["population_distance"] = body.population_distance;
+  j["population_limit"] = model.descriptor_limit;
+  j["population_range_excess"] = body.population_range_excess;
   j["levels_y"] = {{"floor", L.floor_y}, {"crotch", L.crotch_y}, {"hip", L.hip_y}, {"waist", L.waist_y}, {"bust", L.bust_y},
                    {"armpit_left", L.armpit_y[0]}, {"armpit_right", L.armpit_y[1]}, {"neck", L.neck_y}, {"crown", L.crown_y}};
   for (const auto& [lo, hi] : L.side_arm_occlusion) j["side_arm_occlusion_y"].push_back({lo, hi});

@@ -209,6 +209,21 @@ TEST(PhotoCustomization, ASmallPopulationCustomizesTheSubjectsFromTheirPhotos) {
   o.mlp = false;
   const CustomizationModel model = train_customization_model(o);
   EXPECT_GE(model.bodies, 25);
+  // A body far from the population's 2-D features is flagged; the population's own mean is not.
+  ASSERT_GT(model.descriptor_limit, 0);
+  PhotoLandmarks far;
+  far.descriptor = model.descriptor_mean;
+  EXPECT_LT(population_distance(model, far), model.descriptor_limit);
+  EXPECT_EQ(population_range_excess(model, far), 0);
+  // A whole range beyond the population's along its first axis (a body fatter than any trained on).
+  PhotoLandmarks big = far;
+  const double beyond = 2 * model.axis_high[0] - model.axis_low[0];
+  big.descriptor += (beyond * model.descriptor_axes.col(0)).cwiseProduct(model.descriptor_scale);
+  int axis = -1;
+  EXPECT_GT(population_range_excess(model, big, &axis), 0.5);
+  EXPECT_EQ(axis, 0);
+  for (Eigen::Index k = 0; k < far.descriptor.size(); ++k) far.descriptor[k] += (k % 2 ? -4 : 4) * model.descriptor_scale[k];
+  EXPECT_GT(population_distance(model, far), model.descriptor_limit);
   const PhotoEvaluation ev = evaluate_photo_customization(ds.root, model, PhotoVariation::kPhotos);
   ASSERT_FALSE(ev.subjects.empty());
   for (const auto& r : ev.subjects) {

@@ -75,6 +75,15 @@ struct CustomizationModel {
   double training_seconds = 0;
   std::string population;                   ///< what the population was (and what was left out)
   double feature_error_mm = 0;              ///< mean joint error of the feature regression (validation)
+  /// The training population's 2-D features: mean and spread of each, and the inverse of their
+  /// correlation (plus 0.01 on the diagonal); descriptor_limit: the distance (population_distance)
+  /// 99.5% of the validation bodies stay under. descriptor_axes: the correlation's 10 principal
+  /// axes (columns), with the training bodies' range along each (axis_low, axis_high).
+  Eigen::VectorXd descriptor_mean, descriptor_scale;
+  Eigen::MatrixXd descriptor_precision;
+  double descriptor_limit = 0;
+  Eigen::MatrixXd descriptor_axes;
+  Eigen::VectorXd axis_low, axis_high;
   /// Loaded state (template features, representation and parametrisation; MLPs): set by
   /// prepare_customization_model, which load and train call.
   struct Runtime;
@@ -107,12 +116,24 @@ CustomizationModel load_customization_model(const std::string& path);
 /// Builds the runtime state (template features, representation and ct-FFD parametrisation, MLPs).
 void prepare_customization_model(CustomizationModel* model);
 
+/// Mahalanobis distance of a body's 2-D features from the model's training population (each
+/// standardised; regularised). Beyond model.descriptor_limit the body is unlike any the model
+/// learned from, and its sections are extrapolated. 0 when the model has no population statistics.
+double population_distance(const CustomizationModel& model, const PhotoLandmarks& landmarks);
+/// How far a body lies beyond the training bodies' range along the population's first 4 principal axes:
+/// the largest excess over the range, in units of that range (0: inside on every axis). A body
+/// fatter or taller than any trained on is inside the Mahalanobis limit (the population is spread
+/// evenly, not normally) but beyond the range of its first axes.
+double population_range_excess(const CustomizationModel& model, const PhotoLandmarks& landmarks, int* axis = nullptr);
+
 struct CustomizedBody {
   TriangleMesh mesh;                       ///< the template deformed by ct-FFD, template topology
   LayeredRepresentation representation;    ///< predicted from the photos
   BodyFeatures features;                   ///< predicted from the 2-D features
   PhotoLandmarks landmarks;
   double scale = 1;                        ///< applied to meet a stated stature
+  double population_distance = 0;          ///< of the photos' body from the training population
+  double population_range_excess = 0;      ///< beyond the population's range (population_range_excess)
   std::vector<std::string> warnings;
 };
 
