@@ -640,7 +640,7 @@ void save_customization_model(const std::string& path, const CustomizationModel&
 
 CustomizationModel load_customization_model(const std::string& path) {
   std::ifstream in(path);
-  if (!in) throw IoError("cannot open customization model '" + path + "'");
+  if (!in) throw IoError("cannot open customization model '" + path + "' (make one with: posekit customize train --out " + path + ")");
   nlohmann::json j;
   try {
     in >> j;
