@@ -16,6 +16,15 @@
 #include "posekit/io/point_cloud_io.h"
 
 namespace posekit::cli {
+namespace {
+
+/// Spaces between a name and its help in the 24-column layout; a name that does not fit gets the
+/// help on its own line.
+std::string help_gap(const std::string& name) {
+  return name.size() + 2 <= 24 ? std::string(24 - name.size(), ' ') : "\n" + std::string(26, ' ');
+}
+
+}  // namespace
 
 ArgParser& ArgParser::positional(const std::string& name, const std::string& help, bool required) {
   positional_specs_.push_back({name, help, required});
@@ -42,12 +51,12 @@ std::string ArgParser::help() const {
   out << " [options]\n\n" << summary_ << "\n";
   if (!positional_specs_.empty()) {
     out << "\narguments:\n";
-    for (const auto& p : positional_specs_) out << "  " << p.name << std::string(std::max<size_t>(2, 24 - p.name.size()), ' ') << p.help << "\n";
+    for (const auto& p : positional_specs_) out << "  " << p.name << help_gap(p.name) << p.help << "\n";
   }
   out << "\noptions:\n";
   for (const auto& o : options_) {
     std::string lhs = "--" + o.name + (o.is_flag ? "" : " " + o.value_name);
-    out << "  " << lhs << std::string(std::max<size_t>(2, 24 - lhs.size()), ' ') << o.help;
+    out << "  " << lhs << help_gap(lhs) << o.help;
     if (!o.default_value.empty()) out << " (default: " << o.default_value << ")";
     out << "\n";
   }

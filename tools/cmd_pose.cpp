@@ -53,6 +53,50 @@ void check_subject(const TriangleMesh& mesh, const std::string& path) {
               << " holes; segmentation and posing proceed, features near the holes may be off\n";
 }
 
+nlohmann::ordered_json fit_report_json(const DatasetTrainingReport& r) {
+  nlohmann::ordered_json examples = nlohmann::ordered_json::array();
+  for (const auto& e : r.examples) {
+    nlohmann::ordered_json x = {{"name", e.name}, {"split", e.test ? "test" : e.left_out ? "left out" : "train"}, {"rms_mm", e.rms_mm},
+                                {"worst_part", e.worst_part}, {"worst_part_rms_mm", e.worst_core_rms_mm}};
+    if (e.joint_error_mean_deg >= 0)
+      x["against_json"] = {{"joint_error_mean_deg", e.joint_error_mean_deg}, {"joint_error_max_deg", e.joint_error_max_deg},
+                           {"worst_joint", e.worst_joint}};
+    x["problems"] = e.problems;
+    examples.push_back(x);
+  }
+  return {{"rest", r.rest_name}, {"rest_reason", r.rest_reason}, {"unit", r.unit}, {"orientation", r.orientation},
+          {"labels", r.labels_from_dataset ? "template/parts.json, template/joints.json" : "segmented (Eq. 2)"},
+          {"poses", r.poses_estimated ? "estimated from the meshes" : "pose JSONs"},
+          {"examples", examples}, {"warnings", r.warnings}};
+}
+
+/// What a user needs to hear about the template and the estimated poses, on stderr.
+void report_pose_estimation(const DatasetTrainingReport& r, std::ostream& err) {
+  err << "posekit train: template '" << r.rest_name << "' (" << r.rest_reason << "), unit " << r.unit << ", "
+      << r.orientation << "; labels " << (r.labels_from_dataset ? "from the dataset" : "from its own segmentation (Eq. 2)")
+      << "\n";
+  if (!r.poses_estimated) return;
+  std::vector<double> rms, joint;
+  const ExamplePoseFit* worst = nullptr;
+  for (const auto& e : r.examples) {
+    rms.push_back(e.rms_mm);
+    if (e.joint_error_mean_deg >= 0) joint.push_back(e.joint_error_mean_deg);
+    if (!worst || e.worst_core_rms_mm > worst->worst_core_rms_mm) worst = &e;
+  }
+  const Stats s = stats_of(rms);
+  err << std::fixed << std::setprecision(1) << "posekit train: poses of " << r.examples.size()
+      << " examples estimated from their meshes: rigid-part residual median " << s.median << " mm, max " << s.max << " mm";
+  if (worst) err << "; worst part " << worst->worst_part << " of '" << worst->name << "' " << worst->worst_core_rms_mm << " mm";
+  if (!joint.empty()) {
+    const Stats j = stats_of(joint);
+    err << "; against the " << joint.size() << " given pose JSONs: joint error median " << j.median << ", max " << j.max << " degrees";
+  }
+  err << "\n";
+  const size_t shown = std::min<size_t>(r.warnings.size(), 10);
+  for (size_t i = 0; i < shown; ++i) err << "warning: " << r.warnings[i] << "\n";
+  if (r.warnings.size() > shown) err << "warning: ... and " << r.warnings.size() - shown << " more (see --fit-report)\n";
+}
+
 nlohmann::ordered_json stats_json(const ErrorStats& s) {
   return {{"mean_mm", s.mean_mm}, {"p95_mm", s.p95_mm}, {"max_mm", s.max_mm}, {"vertices", s.count}};
 }
@@ -139,22 +183,48 @@ int run_train(int argc, char** argv) {
                  "pose dataset. Template labels and joints come from the dataset (template/parts.json, joints.json)\n"
                  "or, when absent, from the template's own segmentation (Eq. 2). When the template is the MakeHuman\n"
                  "base mesh, the model also keeps a segmentation prior: random MakeHuman bodies labelled by the rig,\n"
-                 "from which a customized body takes the part labels and joints of the bodies shaped most like it.");
-  args.option("dataset", "DIR", "a posekit dataset, or a folder of registered meshes with same-named .json poses")
+                 "from which a customized body takes the part labels and joints of the bodies shaped most like it.\n"
+                 "A folder of registered meshes alone (SCAPE, FAUST, your own 4D captures: one topology, no joint\n"
+                 "angles) is learned from too: each example's part rotations T^R(i) are estimated from its vertices\n"
+                 "(weighted Procrustes per part, joint zones down-weighted, robust to sliding skin) and the joint\n"
+                 "twists follow; pose JSONs, where present, then only check the estimates.");
+  args.option("dataset", "DIR", "a posekit dataset, or a folder of registered meshes (OBJ/PLY/OFF), with or without .json poses")
       .option("out", "FILE", "model file to write (.pkm)", "model.pkm")
+      .option("poses", "auto|json|estimate",
+              "training poses: the JSONs, estimated from the meshes, or auto (JSONs when every example has one)", "auto")
+      .option("rest", "NAME", "the rest-pose example (default: the manifest's, a zero pose, a name with rest/template, else the first)")
+      .option("unit", "UNIT", "unit of the meshes: m, dm, cm, mm or auto (from the rest mesh's extent)", "auto")
+      .option("fit-report", "FILE", "per-example fit of the estimated poses (JSON: residuals, joint errors against given JSONs)")
       .option("calibration-bodies", "N", "random MakeHuman bodies in the segmentation prior; 0: the template alone (default: 128)")
       .option("data", "DIR", "MakeHuman data root, for the prior (default: POSEKIT_DATA or ../shared/...)")
       .flag("json", "summary as JSON on stdout")
-      .example("posekit train --dataset out/dataset --out model.pkm");
+      .example("posekit train --dataset out/dataset --out model.pkm")
+      .example("posekit train --dataset scape_meshes/ --rest mesh000 --fit-report fits.json");
+  add_orientation_options(&args, "", "the meshes' body");
   if (!args.parse(argc, argv)) return 0;
   if (!args.has("dataset")) throw UsageError("--dataset DIR is required");
+  DatasetTrainingOptions dto;
+  try {
+    dto.poses = parse_training_poses(args.get("poses"));
+  } catch (const InvalidInput&) {
+    throw UsageError("--poses expects auto, json or estimate, got '" + args.get("poses") + "'");
+  }
+  if (args.has("rest")) dto.rest_name = args.get("rest");
+  dto.unit = args.get("unit");
+  if (dto.unit != "auto") parse_unit(dto.unit);
+  dto.up = args.get("up");
+  dto.forward = args.get("forward");
   Progress progress("train", 100);
   TrainingOptions o;
   o.progress = [&](int done, int total) { progress.update(100L * done / std::max(total, 1)); };
   const auto t0 = std::chrono::steady_clock::now();
-  PoseModel model = train_on_dataset(args.get("dataset"), o);
+  DatasetTrainingReport fits;
+  PoseModel model = train_on_dataset(args.get("dataset"), o, dto, &fits);
   const double seconds = seconds_since(t0);
   progress.finish();
+  const nlohmann::ordered_json fit_json = fit_report_json(fits);
+  report_pose_estimation(fits, std::cerr);
+  if (args.has("fit-report")) write_file_atomically(args.get("fit-report"), [&](std::ostream& f) { f << fit_json.dump(2) << "\n"; }, false);
   const long calibration_bodies = args.has("calibration-bodies") ? args.get_int("calibration-bodies") : 128;
   if (calibration_bodies < 0) throw UsageError("--calibration-bodies must not be negative");
   PriorReport prior;
@@ -173,6 +243,8 @@ int run_train(int argc, char** argv) {
                               {"fit_rms", model.fit_rms}, {"seconds", seconds},
                               {"calibration_bodies", prior.bodies}, {"calibration_skipped", prior.skipped},
                               {"calibration_seconds", prior.seconds},
+                              {"rest", fits.rest_name}, {"poses", fit_json["poses"]}, {"labels", fit_json["labels"]},
+                              {"warnings", fits.warnings},
                               {"peak_rss_mib", peak_rss_mib()}};
   if (args.flag_set("json")) {
     print_json(s);

@@ -5,6 +5,8 @@
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
+#include <algorithm>
+#include <iostream>
 #include <random>
 
 #include "posekit/core/error.h"
@@ -12,6 +14,9 @@
 #include "posekit/evaluation/pose_evaluation.h"
 #include "posekit/io/atomic_file.h"
 #include "posekit/io/checksum.h"
+#include "posekit/io/mesh_io.h"
+#include "posekit/deformation/rigid_pose.h"
+#include "posekit/segmentation/segmentation.h"
 #include "testing/makehuman_fixture.h"
 #include "testing/small_dataset.h"
 
@@ -237,4 +242,203 @@ TEST(PoseModel, WritesFuzzSeedsThatReadBack) {
     EXPECT_TRUE(back.template_V == m.template_V) << name;
   }
   EXPECT_EQ(read_pose_model(dir + "/prior.pkm").segmentation_prior.bodies.size(), 2u);
+}
+
+namespace {
+
+/// The training-split meshes of the small dataset, without their pose JSONs and labels: what a
+/// user's folder of registered meshes holds.
+std::string copy_meshes_only(const test::SmallDataset& ds, const test::TempDir& dir) {
+  const PoseDataset data = load_pose_dataset(ds.root);
+  for (size_t i = 0; i < data.names.size(); ++i) {
+    if (data.test[i]) continue;
+    for (const auto& e : std::filesystem::directory_iterator(ds.root + "/pose_dataset"))
+      if (e.path().stem() == data.names[i] && e.path().extension() != ".json")
+        std::filesystem::copy_file(e.path(), dir.file(e.path().filename().string()));
+  }
+  return dir.path();
+}
+
+}  // namespace
+
+TEST(PartPoseEstimation, RecoversARigidlyPosedBodyExactlyAndANoisyOneClosely) {
+  const auto& ds = test::small_dataset();
+  const PoseDataset data = load_pose_dataset(ds.root);
+  const TemplateAnnotations ann = load_template_annotations(ds.root);
+  const Eigen::MatrixXd& V = data.V[static_cast<size_t>(find_rest_example(data))];
+  PartPose pose;
+  pose.root_rotation = Eigen::Vector3d(0.1, 0.7, -0.05);
+  pose.root_translation = Eigen::Vector3d(0.2, -0.1, 0.3);
+  pose.joint_rotation[static_cast<size_t>(find_joint_index("left_elbow"))] = Eigen::Vector3d(0.3, 1.1, 0.2);
+  pose.joint_rotation[static_cast<size_t>(find_joint_index("right_knee"))] = Eigen::Vector3d(1.6, 0, 0);
+  pose.joint_rotation[static_cast<size_t>(find_joint_index("lower_back"))] = Eigen::Vector3d(0.4, 0.2, 0.1);
+  pose.joint_rotation[static_cast<size_t>(find_joint_index("neck"))] = Eigen::Vector3d(-0.2, 0.5, 0);
+  // Every vertex moved with its own part: a piecewise rigid body.
+  const PartTransforms T = part_transforms(pose, ann.joint_centres);
+  const PartPoseEstimator estimator(V, data.F, ann.triangle_part, ann.joint_centres);
+  const Eigen::VectorXi vertex_part = vertex_labels_from_triangles(V, data.F, ann.triangle_part);
+  Eigen::MatrixXd X(V.rows(), 3);
+  for (Eigen::Index v = 0; v < V.rows(); ++v) {
+    const size_t p = static_cast<size_t>(vertex_part[v]);
+    X.row(v) = (T.R[p] * V.row(v).transpose() + T.t[p]).transpose();
+  }
+  // The estimator's vertex parts come from the triangle majority; a vertex on a seam may move with
+  // the neighbour part, which the robust weights ignore.
+  const PartPoseEstimate e = estimator.estimate(X);
+  for (int j = 0; j < kNumJoints; ++j)
+    EXPECT_LT(rotation_difference(e.pose.joint_rotation[static_cast<size_t>(j)], pose.joint_rotation[static_cast<size_t>(j)]), 1e-3)
+        << joint_name(j);
+  EXPECT_LT(rotation_difference(e.pose.root_rotation, pose.root_rotation), 1e-3);
+  EXPECT_LT((e.pose.root_translation - pose.root_translation).norm(), 1e-3);
+  EXPECT_TRUE(pose_estimate_problems(e).empty());
+  // 2 mm of noise on every vertex: each joint within a degree.
+  std::mt19937 rng(7);
+  std::normal_distribution<double> noise(0, 0.002);
+  for (Eigen::Index v = 0; v < X.rows(); ++v)
+    for (int c = 0; c < 3; ++c) X(v, c) += noise(rng);
+  const PartPoseEstimate noisy = estimator.estimate(X);
+  for (int j = 0; j < kNumJoints; ++j)
+    EXPECT_LT(rotation_difference(noisy.pose.joint_rotation[static_cast<size_t>(j)], pose.joint_rotation[static_cast<size_t>(j)]) * 180 / M_PI, 1.0)
+        << joint_name(j);
+  // An arm swapped for the other one's vertices is no rigid motion: named, not hidden.
+  const Eigen::MatrixXd swapped = [&] {
+    Eigen::MatrixXd S = X;
+    for (Eigen::Index v = 0; v < S.rows(); ++v)
+      if (vertex_part[v] == kLeftForearm) S.row(v) = S.row(v) * -1;
+    return S;
+  }();
+  const auto problems = pose_estimate_problems(estimator.estimate(swapped));
+  ASSERT_FALSE(problems.empty());
+  EXPECT_NE(problems.front().find("left_forearm"), std::string::npos) << problems.front();  // the worst first
+  for (const auto& p : problems) EXPECT_EQ(p.find("'left_hand'"), std::string::npos) << "a broken part spoils its neighbours: " << p;
+  EXPECT_THROW(estimator.estimate(X.topRows(10)), InvalidInput);
+}
+
+TEST(PoseModel, TrainsFromMeshesAloneAsWellAsFromTheirPoseJsons) {
+  // Issue 18, part 1: the poses estimated from the meshes train a model that poses the held-out
+  // examples within 10% of the one trained on the given poses.
+  const auto& ds = test::small_dataset();
+  const PoseModel given = train_on_dataset(ds.root);
+  DatasetTrainingOptions o;
+  o.poses = TrainingPoses::kEstimate;
+  DatasetTrainingReport report;
+  const PoseModel estimated = train_on_dataset(ds.root, {}, o, &report);
+  EXPECT_TRUE(report.poses_estimated);
+  EXPECT_EQ(estimated.training_poses, given.training_poses);
+  std::vector<double> joint_error;
+  for (const auto& e : report.examples) {
+    EXPECT_TRUE(e.problems.empty()) << e.name << ": " << e.problems.front();
+    ASSERT_GE(e.joint_error_mean_deg, 0) << e.name;
+    joint_error.push_back(e.joint_error_mean_deg);
+    // Deep hip flexion drags the pelvis's skin: the lower back is 12 degrees off when sitting.
+    EXPECT_LT(e.joint_error_max_deg, 15.0) << e.name << " " << e.worst_joint;
+  }
+  std::sort(joint_error.begin(), joint_error.end());
+  EXPECT_LT(joint_error[joint_error.size() / 2], 0.5);
+  PoseEvaluationOptions eo;
+  eo.subjects = false;
+  eo.methods = {PoseMethod::kLearned};
+  const double with = evaluate_poses(ds.root, std::make_shared<const PoseModel>(given), eo).template_errors.front().all.mean_mm;
+  const double without = evaluate_poses(ds.root, std::make_shared<const PoseModel>(estimated), eo).template_errors.front().all.mean_mm;
+  EXPECT_LT(without, 1.1 * with);  // measured 0.141 and 0.153 mm on the full dataset
+  std::cout << "held-out template error: trained on the JSON poses " << with << " mm, on the estimated ones " << without
+            << " mm; estimated joints against the JSONs: median of the examples' mean " << joint_error[joint_error.size() / 2]
+            << " degrees\n";
+}
+
+TEST(PoseModel, TrainsFromAFolderOfMeshesAloneInAnyUnitAxesAndFormat) {
+  // A user's folder: the training meshes alone, no labels, no JSONs. Against the same folder with
+  // the JSONs (the same segmentation), then in millimetres, Z up and OBJ, then with 1 mm of noise.
+  const auto& ds = test::small_dataset();
+  test::TempDir with_json, alone, foreign, noisy, noisy_json;
+  copy_meshes_only(ds, alone);
+  copy_meshes_only(ds, with_json);
+  for (const auto& e : std::filesystem::directory_iterator(with_json.path()))
+    std::filesystem::copy_file(ds.root + "/pose_dataset/" + e.path().stem().string() + ".json",
+                               with_json.file(e.path().stem().string() + ".json"));
+  Eigen::Matrix3d file_from_posekit;
+  file_from_posekit << 1, 0, 0, 0, 0, -1, 0, 1, 0;  // posekit Y up -> file Z up, forward -> file -Y
+  std::mt19937 rng(3);
+  std::normal_distribution<double> noise(0, 0.001);
+  for (const auto& e : std::filesystem::directory_iterator(alone.path())) {
+    TriangleMesh m = read_mesh(e.path().string());
+    m.N.resize(0, 3);
+    TriangleMesh turned = m;
+    turned.V = 1000 * m.V * file_from_posekit.transpose();
+    write_mesh(foreign.file(e.path().stem().string() + ".obj"), turned);
+    if (e.path().stem() != "rest")  // the evaluation compares against the dataset's own template
+      for (Eigen::Index v = 0; v < m.V.rows(); ++v)
+        for (int c = 0; c < 3; ++c) m.V(v, c) += noise(rng);
+    write_mesh(noisy.file(e.path().filename().string()), m);
+    write_mesh(noisy_json.file(e.path().filename().string()), m);
+    std::filesystem::copy_file(ds.root + "/pose_dataset/" + e.path().stem().string() + ".json",
+                               noisy_json.file(e.path().stem().string() + ".json"));
+  }
+  PoseEvaluationOptions eo;
+  eo.subjects = false;
+  eo.methods = {PoseMethod::kLearned};
+  auto held_out_error = [&](const std::string& dir, const DatasetTrainingOptions& o, DatasetTrainingReport* report) {
+    const PoseModel model = train_on_dataset(dir, {}, o, report);
+    return evaluate_poses(ds.root, std::make_shared<const PoseModel>(model), eo).template_errors.front().all.mean_mm;
+  };
+  DatasetTrainingOptions o;
+  o.unit = o.up = o.forward = "auto";
+  DatasetTrainingReport r_json, r_alone, r_foreign, r_noisy, r_noisy_json;
+  const double e_json = held_out_error(with_json.path(), o, &r_json);
+  const double e_alone = held_out_error(alone.path(), o, &r_alone);
+  const double e_foreign = held_out_error(foreign.path(), o, &r_foreign);
+  const double e_noisy = held_out_error(noisy.path(), o, &r_noisy);
+  const double e_noisy_json = held_out_error(noisy_json.path(), o, &r_noisy_json);
+  EXPECT_FALSE(r_json.poses_estimated);
+  for (const auto* r : {&r_alone, &r_foreign, &r_noisy}) {
+    EXPECT_TRUE(r->poses_estimated);
+    EXPECT_FALSE(r->labels_from_dataset);
+    EXPECT_EQ(r->rest_name, "rest") << r->rest_reason;
+  }
+  EXPECT_NE(r_foreign.unit.find("mm"), std::string::npos) << r_foreign.unit;
+  EXPECT_NE(r_foreign.orientation.find("up +Z"), std::string::npos) << r_foreign.orientation;
+  EXPECT_LT(e_alone, 1.1 * e_json);
+  EXPECT_NEAR(e_foreign, e_alone, 0.02 * e_alone);  // the same bodies, read back into posekit's frame
+  // Noisy examples spoil what Eq. 5 learns whatever the poses' source.
+  // With 22 examples (the small dataset) the noise is over-fitted differently: 14.7 against 8.9 mm;
+  // with the full dataset's 74, 9.46 against 9.41 mm. The estimated joints stay within degrees.
+  EXPECT_LT(e_noisy, 2.0 * e_noisy_json);
+  DatasetTrainingOptions check = o;
+  check.poses = TrainingPoses::kEstimate;
+  DatasetTrainingReport r_check;
+  train_on_dataset(noisy_json.path(), {}, check, &r_check);
+  std::vector<double> noisy_joint_error;
+  for (const auto& e : r_check.examples) {
+    noisy_joint_error.push_back(e.joint_error_mean_deg);
+    // Squatting and sitting: the lower back 18-19 degrees off on the full dataset with its own labels.
+    EXPECT_LT(e.joint_error_max_deg, 25.0) << e.name << " " << e.worst_joint;
+  }
+  std::sort(noisy_joint_error.begin(), noisy_joint_error.end());
+  EXPECT_LT(noisy_joint_error[noisy_joint_error.size() / 2], 0.5);
+  std::cout << "folder of meshes (own segmentation): with JSONs " << e_json << " mm, alone " << e_alone << " mm, mm/Z-up/OBJ "
+            << e_foreign << " mm, 1 mm noise " << e_noisy << " mm (with JSONs " << e_noisy_json << " mm)\n";
+
+  // Another body among the examples (8% larger) is named, not learned from silently.
+  {
+    TriangleMesh m = read_mesh(alone.path() + "/rest.ply");
+    const Eigen::RowVector3d c = m.V.colwise().mean();
+    m.V = ((m.V.rowwise() - c) * 1.08).rowwise() + c;
+    write_mesh(alone.file("zz_other_body.ply"), m);
+  }
+  DatasetTrainingReport r_other;
+  train_on_dataset(alone.path(), {}, o, &r_other);
+  bool named = false;
+  for (const auto& w : r_other.warnings) named |= w.find("zz_other_body") != std::string::npos;
+  EXPECT_TRUE(named);
+
+  DatasetTrainingOptions folder = o;
+  const std::string dir = alone.path();
+  // A rest name that is not there is an error naming it.
+  folder.rest_name = "no_such_mesh";
+  try {
+    train_on_dataset(dir, {}, folder);
+    FAIL();
+  } catch (const InvalidInput& e) {
+    EXPECT_NE(std::string(e.what()).find("no_such_mesh"), std::string::npos) << e.what();
+  }
 }

@@ -217,6 +217,45 @@ TEST(Cli, DatasetMakeWritesAConsistentFolderAndRefusesToOverwrite) {
   EXPECT_EQ(dir.count(), 1);
 }
 
+TEST(Cli, TrainsOnAFolderOfMeshesAloneAndNamesWhatIsWrongWithAFolder) {
+  // Issue 18, part 1: registered meshes without poses or labels; the poses are estimated, the fit
+  // of each example reported.
+  const auto& ds = test::small_dataset();
+  ASSERT_FALSE(ds.root.empty());
+  test::TempDir dir;
+  std::filesystem::create_directories(dir.file("meshes"));
+  for (const char* name : {"rest", "left_elbow_flex_105", "right_knee_flex_65", "torso_twist_left_30", "left_shoulder_raise_30",
+                           "right_hip_abduct_40"})
+    std::filesystem::copy_file(ds.root + "/pose_dataset/" + name + ".ply", dir.file(std::string("meshes/") + name + ".ply"));
+  CommandResult r = run("train --dataset " + dir.file("meshes") + " --calibration-bodies 0 --out " + dir.file("m.pkm") +
+                        " --fit-report " + dir.file("fits.json"), true);
+  ASSERT_EQ(r.code, 0) << r.out;
+  EXPECT_NE(r.out.find("template 'rest'"), std::string::npos) << r.out;
+  EXPECT_NE(r.out.find("poses of 6 examples estimated from their meshes"), std::string::npos) << r.out;
+  const auto fits = nlohmann::json::parse(read_file_bytes(dir.file("fits.json")));
+  ASSERT_EQ(fits["examples"].size(), 6u);
+  for (const auto& e : fits["examples"]) {
+    EXPECT_LT(e["rms_mm"].get<double>(), 10.0) << e.dump();
+    EXPECT_FALSE(e.contains("against_json"));  // nothing to check against
+  }
+  // --poses json wants a JSON per example, named.
+  r = run("train --dataset " + dir.file("meshes") + " --poses json --calibration-bodies 0 --out " + dir.file("j.pkm"), true);
+  EXPECT_EQ(r.code, 1);
+  EXPECT_NE(r.out.find("has no pose JSON"), std::string::npos) << r.out;
+  EXPECT_FALSE(std::filesystem::exists(dir.file("j.pkm")));
+  EXPECT_EQ(run("train --dataset " + dir.file("meshes") + " --poses guess").code, 2);
+  // A rest example that is not there.
+  r = run("train --dataset " + dir.file("meshes") + " --rest mesh000 --calibration-bodies 0 --out " + dir.file("r.pkm"), true);
+  EXPECT_EQ(r.code, 1);
+  EXPECT_NE(r.out.find("no example named 'mesh000'"), std::string::npos) << r.out;
+  // A mesh of another topology: the first one that differs is named.
+  std::filesystem::copy_file(ds.root + "/subjects/f01/rest.ply", dir.file("meshes/subject_f01.ply"));
+  r = run("train --dataset " + dir.file("meshes") + " --calibration-bodies 0 --out " + dir.file("t.pkm"), true);
+  EXPECT_EQ(r.code, 1);
+  EXPECT_NE(r.out.find("subject_f01.ply"), std::string::npos) << r.out;
+  EXPECT_NE(r.out.find("one topology"), std::string::npos) << r.out;
+}
+
 TEST(Cli, TrainPoseSegmentAndEvalOnASmallDataset) {
   ASSERT_FALSE(test::test_data_root().empty());
   test::TempDir dir;

@@ -15,6 +15,8 @@
 #include "posekit/segmentation/segmentation.h"
 #include "posekit/segmentation/skeleton_embedding.h"
 #include "posekit/shape/body_features.h"
+#include "posekit/shape/body_orientation.h"
+#include "posekit/core/units.h"
 #include "posekit/shape/layered_representation.h"
 
 namespace fs = std::filesystem;
@@ -36,25 +38,184 @@ ErrorStats error_stats(const std::vector<double>& d) {
   return s;
 }
 
-PoseModel train_on_dataset(const std::string& dir, const TrainingOptions& base) {
-  const PoseDataset data = load_pose_dataset(dir);
+TrainingPoses parse_training_poses(const std::string& name) {
+  if (name == "auto") return TrainingPoses::kAuto;
+  if (name == "json") return TrainingPoses::kJson;
+  if (name == "estimate") return TrainingPoses::kEstimate;
+  throw InvalidInput("training poses: expected auto, json or estimate, got '" + name + "'");
+}
+
+namespace {
+
+std::string lower(std::string s) {
+  std::transform(s.begin(), s.end(), s.begin(), [](unsigned char c) { return static_cast<char>(std::tolower(c)); });
+  return s;
+}
+
+/// The rest example of a dataset and why it was chosen (-1 when a given name is unknown).
+int choose_rest_example(const PoseDataset& data, std::string* reason) {
+  const int known = find_rest_example(data);
+  if (known >= 0) {
+    *reason = !data.rest_name.empty() && data.names[static_cast<size_t>(known)] == data.rest_name
+                  ? "named as the rest pose" : "its pose JSON is all zero";
+    return known;
+  }
+  if (!data.rest_name.empty()) return -1;
+  for (size_t i = 0; i < data.names.size(); ++i) {
+    const std::string n = lower(data.names[i]);
+    if (n.find("rest") != std::string::npos || n.find("template") != std::string::npos) {
+      *reason = "its name says rest or template";
+      return static_cast<int>(i);
+    }
+  }
+  *reason = "the first mesh in name order (give the rest example's name when it is another)";
+  return 0;
+}
+
+}  // namespace
+
+PoseModel train_on_dataset(const std::string& dir, const TrainingOptions& base, const DatasetTrainingOptions& options,
+                           DatasetTrainingReport* report) {
+  DatasetTrainingReport local;
+  DatasetTrainingReport& rep = report ? *report : local;
+  rep = {};
+  const bool auto_unit = options.unit == "auto";
+  PoseDataset data = load_pose_dataset(dir, auto_unit ? Unit::kMetre : parse_unit(options.unit));
+  if (!options.rest_name.empty()) data.rest_name = options.rest_name;
+  const int rest = choose_rest_example(data, &rep.rest_reason);
+  if (rest < 0) {
+    std::string names;
+    for (size_t i = 0; i < data.names.size() && i < 8; ++i) names += (i ? ", " : "") + data.names[i];
+    throw InvalidInput(dir + ": no example named '" + data.rest_name + "' to be the rest pose (examples: " + names +
+                       (data.names.size() > 8 ? ", ..." : "") + ")");
+  }
+  data.rest_name = data.names[static_cast<size_t>(rest)];
+  rep.rest_name = data.rest_name;
+
+  // Unit and axes, from the rest mesh; every example is read the same way.
+  Unit unit = auto_unit ? Unit::kMetre : parse_unit(options.unit);
+  if (auto_unit) {
+    const double extent = robust_largest_extent(data.V[static_cast<size_t>(rest)]);
+    if (!guess_body_unit(extent, &unit))
+      throw InvalidInput(dir + ": cannot tell the unit of '" + data.rest_name + "' from its extent " + std::to_string(extent) +
+                         "; give the unit");
+    for (auto& V : data.V) V *= metres_per_unit(unit);
+  }
+  rep.unit = unit_name(unit) + (auto_unit ? " (detected)" : "");
+  OrientationOptions orient;
+  if (options.up != "auto") orient.up = parse_axis(options.up);
+  if (options.forward != "auto") orient.forward = parse_axis(options.forward);
+  const BodyOrientation orientation =
+      options.up == "auto" || options.forward == "auto"
+          ? detect_mesh_orientation(data.V[static_cast<size_t>(rest)], data.F, orient)
+          : orientation_from_axes(orient.up, orient.forward);
+  rep.orientation = orientation.describe();
+  for (const auto& w : orientation.warnings) rep.warnings.push_back(data.rest_name + ": " + w);
+  if (!orientation.is_identity())
+    for (auto& V : data.V) V = (V * orientation.rotation.transpose()).eval();
+
   TrainingOptions o = base;
   bool found = false;
   const TemplateAnnotations ann = load_template_annotations(dir, &found);
+  const Eigen::MatrixXd& V = data.V[static_cast<size_t>(rest)];
   if (found && ann.triangle_part.size() == data.F.rows()) {
     o.triangle_part = ann.triangle_part;
     o.joint_centres = ann.joint_centres;
+    rep.labels_from_dataset = true;
   } else {
     // No labels shipped: the template's own segmentation (Eq. 2) and skeleton.
-    const int rest = find_rest_example(data);
-    if (rest < 0) throw InvalidInput(dir + ": no rest-pose example (all joint rotations zero) to be the template");
-    const Eigen::MatrixXd& V = data.V[static_cast<size_t>(rest)];
-    const BodyFeatures features = find_body_features(V, data.F);
-    const LayeredRepresentation rep = build_layered_representation(V, data.F, features);
-    o.triangle_part = segment_body(V, data.F, rep).triangle_part;
-    o.joint_centres = joint_centres_from_features(V, data.F, o.triangle_part, rep, features);
+    try {
+      const BodyFeatures features = find_body_features(V, data.F);
+      const LayeredRepresentation layers = build_layered_representation(V, data.F, features);
+      o.triangle_part = segment_body(V, data.F, layers).triangle_part;
+      o.joint_centres = joint_centres_from_features(V, data.F, o.triangle_part, layers, features);
+    } catch (const InvalidInput& e) {
+      throw InvalidInput(dir + ": the rest example '" + data.rest_name + "' (" + rep.rest_reason + ") cannot be segmented: " +
+                         e.what() + "; it must stand upright in the standard pose, arms away from the body");
+    }
+  }
+
+  // Poses: the JSONs, or each part's rigid motion from the rest mesh.
+  bool all_json = true;
+  for (size_t i = 0; i < data.names.size(); ++i)
+    if (!data.test[i] && static_cast<int>(i) != rest && !data.has_pose[i]) all_json = false;
+  if (options.poses == TrainingPoses::kJson && !all_json)
+    for (size_t i = 0; i < data.names.size(); ++i)
+      if (!data.test[i] && !data.has_pose[i] && static_cast<int>(i) != rest)
+        throw InvalidInput(dir + ": example '" + data.names[i] + "' has no pose JSON (" + data.names[i] +
+                           ".json); estimate the poses from the meshes instead");
+  rep.poses_estimated = options.poses == TrainingPoses::kEstimate || (options.poses == TrainingPoses::kAuto && !all_json);
+  if (rep.poses_estimated) {
+    PartPoseEstimator estimator(V, data.F, o.triangle_part, o.joint_centres, options.fit);
+    // First the joint zones alone, then the rigid core each part shows over the training examples.
+    std::vector<const Eigen::MatrixXd*> training;
+    for (size_t i = 0; i < data.names.size(); ++i)
+      if (!data.test[i]) training.push_back(&data.V[i]);
+    try {
+      estimator.learn_rigid_cores(training);
+    } catch (const InvalidInput& err) {
+      throw InvalidInput(dir + ": " + err.what());
+    }
+    std::vector<std::array<double, kNumParts>> core_rms;
+    for (size_t i = 0; i < data.names.size(); ++i) {
+      PartPoseEstimate e;
+      try {
+        e = estimator.estimate(data.V[i]);
+      } catch (const InvalidInput& err) {
+        throw InvalidInput(dir + ": example '" + data.names[i] + "': " + err.what());
+      }
+      ExamplePoseFit fit;
+      fit.name = data.names[i];
+      fit.test = data.test[i];
+      fit.rms_mm = 1000 * e.rms;
+      fit.worst_core_rms_mm = 1000 * e.core_rms[static_cast<size_t>(e.worst_part)];
+      fit.worst_part = part_name(e.worst_part);
+      fit.problems = pose_estimate_problems(e);
+      if (data.has_pose[i]) {
+        const PartPose& given = data.poses[i];
+        double sum = rotation_difference(given.root_rotation, e.pose.root_rotation), worst = sum;
+        fit.worst_joint = "root";
+        for (int j = 0; j < kNumJoints; ++j) {
+          const double d = rotation_difference(given.joint_rotation[static_cast<size_t>(j)], e.pose.joint_rotation[static_cast<size_t>(j)]);
+          sum += d;
+          if (d > worst) worst = d, fit.worst_joint = joint_name(j);
+        }
+        fit.joint_error_mean_deg = sum / (kNumJoints + 1) * 180 / M_PI;
+        fit.joint_error_max_deg = worst * 180 / M_PI;
+      }
+      for (const auto& p : fit.problems) rep.warnings.push_back("example '" + fit.name + "': " + p);
+      rep.examples.push_back(fit);
+      core_rms.push_back(e.core_rms);
+      if (static_cast<int>(i) == rest) e.pose = PartPose{};  // the template is the rest pose by definition
+      data.poses[i] = e.pose;
+      data.has_pose[i] = true;
+    }
+    // An example most of whose parts fit far worse than in the typical example is not the rest
+    // body posed (another person, another scale, another registration): left out, and said so.
+    std::array<double, kNumParts> typical{};
+    for (int p = 0; p < kNumParts; ++p) {
+      std::vector<double> v;
+      for (const auto& c : core_rms) v.push_back(c[static_cast<size_t>(p)]);
+      std::nth_element(v.begin(), v.begin() + static_cast<long>(v.size() / 2), v.end());
+      typical[static_cast<size_t>(p)] = v[v.size() / 2];
+    }
+    for (size_t i = 0; i < data.names.size(); ++i) {
+      int worse = 0;
+      for (int p = 0; p < kNumParts; ++p)
+        worse += core_rms[i][static_cast<size_t>(p)] > 3 * typical[static_cast<size_t>(p)] + options.fit.min_robust_scale;
+      if (worse <= kNumParts / 2 || static_cast<int>(i) == rest) continue;
+      const std::string what = std::to_string(worse) + " of its 16 parts fit over 3 times worse than in the typical example: not the rest body posed (another person, scale or registration?); left out of training";
+      rep.examples[i].problems.push_back(what);
+      rep.examples[i].left_out = true;
+      rep.warnings.push_back("example '" + data.names[i] + "': " + what);
+      data.has_pose[i] = false;
+    }
   }
   return train_pose_model(data, o);
+}
+
+PoseModel train_on_dataset(const std::string& dir, const TrainingOptions& base) {
+  return train_on_dataset(dir, base, DatasetTrainingOptions{});
 }
 
 namespace {
