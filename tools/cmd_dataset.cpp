@@ -70,6 +70,10 @@ int dataset_make(int argc, char** argv) {
       .option("subjects", "N", "number of subjects (half female)", "16")
       .option("noise-mm", "S", "scan noise sigma along the ray (mm)", "1.5")
       .option("outliers", "F", "fraction of outlier points added to each scan", "0.001")
+      .option("driving", "RULE",
+              "how a 16-part pose drives the rig for the ground truth: rig (one bone per part), anatomical (girdle,\n"
+              "                          spine, neck and limb twist spread over their bones) or anatomical-alternative (other\n"
+              "                          fractions, linear blend skinning: the second generator of a cross-generator test)", "rig")
       .flag("small", "a third of the poses and 2 subjects (quick)")
       .flag("robustness", "write the robustness set (for posekit eval bodies) instead")
       .option("shapes", "N", "robustness set: body shapes, each in every variation", "10")
@@ -78,6 +82,7 @@ int dataset_make(int argc, char** argv) {
       .flag("json", "summary as JSON on stdout")
       .example("posekit dataset make --out dataset")
       .example("posekit dataset make --out small --small --seed 7")
+      .example("posekit dataset make --out anatomical --driving anatomical")
       .example("posekit dataset make --robustness --out robustness");
   if (!args.parse(argc, argv)) return 0;
   if (!args.has("out")) throw UsageError("--out DIR is required");
@@ -88,6 +93,9 @@ int dataset_make(int argc, char** argv) {
   if (seed < 0) throw UsageError("--seed must be non-negative");
   o.seed = static_cast<unsigned>(seed);
   o.small = args.flag_set("small");
+  o.driving = args.get("driving");
+  if (o.driving != "rig" && o.driving != "anatomical" && o.driving != "anatomical-alternative")
+    throw UsageError("--driving expects rig, anatomical or anatomical-alternative, got '" + o.driving + "'");
   o.subjects = static_cast<int>(args.get_int("subjects"));
   if (o.subjects < 1 || o.subjects > 200) throw UsageError("--subjects must be 1..200");
   o.scan_noise_sigma = args.get_double("noise-mm") / 1000.0;

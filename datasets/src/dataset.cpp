@@ -2,14 +2,17 @@
 
 #include <unistd.h>
 
+#include <algorithm>
 #include <chrono>
 #include <filesystem>
 #include <fstream>
 #include <iomanip>
 #include <nlohmann/json.hpp>
+#include <optional>
 #include <sstream>
 
 #include "posekit/body/makehuman_model.h"
+#include "posekit/body/anatomical_driving.h"
 #include "posekit/body/skinning.h"
 #include "posekit/core/error.h"
 #include "posekit/datasets/pose_set.h"
@@ -29,6 +32,10 @@ namespace {
 
 /// The subjects' posed ground truth and scans use these held-out poses.
 const char* kSubjectTestPoses[] = {"walk_phase_1", "reach_forward", "squat_half"};
+/// With anatomical driving, subjects are also posed (not scanned) in these held-out poses, so that
+/// every pose type has subjects: sit, torso, single joints, a reach across the body.
+const char* kSubjectExtraPoses[] = {"sitting", "torso_bend_right_20", "reach_left_low", "right_shoulder_raise_120",
+                                    "left_hip_flex_75"};
 
 class DatasetWriter {
  public:
@@ -70,9 +77,23 @@ std::string pose_json(const NamedPose& p) { return part_pose_to_json(p.pose); }
 
 nlohmann::ordered_json vec(const Eigen::Vector3d& v) { return {v.x(), v.y(), v.z()}; }
 
-Eigen::MatrixXd pose_body(const MakeHumanModel& model, const Body& body, const PartPose& pose) {
-  const BoneTransforms T = pose_bone_transforms(model.rig, body.bone_heads, bone_pose_from_part_pose(model.rig, pose));
-  return dual_quaternion_skinning(body.mesh.V, model.weights, T);
+/// The posed ground truth of a body: one bone per part, or spread over the rig's chains.
+Eigen::MatrixXd pose_body(const MakeHumanModel& model, const Body& body, const PartPose& pose,
+                          const std::optional<AnatomicalDriving>& anatomy) {
+  if (!anatomy) {
+    const BoneTransforms T = pose_bone_transforms(model.rig, body.bone_heads, bone_pose_from_part_pose(model.rig, pose));
+    return dual_quaternion_skinning(body.mesh.V, model.weights, T);
+  }
+  const BoneTransforms T = pose_bone_transforms(model.rig, body.bone_heads, anatomical_bone_pose(model.rig, body, pose, *anatomy));
+  return anatomy->dual_quaternion ? dual_quaternion_skinning(body.mesh.V, model.weights, T)
+                                  : linear_blend_skinning(body.mesh.V, model.weights, T);
+}
+
+std::optional<AnatomicalDriving> parse_driving(const std::string& name) {
+  if (name == "rig") return std::nullopt;
+  if (name == "anatomical") return AnatomicalDriving{};
+  if (name == "anatomical-alternative") return AnatomicalDriving::alternative();
+  throw InvalidInput("dataset: unknown driving '" + name + "' (expected rig, anatomical or anatomical-alternative)");
 }
 
 std::string correspondence_csv(const SurfacePoints& s) {
@@ -112,12 +133,16 @@ DatasetSummary make_dataset(const std::string& out_dir, const DatasetOptions& o)
     throw IoError(tmp.string() + ": cannot create the output folder (" + ec.message() + ")");
   try {
     const auto model = load_makehuman_model(o.data_root);
+    const std::optional<AnatomicalDriving> anatomy = parse_driving(o.driving);
     DatasetWriter w(tmp);
     DatasetSummary summary;
     nlohmann::ordered_json manifest;
     manifest["format"] = "posekit dataset 1";
     manifest["generator"] = {{"seed", o.seed}, {"small", o.small}, {"source", "MakeHuman CC0 assets (data root)"},
-                             {"posing", "163-bone rig, MakeHuman skinning weights, dual quaternion skinning"}};
+                             {"posing", anatomy ? "163-bone rig driven anatomically (" + anatomy->name + "), MakeHuman skinning weights, " +
+                                            (anatomy->dual_quaternion ? "dual quaternion" : "linear blend") + " skinning"
+                                        : std::string("163-bone rig, one bone per part, MakeHuman skinning weights, dual quaternion skinning")},
+                             {"driving", o.driving}};
     manifest["units"] = {{"meshes", "m"}, {"scans", "mm"}, {"angles", "radians"}};
 
     // Template: the pose-dataset subject in rest pose.
@@ -142,8 +167,10 @@ DatasetSummary make_dataset(const std::string& out_dir, const DatasetOptions& o)
     }
     // Pose dataset.
     std::vector<NamedPose> poses = standard_pose_set(joints, o.seed, o.small ? 4 : 10, o.small);
+    std::vector<std::string> subject_poses(std::begin(kSubjectTestPoses), std::end(kSubjectTestPoses));
+    if (anatomy && !o.small) subject_poses.insert(subject_poses.end(), std::begin(kSubjectExtraPoses), std::end(kSubjectExtraPoses));
     for (auto& p : poses)
-      for (const char* name : kSubjectTestPoses)
+      for (const auto& name : subject_poses)
         if (p.name == name) p.test = true;
     for (const char* name : kSubjectTestPoses)
       if (std::none_of(poses.begin(), poses.end(), [&](const NamedPose& p) { return p.name == name; }))
@@ -156,7 +183,7 @@ DatasetSummary make_dataset(const std::string& out_dir, const DatasetOptions& o)
     nlohmann::ordered_json pose_list = nlohmann::ordered_json::array();
     for (const NamedPose& p : poses) {
       TriangleMesh m;
-      m.V = pose_body(*model, templ, p.pose);
+      m.V = pose_body(*model, templ, p.pose, anatomy);
       m.F = templ.mesh.F;
       w.mesh("pose_dataset/" + p.name + ".ply", m, "pose example", "template registered in pose '" + p.name + "'");
       w.text("pose_dataset/" + p.name + ".json", pose_json(p), "pose", "16-part pose of '" + p.name + "'");
@@ -195,16 +222,19 @@ DatasetSummary make_dataset(const std::string& out_dir, const DatasetOptions& o)
       }
       nlohmann::ordered_json posed = nlohmann::ordered_json::array();
       std::vector<std::pair<std::string, TriangleMesh>> scanned = {{"rest", rest_mesh}};
-      for (const char* pname : kSubjectTestPoses) {
-        const auto it = std::find_if(poses.begin(), poses.end(), [&](const NamedPose& p) { return p.name == pname; });
+      for (const auto& pose_name : subject_poses) {
+        const char* pname = pose_name.c_str();
+        const auto it = std::find_if(poses.begin(), poses.end(), [&](const NamedPose& p) { return p.name == pose_name; });
+        if (it == poses.end()) throw InvalidInput("pose set lacks the subject test pose " + pose_name);
         TriangleMesh pm;
-        const Eigen::MatrixXd posed_template = pose_body(*model, body, it->pose);
+        const Eigen::MatrixXd posed_template = pose_body(*model, body, it->pose, anatomy);
         pm.V = evaluate_smooth_surface_points(posed_template, body.mesh.F, vertex_normals(posed_template, body.mesh.F), corr);
         pm.F = rest_mesh.F;
         w.mesh(dir + "posed/" + pname + ".ply", pm, "posed subject", "subject " + s.id + " posed by the rig in '" + pname + "'");
         w.text(dir + "posed/" + pname + ".json", pose_json(*it), "pose", "16-part pose of '" + std::string(pname) + "'");
         posed.push_back({{"pose", pname}, {"mesh", dir + "posed/" + pname + ".ply"}, {"pose_json", dir + "posed/" + pname + ".json"}});
-        scanned.emplace_back(pname, pm);
+        if (std::find(std::begin(kSubjectTestPoses), std::end(kSubjectTestPoses), pose_name) != std::end(kSubjectTestPoses))
+          scanned.emplace_back(pname, pm);
       }
       nlohmann::ordered_json scans = nlohmann::ordered_json::array();
       for (size_t k = 0; k < scanned.size(); ++k) {

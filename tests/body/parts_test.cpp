@@ -1,7 +1,9 @@
 #include "posekit/body/parts.h"
+#include "posekit/body/anatomical_driving.h"
 
 #include <gtest/gtest.h>
 
+#include <Eigen/Geometry>
 #include <cmath>
 #include <numeric>
 
@@ -95,4 +97,47 @@ TEST(Parts, PartPoseRotatesTheChildPartAboutItsJoint) {
   EXPECT_NEAR((moved - knee).norm(), (ankle - knee).norm(), 1e-12);
   EXPECT_GT(moved.y(), ankle.y() + 0.3);  // the foot comes up behind
   EXPECT_LT(moved.z(), knee.z() - 0.3);
+}
+
+TEST(AnatomicalDriving, SpreadsEachJointOverItsChainAndEndsWhereThePoseSays) {
+  POSEKIT_REQUIRE_MAKEHUMAN();
+  const Body body = build_body(model, BodySpec{});
+  const Rig& rig = model.rig;
+  PartPose pose;
+  pose.root_rotation = Eigen::Vector3d(0, 0.3, 0);
+  pose.joint_rotation[static_cast<size_t>(find_joint_index("left_shoulder"))] = 120 * M_PI / 180 * Eigen::Vector3d::UnitZ();
+  pose.joint_rotation[static_cast<size_t>(find_joint_index("lower_back"))] = Eigen::Vector3d(0.5, 0.2, 0.1);
+  pose.joint_rotation[static_cast<size_t>(find_joint_index("upper_back"))] = Eigen::Vector3d(0.1, 0.4, 0);
+  pose.joint_rotation[static_cast<size_t>(find_joint_index("neck"))] = Eigen::Vector3d(0.2, 0.6, 0.1);
+  pose.joint_rotation[static_cast<size_t>(find_joint_index("right_wrist"))] = Eigen::Vector3d(0.3, 0.9, 0.2);
+  pose.joint_rotation[static_cast<size_t>(find_joint_index("right_hip"))] = Eigen::Vector3d(-1.0, 0.4, 0);
+  for (const AnatomicalDriving& d : {AnatomicalDriving{}, AnatomicalDriving::alternative()}) {
+    const BonePose bones = anatomical_bone_pose(rig, body, pose, d);
+    std::vector<Eigen::Matrix3d> world(static_cast<size_t>(rig.num_bones()));
+    for (int b = 0; b < rig.num_bones(); ++b) {
+      const int p = rig.parent[static_cast<size_t>(b)];
+      world[static_cast<size_t>(b)] = p < 0 ? bones.local[static_cast<size_t>(b)] : Eigen::Matrix3d(world[static_cast<size_t>(p)] * bones.local[static_cast<size_t>(b)]);
+    }
+    // The last bone of every chain is where the one-bone-per-part rig puts its part.
+    const BonePose rigid = bone_pose_from_part_pose(rig, pose);
+    std::vector<Eigen::Matrix3d> rigid_world(world.size());
+    for (int b = 0; b < rig.num_bones(); ++b) {
+      const int p = rig.parent[static_cast<size_t>(b)];
+      rigid_world[static_cast<size_t>(b)] = p < 0 ? rigid.local[static_cast<size_t>(b)] : Eigen::Matrix3d(rigid_world[static_cast<size_t>(p)] * rigid.local[static_cast<size_t>(b)]);
+    }
+    for (const char* name : {"spine03", "spine01", "head", "upperarm02.L", "lowerarm02.L", "wrist.R", "upperleg02.R", "foot.R"}) {
+      const size_t b = static_cast<size_t>(rig.find_bone(name));
+      EXPECT_LT((world[b] - rigid_world[b]).norm(), 1e-9) << d.name << " " << name;
+    }
+    // Inside the chains the bones share the motion: the clavicle takes its share of the 120 degree raise.
+    const double clavicle = Eigen::AngleAxisd(world[static_cast<size_t>(rig.find_bone("clavicle.L"))] *
+                                              world[static_cast<size_t>(rig.find_bone("spine01"))].transpose()).angle();
+    EXPECT_NEAR(clavicle * 180 / M_PI, 120 * d.girdle_share * d.clavicle_share, 1.0) << d.name;
+    const double lumbar_first = Eigen::AngleAxisd(bones.local[static_cast<size_t>(rig.find_bone("spine05"))]).angle();
+    EXPECT_GT(lumbar_first, 0.05) << d.name;
+    EXPECT_LT(lumbar_first, 0.8 * pose.joint_rotation[0].norm()) << d.name;
+  }
+  // The rest pose moves nothing.
+  const BonePose rest = anatomical_bone_pose(rig, body, PartPose{}, AnatomicalDriving{});
+  for (const auto& R : rest.local) EXPECT_LT((R - Eigen::Matrix3d::Identity()).norm(), 1e-12);
 }

@@ -19,6 +19,12 @@ struct DatasetOptions {
   int subject_vertices = 12400;
   double scan_noise_sigma = 0.0015;  ///< m
   double scan_outlier_fraction = 0.001;
+  /// How a 16-part pose drives the rig for the ground truth: "rig" (each joint on the bone that
+  /// starts its part, dual quaternion skinning), "anatomical" or "anatomical-alternative"
+  /// (anatomical_driving.h: girdle, spine, neck and limb twist spread over their bones; the second
+  /// with other fractions and linear blend skinning, for a cross-generator test). The anatomical
+  /// ones also pose every subject in 8 held-out poses (walk, reach, squat, sit, torso, single joints).
+  std::string driving = "rig";
   bool force = false;          ///< replace an existing output folder
   /// Progress callback: (done, total, what).
   std::function<void(int, int, const std::string&)> progress;
