@@ -97,6 +97,14 @@ void report_pose_estimation(const DatasetTrainingReport& r, std::ostream& err) {
   if (r.warnings.size() > shown) err << "warning: ... and " << r.warnings.size() - shown << " more (see --fit-report)\n";
 }
 
+/// The joints whose learned offsets training kept.
+std::vector<std::string> offsets_kept(const PoseModel& model) {
+  std::vector<std::string> kept;
+  for (Eigen::Index j = 0; j < model.joint_offsets.rows(); ++j)
+    if (!model.joint_offsets.row(j).isZero(0)) kept.push_back(joint_name(static_cast<int>(j)));
+  return kept;
+}
+
 nlohmann::ordered_json stats_json(const ErrorStats& s) {
   return {{"mean_mm", s.mean_mm}, {"p95_mm", s.p95_mm}, {"max_mm", s.max_mm}, {"vertices", s.count}};
 }
@@ -195,6 +203,9 @@ int run_train(int argc, char** argv) {
       .option("rest", "NAME", "the rest-pose example (default: the manifest's, a zero pose, a name with rest/template, else the first)")
       .option("unit", "UNIT", "unit of the meshes: m, dm, cm, mm or auto (from the rest mesh's extent)", "auto")
       .option("fit-report", "FILE", "per-example fit of the estimated poses (JSON: residuals, joint errors against given JSONs)")
+      .flag("joint-offsets",
+            "extension beyond the paper: learn where each joint sits as a function of its twist (a shoulder girdle\n"
+            "                          that rises with the arm), kept per joint where it lowers the training error")
       .option("calibration-bodies", "N", "random MakeHuman bodies in the segmentation prior; 0: the template alone (default: 128)")
       .option("data", "DIR", "MakeHuman data root, for the prior (default: POSEKIT_DATA or ../shared/...)")
       .flag("json", "summary as JSON on stdout")
@@ -217,6 +228,7 @@ int run_train(int argc, char** argv) {
   Progress progress("train", 100);
   TrainingOptions o;
   o.progress = [&](int done, int total) { progress.update(100L * done / std::max(total, 1)); };
+  o.learn_joint_offsets = args.flag_set("joint-offsets");
   const auto t0 = std::chrono::steady_clock::now();
   DatasetTrainingReport fits;
   PoseModel model = train_on_dataset(args.get("dataset"), o, dto, &fits);
@@ -244,6 +256,7 @@ int run_train(int argc, char** argv) {
                               {"calibration_bodies", prior.bodies}, {"calibration_skipped", prior.skipped},
                               {"calibration_seconds", prior.seconds},
                               {"rest", fits.rest_name}, {"poses", fit_json["poses"]}, {"labels", fit_json["labels"]},
+                              {"joint_offsets_kept", offsets_kept(model)},
                               {"warnings", fits.warnings},
                               {"peak_rss_mib", peak_rss_mib()}};
   if (args.flag_set("json")) {
@@ -256,6 +269,11 @@ int run_train(int argc, char** argv) {
   if (prior.bodies > 0)
     std::cout << "; segmentation prior of " << prior.bodies << " bodies in " << std::setprecision(2) << prior.seconds << " s"
               << (prior.skipped ? " (" + std::to_string(prior.skipped) + " left out: features not found)" : "");
+  if (o.learn_joint_offsets) {
+    const auto kept = offsets_kept(model);
+    std::cout << "; joint offsets kept for " << kept.size() << " of 15 joints";
+    for (size_t k = 0; k < kept.size(); ++k) std::cout << (k ? ", " : " (") << kept[k] << (k + 1 == kept.size() ? ")" : "");
+  }
   std::cout << "; peak RSS " << std::setprecision(0) << peak_rss_mib() << " MiB; wrote " << args.get("out") << "\n";
   return 0;
 }
@@ -537,9 +555,21 @@ int run_eval(int argc, char** argv) {
     subjects.push_back({{"id", s.id}, {"setup_seconds", s.setup_seconds}, {"segmentation_agreement", s.segmentation_agreement},
                         {"joint_error_mean_mm", s.joint_error_mean_mm}, {"joint_error_max_mm", s.joint_error_max_mm},
                         {"methods", methods_json(s.methods)}});
+  nlohmann::ordered_json types = nlohmann::ordered_json::array();
+  for (const auto& t : ev.by_pose_type) {
+    if (!t.template_poses && !t.subject_meshes) continue;
+    nlohmann::ordered_json tj = {{"type", t.type}, {"template_poses", t.template_poses}, {"subject_meshes", t.subject_meshes}};
+    for (size_t m = 0; m < ev.template_errors.size() || m < ev.subject_errors.size(); ++m) {
+      const PoseMethod method = m < ev.template_errors.size() ? ev.template_errors[m].method : ev.subject_errors[m].method;
+      tj["template_mean_mm"][pose_method_name(method)] = t.template_mean_mm[m];
+      tj["subject_mean_mm"][pose_method_name(method)] = t.subject_mean_mm[m];
+    }
+    types.push_back(tj);
+  }
   nlohmann::ordered_json out = {{"dataset", dir}, {"units", "mm"}, {"model_seconds", train_seconds},
                                 {"template_test_poses", ev.test_poses}, {"template", methods_json(ev.template_errors)},
                                 {"subjects_pooled", methods_json(ev.subject_errors)}, {"subjects", subjects},
+                                {"by_pose_type", types},
                                 {"pose_ms_median", ev.pose_ms_median}, {"peak_rss_mib", peak_rss_mib()}};
   if (args.flag_set("json")) {
     print_json(out);
@@ -565,6 +595,21 @@ int run_eval(int argc, char** argv) {
     std::cout << "| " << s.id << " | " << std::setprecision(1) << 100 * s.segmentation_agreement << " | "
               << s.joint_error_mean_mm << " / " << s.joint_error_max_mm << " |";
     for (const auto& m : s.methods) std::cout << " " << std::setprecision(2) << m.all.mean_mm << " |";
+    std::cout << "\n";
+  }
+  const std::vector<MethodErrors>& methods = ev.template_errors.empty() ? ev.subject_errors : ev.template_errors;
+  std::cout << "\nmean mm per kind of pose (template poses / subject meshes):\n\n| pose type | poses |";
+  for (const auto& m : methods) std::cout << " " << pose_method_name(m.method) << " template | " << pose_method_name(m.method) << " subjects |";
+  std::cout << "\n|---|---|";
+  for (size_t m = 0; m < methods.size(); ++m) std::cout << "---|---|";
+  std::cout << "\n";
+  for (const auto& t : ev.by_pose_type) {
+    if (!t.template_poses && !t.subject_meshes) continue;
+    std::cout << "| " << t.type << " | " << t.template_poses << " / " << t.subject_meshes << " |";
+    for (size_t m = 0; m < methods.size(); ++m) {
+      auto cell = [](int n, double v) { return n ? [&] { std::ostringstream o; o << std::fixed << std::setprecision(2) << v; return o.str(); }() : std::string("-"); };
+      std::cout << " " << cell(t.template_poses, t.template_mean_mm[m]) << " | " << cell(t.subject_meshes, t.subject_mean_mm[m]) << " |";
+    }
     std::cout << "\n";
   }
   std::cout << "\nmedian time per pose (learned): " << ev.pose_ms_median << " ms\n";

@@ -6,6 +6,7 @@
 #include <cstdint>
 #include <cstring>
 #include <map>
+#include <memory>
 #include <string>
 #include <utility>
 #include <vector>
@@ -13,6 +14,9 @@
 #include "posekit/core/error.h"
 #include "posekit/core/mesh_geometry.h"
 #include "posekit/datasets/dataset.h"
+#include "posekit/deformation/part_pose_estimation.h"
+#include "posekit/deformation/pose_synthesis.h"
+#include "posekit/segmentation/segmentation.h"
 #include "posekit/deformation/rigid_pose.h"
 #include "posekit/shape/body_features.h"
 
@@ -55,6 +59,81 @@ Eigen::Matrix<double, kPoseFeatures, 1> features(const PartPose& pose, int a, in
   if (b >= 0) x.segment<3>(3) = pose.joint_rotation[static_cast<size_t>(b)];
   x[6] = 1;
   return x;
+}
+
+/// Joint offsets (rigid_pose.h): per training example each part's own rigid fit, the child's joint
+/// centre relative to the parent's in the parent's frame, regressed per joint on its twist features.
+Eigen::MatrixXd fit_joint_offsets(const PoseDataset& data, const std::vector<int>& examples, const PoseModel& model) {
+  PartFitOptions fit;
+  fit.joint_coupling = 0;  // each part where its own vertices put it
+  const PartPoseEstimator estimator(model.template_V, model.template_F, model.triangle_part, model.joint_centres, fit);
+  const int m = static_cast<int>(examples.size());
+  std::vector<Eigen::MatrixXd> Phi(kNumJoints, Eigen::MatrixXd(m, kOffsetFeatures)), O(kNumJoints, Eigen::MatrixXd(m, 3));
+  for (int e = 0; e < m; ++e) {
+    const size_t ex = static_cast<size_t>(examples[static_cast<size_t>(e)]);
+    const PartPoseEstimate placed = estimator.estimate(data.V[ex]);
+    const auto R = part_rotations(data.poses[ex]);
+    for (int j = 0; j < kNumJoints; ++j) {
+      const size_t c = static_cast<size_t>(j + 1), q = static_cast<size_t>(part_parent(j + 1));
+      const Eigen::Vector3d centre = model.joint_centres.row(j).transpose();
+      const Eigen::Vector3d by_child = placed.R[c] * centre + placed.t[c], by_parent = placed.R[q] * centre + placed.t[q];
+      O[static_cast<size_t>(j)].row(e) = (R[q].transpose() * (by_child - by_parent)).transpose();
+      Phi[static_cast<size_t>(j)].row(e) = joint_offset_features(data.poses[ex], j).transpose();
+    }
+  }
+  Eigen::MatrixXd offsets(kNumJoints, 3 * kOffsetFeatures);
+  for (int j = 0; j < kNumJoints; ++j) {
+    const Eigen::MatrixXd& X = Phi[static_cast<size_t>(j)];
+    Eigen::MatrixXd N = X.transpose() * X;
+    N.diagonal().array() += 1e-3 * m;  // twists of 0.03 rad and below carry no offset of their own
+    const Eigen::MatrixXd A = N.ldlt().solve(X.transpose() * O[static_cast<size_t>(j)]);  // 9 x 3
+    for (int d = 0; d < 3; ++d)
+      for (int f = 0; f < kOffsetFeatures; ++f) offsets(j, d * kOffsetFeatures + f) = A(f, d);
+  }
+  return offsets;
+}
+
+/// Each joint's offset earns its place: posing the template in the training poses with all offsets,
+/// and with all but that joint's, it is kept only where it lowers the mean error of the vertices it
+/// moves (its child part and everything below). On a rig whose joints do not move the offsets are
+/// fits to sliding skin and are dropped; a rising shoulder girdle keeps them.
+void keep_joint_offsets_that_help(const PoseDataset& data, const std::vector<int>& examples, PoseModel* model) {
+  SubjectSetupOptions setup;
+  setup.is_template = true;
+  TriangleMesh templ;
+  templ.V = model->template_V;
+  templ.F = model->template_F;
+  const auto shared = std::make_shared<const PoseModel>(*model);
+  const PoseSynthesizer synth(shared, templ, setup);
+  const Eigen::VectorXi vertex_part = vertex_labels_from_triangles(templ.V, templ.F, model->triangle_part);
+  // Which joints move each part: the joints on its way up to the pelvis.
+  std::array<unsigned, kNumParts> moved_by{};
+  for (int part = 0; part < kNumParts; ++part)
+    for (int p = part; p > 0; p = part_parent(p)) moved_by[static_cast<size_t>(part)] |= 1u << (p - 1);
+  // Per joint, the summed error of the vertices it moves, with every offset and without its own.
+  std::vector<double> with(kNumJoints, 0.0), without(kNumJoints, 0.0);
+  Eigen::MatrixXd X;
+  auto add_errors = [&](const Eigen::MatrixXd& offsets, int only_joint, std::vector<double>* sums) {
+    for (int ex : examples) {
+      synth.pose_with_joint_offsets(data.poses[static_cast<size_t>(ex)], offsets, &X);
+      for (Eigen::Index v = 0; v < X.rows(); ++v) {
+        const unsigned mask = moved_by[static_cast<size_t>(vertex_part[v])];
+        if (only_joint >= 0 && !(mask & (1u << only_joint))) continue;
+        const double e = (X.row(v) - data.V[static_cast<size_t>(ex)].row(v)).norm();
+        for (int j = 0; j < kNumJoints; ++j)
+          if ((only_joint < 0 || only_joint == j) && (mask & (1u << j))) (*sums)[static_cast<size_t>(j)] += e;
+      }
+    }
+  };
+  add_errors(model->joint_offsets, -1, &with);
+  Eigen::MatrixXd kept = model->joint_offsets;
+  for (int j = 0; j < kNumJoints; ++j) {
+    Eigen::MatrixXd reduced = model->joint_offsets;
+    reduced.row(j).setZero();
+    add_errors(reduced, j, &without);
+    if (!(with[static_cast<size_t>(j)] < without[static_cast<size_t>(j)])) kept.row(j).setZero();
+  }
+  model->joint_offsets = kept.isZero(0) ? Eigen::MatrixXd() : kept;
 }
 
 }  // namespace
@@ -209,6 +288,10 @@ PoseModel train_pose_model(const PoseDataset& data, const TrainingOptions& optio
     if (options.progress) options.progress(m + e + 1, 2 * m);
   }
   model.fit_rms = std::sqrt(sq / std::max<long>(count, 1));
+  if (options.learn_joint_offsets) {
+    model.joint_offsets = fit_joint_offsets(data, examples, model);
+    keep_joint_offsets_that_help(data, examples, &model);
+  }
   return model;
 }
 

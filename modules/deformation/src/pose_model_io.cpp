@@ -8,6 +8,7 @@
 
 #include "posekit/core/error.h"
 #include "posekit/deformation/pose_model.h"
+#include "posekit/deformation/rigid_pose.h"
 #include "posekit/io/atomic_file.h"
 #include "posekit/io/checksum.h"
 
@@ -17,8 +18,9 @@ namespace posekit {
 namespace {
 
 constexpr char kMagic[8] = {'P', 'O', 'S', 'E', 'K', 'P', 'K', 'M'};
-/// 2 adds the segmentation prior, 3 a CRC-32 of everything before it at the end; 1 and 2 are still read.
-constexpr std::uint32_t kVersion = 3;
+/// 2 adds the segmentation prior, 3 a CRC-32 of everything before it at the end, 4 the learned joint
+/// offsets after the prior; 1 to 3 are still read.
+constexpr std::uint32_t kVersion = 4;
 
 template <typename T>
 void put(std::ostream& os, const T& value) {
@@ -143,6 +145,8 @@ void write_pose_model(const std::string& path, const PoseModel& model) {
       put_matrix(os, j.offset);
       put_matrix(os, body.skeleton.torso_fraction);
     }
+    put(os, static_cast<std::uint32_t>(model.joint_offsets.rows()));
+    put_matrix(os, model.joint_offsets);
   }
   const std::string bytes = os.str();
   const std::uint32_t crc = crc32(bytes.data(), bytes.size());
@@ -191,8 +195,16 @@ PoseModel read_pose_model(const std::string& path) {
   m.triangle_joints = in.matrix<std::int32_t>(nf, 2, "the triangle joints").cast<int>();
   m.coefficients = in.matrix<double>(nf, nc, "the coefficients");  // row-major copy
   if (version >= 2) m.segmentation_prior = read_segmentation_prior(in, path);
-  if (!in.at_end()) throw IoError(path + ": unexpected bytes after the " + (version >= 2 ? "segmentation prior" : "coefficients"));
-  if (!m.template_V.allFinite() || !m.joint_centres.allFinite() || !m.coefficients.allFinite())
+  if (version >= 4) {
+    const auto rows = in.get<std::uint32_t>("the joint offsets");
+    if (rows != 0 && rows != kNumJoints)
+      throw IoError(path + ": " + std::to_string(rows) + " rows of joint offsets, expected 0 or " + std::to_string(kNumJoints));
+    m.joint_offsets = in.matrix<double>(rows, rows ? 3 * kOffsetFeatures : 0, "the joint offsets");
+  }
+  if (!in.at_end())
+    throw IoError(path + ": unexpected bytes after the " +
+                  (version >= 4 ? "joint offsets" : version >= 2 ? "segmentation prior" : "coefficients"));
+  if (!m.template_V.allFinite() || !m.joint_centres.allFinite() || !m.coefficients.allFinite() || !m.joint_offsets.allFinite())
     throw IoError(path + ": the model holds a NaN or infinite value");
   if (m.template_F.minCoeff() < 0 || m.template_F.maxCoeff() >= static_cast<int>(nv))
     throw IoError(path + ": a template triangle refers to a vertex outside [0, " + std::to_string(nv) + ")");

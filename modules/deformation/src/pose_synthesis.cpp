@@ -73,6 +73,7 @@ struct PoseSynthesizer::Impl {
   Eigen::Matrix<int, Eigen::Dynamic, 2, Eigen::RowMajor> triangle_joints;  // #F x 2
   Eigen::VectorXd pelvis_area;        // #F: the area of pelvis triangles, 0 elsewhere
   Eigen::VectorXi vertex_part;        // #V
+  double offset_scale = 1;            // the subject's height over the template's, for joint offsets
   Eigen::MatrixXd lbs_weights;        // #V x 16
   std::unique_ptr<PoissonSolver> solver;
   /// Eq. 4 folded into the solver's right-hand side: B_kf e_c (x y z), B_kf the 3 x 3 map of feature
@@ -160,6 +161,11 @@ PoseSynthesizer::PoseSynthesizer(std::shared_ptr<const PoseModel> model, const T
     s.triangle_joints.row(k) = M.triangle_joints.row(s.info.template_triangle[k]);
   }
   s.vertex_part = vertex_labels_from_triangles(s.V, s.F, s.info.triangle_part);
+  {
+    const double height = s.V.col(1).maxCoeff() - s.V.col(1).minCoeff();
+    const double template_height = M.template_V.col(1).maxCoeff() - M.template_V.col(1).minCoeff();
+    s.offset_scale = template_height > 0 ? height / template_height : 1.0;
+  }
 
   const Eigen::VectorXd face_area = face_areas(s.V, s.F);
   const Eigen::MatrixXi edges = unique_edges(s.F);
@@ -323,9 +329,18 @@ Eigen::MatrixXd PoseSynthesizer::pose(const PartPose& pose, PoseMethod method) c
 }
 
 void PoseSynthesizer::pose(const PartPose& pose, PoseMethod method, Eigen::MatrixXd* X) const {
+  // The learned method places the joints where the examples showed them; the baselines do not.
+  pose_with(pose, method, method == PoseMethod::kLearned ? impl_->model->joint_offsets : Eigen::MatrixXd(), X);
+}
+
+void PoseSynthesizer::pose_with_joint_offsets(const PartPose& pose, const Eigen::MatrixXd& joint_offsets, Eigen::MatrixXd* X) const {
+  pose_with(pose, PoseMethod::kLearned, joint_offsets, X);
+}
+
+void PoseSynthesizer::pose_with(const PartPose& pose, PoseMethod method, const Eigen::MatrixXd& joint_offsets, Eigen::MatrixXd* X) const {
   const Impl& s = *impl_;
   validate_part_pose(pose, "pose");
-  const PartTransforms T = part_transforms(pose, s.info.joint_centres);
+  const PartTransforms T = part_transforms(pose, s.info.joint_centres, joint_offsets, s.offset_scale);
   PoseScratch& scratch = pose_scratch();
   if (method == PoseMethod::kLbs) {
     // Per vertex the weighted sum of the 16 part motions [R_p | t_p], as one dense product.

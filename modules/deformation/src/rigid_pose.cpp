@@ -30,6 +30,32 @@ std::array<Eigen::Matrix3d, kNumParts> part_rotations(const PartPose& pose) {
   return R;
 }
 
+Eigen::Matrix<double, kOffsetFeatures, 1> joint_offset_features(const PartPose& pose, int joint) {
+  const Eigen::Vector3d& r = pose.joint_rotation[static_cast<size_t>(joint)];
+  Eigen::Matrix<double, kOffsetFeatures, 1> f;
+  f << r.x(), r.y(), r.z(), r.x() * r.x(), r.y() * r.y(), r.z() * r.z(), r.x() * r.y(), r.y() * r.z(), r.z() * r.x();
+  return f;
+}
+
+PartTransforms part_transforms(const PartPose& pose, const Eigen::MatrixXd& joints, const Eigen::MatrixXd& offsets, double scale) {
+  if (offsets.size() == 0) return part_transforms(pose, joints);
+  if (offsets.rows() != kNumJoints || offsets.cols() != 3 * kOffsetFeatures)
+    throw InvalidInput("part_transforms: expected " + std::to_string(kNumJoints) + " x " + std::to_string(3 * kOffsetFeatures) +
+                       " joint offsets");
+  PartTransforms T = part_transforms(pose, joints);
+  for (int p = 1; p < kNumParts; ++p) {
+    const size_t q = static_cast<size_t>(part_parent(p)), c = static_cast<size_t>(p);
+    const Eigen::Vector3d j = joints.row(p - 1).transpose();
+    const Eigen::Matrix<double, kOffsetFeatures, 1> phi = joint_offset_features(pose, p - 1);
+    // A row of a column-major matrix is strided: copied before it is read as 3 x 9.
+    const Eigen::Matrix<double, 1, 3 * kOffsetFeatures> row = offsets.row(p - 1);
+    const Eigen::Map<const Eigen::Matrix<double, 3, kOffsetFeatures, Eigen::RowMajor>> A(row.data());
+    const Eigen::Vector3d posed_joint = T.R[q] * j + T.t[q] + scale * (T.R[q] * (A * phi));
+    T.t[c] = posed_joint - T.R[c] * j;
+  }
+  return T;
+}
+
 PartTransforms part_transforms(const PartPose& pose, const Eigen::MatrixXd& joints) {
   if (joints.rows() != kNumJoints || joints.cols() != 3)
     throw InvalidInput("part_transforms: expected " + std::to_string(kNumJoints) + " x 3 joint centres");

@@ -239,9 +239,39 @@ struct Accumulator {
 
 }  // namespace
 
+std::string pose_type(const std::string& name) {
+  auto starts = [&](const char* prefix) { return name.rfind(prefix, 0) == 0; };
+  if (starts("walk")) return "walk";
+  if (starts("reach")) return "reach";
+  if (starts("squat") || starts("lunge")) return "squat";
+  if (starts("sit")) return "sit";
+  if (starts("torso")) return "torso";
+  if (starts("random") || starts("guard") || starts("t_pose")) return "combined";
+  return "single joint";
+}
+
 PoseEvaluation evaluate_poses(const std::string& dir, std::shared_ptr<const PoseModel> model,
                               const PoseEvaluationOptions& options) {
   PoseEvaluation out;
+  for (const char* type : {"single joint", "walk", "reach", "squat", "sit", "torso", "combined"}) {
+    PoseTypeErrors t;
+    t.type = type;
+    t.template_mean_mm.assign(options.methods.size(), 0.0);
+    t.subject_mean_mm.assign(options.methods.size(), 0.0);
+    out.by_pose_type.push_back(t);
+  }
+  // Sums of per-vertex errors (m) and vertex counts per type, then means in mm.
+  std::vector<long> template_vertices(out.by_pose_type.size(), 0), subject_vertices(out.by_pose_type.size(), 0);
+  auto type_of = [&](const std::string& name) -> PoseTypeErrors& {
+    for (auto& t : out.by_pose_type)
+      if (t.type == pose_type(name)) return t;
+    return out.by_pose_type.back();
+  };
+  auto add_type = [&](const std::string& name, size_t method, const Eigen::MatrixXd& X, const Eigen::MatrixXd& truth, bool subject) {
+    PoseTypeErrors& t = type_of(name);
+    (subject ? t.subject_mean_mm : t.template_mean_mm)[method] += (X - truth).rowwise().norm().sum();
+    if (method == 0) (subject ? subject_vertices : template_vertices)[static_cast<size_t>(&t - out.by_pose_type.data())] += X.rows();
+  };
   const PoseModel& M = *model;
   const nlohmann::json manifest = read_dataset_manifest(dir);
   const TemplateAnnotations ann = load_template_annotations(dir);
@@ -277,8 +307,12 @@ PoseEvaluation evaluate_poses(const std::string& dir, std::shared_ptr<const Pose
     std::vector<Accumulator> acc(options.methods.size());
     for (size_t i = 0; i < data.names.size(); ++i) {
       if (!data.test[i] || !data.has_pose[i]) continue;
-      for (size_t m = 0; m < options.methods.size(); ++m)
-        acc[m].add(synth.pose(data.poses[i], options.methods[m]), data.V[i], template_vertex_part);
+      for (size_t m = 0; m < options.methods.size(); ++m) {
+        const Eigen::MatrixXd X = synth.pose(data.poses[i], options.methods[m]);
+        acc[m].add(X, data.V[i], template_vertex_part);
+        add_type(data.names[i], m, X, data.V[i], false);
+      }
+      ++type_of(data.names[i]).template_poses;
       ++out.test_poses;
       tick("template pose " + data.names[i]);
     }
@@ -331,7 +365,9 @@ PoseEvaluation evaluate_poses(const std::string& dir, std::shared_ptr<const Pose
             pose_ms.push_back(1000 * std::chrono::duration<double>(std::chrono::steady_clock::now() - t1).count());
           acc[m].add(X, truth.V, vertex_part);
           pooled[m].add(X, truth.V, vertex_part);
+          add_type(p.value("pose", ""), m, X, truth.V, true);
         }
+        ++type_of(p.value("pose", "")).subject_meshes;
       }
       for (size_t m = 0; m < options.methods.size(); ++m) report.methods.push_back(acc[m].result(options.methods[m]));
       out.subjects.push_back(std::move(report));
@@ -343,6 +379,12 @@ PoseEvaluation evaluate_poses(const std::string& dir, std::shared_ptr<const Pose
       out.pose_ms_median = pose_ms[pose_ms.size() / 2];
     }
   }
+  for (size_t t = 0; t < out.by_pose_type.size(); ++t)
+    for (size_t m = 0; m < options.methods.size(); ++m) {
+      auto& e = out.by_pose_type[t];
+      e.template_mean_mm[m] = template_vertices[t] ? 1000 * e.template_mean_mm[m] / static_cast<double>(template_vertices[t]) : 0;
+      e.subject_mean_mm[m] = subject_vertices[t] ? 1000 * e.subject_mean_mm[m] / static_cast<double>(subject_vertices[t]) : 0;
+    }
   return out;
 }
 

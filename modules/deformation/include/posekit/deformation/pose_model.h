@@ -26,6 +26,9 @@ struct PoseModel {
   /// #F x 63: row k holds b_k of Eq. 4, entry (m, f) at m * 7 + f, m the row-major index into T^Q,
   /// f the feature [twist_1 (3), twist_2 (3), 1].
   Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor> coefficients;
+  /// Pose-dependent joint placement learned from the examples (rigid_pose.h, part_transforms with
+  /// offsets), #joints x 27; empty: the joints stay where T^R puts them.
+  Eigen::MatrixXd joint_offsets;
   int training_poses = 0;
   double fit_rms = 0;                  ///< RMS residual of Eq. 5 over all entries and poses
   /// Labelled bodies that segment and embed the skeleton of a customized model (segmentation_prior.h);
@@ -46,6 +49,13 @@ struct TrainingOptions {
   /// Fix the bias of Eq. 4 to the identity, so that the rest pose reproduces the template exactly;
   /// otherwise the bias is fitted like the other weights.
   bool identity_at_rest = true;
+  /// An extension beyond the paper (off by default, which is Eq. 3-5 as published; issue 18, part 5).
+  /// Learn where each joint sits as a function of its twist (a rising shoulder girdle, a head turned
+  /// over its neck bones): from each part's rigid fit to every training example (part_pose_estimation.h),
+  /// the child's joint centre relative to the parent's, regressed on the joint's twist and its
+  /// quadratic terms with a small ridge; kept per joint only where it lowers the training error of
+  /// the vertices it moves.
+  bool learn_joint_offsets = false;
   std::function<void(int, int)> progress;
 };
 

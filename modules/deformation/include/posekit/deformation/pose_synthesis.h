@@ -69,9 +69,14 @@ class PoseSynthesizer {
   /// Safe to call from several threads at once.
   void pose(const PartPose& pose, PoseMethod method, Eigen::MatrixXd* X) const;
 
+  /// The learned method with other joint offsets than the model's (#joints x 27, or empty for none):
+  /// how training decides which offsets earn their place.
+  void pose_with_joint_offsets(const PartPose& pose, const Eigen::MatrixXd& joint_offsets, Eigen::MatrixXd* X) const;
+
   const SubjectSetupInfo& info() const;
 
  private:
+  void pose_with(const PartPose& pose, PoseMethod method, const Eigen::MatrixXd& joint_offsets, Eigen::MatrixXd* X) const;
   struct Impl;
   std::unique_ptr<Impl> impl_;
 };

@@ -44,8 +44,20 @@ struct SubjectPoseReport {
   std::vector<MethodErrors> methods;
 };
 
+/// Mean per-vertex error per method of one kind of pose (pose_type), template and subjects apart.
+struct PoseTypeErrors {
+  std::string type;
+  int template_poses = 0, subject_meshes = 0;
+  std::vector<double> template_mean_mm, subject_mean_mm;  ///< per method, as in the options
+};
+
+/// The kind of a pose by its name: "walk", "reach", "squat" (squats, lunge), "sit", "torso",
+/// "combined" (random, guard, t_pose) or "single joint".
+std::string pose_type(const std::string& pose_name);
+
 struct PoseEvaluation {
   int test_poses = 0;
+  std::vector<PoseTypeErrors> by_pose_type;      ///< (a) and (b) per kind of pose, in a fixed order
   std::vector<MethodErrors> template_errors;     ///< (a)
   std::vector<SubjectPoseReport> subjects;       ///< (b) one per subject
   std::vector<MethodErrors> subject_errors;      ///< (b) all subjects pooled
