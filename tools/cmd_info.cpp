@@ -1,13 +1,16 @@
 // posekit info <file>: what a mesh or point cloud file holds and whether it is usable.
+#include <algorithm>
 #include <iomanip>
 #include <iostream>
 #include <nlohmann/json.hpp>
 
 #include "cli.h"
 #include "commands.h"
+#include "posekit/body/bvh_retarget.h"
 #include "posekit/core/error.h"
 #include "posekit/core/mesh_geometry.h"
 #include "posekit/core/mesh_validation.h"
+#include "posekit/io/bvh.h"
 #include "posekit/io/mesh_io.h"
 #include "posekit/io/point_cloud_io.h"
 #include "posekit/shape/body_orientation.h"
@@ -21,21 +24,96 @@ nlohmann::json box_json(const BoundingBox& b, double to_unit) {
 }
 
 
+/// A BVH motion: its skeleton, frames and rate, and how it maps onto the 16 parts.
+int info_bvh(const std::string& path, bool json) {
+  const BvhMotion motion = read_bvh(path);
+  nlohmann::ordered_json report;
+  report["file"] = path;
+  report["kind"] = "BVH motion";
+  report["joints"] = motion.joints.size();
+  int channels = 0, six = 0, roots = 0;
+  for (const auto& j : motion.joints) {
+    channels += static_cast<int>(j.channels.size());
+    six += j.channels.size() == 6;
+    roots += j.parent < 0;
+  }
+  report["channels"] = channels;
+  report["joints_with_6_channels"] = six;
+  report["root"] = motion.joints.empty() ? "" : motion.joints.front().name;
+  report["frames"] = motion.num_frames();
+  report["frame_time_s"] = motion.frame_time;
+  report["fps"] = motion.frame_time > 0 ? 1.0 / motion.frame_time : 0.0;
+  report["duration_s"] = motion.frame_time * motion.num_frames();
+  // Rest skeleton (OFFSETs alone): its height in the file's own unit.
+  Eigen::MatrixXd rest(static_cast<Eigen::Index>(motion.joints.size()), 3);
+  for (size_t j = 0; j < motion.joints.size(); ++j) {
+    const auto& b = motion.joints[j];
+    rest.row(static_cast<Eigen::Index>(j)) = (b.parent < 0 ? Eigen::Vector3d::Zero() : Eigen::Vector3d(rest.row(b.parent).transpose())) + b.offset;
+  }
+  const Eigen::Vector3d extent = rest.rows() ? Eigen::Vector3d(rest.colwise().maxCoeff() - rest.colwise().minCoeff()) : Eigen::Vector3d::Zero();
+  report["rest_extent_file_units"] = {extent.x(), extent.y(), extent.z()};
+  nlohmann::ordered_json mapping;
+  std::string mapping_error;
+  if (motion.find_joint("upperarm01.L") >= 0) {
+    mapping = "MakeHuman's own skeleton (bone by bone through its rig)";
+  } else {
+    try {
+      const BvhPartMap map = map_bvh_skeleton(motion);
+      for (int p = 0; p < kNumParts; ++p)
+        mapping[part_name(p)] = map.joint[static_cast<size_t>(p)] >= 0 ? motion.joints[static_cast<size_t>(map.joint[static_cast<size_t>(p)])].name : "";
+      report["mapping_notes"] = map.notes;
+    } catch (const InvalidInput& e) {
+      mapping_error = e.what();
+    }
+  }
+  report["parts"] = mapping_error.empty() ? mapping : nlohmann::ordered_json(nullptr);
+  if (!mapping_error.empty()) report["mapping_error"] = mapping_error;
+  if (json) {
+    std::cout << report.dump(2) << std::endl;
+    return 0;
+  }
+  std::cout << path << ": BVH motion, " << motion.joints.size() << " joints (root '" << report["root"].get<std::string>() << "', "
+            << channels << " channels, " << six << " with position and rotation), " << motion.num_frames() << " frames at "
+            << std::fixed << std::setprecision(1) << report["fps"].get<double>() << " fps (" << std::setprecision(2)
+            << report["duration_s"].get<double>() << " s)\n"
+            << "rest skeleton extent (file units): " << std::setprecision(3) << extent.x() << " x " << extent.y() << " x "
+            << extent.z() << "\n";
+  if (!mapping_error.empty()) {
+    std::cout << "16-part mapping: none: " << mapping_error << "\n";
+  } else if (mapping.is_string()) {
+    std::cout << "16-part mapping: " << mapping.get<std::string>() << "\n";
+  } else {
+    std::cout << "16-part mapping:";
+    for (const auto& [part, joint] : mapping.items())
+      std::cout << " " << part << "=" << (joint.get<std::string>().empty() ? "(follows its parent)" : joint.get<std::string>());
+    std::cout << "\n";
+    for (const auto& n : report["mapping_notes"]) std::cout << "note: " << n.get<std::string>() << "\n";
+  }
+  return 0;
+}
+
 }  // namespace
 
 int run_info(int argc, char** argv) {
   ArgParser args("info", "Reports what a mesh (OBJ, PLY, OFF, STL) or point cloud (PCD, PLY, XYZ) holds: counts,\n"
                          "groups, scalar fields, bounding box, the unit it seems to be in, and a validity report\n"
                          "(out-of-range indices, non-finite coordinates, degenerate and duplicate faces,\n"
-                         "boundaries, non-manifold edges, components, watertightness, area, volume).");
-  args.positional("file", "mesh or point cloud")
+                         "boundaries, non-manifold edges, components, watertightness, area, volume). For a BVH\n"
+                         "motion: joints, channels, frames, rate, and how its skeleton maps onto the 16 parts.");
+  args.positional("file", "mesh, point cloud or BVH motion")
       .option("unit", "U", "unit the file is written in: m, dm, cm, mm", "m")
       .option("group", "NAME", "report only this OBJ group (e.g. body)")
       .flag("json", "machine-readable report on stdout")
       .example("posekit info ../shared/datasets/makehuman/3dobjs/base.obj --unit dm --group body")
-      .example("posekit info scan.pcd --unit mm --json");
+      .example("posekit info scan.pcd --unit mm --json")
+      .example("posekit info ../shared/datasets/motions/cmu/01_01.bvh");
   if (!args.parse(argc, argv)) return 0;
   const std::string path = args.positionals()[0];
+  {
+    std::string ext = path.size() >= 4 ? path.substr(path.size() - 4) : "";
+    std::transform(ext.begin(), ext.end(), ext.begin(), [](unsigned char c) { return static_cast<char>(std::tolower(c)); });
+    if (ext == ".bvh") return info_bvh(path, args.flag_set("json"));
+  }
   const Unit unit = parse_unit(args.get("unit"));
   const double to_unit = 1.0 / metres_per_unit(unit);
   nlohmann::json report;

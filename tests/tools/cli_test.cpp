@@ -217,6 +217,35 @@ TEST(Cli, DatasetMakeWritesAConsistentFolderAndRefusesToOverwrite) {
   EXPECT_EQ(dir.count(), 1);
 }
 
+TEST(Cli, InfoReadsMotionCaptureAndSaysHowItMaps) {
+  const std::string cmu = (std::filesystem::path(test::test_data_root()).parent_path() / "motions/cmu/01_01.bvh").string();
+  CommandResult r = run("info " + cmu + " --json");
+  ASSERT_EQ(r.code, 0) << r.out;
+  const auto j = nlohmann::json::parse(r.out);
+  EXPECT_EQ(j["joints"].get<int>(), 31);
+  EXPECT_EQ(j["frames"].get<int>(), 2752);
+  EXPECT_NEAR(j["fps"].get<double>(), 120.0, 0.01);
+  EXPECT_EQ(j["parts"]["left_forearm"].get<std::string>(), "LeftForeArm");
+  EXPECT_EQ(j["parts"]["right_shank"].get<std::string>(), "RightLeg");
+  // A skeleton of three joints: reported, with why it cannot drive a body.
+  test::TempDir dir;
+  dir.write("tiny.bvh",
+            "HIERARCHY\nROOT Base\n{\n OFFSET 0 0 0\n CHANNELS 6 Xposition Yposition Zposition Zrotation Xrotation Yrotation\n"
+            " JOINT Arm\n {\n  OFFSET 0 1 0\n  CHANNELS 3 Zrotation Xrotation Yrotation\n  End Site\n  {\n   OFFSET 0 1 0\n  }\n }\n}\n"
+            "MOTION\nFrames: 1\nFrame Time: 0.04\n0 0 0 0 0 0 0 0 0\n");
+  r = run("info " + dir.file("tiny.bvh"), true);
+  ASSERT_EQ(r.code, 0) << r.out;
+  EXPECT_NE(r.out.find("2 joints"), std::string::npos) << r.out;
+  EXPECT_NE(r.out.find("16-part mapping: none"), std::string::npos) << r.out;
+  // Zero frames and NaN channels are refused by name.
+  dir.write("nan.bvh",
+            "HIERARCHY\nROOT Base\n{\n OFFSET 0 0 0\n CHANNELS 3 Zrotation Xrotation Yrotation\n End Site\n {\n  OFFSET 0 1 0\n }\n}\n"
+            "MOTION\nFrames: 1\nFrame Time: 0.04\n0 nan 0\n");
+  r = run("info " + dir.file("nan.bvh"), true);
+  EXPECT_EQ(r.code, 1);
+  EXPECT_NE(r.out.find("nan.bvh"), std::string::npos) << r.out;
+}
+
 TEST(Cli, TrainsOnAFolderOfMeshesAloneAndNamesWhatIsWrongWithAFolder) {
   // Issue 18, part 1: registered meshes without poses or labels; the poses are estimated, the fit
   // of each example reported.
