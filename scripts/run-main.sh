@@ -35,7 +35,16 @@ echo "== pose deformation: learn T^Q on the pose dataset, pose a customized subj
 "$posekit" pose --model "$out/model.pkm" --subject "$out/subject_rest.ply" --pose "$data/poses/benchmark.bvh" \
   --out "$out/subject_benchmark_learned.ply"
 "$posekit" eval pose --dataset "$out/dataset" --model "$out/model.pkm"
-"$posekit" bench pose --dataset "$out/dataset" --runs 3 --poses 20
+motions=$(dirname "$data")/motions
+"$posekit" bench pose --dataset "$out/dataset" --runs 3 --poses 20 --motion "$motions/cmu/01_01.bvh"
+echo "== meshes alone, anatomical ground truth: train without pose JSONs; the cross-generator test with joint offsets"
+mkdir -p "$out/meshes_only"
+cp "$out"/dataset/pose_dataset/*.ply "$out/meshes_only/"
+"$posekit" train --dataset "$out/meshes_only" --calibration-bodies 0 --out "$out/meshes_only.pkm" --fit-report "$out/meshes_only_fits.json"
+"$posekit" dataset make --driving anatomical --out "$out/anatomical" --force
+"$posekit" dataset make --driving anatomical-alternative --out "$out/anatomical_alt" --force
+"$posekit" train --dataset "$out/anatomical" --joint-offsets --out "$out/anatomical.pkm"
+"$posekit" eval pose --dataset "$out/anatomical_alt" --model "$out/anatomical.pkm"
 echo "== validation against a scan: distances, coverage, girth discrepancies, heatmap (off-screen VTK)"
 "$posekit" compare "$out/m05_squat_half.ply" "$out/dataset/scans/m05/squat_half.pcd" --out "$out/m05_squat_half_errors.ply" \
   --png "$out/m05_squat_half_errors.png"

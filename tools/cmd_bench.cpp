@@ -15,6 +15,8 @@
 #include <nlohmann/json.hpp>
 
 #include "cli.h"
+#include "posekit/body/bvh_retarget.h"
+#include "posekit/io/bvh.h"
 #include "commands.h"
 #include "posekit/body/makehuman_model.h"
 #include "posekit/body/parts.h"
@@ -365,10 +367,19 @@ int bench_pose(int argc, char** argv) {
                              "method on the first subject",
               "1000")
       .option("threads", "T", "threads for the motion", "2")
-      .flag("json", "results as JSON on stdout");
+      .option("motion", "FILE.bvh",
+              "motion capture instead: its first N frames retargeted to the first subject (timed) and posed")
+      .flag("json", "results as JSON on stdout")
+      .example("posekit bench pose --dataset ds --motion ../shared/datasets/motions/cmu/01_01.bvh");
   if (!args.parse(argc, argv)) return 0;
   if (!args.has("dataset")) throw UsageError("--dataset DIR is required");
   const std::string dir = args.get("dataset");
+  BvhMotion capture;
+  if (args.has("motion")) {
+    capture = read_bvh(args.get("motion"));
+    if (capture.num_frames() < 1) throw InvalidInput(args.get("motion") + ": the motion has no frames");
+  }
+  std::vector<double> retarget_s;
   const int runs = static_cast<int>(args.get_int("runs")), pose_count = static_cast<int>(args.get_int("poses"));
   const long frame_count = args.get_int("frames");
   const int motion_threads = static_cast<int>(args.get_int("threads"));
@@ -432,6 +443,18 @@ int bench_pose(int argc, char** argv) {
         out->push_back(1000 * std::chrono::duration<double>(Clock::now() - t0).count());
         if (!X.allFinite()) throw InvalidInput("posing produced a non-finite vertex");
       }
+    if (count == 0 && args.has("motion")) {
+      // The capture's frames retargeted to this subject's joints, as posekit pose does with a BVH.
+      const BvhPartMap map = map_bvh_skeleton(capture);
+      RetargetOptions ro;
+      ro.last = static_cast<int>(std::min<long>(frame_count, capture.num_frames()));
+      for (int r = 0; r < runs; ++r) {
+        const auto t0 = Clock::now();
+        motion = retarget_bvh(capture, map, synth->info().joint_centres, ro);
+        retarget_s.push_back(std::chrono::duration<double>(Clock::now() - t0).count());
+      }
+      while (static_cast<long>(motion.size()) < frame_count) motion.push_back(motion[motion.size() % static_cast<size_t>(ro.last)]);
+    }
     if (count == 0)
       for (int r = 0; r < runs; ++r) {
         // Each thread poses its share of the frames into its own buffer, as a player or exporter would.
@@ -461,6 +484,8 @@ int bench_pose(int argc, char** argv) {
                                 {"poses_per_subject", pose_count}, {"train_s", j(train)}, {"setup_s", j(setup)},
                                 {"pose_ms_learned", j(learned)}, {"pose_ms_rigid", j(rigid)}, {"pose_ms_lbs", j(lbs)},
                                 {"motion_frames", frame_count}, {"motion_threads", motion_threads}, {"motion_s", j(moving)},
+                                {"motion", args.has("motion") ? args.get("motion") : std::string("dataset poses blended")},
+                                {"retarget_s", retarget_s.empty() ? nlohmann::ordered_json(nullptr) : j(stats_of(retarget_s))},
                                 {"segmentation_prior_bodies", prior.bodies}, {"segmentation_prior_s", prior.seconds},
                                 {"peak_rss_mib", per_stage ? nlohmann::ordered_json{{"train", train_peak}, {"pose", pose_peak}}
                                                            : nlohmann::ordered_json(peak_rss_mib())}};
@@ -478,7 +503,13 @@ int bench_pose(int argc, char** argv) {
             << "| one pose, rigid (ms) | " << rigid.median << " | " << rigid.min << " | " << rigid.max << " |\n"
             << "| one pose, 16-part LBS (ms) | " << lbs.median << " | " << lbs.min << " | " << lbs.max << " |\n"
             << "| motion of " << frame_count << " frames, learned, " << motion_threads << " threads (s) | " << moving.median
-            << " | " << moving.min << " | " << moving.max << " |\n"
+            << " | " << moving.min << " | " << moving.max << " |\n";
+  if (!retarget_s.empty()) {
+    const Stats rt = stats_of(retarget_s);
+    std::cout << "| retargeting those frames from " << args.get("motion") << ", 1 thread (s) | " << rt.median << " | " << rt.min
+              << " | " << rt.max << " |\n";
+  }
+  std::cout
             << "\npeak RSS " << std::setprecision(0);
   if (per_stage) std::cout << "training (with the prior) " << train_peak << " MiB, set-up and posing " << pose_peak << " MiB\n";
   else std::cout << peak_rss_mib() << " MiB (whole run)\n";
