@@ -21,6 +21,8 @@ int run_pose(int argc, char** argv);
 int run_retarget(int argc, char** argv);
 int run_segment(int argc, char** argv);
 int run_eval(int argc, char** argv);
+int run_eval_fit(int argc, char** argv);
+int run_fit(int argc, char** argv);
 int run_eval_bodies(int argc, char** argv);
 int run_compare(int argc, char** argv);
 int run_view(int argc, char** argv);

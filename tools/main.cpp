@@ -26,6 +26,7 @@ const Command kCommands[] = {
     {"segment", posekit::cli::run_segment, "segment a body into 16 parts (Eq. 2) and embed the skeleton"},
     {"train", posekit::cli::run_train, "learn the non-rigid pose deformation from a pose dataset (Eq. 3-5)"},
     {"pose", posekit::cli::run_pose, "pose a customized body from joint angles or a BVH (Eq. 1, 5-6)"},
+    {"fit", posekit::cli::run_fit, "the 16-part pose that makes a body match a scan or mesh (articulated ICP, no markers)"},
     {"retarget", posekit::cli::run_retarget, "16-part pose JSONs from the frames of any humanoid BVH (CMU, Mixamo, ...)"},
     {"eval", posekit::cli::run_eval, "accuracy against ground truth (eval pose, eval bodies)"},
     {"compare", posekit::cli::run_compare, "a model against a scan: distances, coverage, girth discrepancies, heatmap"},

@@ -10,6 +10,7 @@
 #include <nlohmann/json.hpp>
 #include <string>
 
+#include "posekit/body/parts.h"
 #include "posekit/io/atomic_file.h"
 #include "posekit/io/bvh.h"
 #include "posekit/io/mesh_io.h"
@@ -40,13 +41,13 @@ CommandResult run(const std::string& args, bool merge_stderr = false) {
 }  // namespace
 
 TEST(Cli, EveryCommandHasHelp) {
-  for (const char* c : {"info", "convert", "bench", "body", "dataset", "train", "pose", "segment", "register", "measure",
+  for (const char* c : {"info", "convert", "bench", "body", "dataset", "train", "pose", "fit", "segment", "register", "measure",
                         "compare", "view", "report", "batch", "retarget", "customize"}) {
     const CommandResult r = run(std::string(c) + " --help");
     EXPECT_EQ(r.code, 0) << c;
     EXPECT_NE(r.out.find("usage: posekit"), std::string::npos) << c;
   }
-  for (const char* c : {"batch measure", "batch compare", "batch pose", "batch merge", "bench all", "customize train", "customize eval",
+  for (const char* c : {"batch measure", "batch compare", "batch pose", "batch merge", "bench all", "customize train", "customize eval", "eval fit",
                         "bench customize"}) {
     const CommandResult r = run(std::string(c) + " --help");
     EXPECT_EQ(r.code, 0) << c;
@@ -244,6 +245,32 @@ TEST(Cli, InfoReadsMotionCaptureAndSaysHowItMaps) {
   r = run("info " + dir.file("nan.bvh"), true);
   EXPECT_EQ(r.code, 1);
   EXPECT_NE(r.out.find("nan.bvh"), std::string::npos) << r.out;
+}
+
+TEST(Cli, FitWritesThePoseTheFittedBodyAndItsResiduals) {
+  const auto& ds = test::small_dataset();
+  ASSERT_FALSE(ds.root.empty());
+  test::TempDir dir;
+  ASSERT_EQ(run("train --dataset " + ds.root + " --calibration-bodies 0 --out " + dir.file("m.pkm")).code, 0);
+  CommandResult r = run("fit --model " + dir.file("m.pkm") + " --subject " + ds.root + "/subjects/m01/rest.ply --target " + ds.root +
+                        "/scans/m01/squat_half.pcd --out " + dir.file("fitted.ply") + " --pose-out " + dir.file("pose.json") + " --json");
+  ASSERT_EQ(r.code, 0) << r.out;
+  const auto j = nlohmann::json::parse(r.out);
+  EXPECT_LT(j["target_to_body_mm"]["mean"].get<double>(), 20.0) << r.out;
+  const PartPose fitted = read_part_pose(dir.file("pose.json"));
+  const PartPose truth = read_part_pose(ds.root + "/subjects/m01/posed/squat_half.json");
+  for (const char* knee : {"left_knee", "right_knee"}) {  // 65 degrees in the squat; fitted 50 (left) here
+    const size_t k = static_cast<size_t>(find_joint_index(knee));
+    EXPECT_NEAR(fitted.joint_rotation[k].norm(), truth.joint_rotation[k].norm(), 22 * M_PI / 180) << knee;
+  }
+  const TriangleMesh body = read_mesh(dir.file("fitted.ply"));
+  EXPECT_EQ(body.vertex_scalars.count("residual_mm"), 1u);
+  // A target that is no body: refused, named.
+  dir.write("few.xyz", "0 0 0\n1 0 0\n0 1 0\n");
+  r = run("fit --model " + dir.file("m.pkm") + " --subject " + ds.root + "/subjects/m01/rest.ply --target " + dir.file("few.xyz") +
+          " --target-unit m --target-up +Y", true);
+  EXPECT_EQ(r.code, 1);
+  EXPECT_NE(r.out.find("points"), std::string::npos) << r.out;
 }
 
 TEST(Cli, TrainsOnAFolderOfMeshesAloneAndNamesWhatIsWrongWithAFolder) {

@@ -229,6 +229,10 @@ PoseSynthesizer::PoseSynthesizer(std::shared_ptr<const PoseModel> model, const T
 
 PoseSynthesizer::~PoseSynthesizer() = default;
 
+const Eigen::MatrixXd& PoseSynthesizer::rest_vertices() const { return impl_->V; }
+const Eigen::MatrixXi& PoseSynthesizer::faces() const { return impl_->F; }
+const Eigen::VectorXi& PoseSynthesizer::vertex_parts() const { return impl_->vertex_part; }
+
 const SubjectSetupInfo& PoseSynthesizer::info() const { return impl_->info; }
 
 namespace {

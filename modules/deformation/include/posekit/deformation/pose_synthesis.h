@@ -74,6 +74,9 @@ class PoseSynthesizer {
   void pose_with_joint_offsets(const PartPose& pose, const Eigen::MatrixXd& joint_offsets, Eigen::MatrixXd* X) const;
 
   const SubjectSetupInfo& info() const;
+  const Eigen::MatrixXd& rest_vertices() const;  ///< the subject at rest, #V x 3
+  const Eigen::MatrixXi& faces() const;          ///< #F x 3
+  const Eigen::VectorXi& vertex_parts() const;   ///< #V, the part each vertex moves with
 
  private:
   void pose_with(const PartPose& pose, PoseMethod method, const Eigen::MatrixXd& joint_offsets, Eigen::MatrixXd* X) const;

@@ -1,0 +1,48 @@
+#pragma once
+// The 16-part pose of a body that makes it match a target (a scan with holes, noise and outliers, or
+// a mesh of any topology), with no markers: articulated ICP with the posing method in the loop
+// (issue 18, part 2). To compare a posed model with a posed scan (Figure 9 of Zhu & Mok) the scan's
+// pose must be known; the paper picked markers by hand.
+#include <Eigen/Core>
+#include <string>
+#include <vector>
+
+#include "posekit/body/parts.h"
+#include "posekit/deformation/pose_synthesis.h"
+
+namespace posekit {
+
+struct PoseFitOptions {
+  PoseMethod method = PoseMethod::kLearned;  ///< the posing run inside the loop
+  int iterations = 40;
+  int model_samples = 3000;    ///< model vertices and target points matched each way per iteration
+  /// Correspondences farther than this are ignored; the Cauchy scale of the weights is a third of
+  /// it. The distance shrinks from `start` to `end` (m) while the start hypotheses are refined, and
+  /// stays at `end` after: a part whose data all lay beyond a smaller distance would lose it and
+  /// fall back to the rest prior.
+  double max_distance_start = 0.5, max_distance_end = 0.1;
+  /// Prior on the joint rotations: a weak pull towards the rest pose, and a strong one beyond each
+  /// joint's range (joint_limit_degrees), relative to the data term.
+  double rest_prior = 1e-3, limit_prior = 1.0;
+};
+
+/// The largest rotation (degrees) each joint takes before the limit prior acts, by joint index.
+double joint_limit_degrees(int joint);
+
+struct PoseFitResult {
+  PartPose pose;
+  Eigen::MatrixXd V;              ///< the fitted body (#V x 3, m)
+  Eigen::VectorXd residual;       ///< #V: distance of each fitted vertex to the nearest target point (m)
+  double target_mean = 0, target_p95 = 0;  ///< target points to the fitted surface's vertices (m), outliers included
+  double coverage = 0;            ///< fraction of fitted vertices within 1 cm of a target point
+  int iterations = 0;
+  double seconds = 0;
+  std::vector<std::string> warnings;  ///< poor coverage or residual, a joint at its limit
+};
+
+/// Fits `synth`'s subject to target points T (#T x 3, m, posekit's frame: Y up, facing +Z). The
+/// start is the rest pose moved onto the target's centre; no markers. Throws InvalidInput for an
+/// empty or non-finite target.
+PoseFitResult fit_pose(const PoseSynthesizer& synth, const Eigen::MatrixXd& T, const PoseFitOptions& options = {});
+
+}  // namespace posekit

@@ -1,0 +1,280 @@
+#include "posekit/deformation/pose_fitting.h"
+
+#include <Eigen/Cholesky>
+#include <Eigen/Geometry>
+#include <algorithm>
+#include <array>
+#include <chrono>
+#include <cmath>
+#include <limits>
+#include <sstream>
+
+#include "posekit/core/error.h"
+#include "posekit/core/point_grid.h"
+#include "posekit/deformation/rigid_pose.h"
+
+namespace posekit {
+namespace {
+
+constexpr int kUnknowns = 6 + 3 * kNumJoints;  // root translation, root rotation, each joint's rotation
+
+Eigen::Matrix3d skew(const Eigen::Vector3d& v) {
+  Eigen::Matrix3d S;
+  S << 0, -v.z(), v.y(), v.z(), 0, -v.x(), -v.y(), v.x(), 0;
+  return S;
+}
+
+Eigen::Vector3d log_rotation(const Eigen::Matrix3d& R) {
+  const Eigen::AngleAxisd aa(R);
+  return aa.angle() * aa.axis();
+}
+
+/// The value below which a fraction q of v lies.
+double quantile(std::vector<double> v, double q) {
+  if (v.empty()) return 0;
+  const size_t k = std::min(v.size() - 1, static_cast<size_t>(q * static_cast<double>(v.size())));
+  std::nth_element(v.begin(), v.begin() + static_cast<long>(k), v.end());
+  return v[k];
+}
+
+}  // namespace
+
+double joint_limit_degrees(int joint) {
+  // Ranges of motion a body reaches (rotation from the standing rest, any direction).
+  static const std::array<double, kNumJoints> limits = {
+      60,   // lower_back
+      45,   // upper_back
+      80,   // neck
+      170, 150, 90,  // left shoulder, elbow, wrist
+      170, 150, 90,  // right
+      130, 155, 60,  // left hip, knee, ankle
+      130, 155, 60};  // right
+  return joint >= 0 && joint < kNumJoints ? limits[static_cast<size_t>(joint)] : 180;
+}
+
+PoseFitResult fit_pose(const PoseSynthesizer& synth, const Eigen::MatrixXd& T, const PoseFitOptions& o) {
+  const auto t0 = std::chrono::steady_clock::now();
+  if (T.rows() < 100 || T.cols() != 3 || !T.allFinite())
+    throw InvalidInput("fit: the target has " + std::to_string(T.rows()) + " points (at least 100 finite ones needed)");
+  const Eigen::MatrixXd& V0 = synth.rest_vertices();
+  const Eigen::VectorXi& part = synth.vertex_parts();
+  const Eigen::MatrixXd& joints = synth.info().joint_centres;
+  const PointGrid target_grid(T);
+
+  // Start: the rest pose, its feet on the target's lowest points and its centre over the target's.
+  PoseFitResult out;
+  PartPose pose;
+  {
+    std::vector<double> ty(static_cast<size_t>(T.rows())), vy(static_cast<size_t>(V0.rows()));
+    for (Eigen::Index i = 0; i < T.rows(); ++i) ty[static_cast<size_t>(i)] = T(i, 1);
+    for (Eigen::Index i = 0; i < V0.rows(); ++i) vy[static_cast<size_t>(i)] = V0(i, 1);
+    const Eigen::RowVector3d tc = T.colwise().mean(), vc = V0.colwise().mean();
+    pose.root_translation = Eigen::Vector3d(tc.x() - vc.x(), quantile(ty, 0.01) - quantile(vy, 0.0), tc.z() - vc.z());
+  }
+
+  // Which joints move each part: the chain up to the pelvis.
+  std::array<std::vector<int>, kNumParts> chain;
+  for (int q = 0; q < kNumParts; ++q)
+    for (int c = q; c > 0; c = part_parent(c)) chain[static_cast<size_t>(q)].push_back(c - 1);
+  const Eigen::Vector3d rest_pivot =
+      (joints.row(kAbdomen - 1) + joints.row(kLeftThigh - 1) + joints.row(kRightThigh - 1)).transpose() / 3;
+
+  Eigen::MatrixXd X;
+  // Articulated ICP from `pose`: `iterations` Gauss-Newton steps, the correspondence distance
+  // shrinking from `d0` to `d1` over the first two thirds. Returns the steps taken.
+  auto icp = [&](PartPose& pose, int iterations, int samples, double d0, double d1) {
+  const Eigen::Index model_stride = std::max<Eigen::Index>(1, V0.rows() / std::max(1, samples));
+  const Eigen::Index target_stride = std::max<Eigen::Index>(1, T.rows() / std::max(1, samples));
+  int it = 0;
+  for (; it < iterations; ++it) {
+    const double progress = std::min(1.0, it / (0.66 * std::max(1, iterations - 1)));
+    const double max_d = d0 + (d1 - d0) * progress;
+    const double sigma = max_d / 3;
+    synth.pose(pose, o.method, &X);
+    const PartTransforms P = part_transforms(pose, joints);
+    std::array<Eigen::Vector3d, kNumJoints> centre;  // each joint's posed centre
+    for (int j = 0; j < kNumJoints; ++j) {
+      const size_t q = static_cast<size_t>(part_parent(j + 1));
+      centre[static_cast<size_t>(j)] = P.R[q] * joints.row(j).transpose() + P.t[q];
+    }
+    const Eigen::Vector3d pivot = rest_pivot + pose.root_translation;
+
+    Eigen::Matrix<double, kUnknowns, kUnknowns> N = Eigen::Matrix<double, kUnknowns, kUnknowns>::Zero();
+    Eigen::Matrix<double, kUnknowns, 1> g = Eigen::Matrix<double, kUnknowns, 1>::Zero();
+    double total_weight = 0;
+    auto add = [&](Eigen::Index v, const Eigen::Vector3d& y) {
+      const Eigen::Vector3d x = X.row(v).transpose(), r = x - y;
+      const double d = r.norm();
+      if (d > max_d) return;
+      const double w = 1 / (1 + (d / sigma) * (d / sigma));
+      // d x / d(root translation) = I; d x / d(world rotation about a centre c) = -[x - c]x.
+      Eigen::Matrix<double, 3, kUnknowns> J = Eigen::Matrix<double, 3, kUnknowns>::Zero();
+      J.block<3, 3>(0, 0).setIdentity();
+      J.block<3, 3>(0, 3) = -skew(x - pivot);
+      for (int j : chain[static_cast<size_t>(part[v])]) J.block<3, 3>(0, 6 + 3 * j) = -skew(x - centre[static_cast<size_t>(j)]);
+      N.noalias() += w * J.transpose() * J;
+      g.noalias() += w * J.transpose() * r;
+      total_weight += w;
+    };
+    for (Eigen::Index v = 0; v < X.rows(); v += model_stride) {
+      double sq = 0;
+      const int k = target_grid.nearest(X.row(v).transpose(), &sq, max_d);
+      if (k >= 0) add(v, T.row(k).transpose());
+    }
+    {
+      Eigen::MatrixXd samples(X.rows() / model_stride + 1, 3);
+      std::vector<Eigen::Index> rows;
+      for (Eigen::Index v = 0; v < X.rows(); v += model_stride) {
+        samples.row(static_cast<Eigen::Index>(rows.size())) = X.row(v);
+        rows.push_back(v);
+      }
+      samples.conservativeResize(static_cast<Eigen::Index>(rows.size()), 3);
+      const PointGrid model_grid(samples);
+      for (Eigen::Index i = 0; i < T.rows(); i += target_stride) {
+        double sq = 0;
+        const int k = model_grid.nearest(T.row(i).transpose(), &sq, max_d);
+        if (k >= 0) add(rows[static_cast<size_t>(k)], T.row(i).transpose());
+      }
+    }
+    if (total_weight <= 0) throw InvalidInput("fit: no target point within " + std::to_string(max_d) + " m of the body; is the target in metres and upright?");
+    // Priors on the joint rotations, in the data term's scale: a vertex 0.3 m from a joint.
+    const double scale = total_weight * 0.09;
+    const auto R = part_rotations(pose);
+    for (int j = 0; j < kNumJoints; ++j) {
+      const Eigen::Vector3d& r = pose.joint_rotation[static_cast<size_t>(j)];
+      const Eigen::Matrix3d to_parent = R[static_cast<size_t>(part_parent(j + 1))].transpose();
+      auto prior = [&](double weight, const Eigen::Vector3d& residual, const Eigen::Matrix3d& Jr) {
+        N.block<3, 3>(6 + 3 * j, 6 + 3 * j) += weight * Jr.transpose() * Jr;
+        g.segment<3>(6 + 3 * j) += weight * Jr.transpose() * residual;
+      };
+      prior(o.rest_prior * scale, r, to_parent);
+      const double limit = joint_limit_degrees(j) * M_PI / 180, angle = r.norm();
+      if (angle > limit) {
+        const Eigen::Vector3d axis = r / angle;
+        prior(o.limit_prior * scale, (angle - limit) * axis, axis * axis.transpose() * to_parent);
+      }
+    }
+    N.diagonal().array() += 1e-6 * N.diagonal().mean();
+    const Eigen::Matrix<double, kUnknowns, 1> step = N.ldlt().solve(-g);
+    if (!step.allFinite()) break;
+    // Apply: world increments accumulate down the tree; relative rotations follow.
+    std::array<Eigen::Matrix3d, kNumParts> W;
+    const Eigen::Matrix3d root_turn = rotation_from_axis_angle(step.segment<3>(3));
+    W[kPelvis] = root_turn * R[kPelvis];
+    std::array<Eigen::Vector3d, kNumParts> increment;
+    increment[kPelvis] = step.segment<3>(3);
+    for (int c = 1; c < kNumParts; ++c) {
+      increment[static_cast<size_t>(c)] = increment[static_cast<size_t>(part_parent(c))] + step.segment<3>(6 + 3 * (c - 1));
+      W[static_cast<size_t>(c)] = rotation_from_axis_angle(increment[static_cast<size_t>(c)]) * R[static_cast<size_t>(c)];
+    }
+    pose.root_rotation = log_rotation(W[kPelvis]);
+    pose.root_translation += step.head<3>();
+    for (int c = 1; c < kNumParts; ++c)
+      pose.joint_rotation[static_cast<size_t>(c - 1)] =
+          log_rotation(W[static_cast<size_t>(part_parent(c))].transpose() * W[static_cast<size_t>(c)]);
+    if (progress >= 1 && step.tail<kUnknowns - 3>().norm() < 1e-4 && step.head<3>().norm() < 1e-5) {
+      ++it;
+      break;
+    }
+  }
+  return it;
+  };
+
+  // How well a pose explains the target: the mean distance of target points to the body, each
+  // capped at 10 cm so that outliers and holes do not decide.
+  auto score = [&](const PartPose& pose) {
+    synth.pose(pose, o.method, &X);
+    const PointGrid body(X);
+    double sum = 0;
+    long n = 0;
+    for (Eigen::Index i = 0; i < T.rows(); i += std::max<Eigen::Index>(1, T.rows() / 3000)) {
+      double sq = 0;
+      sum += body.nearest(T.row(i).transpose(), &sq, 0.1) >= 0 ? std::sqrt(sq) : 0.1;
+      ++n;
+    }
+    return sum / static_cast<double>(std::max<long>(n, 1));
+  };
+  // Automatic start, no markers: the rest pose at four headings, then whole-body hypotheses (arms
+  // forward, arms up, a half squat, sitting) at the best one, each standing on the target's feet and
+  // refined briefly; the best of all is refined fully.
+  const PartPose standing_start = pose;
+  const double deg = M_PI / 180;
+  auto hypothesis = [&](const std::vector<std::pair<const char*, Eigen::Vector3d>>& joints_deg) {
+    PartPose h = standing_start;
+    for (const auto& [name, v] : joints_deg) h.joint_rotation[static_cast<size_t>(find_joint_index(name))] = v * deg;
+    synth.pose(h, o.method, &X);
+    std::vector<double> ty(static_cast<size_t>(T.rows())), xy(static_cast<size_t>(X.rows()));
+    for (Eigen::Index i = 0; i < T.rows(); ++i) ty[static_cast<size_t>(i)] = T(i, 1);
+    for (Eigen::Index i = 0; i < X.rows(); ++i) xy[static_cast<size_t>(i)] = X(i, 1);
+    h.root_translation.y() += quantile(ty, 0.01) - quantile(xy, 0.0);
+    return h;
+  };
+  const Eigen::Vector3d X_ = Eigen::Vector3d::UnitX(), Z_ = Eigen::Vector3d::UnitZ();
+  auto refine_and_keep = [&](PartPose start, double* best, PartPose* best_pose) {
+    icp(start, std::max(1, o.iterations / 5), o.model_samples / 2, o.max_distance_start, o.max_distance_end);
+    const double e = score(start);
+    if (e < *best) *best = e, *best_pose = start;
+  };
+  // First the heading (the target may face any way about its vertical), standing at rest.
+  double best = std::numeric_limits<double>::infinity();
+  const PartPose standing = pose;
+  for (int quarter = 0; quarter < 4; ++quarter) {
+    PartPose start = standing;
+    start.root_rotation = quarter * M_PI / 2 * Eigen::Vector3d::UnitY();
+    refine_and_keep(start, &best, &pose);
+  }
+  // Then whole-body hypotheses at that heading.
+  const Eigen::Vector3d heading = pose.root_rotation;
+  for (const auto& joints_deg :
+       std::vector<std::vector<std::pair<const char*, Eigen::Vector3d>>>{
+           {{"left_shoulder", -90 * X_}, {"right_shoulder", -90 * X_}},
+           {{"left_shoulder", 130 * Z_}, {"right_shoulder", -130 * Z_}},
+           {{"left_hip", -50 * X_}, {"right_hip", -50 * X_}, {"left_knee", 65 * X_}, {"right_knee", 65 * X_},
+            {"lower_back", 10 * X_}, {"left_shoulder", -30 * X_}, {"right_shoulder", -30 * X_}},
+           {{"left_hip", -90 * X_}, {"right_hip", -90 * X_}, {"left_knee", 90 * X_}, {"right_knee", 90 * X_}}}) {
+    PartPose start = hypothesis(joints_deg);
+    start.root_rotation = heading;
+    refine_and_keep(start, &best, &pose);
+  }
+  const int it = icp(pose, o.iterations, o.model_samples, o.max_distance_end, o.max_distance_end);
+  out.iterations = it;
+  out.pose = pose;
+  synth.pose(pose, o.method, &X);
+  out.V = X;
+  // Residuals: each vertex to the target, each target point to the body.
+  out.residual.resize(X.rows());
+  int covered = 0;
+  for (Eigen::Index v = 0; v < X.rows(); ++v) {
+    double sq = 0;
+    target_grid.nearest(X.row(v).transpose(), &sq);
+    out.residual[v] = std::sqrt(sq);
+    covered += out.residual[v] < 0.01;
+  }
+  out.coverage = static_cast<double>(covered) / static_cast<double>(std::max<Eigen::Index>(1, X.rows()));
+  const PointGrid body_grid(X);
+  std::vector<double> to_body;
+  for (Eigen::Index i = 0; i < T.rows(); i += std::max<Eigen::Index>(1, T.rows() / 20000)) {
+    double sq = 0;
+    body_grid.nearest(T.row(i).transpose(), &sq);
+    to_body.push_back(std::sqrt(sq));
+  }
+  double sum = 0;
+  for (double d : to_body) sum += d;
+  out.target_mean = sum / static_cast<double>(std::max<size_t>(1, to_body.size()));
+  out.target_p95 = quantile(to_body, 0.95);
+  std::ostringstream msg;
+  msg.precision(1);
+  if (out.coverage < 0.6)
+    msg << std::fixed << "only " << 100 * out.coverage << "% of the body lies within 1 cm of the target (holes, another body, or a wrong fit)",
+        out.warnings.push_back(msg.str()), msg.str("");
+  if (out.target_p95 > 0.03)
+    msg << std::fixed << "a twentieth of the target lies over " << 1000 * out.target_p95 << " mm from the fitted body",
+        out.warnings.push_back(msg.str()), msg.str("");
+  for (int j = 0; j < kNumJoints; ++j)
+    if (pose.joint_rotation[static_cast<size_t>(j)].norm() * 180 / M_PI > joint_limit_degrees(j) + 5)
+      out.warnings.push_back("joint '" + joint_name(j) + "' ends beyond its range of motion: the fit is probably wrong there");
+  out.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  return out;
+}
+
+}  // namespace posekit
