@@ -58,6 +58,16 @@ void check_subject(const TriangleMesh& mesh, const std::string& path) {
               << " holes; segmentation and posing proceed, features near the holes may be off\n";
 }
 
+/// The subject of pose or fit (--subject, --unit, --up, --forward): read, turned into posekit's
+/// frame, and checked to be one body.
+TriangleMesh read_posing_subject(const ArgParser& args, const std::string& command, BodyOrientation* orientation, BodyUnit* unit) {
+  BodyInput input = read_body_input(args.get("subject"), args.get("unit"), command, unit);
+  if (input.is_cloud) throw InvalidInput(args.get("subject") + ": the subject must be a mesh (triangles); this file has only points");
+  *orientation = orient_body_input(&input, args.get("up"), args.get("forward"), args.get("subject"), command);
+  check_subject(input.mesh, args.get("subject"));
+  return std::move(input.mesh);
+}
+
 nlohmann::ordered_json fit_report_json(const DatasetTrainingReport& r) {
   nlohmann::ordered_json examples = nlohmann::ordered_json::array();
   for (const auto& e : r.examples) {
@@ -309,13 +319,9 @@ int run_pose(int argc, char** argv) {
     if (!args.has(required)) throw UsageError(std::string("--") + required + " is required");
   const PoseMethod method = parse_pose_method(args.get("method"));
   const auto model = std::make_shared<const PoseModel>(read_pose_model(args.get("model")));
+  BodyOrientation orientation;
   BodyUnit unit;
-  BodyInput subject_input = read_body_input(args.get("subject"), args.get("unit"), "pose", &unit);
-  if (subject_input.is_cloud) throw InvalidInput(args.get("subject") + ": the subject must be a mesh (triangles); this file has only points");
-  const BodyOrientation orientation =
-      orient_body_input(&subject_input, args.get("up"), args.get("forward"), args.get("subject"), "pose");
-  const TriangleMesh subject = std::move(subject_input.mesh);
-  check_subject(subject, args.get("subject"));
+  const TriangleMesh subject = read_posing_subject(args, "pose", &orientation, &unit);
   const auto t0 = std::chrono::steady_clock::now();
   const PoseSynthesizer synth = set_up_subject(model, subject, args.get("subject"));
   const double setup = seconds_since(t0);
@@ -669,15 +675,14 @@ int run_fit(int argc, char** argv) {
       .example("posekit fit --model model.pkm --subject ds/subjects/f01/rest.ply --target ds/scans/f01/squat_half.pcd "
                "--out fitted.ply --pose-out pose.json");
   args.option("target-up", "AXIS", "the axis the target stands along (+X, -Y, ...) or auto (detected); its heading is fitted", "auto");
+  add_orientation_options(&args, "", "the subject");
   if (!args.parse(argc, argv)) return 0;
   for (const char* required : {"model", "subject", "target"})
     if (!args.has(required)) throw UsageError(std::string("--") + required + " is required");
   const auto model = std::make_shared<const PoseModel>(read_pose_model(args.get("model")));
+  BodyOrientation orientation;
   BodyUnit unit;
-  BodyInput subject_input = read_body_input(args.get("subject"), args.get("unit"), "fit", &unit);
-  if (subject_input.is_cloud) throw InvalidInput(args.get("subject") + ": the subject must be a mesh (triangles)");
-  const TriangleMesh subject = std::move(subject_input.mesh);
-  check_subject(subject, args.get("subject"));
+  const TriangleMesh subject = read_posing_subject(args, "fit", &orientation, &unit);
   BodyUnit target_unit;
   BodyInput target_input = read_body_input(args.get("target"), args.get("target-unit"), "fit", &target_unit);
   Eigen::MatrixXd T = target_input.is_cloud ? target_input.cloud.P : target_input.mesh.V;

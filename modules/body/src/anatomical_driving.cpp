@@ -9,11 +9,6 @@
 namespace posekit {
 namespace {
 
-Eigen::Vector3d log_rotation(const Eigen::Matrix3d& R) {
-  const Eigen::AngleAxisd aa(R);
-  return aa.angle() * aa.axis();
-}
-
 /// R = swing * twist, the twist about the unit axis `a` (the swing moves `a`, the twist keeps it).
 void swing_twist(const Eigen::Matrix3d& R, const Eigen::Vector3d& a, Eigen::Vector3d* swing, Eigen::Vector3d* twist) {
   const Eigen::Quaterniond q(R);
@@ -24,8 +19,8 @@ void swing_twist(const Eigen::Matrix3d& R, const Eigen::Vector3d& a, Eigen::Vect
   } else {
     t.normalize();
   }
-  *twist = log_rotation(t.toRotationMatrix());
-  *swing = log_rotation((q * t.conjugate()).toRotationMatrix());
+  *twist = axis_angle_from_rotation(t.toRotationMatrix());
+  *swing = axis_angle_from_rotation((q * t.conjugate()).toRotationMatrix());
 }
 
 int bone(const Rig& rig, const std::string& name) {

@@ -106,6 +106,19 @@ Eigen::Matrix3d rotation_from_axis_angle(const Eigen::Vector3d& aa) {
   return Eigen::AngleAxisd(angle, aa / angle).toRotationMatrix();
 }
 
+Eigen::Vector3d axis_angle_from_rotation(const Eigen::Matrix3d& R) {
+  const Eigen::AngleAxisd aa(R);
+  return aa.angle() * aa.axis();
+}
+
+std::vector<int> joints_of_part(int part) {
+  std::vector<int> joints;
+  if (part > 0) joints.push_back(part - 1);
+  for (int c = 1; c < kNumParts; ++c)
+    if (part_parent(c) == part) joints.push_back(c - 1);
+  return joints;
+}
+
 PartPose part_pose_from_json(const std::string& text, const std::string& context) {
   const nlohmann::json j = parse_json(text, context);
   if (!j.is_object()) throw InvalidInput(context + ": expected a JSON object with 'joints'");

@@ -13,20 +13,6 @@
 namespace posekit {
 namespace {
 
-/// The joints of a part: the one to its parent and those to its children.
-std::vector<int> joints_of_part(int part) {
-  std::vector<int> joints;
-  if (part > 0) joints.push_back(part - 1);
-  for (int c = 1; c < kNumParts; ++c)
-    if (part_parent(c) == part) joints.push_back(c - 1);
-  return joints;
-}
-
-Eigen::Vector3d axis_angle_of(const Eigen::Matrix3d& R) {
-  const Eigen::AngleAxisd aa(R);
-  return aa.angle() * aa.axis();
-}
-
 /// Weighted Kabsch: the proper rotation and translation taking X to Y in the weighted least-squares sense.
 void weighted_procrustes(const Eigen::MatrixXd& X, const Eigen::MatrixXd& Y, const std::vector<double>& w,
                          Eigen::Matrix3d* R, Eigen::Vector3d* t) {
@@ -175,13 +161,13 @@ PartPoseEstimate PartPoseEstimator::estimate(const Eigen::MatrixXd& posed_V) con
     if (out.core_rms[s] > out.core_rms[static_cast<size_t>(out.worst_part)]) out.worst_part = p;
   }
   out.rms = std::sqrt(total_sq / static_cast<double>(std::max<long>(total_n, 1)));
-  out.pose.root_rotation = axis_angle_of(out.R[kPelvis]);
+  out.pose.root_rotation = axis_angle_from_rotation(out.R[kPelvis]);
   // part_transforms turns the pelvis about the mean of its three joints, then moves it.
   const Eigen::Vector3d pivot = (joints_.row(kAbdomen - 1) + joints_.row(kLeftThigh - 1) + joints_.row(kRightThigh - 1)).transpose() / 3;
   out.pose.root_translation = out.t[kPelvis] - pivot + out.R[kPelvis] * pivot;
   for (int p = 1; p < kNumParts; ++p)
     out.pose.joint_rotation[static_cast<size_t>(p - 1)] =
-        axis_angle_of(out.R[static_cast<size_t>(part_parent(p))].transpose() * out.R[static_cast<size_t>(p)]);
+        axis_angle_from_rotation(out.R[static_cast<size_t>(part_parent(p))].transpose() * out.R[static_cast<size_t>(p)]);
   return out;
 }
 

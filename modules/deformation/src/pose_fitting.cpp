@@ -24,11 +24,6 @@ Eigen::Matrix3d skew(const Eigen::Vector3d& v) {
   return S;
 }
 
-Eigen::Vector3d log_rotation(const Eigen::Matrix3d& R) {
-  const Eigen::AngleAxisd aa(R);
-  return aa.angle() * aa.axis();
-}
-
 /// The value below which a fraction q of v lies.
 double quantile(std::vector<double> v, double q) {
   if (v.empty()) return 0;
@@ -167,11 +162,11 @@ PoseFitResult fit_pose(const PoseSynthesizer& synth, const Eigen::MatrixXd& T, c
       increment[static_cast<size_t>(c)] = increment[static_cast<size_t>(part_parent(c))] + step.segment<3>(6 + 3 * (c - 1));
       W[static_cast<size_t>(c)] = rotation_from_axis_angle(increment[static_cast<size_t>(c)]) * R[static_cast<size_t>(c)];
     }
-    pose.root_rotation = log_rotation(W[kPelvis]);
+    pose.root_rotation = axis_angle_from_rotation(W[kPelvis]);
     pose.root_translation += step.head<3>();
     for (int c = 1; c < kNumParts; ++c)
       pose.joint_rotation[static_cast<size_t>(c - 1)] =
-          log_rotation(W[static_cast<size_t>(part_parent(c))].transpose() * W[static_cast<size_t>(c)]);
+          axis_angle_from_rotation(W[static_cast<size_t>(part_parent(c))].transpose() * W[static_cast<size_t>(c)]);
     if (progress >= 1 && step.tail<kUnknowns - 3>().norm() < 1e-4 && step.head<3>().norm() < 1e-5) {
       ++it;
       break;
@@ -195,7 +190,7 @@ PoseFitResult fit_pose(const PoseSynthesizer& synth, const Eigen::MatrixXd& T, c
     return sum / static_cast<double>(std::max<long>(n, 1));
   };
   // Automatic start, no markers: the rest pose at four headings, then whole-body hypotheses (arms
-  // forward, arms up, a half squat, sitting) at the best one, each standing on the target's feet and
+  // forward, arms up, a half squat, sitting, a stride either way) at the best one, each standing on the target's feet and
   // refined briefly; the best of all is refined fully.
   const PartPose standing_start = pose;
   const double deg = M_PI / 180;
@@ -231,7 +226,9 @@ PoseFitResult fit_pose(const PoseSynthesizer& synth, const Eigen::MatrixXd& T, c
            {{"left_shoulder", 130 * Z_}, {"right_shoulder", -130 * Z_}},
            {{"left_hip", -50 * X_}, {"right_hip", -50 * X_}, {"left_knee", 65 * X_}, {"right_knee", 65 * X_},
             {"lower_back", 10 * X_}, {"left_shoulder", -30 * X_}, {"right_shoulder", -30 * X_}},
-           {{"left_hip", -90 * X_}, {"right_hip", -90 * X_}, {"left_knee", 90 * X_}, {"right_knee", 90 * X_}}}) {
+           {{"left_hip", -90 * X_}, {"right_hip", -90 * X_}, {"left_knee", 90 * X_}, {"right_knee", 90 * X_}},
+           {{"left_hip", -30 * X_}, {"right_hip", 25 * X_}, {"left_knee", 15 * X_}, {"right_knee", 30 * X_}},   // striding
+           {{"left_hip", 25 * X_}, {"right_hip", -30 * X_}, {"left_knee", 30 * X_}, {"right_knee", 15 * X_}}}) {
     PartPose start = hypothesis(joints_deg);
     start.root_rotation = heading;
     refine_and_keep(start, &best, &pose);

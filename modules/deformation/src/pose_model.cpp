@@ -44,15 +44,6 @@ std::vector<Eigen::Matrix3d> inverse_frames(const Eigen::MatrixXd& V, const Eige
   return inv;
 }
 
-/// The joints adjacent to a part: the one to its parent and those to its children.
-std::vector<int> adjacent_joints(int part) {
-  std::vector<int> joints;
-  if (part > 0) joints.push_back(part - 1);
-  for (int c = 1; c < kNumParts; ++c)
-    if (part_parent(c) == part) joints.push_back(c - 1);
-  return joints;
-}
-
 Eigen::Matrix<double, kPoseFeatures, 1> features(const PartPose& pose, int a, int b) {
   Eigen::Matrix<double, kPoseFeatures, 1> x = Eigen::Matrix<double, kPoseFeatures, 1>::Zero();
   if (a >= 0) x.segment<3>(0) = pose.joint_rotation[static_cast<size_t>(a)];
@@ -185,7 +176,7 @@ PoseModel train_pose_model(const PoseDataset& data, const TrainingOptions& optio
   model.triangle_joints = Eigen::MatrixXi::Constant(F.rows(), 2, -1);
   for (Eigen::Index k = 0; k < F.rows(); ++k) {
     std::vector<std::pair<double, int>> near;
-    for (int j : adjacent_joints(model.triangle_part[k]))
+    for (int j : joints_of_part(model.triangle_part[k]))
       near.emplace_back((centroids.row(k) - model.joint_centres.row(j)).squaredNorm(), j);
     std::sort(near.begin(), near.end());
     for (size_t n = 0; n < near.size() && n < 2; ++n) model.triangle_joints(k, static_cast<Eigen::Index>(n)) = near[n].second;

@@ -56,6 +56,10 @@ struct PartPose {
 
 /// Rotation matrix of an axis-angle vector (angle = norm).
 Eigen::Matrix3d rotation_from_axis_angle(const Eigen::Vector3d& axis_angle);
+/// The axis-angle vector of a rotation matrix (angle in [0, pi]).
+Eigen::Vector3d axis_angle_from_rotation(const Eigen::Matrix3d& rotation);
+/// The joints of a part: the one to its parent (none for the pelvis), then those to its children.
+std::vector<int> joints_of_part(int part);
 
 /// JSON form: {"joints": {"left_elbow": [rx, ry, rz], ...}, "root_rotation": [...],
 /// "root_translation": [...], "units": "radians, metres"}. Unknown joints, NaN, or wrong array
