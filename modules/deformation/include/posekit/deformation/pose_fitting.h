@@ -40,9 +40,11 @@ struct PoseFitResult {
   std::vector<std::string> warnings;  ///< poor coverage or residual, a joint at its limit
 };
 
-/// Fits `synth`'s subject to target points T (#T x 3, m, posekit's frame: Y up, facing +Z). The
-/// start is the rest pose moved onto the target's centre; no markers. Throws InvalidInput for an
-/// empty or non-finite target.
+/// Fits `synth`'s subject to target points T (#T x 3, m, Y up; any heading). No markers: the rest
+/// pose stands on the target's lowest points at four headings, then whole-body hypotheses (arms
+/// forward or up, half squat, sitting, a stride either way) at the best heading; each is refined
+/// briefly and the best fully. Throws InvalidInput for a target of under 100 finite points or one
+/// with no point near the body.
 PoseFitResult fit_pose(const PoseSynthesizer& synth, const Eigen::MatrixXd& T, const PoseFitOptions& options = {});
 
 }  // namespace posekit
