@@ -658,9 +658,11 @@ int run_fit(int argc, char** argv) {
   ArgParser args("fit",
                  "Finds the 16-part pose (and the global rotation and translation) that makes a body match a\n"
                  "target: a scan with holes, noise and outliers, or a mesh of another topology. No markers: the\n"
-                 "rest pose starts on the target's centre and feet, then articulated ICP with the posing method in\n"
-                 "the loop (learned by default), correspondences both ways, Cauchy weights, a weak rest prior and\n"
-                 "the joints' ranges of motion as priors. Writes the pose, the fitted body with its per-vertex\n"
+                 "target's vertical is detected; the rest pose on its feet at four headings, then six whole-body\n"
+                 "starts (arms forward or up, half squat, sitting, a stride either way) are refined briefly and the\n"
+                 "best fully by articulated ICP with the posing method in the loop (learned by default),\n"
+                 "correspondences both ways, Cauchy weights, a weak rest prior and the joints' ranges of motion\n"
+                 "as priors. Writes the pose, the fitted body with its per-vertex\n"
                  "distance to the target (PLY scalar 'residual_mm') and a summary.");
   args.option("model", "FILE", "trained model (.pkm, posekit train)")
       .option("subject", "FILE", "the body to pose, standing at rest (PLY/OBJ/OFF/STL)")

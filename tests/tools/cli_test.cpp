@@ -245,6 +245,12 @@ TEST(Cli, InfoReadsMotionCaptureAndSaysHowItMaps) {
   r = run("info " + dir.file("nan.bvh"), true);
   EXPECT_EQ(r.code, 1);
   EXPECT_NE(r.out.find("nan.bvh"), std::string::npos) << r.out;
+  dir.write("zero.bvh",
+            "HIERARCHY\nROOT Base\n{\n OFFSET 0 0 0\n CHANNELS 3 Zrotation Xrotation Yrotation\n End Site\n {\n  OFFSET 0 1 0\n }\n}\n"
+            "MOTION\nFrames: 0\nFrame Time: 0.04\n");
+  r = run("retarget " + dir.file("zero.bvh") + " --out " + dir.file("zero_poses"), true);
+  EXPECT_EQ(r.code, 1);
+  EXPECT_NE(r.out.find("zero.bvh: the motion has no frames"), std::string::npos) << r.out;
 }
 
 TEST(Cli, FitWritesThePoseTheFittedBodyAndItsResiduals) {
