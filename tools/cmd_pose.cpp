@@ -8,6 +8,7 @@
 #include <iostream>
 #include <map>
 #include <memory>
+#include <numeric>
 #include <nlohmann/json.hpp>
 
 #include "cli.h"
@@ -641,15 +642,12 @@ nlohmann::ordered_json fit_summary_json(const PoseFitResult& r) {
           {"coverage_1cm", r.coverage}, {"warnings", r.warnings}};
 }
 
-/// Mean and max angle (degrees) between two poses' joint rotations, the root's included.
-std::pair<double, double> joint_angle_error(const PartPose& a, const PartPose& b) {
-  double sum = rotation_difference(a.root_rotation, b.root_rotation), worst = sum;
-  for (int j = 0; j < kNumJoints; ++j) {
-    const double d = rotation_difference(a.joint_rotation[static_cast<size_t>(j)], b.joint_rotation[static_cast<size_t>(j)]);
-    sum += d;
-    worst = std::max(worst, d);
-  }
-  return {sum / (kNumJoints + 1) * 180 / M_PI, worst * 180 / M_PI};
+/// Angle (degrees) between two poses' rotations: the root's, then each joint's.
+std::vector<double> joint_angle_errors(const PartPose& a, const PartPose& b) {
+  std::vector<double> out{rotation_difference(a.root_rotation, b.root_rotation) * 180 / M_PI};
+  for (int j = 0; j < kNumJoints; ++j)
+    out.push_back(rotation_difference(a.joint_rotation[static_cast<size_t>(j)], b.joint_rotation[static_cast<size_t>(j)]) * 180 / M_PI);
+  return out;
 }
 
 }  // namespace
@@ -772,7 +770,11 @@ int run_eval_fit(int argc, char** argv) {
         PoseFitOptions o;
         o.method = method;
         const PoseFitResult r = fit_pose(synth, cloud.P, o);
-        const auto [angle_mean, angle_max] = joint_angle_error(r.pose, truth);
+        const std::vector<double> angles = joint_angle_errors(r.pose, truth);
+        const double angle_mean = std::accumulate(angles.begin(), angles.end(), 0.0) / static_cast<double>(angles.size());
+        const double angle_max = *std::max_element(angles.begin(), angles.end());
+        nlohmann::ordered_json per_joint = {{"root", angles[0]}};
+        for (int j = 0; j < kNumJoints; ++j) per_joint[joint_name(j)] = angles[static_cast<size_t>(j + 1)];
         const double vertex = (r.V - truth_mesh.V).rowwise().norm().mean();
         Sums& a = sums[pose_method_name(method)];
         a.angle.push_back(angle_mean);
@@ -780,7 +782,7 @@ int run_eval_fit(int argc, char** argv) {
         a.target.push_back(1000 * r.target_mean);
         a.seconds.push_back(r.seconds);
         rows.push_back({{"subject", id}, {"pose", pose_name}, {"method", pose_method_name(method)},
-                        {"joint_angle_error_deg", {{"mean", angle_mean}, {"max", angle_max}}},
+                        {"joint_angle_error_deg", {{"mean", angle_mean}, {"max", angle_max}, {"per_joint", per_joint}}},
                         {"vertex_error_mm", 1000 * vertex}, {"fit", fit_summary_json(r)}});
       }
     }

@@ -7,6 +7,7 @@
 #include <filesystem>
 #include <nlohmann/json.hpp>
 #include <regex>
+#include <sstream>
 
 #include "posekit/io/atomic_file.h"
 #include "testing/small_dataset.h"
@@ -106,6 +107,19 @@ TEST(Report, OnTheSmallDatasetLinksOnlyFilesThatExistAndLoadsInABrowser) {
     EXPECT_GT(bytes.size(), 20000u) << f;
   }
   EXPECT_NE(md.find("Made by: `posekit"), std::string::npos);
+  // Figure 9's poses are fitted to the scans (issue 18): each fitted body lies near the true posed one.
+  int fitted_rows = 0;
+  std::istringstream rows(md);
+  for (std::string line; std::getline(rows, line);) {
+    if (line.find("| fit | learned |") == std::string::npos) continue;
+    std::vector<std::string> cells;
+    std::istringstream cs(line);
+    for (std::string c; std::getline(cs, c, '|');) cells.push_back(c);
+    ASSERT_GE(cells.size(), 10u) << line;
+    EXPECT_LT(std::stod(cells[9]), 12.0) << line;  // vertex error vs truth, mm: measured 4.5-8.7
+    ++fitted_rows;
+  }
+  EXPECT_EQ(fitted_rows, 6) << "two subjects, three scanned poses each";
 
   // In a real browser: every image loads, every table has rows and renders, no link is broken.
   ASSERT_EQ(std::system("command -v chromium >/dev/null 2>&1"), 0) << "the browser check needs Chromium (Debian: chromium)";

@@ -262,12 +262,12 @@ TEST(Cli, FitWritesThePoseTheFittedBodyAndItsResiduals) {
                         "/scans/m01/squat_half.pcd --out " + dir.file("fitted.ply") + " --pose-out " + dir.file("pose.json") + " --json");
   ASSERT_EQ(r.code, 0) << r.out;
   const auto j = nlohmann::json::parse(r.out);
-  EXPECT_LT(j["target_to_body_mm"]["mean"].get<double>(), 20.0) << r.out;
+  EXPECT_LT(j["target_to_body_mm"]["mean"].get<double>(), 10.0) << r.out;  // measured 7.1
   const PartPose fitted = read_part_pose(dir.file("pose.json"));
   const PartPose truth = read_part_pose(ds.root + "/subjects/m01/posed/squat_half.json");
-  for (const char* knee : {"left_knee", "right_knee"}) {  // 65 degrees in the squat; fitted 50 (left) here
+  for (const char* knee : {"left_knee", "right_knee"}) {  // 65 degrees in the squat; fitted 61 here
     const size_t k = static_cast<size_t>(find_joint_index(knee));
-    EXPECT_NEAR(fitted.joint_rotation[k].norm(), truth.joint_rotation[k].norm(), 22 * M_PI / 180) << knee;
+    EXPECT_NEAR(fitted.joint_rotation[k].norm(), truth.joint_rotation[k].norm(), 10 * M_PI / 180) << knee;
   }
   const TriangleMesh body = read_mesh(dir.file("fitted.ply"));
   EXPECT_EQ(body.vertex_scalars.count("residual_mm"), 1u);

@@ -10,6 +10,7 @@
 #include <sstream>
 
 #include "posekit/core/error.h"
+#include "posekit/core/mesh_geometry.h"
 #include "posekit/core/point_grid.h"
 #include "posekit/deformation/rigid_pose.h"
 
@@ -55,6 +56,10 @@ PoseFitResult fit_pose(const PoseSynthesizer& synth, const Eigen::MatrixXd& T, c
   const Eigen::VectorXi& part = synth.vertex_parts();
   const Eigen::MatrixXd& joints = synth.info().joint_centres;
   const PointGrid target_grid(T);
+  // A subsample of the target (at most 20,000 points) for the start hypotheses: its coarser grid
+  // answers their long-range queries several times faster.
+  const Eigen::MatrixXd T_coarse = T(Eigen::seq(0, T.rows() - 1, std::max<Eigen::Index>(1, T.rows() / 20000)), Eigen::all);
+  const PointGrid coarse_grid(T_coarse);
 
   // Start: the rest pose, its feet on the target's lowest points and its centre over the target's.
   PoseFitResult out;
@@ -75,87 +80,11 @@ PoseFitResult fit_pose(const PoseSynthesizer& synth, const Eigen::MatrixXd& T, c
       (joints.row(kAbdomen - 1) + joints.row(kLeftThigh - 1) + joints.row(kRightThigh - 1)).transpose() / 3;
 
   Eigen::MatrixXd X;
-  // Articulated ICP from `pose`: `iterations` Gauss-Newton steps, the correspondence distance
-  // shrinking from `d0` to `d1` over the first two thirds. Returns the steps taken.
-  auto icp = [&](PartPose& pose, int iterations, int samples, double d0, double d1) {
-  const Eigen::Index model_stride = std::max<Eigen::Index>(1, V0.rows() / std::max(1, samples));
-  const Eigen::Index target_stride = std::max<Eigen::Index>(1, T.rows() / std::max(1, samples));
-  int it = 0;
-  for (; it < iterations; ++it) {
-    const double progress = std::min(1.0, it / (0.66 * std::max(1, iterations - 1)));
-    const double max_d = d0 + (d1 - d0) * progress;
-    const double sigma = max_d / 3;
-    synth.pose(pose, o.method, &X);
-    const PartTransforms P = part_transforms(pose, joints);
-    std::array<Eigen::Vector3d, kNumJoints> centre;  // each joint's posed centre
-    for (int j = 0; j < kNumJoints; ++j) {
-      const size_t q = static_cast<size_t>(part_parent(j + 1));
-      centre[static_cast<size_t>(j)] = P.R[q] * joints.row(j).transpose() + P.t[q];
-    }
-    const Eigen::Vector3d pivot = rest_pivot + pose.root_translation;
-
-    Eigen::Matrix<double, kUnknowns, kUnknowns> N = Eigen::Matrix<double, kUnknowns, kUnknowns>::Zero();
-    Eigen::Matrix<double, kUnknowns, 1> g = Eigen::Matrix<double, kUnknowns, 1>::Zero();
-    double total_weight = 0;
-    auto add = [&](Eigen::Index v, const Eigen::Vector3d& y) {
-      const Eigen::Vector3d x = X.row(v).transpose(), r = x - y;
-      const double d = r.norm();
-      if (d > max_d) return;
-      const double w = 1 / (1 + (d / sigma) * (d / sigma));
-      // d x / d(root translation) = I; d x / d(world rotation about a centre c) = -[x - c]x.
-      Eigen::Matrix<double, 3, kUnknowns> J = Eigen::Matrix<double, 3, kUnknowns>::Zero();
-      J.block<3, 3>(0, 0).setIdentity();
-      J.block<3, 3>(0, 3) = -skew(x - pivot);
-      for (int j : chain[static_cast<size_t>(part[v])]) J.block<3, 3>(0, 6 + 3 * j) = -skew(x - centre[static_cast<size_t>(j)]);
-      N.noalias() += w * J.transpose() * J;
-      g.noalias() += w * J.transpose() * r;
-      total_weight += w;
-    };
-    for (Eigen::Index v = 0; v < X.rows(); v += model_stride) {
-      double sq = 0;
-      const int k = target_grid.nearest(X.row(v).transpose(), &sq, max_d);
-      if (k >= 0) add(v, T.row(k).transpose());
-    }
-    {
-      Eigen::MatrixXd samples(X.rows() / model_stride + 1, 3);
-      std::vector<Eigen::Index> rows;
-      for (Eigen::Index v = 0; v < X.rows(); v += model_stride) {
-        samples.row(static_cast<Eigen::Index>(rows.size())) = X.row(v);
-        rows.push_back(v);
-      }
-      samples.conservativeResize(static_cast<Eigen::Index>(rows.size()), 3);
-      const PointGrid model_grid(samples);
-      for (Eigen::Index i = 0; i < T.rows(); i += target_stride) {
-        double sq = 0;
-        const int k = model_grid.nearest(T.row(i).transpose(), &sq, max_d);
-        if (k >= 0) add(rows[static_cast<size_t>(k)], T.row(i).transpose());
-      }
-    }
-    if (total_weight <= 0) throw InvalidInput("fit: no target point within " + std::to_string(max_d) + " m of the body; is the target in metres and upright?");
-    // Priors on the joint rotations, in the data term's scale: a vertex 0.3 m from a joint.
-    const double scale = total_weight * 0.09;
+  // Applies a Gauss-Newton step: world increments accumulate down the tree; relative rotations follow.
+  auto apply_step = [&](PartPose& pose, const Eigen::Matrix<double, kUnknowns, 1>& step) {
     const auto R = part_rotations(pose);
-    for (int j = 0; j < kNumJoints; ++j) {
-      const Eigen::Vector3d& r = pose.joint_rotation[static_cast<size_t>(j)];
-      const Eigen::Matrix3d to_parent = R[static_cast<size_t>(part_parent(j + 1))].transpose();
-      auto prior = [&](double weight, const Eigen::Vector3d& residual, const Eigen::Matrix3d& Jr) {
-        N.block<3, 3>(6 + 3 * j, 6 + 3 * j) += weight * Jr.transpose() * Jr;
-        g.segment<3>(6 + 3 * j) += weight * Jr.transpose() * residual;
-      };
-      prior(o.rest_prior * scale, r, to_parent);
-      const double limit = joint_limit_degrees(j) * M_PI / 180, angle = r.norm();
-      if (angle > limit) {
-        const Eigen::Vector3d axis = r / angle;
-        prior(o.limit_prior * scale, (angle - limit) * axis, axis * axis.transpose() * to_parent);
-      }
-    }
-    N.diagonal().array() += 1e-6 * N.diagonal().mean();
-    const Eigen::Matrix<double, kUnknowns, 1> step = N.ldlt().solve(-g);
-    if (!step.allFinite()) break;
-    // Apply: world increments accumulate down the tree; relative rotations follow.
     std::array<Eigen::Matrix3d, kNumParts> W;
-    const Eigen::Matrix3d root_turn = rotation_from_axis_angle(step.segment<3>(3));
-    W[kPelvis] = root_turn * R[kPelvis];
+    W[kPelvis] = rotation_from_axis_angle(step.segment<3>(3)) * R[kPelvis];
     std::array<Eigen::Vector3d, kNumParts> increment;
     increment[kPelvis] = step.segment<3>(3);
     for (int c = 1; c < kNumParts; ++c) {
@@ -167,14 +96,7 @@ PoseFitResult fit_pose(const PoseSynthesizer& synth, const Eigen::MatrixXd& T, c
     for (int c = 1; c < kNumParts; ++c)
       pose.joint_rotation[static_cast<size_t>(c - 1)] =
           axis_angle_from_rotation(W[static_cast<size_t>(part_parent(c))].transpose() * W[static_cast<size_t>(c)]);
-    if (progress >= 1 && step.tail<kUnknowns - 3>().norm() < 1e-4 && step.head<3>().norm() < 1e-5) {
-      ++it;
-      break;
-    }
-  }
-  return it;
   };
-
   // How well a pose explains the target: the mean distance of target points to the body, each
   // capped at 10 cm so that outliers and holes do not decide.
   auto score = [&](const PartPose& pose) {
@@ -189,6 +111,165 @@ PoseFitResult fit_pose(const PoseSynthesizer& synth, const Eigen::MatrixXd& T, c
     }
     return sum / static_cast<double>(std::max<long>(n, 1));
   };
+  // One linearisation of the robust objective at a pose: pairs both ways (every sampled target
+  // point to its nearest body vertex; a sampled body vertex to its nearest target point where that is
+  // mutual), each costing rho(s) = sigma^2/2 log(1 + s/sigma^2) of s = (n.r)^2 + point_to_point |r|^2
+  // along the body's normal n; a sample with no pair within max_d costs rho(max_d^2). With the joint
+  // priors this is the objective the Levenberg-Marquardt steps below decrease.
+  using System = Eigen::Matrix<double, kUnknowns, kUnknowns>;
+  using Vector = Eigen::Matrix<double, kUnknowns, 1>;
+  struct Linearisation {
+    System N = System::Zero();
+    Vector g = Vector::Zero();
+    double cost = 0, data_weight = 0;
+  };
+  constexpr int kMaxActive = 6 + 3 * 5;  // root and the longest chain (pelvis to a hand)
+  auto linearise = [&](const Eigen::MatrixXd& T, const PointGrid& target_grid, const PartPose& pose, double max_d, double sigma,
+                       Eigen::Index model_stride, Eigen::Index target_stride, double prior_scale, double p2p) {
+    Linearisation L;
+    synth.pose(pose, o.method, &X);
+    const PartTransforms P = part_transforms(pose, joints);
+    std::array<Eigen::Vector3d, kNumJoints> centre;  // each joint's posed centre
+    for (int j = 0; j < kNumJoints; ++j) {
+      const size_t q = static_cast<size_t>(part_parent(j + 1));
+      centre[static_cast<size_t>(j)] = P.R[q] * joints.row(j).transpose() + P.t[q];
+    }
+    const Eigen::Vector3d pivot = rest_pivot + pose.root_translation;
+    const Eigen::MatrixXd normals = vertex_normals(X, synth.faces());
+    const PointGrid model_grid(X);
+    const double s2 = sigma * sigma;
+    auto rho = [&](double s) { return 0.5 * s2 * std::log1p(s / s2); };
+    const double unpaired = rho(max_d * max_d);
+    // Per part, the pairs' normal equations in the twist (t, w) of a rigid motion about the origin,
+    // J0 = [I, -[x]x]; a rotation w about a centre c is the twist ([c]x w, w), so each unknown's
+    // columns are J0 [[c]x; I] and the 6 x 6 sums map to the unknowns once per part.
+    std::array<Eigen::Matrix<double, 6, 6>, kNumParts> H;
+    std::array<Eigen::Matrix<double, 6, 1>, kNumParts> b;
+    for (int q = 0; q < kNumParts; ++q) H[static_cast<size_t>(q)].setZero(), b[static_cast<size_t>(q)].setZero();
+    auto add = [&](Eigen::Index v, const Eigen::Vector3d& y) {
+      const Eigen::Vector3d x = X.row(v).transpose(), r = x - y, n = normals.row(v).transpose();
+      const Eigen::Matrix3d M0 = n * n.transpose() + p2p * Eigen::Matrix3d::Identity();
+      const double s = r.dot(M0 * r);
+      L.cost += rho(s);
+      const double w = 1 / (1 + s / s2);
+      Eigen::Matrix<double, 3, 6> J0;
+      J0.leftCols<3>().setIdentity();
+      J0.rightCols<3>() = -skew(x);
+      const Eigen::Matrix<double, 6, 3> J0tM = w * J0.transpose() * M0;
+      const size_t q = static_cast<size_t>(part[v]);
+      H[q].noalias() += J0tM * J0;
+      b[q].noalias() += J0tM * r;
+      L.data_weight += w;
+    };
+    // Every sampled target point is explained by the body (its nearest vertex); a sampled body vertex
+    // pulls towards the target only where that is mutual (the target point's nearest vertex is close
+    // by), so that body seen nowhere (holes, occluded sides) is not dragged onto other surfaces.
+    for (Eigen::Index i = 0; i < T.rows(); i += target_stride) {
+      double sq = 0;
+      const int k = model_grid.nearest(T.row(i).transpose(), &sq, max_d);
+      if (k >= 0) add(k, T.row(i).transpose());
+      else L.cost += unpaired;
+    }
+    for (Eigen::Index v = 0; v < X.rows(); v += model_stride) {
+      double sq = 0, back = 0;
+      const int k = target_grid.nearest(X.row(v).transpose(), &sq, max_d);
+      const int u = k >= 0 ? model_grid.nearest(T.row(k).transpose(), &back, max_d) : -1;
+      if (u >= 0 && (X.row(u) - X.row(v)).squaredNorm() <= o.mutual_distance * o.mutual_distance) add(v, T.row(k).transpose());
+      else L.cost += unpaired;
+    }
+    for (int q = 0; q < kNumParts; ++q) {
+      // B maps the unknowns that move part q to its twist.
+      Eigen::Matrix<double, 6, Eigen::Dynamic, 0, 6, kMaxActive> B = Eigen::Matrix<double, 6, Eigen::Dynamic, 0, 6, kMaxActive>::Zero(6, 6);
+      std::array<int, kMaxActive> column{};
+      B.topLeftCorner<3, 3>().setIdentity();
+      B.block<3, 3>(0, 3) = skew(pivot);
+      B.block<3, 3>(3, 3).setIdentity();
+      for (int k = 0; k < 6; ++k) column[static_cast<size_t>(k)] = k;
+      for (int j : chain[static_cast<size_t>(q)]) {
+        const Eigen::Index c = B.cols();
+        B.conservativeResize(6, c + 3);
+        B.block<3, 3>(0, c) = skew(centre[static_cast<size_t>(j)]);
+        B.block<3, 3>(3, c).setIdentity();
+        for (int k = 0; k < 3; ++k) column[static_cast<size_t>(c + k)] = 6 + 3 * j + k;
+      }
+      const Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, 0, kMaxActive, kMaxActive> BtHB = B.transpose() * H[static_cast<size_t>(q)] * B;
+      const Eigen::Matrix<double, Eigen::Dynamic, 1, 0, kMaxActive, 1> Btb = B.transpose() * b[static_cast<size_t>(q)];
+      for (Eigen::Index a = 0; a < B.cols(); ++a) {
+        L.g[column[static_cast<size_t>(a)]] += Btb[a];
+        for (Eigen::Index k = 0; k < B.cols(); ++k) L.N(column[static_cast<size_t>(a)], column[static_cast<size_t>(k)]) += BtHB(a, k);
+      }
+    }
+    // Priors on the joint rotations, in the data term's scale.
+    const auto R = part_rotations(pose);
+    for (int j = 0; j < kNumJoints; ++j) {
+      const Eigen::Vector3d& r = pose.joint_rotation[static_cast<size_t>(j)];
+      const Eigen::Matrix3d to_parent = R[static_cast<size_t>(part_parent(j + 1))].transpose();
+      auto prior = [&](double weight, const Eigen::Vector3d& residual, const Eigen::Matrix3d& Jr) {
+        L.N.block<3, 3>(6 + 3 * j, 6 + 3 * j) += weight * Jr.transpose() * Jr;
+        L.g.segment<3>(6 + 3 * j) += weight * Jr.transpose() * residual;
+        L.cost += 0.5 * weight * residual.squaredNorm();
+      };
+      prior(o.rest_prior * prior_scale, r, to_parent);
+      const double limit = joint_limit_degrees(j) * M_PI / 180, angle = r.norm();
+      if (angle > limit) {
+        const Eigen::Vector3d axis = r / angle;
+        prior(o.limit_prior * prior_scale, (angle - limit) * axis, axis * axis.transpose() * to_parent);
+      }
+    }
+    return L;
+  };
+
+  // Articulated ICP from `pose`: Levenberg-Marquardt on the objective above, a step kept only when
+  // it lowers it; the correspondence distance shrinks from `d0` to `d1` over the first two thirds.
+  // Returns the linearisations made.
+  auto icp = [&](PartPose& pose, int iterations, int samples, double d0, double d1) {
+    const bool coarse = d0 != d1;
+    const Eigen::MatrixXd& TT = coarse ? T_coarse : T;
+    const PointGrid& grid = coarse ? coarse_grid : target_grid;
+    const Eigen::Index model_stride = std::max<Eigen::Index>(1, V0.rows() / std::max(1, samples));
+    const Eigen::Index target_stride = std::max<Eigen::Index>(1, TT.rows() / std::max(1, samples));
+    // The priors' scale: a vertex 0.3 m from a joint, times the pairs there can be.
+    const double prior_scale = 0.09 * static_cast<double>(TT.rows() / target_stride + V0.rows() / model_stride);
+    auto shrinking = [&](int it) { return d0 + (d1 - d0) * std::min(1.0, it / (0.66 * std::max(1, iterations - 1))); };
+    auto at = [&](const PartPose& p, double max_d) {
+      return linearise(TT, grid, p, max_d, max_d / 3, model_stride, target_stride, prior_scale,
+                       max_d != d1 ? o.point_to_point_start : o.point_to_point);
+    };
+    double damping = 1e-4, max_d = d0;
+    int it = 0;
+    Linearisation current = at(pose, max_d);
+    if (current.data_weight <= 0)
+      throw InvalidInput("fit: no target point within " + std::to_string(max_d) + " m of the body; is the target in metres and upright?");
+    while (it < iterations) {
+      System A = current.N;
+      A.diagonal() += damping * current.N.diagonal() + Vector::Constant(1e-9 * current.N.diagonal().mean());
+      const Vector step = A.ldlt().solve(-current.g);
+      if (!step.allFinite()) break;
+      PartPose trial = pose;
+      apply_step(trial, step);
+      ++it;
+      if (max_d != d1) {
+        // While the distance shrinks the objective changes with it: every step is taken.
+        pose = trial;
+        max_d = shrinking(it);
+        current = at(pose, max_d);
+        continue;
+      }
+      Linearisation next = at(trial, max_d);
+      if (next.cost < current.cost) {
+        const double gain = current.cost - next.cost;
+        pose = trial;
+        current = std::move(next);
+        damping = std::max(1e-7, damping / 3);
+        if (gain < 1e-6 * current.cost) break;
+      } else {
+        damping *= 8;  // rejected: a shorter, more gradient-like step
+        if (damping > 1e4) break;
+      }
+    }
+    return it;
+  };
+
   // Automatic start, no markers: the rest pose at four headings, then whole-body hypotheses (arms
   // forward, arms up, a half squat, sitting, a stride either way) at the best one, each standing on the target's feet and
   // refined briefly; the best of all is refined fully.

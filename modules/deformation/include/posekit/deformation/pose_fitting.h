@@ -24,6 +24,13 @@ struct PoseFitOptions {
   /// Prior on the joint rotations: a weak pull towards the rest pose, and a strong one beyond each
   /// joint's range (joint_limit_degrees), relative to the data term.
   double rest_prior = 1e-3, limit_prior = 1.0;
+  /// Weight of the point-to-point term beside the point-to-plane one (along the body's normal): low
+  /// while the distance shrinks, so that the body slides into place, high after, so that a limb
+  /// cannot slide along itself (point-to-plane alone drifts from the true pose of a squat).
+  double point_to_point_start = 1, point_to_point = 10;
+  /// A body vertex is pulled to its nearest target point only when that point's nearest vertex lies
+  /// within this distance (m) of it.
+  double mutual_distance = 0.03;
 };
 
 /// The largest rotation (degrees) each joint takes before the limit prior acts, by joint index.
