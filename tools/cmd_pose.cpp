@@ -222,6 +222,7 @@ int run_train(int argc, char** argv) {
       .flag("joint-offsets",
             "extension beyond the paper: learn where each joint sits as a function of its twist (a shoulder girdle\n"
             "                          that rises with the arm), kept per joint where it lowers the training error")
+      .option("smooth", "N", "extension beyond the paper, for noisy meshes: smooth each example's non-rigid deformation over N rounds of neighbouring triangles before Eq. 5", "0")
       .option("calibration-bodies", "N", "random MakeHuman bodies in the segmentation prior; 0: the template alone (default: 128)")
       .option("data", "DIR", "MakeHuman data root, for the prior (default: POSEKIT_DATA or ../shared/...)")
       .flag("json", "summary as JSON on stdout")
@@ -245,6 +246,9 @@ int run_train(int argc, char** argv) {
   TrainingOptions o;
   o.progress = [&](int done, int total) { progress.update(100L * done / std::max(total, 1)); };
   o.learn_joint_offsets = args.flag_set("joint-offsets");
+  const long smoothing = args.get_int("smooth");
+  if (smoothing < 0 || smoothing > 1000) throw UsageError("--smooth expects 0 to 1000 iterations, got " + args.get("smooth"));
+  o.smoothing_iterations = static_cast<int>(smoothing);
   const auto t0 = std::chrono::steady_clock::now();
   DatasetTrainingReport fits;
   PoseModel model = train_on_dataset(args.get("dataset"), o, dto, &fits);

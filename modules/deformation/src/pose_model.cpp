@@ -13,6 +13,7 @@
 
 #include "posekit/core/error.h"
 #include "posekit/core/mesh_geometry.h"
+#include "posekit/core/mesh_topology.h"
 #include "posekit/datasets/dataset.h"
 #include "posekit/deformation/part_pose_estimation.h"
 #include "posekit/deformation/pose_synthesis.h"
@@ -22,6 +23,25 @@
 
 namespace posekit {
 namespace {
+
+/// Each row of Y (one per triangle) moved halfway to the mean of its edge neighbours in the same part,
+/// `iterations` times: a smoothness prior on the observed T^Q fields (noise in the training meshes).
+void smooth_within_parts(const Eigen::MatrixXi& adjacency, const Eigen::VectorXi& part, int iterations,
+                         Eigen::Matrix<double, Eigen::Dynamic, 9, Eigen::RowMajor>* Y) {
+  Eigen::Matrix<double, Eigen::Dynamic, 9, Eigen::RowMajor> next(Y->rows(), 9);
+  for (int it = 0; it < iterations; ++it) {
+    for (Eigen::Index k = 0; k < Y->rows(); ++k) {
+      Eigen::Matrix<double, 1, 9> sum = Eigen::Matrix<double, 1, 9>::Zero();
+      int n = 0;
+      for (int c = 0; c < 3; ++c) {
+        const int o = adjacency(k, c);
+        if (o >= 0 && part[o] == part[k]) sum += Y->row(o), ++n;
+      }
+      next.row(k) = n > 0 ? Eigen::Matrix<double, 1, 9>(0.5 * Y->row(k) + 0.5 / n * sum) : Eigen::Matrix<double, 1, 9>(Y->row(k));
+    }
+    Y->swap(next);
+  }
+}
 
 
 /// [e1 e2 n/sqrt|n|] of each triangle, the frame of the deformation gradient (4th vertex).
@@ -227,6 +247,7 @@ PoseModel train_pose_model(const PoseDataset& data, const TrainingOptions& optio
   for (Eigen::Index k = 0; k < F.rows(); ++k)
     reduced[static_cast<size_t>(k)] = Eigen::MatrixXd::Zero(group_of[static_cast<size_t>(k)]->H.rows(), 9);
   const auto inv0 = inverse_frames(V0, F);
+  const Eigen::MatrixXi adjacency = options.smoothing_iterations > 0 ? face_adjacency(F) : Eigen::MatrixXi();
   auto nonrigid = [&](int example, Eigen::Index k, const std::array<Eigen::Matrix3d, kNumParts>& R) {
     const Eigen::Matrix3d D = triangle_frame(data.V[static_cast<size_t>(example)], F, k) * inv0[static_cast<size_t>(k)];
     return Eigen::Matrix3d(R[static_cast<size_t>(model.triangle_part[k])].transpose() * D);
@@ -236,12 +257,14 @@ PoseModel train_pose_model(const PoseDataset& data, const TrainingOptions& optio
     if (data.V[static_cast<size_t>(ex)].rows() != V0.rows())
       throw InvalidInput("train_pose_model: example '" + data.names[static_cast<size_t>(ex)] + "' has another vertex count");
     const auto R = part_rotations(data.poses[static_cast<size_t>(ex)]);
+    Eigen::Matrix<double, Eigen::Dynamic, 9, Eigen::RowMajor> Y(F.rows(), 9);
     for (Eigen::Index k = 0; k < F.rows(); ++k) {
       const Eigen::Matrix3d Q = nonrigid(ex, k, R);
-      const Eigen::Matrix3d Y = options.identity_at_rest ? Eigen::Matrix3d(Q - Eigen::Matrix3d::Identity()) : Q;
-      reduced[static_cast<size_t>(k)] += group_of[static_cast<size_t>(k)]->H.col(e) * Eigen::Matrix<double, 1, 9>(
-          Y(0, 0), Y(0, 1), Y(0, 2), Y(1, 0), Y(1, 1), Y(1, 2), Y(2, 0), Y(2, 1), Y(2, 2));
+      const Eigen::Matrix3d y = options.identity_at_rest ? Eigen::Matrix3d(Q - Eigen::Matrix3d::Identity()) : Q;
+      Y.row(k) << y(0, 0), y(0, 1), y(0, 2), y(1, 0), y(1, 1), y(1, 2), y(2, 0), y(2, 1), y(2, 2);
     }
+    if (options.smoothing_iterations > 0) smooth_within_parts(adjacency, model.triangle_part, options.smoothing_iterations, &Y);
+    for (Eigen::Index k = 0; k < F.rows(); ++k) reduced[static_cast<size_t>(k)] += group_of[static_cast<size_t>(k)]->H.col(e) * Y.row(k);
     if (options.progress) options.progress(e + 1, 2 * m);
   }
   // Back to raw twists: x -> P^T (x - mean), so W = P B_lin and bias = B_bias - mean^T W.

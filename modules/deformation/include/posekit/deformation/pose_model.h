@@ -56,6 +56,11 @@ struct TrainingOptions {
   /// quadratic terms with a small ridge; kept per joint only where it lowers the training error of
   /// the vertices it moves.
   bool learn_joint_offsets = false;
+  /// An extension beyond the paper (0, the default, is Eq. 5 as published; issue 18, part 5): a
+  /// smoothness prior for noisy training meshes. Each example's observed T^Q field is smoothed this many
+  /// times over edge-adjacent triangles of the same part (each moved halfway to its neighbours' mean)
+  /// before the regression.
+  int smoothing_iterations = 0;
   std::function<void(int, int)> progress;
 };
 
