@@ -672,8 +672,8 @@ int run_fit(int argc, char** argv) {
       .option("unit", "U", "unit of the subject: m, dm, cm, mm or auto", "auto")
       .option("target-unit", "U", "unit of the target: m, dm, cm, mm or auto", "auto")
       .option("method", "NAME", "posing inside the loop: learned, lbs or rigid", "learned")
-      .option("out", "FILE", "the fitted body (PLY with 'residual_mm' and 'part')")
-      .option("pose-out", "FILE", "the fitted 16-part pose (JSON)")
+      .option("out", "FILE", "the fitted body in the target's axes, in metres (PLY with 'residual_mm' and 'part')")
+      .option("pose-out", "FILE", "the fitted 16-part pose (JSON; root rotation and translation in the subject's frame, Y up)")
       .option("iterations", "N", "ICP iterations", "40")
       .flag("json", "summary as JSON on stdout")
       .example("posekit fit --model model.pkm --subject ds/subjects/f01/rest.ply --target ds/scans/f01/squat_half.pcd "
@@ -690,6 +690,7 @@ int run_fit(int argc, char** argv) {
   BodyUnit target_unit;
   BodyInput target_input = read_body_input(args.get("target"), args.get("target-unit"), "fit", &target_unit);
   Eigen::MatrixXd T = target_input.is_cloud ? target_input.cloud.P : target_input.mesh.V;
+  Eigen::Matrix3d target_to_fit = Eigen::Matrix3d::Identity();  // p_fit = target_to_fit * p_target
   {
     // Only the vertical matters: the fit finds the heading itself (a twisted or walking body fools
     // the shape-based forward).
@@ -697,9 +698,14 @@ int run_fit(int argc, char** argv) {
     if (args.get("target-up") != "auto") {
       up = parse_axis(args.get("target-up"));
     } else {
-      up = (target_input.is_cloud ? detect_body_orientation(T) : detect_mesh_orientation(T, target_input.mesh.F)).up();
+      // Arms reaching forward tilt the shape's long axis by 10 degrees or more; the fit finds any
+      // tilt itself, so a vertical within 30 degrees of a file axis is that axis.
+      OrientationOptions detect;
+      detect.snap_degrees = 30;
+      up = (target_input.is_cloud ? detect_body_orientation(T, {}, detect) : detect_mesh_orientation(T, target_input.mesh.F, detect)).up();
     }
-    const Eigen::Matrix3d R = Eigen::Quaterniond::FromTwoVectors(up.normalized(), Eigen::Vector3d::UnitY()).toRotationMatrix();
+    target_to_fit = Eigen::Quaterniond::FromTwoVectors(up.normalized(), Eigen::Vector3d::UnitY()).toRotationMatrix();
+    const Eigen::Matrix3d& R = target_to_fit;
     if (!R.isIdentity(1e-12)) {
       T = (T * R.transpose()).eval();
       std::cerr << "posekit fit: " << args.get("target") << ": up " << axis_name(up) << ", turned to +Y\n";
@@ -715,7 +721,7 @@ int run_fit(int argc, char** argv) {
   if (args.has("pose-out")) write_part_pose(args.get("pose-out"), r.pose);
   if (args.has("out")) {
     TriangleMesh fitted = subject;
-    fitted.V = r.V;
+    fitted.V = r.V * target_to_fit;  // back in the target's axes, to overlay the scan
     fitted.N.resize(0, 3);
     fitted.vertex_scalars["residual_mm"] = 1000 * r.residual;
     fitted.vertex_scalars["part"] = synth.vertex_parts().cast<double>();
