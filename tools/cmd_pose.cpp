@@ -698,11 +698,7 @@ int run_fit(int argc, char** argv) {
     if (args.get("target-up") != "auto") {
       up = parse_axis(args.get("target-up"));
     } else {
-      // Arms reaching forward tilt the shape's long axis by 10 degrees or more; the fit finds any
-      // tilt itself, so a vertical within 30 degrees of a file axis is that axis.
-      OrientationOptions detect;
-      detect.snap_degrees = 30;
-      up = (target_input.is_cloud ? detect_body_orientation(T, {}, detect) : detect_mesh_orientation(T, target_input.mesh.F, detect)).up();
+      up = (target_input.is_cloud ? detect_body_orientation(T) : detect_mesh_orientation(T, target_input.mesh.F)).up();
     }
     target_to_fit = Eigen::Quaterniond::FromTwoVectors(up.normalized(), Eigen::Vector3d::UnitY()).toRotationMatrix();
     const Eigen::Matrix3d& R = target_to_fit;

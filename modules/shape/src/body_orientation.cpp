@@ -152,13 +152,13 @@ BodyOrientation detect_body_orientation(const Eigen::MatrixXd& P, const Eigen::V
     const Eigen::Vector3d longest = pca.eigenvectors().col(2);
     if (spread[2] > kMinElongation * spread[1] && std::abs(longest.dot(up)) < std::cos(30 * kPi / 180))
       o.warnings.push_back("the up axis given, " + axis_name(up) + ", is not the body's long axis (" +
-                           axis_name(snap_to_axis(longest, options.snap_degrees)) + "): is the body lying down?");
+                           axis_name(snap_to_axis(longest, options.up_snap_degrees)) + "): is the body lying down?");
   } else {
     if (!(spread[2] > kMinElongation * spread[1]))
       throw InvalidInput("orientation: the body has no clear long axis (its spreads are " + fixed(spread[2], 3) + ", " +
                          fixed(spread[1], 3) + " and " + fixed(spread[0], 3) +
                          "): not a standing body, or a part of one; give its axes (--up, --forward)");
-    up = snap_to_axis(pca.eigenvectors().col(2), options.snap_degrees);
+    up = snap_to_axis(pca.eigenvectors().col(2), options.up_snap_degrees);
     o.up_detected = true;
   }
 
@@ -236,7 +236,7 @@ BodyOrientation detect_body_orientation(const Eigen::MatrixXd& P, const Eigen::V
       o.warnings.push_back("the chest is turned " + fixed(twist, 0) +
                            " degrees from the hips (a twisted torso): posekit's frame follows the chest; give --forward for the hips'");
     // Snap to the file's axis nearest in the horizontal plane.
-    const Eigen::Vector3d snapped = snap_to_axis(forward, options.snap_degrees);
+    const Eigen::Vector3d snapped = snap_to_axis(forward, options.forward_snap_degrees);
     if (std::abs(snapped.dot(up)) < 1e-9) forward = snapped;
     o.forward_detected = true;
 

@@ -33,9 +33,10 @@ std::string axis_name(const Eigen::Vector3d& direction);
 BodyOrientation orientation_from_axes(const Eigen::Vector3d& up, const Eigen::Vector3d& forward);
 
 struct OrientationOptions {
-  /// Detected directions within this angle of a coordinate axis become that axis exactly: files
-  /// are written in axis conventions, and a scanner's vertical is exact.
-  double snap_degrees = 10;
+  /// Detected directions within these angles of a coordinate axis become that axis exactly: files
+  /// are written in axis conventions, and a scanner's vertical is exact. The vertical's tolerance is
+  /// wider: a posed body's long axis leans (arms reaching forward: 11.5 degrees on m05).
+  double up_snap_degrees = 30, forward_snap_degrees = 10;
   /// Directions the user gave (file axes, zero = detect). A given up is kept; a given forward is
   /// kept too, and must then be perpendicular to the up.
   Eigen::Vector3d up = Eigen::Vector3d::Zero(), forward = Eigen::Vector3d::Zero();
