@@ -43,7 +43,6 @@ void smooth_within_parts(const Eigen::MatrixXi& adjacency, const Eigen::VectorXi
   }
 }
 
-
 /// [e1 e2 n/sqrt|n|] of each triangle, the frame of the deformation gradient (4th vertex).
 Eigen::Matrix3d triangle_frame(const Eigen::MatrixXd& V, const Eigen::MatrixXi& F, Eigen::Index k) {
   const Eigen::Vector3d a = V.row(F(k, 0)), b = V.row(F(k, 1)), c = V.row(F(k, 2));
