@@ -663,9 +663,10 @@ int run_fit(int argc, char** argv) {
                  "target's vertical is detected; the rest pose on its feet at four headings, then six whole-body\n"
                  "starts (arms forward or up, half squat, sitting, a stride either way) are refined briefly and the\n"
                  "best fully by articulated ICP with the posing method in the loop (learned by default),\n"
-                 "correspondences both ways, Cauchy weights, a weak rest prior and the joints' ranges of motion\n"
-                 "as priors. Writes the pose, the fitted body with its per-vertex\n"
-                 "distance to the target (PLY scalar 'residual_mm') and a summary.");
+                 "correspondences both ways, Cauchy weights, a weak rest prior (in the final refinement on each\n"
+                 "joint's swing, its twist about the bone weighted 0.1: the data decides the twist) and the joints'\n"
+                 "ranges of motion as priors. Writes the pose, the fitted body with its per-vertex distance to the\n"
+                 "target (PLY scalar 'residual_mm') and a summary. --start skips the search (e.g. the previous frame's pose).");
   args.option("model", "FILE", "trained model (.pkm, posekit train)")
       .option("subject", "FILE", "the body to pose, standing at rest (PLY/OBJ/OFF/STL)")
       .option("target", "FILE", "scan (PCD/PLY/XYZ) or mesh to match, upright")
@@ -675,6 +676,7 @@ int run_fit(int argc, char** argv) {
       .option("out", "FILE", "the fitted body in the target's axes, in metres (PLY with 'residual_mm' and 'part')")
       .option("pose-out", "FILE", "the fitted 16-part pose (JSON; root rotation and translation in the subject's frame, Y up)")
       .option("iterations", "N", "ICP iterations", "40")
+      .option("start", "FILE", "start from this 16-part pose (e.g. the previous frame's --pose-out) instead of searching")
       .flag("json", "summary as JSON on stdout")
       .example("posekit fit --model model.pkm --subject ds/subjects/f01/rest.ply --target ds/scans/f01/squat_half.pcd "
                "--out fitted.ply --pose-out pose.json");
@@ -712,6 +714,7 @@ int run_fit(int argc, char** argv) {
   o.method = parse_pose_method(args.get("method"));
   o.iterations = static_cast<int>(args.get_int("iterations"));
   if (o.iterations < 1) throw UsageError("--iterations must be at least 1");
+  if (args.has("start")) o.start = read_part_pose(args.get("start"));
   const PoseFitResult r = fit_pose(synth, T, o);
   for (const auto& w : r.warnings) std::cerr << "warning: " << args.get("target") << ": " << w << "\n";
   if (args.has("pose-out")) write_part_pose(args.get("pose-out"), r.pose);
@@ -748,9 +751,11 @@ int run_eval_fit(int argc, char** argv) {
   args.option("dataset", "DIR", "a posekit dataset")
       .option("model", "FILE", "trained model (.pkm)")
       .option("subjects", "N", "the first N subjects (0: all)", "0")
+      .flag("from-truth", "start every fit at the true pose instead of searching: what the objective itself gives")
       .flag("json", "results as JSON on stdout");
   if (!args.parse(argc, argv)) return 0;
   if (!args.has("dataset") || !args.has("model")) throw UsageError("--dataset DIR and --model FILE are required");
+  const bool from_truth = args.flag_set("from-truth");
   const std::string dir = args.get("dataset");
   const auto model = std::make_shared<const PoseModel>(read_pose_model(args.get("model")));
   const auto manifest = nlohmann::json::parse(read_file_bytes(dir + "/manifest.json"));
@@ -775,6 +780,7 @@ int run_eval_fit(int argc, char** argv) {
       for (PoseMethod method : {PoseMethod::kLearned, PoseMethod::kLbs}) {
         PoseFitOptions o;
         o.method = method;
+        if (from_truth) o.start = truth;
         const PoseFitResult r = fit_pose(synth, cloud.P, o);
         const std::vector<double> angles = joint_angle_errors(r.pose, truth);
         const double angle_mean = std::accumulate(angles.begin(), angles.end(), 0.0) / static_cast<double>(angles.size());

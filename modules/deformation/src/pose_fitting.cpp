@@ -79,6 +79,35 @@ PoseFitResult fit_pose(const PoseSynthesizer& synth, const Eigen::MatrixXd& T, c
   const Eigen::Vector3d rest_pivot =
       (joints.row(kAbdomen - 1) + joints.row(kLeftThigh - 1) + joints.row(kRightThigh - 1)).transpose() / 3;
 
+  // Each joint's bone axis at rest: from the joint to the centroid of the part it moves.
+  std::array<Eigen::Vector3d, kNumJoints> bone_axis;
+  {
+    std::array<Eigen::Vector3d, kNumParts> sum;
+    std::array<int, kNumParts> count{};
+    for (auto& v : sum) v.setZero();
+    for (Eigen::Index v = 0; v < V0.rows(); ++v)
+      if (part[v] >= 0 && part[v] < kNumParts) sum[static_cast<size_t>(part[v])] += V0.row(v).transpose(), ++count[static_cast<size_t>(part[v])];
+    for (int j = 0; j < kNumJoints; ++j) {
+      const size_t c = static_cast<size_t>(j + 1);
+      const Eigen::Vector3d d = count[c] > 0 ? Eigen::Vector3d(sum[c] / count[c] - joints.row(j).transpose()) : Eigen::Vector3d::Zero();
+      bone_axis[static_cast<size_t>(j)] = d.norm() > 1e-9 ? Eigen::Vector3d(d.normalized()) : Eigen::Vector3d::UnitY();
+    }
+  }
+  // The final refinement's prior residual of a joint rotation: its swing (the rotation left after
+  // removing the twist about the bone axis, by the swing-twist decomposition of its quaternion) plus
+  // the twist angle, weighted, along the bone.
+  auto refinement_prior_residual = [&](int j, const Eigen::Vector3d& r) {
+    const Eigen::Quaterniond q(Eigen::AngleAxisd(r.norm(), r.norm() > 1e-12 ? Eigen::Vector3d(r.normalized()) : Eigen::Vector3d::UnitX()));
+    const Eigen::Vector3d& a = bone_axis[static_cast<size_t>(j)];
+    Eigen::Quaterniond t(q.w(), 0, 0, 0);
+    t.vec() = q.vec().dot(a) * a;
+    if (t.norm() < 1e-12) return r;  // a half turn about an axis across the bone: all swing
+    t.normalize();
+    const Eigen::AngleAxisd s(q * t.conjugate());
+    const double twist = 2 * std::atan2(t.vec().dot(a), t.w());
+    return Eigen::Vector3d(s.angle() * s.axis() + o.refinement_twist_weight * twist * a);
+  };
+  bool refining = false;  // the final refinement: the rest prior on swing and weighted twist
   Eigen::MatrixXd X;
   // Applies a Gauss-Newton step: world increments accumulate down the tree; relative rotations follow.
   auto apply_step = [&](PartPose& pose, const Eigen::Matrix<double, kUnknowns, 1>& step) {
@@ -211,7 +240,22 @@ PoseFitResult fit_pose(const PoseSynthesizer& synth, const Eigen::MatrixXd& T, c
         L.g.segment<3>(6 + 3 * j) += weight * Jr.transpose() * residual;
         L.cost += 0.5 * weight * residual.squaredNorm();
       };
-      prior(o.rest_prior * prior_scale, r, to_parent);
+      if (refining) {
+        // Its derivative by the world increment of this joint, by central differences.
+        const Eigen::Vector3d s0 = refinement_prior_residual(j, r);
+        Eigen::Matrix3d Js;
+        const Eigen::Matrix3d Rr = rotation_from_axis_angle(r), P = to_parent.transpose();
+        for (int k = 0; k < 3; ++k) {
+          const double h = 1e-6;
+          const Eigen::Vector3d e = Eigen::Vector3d::Unit(k) * h;
+          const Eigen::Vector3d rp = axis_angle_from_rotation(to_parent * rotation_from_axis_angle(e) * P * Rr);
+          const Eigen::Vector3d rm = axis_angle_from_rotation(to_parent * rotation_from_axis_angle(-e) * P * Rr);
+          Js.col(k) = (refinement_prior_residual(j, rp) - refinement_prior_residual(j, rm)) / (2 * h);
+        }
+        prior(o.rest_prior * prior_scale, s0, Js);
+      } else {
+        prior(o.rest_prior * prior_scale, r, to_parent);
+      }
       const double limit = joint_limit_degrees(j) * M_PI / 180, angle = r.norm();
       if (angle > limit) {
         const Eigen::Vector3d axis = r / angle;
@@ -296,14 +340,15 @@ PoseFitResult fit_pose(const PoseSynthesizer& synth, const Eigen::MatrixXd& T, c
   // First the heading (the target may face any way about its vertical), standing at rest.
   double best = std::numeric_limits<double>::infinity();
   const PartPose standing = pose;
-  for (int quarter = 0; quarter < 4; ++quarter) {
+  for (int quarter = 0; quarter < 4 && !o.start; ++quarter) {
     PartPose start = standing;
     start.root_rotation = quarter * M_PI / 2 * Eigen::Vector3d::UnitY();
     refine_and_keep(start, &best, &pose);
   }
   // Then whole-body hypotheses at that heading.
   const Eigen::Vector3d heading = pose.root_rotation;
-  for (const auto& joints_deg :
+  if (o.start) pose = *o.start;
+  for (const auto& joints_deg : o.start ? std::vector<std::vector<std::pair<const char*, Eigen::Vector3d>>>{} :
        std::vector<std::vector<std::pair<const char*, Eigen::Vector3d>>>{
            {{"left_shoulder", -90 * X_}, {"right_shoulder", -90 * X_}},
            {{"left_shoulder", 130 * Z_}, {"right_shoulder", -130 * Z_}},
@@ -316,6 +361,7 @@ PoseFitResult fit_pose(const PoseSynthesizer& synth, const Eigen::MatrixXd& T, c
     start.root_rotation = heading;
     refine_and_keep(start, &best, &pose);
   }
+  refining = true;
   const int it = icp(pose, o.iterations, o.model_samples, o.max_distance_end, o.max_distance_end);
   out.iterations = it;
   out.pose = pose;

@@ -4,6 +4,7 @@
 // (issue 18, part 2). To compare a posed model with a posed scan (Figure 9 of Zhu & Mok) the scan's
 // pose must be known; the paper picked markers by hand.
 #include <Eigen/Core>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -24,6 +25,12 @@ struct PoseFitOptions {
   /// Prior on the joint rotations: a weak pull towards the rest pose, and a strong one beyond each
   /// joint's range (joint_limit_degrees), relative to the data term.
   double rest_prior = 1e-3, limit_prior = 1.0;
+  /// In the final refinement the rest prior pulls each joint's swing, and its twist about the bone
+  /// only with this weight (relative to the swing; 1: about as the whole rotation): pulling the
+  /// whole rotation towards the rest favours the smallest rotation that points a limb, which twisted
+  /// arms reaching forward 27 degrees away from their true pose. Some weight still settles how a
+  /// twist is shared along a limb (elbow against wrist), which the surface hardly shows.
+  double refinement_twist_weight = 0.1;
   /// Weight of the point-to-point term beside the point-to-plane one (along the body's normal): low
   /// while the distance shrinks, so that the body slides into place, high after, so that a limb
   /// cannot slide along itself (point-to-plane alone drifts from the true pose of a squat).
@@ -31,6 +38,9 @@ struct PoseFitOptions {
   /// A body vertex is pulled to its nearest target point only when that point's nearest vertex lies
   /// within this distance (m) of it.
   double mutual_distance = 0.03;
+  /// When set, the fit starts from this pose (e.g. the previous frame of a sequence) instead of
+  /// searching headings and whole-body hypotheses.
+  std::optional<PartPose> start;
 };
 
 /// The largest rotation (degrees) each joint takes before the limit prior acts, by joint index.
