@@ -213,3 +213,19 @@ TEST(PoseFitting, LeavesTheTwistOfAStraightArmToTheData) {
   EXPECT_GT(whole, light_twist + 10);
   std::cout << "shoulder error from the true pose: " << light_twist << " degrees (twist weighted as swing: " << whole << ")\n";
 }
+
+TEST(PoseFitting, WarnsWhenTheTargetDoesNotShowAPart) {
+  // With the hands cut off a scan leaves the wrists to the priors (57 degrees off once): said, not silent.
+  const auto& ds = test::small_dataset();
+  const TriangleMesh subject = load_subject_mesh(ds.root + "/subjects/f01/rest.ply");
+  const PoseSynthesizer synth(small_model(), subject);
+  const TriangleMesh truth_mesh = read_mesh(ds.root + "/subjects/f01/posed/walk_phase_1.ply");
+  std::vector<Eigen::Index> kept;
+  for (Eigen::Index v = 0; v < truth_mesh.V.rows(); ++v)
+    if (synth.vertex_parts()[v] != kLeftHand && synth.vertex_parts()[v] != kRightHand) kept.push_back(v);
+  const PoseFitResult fit = fit_pose(synth, truth_mesh.V(kept, Eigen::all));
+  int wrists = 0;
+  for (const auto& w : fit.warnings) wrists += w.find("wrist' is a guess") != std::string::npos;
+  EXPECT_EQ(wrists, 2);
+  EXPECT_TRUE(fit_pose(synth, truth_mesh.V).warnings.empty());
+}
