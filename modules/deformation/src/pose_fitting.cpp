@@ -107,6 +107,26 @@ PoseFitResult fit_pose(const PoseSynthesizer& synth, const Eigen::MatrixXd& T, c
     const double twist = 2 * std::atan2(t.vec().dot(a), t.w());
     return Eigen::Vector3d(s.angle() * s.axis() + o.refinement_twist_weight * twist * a);
   };
+  // Elbows and knees are hinges: they flex about the axis across the bone in the body's frontal
+  // plane (bone x forward; the rest body faces +Z) and twist about the bone, but barely swing about
+  // the third axis (no varus or valgus). The off-hinge part of a hinge joint's swing, by index.
+  std::array<Eigen::Vector3d, kNumJoints> off_hinge_axis;
+  for (auto& n : off_hinge_axis) n.setZero();
+  for (int c : {kLeftForearm, kRightForearm, kLeftShank, kRightShank}) {
+    const Eigen::Vector3d& a = bone_axis[static_cast<size_t>(c - 1)];
+    const Eigen::Vector3d h = a.cross(Eigen::Vector3d::UnitZ());
+    if (h.norm() > 0.5) off_hinge_axis[static_cast<size_t>(c - 1)] = h.normalized().cross(a).normalized();
+  }
+  auto off_hinge_swing = [&](int j, const Eigen::Vector3d& r) {
+    const Eigen::Vector3d& n = off_hinge_axis[static_cast<size_t>(j)];
+    const Eigen::Quaterniond q(Eigen::AngleAxisd(r.norm(), r.norm() > 1e-12 ? Eigen::Vector3d(r.normalized()) : Eigen::Vector3d::UnitX()));
+    const Eigen::Vector3d& a = bone_axis[static_cast<size_t>(j)];
+    Eigen::Quaterniond t(q.w(), 0, 0, 0);
+    t.vec() = q.vec().dot(a) * a;
+    if (t.norm() < 1e-12) return r.dot(n);
+    const Eigen::AngleAxisd s(q * t.normalized().conjugate());
+    return s.angle() * s.axis().dot(n);
+  };
   bool refining = false;  // the final refinement: the rest prior on swing and weighted twist
   Eigen::MatrixXd X;
   // Applies a Gauss-Newton step: world increments accumulate down the tree; relative rotations follow.
@@ -255,6 +275,18 @@ PoseFitResult fit_pose(const PoseSynthesizer& synth, const Eigen::MatrixXd& T, c
         prior(o.rest_prior * prior_scale, s0, Js);
       } else {
         prior(o.rest_prior * prior_scale, r, to_parent);
+      }
+      if (o.hinge_prior > 0 && off_hinge_axis[static_cast<size_t>(j)].squaredNorm() > 0) {
+        const Eigen::Vector3d& n = off_hinge_axis[static_cast<size_t>(j)];
+        const Eigen::Matrix3d Rr = rotation_from_axis_angle(r), P = to_parent.transpose();
+        Eigen::RowVector3d de;
+        for (int k = 0; k < 3; ++k) {
+          const double h = 1e-6;
+          const Eigen::Vector3d e = Eigen::Vector3d::Unit(k) * h;
+          de[k] = (off_hinge_swing(j, axis_angle_from_rotation(to_parent * rotation_from_axis_angle(e) * P * Rr)) -
+                   off_hinge_swing(j, axis_angle_from_rotation(to_parent * rotation_from_axis_angle(-e) * P * Rr))) / (2 * h);
+        }
+        prior(o.hinge_prior * prior_scale, off_hinge_swing(j, r) * n, n * de);
       }
       const double limit = joint_limit_degrees(j) * M_PI / 180, angle = r.norm();
       if (angle > limit) {

@@ -31,6 +31,9 @@ struct PoseFitOptions {
   /// arms reaching forward 27 degrees away from their true pose. Some weight still settles how a
   /// twist is shared along a limb (elbow against wrist), which the surface hardly shows.
   double refinement_twist_weight = 0.1;
+  /// Prior on the swing of elbows and knees off their hinge (about the axis across both the bone and
+  /// the flexion axis), relative to the data term like rest_prior: 0 treats them as ball joints.
+  double hinge_prior = 0.1;
   /// Weight of the point-to-point term beside the point-to-plane one (along the body's normal): low
   /// while the distance shrinks, so that the body slides into place, high after, so that a limb
   /// cannot slide along itself (point-to-plane alone drifts from the true pose of a squat).
