@@ -215,7 +215,8 @@ TEST(PoseFitting, LeavesTheTwistOfAStraightArmToTheData) {
 }
 
 TEST(PoseFitting, WarnsWhenTheTargetDoesNotShowAPart) {
-  // With the hands cut off a scan leaves the wrists to the priors (57 degrees off once): said, not silent.
+  // With the hands cut off a scan leaves the wrists to the priors (57 degrees off once): they are held
+  // at rest, and that is said.
   const auto& ds = test::small_dataset();
   const TriangleMesh subject = load_subject_mesh(ds.root + "/subjects/f01/rest.ply");
   const PoseSynthesizer synth(small_model(), subject);
@@ -225,8 +226,10 @@ TEST(PoseFitting, WarnsWhenTheTargetDoesNotShowAPart) {
     if (synth.vertex_parts()[v] != kLeftHand && synth.vertex_parts()[v] != kRightHand) kept.push_back(v);
   const PoseFitResult fit = fit_pose(synth, truth_mesh.V(kept, Eigen::all));
   int wrists = 0;
-  for (const auto& w : fit.warnings) wrists += w.find("wrist' is a guess") != std::string::npos;
+  for (const auto& w : fit.warnings) wrists += w.find("wrist' is held at its rest rotation") != std::string::npos;
   EXPECT_EQ(wrists, 2);
+  for (const char* name : {"left_wrist", "right_wrist"})
+    EXPECT_LT(fit.pose.joint_rotation[static_cast<size_t>(find_joint_index(name))].norm() * 180 / M_PI, 1.0) << name;
   EXPECT_TRUE(fit_pose(synth, truth_mesh.V).warnings.empty());
 }
 

@@ -128,6 +128,7 @@ PoseFitResult fit_pose(const PoseSynthesizer& synth, const Eigen::MatrixXd& T, c
     return s.angle() * s.axis().dot(n);
   };
   bool refining = false;  // the final refinement: the rest prior on swing and weighted twist
+  std::array<bool, kNumJoints> held{};  // joints of parts the target does not show: held at rest
   Eigen::MatrixXd X;
   // Applies a Gauss-Newton step: world increments accumulate down the tree; relative rotations follow.
   auto apply_step = [&](PartPose& pose, const Eigen::Matrix<double, kUnknowns, 1>& step) {
@@ -260,7 +261,9 @@ PoseFitResult fit_pose(const PoseSynthesizer& synth, const Eigen::MatrixXd& T, c
         L.g.segment<3>(6 + 3 * j) += weight * Jr.transpose() * residual;
         L.cost += 0.5 * weight * residual.squaredNorm();
       };
-      if (refining) {
+      if (held[static_cast<size_t>(j)]) {
+        prior(o.limit_prior * prior_scale, r, to_parent);
+      } else if (refining) {
         // Its derivative by the world increment of this joint, by central differences.
         const Eigen::Vector3d s0 = refinement_prior_residual(j, r);
         Eigen::Matrix3d Js;
@@ -394,20 +397,45 @@ PoseFitResult fit_pose(const PoseSynthesizer& synth, const Eigen::MatrixXd& T, c
     refine_and_keep(start, &best, &pose);
   }
   refining = true;
-  const int it = icp(pose, o.iterations, o.model_samples, o.max_distance_end, o.max_distance_end);
-  out.iterations = it;
-  out.pose = pose;
-  synth.pose(pose, o.method, &X);
-  out.V = X;
-  // Residuals: each vertex to the target, each target point to the body.
-  out.residual.resize(X.rows());
-  int covered = 0;
-  for (Eigen::Index v = 0; v < X.rows(); ++v) {
-    double sq = 0;
-    target_grid.nearest(X.row(v).transpose(), &sq);
-    out.residual[v] = std::sqrt(sq);
-    covered += out.residual[v] < 0.01;
+  out.iterations = icp(pose, o.iterations, o.model_samples, o.max_distance_end, o.max_distance_end);
+  // Residuals (each vertex to the target) and the fraction of each part within 1 cm of it.
+  std::array<int, kNumParts> part_vertices{}, part_covered{};
+  auto residuals = [&] {
+    synth.pose(pose, o.method, &X);
+    out.residual.resize(X.rows());
+    part_vertices.fill(0), part_covered.fill(0);
+    for (Eigen::Index v = 0; v < X.rows(); ++v) {
+      double sq = 0;
+      target_grid.nearest(X.row(v).transpose(), &sq);
+      out.residual[v] = std::sqrt(sq);
+      if (part[v] >= 0 && part[v] < kNumParts)
+        ++part_vertices[static_cast<size_t>(part[v])], part_covered[static_cast<size_t>(part[v])] += out.residual[v] < 0.01;
+    }
+  };
+  residuals();
+  // A part the target does not show (cut off, hidden), nor any part beyond it, has its joint set by the
+  // priors and its neighbours' pairs alone: with the hands cut off the wrists came out 57 degrees off.
+  // Such a joint is held at its rest rotation (the least committal guess) and the rest refined again.
+  auto unseen = [&](int c) {
+    return part_vertices[static_cast<size_t>(c)] > 0 && part_covered[static_cast<size_t>(c)] < 0.2 * part_vertices[static_cast<size_t>(c)];
+  };
+  for (int c = 1; c < kNumParts; ++c) {
+    bool all = unseen(c);
+    for (int d = c + 1; d < kNumParts && all; ++d)
+      for (int a = d; a > 0 && all; a = part_parent(a))
+        if (a == c) all = unseen(d);
+    held[static_cast<size_t>(c - 1)] = all;
   }
+  if (std::find(held.begin(), held.end(), true) != held.end()) {
+    for (int j = 0; j < kNumJoints; ++j)
+      if (held[static_cast<size_t>(j)]) pose.joint_rotation[static_cast<size_t>(j)].setZero();
+    out.iterations += icp(pose, std::max(1, o.iterations / 4), o.model_samples, o.max_distance_end, o.max_distance_end);
+    residuals();
+  }
+  out.pose = pose;
+  out.V = X;
+  int covered = 0;
+  for (Eigen::Index v = 0; v < X.rows(); ++v) covered += out.residual[v] < 0.01;
   out.coverage = static_cast<double>(covered) / static_cast<double>(std::max<Eigen::Index>(1, X.rows()));
   const PointGrid body_grid(X);
   std::vector<double> to_body;
@@ -428,17 +456,12 @@ PoseFitResult fit_pose(const PoseSynthesizer& synth, const Eigen::MatrixXd& T, c
   if (out.target_p95 > 0.03)
     msg << std::fixed << "a twentieth of the target lies over " << 1000 * out.target_p95 << " mm from the fitted body",
         out.warnings.push_back(msg.str()), msg.str("");
-  // A part the target does not show (cut off, hidden) has its joint set by the priors and its
-  // neighbours' pairs alone: with the hands cut off the wrists came out 57 degrees off, unwarned.
-  std::array<int, kNumParts> part_vertices{}, part_covered{};
-  for (Eigen::Index v = 0; v < X.rows(); ++v)
-    if (part[v] >= 0 && part[v] < kNumParts)
-      ++part_vertices[static_cast<size_t>(part[v])], part_covered[static_cast<size_t>(part[v])] += out.residual[v] < 0.01;
   for (int c = 1; c < kNumParts; ++c) {
     const size_t q = static_cast<size_t>(c);
-    if (part_vertices[q] > 0 && part_covered[q] < 0.2 * part_vertices[q])
+    if (unseen(c))
       msg << std::fixed << "only " << 100.0 * part_covered[q] / part_vertices[q] << "% of the " << part_name(c)
-          << " lies within 1 cm of the target (cut off or hidden?): joint '" << joint_name(c - 1) << "' is a guess",
+          << " lies within 1 cm of the target (cut off or hidden?): joint '" << joint_name(c - 1)
+          << (held[q - 1] ? "' is held at its rest rotation" : "' is a guess"),
           out.warnings.push_back(msg.str()), msg.str("");
   }
   for (int j = 0; j < kNumJoints; ++j)
