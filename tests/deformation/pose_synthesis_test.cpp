@@ -5,7 +5,10 @@
 #include <Eigen/Geometry>
 #include <algorithm>
 #include <cmath>
+#include <initializer_list>
 #include <iostream>
+#include <numeric>
+#include <vector>
 
 #include "posekit/core/error.h"
 #include "posekit/core/mesh_geometry.h"
@@ -187,28 +190,45 @@ TEST(PoseFitting, FindsThePoseOfAScanWithoutMarkersAndAtAnyHeading) {
   EXPECT_THROW(fit_pose(synth, Eigen::MatrixXd::Zero(10, 3)), InvalidInput);
 }
 
+namespace {
+
+// Each named joint's rotation error (degrees) of a fitted pose against the truth.
+std::vector<double> joint_errors_degrees(const PartPose& fitted, const PartPose& truth, std::initializer_list<const char*> names) {
+  std::vector<double> e;
+  for (const char* name : names) {
+    const size_t j = static_cast<size_t>(find_joint_index(name));
+    e.push_back(rotation_difference(fitted.joint_rotation[j], truth.joint_rotation[j]) * 180 / M_PI);
+  }
+  return e;
+}
+
+// The small dataset's f01 with the small model, its true pose and its simulated scan in `pose`.
+struct F01InPose {
+  explicit F01InPose(const std::string& pose)
+      : synth(small_model(), load_subject_mesh(test::small_dataset().root + "/subjects/f01/rest.ply")),
+        truth(read_part_pose(test::small_dataset().root + "/subjects/f01/posed/" + pose + ".json")),
+        scan(load_scan(test::small_dataset().root + "/scans/f01/" + pose + ".pcd")) {}
+  const PoseSynthesizer synth;
+  const PartPose truth;
+  const PointCloud scan;
+};
+
+}  // namespace
+
 TEST(PoseFitting, LeavesTheTwistOfAStraightArmToTheData) {
   // Started at the true pose of arms reaching forward (-90 degrees about X at each shoulder), a prior
   // pulling the whole rotation towards the rest twisted the arms towards the smallest rotation that
   // points them forward: 27 degrees off at the shoulders. Twist weighted 0.1 of swing leaves them.
-  const auto& ds = test::small_dataset();
-  const TriangleMesh subject = load_subject_mesh(ds.root + "/subjects/f01/rest.ply");
-  const PoseSynthesizer synth(small_model(), subject);
-  const PartPose truth = read_part_pose(ds.root + "/subjects/f01/posed/reach_forward.json");
-  const PointCloud scan = load_scan(ds.root + "/scans/f01/reach_forward.pcd");
+  const F01InPose f("reach_forward");
   auto shoulder_error = [&](const PartPose& p) {
-    double worst = 0;
-    for (const char* name : {"left_shoulder", "right_shoulder"}) {
-      const size_t j = static_cast<size_t>(find_joint_index(name));
-      worst = std::max(worst, rotation_difference(p.joint_rotation[j], truth.joint_rotation[j]) * 180 / M_PI);
-    }
-    return worst;
+    const auto e = joint_errors_degrees(p, f.truth, {"left_shoulder", "right_shoulder"});
+    return *std::max_element(e.begin(), e.end());
   };
   PoseFitOptions o;
-  o.start = truth;
-  const double light_twist = shoulder_error(fit_pose(synth, scan.P, o).pose);
+  o.start = f.truth;
+  const double light_twist = shoulder_error(fit_pose(f.synth, f.scan.P, o).pose);
   o.refinement_twist_weight = 1;
-  const double whole = shoulder_error(fit_pose(synth, scan.P, o).pose);
+  const double whole = shoulder_error(fit_pose(f.synth, f.scan.P, o).pose);
   EXPECT_LT(light_twist, 8.0);
   EXPECT_GT(whole, light_twist + 10);
   std::cout << "shoulder error from the true pose: " << light_twist << " degrees (twist weighted as swing: " << whole << ")\n";
@@ -236,23 +256,15 @@ TEST(PoseFitting, WarnsWhenTheTargetDoesNotShowAPart) {
 TEST(PoseFitting, KeepsTheKneesOfASquatOnTheirHinge) {
   // A knee or elbow swinging off its hinge (varus, valgus) traded against the hip's or shoulder's
   // twist: a half squat's hips and knees came out twisted 9 degrees, the knees 8 off their hinge.
-  const auto& ds = test::small_dataset();
-  const TriangleMesh subject = load_subject_mesh(ds.root + "/subjects/f01/rest.ply");
-  const PoseSynthesizer synth(small_model(), subject);
-  const PartPose truth = read_part_pose(ds.root + "/subjects/f01/posed/squat_half.json");
-  const PointCloud scan = load_scan(ds.root + "/scans/f01/squat_half.pcd");
+  const F01InPose f("squat_half");
   auto leg_error = [&](const PartPose& p) {
-    double sum = 0;
-    for (const char* name : {"left_hip", "left_knee", "right_hip", "right_knee"}) {
-      const size_t j = static_cast<size_t>(find_joint_index(name));
-      sum += rotation_difference(p.joint_rotation[j], truth.joint_rotation[j]) * 180 / M_PI;
-    }
-    return sum / 4;
+    const auto e = joint_errors_degrees(p, f.truth, {"left_hip", "left_knee", "right_hip", "right_knee"});
+    return std::accumulate(e.begin(), e.end(), 0.0) / static_cast<double>(e.size());
   };
   PoseFitOptions o;
-  const double hinge = leg_error(fit_pose(synth, scan.P, o).pose);
+  const double hinge = leg_error(fit_pose(f.synth, f.scan.P, o).pose);
   o.hinge_prior = 0;
-  const double ball = leg_error(fit_pose(synth, scan.P, o).pose);
+  const double ball = leg_error(fit_pose(f.synth, f.scan.P, o).pose);
   std::cout << "half squat, hips and knees: " << hinge << " degrees off (as ball joints: " << ball << ")\n";
   EXPECT_LT(hinge, ball - 1);  // measured 7.95 against 9.70 (knees 3-4 degrees twisted against 5-6)
 }

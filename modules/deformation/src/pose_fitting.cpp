@@ -93,23 +93,32 @@ PoseFitResult fit_pose(const PoseSynthesizer& synth, const Eigen::MatrixXd& T, c
       bone_axis[static_cast<size_t>(j)] = d.norm() > 1e-9 ? Eigen::Vector3d(d.normalized()) : Eigen::Vector3d::UnitY();
     }
   }
-  // The final refinement's prior residual of a joint rotation: its swing (the rotation left after
-  // removing the twist about the bone axis, by the swing-twist decomposition of its quaternion) plus
-  // the twist angle, weighted, along the bone.
-  auto refinement_prior_residual = [&](int j, const Eigen::Vector3d& r) {
+  // Swing-twist decomposition of a joint rotation about its bone axis: the twist angle about the
+  // bone, and the swing (the rotation left, as a rotation vector across the bone).
+  struct SwingTwist {
+    Eigen::Vector3d swing;
+    double twist;
+  };
+  auto swing_twist = [&](int j, const Eigen::Vector3d& r) {
     const Eigen::Quaterniond q(Eigen::AngleAxisd(r.norm(), r.norm() > 1e-12 ? Eigen::Vector3d(r.normalized()) : Eigen::Vector3d::UnitX()));
     const Eigen::Vector3d& a = bone_axis[static_cast<size_t>(j)];
     Eigen::Quaterniond t(q.w(), 0, 0, 0);
     t.vec() = q.vec().dot(a) * a;
-    if (t.norm() < 1e-12) return r;  // a half turn about an axis across the bone: all swing
+    if (t.norm() < 1e-12) return SwingTwist{r, 0.0};  // a half turn about an axis across the bone: all swing
     t.normalize();
     const Eigen::AngleAxisd s(q * t.conjugate());
-    const double twist = 2 * std::atan2(t.vec().dot(a), t.w());
-    return Eigen::Vector3d(s.angle() * s.axis() + o.refinement_twist_weight * twist * a);
+    return SwingTwist{s.angle() * s.axis(), 2 * std::atan2(t.vec().dot(a), t.w())};
+  };
+  // The final refinement's prior residual of a joint rotation: its swing plus its twist, weighted,
+  // along the bone.
+  auto refinement_prior_residual = [&](int j, const Eigen::Vector3d& r) {
+    const SwingTwist st = swing_twist(j, r);
+    return Eigen::Vector3d(st.swing + o.refinement_twist_weight * st.twist * bone_axis[static_cast<size_t>(j)]);
   };
   // Elbows and knees are hinges: they flex about the axis across the bone in the body's frontal
   // plane (bone x forward; the rest body faces +Z) and twist about the bone, but barely swing about
-  // the third axis (no varus or valgus). The off-hinge part of a hinge joint's swing, by index.
+  // the third axis (no varus or valgus). That axis per hinge joint (zero for the others), and the
+  // residual of the swing about it.
   std::array<Eigen::Vector3d, kNumJoints> off_hinge_axis;
   for (auto& n : off_hinge_axis) n.setZero();
   for (int c : {kLeftForearm, kRightForearm, kLeftShank, kRightShank}) {
@@ -117,15 +126,9 @@ PoseFitResult fit_pose(const PoseSynthesizer& synth, const Eigen::MatrixXd& T, c
     const Eigen::Vector3d h = a.cross(Eigen::Vector3d::UnitZ());
     if (h.norm() > 0.5) off_hinge_axis[static_cast<size_t>(c - 1)] = h.normalized().cross(a).normalized();
   }
-  auto off_hinge_swing = [&](int j, const Eigen::Vector3d& r) {
+  auto off_hinge_residual = [&](int j, const Eigen::Vector3d& r) {
     const Eigen::Vector3d& n = off_hinge_axis[static_cast<size_t>(j)];
-    const Eigen::Quaterniond q(Eigen::AngleAxisd(r.norm(), r.norm() > 1e-12 ? Eigen::Vector3d(r.normalized()) : Eigen::Vector3d::UnitX()));
-    const Eigen::Vector3d& a = bone_axis[static_cast<size_t>(j)];
-    Eigen::Quaterniond t(q.w(), 0, 0, 0);
-    t.vec() = q.vec().dot(a) * a;
-    if (t.norm() < 1e-12) return r.dot(n);
-    const Eigen::AngleAxisd s(q * t.normalized().conjugate());
-    return s.angle() * s.axis().dot(n);
+    return Eigen::Vector3d(swing_twist(j, r).swing.dot(n) * n);
   };
   bool refining = false;  // the final refinement: the rest prior on swing and weighted twist
   std::array<bool, kNumJoints> held{};  // joints of parts the target does not show: held at rest
@@ -261,36 +264,22 @@ PoseFitResult fit_pose(const PoseSynthesizer& synth, const Eigen::MatrixXd& T, c
         L.g.segment<3>(6 + 3 * j) += weight * Jr.transpose() * residual;
         L.cost += 0.5 * weight * residual.squaredNorm();
       };
-      if (held[static_cast<size_t>(j)]) {
-        prior(o.limit_prior * prior_scale, r, to_parent);
-      } else if (refining) {
-        // Its derivative by the world increment of this joint, by central differences.
-        const Eigen::Vector3d s0 = refinement_prior_residual(j, r);
-        Eigen::Matrix3d Js;
+      // A prior on residual(j, r), its derivative by the world increment of this joint by central differences.
+      auto prior_by_differences = [&](double weight, const auto& residual) {
+        Eigen::Matrix3d Jr;
         const Eigen::Matrix3d Rr = rotation_from_axis_angle(r), P = to_parent.transpose();
         for (int k = 0; k < 3; ++k) {
-          const double h = 1e-6;
-          const Eigen::Vector3d e = Eigen::Vector3d::Unit(k) * h;
-          const Eigen::Vector3d rp = axis_angle_from_rotation(to_parent * rotation_from_axis_angle(e) * P * Rr);
-          const Eigen::Vector3d rm = axis_angle_from_rotation(to_parent * rotation_from_axis_angle(-e) * P * Rr);
-          Js.col(k) = (refinement_prior_residual(j, rp) - refinement_prior_residual(j, rm)) / (2 * h);
+          const Eigen::Vector3d e = Eigen::Vector3d::Unit(k) * 1e-6;
+          Jr.col(k) = (residual(j, axis_angle_from_rotation(to_parent * rotation_from_axis_angle(e) * P * Rr)) -
+                       residual(j, axis_angle_from_rotation(to_parent * rotation_from_axis_angle(-e) * P * Rr))) / 2e-6;
         }
-        prior(o.rest_prior * prior_scale, s0, Js);
-      } else {
-        prior(o.rest_prior * prior_scale, r, to_parent);
-      }
-      if (o.hinge_prior > 0 && off_hinge_axis[static_cast<size_t>(j)].squaredNorm() > 0) {
-        const Eigen::Vector3d& n = off_hinge_axis[static_cast<size_t>(j)];
-        const Eigen::Matrix3d Rr = rotation_from_axis_angle(r), P = to_parent.transpose();
-        Eigen::RowVector3d de;
-        for (int k = 0; k < 3; ++k) {
-          const double h = 1e-6;
-          const Eigen::Vector3d e = Eigen::Vector3d::Unit(k) * h;
-          de[k] = (off_hinge_swing(j, axis_angle_from_rotation(to_parent * rotation_from_axis_angle(e) * P * Rr)) -
-                   off_hinge_swing(j, axis_angle_from_rotation(to_parent * rotation_from_axis_angle(-e) * P * Rr))) / (2 * h);
-        }
-        prior(o.hinge_prior * prior_scale, off_hinge_swing(j, r) * n, n * de);
-      }
+        prior(weight, residual(j, r), Jr);
+      };
+      if (held[static_cast<size_t>(j)]) prior(o.limit_prior * prior_scale, r, to_parent);
+      else if (refining) prior_by_differences(o.rest_prior * prior_scale, refinement_prior_residual);
+      else prior(o.rest_prior * prior_scale, r, to_parent);
+      if (o.hinge_prior > 0 && off_hinge_axis[static_cast<size_t>(j)].squaredNorm() > 0)
+        prior_by_differences(o.hinge_prior * prior_scale, off_hinge_residual);
       const double limit = joint_limit_degrees(j) * M_PI / 180, angle = r.norm();
       if (angle > limit) {
         const Eigen::Vector3d axis = r / angle;
