@@ -677,7 +677,7 @@ int run_fit(int argc, char** argv) {
       .option("method", "NAME", "posing inside the loop: learned, lbs or rigid", "learned")
       .option("out", "FILE", "the fitted body in the target's axes, in metres (PLY with 'residual_mm' and 'part')")
       .option("pose-out", "FILE", "the fitted 16-part pose (JSON; root rotation and translation in the subject's frame, Y up)")
-      .option("iterations", "N", "ICP iterations", "40")
+      .option("iterations", "N", "Levenberg-Marquardt steps of the final refinement at most", "100")
       .option("start", "FILE", "start from this 16-part pose (e.g. the previous frame's --pose-out) instead of searching")
       .flag("json", "summary as JSON on stdout")
       .example("posekit fit --model model.pkm --subject ds/subjects/f01/rest.ply --target ds/scans/f01/squat_half.pcd "

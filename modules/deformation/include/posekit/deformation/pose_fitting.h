@@ -15,7 +15,9 @@ namespace posekit {
 
 struct PoseFitOptions {
   PoseMethod method = PoseMethod::kLearned;  ///< the posing run inside the loop
-  int iterations = 40;
+  /// Levenberg-Marquardt steps of the final refinement at most (it stops earlier when a step lowers
+  /// the objective by under a millionth), and of each start hypothesis's brief refinement.
+  int iterations = 100, search_iterations = 8;
   int model_samples = 3000;    ///< model vertices and target points matched each way per iteration
   /// Correspondences farther than this are ignored; the Cauchy scale of the weights is a third of
   /// it. The distance shrinks from `start` to `end` (m) while the start hypotheses are refined, and
