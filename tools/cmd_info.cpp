@@ -10,6 +10,8 @@
 #include "posekit/core/error.h"
 #include "posekit/core/mesh_geometry.h"
 #include "posekit/core/mesh_validation.h"
+#include "posekit/customization/photo_customization.h"
+#include "posekit/deformation/pose_model.h"
 #include "posekit/io/bvh.h"
 #include "posekit/io/mesh_io.h"
 #include "posekit/io/point_cloud_io.h"
@@ -92,6 +94,51 @@ int info_bvh(const std::string& path, bool json) {
   return 0;
 }
 
+/// A trained model: a pose model (.pkm, posekit train) or a photo customization model (.pkc).
+int info_model(const std::string& path, bool pose_model, bool json) {
+  nlohmann::ordered_json report;
+  report["file"] = path;
+  if (pose_model) {
+    const PoseModel m = read_pose_model(path);
+    int offsets = 0;
+    for (Eigen::Index j = 0; j < m.joint_offsets.rows(); ++j) offsets += m.joint_offsets.row(j).squaredNorm() > 0;
+    report["kind"] = "pose model (Eq. 3-5)";
+    report["template_vertices"] = m.template_V.rows();
+    report["template_triangles"] = m.template_F.rows();
+    report["joints"] = m.joint_centres.rows();
+    report["training_poses"] = m.training_poses;
+    report["fit_rms"] = m.fit_rms;
+    report["joints_with_learned_offsets"] = offsets;
+    report["segmentation_prior_bodies"] = m.segmentation_prior.bodies.size();
+  } else {
+    const CustomizationModel m = load_customization_model(path);
+    double linear = 0, mlp = 0;
+    int mlps = 0;
+    for (const auto& l : m.layers) linear += l.linear_error_mm, mlp += l.mlp_error_mm, mlps += l.use_mlp;
+    const double n = static_cast<double>(std::max<size_t>(1, m.layers.size()));
+    report["kind"] = "photo customization model";
+    report["template_vertices"] = m.template_mesh.V.rows();
+    report["layers"] = m.layers.size();
+    report["layers_using_mlp"] = mlps;
+    report["points_per_layer"] = m.points_per_layer;
+    report["training_bodies"] = m.bodies;
+    report["validation_bodies"] = m.validation_bodies;
+    report["population"] = m.population;
+    report["seed"] = m.seed;
+    report["training_seconds"] = m.training_seconds;
+    report["validation_feature_error_mm"] = m.feature_error_mm;
+    report["validation_layer_error_mm"] = {{"linear", linear / n}, {"mlp", mlp / n}};
+  }
+  if (json) {
+    std::cout << report.dump(2) << std::endl;
+    return 0;
+  }
+  std::cout << path << ": " << report["kind"].get<std::string>() << "\n";
+  for (const auto& [key, value] : report.items())
+    if (key != "file" && key != "kind") std::cout << "  " << key << ": " << value.dump() << "\n";
+  return 0;
+}
+
 }  // namespace
 
 int run_info(int argc, char** argv) {
@@ -99,8 +146,9 @@ int run_info(int argc, char** argv) {
                          "groups, scalar fields, bounding box, the unit it seems to be in, and a validity report\n"
                          "(out-of-range indices, non-finite coordinates, degenerate and duplicate faces,\n"
                          "boundaries, non-manifold edges, components, watertightness, area, volume). For a BVH\n"
-                         "motion: joints, channels, frames, rate, and how its skeleton maps onto the 16 parts.");
-  args.positional("file", "mesh, point cloud or BVH motion")
+                         "motion: joints, channels, frames, rate, and how its skeleton maps onto the 16 parts. For a\n"
+                         "trained model (.pkm pose model, .pkc photo customization model): what it was trained on.");
+  args.positional("file", "mesh, point cloud, BVH motion or trained model")
       .option("unit", "U", "unit the file is written in: m, dm, cm, mm", "m")
       .option("group", "NAME", "report only this OBJ group (e.g. body)")
       .flag("json", "machine-readable report on stdout")
@@ -113,6 +161,7 @@ int run_info(int argc, char** argv) {
     std::string ext = path.size() >= 4 ? path.substr(path.size() - 4) : "";
     std::transform(ext.begin(), ext.end(), ext.begin(), [](unsigned char c) { return static_cast<char>(std::tolower(c)); });
     if (ext == ".bvh") return info_bvh(path, args.flag_set("json"));
+    if (ext == ".pkm" || ext == ".pkc") return info_model(path, ext == ".pkm", args.flag_set("json"));
   }
   const Unit unit = parse_unit(args.get("unit"));
   const double to_unit = 1.0 / metres_per_unit(unit);

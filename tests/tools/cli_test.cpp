@@ -259,6 +259,18 @@ TEST(Cli, FitWritesThePoseTheFittedBodyAndItsResiduals) {
   ASSERT_FALSE(ds.root.empty());
   test::TempDir dir;
   ASSERT_EQ(run("train --dataset " + ds.root + " --calibration-bodies 0 --out " + dir.file("m.pkm")).code, 0);
+  // info tells what a model was trained on; a file that is not one is refused by name.
+  CommandResult info = run("info " + dir.file("m.pkm") + " --json");
+  ASSERT_EQ(info.code, 0) << info.out;
+  const auto model = nlohmann::json::parse(info.out);
+  EXPECT_EQ(model["kind"].get<std::string>(), "pose model (Eq. 3-5)");
+  EXPECT_EQ(model["joints"].get<int>(), 15);
+  EXPECT_GT(model["training_poses"].get<int>(), 10);
+  EXPECT_EQ(model["segmentation_prior_bodies"].get<int>(), 0);
+  dir.write("not_a_model.pkm", "hello");
+  info = run("info " + dir.file("not_a_model.pkm"), true);
+  EXPECT_EQ(info.code, 1);
+  EXPECT_NE(info.out.find("not_a_model.pkm"), std::string::npos) << info.out;
   CommandResult r = run("fit --model " + dir.file("m.pkm") + " --subject " + ds.root + "/subjects/m01/rest.ply --target " + ds.root +
                         "/scans/m01/squat_half.pcd --out " + dir.file("fitted.ply") + " --pose-out " + dir.file("pose.json") + " --json");
   ASSERT_EQ(r.code, 0) << r.out;
