@@ -245,6 +245,15 @@ TEST(Registration, WorksBothWaysAndRejectsBadInput) {
   const RegistrationResult r = register_bodies(subject, templ.mesh);
   EXPECT_EQ(r.correspondence.size(), templ.mesh.num_faces());
   EXPECT_EQ(r.deformed_source.rows(), subject.num_vertices());
+  // The source's side made once gives the same bits, and only for the resolution it was made at.
+  const CtffdSource prepared(subject);
+  const RegistrationResult p = register_bodies(prepared, templ.mesh);
+  EXPECT_TRUE(p.deformed_source == r.deformed_source);
+  EXPECT_TRUE(p.correspondence == r.correspondence);
+  EXPECT_GT(prepared.seconds(), 0);
+  RegistrationOptions finer;
+  finer.points_per_layer = 48;
+  EXPECT_THROW(register_bodies(prepared, templ.mesh, finer), InvalidInput);
   EXPECT_THROW(parse_registration_method("nicp2"), InvalidInput);
   EXPECT_THROW(register_bodies(test::icosphere(2), templ.mesh), InvalidInput);  // a sphere has no features
 }

@@ -56,6 +56,8 @@ struct RegistrationTable {
   double triangle_floor_mean_mm = 0, triangle_floor_p95_mm = 0;
   /// options.model: the pose-transfer error with the true correspondence (-1: not measured).
   double pose_transfer_true_mm = -1;
+  /// Making ct-FFD's template side once (features, representation, parametrisation; CtffdSource).
+  double ctffd_template_seconds = 0;
   std::vector<RegistrationTableRow> rows;
   std::vector<RegistrationTable> other_targets;  ///< options.other_topologies: the same per target kind
 };

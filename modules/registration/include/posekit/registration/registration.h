@@ -3,6 +3,7 @@
 // triangle correspondence that follows (section 3.3.3 of Zhu & Mok): ct-FFD, or the rigid ICP
 // baseline of the paper's Table 1.
 #include <Eigen/Core>
+#include <memory>
 #include <string>
 #include <vector>
 
@@ -43,6 +44,27 @@ struct RegistrationResult {
 /// Registers source to target and matches triangles by nearest centroid. Throws InvalidInput when a
 /// body's features cannot be found (ct-FFD) or a mesh is unusable.
 RegistrationResult register_bodies(const TriangleMesh& source, const TriangleMesh& target, const RegistrationOptions& options = {});
+
+/// The source's side of ct-FFD (its features, layered representation and parametrisation), made
+/// once when many targets are registered to one source: the template against a population.
+class CtffdSource {
+ public:
+  /// Throws InvalidInput when the source is unusable or its features cannot be found.
+  explicit CtffdSource(const TriangleMesh& source, int points_per_layer = 32);
+  const TriangleMesh& mesh() const;
+  int points_per_layer() const;
+  double seconds() const;  ///< what making it took
+  struct Impl;
+  const Impl& impl() const;
+
+ private:
+  std::shared_ptr<const Impl> impl_;
+};
+
+/// register_bodies from a prepared source: for ct-FFD only the target's side is made (its time is
+/// `seconds`); other methods register source.mesh(). Throws InvalidInput when options ask for another
+/// representation resolution than the source was prepared with.
+RegistrationResult register_bodies(const CtffdSource& source, const TriangleMesh& target, const RegistrationOptions& options = {});
 
 /// What can be judged of a registration without ground truth.
 struct RegistrationQuality {
