@@ -176,6 +176,7 @@ struct CtffdSource::Impl {
 
 CtffdSource::CtffdSource(const TriangleMesh& source, int points_per_layer) {
   require_usable_mesh(source, "registration source");
+  require_comparable_bodies(source, source);  // standing along +Y
   const auto t0 = std::chrono::steady_clock::now();
   auto impl = std::make_shared<Impl>();
   impl->mesh = source;

@@ -49,7 +49,7 @@ RegistrationResult register_bodies(const TriangleMesh& source, const TriangleMes
 /// once when many targets are registered to one source: the template against a population.
 class CtffdSource {
  public:
-  /// Throws InvalidInput when the source is unusable or its features cannot be found.
+  /// Throws InvalidInput when the source is unusable, does not stand along +Y or its features cannot be found.
   explicit CtffdSource(const TriangleMesh& source, int points_per_layer = 32);
   const TriangleMesh& mesh() const;
   int points_per_layer() const;
