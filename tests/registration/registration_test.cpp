@@ -330,3 +330,76 @@ TEST(Nicp, PairsOnAHolesBorderAreRejected) {
   EXPECT_LT(with.accepted_fraction, 0.95);
   EXPECT_LT(with.accepted_fraction, without.accepted_fraction - 0.02);
 }
+
+namespace {
+/// A sphere of radius 0.5 m shaped by two modes: stretched along x, and its upper half pushed forward.
+Eigen::MatrixXd two_mode_body(const TriangleMesh& sphere, double stretch, double push) {
+  Eigen::MatrixXd V = sphere.V;
+  for (Eigen::Index i = 0; i < V.rows(); ++i) {
+    V(i, 0) += 0.2 * stretch * sphere.V(i, 0);
+    V(i, 2) += 0.1 * push * std::pow(std::max(sphere.V(i, 1), 0.0) / 0.5, 2);
+  }
+  return V;
+}
+}  // namespace
+
+TEST(ShapeSpace, LearnsAPopulationsModesAndFitsABodyItHolds) {
+  const TriangleMesh sphere = test::icosphere(3, 0.5);
+  std::vector<Eigen::MatrixXd> bodies;
+  const double coefficients[][2] = {{-1, 0.5}, {0.3, -1.2}, {1.1, 0.9}, {-0.4, -0.3}, {0.8, 1.5}, {-1.3, -0.6}, {0.2, 0.1}};
+  for (const auto& c : coefficients) bodies.push_back(two_mode_body(sphere, c[0], c[1]));
+  const ShapeSpace space = learn_shape_space(bodies);
+  ASSERT_EQ(space.components(), 2);  // two modes, whatever the variance kept
+  EXPECT_NEAR(space.variance_share[0] + space.variance_share[1], 1.0, 1e-9);
+  EXPECT_EQ(space.bodies, 7);
+  // A body of the space, turned 8 degrees and moved: fitted from the sphere placed near it.
+  const Eigen::Matrix3d R = Eigen::AngleAxisd(8 * M_PI / 180, Eigen::Vector3d::UnitY()).toRotationMatrix();
+  const Eigen::RowVector3d t(0.02, -0.01, 0.03);
+  TriangleMesh target;
+  target.V = (two_mode_body(sphere, 1.4, -0.9) * R.transpose()).rowwise() + t;
+  target.F = sphere.F;
+  const Eigen::MatrixXd start = (space.mean * R.transpose()).rowwise() + t;
+  const ShapeFitResult fit = fit_shape_space(space, sphere.F, start, target);
+  EXPECT_TRUE(fit.plausible);
+  EXPECT_LT(fit.median_distance, 1e-4);
+  EXPECT_LT((fit.V - target.V).rowwise().norm().maxCoeff(), 1e-3) << "every vertex where the space puts it";
+  // Not a body of the space: a sphere twice as large is implausible.
+  TriangleMesh large = target;
+  large.V *= 2.0;
+  EXPECT_FALSE(fit_shape_space(space, sphere.F, start, large).plausible);
+  // The same bits twice; bad input named.
+  EXPECT_TRUE(fit_shape_space(space, sphere.F, start, target).V == fit.V);
+  EXPECT_THROW(learn_shape_space({bodies[0]}), InvalidInput);
+  EXPECT_THROW(learn_shape_space({bodies[0], Eigen::MatrixXd(bodies[0].topRows(10))}), InvalidInput);
+  EXPECT_THROW(fit_shape_space(space, sphere.F, start.topRows(10), target), InvalidInput);
+}
+
+TEST(Registration, AShapeSpaceTakesCtffdsCorrespondenceToMillimetres) {
+  POSEKIT_REQUIRE_MAKEHUMAN();
+  // f07 again (ct-FFD 10.7 mm). The space is learned from 60 bodies none of which is a subject
+  // (300 bodies: 0.6 mm mean over the 16 subjects, `posekit bench registration`).
+  const Body templ = build_body(model, BodySpec{});
+  const Body body = build_body(model, make_subject_specs(model, 1, 16)[6].spec);
+  SurfacePoints truth;
+  const TriangleMesh subject = remesh_body(body.mesh, 12400, &truth);
+  const Eigen::MatrixXd true_points = evaluate_surface_points(templ.mesh.V, templ.mesh.F, truth);
+  PopulationOptions po;
+  po.count = 60;
+  std::string note;
+  RegistrationOptions o;
+  const std::vector<Eigen::MatrixXd> population = make_population_bodies(model, po, &note);
+  o.shape_space = std::make_shared<const ShapeSpace>(learn_shape_space(population, 0.99999, 60, note));
+  EXPECT_NE(o.shape_space->population.find("60 MakeHuman bodies"), std::string::npos) << o.shape_space->population;
+  const CtffdSource prepared(templ.mesh);
+  const RegistrationResult plain = register_bodies(prepared, subject);
+  const RegistrationResult r = register_bodies(prepared, subject, o);
+  EXPECT_TRUE(r.shape_fit.plausible);
+  EXPECT_GT(r.shape_fit.iterations, 0);
+  const double before = mean_point_error(templ.mesh, plain.deformed_source, subject, true_points);
+  const double after = mean_point_error(templ.mesh, r.deformed_source, subject, true_points);
+  EXPECT_GT(before, 0.008);
+  EXPECT_LT(after, 0.003);
+  EXPECT_TRUE(register_bodies(prepared, subject, o).deformed_source == r.deformed_source);  // same bits
+  // A source of another topology cannot use the space: said, not ignored.
+  EXPECT_THROW(register_bodies(subject, templ.mesh, o), InvalidInput);
+}

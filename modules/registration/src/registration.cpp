@@ -216,6 +216,23 @@ RegistrationResult register_with(const TriangleMesh& source, const CtffdSource::
         target.V, target.F, torso_levels_in_proportion(ft, s.features), o.points_per_layer);
     r.deformed_source = ctffd_evaluate(s.parametrization, rt);
     r.ctffd_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+    if (o.shape_space) {
+      if (o.shape_space->vertices() != source.V.rows())
+        throw InvalidInput("registration: the shape space has " + std::to_string(o.shape_space->vertices()) +
+                           " vertices, the source " + std::to_string(source.V.rows()) + ": it must be of the source's topology");
+      const auto t1 = std::chrono::steady_clock::now();
+      r.shape_fit = fit_shape_space(*o.shape_space, source.F, r.deformed_source, target, o.shape_fit);
+      r.shape_fit_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t1).count();
+      if (r.shape_fit.plausible) {
+        r.deformed_source = r.shape_fit.V;
+      } else {
+        char buf[320];
+        std::snprintf(buf, sizeof buf, "the shape space's best fit lies %.1f mm (median) from the target: the target is not a "
+                      "body the space can say (another pose, a cut, or a shape outside its population); ct-FFD's result is kept",
+                      1000 * r.shape_fit.median_distance);
+        r.warnings.push_back(buf);
+      }
+    }
     if (o.refine) {
       r.nicp = nonrigid_icp(source, target, o.refinement, {}, &r.deformed_source);
       r.deformed_source = r.nicp.V;

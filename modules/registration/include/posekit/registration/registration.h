@@ -9,6 +9,7 @@
 
 #include "posekit/core/triangle_mesh.h"
 #include "posekit/registration/nicp.h"
+#include "posekit/registration/shape_space.h"
 
 namespace posekit {
 
@@ -22,6 +23,11 @@ struct RegistrationOptions {
   bool refine = false;
   NicpOptions nicp;                  ///< kNicp: the full schedule, landmarks from the layered representations
   NicpOptions refinement = refinement_defaults();
+  /// kCtffd: refine ct-FFD's result by fitting this shape space of bodies in the source's topology
+  /// (fit_shape_space), before the non-rigid refinement if both are asked. Kept only when the fit
+  /// lies closer to the target than ct-FFD's result; otherwise a warning says why.
+  std::shared_ptr<const ShapeSpace> shape_space;
+  ShapeFitOptions shape_fit;
   /// Landmarks for kNicp: every `landmark_layer_stride`-th layer of the representation, and on it
   /// every `landmark_point_stride`-th point.
   int landmark_layer_stride = 2, landmark_point_stride = 4;
@@ -36,6 +42,8 @@ struct RegistrationResult {
   double seconds = 0;                ///< wall time of the whole registration
   double ctffd_seconds = 0;          ///< of which ct-FFD (kCtffd)
   NicpResult nicp;                   ///< the non-rigid ICP's schedule and last pairs (kNicp, or refine)
+  ShapeFitResult shape_fit;          ///< options.shape_space: the fit (its `better` says whether it was kept)
+  double shape_fit_seconds = 0;
   /// kCtffd: the features' doubts on either body, and limbs whose length between the found joints is
   /// implausible against the source's (a hole or cut taken for a limb's end).
   std::vector<std::string> warnings;

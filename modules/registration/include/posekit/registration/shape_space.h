@@ -1,0 +1,66 @@
+#pragma once
+// A linear shape space of bodies in the source's topology (principal components of a registered
+// population), and the fit of it to a target surface that refines ct-FFD's correspondence: where
+// ct-FFD places a vertex by its layer proportions, the population says how that vertex moves
+// between bodies (e.g. where on a thigh a given skin point lies on a heavier body).
+#include <Eigen/Core>
+#include <string>
+#include <vector>
+
+#include "posekit/core/triangle_mesh.h"
+
+namespace posekit {
+
+struct ShapeSpace {
+  Eigen::MatrixXd mean;      ///< #V x 3, the population's mean body (m)
+  /// 3#V x K: component k (rows x0 y0 z0 x1 ...), scaled by its standard deviation, so a body is
+  /// mean + basis * c with c about unit normal.
+  Eigen::MatrixXd basis;
+  std::vector<double> variance_share;  ///< of each component in the population's total variance
+  int bodies = 0;                      ///< how many bodies it was learned from
+  std::string population;              ///< what they were (and what was left out)
+
+  int components() const { return static_cast<int>(basis.cols()); }
+  int vertices() const { return static_cast<int>(mean.rows()); }
+};
+
+/// Principal components of `bodies` (each #V x 3, one topology, one frame: no alignment is done)
+/// keeping `variance_kept` of the variance, at most `max_components`. Throws InvalidInput for fewer
+/// than 2 bodies or bodies of different sizes.
+ShapeSpace learn_shape_space(const std::vector<Eigen::MatrixXd>& bodies, double variance_kept = 0.99999, int max_components = 60,
+                             std::string population = "");
+
+struct ShapeFitOptions {
+  int iterations = 8;            ///< closest-point iterations against the target, at most
+  double convergence = 0.01;     ///< stop when the coefficients move less (standard deviations)
+  int vertex_stride = 4;         ///< every n-th source vertex takes part in the fit
+  double max_distance = 0.03;    ///< m: pairs farther apart are rejected
+  double max_normal_angle_deg = 60;
+  /// Weight of the prior on the coefficients: each unit of standard deviation costs as much as one
+  /// pair this far (m) off the target's plane.
+  double prior_distance = 0.001;
+  /// The fit is implausible (the target is not a body the space can say: another pose, a cut, a
+  /// shape outside its population) when its vertices lie farther than this from the target (median, m).
+  double max_median_distance = 0.003;
+};
+
+struct ShapeFitResult {
+  Eigen::MatrixXd V;             ///< #V x 3: the fitted body, posed rigidly on the target
+  Eigen::VectorXd coefficients;  ///< K
+  Eigen::Matrix3d rotation = Eigen::Matrix3d::Identity();
+  Eigen::Vector3d translation = Eigen::Vector3d::Zero();
+  int iterations = 0;
+  double median_distance = 0;    ///< m, of the fitted body's sampled vertices from the target
+  double accepted_fraction = 0;  ///< of the sampled vertices in the last iteration
+  bool plausible = false;        ///< median_distance within options.max_median_distance
+};
+
+/// Fits the shape space, with a rigid motion, to the target surface, starting from `start` (#V x 3:
+/// the source already on the target, e.g. ct-FFD's result): the space's projection of the start,
+/// then iterations of point-to-plane closest-point pairs (rejected when too far, facing away or on a
+/// hole's border) against a Gaussian prior on the coefficients. Deterministic. Throws InvalidInput
+/// when the sizes do not match.
+ShapeFitResult fit_shape_space(const ShapeSpace& space, const Eigen::MatrixXi& F, const Eigen::MatrixXd& start,
+                               const TriangleMesh& target, const ShapeFitOptions& options = {});
+
+}  // namespace posekit
