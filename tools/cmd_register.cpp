@@ -5,12 +5,39 @@
 
 #include "cli.h"
 #include "commands.h"
+#include "posekit/core/data_root.h"
 #include "posekit/core/error.h"
 #include "posekit/io/atomic_file.h"
 #include "posekit/io/mesh_io.h"
 #include "posekit/registration/registration.h"
 
 namespace posekit::cli {
+
+void set_population_leave_out(PopulationOptions& o, const std::string& what) {
+  if (what == "men") {
+    o.keep = [](const BodySpec& s, const TriangleMesh&) { return s.gender <= 0.5; };
+    o.keep_note = "men (gender over 0.5) left out";
+  } else if (what == "obese") {
+    o.keep = [](const BodySpec&, const TriangleMesh& m) { return body_stats(m).bmi < 30.0; };
+    o.keep_note = "BMI 30 and over left out";
+  } else if (what == "local") {
+    o.local_variation = false;
+  } else if (what != "none") {
+    throw UsageError("the shape space's leave-out is none, men, obese or local, not '" + what + "'");
+  }
+}
+
+ShapeSpace make_makehuman_shape_space(const MakeHumanModel& model, PopulationOptions o) {
+  std::unique_ptr<Progress> progress;
+  o.progress = [&](int done, int total) {
+    if (!progress) progress = std::make_unique<Progress>("shape space bodies", total);
+    progress->update(done);
+  };
+  std::string note;
+  const std::vector<Eigen::MatrixXd> bodies = make_population_bodies(model, o, &note);
+  if (progress) progress->finish();
+  return learn_shape_space(bodies, 0.99999, 60, note);
+}
 
 int run_register(int argc, char** argv) {
   ArgParser args("register",
@@ -19,8 +46,10 @@ int run_register(int argc, char** argv) {
                  "(Eq. 2b/2c). ctffd: ct-FFD through the layered representations (section 3.3.3); icp: rigid\n"
                  "ICP (PCL) for --iterations, the paper's Table 1 baseline; nicp: optimal-step non-rigid ICP\n"
                  "(Amberg et al. 2007: stiffness schedule, automatic landmarks, point-to-plane, rejection). --refine\n"
-                 "adds soft non-rigid ICP steps after ct-FFD. Prints the quality judged without ground truth\n"
-                 "(distance to the target, coverage, normal agreement, fold-overs) and warns when it is poor.\n"
+                 "adds soft non-rigid ICP steps after ct-FFD; --shape-space fits a space of MakeHuman bodies to the\n"
+                 "target from ct-FFD's result (sub-millimetre on bodies the space holds). Prints the quality judged\n"
+                 "without ground truth (distance to the target, coverage, normal agreement, fold-overs) and warns\n"
+                 "when it is poor.\n"
                  "Both bodies standing, in any axis convention and unit (detected, or given).");
   args.positional("source", "source mesh").positional("target", "target mesh")
       .option("method", "M", "ctffd, icp or nicp", "ctffd")
@@ -30,6 +59,11 @@ int run_register(int argc, char** argv) {
       .option("landmark-weight", "W", "non-rigid ICP landmark weight at the first stiffness (falls with it)", "10")
       .option("steps", "N", "non-rigid ICP iterations at most per stiffness (default: nicp 5, refine 2)")
       .option("point-to-point", "S", "share of point-to-point in non-rigid ICP's data term (0: point-to-plane)", "0.1")
+      .option("shape-space", "N", "ctffd: refine by a shape space of N MakeHuman bodies (built from the data root, a few "
+              "seconds; the source must be in MakeHuman's base topology, as the dataset's template); 0: not", "0")
+      .option("shape-space-leave-out", "WHAT", "none, men, obese or local (the measure modifiers): what the shape space's "
+              "population lacks", "none")
+      .option("data", "DIR", "MakeHuman data root for --shape-space (default: $POSEKIT_DATA or ../shared/datasets/makehuman)")
       .option("unit", "U", "unit of both meshes: m, dm, cm, mm, or auto (each one's largest extent tells)", "auto")
       .option("out", "FILE", "correspondence JSON: for each target triangle its source triangle")
       .option("deformed", "FILE", "write the source deformed onto the target (mesh)")
@@ -62,6 +96,20 @@ int run_register(int argc, char** argv) {
     if (n->point_to_point < 0 || n->point_to_point > 1) throw UsageError("--point-to-point must be between 0 and 1");
     if (n->landmark_weight < 0) throw UsageError("--landmark-weight must not be negative");
   }
+  const long shape_bodies = args.get_int("shape-space");
+  if (shape_bodies < 0 || shape_bodies == 1) throw UsageError("--shape-space must be 0 or at least 2 bodies");
+  if (shape_bodies > 0) {
+    if (o.method != RegistrationMethod::kCtffd) throw UsageError("--shape-space applies to --method ctffd");
+    PopulationOptions po;
+    po.count = static_cast<int>(shape_bodies);
+    set_population_leave_out(po, args.get("shape-space-leave-out"));
+    o.shape_space = std::make_shared<const ShapeSpace>(
+        make_makehuman_shape_space(*load_makehuman_model(find_data_root(args.get("data"))), po));
+    if (o.shape_space->vertices() != source.num_vertices())
+      throw InvalidInput(args.positionals()[0] + ": the shape space is of MakeHuman's base topology (" +
+                         std::to_string(o.shape_space->vertices()) + " vertices), the source has " +
+                         std::to_string(source.num_vertices()) + ": register from the dataset's template (template/rest.ply)");
+  }
   const RegistrationResult r = register_bodies(source, target, o);
   if (args.has("out")) {
     nlohmann::json j;
@@ -90,6 +138,10 @@ int run_register(int argc, char** argv) {
   if (!r.nicp.stiffness.empty())
     s["nicp"] = {{"stiffness", r.nicp.stiffness}, {"iterations", r.nicp.iterations}, {"solves", r.nicp.solves},
                  {"landmarks", r.nicp.landmarks}, {"accepted_fraction", r.nicp.accepted_fraction}};
+  if (o.shape_space)
+    s["shape_space"] = {{"population", o.shape_space->population}, {"components", o.shape_space->components()},
+                        {"iterations", r.shape_fit.iterations}, {"median_distance_mm", 1000 * r.shape_fit.median_distance},
+                        {"plausible", r.shape_fit.plausible}, {"kept", r.shape_fit.plausible}, {"seconds", r.shape_fit_seconds}};
   if (args.has("quality")) {
     const std::string text = s.dump(2) + "\n";
     write_file_atomically(args.get("quality"), [&](std::ostream& out) { out << text; }, false);
@@ -106,6 +158,11 @@ int run_register(int argc, char** argv) {
             << "quality: source to target " << std::setprecision(1) << q.mean_distance_mm << " mm mean, " << q.p95_distance_mm
             << " mm p95; target covered " << 100 * q.target_covered << "%; normals agree " << 100 * q.normals_agree
             << "%; " << q.folded_triangles << " triangles folded\n";
+  if (o.shape_space)
+    std::cout << "shape space: " << o.shape_space->components() << " components of " << o.shape_space->population << "; fitted in "
+              << r.shape_fit.iterations << " iterations, " << std::setprecision(3) << r.shape_fit_seconds << " s, median "
+              << std::setprecision(1) << 1000 * r.shape_fit.median_distance << " mm from the target: "
+              << (r.shape_fit.plausible ? "kept" : "not kept (see the warning)") << "\n";
   if (!r.nicp.stiffness.empty()) {
     std::cout << "non-rigid ICP: " << r.nicp.landmarks << " landmarks; stiffness (iterations)";
     for (size_t k = 0; k < r.nicp.stiffness.size(); ++k)

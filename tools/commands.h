@@ -4,7 +4,10 @@
 #include <string>
 
 #include "posekit/body/bvh_retarget.h"
+#include "posekit/body/makehuman_model.h"
+#include "posekit/datasets/subjects.h"
 #include "posekit/deformation/pose_synthesis.h"
+#include "posekit/registration/shape_space.h"
 
 namespace posekit::cli {
 int run_info(int argc, char** argv);
@@ -46,4 +49,11 @@ LoadedPoses load_poses(const std::string& path, const std::string& frames, const
 /// Sets a subject up for posing (segmentation, skeleton, correspondence); a body that cannot be set
 /// up is an InvalidInput naming `path` and the likely cause (it does not stand in the standard pose).
 PoseSynthesizer set_up_subject(std::shared_ptr<const PoseModel> model, const TriangleMesh& subject, const std::string& path);
+
+/// What a shape-space population leaves out: none, men (gender over 0.5), obese (BMI 30 and over) or
+/// local (the measure modifiers that give the subjects their local shape). Throws UsageError.
+void set_population_leave_out(PopulationOptions& options, const std::string& what);
+/// A shape space of MakeHuman bodies in the base topology (make_population_bodies, learn_shape_space),
+/// with progress on stderr.
+ShapeSpace make_makehuman_shape_space(const MakeHumanModel& model, PopulationOptions options);
 }  // namespace posekit::cli

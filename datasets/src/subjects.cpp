@@ -4,9 +4,11 @@
 #include <algorithm>
 #include <cmath>
 #include <limits>
+#include <mutex>
 #include <random>
 
 #include "posekit/body/parts.h"
+#include "posekit/core/closest_point.h"
 #include "posekit/core/error.h"
 #include "posekit/core/mesh_geometry.h"
 #include "posekit/core/mesh_slice.h"
@@ -170,6 +172,39 @@ std::vector<BodySpec> make_calibration_specs(unsigned seed, int count) {
     const double gender = i % 3 == 0 ? 0.0 : i % 3 == 1 ? 1.0 : u(rng);
     const double fatness = kMinFatness + (kMaxFatness - kMinFatness) * u(rng);
     out.push_back(with_fatness(random_sliders(gender, rng), fatness));
+  }
+  return out;
+}
+
+std::vector<Eigen::MatrixXd> make_population_bodies(const MakeHumanModel& model, const PopulationOptions& o, std::string* note) {
+  if (o.count < 2) throw InvalidInput("make_population_bodies: at least 2 bodies are needed");
+  std::vector<BodySpec> specs = make_calibration_specs(o.seed, o.count);
+  if (!o.local_variation)
+    for (BodySpec& s : specs)
+      for (const char* m : kVariationModifiers) s.modifiers.erase(m);
+  std::vector<Eigen::MatrixXd> bodies(specs.size());
+  std::vector<char> kept(specs.size(), 0);
+  std::mutex progress_mutex;
+  int done = 0;
+  parallel_for_ranges(static_cast<long>(specs.size()), o.threads, [&](long begin, long end) {
+    for (long i = begin; i < end; ++i) {
+      const size_t k = static_cast<size_t>(i);
+      Body body = build_body(model, specs[k]);
+      kept[k] = !o.keep || o.keep(specs[k], body.mesh);
+      if (kept[k]) bodies[k] = std::move(body.mesh.V);
+      if (o.progress) {
+        const std::lock_guard<std::mutex> lock(progress_mutex);
+        o.progress(++done, static_cast<int>(specs.size()));
+      }
+    }
+  }, 1);
+  std::vector<Eigen::MatrixXd> out;
+  for (size_t k = 0; k < bodies.size(); ++k)
+    if (kept[k]) out.push_back(std::move(bodies[k]));
+  if (note) {
+    *note = std::to_string(out.size()) + " MakeHuman bodies (make_calibration_specs(" + std::to_string(o.seed) + ", " +
+            std::to_string(o.count) + ")" + (o.local_variation ? "" : ", without the measure modifiers") + ")";
+    if (!o.keep_note.empty()) *note += ", " + o.keep_note;
   }
   return out;
 }

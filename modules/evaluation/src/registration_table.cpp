@@ -169,6 +169,14 @@ RegistrationTable measure_registration_table(const std::string& dir, const Regis
   methods[4].options.method = RegistrationMethod::kIcp;
   methods[4].options.icp_iterations = 6;
   const CtffdSource prepared_template(templ, methods[1].options.points_per_layer);
+  if (o.shape_space) {
+    Method m;
+    m.name = "ct-FFD + shape space";
+    m.prepared = true;
+    m.options.shape_space = o.shape_space;
+
+    methods.push_back(std::move(m));
+  }
   if (o.nicp_runs > 0) {
     methods.push_back({"non-rigid ICP (optimal step)", {}});
     methods.back().options.method = RegistrationMethod::kNicp;

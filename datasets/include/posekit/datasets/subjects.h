@@ -1,6 +1,7 @@
 #pragma once
 // Customized subjects: MakeHuman bodies in the four BMI classes, with local shape variation, and
 // their ground-truth measurements.
+#include <functional>
 #include <string>
 #include <vector>
 
@@ -36,6 +37,23 @@ std::vector<SubjectSpec> make_subject_specs(const MakeHumanModel& model, unsigne
 /// men, a third of mixed gender, fatness uniform over the subjects' range (BMI about 15 to 40) and
 /// the subjects' random sliders, from `seed` (use one the subjects do not).
 std::vector<BodySpec> make_calibration_specs(unsigned seed, int count);
+
+/// A population for a shape space (shape_space.h): `count` bodies of make_calibration_specs(seed,
+/// count) built in the MakeHuman base topology at rest. Without `local_variation` the random
+/// measure modifiers are left out (macro sliders and fatness only: a population that does not hold
+/// every way the subjects vary). `keep` (optional) leaves a body out when it returns false; `note`
+/// receives what the population was. Built on `threads` threads (0: all cores).
+struct PopulationOptions {
+  unsigned seed = 20261125;  ///< neither the subjects' nor the other populations' seed
+  int count = 300;
+  bool local_variation = true;
+  std::function<bool(const BodySpec&, const TriangleMesh&)> keep;
+  std::string keep_note;     ///< what `keep` leaves out, for the note
+  int threads = 0;
+  std::function<void(int, int)> progress;  ///< (bodies built, total), serialised
+};
+std::vector<Eigen::MatrixXd> make_population_bodies(const MakeHumanModel& model, const PopulationOptions& options,
+                                                    std::string* note = nullptr);
 
 /// Girths and stature in metres. Girths are convex-hull perimeters (a tape over concavities).
 struct Measurements {

@@ -10,6 +10,7 @@
 namespace posekit {
 
 struct PoseModel;
+struct ShapeSpace;
 
 struct RegistrationTableOptions {
   int runs = 5;              ///< timed runs per method and subject
@@ -22,6 +23,9 @@ struct RegistrationTableOptions {
   /// With a trained model: each correspondence's pose-transfer error (section 3.3.3) on the
   /// subjects' posed ground truth, learned method.
   std::shared_ptr<const PoseModel> model;
+  /// A shape space of bodies in the template's topology: adds the row "ct-FFD + shape space"
+  /// (template prepared once, then fit_shape_space).
+  std::shared_ptr<const ShapeSpace> shape_space;
   std::function<void(int, int)> progress;
 };
 
