@@ -740,3 +740,24 @@ TEST(Cli, Report) {
   EXPECT_TRUE(std::filesystem::is_regular_file(dir.file("report/index.html")));
   EXPECT_NE(r.out.find("peak RSS"), std::string::npos) << r.out;
 }
+
+TEST(Cli, RegisterRefinesByAShapeSpaceOnlyFromTheTemplatesTopology) {
+  ASSERT_FALSE(test::test_data_root().empty());
+  const std::string ds = test::small_dataset().root;
+  const std::string templ = ds + "/template/rest.ply", subject = ds + "/subjects/m01/rest.ply";
+  CommandResult r = run("register " + templ + " " + subject + " --shape-space 20 --json");
+  ASSERT_EQ(r.code, 0) << r.out;
+  const auto j = nlohmann::json::parse(r.out);
+  EXPECT_GT(j["shape_space"]["components"].get<int>(), 5);
+  EXPECT_NE(j["shape_space"]["population"].get<std::string>().find("20 MakeHuman bodies"), std::string::npos);
+  EXPECT_TRUE(j["shape_space"]["kept"].get<bool>());
+  EXPECT_LT(j["shape_space"]["median_distance_mm"].get<double>(), 3.0);
+  EXPECT_LT(j["quality"]["mean_distance_mm"].get<double>(), 3.0);
+  // Another topology as the source, a one-body space, an unknown leave-out: one-line errors.
+  r = run("register " + subject + " " + templ + " --shape-space 20", true);
+  EXPECT_EQ(r.code, 1);
+  EXPECT_NE(r.out.find("base topology"), std::string::npos) << r.out;
+  EXPECT_NE(run("register " + templ + " " + subject + " --shape-space 1").code, 0);
+  EXPECT_NE(run("register " + templ + " " + subject + " --shape-space 20 --shape-space-leave-out tall").code, 0);
+  EXPECT_NE(run("register " + templ + " " + subject + " --method icp --shape-space 20").code, 0);
+}

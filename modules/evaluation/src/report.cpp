@@ -27,7 +27,9 @@
 #include "posekit/io/atomic_file.h"
 #include "posekit/io/mesh_io.h"
 #include "posekit/io/point_cloud_io.h"
+#include "posekit/datasets/subjects.h"
 #include "posekit/registration/ctffd.h"
+#include "posekit/registration/shape_space.h"
 #include "posekit/shape/body_features.h"
 #include "posekit/shape/layered_representation.h"
 #include "posekit/viewers/viewer.h"
@@ -629,6 +631,13 @@ ReportSummary write_report(const std::string& dir, const std::string& out_dir, c
     ro.nicp_runs = o.nicp_subjects > 0 ? 1 : 0;
     ro.nicp_subjects = o.nicp_subjects;
     ro.model = model;
+    if (o.shape_space_bodies > 1) {
+      PopulationOptions po;
+      po.count = o.shape_space_bodies;
+      std::string note;
+      const std::vector<Eigen::MatrixXd> bodies = make_population_bodies(*load_makehuman_model(find_data_root("")), po, &note);
+      ro.shape_space = std::make_shared<const ShapeSpace>(learn_shape_space(bodies, 0.99999, 60, note));
+    }
     const RegistrationTable t = measure_registration_table(dir, ro);
     Table table{"Table 1: registration time and correspondence accuracy",
                 {"method", "median s", "min s", "max s", "point error mean mm", "p95 mm", "max mm", "triangle match mean mm",

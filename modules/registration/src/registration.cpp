@@ -227,9 +227,10 @@ RegistrationResult register_with(const TriangleMesh& source, const CtffdSource::
         r.deformed_source = r.shape_fit.V;
       } else {
         char buf[320];
-        std::snprintf(buf, sizeof buf, "the shape space's best fit lies %.1f mm (median) from the target: the target is not a "
-                      "body the space can say (another pose, a cut, or a shape outside its population); ct-FFD's result is kept",
-                      1000 * r.shape_fit.median_distance);
+        std::snprintf(buf, sizeof buf, "the shape space's best fit lies %.1f mm (median) from the target, %.1f%% of it over "
+                      "%.0f mm away (ct-FFD's: %.1f%%): the target is not a body the space can say (another pose, a cut, or a "
+                      "shape outside its population); ct-FFD's result is kept", 1000 * r.shape_fit.median_distance,
+                      100 * r.shape_fit.far_share, 1000 * o.shape_fit.far_distance, 100 * r.shape_fit.start_far_share);
         r.warnings.push_back(buf);
       }
     }

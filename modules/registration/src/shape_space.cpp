@@ -31,6 +31,11 @@ double median(std::vector<double> v) {
   return *mid;
 }
 
+double far_share(const std::vector<double>& d, double limit) {
+  if (d.empty()) return 0;
+  return static_cast<double>(std::count_if(d.begin(), d.end(), [&](double x) { return x > limit; })) / static_cast<double>(d.size());
+}
+
 }  // namespace
 
 ShapeSpace learn_shape_space(const std::vector<Eigen::MatrixXd>& bodies, double variance_kept, int max_components,
@@ -177,8 +182,11 @@ ShapeFitResult fit_shape_space(const ShapeSpace& space, const Eigen::MatrixXi& F
   }
 
   r.V = placed(body(r.coefficients));
-  r.median_distance = median(distances(tree.closest(rows_of(r.V), 1)));
-  r.plausible = r.median_distance <= o.max_median_distance;
+  const std::vector<double> fit_distances = distances(tree.closest(rows_of(r.V), 1));
+  r.median_distance = median(fit_distances);
+  r.far_share = far_share(fit_distances, o.far_distance);
+  r.start_far_share = far_share(distances(tree.closest(rows_of(start), 1)), o.far_distance);
+  r.plausible = r.median_distance <= o.max_median_distance && r.far_share <= r.start_far_share + o.max_extra_far_share;
   return r;
 }
 

@@ -42,6 +42,10 @@ struct ShapeFitOptions {
   /// The fit is implausible (the target is not a body the space can say: another pose, a cut, a
   /// shape outside its population) when its vertices lie farther than this from the target (median, m).
   double max_median_distance = 0.003;
+  /// ... or when more of its vertices lie farther than `far_distance` (m) from the target than of the
+  /// start's, by over `max_extra_far_share`: a part the space cannot place (arms held otherwise, a
+  /// twisted torso), however well the rest fits.
+  double far_distance = 0.01, max_extra_far_share = 0.01;
 };
 
 struct ShapeFitResult {
@@ -52,7 +56,9 @@ struct ShapeFitResult {
   int iterations = 0;
   double median_distance = 0;    ///< m, of the fitted body's sampled vertices from the target
   double accepted_fraction = 0;  ///< of the sampled vertices in the last iteration
-  bool plausible = false;        ///< median_distance within options.max_median_distance
+  /// Shares of the sampled vertices farther than options.far_distance from the target: of the fit, and of the start.
+  double far_share = 0, start_far_share = 0;
+  bool plausible = false;        ///< within options.max_median_distance and options.max_extra_far_share
 };
 
 /// Fits the shape space, with a rigid motion, to the target surface, starting from `start` (#V x 3:
