@@ -46,6 +46,13 @@ double mean_point_error(const TriangleMesh& templ, const Eigen::MatrixXd& deform
   const Eigen::MatrixXd found = evaluate_surface_points(templ.V, templ.F, closest_surface_points(registered, subject.V));
   return (found - true_points).rowwise().norm().mean();
 }
+/// Dataset subject `index` (seed 1) remeshed to 12,400 vertices, and each vertex's true point on the template.
+TriangleMesh remeshed_subject(const MakeHumanModel& model, const Body& templ, int index, Eigen::MatrixXd* true_points) {
+  SurfacePoints truth;
+  TriangleMesh subject = remesh_body(build_body(model, make_subject_specs(model, 1, 16)[static_cast<size_t>(index)].spec).mesh, 12400, &truth);
+  *true_points = evaluate_surface_points(templ.mesh.V, templ.mesh.F, truth);
+  return subject;
+}
 }  // namespace
 
 TEST(Correspondence, IdenticalMeshesMatchThemselvesAndNormalsDecideBetweenTwins) {
@@ -97,10 +104,8 @@ TEST(Registration, StrongNonRigidIcpAndCtffdFindTheCorrespondenceOfAHeavySubject
   // f07 (overweight woman) is among the hardest: non-rigid ICP measured 12.1 mm mean point error,
   // ct-FFD 10.7 mm (13.2 mm before its torso layers were placed in proportion).
   const Body templ = build_body(model, BodySpec{});
-  const Body body = build_body(model, make_subject_specs(model, 1, 16)[6].spec);
-  SurfacePoints truth;
-  const TriangleMesh subject = remesh_body(body.mesh, 12400, &truth);
-  const Eigen::MatrixXd true_points = evaluate_surface_points(templ.mesh.V, templ.mesh.F, truth);
+  Eigen::MatrixXd true_points;
+  const TriangleMesh subject = remeshed_subject(model, templ, 6, &true_points);
   RegistrationOptions ctffd, nicp;
   nicp.method = RegistrationMethod::kNicp;
   const RegistrationResult a = register_bodies(templ.mesh, subject, ctffd);
@@ -379,10 +384,8 @@ TEST(Registration, AShapeSpaceTakesCtffdsCorrespondenceToMillimetres) {
   // f07 again (ct-FFD 10.7 mm). The space is learned from 60 bodies none of which is a subject
   // (300 bodies: 0.6 mm mean over the 16 subjects, `posekit bench registration`).
   const Body templ = build_body(model, BodySpec{});
-  const Body body = build_body(model, make_subject_specs(model, 1, 16)[6].spec);
-  SurfacePoints truth;
-  const TriangleMesh subject = remesh_body(body.mesh, 12400, &truth);
-  const Eigen::MatrixXd true_points = evaluate_surface_points(templ.mesh.V, templ.mesh.F, truth);
+  Eigen::MatrixXd true_points;
+  const TriangleMesh subject = remeshed_subject(model, templ, 6, &true_points);
   PopulationOptions po;
   po.count = 60;
   std::string note;
