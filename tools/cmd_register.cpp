@@ -141,7 +141,7 @@ int run_register(int argc, char** argv) {
   if (o.shape_space)
     s["shape_space"] = {{"population", o.shape_space->population}, {"components", o.shape_space->components()},
                         {"iterations", r.shape_fit.iterations}, {"median_distance_mm", 1000 * r.shape_fit.median_distance},
-                        {"far_share", r.shape_fit.far_share}, {"ctffd_far_share", r.shape_fit.start_far_share},
+                        {"far_share", r.shape_fit.far_share}, {"uncovered_share", r.shape_fit.uncovered_share},
                         {"kept", r.shape_fit.plausible}, {"seconds", r.shape_fit_seconds}};
   if (args.has("quality")) {
     const std::string text = s.dump(2) + "\n";
@@ -163,8 +163,8 @@ int run_register(int argc, char** argv) {
     std::cout << "shape space: " << o.shape_space->components() << " components of " << o.shape_space->population << "; fitted in "
               << r.shape_fit.iterations << " iterations, " << std::setprecision(3) << r.shape_fit_seconds << " s, median "
               << std::setprecision(1) << 1000 * r.shape_fit.median_distance << " mm from the target, "
-              << 100 * r.shape_fit.far_share << "% over " << std::setprecision(0) << 1000 * o.shape_fit.far_distance
-              << " mm (ct-FFD's " << std::setprecision(1) << 100 * r.shape_fit.start_far_share << "%): "
+              << 100 * r.shape_fit.far_share << "% of it and " << 100 * r.shape_fit.uncovered_share << "% of the target over "
+              << std::setprecision(0) << 1000 * o.shape_fit.far_distance << " mm apart: "
               << (r.shape_fit.plausible ? "kept" : "not kept (see the warning)") << "\n";
   if (!r.nicp.stiffness.empty()) {
     std::cout << "non-rigid ICP: " << r.nicp.landmarks << " landmarks; stiffness (iterations)";

@@ -6,6 +6,7 @@
 
 #include <algorithm>
 #include <chrono>
+#include <cmath>
 #include <cstdio>
 #include <string>
 
@@ -226,12 +227,20 @@ RegistrationResult register_with(const TriangleMesh& source, const CtffdSource::
       if (r.shape_fit.plausible) {
         r.deformed_source = r.shape_fit.V;
       } else {
-        char buf[320];
-        std::snprintf(buf, sizeof buf, "the shape space's best fit lies %.1f mm (median) from the target, %.1f%% of it over "
-                      "%.0f mm away (ct-FFD's: %.1f%%): the target is not a body the space can say (another pose, a cut, or a "
-                      "shape outside its population); ct-FFD's result is kept", 1000 * r.shape_fit.median_distance,
-                      100 * r.shape_fit.far_share, 1000 * o.shape_fit.far_distance, 100 * r.shape_fit.start_far_share);
-        r.warnings.push_back(buf);
+        const ShapeFitResult& f = r.shape_fit;
+        const auto share = [](double fit, double start) {
+          char b[96];
+          if (start >= 0) std::snprintf(b, sizeof b, "%.1f%% (ct-FFD's result: %.1f%%)", 100 * fit, 100 * start);
+          else std::snprintf(b, sizeof b, "%.1f%%", 100 * fit);
+          return std::string(b);
+        };
+        char buf[160];
+        std::snprintf(buf, sizeof buf, "the shape space's best fit lies %.1f mm (median) from the target; ", 1000 * f.median_distance);
+        const std::string far = std::to_string(static_cast<int>(std::lround(1000 * o.shape_fit.far_distance)));
+        r.warnings.push_back(buf + share(f.far_share, f.start_far_share) + " of it over " + far + " mm away and " +
+                             share(f.uncovered_share, f.start_uncovered_share) + " of the target that far from it: the "
+                             "target is not a body the space can say (another pose, a cut, or a shape outside its "
+                             "population); ct-FFD's result is kept");
       }
     }
     if (o.refine) {

@@ -42,9 +42,9 @@ struct ShapeFitOptions {
   /// The fit is implausible (the target is not a body the space can say: another pose, a cut, a
   /// shape outside its population) when its vertices lie farther than this from the target (median, m).
   double max_median_distance = 0.003;
-  /// ... or when more of its vertices lie farther than `far_distance` (m) from the target than of the
-  /// start's, by over `max_extra_far_share`: a part the space cannot place (arms held otherwise, a
-  /// twisted torso), however well the rest fits.
+  /// ... or when, by over `max_extra_far_share`, more of its vertices lie farther than `far_distance`
+  /// (m) from the target than of the start's, or more of the target lies that far from it: a part the
+  /// space cannot place (arms held otherwise, a bent elbow, a twisted torso), however well the rest fits.
   double far_distance = 0.01, max_extra_far_share = 0.01;
 };
 
@@ -56,8 +56,12 @@ struct ShapeFitResult {
   int iterations = 0;
   double median_distance = 0;    ///< m, of the fitted body's sampled vertices from the target
   double accepted_fraction = 0;  ///< of the sampled vertices in the last iteration
-  /// Shares of the sampled vertices farther than options.far_distance from the target: of the fit, and of the start.
-  double far_share = 0, start_far_share = 0;
+  /// Shares of the sampled vertices farther than options.far_distance from the target: of the fit,
+  /// and of the start (-1: not measured, the fit's being within options.max_extra_far_share).
+  double far_share = 0, start_far_share = -1;
+  /// Shares of the target's vertices (about 2,000 sampled) farther than options.far_distance from
+  /// the fit, and from the start (-1 as above).
+  double uncovered_share = 0, start_uncovered_share = -1;
   bool plausible = false;        ///< within options.max_median_distance and options.max_extra_far_share
 };
 
