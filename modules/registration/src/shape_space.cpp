@@ -105,7 +105,7 @@ ShapeFitResult fit_shape_space(const ShapeSpace& space, const Eigen::MatrixXi& F
     const Eigen::MatrixXd local = ((start.rowwise() - r.translation.transpose()) * r.rotation) - space.mean;
     // Each vertex weighs as a pair; the prior as in the surface fit, scaled to the whole body.
     const double w = prior * static_cast<double>(nv) / static_cast<double>((nv + o.vertex_stride - 1) / o.vertex_stride);
-    r.coefficients = (space.basis.transpose() * flatten(local)).cwiseQuotient(column_norms2.array().matrix() + Eigen::VectorXd::Constant(K, w));
+    r.coefficients = (space.basis.transpose() * flatten(local)).cwiseQuotient(column_norms2 + Eigen::VectorXd::Constant(K, w));
   }
 
   std::vector<Eigen::Index> sample;
@@ -136,14 +136,14 @@ ShapeFitResult fit_shape_space(const ShapeSpace& space, const Eigen::MatrixXi& F
     return normal;
   };
 
-  // Gauss-Newton on point-to-plane pairs; unknowns: coefficients, translation, rotation about the
-  // sample's centroid.
   // The sampled rows of the space, and the source's normals for the facing test (from the start,
   // which the fit hardly turns).
   Eigen::MatrixXd sample_basis(3 * m, K);
   for (Eigen::Index k = 0; k < m; ++k) sample_basis.middleRows(3 * k, 3) = space.basis.middleRows(3 * sample[static_cast<size_t>(k)], 3);
   const Eigen::MatrixXd sample_mean = rows_of(space.mean);
   const Eigen::MatrixXd normals = rows_of(vertex_normals(start, F));
+  // Gauss-Newton on point-to-plane pairs; unknowns: coefficients, translation, rotation about the
+  // sample's centroid.
   Eigen::MatrixXd J(m, K + 6);
   Eigen::VectorXd residual(m);
   for (int it = 0; it < o.iterations; ++it) {
