@@ -276,7 +276,8 @@ int bench_registration(int argc, char** argv) {
       .option("nicp-runs", "R", "timed runs of non-rigid ICP (seconds each; 0 leaves it out)", "1")
       .option("model", "FILE", "a trained model (.pkm): also each correspondence's pose-transfer error on the posed subjects")
       .flag("other-topologies", "also to each subject remeshed to ~6,900 vertices and to a ~50,000-vertex remesh with 25 holes")
-      .option("shape-space", "N", "also ct-FFD refined by a shape space of N MakeHuman bodies (0: not)", "300")
+      .option("shape-space", "N|FILE", "also ct-FFD refined by a shape space of N MakeHuman bodies or a .pks file (posekit "
+              "shape-space) (0: not)", "300")
       .option("shape-space-leave-out", "WHAT", "none, men (gender over 0.5), obese (BMI 30 and over) or local (the subjects' "
               "measure modifiers): what the shape space's population lacks", "none")
       .option("data", "DIR", "MakeHuman data root for the shape space (default: $POSEKIT_DATA or ../shared/datasets/makehuman)")
@@ -284,16 +285,8 @@ int bench_registration(int argc, char** argv) {
   if (!args.parse(argc, argv)) return 0;
   if (!args.has("dataset")) throw UsageError("--dataset DIR is required");
   const std::string dir = args.get("dataset");
-  const int shape_bodies = static_cast<int>(args.get_int("shape-space"));
-  if (shape_bodies < 0 || shape_bodies == 1) throw UsageError("--shape-space must be 0 or at least 2 bodies");
-  std::shared_ptr<const ShapeSpace> shape_space;
-  if (shape_bodies > 0) {
-    PopulationOptions po;
-    po.count = shape_bodies;
-    set_population_leave_out(po, args.get("shape-space-leave-out"));
-    shape_space = std::make_shared<const ShapeSpace>(
-        make_makehuman_shape_space(*load_makehuman_model(find_data_root(args.get("data"))), po));
-  }
+  const std::shared_ptr<const ShapeSpace> shape_space =
+      shape_space_option(args.get("shape-space"), args.get("shape-space-leave-out"), args.get("data"));
   const int runs = static_cast<int>(args.get_int("runs"));
   if (runs < 1) throw UsageError("--runs must be at least 1");
   const int nicp_runs = static_cast<int>(args.get_int("nicp-runs"));

@@ -13,6 +13,7 @@
 #include "posekit/customization/photo_customization.h"
 #include "posekit/deformation/pose_model.h"
 #include "posekit/io/bvh.h"
+#include "posekit/registration/shape_space.h"
 #include "posekit/io/mesh_io.h"
 #include "posekit/io/point_cloud_io.h"
 #include "posekit/shape/body_orientation.h"
@@ -94,11 +95,25 @@ int info_bvh(const std::string& path, bool json) {
   return 0;
 }
 
-/// A trained model: a pose model (.pkm, posekit train) or a photo customization model (.pkc).
-int info_model(const std::string& path, bool pose_model, bool json) {
+/// A trained model: a pose model (.pkm, posekit train), a photo customization model (.pkc) or a
+/// shape space (.pks, posekit shape-space).
+int info_model(const std::string& path, const std::string& ext, bool json) {
   nlohmann::ordered_json report;
   report["file"] = path;
-  if (pose_model) {
+  if (ext == ".pks") {
+    const ShapeSpace s = read_shape_space(path);
+    double kept = 0;
+    for (double v : s.variance_share) kept += v;
+    report["kind"] = "shape space (register --shape-space)";
+    report["population"] = s.population;
+    report["bodies"] = s.bodies;
+    report["vertices"] = s.vertices();
+    report["triangles"] = s.faces.rows();
+    report["components"] = s.components();
+    report["variance_kept"] = kept;
+    report["first_components_variance"] = std::vector<double>(s.variance_share.begin(),
+                                                              s.variance_share.begin() + std::min<size_t>(5, s.variance_share.size()));
+  } else if (ext == ".pkm") {
     const PoseModel m = read_pose_model(path);
     int offsets = 0;
     for (Eigen::Index j = 0; j < m.joint_offsets.rows(); ++j) offsets += m.joint_offsets.row(j).squaredNorm() > 0;
@@ -147,8 +162,9 @@ int run_info(int argc, char** argv) {
                          "(out-of-range indices, non-finite coordinates, degenerate and duplicate faces,\n"
                          "boundaries, non-manifold edges, components, watertightness, area, volume). For a BVH\n"
                          "motion: joints, channels, frames, rate, and how its skeleton maps onto the 16 parts. For a\n"
-                         "trained model (.pkm pose model, .pkc photo customization model): what it was trained on.");
-  args.positional("file", "mesh, point cloud, BVH motion or trained model")
+                         "trained model (.pkm pose model, .pkc photo customization model, .pks shape space): what it\n"
+                         "was trained on.");
+  args.positional("file", "mesh, point cloud, BVH motion, trained model or shape space")
       .option("unit", "U", "unit the file is written in: m, dm, cm, mm", "m")
       .option("group", "NAME", "report only this OBJ group (e.g. body)")
       .flag("json", "machine-readable report on stdout")
@@ -161,7 +177,7 @@ int run_info(int argc, char** argv) {
     std::string ext = path.size() >= 4 ? path.substr(path.size() - 4) : "";
     std::transform(ext.begin(), ext.end(), ext.begin(), [](unsigned char c) { return static_cast<char>(std::tolower(c)); });
     if (ext == ".bvh") return info_bvh(path, args.flag_set("json"));
-    if (ext == ".pkm" || ext == ".pkc") return info_model(path, ext == ".pkm", args.flag_set("json"));
+    if (ext == ".pkm" || ext == ".pkc" || ext == ".pks") return info_model(path, ext, args.flag_set("json"));
   }
   const Unit unit = parse_unit(args.get("unit"));
   const double to_unit = 1.0 / metres_per_unit(unit);

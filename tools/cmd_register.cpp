@@ -1,4 +1,5 @@
-// posekit register <source> <target>: ct-FFD or ICP registration and the triangle correspondence.
+// posekit register <source> <target>: ct-FFD or ICP registration and the triangle correspondence;
+// posekit shape-space: a shape space file for register --shape-space.
 #include <iomanip>
 #include <iostream>
 #include <nlohmann/json.hpp>
@@ -7,7 +8,9 @@
 #include "commands.h"
 #include "posekit/core/data_root.h"
 #include "posekit/core/error.h"
+#include "posekit/core/units.h"
 #include "posekit/io/atomic_file.h"
+#include "posekit/datasets/dataset.h"
 #include "posekit/io/mesh_io.h"
 #include "posekit/registration/registration.h"
 
@@ -36,7 +39,25 @@ ShapeSpace make_makehuman_shape_space(const MakeHumanModel& model, PopulationOpt
   std::string note;
   const std::vector<Eigen::MatrixXd> bodies = make_population_bodies(model, o, &note);
   if (progress) progress->finish();
-  return learn_shape_space(bodies, 0.99999, 60, note);
+  ShapeSpace space = learn_shape_space(bodies, 0.99999, 60, note);
+  space.faces = model.body_F;
+  return space;
+}
+
+bool is_shape_space_file(const std::string& value) {
+  return !value.empty() && value.find_first_not_of("0123456789", value[0] == '-' ? 1 : 0) != std::string::npos;
+}
+
+std::shared_ptr<const ShapeSpace> shape_space_option(const std::string& value, const std::string& leave_out,
+                                                     const std::string& data_root) {
+  if (is_shape_space_file(value)) return std::make_shared<const ShapeSpace>(read_shape_space(value));
+  const long bodies = value.empty() ? 0 : std::stol(value);
+  if (bodies < 0 || bodies == 1) throw UsageError("--shape-space must be 0, at least 2 bodies, or a .pks file");
+  if (bodies == 0) return nullptr;
+  PopulationOptions po;
+  po.count = static_cast<int>(bodies);
+  set_population_leave_out(po, leave_out);
+  return std::make_shared<const ShapeSpace>(make_makehuman_shape_space(*load_makehuman_model(find_data_root(data_root)), po));
 }
 
 int run_register(int argc, char** argv) {
@@ -59,8 +80,9 @@ int run_register(int argc, char** argv) {
       .option("landmark-weight", "W", "non-rigid ICP landmark weight at the first stiffness (falls with it)", "10")
       .option("steps", "N", "non-rigid ICP iterations at most per stiffness (default: nicp 5, refine 2)")
       .option("point-to-point", "S", "share of point-to-point in non-rigid ICP's data term (0: point-to-plane)", "0.1")
-      .option("shape-space", "N", "ctffd: refine by a shape space of N MakeHuman bodies (built from the data root, a few "
-              "seconds; the source must be in MakeHuman's base topology, as the dataset's template); 0: not", "0")
+      .option("shape-space", "N|FILE", "ctffd: refine by a shape space: of N MakeHuman bodies (built from the data root, a "
+              "few seconds; the source must be in MakeHuman's base topology, as the dataset's template), or a .pks file "
+              "(posekit shape-space) in the source's topology; 0: not", "0")
       .option("shape-space-leave-out", "WHAT", "none, men, obese or local (the measure modifiers): what the shape space's "
               "population lacks", "none")
       .option("data", "DIR", "MakeHuman data root for --shape-space (default: $POSEKIT_DATA or ../shared/datasets/makehuman)")
@@ -96,20 +118,18 @@ int run_register(int argc, char** argv) {
     if (n->point_to_point < 0 || n->point_to_point > 1) throw UsageError("--point-to-point must be between 0 and 1");
     if (n->landmark_weight < 0) throw UsageError("--landmark-weight must not be negative");
   }
-  const long shape_bodies = args.get_int("shape-space");
-  if (shape_bodies < 0 || shape_bodies == 1) throw UsageError("--shape-space must be 0 or at least 2 bodies");
-  if (shape_bodies > 0) {
-    if (o.method != RegistrationMethod::kCtffd) throw UsageError("--shape-space applies to --method ctffd");
-    PopulationOptions po;
-    po.count = static_cast<int>(shape_bodies);
-    set_population_leave_out(po, args.get("shape-space-leave-out"));
-    o.shape_space = std::make_shared<const ShapeSpace>(
-        make_makehuman_shape_space(*load_makehuman_model(find_data_root(args.get("data"))), po));
-    if (o.shape_space->vertices() != source.num_vertices())
-      throw InvalidInput(args.positionals()[0] + ": the shape space is of MakeHuman's base topology (" +
-                         std::to_string(o.shape_space->vertices()) + " vertices), the source has " +
-                         std::to_string(source.num_vertices()) + ": register from the dataset's template (template/rest.ply)");
-  }
+  const std::string shape_arg = args.get("shape-space");
+  const bool shape_file = is_shape_space_file(shape_arg);
+  if (shape_arg != "0" && o.method != RegistrationMethod::kCtffd) throw UsageError("--shape-space applies to --method ctffd");
+  o.shape_space = shape_space_option(shape_arg, args.get("shape-space-leave-out"), args.get("data"));
+  if (o.shape_space && (o.shape_space->vertices() != source.num_vertices() ||
+                        (o.shape_space->faces.size() > 0 && o.shape_space->faces != source.F)))
+    throw InvalidInput(args.positionals()[0] + ": the shape space " + (shape_file ? shape_arg + " " : std::string()) +
+                       "is of another topology (" + std::to_string(o.shape_space->vertices()) + " vertices, " +
+                       std::to_string(o.shape_space->faces.rows()) + " triangles; the source has " +
+                       std::to_string(source.num_vertices()) + " and " + std::to_string(source.num_faces()) + ")" +
+                       (shape_file ? std::string(": register from the mesh the space's bodies were registered to")
+                                   : std::string(": MakeHuman's spaces need its base topology, the dataset's template (template/rest.ply)")));
   const RegistrationResult r = register_bodies(source, target, o);
   if (args.has("out")) {
     nlohmann::json j;
@@ -172,6 +192,74 @@ int run_register(int argc, char** argv) {
       std::cout << " " << std::setprecision(2) << r.nicp.stiffness[k] << " (" << r.nicp.iterations[k] << ")";
     std::cout << "\n";
   }
+  return 0;
+}
+
+int run_shape_space(int argc, char** argv) {
+  ArgParser args("shape-space",
+                 "Learns a shape space (principal components of a population of bodies in one topology) and writes\n"
+                 "it to a .pks file for posekit register --shape-space FILE, which then skips the few seconds of\n"
+                 "building it. The population: N MakeHuman bodies in its base topology (the dataset's template), or\n"
+                 "your own registered bodies (--meshes: a folder of meshes sharing one topology, standing in one\n"
+                 "pose, in any place, direction and unit; turned rigidly onto their mean before learning). Register\n"
+                 "from the mesh those bodies were registered to.");
+  args.option("out", "FILE", "the shape space file to write (.pks)")
+      .option("bodies", "N", "MakeHuman bodies in the population", "300")
+      .option("leave-out", "WHAT", "none, men, obese or local (the measure modifiers): what the MakeHuman population lacks", "none")
+      .option("data", "DIR", "MakeHuman data root (default: $POSEKIT_DATA or ../shared/datasets/makehuman)")
+      .option("meshes", "DIR", "learn from this folder of registered meshes (OBJ/PLY/OFF, one topology) instead of MakeHuman bodies")
+      .option("unit", "U", "--meshes: their unit, m, dm, cm, mm, or auto (the first mesh's largest extent tells)", "auto")
+      .flag("no-align", "--meshes: keep them where they stand (no rigid alignment onto their mean)")
+      .option("variance", "F", "share of the population's variance the components keep", "0.99999")
+      .option("max-components", "K", "components at most", "60")
+      .flag("json", "summary as JSON on stdout")
+      .example("posekit shape-space --out makehuman300.pks")
+      .example("posekit shape-space --meshes my_registrations/ --unit mm --out mine.pks");
+  if (!args.parse(argc, argv)) return 0;
+  if (!args.has("out")) throw UsageError("--out FILE is required");
+  const double variance = args.get_double("variance");
+  const long max_components = args.get_int("max-components");
+  if (!(variance > 0 && variance <= 1)) throw UsageError("--variance must be in (0, 1]");
+  if (max_components < 1) throw UsageError("--max-components must be at least 1");
+  ShapeSpace space;
+  if (args.has("meshes")) {
+    const std::string dir = args.get("meshes");
+    // Read in the file's numbers first when the unit is to be detected: the first mesh's extent tells.
+    const bool automatic = args.get("unit") == "auto";
+    PoseDataset data = load_pose_dataset(dir, automatic ? Unit::kMetre : parse_unit(args.get("unit")));
+    if (automatic) {
+      const double extent = robust_largest_extent(data.V.front());
+      Unit unit = Unit::kMetre;
+      if (!guess_body_unit(extent, &unit))
+        throw InvalidInput(dir + ": cannot tell the meshes' unit from the first one's largest extent (" + std::to_string(extent) +
+                           "): give --unit");
+      for (Eigen::MatrixXd& V : data.V) V *= metres_per_unit(unit);
+      std::cerr << "posekit shape-space: unit " << unit_name(unit) << " (detected from " << data.names.front()
+                << "'s largest extent, " << extent << ")\n";
+    }
+    if (!args.flag_set("no-align")) align_bodies_rigidly(data.V);
+    space = learn_shape_space(data.V, variance, static_cast<int>(max_components),
+                              std::to_string(data.V.size()) + " registered meshes of " + dir);
+    space.faces = data.F;
+  } else {
+    const long count = args.get_int("bodies");
+    if (count < 2) throw UsageError("--bodies must be at least 2");
+    PopulationOptions po;
+    po.count = static_cast<int>(count);
+    set_population_leave_out(po, args.get("leave-out"));
+    space = make_makehuman_shape_space(*load_makehuman_model(find_data_root(args.get("data"))), po);
+  }
+  write_shape_space(args.get("out"), space);
+  double kept = 0;
+  for (double v : space.variance_share) kept += v;
+  if (args.flag_set("json")) {
+    print_json({{"out", args.get("out")}, {"population", space.population}, {"bodies", space.bodies},
+                {"vertices", space.vertices()}, {"triangles", space.faces.rows()}, {"components", space.components()},
+                {"variance_kept", kept}});
+    return 0;
+  }
+  std::cout << "wrote " << args.get("out") << ": " << space.components() << " components of " << space.population << " ("
+            << space.vertices() << " vertices), " << std::setprecision(6) << 100 * kept << "% of its variance\n";
   return 0;
 }
 

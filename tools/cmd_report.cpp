@@ -23,7 +23,8 @@ int run_report(int argc, char** argv) {
       .option("nicp-subjects", "N", "run the slow non-rigid ICP baseline on the first N subjects (0: leave it out)", "2")
       .option("customization", "FILE", "photo customization model (.pkc); default: train one (customize train)")
       .option("customization-bodies", "N", "population of a customization model trained here", "2000")
-      .option("shape-space", "N", "Table 1's ct-FFD + shape space row: MakeHuman bodies in the space (0: no row)", "300")
+      .option("shape-space", "N|FILE", "Table 1's ct-FFD + shape space row: MakeHuman bodies in the space, or a .pks file "
+              "(posekit shape-space) (0: no row)", "300")
       .example("posekit report --dataset out/dataset --out report");
   if (!args.parse(argc, argv)) return 0;
   if (!args.has("dataset")) throw UsageError("--dataset DIR is required");
@@ -34,9 +35,14 @@ int run_report(int argc, char** argv) {
   o.nicp_subjects = static_cast<int>(args.get_int("nicp-subjects"));
   o.customization_path = args.has("customization") ? args.get("customization") : "";
   o.customization_bodies = static_cast<int>(args.get_int("customization-bodies"));
-  o.shape_space_bodies = static_cast<int>(args.get_int("shape-space"));
+  if (is_shape_space_file(args.get("shape-space"))) {
+    o.shape_space_path = args.get("shape-space");
+  } else {
+    o.shape_space_bodies = static_cast<int>(args.get_int("shape-space"));
+    if (o.shape_space_bodies < 0 || o.shape_space_bodies == 1)
+      throw UsageError("--shape-space must be 0, at least 2 bodies, or a .pks file");
+  }
   if (o.registration_runs < 1) throw UsageError("--runs must be at least 1");
-  if (o.shape_space_bodies < 0 || o.shape_space_bodies == 1) throw UsageError("--shape-space must be 0 or at least 2 bodies");
   o.command_line = "posekit report --dataset " + args.get("dataset") + " --out " + args.get("out");
   std::unique_ptr<Progress> progress;
   o.progress = [&](int done, int total, const std::string&) {

@@ -18,6 +18,7 @@ int run_body(int argc, char** argv);
 int run_dataset(int argc, char** argv);
 int run_measure(int argc, char** argv);
 int run_register(int argc, char** argv);
+int run_shape_space(int argc, char** argv);
 int run_customize(int argc, char** argv);
 int run_train(int argc, char** argv);
 int run_pose(int argc, char** argv);
@@ -56,4 +57,9 @@ void set_population_leave_out(PopulationOptions& options, const std::string& wha
 /// A shape space of MakeHuman bodies in the base topology (make_population_bodies, learn_shape_space),
 /// with progress on stderr.
 ShapeSpace make_makehuman_shape_space(const MakeHumanModel& model, PopulationOptions options);
+/// --shape-space: a count of digits is a MakeHuman population of that many bodies (0: none,
+/// `leave_out` as set_population_leave_out), anything else a .pks file (posekit shape-space).
+bool is_shape_space_file(const std::string& value);
+std::shared_ptr<const ShapeSpace> shape_space_option(const std::string& value, const std::string& leave_out,
+                                                     const std::string& data_root);
 }  // namespace posekit::cli

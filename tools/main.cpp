@@ -23,6 +23,7 @@ const Command kCommands[] = {
     {"measure", posekit::cli::run_measure, "stature and girths of a standing body mesh or scan"},
     {"customize", posekit::cli::run_customize, "a body from a front and a side photo (section 3.2); train, eval"},
     {"register", posekit::cli::run_register, "register a template to a body (ct-FFD or ICP) and match triangles"},
+    {"shape-space", posekit::cli::run_shape_space, "learn a shape space file for register --shape-space"},
     {"segment", posekit::cli::run_segment, "segment a body into 16 parts (Eq. 2) and embed the skeleton"},
     {"train", posekit::cli::run_train, "learn the non-rigid pose deformation from a pose dataset (Eq. 3-5)"},
     {"pose", posekit::cli::run_pose, "pose a customized body from joint angles or a BVH (Eq. 1, 5-6)"},

@@ -14,6 +14,7 @@
 #include "posekit/core/mesh_geometry.h"
 #include "posekit/datasets/remesh.h"
 #include "posekit/datasets/robustness.h"
+#include "posekit/io/atomic_file.h"
 #include "posekit/io/mesh_io.h"
 #include "posekit/datasets/subjects.h"
 #include "posekit/registration/correspondence.h"
@@ -377,6 +378,57 @@ TEST(ShapeSpace, LearnsAPopulationsModesAndFitsABodyItHolds) {
   EXPECT_THROW(learn_shape_space({bodies[0]}), InvalidInput);
   EXPECT_THROW(learn_shape_space({bodies[0], Eigen::MatrixXd(bodies[0].topRows(10))}), InvalidInput);
   EXPECT_THROW(fit_shape_space(space, sphere.F, start.topRows(10), target), InvalidInput);
+}
+
+TEST(ShapeSpace, AlignsBodiesRigidlyAndRoundTripsThroughAFile) {
+  const TriangleMesh sphere = test::icosphere(3, 0.5);
+  std::vector<Eigen::MatrixXd> bodies, placed;
+  const double coefficients[][2] = {{-1, 0.5}, {0.3, -1.2}, {1.1, 0.9}, {-0.4, -0.3}, {0.8, 1.5}};
+  for (const auto& c : coefficients) bodies.push_back(two_mode_body(sphere, c[0], c[1]));
+  // Each body turned about a different axis and moved: aligned, the space has the two modes again.
+  for (size_t b = 0; b < bodies.size(); ++b) {
+    const Eigen::Matrix3d R = Eigen::AngleAxisd(0.3 * static_cast<double>(b + 1), Eigen::Vector3d(1, 2, 0.5 * static_cast<double>(b)).normalized())
+                                  .toRotationMatrix();
+    placed.push_back((bodies[b] * R.transpose()).rowwise() + Eigen::RowVector3d(0.1 * static_cast<double>(b), 1, -0.2));
+  }
+  // (Where a body stands is not quite separable from its shape: a pushed-forward top moves the
+  // centroid, so a sliver of variance stays outside the two modes.)
+  const auto two_modes_share = [](const ShapeSpace& s) { return s.variance_share[0] + s.variance_share[1]; };
+  const double unaligned = two_modes_share(learn_shape_space(placed));
+  align_bodies_rigidly(placed);
+  ShapeSpace space = learn_shape_space(placed, 0.99999, 60, "five spheres");
+  EXPECT_GT(two_modes_share(space), 0.999);
+  EXPECT_GT(two_modes_share(space) - unaligned, 0.01);
+  space.faces = sphere.F;
+  // Through a file: every value and the triangles as they were.
+  test::TempDir dir;
+  const std::string path = dir.path() + "/space.pks";
+  write_shape_space(path, space);
+  const ShapeSpace read = read_shape_space(path);
+  EXPECT_TRUE(read.mean == space.mean && read.basis == space.basis && read.faces == space.faces);
+  EXPECT_EQ(read.variance_share, space.variance_share);
+  EXPECT_EQ(read.population, "five spheres");
+  EXPECT_EQ(read.bodies, 5);
+  // A flipped bit, a cut file, another file: refused, naming the file.
+  std::string bytes = read_file_bytes(path);
+  for (const std::string& bad : {bytes.substr(0, bytes.size() / 2), std::string("POSEKPKM") + bytes.substr(8), std::string("xyz")}) {
+    write_file_atomically(dir.path() + "/bad.pks", [&](std::ostream& o) { o << bad; });
+    try {
+      read_shape_space(dir.path() + "/bad.pks");
+      ADD_FAILURE() << "read a broken file";
+    } catch (const IoError& e) {
+      EXPECT_NE(std::string(e.what()).find("bad.pks"), std::string::npos) << e.what();
+    }
+  }
+  bytes[bytes.size() / 3] ^= 0x01;
+  write_file_atomically(dir.path() + "/flipped.pks", [&](std::ostream& o) { o << bytes; });
+  EXPECT_THROW(read_shape_space(dir.path() + "/flipped.pks"), IoError);
+  // A source of the same size and other triangles is refused by registration.
+  RegistrationOptions o;
+  o.shape_space = std::make_shared<const ShapeSpace>(read);
+  TriangleMesh other = sphere;
+  other.F.col(1).swap(other.F.col(2));
+  EXPECT_THROW(register_bodies(other, sphere, o), InvalidInput);
 }
 
 TEST(Registration, AShapeSpaceTakesCtffdsCorrespondenceToMillimetres) {

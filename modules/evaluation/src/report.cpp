@@ -631,7 +631,9 @@ ReportSummary write_report(const std::string& dir, const std::string& out_dir, c
     ro.nicp_runs = o.nicp_subjects > 0 ? 1 : 0;
     ro.nicp_subjects = o.nicp_subjects;
     ro.model = model;
-    if (o.shape_space_bodies > 1) {
+    if (!o.shape_space_path.empty()) {
+      ro.shape_space = std::make_shared<const ShapeSpace>(read_shape_space(o.shape_space_path));
+    } else if (o.shape_space_bodies > 1) {
       PopulationOptions po;
       po.count = o.shape_space_bodies;
       std::string note;

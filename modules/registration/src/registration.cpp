@@ -221,6 +221,9 @@ RegistrationResult register_with(const TriangleMesh& source, const CtffdSource::
       if (o.shape_space->vertices() != source.V.rows())
         throw InvalidInput("registration: the shape space has " + std::to_string(o.shape_space->vertices()) +
                            " vertices, the source " + std::to_string(source.V.rows()) + ": it must be of the source's topology");
+      if (o.shape_space->faces.size() > 0 && o.shape_space->faces != source.F)
+        throw InvalidInput("registration: the shape space's triangles are not the source's (same " + std::to_string(source.V.rows()) +
+                           " vertices, other connectivity): it must be of the source's topology");
       const auto t1 = std::chrono::steady_clock::now();
       r.shape_fit = fit_shape_space(*o.shape_space, source.F, r.deformed_source, target, o.shape_fit);
       r.shape_fit_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t1).count();

@@ -79,6 +79,25 @@ ShapeSpace learn_shape_space(const std::vector<Eigen::MatrixXd>& bodies, double 
   return s;
 }
 
+void align_bodies_rigidly(std::vector<Eigen::MatrixXd>& bodies, int rounds) {
+  if (bodies.empty()) return;
+  const Eigen::Index nv = bodies.front().rows();
+  for (size_t b = 0; b < bodies.size(); ++b)
+    if (bodies[b].rows() != nv || bodies[b].cols() != 3)
+      throw InvalidInput("rigid alignment: body " + std::to_string(b) + " has " + std::to_string(bodies[b].rows()) +
+                         " vertices, the first " + std::to_string(nv));
+  Eigen::MatrixXd reference = bodies.front();
+  for (int round = 0; round < rounds; ++round) {
+    Eigen::MatrixXd mean = Eigen::MatrixXd::Zero(nv, 3);
+    for (Eigen::MatrixXd& b : bodies) {
+      const Eigen::Matrix4d T = similarity(b, reference, false);
+      b = (b * T.topLeftCorner<3, 3>().transpose()).rowwise() + T.topRightCorner<3, 1>().transpose();
+      mean += b / static_cast<double>(bodies.size());
+    }
+    reference = mean;
+  }
+}
+
 ShapeFitResult fit_shape_space(const ShapeSpace& space, const Eigen::MatrixXi& F, const Eigen::MatrixXd& start,
                                const TriangleMesh& target, const ShapeFitOptions& o) {
   const Eigen::Index nv = space.mean.rows(), K = space.basis.cols();

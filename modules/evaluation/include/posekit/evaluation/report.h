@@ -14,6 +14,7 @@ struct ReportOptions {
   int registration_runs = 3;     ///< timed runs per method and subject in Table 1
   int nicp_subjects = 2;         ///< non-rigid ICP (seconds per run) on the first N subjects only
   int shape_space_bodies = 300;  ///< Table 1's "ct-FFD + shape space" row: MakeHuman bodies in the space (0: no row)
+  std::string shape_space_path;  ///< that row's space from a .pks file (posekit shape-space) instead
   std::string customization_path;  ///< photo customization model (.pkc); empty: train one here
   int customization_bodies = 2000;  ///< population of a customization model trained here
   std::string command_line;      ///< how the report was asked for, quoted in it

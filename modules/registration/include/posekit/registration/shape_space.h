@@ -19,6 +19,9 @@ struct ShapeSpace {
   std::vector<double> variance_share;  ///< of each component in the population's total variance
   int bodies = 0;                      ///< how many bodies it was learned from
   std::string population;              ///< what they were (and what was left out)
+  /// The bodies' triangles when known (#F x 3; empty: not recorded): a source of another
+  /// connectivity with the same vertex count is refused by register_bodies.
+  Eigen::MatrixXi faces;
 
   int components() const { return static_cast<int>(basis.cols()); }
   int vertices() const { return static_cast<int>(mean.rows()); }
@@ -29,6 +32,18 @@ struct ShapeSpace {
 /// than 2 bodies or bodies of different sizes.
 ShapeSpace learn_shape_space(const std::vector<Eigen::MatrixXd>& bodies, double variance_kept = 0.99999, int max_components = 60,
                              std::string population = "");
+
+/// Turns every body rigidly (rotation and translation, no scale) onto the bodies' mean, iterated
+/// (generalised Procrustes): registered meshes from a user's own captures stand in different places
+/// and directions, and a shape space must not spend components on that. In place; the mean ends in
+/// the first body's frame. Throws InvalidInput for bodies of different sizes.
+void align_bodies_rigidly(std::vector<Eigen::MatrixXd>& bodies, int rounds = 3);
+
+/// A shape space file (.pks: header, population, triangles, mean, basis in doubles, CRC-32 trailer;
+/// format in docs/registration.md), written through a temporary file. Throws IoError.
+void write_shape_space(const std::string& path, const ShapeSpace& space);
+/// Reads a .pks file; a truncated, corrupt or other file gets an IoError naming it.
+ShapeSpace read_shape_space(const std::string& path);
 
 struct ShapeFitOptions {
   int iterations = 8;            ///< closest-point iterations against the target, at most

@@ -1,0 +1,132 @@
+// The .pks shape space file: magic, version, sizes, population text, triangles, variance shares,
+// mean and basis (little-endian doubles), and a CRC-32 of everything before it.
+#include <algorithm>
+#include <cmath>
+#include <cstdint>
+#include <cstring>
+#include <sstream>
+
+#include "posekit/core/error.h"
+#include "posekit/io/atomic_file.h"
+#include "posekit/io/checksum.h"
+#include "posekit/registration/shape_space.h"
+
+namespace posekit {
+namespace {
+
+constexpr char kMagic[8] = {'P', 'O', 'S', 'E', 'K', 'P', 'K', 'S'};
+constexpr std::uint32_t kVersion = 1;
+
+template <typename T>
+void put(std::ostream& os, const T& value) {
+  os.write(reinterpret_cast<const char*>(&value), sizeof(T));
+}
+
+class Reader {
+ public:
+  Reader(const std::string& bytes, const std::string& path) : bytes_(bytes), path_(path) {}
+  template <typename T>
+  T get(const char* what) {
+    if (pos_ + sizeof(T) > bytes_.size()) throw IoError(path_ + ": the file ends inside " + what + " (truncated .pks?)");
+    T value;
+    std::memcpy(&value, bytes_.data() + pos_, sizeof(T));
+    pos_ += sizeof(T);
+    return value;
+  }
+  /// `count` values of T, checked against the bytes left before anything is allocated.
+  template <typename T>
+  void values(T* out, size_t count, const char* what) {
+    if (static_cast<double>(count) * sizeof(T) > static_cast<double>(bytes_.size() - pos_))
+      throw IoError(path_ + ": the file ends inside " + what + " (" + std::to_string(count) + " values declared; truncated .pks?)");
+    std::memcpy(out, bytes_.data() + pos_, count * sizeof(T));
+    pos_ += count * sizeof(T);
+  }
+  size_t left() const { return bytes_.size() - pos_; }
+
+ private:
+  const std::string& bytes_;
+  const std::string& path_;
+  size_t pos_ = 0;
+};
+
+}  // namespace
+
+void write_shape_space(const std::string& path, const ShapeSpace& s) {
+  const Eigen::Index nv = s.mean.rows(), K = s.basis.cols();
+  if (s.mean.cols() != 3 || s.basis.rows() != 3 * nv || static_cast<Eigen::Index>(s.variance_share.size()) != K ||
+      (s.faces.size() > 0 && s.faces.cols() != 3))
+    throw InvalidInput("write_shape_space: inconsistent space (" + std::to_string(nv) + " vertices, basis " +
+                       std::to_string(s.basis.rows()) + " x " + std::to_string(K) + ")");
+  std::ostringstream os(std::ios::binary);
+  os.write(kMagic, sizeof(kMagic));
+  put(os, kVersion);
+  put(os, static_cast<std::uint32_t>(nv));
+  put(os, static_cast<std::uint32_t>(K));
+  put(os, static_cast<std::uint32_t>(s.faces.rows()));
+  put(os, static_cast<std::int32_t>(s.bodies));
+  put(os, static_cast<std::uint32_t>(s.population.size()));
+  os.write(s.population.data(), static_cast<std::streamsize>(s.population.size()));
+  for (Eigen::Index f = 0; f < s.faces.rows(); ++f)
+    for (int c = 0; c < 3; ++c) put(os, static_cast<std::int32_t>(s.faces(f, c)));
+  for (double v : s.variance_share) put(os, v);
+  for (Eigen::Index i = 0; i < nv; ++i)
+    for (int c = 0; c < 3; ++c) put(os, s.mean(i, c));
+  for (Eigen::Index k = 0; k < K; ++k) os.write(reinterpret_cast<const char*>(s.basis.col(k).data()), static_cast<std::streamsize>(3 * nv * sizeof(double)));
+  const std::string bytes = os.str();
+  const std::uint32_t crc = crc32(bytes.data(), bytes.size());
+  write_file_atomically(path, [&](std::ostream& out) {
+    out.write(bytes.data(), static_cast<std::streamsize>(bytes.size()));
+    put(out, crc);
+  });
+}
+
+ShapeSpace read_shape_space(const std::string& path) {
+  std::string bytes = read_file_bytes(path);
+  if (bytes.size() < sizeof(kMagic) + 8 || std::memcmp(bytes.data(), kMagic, sizeof(kMagic)) != 0)
+    throw IoError(path + ": not a posekit shape space (expected the POSEKPKS header of a .pks file)");
+  std::uint32_t stored = 0;
+  std::memcpy(&stored, bytes.data() + bytes.size() - 4, 4);
+  if (stored != crc32(bytes.data(), bytes.size() - 4))
+    throw IoError(path + ": .pks checksum mismatch (the file is corrupt, truncated or was changed after it was written)");
+  bytes.resize(bytes.size() - 4);
+  Reader in(bytes, path);
+  for (size_t k = 0; k < sizeof(kMagic); ++k) in.get<char>("the header");
+  const auto version = in.get<std::uint32_t>("the header");
+  if (version != kVersion)
+    throw IoError(path + ": .pks version " + std::to_string(version) + ", this posekit reads version " + std::to_string(kVersion));
+  const auto nv = in.get<std::uint32_t>("the header"), K = in.get<std::uint32_t>("the header");
+  const auto nf = in.get<std::uint32_t>("the header");
+  ShapeSpace s;
+  s.bodies = in.get<std::int32_t>("the header");
+  const auto text = in.get<std::uint32_t>("the header");
+  if (nv < 3 || K < 1 || K > 100000u || s.bodies < 2 || text > in.left())
+    throw IoError(path + ": implausible .pks header (" + std::to_string(nv) + " vertices, " + std::to_string(K) +
+                  " components, " + std::to_string(s.bodies) + " bodies)");
+  s.population.resize(text);
+  in.values(s.population.data(), text, "the population");
+  s.faces.resize(nf, 3);
+  std::vector<std::int32_t> faces(static_cast<size_t>(nf) * 3);
+  in.values(faces.data(), faces.size(), "the triangles");
+  for (size_t i = 0; i < faces.size(); ++i) {
+    if (faces[i] < 0 || faces[i] >= static_cast<std::int32_t>(nv))
+      throw IoError(path + ": triangle " + std::to_string(i / 3) + " names vertex " + std::to_string(faces[i]) +
+                    ", the space has " + std::to_string(nv));
+    s.faces(static_cast<Eigen::Index>(i / 3), static_cast<Eigen::Index>(i % 3)) = faces[i];
+  }
+  s.variance_share.resize(K);
+  in.values(s.variance_share.data(), K, "the variance shares");
+  Eigen::Matrix<double, Eigen::Dynamic, 3, Eigen::RowMajor> mean(nv, 3);
+  in.values(mean.data(), static_cast<size_t>(nv) * 3, "the mean body");
+  s.mean = mean;
+  if (static_cast<double>(nv) * 3 * K * sizeof(double) != static_cast<double>(in.left()))
+    throw IoError(path + ": the basis of " + std::to_string(K) + " components of " + std::to_string(nv) +
+                  " vertices does not fill the rest of the file (" + std::to_string(in.left()) + " bytes)");
+  s.basis.resize(3 * static_cast<Eigen::Index>(nv), K);
+  in.values(s.basis.data(), static_cast<size_t>(nv) * 3 * K, "the basis");
+  if (!s.mean.allFinite() || !s.basis.allFinite() ||
+      !std::all_of(s.variance_share.begin(), s.variance_share.end(), [](double v) { return std::isfinite(v); }))
+    throw IoError(path + ": the shape space holds a NaN or infinite value");
+  return s;
+}
+
+}  // namespace posekit
