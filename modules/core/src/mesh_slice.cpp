@@ -3,6 +3,7 @@
 #include <Eigen/Geometry>
 
 #include <algorithm>
+#include <cmath>
 #include <cstdint>
 #include <limits>
 #include <numeric>
@@ -247,24 +248,25 @@ int nearest_loop(const std::vector<SectionLoop>& loops, const Eigen::Vector3d& p
 
 double loop_distance(const SectionLoop& a, const SectionLoop& b) {
   if (a.points.rows() == 0 || b.points.rows() == 0) throw InvalidInput("loop_distance: an empty loop");
-  // Nearest point of each loop's segments to each vertex of the other: the polylines' distance.
+  // Nearest point of each loop's segments to each vertex of the other: the polylines' distance
+  // (squared until the end: the square root keeps the order).
   auto vertices_to_segments = [](const SectionLoop& from, const SectionLoop& to) {
     const Eigen::Index n = to.points.rows(), segments = to.closed ? n : n - 1;
     double best = std::numeric_limits<double>::infinity();
     for (Eigen::Index i = 0; i < from.points.rows(); ++i) {
       const Eigen::Vector3d p = from.points.row(i).transpose();
-      if (segments <= 0) best = std::min(best, (p - to.points.row(0).transpose()).norm());
+      if (segments <= 0) best = std::min(best, (p - to.points.row(0).transpose()).squaredNorm());
       for (Eigen::Index s = 0; s < segments; ++s) {
         const Eigen::Vector3d q0 = to.points.row(s).transpose(), q1 = to.points.row((s + 1) % n).transpose();
         const Eigen::Vector3d d = q1 - q0;
         const double len2 = d.squaredNorm();
         const double t = len2 > 0 ? std::clamp((p - q0).dot(d) / len2, 0.0, 1.0) : 0.0;
-        best = std::min(best, (p - q0 - t * d).norm());
+        best = std::min(best, (p - q0 - t * d).squaredNorm());
       }
     }
     return best;
   };
-  return std::min(vertices_to_segments(a, b), vertices_to_segments(b, a));
+  return std::sqrt(std::min(vertices_to_segments(a, b), vertices_to_segments(b, a)));
 }
 
 }  // namespace posekit

@@ -95,11 +95,12 @@ std::vector<std::vector<int>> boundary_loops(const Eigen::MatrixXi& F) {
     for (int k = first_out[a]; k < first_out[a + 1]; ++k) n += head[k] == b;
     return n;
   };
-  // Boundary half-edges a->b in face orientation; a loop follows them head to tail.
+  // Boundary half-edges a->b in face orientation (no b->a, and a->b once); a loop follows them head
+  // to tail. An interior edge is told by its twin alone.
   std::unordered_multimap<int, int> next;
   for (int a = 0; a < nv; ++a)
     for (int k = first_out[a]; k < first_out[a + 1]; ++k)
-      if (count(a, head[k]) + count(head[k], a) == 1) next.emplace(a, head[k]);
+      if (count(head[k], a) == 0 && count(a, head[k]) == 1) next.emplace(a, head[k]);
   std::vector<std::vector<int>> loops;
   while (!next.empty()) {
     auto it = next.begin();

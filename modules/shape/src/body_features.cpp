@@ -350,7 +350,7 @@ void refine_elbows(BodyFeatures* features) {
 }
 
 TriangleMesh body_surface(const Eigen::MatrixXd& V, const Eigen::MatrixXi& F, std::string* note, std::vector<int>* vertex_map,
-                          std::vector<int>* face_map) {
+                          std::vector<int>* face_map, std::vector<std::vector<int>>* input_boundary) {
   const FloatingBits bits = find_floating_bits(V, F);
   TriangleMesh whole;
   whole.V = V;
@@ -367,7 +367,17 @@ TriangleMesh body_surface(const Eigen::MatrixXd& V, const Eigen::MatrixXi& F, st
   double largest = 0;
   std::vector<Eigen::RowVector3d> centres;
   std::vector<Eigen::Vector3i> caps;
-  for (const auto& loop : boundary_loops(body.F)) {
+  const std::vector<std::vector<int>> loops = boundary_loops(body.F);
+  if (input_boundary) {
+    if (body.F.rows() == F.rows()) {  // every face kept: the same loops, renumbered
+      *input_boundary = loops;
+      for (auto& loop : *input_boundary)
+        for (int& v : loop) v = vmap[static_cast<size_t>(v)];
+    } else {
+      *input_boundary = boundary_loops(F);
+    }
+  }
+  for (const auto& loop : loops) {
     if (loop.size() < 3) continue;
     double length = 0;
     Eigen::RowVector3d centre = Eigen::RowVector3d::Zero();
@@ -421,7 +431,8 @@ BodyFeatures find_body_features(const Eigen::MatrixXd& V_in, const Eigen::Matrix
   std::string left_out;
   TriangleMesh owned;
   TriangleMesh& surface = surface_out ? *surface_out : owned;
-  surface = body_surface(V_in, F_in, &left_out);
+  std::vector<std::vector<int>> input_boundary;
+  surface = body_surface(V_in, F_in, &left_out, nullptr, nullptr, &input_boundary);
   const Eigen::MatrixXd& V = surface.V;
   const Eigen::MatrixXi& F = surface.F;
   if (V.rows() == 0) throw InvalidInput("body features: the mesh has no faces");
@@ -430,7 +441,7 @@ BodyFeatures find_body_features(const Eigen::MatrixXd& V_in, const Eigen::Matrix
   // scanner's or a cutter's, so the sections just under it are no clean ring).
   bool top_is_cut = false;
   std::vector<std::pair<double, Eigen::Vector3d>> openings;  // (length, centre)
-  for (const auto& loop : boundary_loops(F_in)) {
+  for (const auto& loop : input_boundary) {
     double length = 0, low = box.max.y();
     Eigen::Vector3d centre = Eigen::Vector3d::Zero();
     for (size_t k = 0; k < loop.size(); ++k) {

@@ -61,10 +61,12 @@ struct BodyFeatures {
 /// by a fan from its centre, so that sections across it are closed. A tape bridges such a gap too.
 /// `note` (optional) receives what was left out and filled, or stays empty; `vertex_map` and
 /// `face_map` (optional) the index in V and F of each vertex and face of the result (-1 for the
-/// fill's).
+/// fill's); `input_boundary` (optional) the boundary loops of (V, F) itself, in its vertex indices
+/// (found on the way when nothing was left out).
 constexpr double kMaxFilledHole = 0.8;  ///< m of boundary length
 TriangleMesh body_surface(const Eigen::MatrixXd& V, const Eigen::MatrixXi& F, std::string* note = nullptr,
-                          std::vector<int>* vertex_map = nullptr, std::vector<int>* face_map = nullptr);
+                          std::vector<int>* vertex_map = nullptr, std::vector<int>* face_map = nullptr,
+                          std::vector<std::vector<int>>* input_boundary = nullptr);
 
 /// Finds the features of a standing human body mesh (its body_surface; what it left out is a warning). Throws InvalidInput naming what failed for
 /// a mesh that is not a standing human (lying, upside-down, arms touching the torso, too small);
