@@ -519,6 +519,45 @@ TEST(Cli, BatchMeasureListsFailuresResumesAndShardsMergeIntoTheSameSummary) {
   EXPECT_NE(r.out.find("shards 1 of 2 have no summary"), std::string::npos) << r.out;
 }
 
+TEST(Cli, BatchRegisterAgreesWithRegisterAndRedoesAChangedSource) {
+  ASSERT_FALSE(test::test_data_root().empty());
+  test::TempDir dir;
+  const std::string ds = test::small_dataset().root;
+  const std::string templ = ds + "/template/rest.ply";
+  std::filesystem::create_directories(dir.file("in"));
+  std::filesystem::copy_file(ds + "/subjects/f01/rest.ply", dir.file("in/f01.ply"));
+  std::filesystem::copy_file(ds + "/subjects/m01/rest.ply", dir.file("in/m01.ply"));
+  dir.write("in/scan.ply", "ply\nformat ascii 1.0\nelement vertex 3\nend_header\n1 2\n");
+  CommandResult r = run("batch register --source " + templ + " --inputs " + dir.file("in") + " --out " + dir.file("r") +
+                        " --deformed --jobs 2", true);
+  EXPECT_EQ(r.code, 1) << r.out;
+  EXPECT_NE(r.out.find("3 inputs, 3 processed, 0 done earlier, 1 failed"), std::string::npos) << r.out;
+  const auto summary = nlohmann::json::parse(read_file_bytes(dir.file("r/summary.json")));
+  const auto& f01 = summary["results"][0];
+  ASSERT_TRUE(f01["ok"].get<bool>()) << f01;
+  // The same correspondence as register gives for the pair, and the source on the target.
+  ASSERT_EQ(run("register " + templ + " " + dir.file("in/f01.ply") + " --out " + dir.file("one.json")).code, 0);
+  const auto batch_corr = nlohmann::json::parse(read_file_bytes(dir.file("r/" + f01["correspondence"].get<std::string>())));
+  const auto one_corr = nlohmann::json::parse(read_file_bytes(dir.file("one.json")));
+  EXPECT_EQ(batch_corr["target_to_source"], one_corr["target_to_source"]);
+  EXPECT_EQ(batch_corr["target_to_source"].size(), read_mesh(dir.file("in/f01.ply")).F.rows());
+  EXPECT_LT(f01["quality"]["mean_distance_mm"].get<double>(), 5.0);
+  EXPECT_EQ(read_mesh(dir.file("r/" + f01["deformed"].get<std::string>())).V.rows(), read_mesh(templ).V.rows());
+  const std::string csv = read_file_bytes(dir.file("r/summary.csv"));
+  EXPECT_NE(csv.find("mean_distance_mm"), std::string::npos);
+  EXPECT_EQ(std::count(csv.begin(), csv.end(), '\n'), 4);
+  // Resumed: only the failure again; another source file (same mesh, other bytes) redoes all.
+  r = run("batch register --source " + templ + " --inputs " + dir.file("in") + " --out " + dir.file("r") + " --deformed");
+  EXPECT_NE(r.out.find("3 inputs, 1 processed, 2 done earlier, 1 failed"), std::string::npos) << r.out;
+  TriangleMesh t = read_mesh(templ);
+  write_mesh(dir.file("templ.obj"), t);
+  std::filesystem::copy_file(dir.file("templ.obj"), dir.file("t.obj"));
+  r = run("batch register --source " + dir.file("t.obj") + " --inputs " + dir.file("in") + " --out " + dir.file("r") + " --deformed");
+  EXPECT_NE(r.out.find("3 inputs, 3 processed, 0 done earlier, 1 failed"), std::string::npos) << r.out;
+  EXPECT_EQ(run("batch register --inputs " + dir.file("in") + " --out " + dir.file("x")).code, 2);
+  EXPECT_EQ(run("batch register --source " + templ + " --inputs " + dir.file("in") + " --out " + dir.file("x") + " --method icp --refine").code, 2);
+}
+
 TEST(Cli, BatchCompareAgreesWithCompareAndWritesHeatmaps) {
   ASSERT_FALSE(test::test_data_root().empty());
   test::TempDir dir;
