@@ -549,8 +549,7 @@ int run_batch_pose(int argc, char** argv) {
   if (format != "ply" && format != "obj" && format != "off") throw UsageError("--format expects ply, obj or off, got '" + format + "'");
   const PoseMethod method = parse_pose_method(args.get("method"));
   const auto model = std::make_shared<const PoseModel>(read_pose_model(args.get("model")));
-  const std::string model_bytes = read_file_bytes(args.get("model"));
-  const std::uint32_t model_crc = crc32(model_bytes.data(), model_bytes.size());  // a retrained model redoes every subject
+  const std::uint32_t model_crc = file_crc32(args.get("model"));  // a retrained model redoes every subject
   const std::string pose_path = args.get("pose");
   const std::string frames = args.has("frames") ? args.get("frames") : "", data = args.has("data") ? args.get("data") : "";
   const std::string joint_map = args.has("joint-map") ? args.get("joint-map") : "", root_motion = args.get("root-motion");
@@ -667,12 +666,7 @@ int run_batch_register(int argc, char** argv) {
                        " vertices; the source has " + std::to_string(source_mesh.num_vertices()) + ")");
   std::unique_ptr<const CtffdSource> prepared;
   if (o.method == RegistrationMethod::kCtffd) prepared = std::make_unique<const CtffdSource>(source_mesh, o.points_per_layer);
-  const std::string source_bytes = read_file_bytes(args.get("source"));
-  std::uint32_t space_crc = 0;
-  if (is_shape_space_file(shape_arg)) {
-    const std::string bytes = read_file_bytes(shape_arg);
-    space_crc = crc32(bytes.data(), bytes.size());
-  }
+  const std::uint32_t space_crc = is_shape_space_file(shape_arg) ? file_crc32(shape_arg) : 0;
   const fs::path out = args.get("out"), corr_dir = out / "correspondence", deformed_dir = out / "deformed";
   const bool deformed = args.flag_set("deformed");
   fs::create_directories(corr_dir);
@@ -680,7 +674,7 @@ int run_batch_register(int argc, char** argv) {
   BatchJob job;
   job.command = "register";
   // A changed source or space file redoes every target.
-  job.settings = {{"source", args.get("source")}, {"source_checksum", crc32(source_bytes.data(), source_bytes.size())},
+  job.settings = {{"source", args.get("source")}, {"source_checksum", file_crc32(args.get("source"))},
                   {"method", args.get("method")}, {"shape_space", shape_arg}, {"shape_space_checksum", space_crc},
                   {"refine", o.refine}, {"deformed", deformed}};
   job.process = [&](const std::string& input, const std::string& stem) {

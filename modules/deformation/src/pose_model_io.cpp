@@ -148,12 +148,7 @@ void write_pose_model(const std::string& path, const PoseModel& model) {
     put(os, static_cast<std::uint32_t>(model.joint_offsets.rows()));
     put_matrix(os, model.joint_offsets);
   }
-  const std::string bytes = os.str();
-  const std::uint32_t crc = crc32(bytes.data(), bytes.size());
-  write_file_atomically(path, [&](std::ostream& out) {
-    out.write(bytes.data(), static_cast<std::streamsize>(bytes.size()));
-    put(out, crc);
-  });
+  write_file_with_crc32(path, os.str());
 }
 
 PoseModel read_pose_model(const std::string& path) {

@@ -2,6 +2,8 @@
 
 #include <array>
 
+#include "posekit/io/atomic_file.h"
+
 namespace posekit {
 namespace {
 
@@ -23,6 +25,19 @@ std::uint32_t crc32(const void* data, std::size_t size, std::uint32_t crc) {
   crc = ~crc;
   for (std::size_t i = 0; i < size; ++i) crc = table[(crc ^ p[i]) & 0xFFu] ^ (crc >> 8);
   return ~crc;
+}
+
+std::uint32_t file_crc32(const std::string& path) {
+  const std::string bytes = read_file_bytes(path);
+  return crc32(bytes.data(), bytes.size());
+}
+
+void write_file_with_crc32(const std::string& path, const std::string& bytes) {
+  const std::uint32_t crc = crc32(bytes.data(), bytes.size());
+  write_file_atomically(path, [&](std::ostream& out) {
+    out.write(bytes.data(), static_cast<std::streamsize>(bytes.size()));
+    out.write(reinterpret_cast<const char*>(&crc), sizeof crc);
+  });
 }
 
 }  // namespace posekit

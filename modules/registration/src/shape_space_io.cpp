@@ -72,12 +72,7 @@ void write_shape_space(const std::string& path, const ShapeSpace& s) {
   for (Eigen::Index i = 0; i < nv; ++i)
     for (int c = 0; c < 3; ++c) put(os, s.mean(i, c));
   for (Eigen::Index k = 0; k < K; ++k) os.write(reinterpret_cast<const char*>(s.basis.col(k).data()), static_cast<std::streamsize>(3 * nv * sizeof(double)));
-  const std::string bytes = os.str();
-  const std::uint32_t crc = crc32(bytes.data(), bytes.size());
-  write_file_atomically(path, [&](std::ostream& out) {
-    out.write(bytes.data(), static_cast<std::streamsize>(bytes.size()));
-    put(out, crc);
-  });
+  write_file_with_crc32(path, os.str());
 }
 
 ShapeSpace read_shape_space(const std::string& path) {
