@@ -2,6 +2,8 @@
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
+
 #include "testing/test_meshes.h"
 
 using namespace posekit;
@@ -36,6 +38,22 @@ TEST(MeshTopology, OpenGridHasOneBoundaryLoopAroundIt) {
     const int a = loops[0][i], b = loops[0][(i + 1) % loops[0].size()];
     EXPECT_NEAR((g.V.row(a) - g.V.row(b)).norm(), 1.0, 1e-12);
   }
+}
+
+TEST(MeshTopology, BorderEdgesAreTheBoundaryLoopsEdgesAndNoOthers) {
+  const TriangleMesh g = test::grid(5);
+  const std::vector<char> border = border_edges(g.F);
+  const Eigen::MatrixXi TT = face_adjacency(g.F);
+  ASSERT_EQ(border.size(), static_cast<size_t>(g.F.size()));
+  for (Eigen::Index f = 0; f < g.F.rows(); ++f)
+    for (int i = 0; i < 3; ++i) EXPECT_EQ(border[static_cast<size_t>(3 * f + i)] != 0, TT(f, i) < 0) << f << " " << i;
+  EXPECT_EQ(std::count(border.begin(), border.end(), 1), 20);  // the loop's 4n edges
+  for (char b : border_edges(test::icosphere(2).F)) EXPECT_EQ(b, 0);
+  // An edge of three faces is no hole's border.
+  Eigen::MatrixXi F(3, 3);
+  F << 0, 1, 2, 1, 0, 3, 0, 1, 4;
+  const std::vector<char> fan = border_edges(F);
+  EXPECT_FALSE(fan[0] || fan[3] || fan[6]);
 }
 
 TEST(MeshTopology, ComponentsAreCountedAndLabelled) {

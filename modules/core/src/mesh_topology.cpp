@@ -76,31 +76,55 @@ Eigen::MatrixXi face_adjacency(const Eigen::MatrixXi& F, int* non_manifold_edges
   return TT;
 }
 
-std::vector<std::vector<int>> boundary_loops(const Eigen::MatrixXi& F) {
-  // Half-edges a->b bucketed by a (a counting sort, linear time); an edge is on the boundary when
-  // one face alone has it (a->b and b->a counted together). Cheaper than sorting every half-edge,
-  // which a body's features need twice.
-  int nv = 0;
-  for (Eigen::Index i = 0; i < F.size(); ++i) nv = std::max(nv, F.data()[i] + 1);
-  std::vector<int> first_out(static_cast<size_t>(nv) + 1, 0);
-  for (Eigen::Index f = 0; f < F.rows(); ++f)
-    for (int c = 0; c < 3; ++c) ++first_out[static_cast<size_t>(F(f, c)) + 1];
-  for (int v = 0; v < nv; ++v) first_out[v + 1] += first_out[v];
-  std::vector<int> head(static_cast<size_t>(first_out[nv]));
-  std::vector<int> fill(first_out.begin(), first_out.end() - 1);
-  for (Eigen::Index f = 0; f < F.rows(); ++f)
-    for (int c = 0; c < 3; ++c) head[static_cast<size_t>(fill[F(f, c)]++)] = F(f, (c + 1) % 3);
-  auto count = [&](int a, int b) {
+namespace {
+
+/// Half-edges a->b bucketed by a (a counting sort, linear time): cheaper than sorting every
+/// half-edge where only "does another face have this edge" is asked.
+struct OutEdges {
+  std::vector<int> first_out, head;
+  int vertices = 0;
+
+  explicit OutEdges(const Eigen::MatrixXi& F) {
+    for (Eigen::Index i = 0; i < F.size(); ++i) vertices = std::max(vertices, F.data()[i] + 1);
+    first_out.assign(static_cast<size_t>(vertices) + 1, 0);
+    for (Eigen::Index f = 0; f < F.rows(); ++f)
+      for (int c = 0; c < 3; ++c) ++first_out[static_cast<size_t>(F(f, c)) + 1];
+    for (int v = 0; v < vertices; ++v) first_out[v + 1] += first_out[v];
+    head.resize(static_cast<size_t>(first_out[vertices]));
+    std::vector<int> fill(first_out.begin(), first_out.end() - 1);
+    for (Eigen::Index f = 0; f < F.rows(); ++f)
+      for (int c = 0; c < 3; ++c) head[static_cast<size_t>(fill[F(f, c)]++)] = F(f, (c + 1) % 3);
+  }
+  int count(int a, int b) const {
     int n = 0;
     for (int k = first_out[a]; k < first_out[a + 1]; ++k) n += head[k] == b;
     return n;
-  };
-  // Boundary half-edges a->b in face orientation (no b->a, and a->b once); a loop follows them head
-  // to tail. An interior edge is told by its twin alone.
+  }
+  /// One face alone has the edge a-b (a->b and b->a counted together); an interior edge is told
+  /// by its twin alone.
+  bool on_border(int a, int b) const { return count(b, a) == 0 && count(a, b) == 1; }
+};
+
+}  // namespace
+
+std::vector<char> border_edges(const Eigen::MatrixXi& F) {
+  const OutEdges out(F);
+  std::vector<char> border(static_cast<size_t>(F.size()), 0);
+  for (Eigen::Index f = 0; f < F.rows(); ++f)
+    for (int c = 0; c < 3; ++c) border[static_cast<size_t>(3 * f + c)] = out.on_border(F(f, c), F(f, (c + 1) % 3));
+  return border;
+}
+
+std::vector<std::vector<int>> boundary_loops(const Eigen::MatrixXi& F) {
+  const OutEdges out(F);
+  const int nv = out.vertices;
+  const std::vector<int>& first_out = out.first_out;
+  const std::vector<int>& head = out.head;
+  // Boundary half-edges a->b in face orientation; a loop follows them head to tail.
   std::unordered_multimap<int, int> next;
   for (int a = 0; a < nv; ++a)
     for (int k = first_out[a]; k < first_out[a + 1]; ++k)
-      if (count(head[k], a) == 0 && count(a, head[k]) == 1) next.emplace(a, head[k]);
+      if (out.on_border(a, head[k])) next.emplace(a, head[k]);
   std::vector<std::vector<int>> loops;
   while (!next.empty()) {
     auto it = next.begin();

@@ -12,7 +12,7 @@ namespace posekit {
 /// Which target vertices lie on a hole's border, and which triangle edges do.
 struct TargetBoundary {
   std::vector<char> vertex;
-  Eigen::MatrixXi adjacency;  // face_adjacency: -1 across a border edge
+  std::vector<char> edge;  // border_edges: 3f + i for edge i of face f
 
   /// Whether the surface point (face f, barycentric b) lies on the border.
   bool contains(const Eigen::MatrixXi& F, int f, const Eigen::Vector3d& b) const {
@@ -20,7 +20,7 @@ struct TargetBoundary {
     for (int c = 0; c < 3; ++c)
       if (b[c] > 1 - kOn) return vertex[static_cast<size_t>(F(f, c))] != 0;
     for (int i = 0; i < 3; ++i)  // edge i joins corners i and i+1 and is opposite corner i+2
-      if (adjacency(f, i) < 0 && b[(i + 2) % 3] < kOn) return true;
+      if (edge[static_cast<size_t>(3 * f + i)] && b[(i + 2) % 3] < kOn) return true;
     return false;
   }
 };
@@ -28,10 +28,10 @@ struct TargetBoundary {
 inline TargetBoundary find_boundary(const TriangleMesh& m) {
   TargetBoundary b;
   b.vertex.assign(static_cast<size_t>(m.V.rows()), 0);
-  b.adjacency = face_adjacency(m.F);
+  b.edge = border_edges(m.F);
   for (Eigen::Index f = 0; f < m.F.rows(); ++f)
     for (int i = 0; i < 3; ++i)
-      if (b.adjacency(f, i) < 0) b.vertex[static_cast<size_t>(m.F(f, i))] = b.vertex[static_cast<size_t>(m.F(f, (i + 1) % 3))] = 1;
+      if (b.edge[static_cast<size_t>(3 * f + i)]) b.vertex[static_cast<size_t>(m.F(f, i))] = b.vertex[static_cast<size_t>(m.F(f, (i + 1) % 3))] = 1;
   return b;
 }
 

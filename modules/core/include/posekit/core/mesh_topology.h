@@ -15,6 +15,10 @@ Eigen::MatrixXi unique_edges(const Eigen::MatrixXi& F);
 /// `non_manifold_edges` (optional) counts such edges.
 Eigen::MatrixXi face_adjacency(const Eigen::MatrixXi& F, int* non_manifold_edges = nullptr);
 
+/// Whether edge i of face f (F(f,i) to F(f,(i+1)%3)) is on a boundary, no other face having it:
+/// entry 3f + i. Linear time. (An edge of three or more faces is not a boundary.)
+std::vector<char> border_edges(const Eigen::MatrixXi& F);
+
 /// Closed boundary loops, each an ordered list of vertex indices following the boundary edges.
 std::vector<std::vector<int>> boundary_loops(const Eigen::MatrixXi& F);
 
