@@ -11,6 +11,7 @@
 #include "posekit/core/units.h"
 #include "posekit/io/atomic_file.h"
 #include "posekit/datasets/dataset.h"
+#include "posekit/evaluation/registration_table.h"
 #include "posekit/io/mesh_io.h"
 #include "posekit/registration/registration.h"
 
@@ -30,17 +31,15 @@ void set_population_leave_out(PopulationOptions& o, const std::string& what) {
   }
 }
 
-ShapeSpace make_makehuman_shape_space(const MakeHumanModel& model, PopulationOptions o) {
+ShapeSpace make_makehuman_shape_space(const MakeHumanModel& model, PopulationOptions o, double variance_kept,
+                                      int max_components) {
   std::unique_ptr<Progress> progress;
   o.progress = [&](int done, int total) {
     if (!progress) progress = std::make_unique<Progress>("shape space bodies", total);
     progress->update(done);
   };
-  std::string note;
-  const std::vector<Eigen::MatrixXd> bodies = make_population_bodies(model, o, &note);
+  ShapeSpace space = makehuman_shape_space(model, o, variance_kept, max_components);
   if (progress) progress->finish();
-  ShapeSpace space = learn_shape_space(bodies, 0.99999, 60, note);
-  space.faces = model.body_F;
   return space;
 }
 
@@ -247,7 +246,8 @@ int run_shape_space(int argc, char** argv) {
     PopulationOptions po;
     po.count = static_cast<int>(count);
     set_population_leave_out(po, args.get("leave-out"));
-    space = make_makehuman_shape_space(*load_makehuman_model(find_data_root(args.get("data"))), po);
+    space = make_makehuman_shape_space(*load_makehuman_model(find_data_root(args.get("data"))), po, variance,
+                                       static_cast<int>(max_components));
   }
   write_shape_space(args.get("out"), space);
   double kept = 0;

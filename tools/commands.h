@@ -56,7 +56,8 @@ PoseSynthesizer set_up_subject(std::shared_ptr<const PoseModel> model, const Tri
 void set_population_leave_out(PopulationOptions& options, const std::string& what);
 /// A shape space of MakeHuman bodies in the base topology (make_population_bodies, learn_shape_space),
 /// with progress on stderr.
-ShapeSpace make_makehuman_shape_space(const MakeHumanModel& model, PopulationOptions options);
+ShapeSpace make_makehuman_shape_space(const MakeHumanModel& model, PopulationOptions options, double variance_kept = 0.99999,
+                                      int max_components = 60);
 /// --shape-space: a count of digits is a MakeHuman population of that many bodies (0: none,
 /// `leave_out` as set_population_leave_out), anything else a .pks file (posekit shape-space).
 bool is_shape_space_file(const std::string& value);

@@ -409,6 +409,10 @@ TEST(ShapeSpace, AlignsBodiesRigidlyAndRoundTripsThroughAFile) {
   EXPECT_EQ(read.variance_share, space.variance_share);
   EXPECT_EQ(read.population, "five spheres");
   EXPECT_EQ(read.bodies, 5);
+  ShapeSpace unknown_triangles = space;  // learned through the API: no triangles recorded
+  unknown_triangles.faces.resize(0, 3);
+  write_shape_space(dir.path() + "/no_faces.pks", unknown_triangles);
+  EXPECT_EQ(read_shape_space(dir.path() + "/no_faces.pks").faces.rows(), 0);
   // A flipped bit, a cut file, another file: refused, naming the file.
   std::string bytes = read_file_bytes(path);
   for (const std::string& bad : {bytes.substr(0, bytes.size() / 2), std::string("POSEKPKM") + bytes.substr(8), std::string("xyz")}) {

@@ -13,11 +13,14 @@
 #include "posekit/core/mesh_geometry.h"
 #include "posekit/datasets/dataset.h"
 #include "posekit/datasets/remesh.h"
+#include "posekit/datasets/subjects.h"
+#include "posekit/body/makehuman_model.h"
 #include "posekit/deformation/pose_model.h"
 #include "posekit/deformation/pose_synthesis.h"
 #include "posekit/io/atomic_file.h"
 #include "posekit/io/mesh_io.h"
 #include "posekit/registration/registration.h"
+#include "posekit/registration/shape_space.h"
 
 namespace fs = std::filesystem;
 
@@ -146,6 +149,15 @@ Target remeshed_target(const TriangleMesh& subject, const Eigen::MatrixXd& true_
 }
 
 }  // namespace
+
+ShapeSpace makehuman_shape_space(const MakeHumanModel& model, const PopulationOptions& population, double variance_kept,
+                                 int max_components) {
+  std::string note;
+  const std::vector<Eigen::MatrixXd> bodies = make_population_bodies(model, population, &note);
+  ShapeSpace space = learn_shape_space(bodies, variance_kept, max_components, note);
+  space.faces = model.body_F;
+  return space;
+}
 
 RegistrationTable measure_registration_table(const std::string& dir, const RegistrationTableOptions& o) {
   if (o.runs < 1) throw InvalidInput("registration table: runs must be at least 1");

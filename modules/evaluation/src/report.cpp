@@ -636,9 +636,7 @@ ReportSummary write_report(const std::string& dir, const std::string& out_dir, c
     } else if (o.shape_space_bodies > 1) {
       PopulationOptions po;
       po.count = o.shape_space_bodies;
-      std::string note;
-      const std::vector<Eigen::MatrixXd> bodies = make_population_bodies(*load_makehuman_model(find_data_root("")), po, &note);
-      ro.shape_space = std::make_shared<const ShapeSpace>(learn_shape_space(bodies, 0.99999, 60, note));
+      ro.shape_space = std::make_shared<const ShapeSpace>(makehuman_shape_space(*load_makehuman_model(find_data_root("")), po));
     }
     const RegistrationTable t = measure_registration_table(dir, ro);
     Table table{"Table 1: registration time and correspondence accuracy",

@@ -36,6 +36,7 @@ class Reader {
   /// `count` values of T, checked against the bytes left before anything is allocated.
   template <typename T>
   void values(T* out, size_t count, const char* what) {
+    if (count == 0) return;  // (an empty vector's data() may be null, which memcpy must not get)
     if (static_cast<double>(count) * sizeof(T) > static_cast<double>(bytes_.size() - pos_))
       throw IoError(path_ + ": the file ends inside " + what + " (" + std::to_string(count) + " values declared; truncated .pks?)");
     std::memcpy(out, bytes_.data() + pos_, count * sizeof(T));
