@@ -236,6 +236,14 @@ int run_shape_space(int argc, char** argv) {
       std::cerr << "posekit shape-space: unit " << unit_name(unit) << " (detected from " << data.names.front()
                 << "'s largest extent, " << extent << ")\n";
     }
+    // One unit for all: a body 10 or 1000 times the first one's size is another unit, not a shape.
+    const double first = robust_largest_extent(data.V.front());
+    for (size_t b = 1; b < data.V.size(); ++b) {
+      const double ratio = robust_largest_extent(data.V[b]) / first;
+      if (!(ratio > 0.5 && ratio < 2))
+        throw InvalidInput(dir + ": " + data.names[b] + " is " + std::to_string(ratio) + " times the size of " +
+                           data.names.front() + ": the meshes must be in one unit (convert it, or learn without it)");
+    }
     if (!args.flag_set("no-align")) align_bodies_rigidly(data.V);
     space = learn_shape_space(data.V, variance, static_cast<int>(max_components),
                               std::to_string(data.V.size()) + " registered meshes of " + dir);

@@ -851,6 +851,13 @@ TEST(Cli, ShapeSpaceFilesFromMakeHumanOrARegisteredFolder) {
   EXPECT_GT(fit(dir.path() + "/raw.pks")["median_distance_mm"].get<double>(), own["median_distance_mm"].get<double>() + 0.5);
   // Bad input: a mesh of another topology in the folder, a space of another topology than the
   // source, a corrupt file.
+  TriangleMesh metres = read_mesh(meshes + "/body100.obj");
+  metres.V /= 1000.0;
+  write_mesh(meshes + "/body500.obj", metres);
+  r = run("shape-space --meshes " + meshes + " --out " + dir.path() + "/bad.pks", true);
+  EXPECT_EQ(r.code, 1);
+  EXPECT_NE(r.out.find("body500 is 0.001"), std::string::npos) << r.out;
+  std::filesystem::remove(meshes + "/body500.obj");
   std::filesystem::copy_file(subject, meshes + "/body999.ply");
   r = run("shape-space --meshes " + meshes + " --out " + dir.path() + "/bad.pks", true);
   EXPECT_EQ(r.code, 1);
