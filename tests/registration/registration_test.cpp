@@ -5,6 +5,7 @@
 #include <Eigen/Geometry>
 #include <algorithm>
 #include <cmath>
+#include <cstring>
 #include <fstream>
 #include <nlohmann/json.hpp>
 #include <string>
@@ -15,6 +16,7 @@
 #include "posekit/datasets/remesh.h"
 #include "posekit/datasets/robustness.h"
 #include "posekit/io/atomic_file.h"
+#include "posekit/io/checksum.h"
 #include "posekit/io/mesh_io.h"
 #include "posekit/datasets/subjects.h"
 #include "posekit/registration/correspondence.h"
@@ -424,6 +426,12 @@ TEST(ShapeSpace, AlignsBodiesRigidlyAndRoundTripsThroughAFile) {
       EXPECT_NE(std::string(e.what()).find("bad.pks"), std::string::npos) << e.what();
     }
   }
+  // A header claiming a billion vertices, its checksum mended: refused before anything is allocated.
+  std::string huge = bytes.substr(0, bytes.size() - 4);
+  const std::uint32_t billion = 1000000000u;
+  std::memcpy(&huge[12], &billion, 4);
+  write_file_with_crc32(dir.path() + "/huge.pks", huge);
+  EXPECT_THROW(read_shape_space(dir.path() + "/huge.pks"), IoError);
   bytes[bytes.size() / 3] ^= 0x01;
   write_file_atomically(dir.path() + "/flipped.pks", [&](std::ostream& o) { o << bytes; });
   EXPECT_THROW(read_shape_space(dir.path() + "/flipped.pks"), IoError);

@@ -95,7 +95,10 @@ ShapeSpace read_shape_space(const std::string& path) {
   ShapeSpace s;
   s.bodies = in.get<std::int32_t>("the header");
   const auto text = in.get<std::uint32_t>("the header");
-  if (nv < 3 || K < 1 || K > 100000u || s.bodies < 2 || text > in.left())
+  // Every section's size against the bytes there are, before anything is allocated.
+  const double left = static_cast<double>(in.left());
+  if (nv < 3 || K < 1 || K > 100000u || s.bodies < 2 || text > in.left() || 12.0 * nf > left ||
+      24.0 * nv * (1.0 + K) > left)
     throw IoError(path + ": implausible .pks header (" + std::to_string(nv) + " vertices, " + std::to_string(K) +
                   " components, " + std::to_string(s.bodies) + " bodies)");
   s.population.resize(text);
