@@ -74,6 +74,48 @@ TEST(ClosestPoint, MatchesABruteForceSearch) {
       ASSERT_LT((from_bary - near.point.row(i)).norm(), 1e-12) << i;
     }
   }
+  // Start faces (any face, or none) bound the search and leave the result exact.
+  Eigen::VectorXi start(Q.rows());
+  std::uniform_int_distribution<int> any_face(-1, static_cast<int>(s.F.rows()) - 1);
+  for (Eigen::Index i = 0; i < Q.rows(); ++i) start[i] = any_face(rng);
+  const ClosestPoints plain = tree.closest(Q, 1), started = tree.closest(Q, 2, &start);
+  for (Eigen::Index i = 0; i < Q.rows(); ++i) ASSERT_NEAR(started.distance[i], plain.distance[i], 1e-15) << i;
+  const Eigen::VectorXi too_few = start.head(10);
+  EXPECT_THROW(tree.closest(Q, 1, &too_few), InvalidInput);
+  // Triangles sharing one centroid (one Morton code) and a thin strip (a flat box): the build's
+  // splits must still make a tree that answers exactly.
+  TriangleMesh pile;
+  pile.V.resize(3 * 40, 3);
+  pile.F.resize(40, 3);
+  for (int k = 0; k < 40; ++k) {
+    const double r = 0.1 + 0.01 * k;
+    pile.V.row(3 * k) << r, 0, 0;
+    pile.V.row(3 * k + 1) << -r / 2, r * 0.866, 0;
+    pile.V.row(3 * k + 2) << -r / 2, -r * 0.866, 0;
+    pile.F.row(k) << 3 * k, 3 * k + 1, 3 * k + 2;
+  }
+  TriangleMesh strip;
+  strip.V.resize(2 * 500, 3);
+  strip.F.resize(2 * 499, 3);
+  for (int k = 0; k < 500; ++k) {
+    strip.V.row(2 * k) << 0.01 * k, 0, 0;
+    strip.V.row(2 * k + 1) << 0.01 * k, 0.001, 1e-4 * (k % 3);
+    if (k + 1 < 500) {
+      strip.F.row(2 * k) << 2 * k, 2 * k + 2, 2 * k + 1;
+      strip.F.row(2 * k + 1) << 2 * k + 1, 2 * k + 2, 2 * k + 3;
+    }
+  }
+  for (const TriangleMesh* m : {&pile, &strip}) {
+    const TriangleTree t(m->V, m->F);
+    const ClosestPoints got = t.closest(P * 3, 1);
+    for (Eigen::Index i = 0; i < P.rows(); ++i) {
+      double best = 1e300;
+      for (Eigen::Index f = 0; f < m->F.rows(); ++f)
+        best = std::min(best, (closest_point_on_triangle(3 * P.row(i), m->V.row(m->F(f, 0)), m->V.row(m->F(f, 1)),
+                                                         m->V.row(m->F(f, 2))) - 3 * P.row(i).transpose()).norm());
+      ASSERT_NEAR(got.distance[i], best, 1e-12) << i;
+    }
+  }
   // Vertex, edge and face regions of one triangle.
   const Eigen::Vector3d a(0, 0, 0), b(1, 0, 0), c(0, 1, 0);
   EXPECT_TRUE(closest_point_on_triangle({-1, -1, 2}, a, b, c).isApprox(a));

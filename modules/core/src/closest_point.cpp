@@ -75,45 +75,119 @@ void parallel_for_ranges(long n, int threads, const std::function<void(long, lon
     if (e) std::rethrow_exception(e);
 }
 
+namespace {
+
+/// Spreads the low 10 bits of x to every third bit.
+std::uint32_t spread_bits(std::uint32_t x) {
+  x &= 0x3FFu;
+  x = (x | (x << 16)) & 0x030000FFu;
+  x = (x | (x << 8)) & 0x0300F00Fu;
+  x = (x | (x << 4)) & 0x030C30C3u;
+  x = (x | (x << 2)) & 0x09249249u;
+  return x;
+}
+
+}  // namespace
+
+std::vector<int> morton_order(const Eigen::MatrixXd& P, std::vector<std::uint32_t>* sorted_codes) {
+  const Eigen::Index n = P.rows();
+  std::vector<int> out(static_cast<size_t>(n));
+  std::iota(out.begin(), out.end(), 0);
+  if (n < 2) {
+    if (sorted_codes) sorted_codes->assign(static_cast<size_t>(n), 0);
+    return out;
+  }
+  const Eigen::RowVector3d lo = P.colwise().minCoeff(), span = (P.colwise().maxCoeff() - lo).cwiseMax(1e-300);
+  std::vector<std::uint32_t> code(static_cast<size_t>(n)), code2(static_cast<size_t>(n));
+  for (Eigen::Index i = 0; i < n; ++i) {
+    std::uint32_t c = 0;
+    for (int k = 0; k < 3; ++k)
+      c |= spread_bits(static_cast<std::uint32_t>(std::min(1023.0, (P(i, k) - lo[k]) / span[k] * 1024.0))) << k;
+    code[static_cast<size_t>(i)] = c;
+  }
+  std::vector<int> tmp(static_cast<size_t>(n));
+  for (int shift = 0; shift < 30; shift += 10) {  // three passes of 10 bits
+    std::vector<size_t> count(1025, 0);
+    for (size_t i = 0; i < out.size(); ++i) ++count[((code[i] >> shift) & 1023u) + 1];
+    for (size_t b = 1; b < count.size(); ++b) count[b] += count[b - 1];
+    for (size_t i = 0; i < out.size(); ++i) {
+      const size_t dst = count[(code[i] >> shift) & 1023u]++;
+      tmp[dst] = out[i];
+      code2[dst] = code[i];
+    }
+    out.swap(tmp);
+    code.swap(code2);
+  }
+  if (sorted_codes) *sorted_codes = std::move(code);
+  return out;
+}
+
 struct TriangleTree::Impl {
   struct Node {
     Eigen::Vector3d lo, hi;
     int left = -1, right = -1;  // children, or -1 for a leaf
     int begin = 0, end = 0;     // leaf range in `order`
   };
-  Eigen::MatrixXd V;
-  Eigen::MatrixXi F;
   std::vector<int> order;       // face of each leaf slot
   std::vector<int> slot_of;     // leaf slot of each face
   std::vector<double> corners;  // 9 per leaf slot: the triangle's corners, contiguous for the search
   std::vector<double> boxes;    // 6 per leaf slot: the triangle's box (lo, hi), a cheap lower bound
   std::vector<Node> nodes;
 
-  int build(int begin, int end, const Eigen::MatrixXd& centroid, const Eigen::MatrixXd& lo, const Eigen::MatrixXd& hi) {
-    Node node;
-    node.lo = Eigen::Vector3d::Constant(std::numeric_limits<double>::infinity());
-    node.hi = -node.lo;
-    for (int i = begin; i < end; ++i) {
-      node.lo = node.lo.cwiseMin(lo.row(order[static_cast<size_t>(i)]).transpose());
-      node.hi = node.hi.cwiseMax(hi.row(order[static_cast<size_t>(i)]).transpose());
-    }
+  /// Splits [begin, end) of `order` (faces along a Z-curve, `code` their Morton codes) where the
+  /// highest bit in which the range's codes differ turns on, an octree's halving of space (Karras
+  /// 2012); a range of up to kMedianSplit faces at the median of its centroids' longest axis, so that
+  /// leaves hold 3 or 4. Boxes are set afterwards (set_boxes).
+  int build(int begin, int end, const std::vector<std::uint32_t>& code, const Eigen::MatrixXd& centroid) {
+    constexpr int kMedianSplit = 16;
     const int id = static_cast<int>(nodes.size());
-    nodes.push_back(node);
+    nodes.emplace_back();
     if (end - begin <= 4) {
       nodes[static_cast<size_t>(id)].begin = begin;
       nodes[static_cast<size_t>(id)].end = end;
       return id;
     }
-    int axis;
-    (node.hi - node.lo).maxCoeff(&axis);
-    const int mid = (begin + end) / 2;
-    std::nth_element(order.begin() + begin, order.begin() + mid, order.begin() + end,
-                     [&](int a, int b) { return centroid(a, axis) < centroid(b, axis); });
-    const int left = build(begin, mid, centroid, lo, hi);
-    const int right = build(mid, end, centroid, lo, hi);
+    int mid = (begin + end) / 2;
+    const std::uint32_t first = code[static_cast<size_t>(begin)], last = code[static_cast<size_t>(end - 1)];
+    if (end - begin > kMedianSplit && first != last) {
+      int bit = 31;
+      while (!(((first ^ last) >> bit) & 1u)) --bit;
+      const std::uint32_t split = ((first >> bit) | 1u) << bit;  // the common prefix, then bit set
+      mid = static_cast<int>(std::lower_bound(code.begin() + begin, code.begin() + end, split) - code.begin());
+    } else {
+      Eigen::Vector3d lo = Eigen::Vector3d::Constant(std::numeric_limits<double>::infinity()), hi = -lo;
+      for (int i = begin; i < end; ++i) {
+        lo = lo.cwiseMin(centroid.row(order[static_cast<size_t>(i)]).transpose());
+        hi = hi.cwiseMax(centroid.row(order[static_cast<size_t>(i)]).transpose());
+      }
+      int axis;
+      (hi - lo).maxCoeff(&axis);
+      std::nth_element(order.begin() + begin, order.begin() + mid, order.begin() + end,
+                       [&](int a, int b) { return centroid(a, axis) < centroid(b, axis); });
+    }
+    const int left = build(begin, mid, code, centroid);
+    const int right = build(mid, end, code, centroid);
     nodes[static_cast<size_t>(id)].left = left;
     nodes[static_cast<size_t>(id)].right = right;
     return id;
+  }
+
+  /// Node boxes from the leaves' triangles up (a child's id is above its parent's).
+  void set_boxes() {
+    for (size_t id = nodes.size(); id-- > 0;) {
+      Node& node = nodes[id];
+      if (node.left >= 0) {
+        node.lo = nodes[static_cast<size_t>(node.left)].lo.cwiseMin(nodes[static_cast<size_t>(node.right)].lo);
+        node.hi = nodes[static_cast<size_t>(node.left)].hi.cwiseMax(nodes[static_cast<size_t>(node.right)].hi);
+        continue;
+      }
+      node.lo = Eigen::Vector3d::Constant(std::numeric_limits<double>::infinity());
+      node.hi = -node.lo;
+      for (int i = node.begin; i < node.end; ++i) {
+        node.lo = node.lo.cwiseMin(Eigen::Map<const Eigen::Vector3d>(&boxes[static_cast<size_t>(6 * i)]));
+        node.hi = node.hi.cwiseMax(Eigen::Map<const Eigen::Vector3d>(&boxes[static_cast<size_t>(6 * i + 3)]));
+      }
+    }
   }
 
   static double box_sq_distance(const Node& n, const Eigen::Vector3d& p) {
@@ -180,82 +254,29 @@ struct TriangleTree::Impl {
   }
 };
 
-namespace {
-
-/// Spreads the low 10 bits of x to every third bit.
-std::uint32_t spread_bits(std::uint32_t x) {
-  x &= 0x3FFu;
-  x = (x | (x << 16)) & 0x030000FFu;
-  x = (x | (x << 8)) & 0x0300F00Fu;
-  x = (x | (x << 4)) & 0x030C30C3u;
-  x = (x | (x << 2)) & 0x09249249u;
-  return x;
-}
-
-/// Rows of P in Morton (Z-curve) order of a 1024^3 grid over their box, by a radix sort: nearby
-/// queries follow one another, so each starts from a tight bound and touches warm memory.
-std::vector<int> morton_order(const Eigen::MatrixXd& P) {
-  const Eigen::Index n = P.rows();
-  std::vector<int> out(static_cast<size_t>(n));
-  std::iota(out.begin(), out.end(), 0);
-  if (n < 2) return out;
-  const Eigen::RowVector3d lo = P.colwise().minCoeff(), span = (P.colwise().maxCoeff() - lo).cwiseMax(1e-300);
-  std::vector<std::uint32_t> code(static_cast<size_t>(n)), code2(static_cast<size_t>(n));
-  for (Eigen::Index i = 0; i < n; ++i) {
-    std::uint32_t c = 0;
-    for (int k = 0; k < 3; ++k)
-      c |= spread_bits(static_cast<std::uint32_t>(std::min(1023.0, (P(i, k) - lo[k]) / span[k] * 1024.0))) << k;
-    code[static_cast<size_t>(i)] = c;
-  }
-  std::vector<int> tmp(static_cast<size_t>(n));
-  for (int shift = 0; shift < 30; shift += 10) {  // three passes of 10 bits
-    std::vector<size_t> count(1025, 0);
-    for (size_t i = 0; i < out.size(); ++i) ++count[((code[i] >> shift) & 1023u) + 1];
-    for (size_t b = 1; b < count.size(); ++b) count[b] += count[b - 1];
-    for (size_t i = 0; i < out.size(); ++i) {
-      const size_t dst = count[(code[i] >> shift) & 1023u]++;
-      tmp[dst] = out[i];
-      code2[dst] = code[i];
-    }
-    out.swap(tmp);
-    code.swap(code2);
-  }
-  return out;
-}
-
-}  // namespace
-
 TriangleTree::TriangleTree(const Eigen::MatrixXd& V, const Eigen::MatrixXi& F) : impl_(std::make_unique<Impl>()) {
   if (F.rows() == 0) throw InvalidInput("TriangleTree: the mesh has no triangles");
   if (F.minCoeff() < 0 || F.maxCoeff() >= V.rows())
     throw InvalidInput("TriangleTree: a triangle index is outside the " + std::to_string(V.rows()) + " vertices");
   Impl& s = *impl_;
-  s.V = V;
-  s.F = F;
-  Eigen::MatrixXd centroid(F.rows(), 3), lo(F.rows(), 3), hi(F.rows(), 3);
-  for (Eigen::Index f = 0; f < F.rows(); ++f) {
-    const Eigen::RowVector3d a = V.row(F(f, 0)), b = V.row(F(f, 1)), c = V.row(F(f, 2));
-    centroid.row(f) = (a + b + c) / 3;
-    lo.row(f) = a.cwiseMin(b).cwiseMin(c);
-    hi.row(f) = a.cwiseMax(b).cwiseMax(c);
-  }
-  s.order.resize(static_cast<size_t>(F.rows()));
-  std::iota(s.order.begin(), s.order.end(), 0);
-  s.nodes.reserve(static_cast<size_t>(F.rows() / 2 + 16));
-  s.build(0, static_cast<int>(F.rows()), centroid, lo, hi);
-  s.slot_of.resize(s.order.size());
+  Eigen::MatrixXd centroid(F.rows(), 3);
+  for (Eigen::Index f = 0; f < F.rows(); ++f) centroid.row(f) = (V.row(F(f, 0)) + V.row(F(f, 1)) + V.row(F(f, 2))) / 3;
+  std::vector<std::uint32_t> code;
+  s.order = morton_order(centroid, &code);
+  s.nodes.reserve(s.order.size() / 2 + 16);
+  s.build(0, static_cast<int>(F.rows()), code, centroid);
   s.corners.resize(9 * s.order.size());
   s.boxes.resize(6 * s.order.size());
   for (size_t i = 0; i < s.order.size(); ++i) {
     const int f = s.order[i];
-    s.slot_of[static_cast<size_t>(f)] = static_cast<int>(i);
-    for (int c = 0; c < 3; ++c)
-      for (int k = 0; k < 3; ++k) s.corners[9 * i + 3 * c + k] = V(F(f, c), k);
-    for (int k = 0; k < 3; ++k) {
-      s.boxes[6 * i + k] = lo(f, k);
-      s.boxes[6 * i + 3 + k] = hi(f, k);
-    }
+    const Eigen::Vector3d a = V.row(F(f, 0)).transpose(), b = V.row(F(f, 1)).transpose(), c = V.row(F(f, 2)).transpose();
+    Eigen::Map<Eigen::Matrix<double, 3, 3>>(&s.corners[9 * i]) << a, b, c;
+    Eigen::Map<Eigen::Vector3d>(&s.boxes[6 * i]) = a.cwiseMin(b).cwiseMin(c);
+    Eigen::Map<Eigen::Vector3d>(&s.boxes[6 * i + 3]) = a.cwiseMax(b).cwiseMax(c);
   }
+  s.set_boxes();
+  s.slot_of.resize(s.order.size());
+  for (size_t i = 0; i < s.order.size(); ++i) s.slot_of[static_cast<size_t>(s.order[i])] = static_cast<int>(i);
 }
 
 TriangleTree::~TriangleTree() = default;
@@ -269,8 +290,11 @@ int TriangleTree::closest(const Eigen::Vector3d& p, Eigen::Vector3d* point, doub
   return best.slot >= 0 ? s.order[static_cast<size_t>(best.slot)] : -1;
 }
 
-ClosestPoints TriangleTree::closest(const Eigen::MatrixXd& P, int threads) const {
+ClosestPoints TriangleTree::closest(const Eigen::MatrixXd& P, int threads, const Eigen::VectorXi* start_faces) const {
   const Impl& s = *impl_;
+  if (start_faces && start_faces->size() != P.rows())
+    throw InvalidInput("TriangleTree::closest: " + std::to_string(start_faces->size()) + " start faces for " +
+                       std::to_string(P.rows()) + " points");
   ClosestPoints out;
   out.face.resize(P.rows());
   out.point.resize(P.rows(), 3);
@@ -294,8 +318,16 @@ ClosestPoints TriangleTree::closest(const Eigen::MatrixXd& P, int threads) const
       for (long k = 0; k < count; ++k) points[static_cast<size_t>(k)] = P.row(visit[static_cast<size_t>(block + k)]).transpose();
       for (long k = 0; k < count; ++k) {
         const Eigen::Vector3d& p = points[static_cast<size_t>(k)];
-        // The previous (nearby) query's triangle bounds the search from the start.
+        // The previous (nearby) query's triangle bounds the search from the start, or the given
+        // face's when that is nearer.
         Impl::Hit best = s.hit_of(p, previous);
+        if (start_faces) {
+          const int f = (*start_faces)[visit[static_cast<size_t>(block + k)]];
+          if (f >= 0 && f < static_cast<int>(s.slot_of.size()) && s.slot_of[static_cast<size_t>(f)] != previous) {
+            const Impl::Hit hint = s.hit_of(p, s.slot_of[static_cast<size_t>(f)]);
+            if (hint.sq_distance < best.sq_distance) best = hint;
+          }
+        }
         s.search(p, best);
         previous = best.slot;
         results[static_cast<size_t>(k)] = {best.point, best.bary, std::sqrt(best.sq_distance),

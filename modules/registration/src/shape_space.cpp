@@ -165,9 +165,11 @@ ShapeFitResult fit_shape_space(const ShapeSpace& space, const Eigen::MatrixXi& F
   // sample's centroid.
   Eigen::MatrixXd J(m, K + 6);
   Eigen::VectorXd residual(m);
+  Eigen::VectorXi last_faces;  // each sample's closest face in the last iteration: where to search from
   for (int it = 0; it < o.iterations; ++it) {
     const Eigen::MatrixXd XS = placed(sample_mean + unflatten(sample_basis * r.coefficients));
-    const ClosestPoints cp = tree.closest(XS, 1);
+    const ClosestPoints cp = tree.closest(XS, 1, it > 0 ? &last_faces : nullptr);
+    last_faces = cp.face;
     const Eigen::RowVector3d centroid = XS.colwise().mean();
     Eigen::Index used = 0;
     for (Eigen::Index k = 0; k < m; ++k) {
@@ -201,7 +203,7 @@ ShapeFitResult fit_shape_space(const ShapeSpace& space, const Eigen::MatrixXi& F
   }
 
   r.V = placed(body(r.coefficients));
-  const std::vector<double> fit_distances = distances(tree.closest(rows_of(r.V), 1));
+  const std::vector<double> fit_distances = distances(tree.closest(rows_of(r.V), 1, last_faces.size() == m ? &last_faces : nullptr));
   r.median_distance = median(fit_distances);
   // The other way: target points the body leaves uncovered. A limb held otherwise is seen only from
   // here (the space's straight forearm lies near the hip's surface, the target's bent one is bare).

@@ -1,9 +1,11 @@
 #pragma once
 // Exact closest points on a triangle mesh: point-to-triangle distance through an AABB tree.
 #include <Eigen/Core>
+#include <cstdint>
 #include <functional>
 #include <limits>
 #include <memory>
+#include <vector>
 
 namespace posekit {
 
@@ -33,13 +35,20 @@ class TriangleTree {
   int closest(const Eigen::Vector3d& p, Eigen::Vector3d* point, double* distance,
               double max_distance = std::numeric_limits<double>::infinity()) const;
 
-  /// All rows of P (#P x 3), split over `threads` threads (0: the hardware's).
-  ClosestPoints closest(const Eigen::MatrixXd& P, int threads = 0) const;
+  /// All rows of P (#P x 3), split over `threads` threads (0: the hardware's). `start_faces`
+  /// (optional, #P; -1 for none) names a face near each point, e.g. the last iteration's: its
+  /// distance bounds the search from the start. The result is exact either way.
+  ClosestPoints closest(const Eigen::MatrixXd& P, int threads = 0, const Eigen::VectorXi* start_faces = nullptr) const;
 
  private:
   struct Impl;
   std::unique_ptr<Impl> impl_;
 };
+
+/// Rows of P (#P x 3) in Morton (Z-curve) order of a 1024^3 grid over their box, by a radix sort:
+/// points near each other in space come near each other in the order, so queries made in it start
+/// from a tight bound and touch warm memory. `sorted_codes` (optional) receives their codes, ascending.
+std::vector<int> morton_order(const Eigen::MatrixXd& P, std::vector<std::uint32_t>* sorted_codes = nullptr);
 
 /// Runs body(begin, end) over [0, n) split into contiguous chunks on `threads` threads (0: the
 /// hardware's), each with at least `min_items_per_thread` items; the calling thread takes a chunk too.
