@@ -89,6 +89,7 @@ int run_register(int argc, char** argv) {
       .option("out", "FILE", "correspondence JSON: for each target triangle its source triangle")
       .option("deformed", "FILE", "write the source deformed onto the target (mesh)")
       .option("quality", "FILE", "write the summary with the quality judged without ground truth (JSON)")
+      .option("threads", "T", "ctffd: threads (0: all cores; the result is the same to rounding)", "0")
       .flag("json", "summary as JSON on stdout")
       .example("posekit register dataset/template/rest.ply dataset/subjects/f01/rest.ply --out corr.json --deformed d.ply");
   add_orientation_options(&args, "source-", "the source");
@@ -109,6 +110,9 @@ int run_register(int argc, char** argv) {
   o.icp_iterations = static_cast<int>(args.get_int("iterations"));
   o.refine = args.flag_set("refine");
   if (o.refine && o.method != RegistrationMethod::kCtffd) throw UsageError("--refine applies to --method ctffd");
+  const long threads = args.get_int("threads");
+  if (threads < 0 || threads > 256) throw UsageError("--threads must be between 0 (all cores) and 256");
+  o.threads = static_cast<int>(threads);
   for (NicpOptions* n : {&o.nicp, &o.refinement}) {
     if (args.has("stiffness")) n->stiffness = args.get_double_list("stiffness");
     if (args.has("steps")) n->max_iterations_per_stiffness = static_cast<int>(args.get_int("steps"));

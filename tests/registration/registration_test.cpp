@@ -264,6 +264,15 @@ TEST(Registration, WorksBothWaysAndRejectsBadInput) {
   EXPECT_THROW(register_bodies(prepared, templ.mesh, finer), InvalidInput);
   EXPECT_THROW(parse_registration_method("nicp2"), InvalidInput);
   EXPECT_THROW(register_bodies(test::icosphere(2), templ.mesh), InvalidInput);  // a sphere has no features
+  // On two threads (the source's side beside the target's features): the same to rounding, and a
+  // failure on either thread is the caller's exception.
+  RegistrationOptions two;
+  two.threads = 2;
+  const RegistrationResult t = register_bodies(subject, templ.mesh, two);
+  EXPECT_LT((t.deformed_source - r.deformed_source).cwiseAbs().maxCoeff(), 1e-9);
+  EXPECT_GT((t.correspondence.array() == r.correspondence.array()).cast<double>().mean(), 0.999);
+  EXPECT_THROW(register_bodies(test::icosphere(2), templ.mesh, two), InvalidInput);
+  EXPECT_THROW(register_bodies(templ.mesh, test::icosphere(2), two), InvalidInput);
 }
 
 TEST(Nicp, FitsASphereOntoAnEllipsoid) {
@@ -467,6 +476,13 @@ TEST(Registration, AShapeSpaceTakesCtffdsCorrespondenceToMillimetres) {
   EXPECT_GT(before, 0.008);
   EXPECT_LT(after, 0.003);
   EXPECT_TRUE(register_bodies(prepared, subject, o).deformed_source == r.deformed_source);  // same bits
+  // On two threads (the fit's target made beside the features, its searches split): the same to
+  // rounding, and the same bits twice.
+  RegistrationOptions two = o;
+  two.threads = 2;
+  const RegistrationResult t = register_bodies(prepared, subject, two);
+  EXPECT_LT((t.deformed_source - r.deformed_source).cwiseAbs().maxCoeff(), 1e-9);
+  EXPECT_TRUE(register_bodies(prepared, subject, two).deformed_source == t.deformed_source);
   // A source of another topology cannot use the space: said, not ignored.
   EXPECT_THROW(register_bodies(subject, templ.mesh, o), InvalidInput);
 }

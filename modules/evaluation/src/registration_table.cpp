@@ -186,8 +186,18 @@ RegistrationTable measure_registration_table(const std::string& dir, const Regis
     m.name = "ct-FFD + shape space";
     m.prepared = true;
     m.options.shape_space = o.shape_space;
-
     methods.push_back(std::move(m));
+  }
+  if (o.ctffd_threads > 1) {  // the same ct-FFD rows again on more threads
+    const std::string on = " (" + std::to_string(o.ctffd_threads) + " threads)";
+    std::vector<Method> threaded;
+    for (const Method& m : methods)
+      if (m.options.method == RegistrationMethod::kCtffd && !m.options.refine) {
+        threaded.push_back(m);
+        threaded.back().name += on;
+        threaded.back().options.threads = o.ctffd_threads;
+      }
+    methods.insert(methods.end(), threaded.begin(), threaded.end());
   }
   if (o.nicp_runs > 0) {
     methods.push_back({"non-rigid ICP (optimal step)", {}});
@@ -248,10 +258,10 @@ RegistrationTable measure_registration_table(const std::string& dir, const Regis
           table.rows[m].seconds.push_back(r.seconds);
         }
         if (o.model && kind.vertices == 0) {
-        const double e = pose_transfer_error_mm(o.model, dir, s, subject, r.correspondence);
-        if (e >= 0) pose_transfer[m].push_back(e);
-      }
-      match[m].push_back(triangle_match_error_mm(templ, true_centroids, r.correspondence));
+          const double e = pose_transfer_error_mm(o.model, dir, s, subject, r.correspondence);
+          if (e >= 0) pose_transfer[m].push_back(e);
+        }
+        match[m].push_back(triangle_match_error_mm(templ, true_centroids, r.correspondence));
         point[m].push_back(point_error_mm(templ, r.deformed_source, subject, true_points));
         table.rows[m].subject_mean_error_mm.push_back(match[m].back().mean);
         table.rows[m].subject_point_mean_mm.push_back(point[m].back().mean);

@@ -2,8 +2,10 @@
 
 #include <flann/flann.hpp>
 
+#include <atomic>
 #include <numeric>
 
+#include "posekit/core/closest_point.h"
 #include "posekit/core/error.h"
 #include "posekit/core/mesh_geometry.h"
 
@@ -30,50 +32,56 @@ CentroidIndex::CentroidIndex(const Eigen::MatrixXd& V, const Eigen::MatrixXi& F)
 
 CentroidIndex::~CentroidIndex() = default;
 
-Eigen::VectorXi CentroidIndex::match(const Eigen::MatrixXd& C, const Eigen::MatrixXd& N, int candidates, int* normal_failures) const {
-  // Most queries agree with their nearest; only the rest are asked again for more candidates.
+Eigen::VectorXi CentroidIndex::match(const Eigen::MatrixXd& C, const Eigen::MatrixXd& N, int candidates, int* normal_failures,
+                                     int threads) const {
+  // Each query's answer is its own: the queries are split over the threads in contiguous ranges.
   Eigen::VectorXi out = Eigen::VectorXi::Constant(C.rows(), -1);
-  std::vector<Eigen::Index> pending(static_cast<size_t>(C.rows()));
-  std::iota(pending.begin(), pending.end(), 0);
-  int failures = 0;
-  for (int k : {1, std::min(8, candidates), candidates}) {
-    k = std::min<int>(k, static_cast<int>(impl_->centroids.rows()));
-    if (pending.empty() || k < 1) break;
-    Eigen::Matrix<float, Eigen::Dynamic, 3, Eigen::RowMajor> queries(static_cast<Eigen::Index>(pending.size()), 3);
-    for (size_t i = 0; i < pending.size(); ++i) queries.row(static_cast<Eigen::Index>(i)) = C.row(pending[i]).cast<float>();
-    flann::Matrix<float> q(queries.data(), pending.size(), 3);
-    std::vector<size_t> indices(pending.size() * k);
-    std::vector<float> dists(indices.size());
-    flann::Matrix<size_t> idx(indices.data(), pending.size(), k);
-    flann::Matrix<float> dst(dists.data(), pending.size(), k);
-    flann::SearchParams params(flann::FLANN_CHECKS_UNLIMITED, 0, k > 1);  // one neighbour needs no sorting
-    params.cores = 1;
-    impl_->index->knnSearch(q, idx, dst, k, params);
-    const bool last = k == std::min<int>(candidates, static_cast<int>(impl_->centroids.rows()));
-    std::vector<Eigen::Index> still;
-    for (size_t i = 0; i < pending.size(); ++i) {
-      const Eigen::Index t = pending[i];
-      for (int j = 0; j < k && out[t] < 0; ++j)  // ascending distance: the first with an agreeing normal
-        if (impl_->normals.row(static_cast<Eigen::Index>(idx[i][j])).dot(N.row(t)) > 0) out[t] = static_cast<int>(idx[i][j]);
-      if (out[t] >= 0) continue;
-      if (last) {
-        out[t] = static_cast<int>(idx[i][0]);
-        ++failures;
-      } else {
-        still.push_back(t);
+  std::atomic<int> failures{0};
+  parallel_for_ranges(C.rows(), threads, [&](long begin, long end) {
+    // Most queries agree with their nearest; only the rest are asked again for more candidates.
+    std::vector<Eigen::Index> pending(static_cast<size_t>(end - begin));
+    std::iota(pending.begin(), pending.end(), begin);
+    int range_failed = 0;
+    for (int k : {1, std::min(8, candidates), candidates}) {
+      k = std::min<int>(k, static_cast<int>(impl_->centroids.rows()));
+      if (pending.empty() || k < 1) break;
+      Eigen::Matrix<float, Eigen::Dynamic, 3, Eigen::RowMajor> queries(static_cast<Eigen::Index>(pending.size()), 3);
+      for (size_t i = 0; i < pending.size(); ++i) queries.row(static_cast<Eigen::Index>(i)) = C.row(pending[i]).cast<float>();
+      flann::Matrix<float> q(queries.data(), pending.size(), 3);
+      std::vector<size_t> indices(pending.size() * k);
+      std::vector<float> dists(indices.size());
+      flann::Matrix<size_t> idx(indices.data(), pending.size(), k);
+      flann::Matrix<float> dst(dists.data(), pending.size(), k);
+      flann::SearchParams params(flann::FLANN_CHECKS_UNLIMITED, 0, k > 1);  // one neighbour needs no sorting
+      params.cores = 1;
+      impl_->index->knnSearch(q, idx, dst, k, params);
+      const bool last = k == std::min<int>(candidates, static_cast<int>(impl_->centroids.rows()));
+      std::vector<Eigen::Index> still;
+      for (size_t i = 0; i < pending.size(); ++i) {
+        const Eigen::Index t = pending[i];
+        for (int j = 0; j < k && out[t] < 0; ++j)  // ascending distance: the first with an agreeing normal
+          if (impl_->normals.row(static_cast<Eigen::Index>(idx[i][j])).dot(N.row(t)) > 0) out[t] = static_cast<int>(idx[i][j]);
+        if (out[t] >= 0) continue;
+        if (last) {
+          out[t] = static_cast<int>(idx[i][0]);
+          ++range_failed;
+        } else {
+          still.push_back(t);
+        }
       }
+      pending = std::move(still);
     }
-    pending = std::move(still);
-  }
+    failures += range_failed;
+  }, 4096);
   if (normal_failures) *normal_failures = failures;
   return out;
 }
 
 Eigen::VectorXi nearest_centroid_correspondence(const Eigen::MatrixXd& source_V, const Eigen::MatrixXi& source_F,
                                                 const Eigen::MatrixXd& target_V, const Eigen::MatrixXi& target_F,
-                                                int* normal_failures) {
+                                                int* normal_failures, int threads) {
   const CentroidIndex index(source_V, source_F);
-  return index.match(face_centroids(target_V, target_F), face_normals(target_V, target_F), 16, normal_failures);
+  return index.match(face_centroids(target_V, target_F), face_normals(target_V, target_F), 16, normal_failures, threads);
 }
 
 }  // namespace posekit

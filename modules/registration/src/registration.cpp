@@ -8,7 +8,10 @@
 #include <chrono>
 #include <cmath>
 #include <cstdio>
+#include <exception>
+#include <memory>
 #include <string>
+#include <thread>
 
 #include "posekit/core/closest_point.h"
 #include "posekit/core/error.h"
@@ -197,8 +200,9 @@ const CtffdSource::Impl& CtffdSource::impl() const { return *impl_; }
 namespace {
 
 /// The registration itself; `prepared` holds the source's side of ct-FFD (kCtffd).
+/// `target_features`: the target's, when found already (beside the source's side).
 RegistrationResult register_with(const TriangleMesh& source, const CtffdSource::Impl* prepared, const TriangleMesh& target,
-                                 const RegistrationOptions& o) {
+                                 const RegistrationOptions& o, const BodyFeatures* target_features = nullptr) {
   require_usable_mesh(source, "registration source");
   require_usable_mesh(target, "registration target");
   require_comparable_bodies(source, target);
@@ -209,7 +213,26 @@ RegistrationResult register_with(const TriangleMesh& source, const CtffdSource::
       throw InvalidInput("registration: the source was prepared with " + std::to_string(prepared->points_per_layer) +
                          " points per layer, the options ask for " + std::to_string(o.points_per_layer));
     const CtffdSource::Impl& s = *prepared;
-    const BodyFeatures ft = find_body_features(target.V, target.F);
+    const int threads = o.threads > 0 ? o.threads : static_cast<int>(std::max(1u, std::thread::hardware_concurrency()));
+    // With a second thread the fit's view of the target is made beside the features.
+    std::unique_ptr<ShapeFitTarget> fit_target;
+    std::exception_ptr fit_target_error;
+    std::thread preparing;
+    if (o.shape_space && threads > 1)
+      preparing = std::thread([&] {
+        try {
+          fit_target = std::make_unique<ShapeFitTarget>(target);
+        } catch (...) {
+          fit_target_error = std::current_exception();
+        }
+      });
+    struct JoinOnExit {
+      std::thread& t;
+      ~JoinOnExit() {
+        if (t.joinable()) t.join();
+      }
+    } join_on_exit{preparing};
+    const BodyFeatures ft = target_features ? *target_features : find_body_features(target.V, target.F);
     for (const std::string& w : s.features.warnings) r.warnings.push_back("source: " + w);
     for (const std::string& w : ft.warnings) r.warnings.push_back("target: " + w);
     for (std::string& w : implausible_limbs(s.features, ft)) r.warnings.push_back(std::move(w));
@@ -225,7 +248,12 @@ RegistrationResult register_with(const TriangleMesh& source, const CtffdSource::
         throw InvalidInput("registration: the shape space's triangles are not the source's (same " + std::to_string(source.V.rows()) +
                            " vertices, other connectivity): it must be of the source's topology");
       const auto t1 = std::chrono::steady_clock::now();
-      r.shape_fit = fit_shape_space(*o.shape_space, source.F, r.deformed_source, target, o.shape_fit);
+      if (preparing.joinable()) preparing.join();
+      if (fit_target_error) std::rethrow_exception(fit_target_error);
+      if (!fit_target) fit_target = std::make_unique<ShapeFitTarget>(target);
+      ShapeFitOptions fit_options = o.shape_fit;
+      fit_options.threads = threads;
+      r.shape_fit = fit_shape_space(*o.shape_space, source.F, r.deformed_source, *fit_target, fit_options);
       r.shape_fit_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t1).count();
       if (r.shape_fit.plausible) {
         r.deformed_source = r.shape_fit.V;
@@ -272,7 +300,8 @@ RegistrationResult register_with(const TriangleMesh& source, const CtffdSource::
     const Eigen::Matrix4d T = icp.getFinalTransformation().cast<double>();
     r.deformed_source = (source.V * T.topLeftCorner<3, 3>().transpose()).rowwise() + T.topRightCorner<3, 1>().transpose();
   }
-  r.correspondence = nearest_centroid_correspondence(r.deformed_source, source.F, target.V, target.F, &r.normal_failures);
+  r.correspondence = nearest_centroid_correspondence(r.deformed_source, source.F, target.V, target.F, &r.normal_failures,
+                                                     o.method == RegistrationMethod::kCtffd ? o.threads : 1);
   r.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   return r;
 }
@@ -281,10 +310,41 @@ RegistrationResult register_with(const TriangleMesh& source, const CtffdSource::
 
 RegistrationResult register_bodies(const TriangleMesh& source, const TriangleMesh& target, const RegistrationOptions& o) {
   if (o.method != RegistrationMethod::kCtffd) return register_with(source, nullptr, target, o);
-  const CtffdSource prepared(source, o.points_per_layer);  // timed with the rest
-  RegistrationResult r = register_with(source, &prepared.impl(), target, o);
-  r.seconds += prepared.seconds();
-  r.ctffd_seconds += prepared.seconds();
+  const int threads = o.threads > 0 ? o.threads : static_cast<int>(std::max(1u, std::thread::hardware_concurrency()));
+  if (threads < 2) {
+    const CtffdSource prepared(source, o.points_per_layer);  // timed with the rest
+    RegistrationResult r = register_with(source, &prepared.impl(), target, o);
+    r.seconds += prepared.seconds();
+    r.ctffd_seconds += prepared.seconds();
+    return r;
+  }
+  // The source's side on a second thread while the target's features are found; timed as a whole.
+  require_usable_mesh(source, "registration source");
+  require_usable_mesh(target, "registration target");
+  require_comparable_bodies(source, target);
+  const auto t0 = std::chrono::steady_clock::now();
+  std::unique_ptr<CtffdSource> prepared;
+  std::exception_ptr source_error;
+  std::thread source_side([&] {
+    try {
+      prepared = std::make_unique<CtffdSource>(source, o.points_per_layer);
+    } catch (...) {
+      source_error = std::current_exception();
+    }
+  });
+  BodyFeatures target_features;
+  try {
+    target_features = find_body_features(target.V, target.F);
+  } catch (...) {
+    source_side.join();
+    throw;
+  }
+  source_side.join();
+  if (source_error) std::rethrow_exception(source_error);
+  const double before = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  RegistrationResult r = register_with(source, &prepared->impl(), target, o, &target_features);
+  r.seconds += before;
+  r.ctffd_seconds += before;
   return r;
 }
 

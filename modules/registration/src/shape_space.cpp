@@ -98,8 +98,28 @@ void align_bodies_rigidly(std::vector<Eigen::MatrixXd>& bodies, int rounds) {
   }
 }
 
+struct ShapeFitTarget::Impl {
+  const TriangleMesh& mesh;
+  TriangleTree tree;
+  Eigen::MatrixXd normals;
+  TargetBoundary boundary;
+  explicit Impl(const TriangleMesh& m) : mesh(m), tree(m.V, m.F), normals(vertex_normals(m.V, m.F)), boundary(find_boundary(m)) {}
+};
+
+ShapeFitTarget::ShapeFitTarget(const TriangleMesh& target) : impl_(std::make_unique<Impl>(target)) {}
+ShapeFitTarget::~ShapeFitTarget() = default;
+ShapeFitTarget::ShapeFitTarget(ShapeFitTarget&&) noexcept = default;
+ShapeFitTarget& ShapeFitTarget::operator=(ShapeFitTarget&&) noexcept = default;
+const TriangleMesh& ShapeFitTarget::mesh() const { return impl_->mesh; }
+
 ShapeFitResult fit_shape_space(const ShapeSpace& space, const Eigen::MatrixXi& F, const Eigen::MatrixXd& start,
                                const TriangleMesh& target, const ShapeFitOptions& o) {
+  return fit_shape_space(space, F, start, ShapeFitTarget(target), o);
+}
+
+ShapeFitResult fit_shape_space(const ShapeSpace& space, const Eigen::MatrixXi& F, const Eigen::MatrixXd& start,
+                               const ShapeFitTarget& prepared, const ShapeFitOptions& o) {
+  const TriangleMesh& target = prepared.mesh();
   const Eigen::Index nv = space.mean.rows(), K = space.basis.cols();
   if (start.rows() != nv || start.cols() != 3)
     throw InvalidInput("shape-space fit: the space has " + std::to_string(nv) + " vertices, the start " + std::to_string(start.rows()));
@@ -130,9 +150,9 @@ ShapeFitResult fit_shape_space(const ShapeSpace& space, const Eigen::MatrixXi& F
   std::vector<Eigen::Index> sample;
   for (Eigen::Index i = 0; i < nv; i += o.vertex_stride) sample.push_back(i);
   const Eigen::Index m = static_cast<Eigen::Index>(sample.size());
-  const TriangleTree tree(target.V, target.F);
-  const Eigen::MatrixXd target_normals = vertex_normals(target.V, target.F);
-  const TargetBoundary boundary = find_boundary(target);
+  const TriangleTree& tree = prepared.impl().tree;
+  const Eigen::MatrixXd& target_normals = prepared.impl().normals;
+  const TargetBoundary& boundary = prepared.impl().boundary;
   const double cos_limit = std::cos(o.max_normal_angle_deg * M_PI / 180);
   const auto rows_of = [&](const Eigen::MatrixXd& X) {
     Eigen::MatrixXd S(m, 3);
@@ -168,7 +188,7 @@ ShapeFitResult fit_shape_space(const ShapeSpace& space, const Eigen::MatrixXi& F
   Eigen::VectorXi last_faces;  // each sample's closest face in the last iteration: where to search from
   for (int it = 0; it < o.iterations; ++it) {
     const Eigen::MatrixXd XS = placed(sample_mean + unflatten(sample_basis * r.coefficients));
-    const ClosestPoints cp = tree.closest(XS, 1, it > 0 ? &last_faces : nullptr);
+    const ClosestPoints cp = tree.closest(XS, o.threads, it > 0 ? &last_faces : nullptr);
     last_faces = cp.face;
     const Eigen::RowVector3d centroid = XS.colwise().mean();
     Eigen::Index used = 0;
@@ -203,7 +223,7 @@ ShapeFitResult fit_shape_space(const ShapeSpace& space, const Eigen::MatrixXi& F
   }
 
   r.V = placed(body(r.coefficients));
-  const std::vector<double> fit_distances = distances(tree.closest(rows_of(r.V), 1, last_faces.size() == m ? &last_faces : nullptr));
+  const std::vector<double> fit_distances = distances(tree.closest(rows_of(r.V), o.threads, last_faces.size() == m ? &last_faces : nullptr));
   r.median_distance = median(fit_distances);
   // The other way: target points the body leaves uncovered. A limb held otherwise is seen only from
   // here (the space's straight forearm lies near the hip's surface, the target's bent one is bare).
@@ -211,12 +231,12 @@ ShapeFitResult fit_shape_space(const ShapeSpace& space, const Eigen::MatrixXi& F
   Eigen::MatrixXd target_sample((target.V.rows() + target_stride - 1) / target_stride, 3);
   for (Eigen::Index k = 0; k < target_sample.rows(); ++k) target_sample.row(k) = target.V.row(k * target_stride);
   const auto uncovered = [&](const Eigen::MatrixXd& X) {
-    return far_share(distances(TriangleTree(X, F).closest(target_sample, 1)), o.far_distance);
+    return far_share(distances(TriangleTree(X, F).closest(target_sample, o.threads)), o.far_distance);
   };
   r.far_share = far_share(fit_distances, o.far_distance);
   r.uncovered_share = uncovered(r.V);
   // The start's shares only when the fit's own exceed what is allowed beyond them.
-  if (r.far_share > o.max_extra_far_share) r.start_far_share = far_share(distances(tree.closest(rows_of(start), 1)), o.far_distance);
+  if (r.far_share > o.max_extra_far_share) r.start_far_share = far_share(distances(tree.closest(rows_of(start), o.threads)), o.far_distance);
   if (r.uncovered_share > o.max_extra_far_share) r.start_uncovered_share = uncovered(start);
   r.plausible = r.median_distance <= o.max_median_distance &&
                 r.far_share <= std::max(r.start_far_share, 0.0) + o.max_extra_far_share &&

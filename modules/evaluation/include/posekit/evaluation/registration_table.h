@@ -33,6 +33,9 @@ struct RegistrationTableOptions {
   /// A shape space of bodies in the template's topology: adds the row "ct-FFD + shape space"
   /// (template prepared once, then fit_shape_space).
   std::shared_ptr<const ShapeSpace> shape_space;
+  /// Over 1: the ct-FFD rows (whole, template prepared, + shape space) again on this many threads
+  /// (RegistrationOptions::threads). Every other row runs on one.
+  int ctffd_threads = 1;
   std::function<void(int, int)> progress;
 };
 

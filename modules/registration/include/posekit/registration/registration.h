@@ -31,6 +31,10 @@ struct RegistrationOptions {
   /// Landmarks for kNicp: every `landmark_layer_stride`-th layer of the representation, and on it
   /// every `landmark_point_stride`-th point.
   int landmark_layer_stride = 2, landmark_point_stride = 4;
+  /// kCtffd: threads (0: the hardware's). With 2 or more the target's closest-point tree is built
+  /// while its features are found, and the shape-space fit's and the nearest-centroid searches are
+  /// split; the same result to rounding (a tie between two triangles may go either way).
+  int threads = 1;
 
   static NicpOptions refinement_defaults();
 };

@@ -4,6 +4,7 @@
 // ct-FFD places a vertex by its layer proportions, the population says how that vertex moves
 // between bodies (e.g. where on a thigh a given skin point lies on a heavier body).
 #include <Eigen/Core>
+#include <memory>
 #include <string>
 #include <vector>
 
@@ -61,6 +62,9 @@ struct ShapeFitOptions {
   /// (m) from the target than of the start's, or more of the target lies that far from it: a part the
   /// space cannot place (arms held otherwise, a bent elbow, a twisted torso), however well the rest fits.
   double far_distance = 0.01, max_extra_far_share = 0.01;
+  /// Threads for the closest-point searches (0: the hardware's): the same result to rounding whatever
+  /// the count (a tie between two triangles may go either way), the same bits for the same count.
+  int threads = 1;
 };
 
 struct ShapeFitResult {
@@ -80,6 +84,24 @@ struct ShapeFitResult {
   bool plausible = false;        ///< within options.max_median_distance and options.max_extra_far_share
 };
 
+/// A target surface made ready for fit_shape_space (its closest-point tree, vertex normals and hole
+/// borders): made once when it is fitted to more than once, or made while other work runs. Refers
+/// to `target`, which must outlive it.
+class ShapeFitTarget {
+ public:
+  explicit ShapeFitTarget(const TriangleMesh& target);
+  ~ShapeFitTarget();
+  ShapeFitTarget(ShapeFitTarget&&) noexcept;
+  ShapeFitTarget& operator=(ShapeFitTarget&&) noexcept;
+  const TriangleMesh& mesh() const;
+
+  struct Impl;
+  const Impl& impl() const { return *impl_; }
+
+ private:
+  std::unique_ptr<Impl> impl_;
+};
+
 /// Fits the shape space, with a rigid motion, to the target surface, starting from `start` (#V x 3:
 /// the source already on the target, e.g. ct-FFD's result): the space's projection of the start,
 /// then iterations of point-to-plane closest-point pairs (rejected when too far, facing away or on a
@@ -87,5 +109,8 @@ struct ShapeFitResult {
 /// when the sizes do not match.
 ShapeFitResult fit_shape_space(const ShapeSpace& space, const Eigen::MatrixXi& F, const Eigen::MatrixXd& start,
                                const TriangleMesh& target, const ShapeFitOptions& options = {});
+/// The same on a target made ready beforehand.
+ShapeFitResult fit_shape_space(const ShapeSpace& space, const Eigen::MatrixXi& F, const Eigen::MatrixXd& start,
+                               const ShapeFitTarget& target, const ShapeFitOptions& options = {});
 
 }  // namespace posekit
