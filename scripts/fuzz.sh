@@ -1,9 +1,9 @@
 #!/usr/bin/env bash
 # scripts/fuzz.sh [SECONDS] [TARGET...]: fuzz posekit's file readers with libFuzzer under
 # AddressSanitizer + UndefinedBehaviorSanitizer, each target for SECONDS (default 60), two at a time.
-# Targets: ply obj off stl pcd xyz bvh pose_json pkm (default: all).
+# Targets: ply obj off stl pcd xyz bvh pose_json pkm pks (default: all).
 #   1. builds the targets with clang into build/fuzz (-DPOSEKIT_FUZZ=ON),
-#   2. writes the seed corpus with the tests (release build: FuzzSeeds.*, PoseModel.WritesFuzzSeeds*),
+#   2. writes the seed corpus with the tests (release build: FuzzSeeds.*, *.WritesFuzzSeeds*),
 #   3. runs each target on build/fuzz/corpus/<target> (kept between runs) plus the seeds.
 # A finding (crash, sanitizer report, an exception other than posekit::Error, a single allocation over
 # 256 MB, over 1 GB resident, an input taking over 10 s) fails the run; its input is kept as
@@ -13,7 +13,7 @@ cd "$(dirname "$0")/.."
 seconds=${1:-60}
 shift || true
 targets=("$@")
-[ ${#targets[@]} -gt 0 ] || targets=(ply obj off stl pcd xyz bvh pose_json pkm)
+[ ${#targets[@]} -gt 0 ] || targets=(ply obj off stl pcd xyz bvh pose_json pkm pks)
 case "$seconds" in ''|*[!0-9]*) echo "fuzz.sh: SECONDS must be a whole number, got '$seconds'" >&2; exit 2 ;; esac
 command -v clang++ >/dev/null || { echo "fuzz.sh: needs clang (apt-get install clang libclang-rt-14-dev)" >&2; exit 1; }
 
@@ -26,11 +26,12 @@ fi
 jobs=$(nproc 2>/dev/null || echo 2)
 cmake --build build/fuzz --parallel "$jobs" --target $(printf 'fuzz_%s ' "${targets[@]}")
 
-bash scripts/build.sh release posekit_io_tests posekit_deformation_tests
+bash scripts/build.sh release posekit_io_tests posekit_deformation_tests posekit_registration_tests
 seeds=$PWD/build/fuzz/seeds
 rm -rf "$seeds" && mkdir -p "$seeds" build/fuzz/findings
 POSEKIT_FUZZ_SEEDS=$seeds build/release/tests/posekit_io_tests --gtest_filter='FuzzSeeds.*' >/dev/null
 POSEKIT_FUZZ_SEEDS=$seeds build/release/tests/posekit_deformation_tests --gtest_filter='PoseModel.WritesFuzzSeeds*' >/dev/null
+POSEKIT_FUZZ_SEEDS=$seeds build/release/tests/posekit_registration_tests --gtest_filter='ShapeSpace.WritesFuzzSeeds*' >/dev/null
 
 export ASAN_OPTIONS=detect_leaks=1:abort_on_error=1 UBSAN_OPTIONS=print_stacktrace=1:halt_on_error=1
 run_one() {

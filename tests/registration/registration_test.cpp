@@ -391,6 +391,29 @@ TEST(ShapeSpace, LearnsAPopulationsModesAndFitsABodyItHolds) {
   EXPECT_THROW(fit_shape_space(space, sphere.F, start.topRows(10), target), InvalidInput);
 }
 
+TEST(ShapeSpace, WritesFuzzSeedsThatReadBack) {
+  // Seeds of the .pks fuzz target (scripts/fuzz.sh), which reads every input as it is and with a
+  // CRC-32 appended: a small space whole, and without its trailer. To $POSEKIT_FUZZ_SEEDS/pks when set.
+  test::TempDir tmp;
+  const char* root = std::getenv("POSEKIT_FUZZ_SEEDS");
+  const std::string dir = (root && *root ? std::string(root) : tmp.path()) + "/pks";
+  std::filesystem::create_directories(dir);
+  ShapeSpace s;
+  s.mean = Eigen::MatrixXd::Random(4, 3);
+  s.basis = Eigen::MatrixXd::Random(12, 2);
+  s.variance_share = {0.7, 0.3};
+  s.bodies = 3;
+  s.population = "seed";
+  s.faces.resize(2, 3);
+  s.faces << 0, 1, 2, 0, 2, 3;
+  write_shape_space(dir + "/small.pks", s);
+  const ShapeSpace back = read_shape_space(dir + "/small.pks");
+  EXPECT_TRUE(back.mean == s.mean && back.basis == s.basis && back.faces == s.faces);
+  const std::string bytes = read_file_bytes(dir + "/small.pks");
+  write_file_atomically(dir + "/small_unsealed.pks", [&](std::ostream& o) { o << bytes.substr(0, bytes.size() - 4); });
+  EXPECT_THROW(read_shape_space(dir + "/small_unsealed.pks"), IoError);
+}
+
 TEST(ShapeSpace, AlignsBodiesRigidlyAndRoundTripsThroughAFile) {
   const TriangleMesh sphere = test::icosphere(3, 0.5);
   std::vector<Eigen::MatrixXd> bodies, placed;
