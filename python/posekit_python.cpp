@@ -22,6 +22,7 @@
 #include "posekit/io/mesh_io.h"
 #include "posekit/io/point_cloud_io.h"
 #include "posekit/registration/registration.h"
+#include "posekit/registration/shape_space.h"
 #include "posekit/segmentation/body_segmentation.h"
 #include "posekit/segmentation/segmentation_prior.h"
 #include "posekit/shape/body_features.h"
@@ -257,11 +258,17 @@ PYBIND11_MODULE(posekit, m) {
 
   m.def("register", [](const Eigen::Ref<const Vertices>& source_V, const Eigen::Ref<const Faces>& source_F,
                        const Eigen::Ref<const Vertices>& target_V, const Eigen::Ref<const Faces>& target_F,
-                       const std::string& method) {
+                       const std::string& method, const std::string& shape_space, int threads) {
         RegistrationResult r;
         {
           RegistrationOptions o;
           o.method = parse_registration_method(method);
+          if (threads < 0) throw InvalidInput("register: threads must be 0 (all cores) or more");
+          o.threads = threads;
+          if (!shape_space.empty()) {
+            if (o.method != RegistrationMethod::kCtffd) throw InvalidInput("register: shape_space applies to method 'ctffd'");
+            o.shape_space = std::make_shared<const ShapeSpace>(read_shape_space(shape_space));
+          }
           const TriangleMesh source = mesh_of(source_V, source_F), target = mesh_of(target_V, target_F);
           py::gil_scoped_release release;
           r = register_bodies(source, target, o);
@@ -271,10 +278,15 @@ PYBIND11_MODULE(posekit, m) {
         out["correspondence"] = Eigen::VectorXi(r.correspondence);
         out["normal_failures"] = r.normal_failures;
         out["seconds"] = r.seconds;
+        out["shape_space_kept"] = !shape_space.empty() && r.shape_fit.plausible;
+        out["warnings"] = r.warnings;
         return out;
       }, py::arg("source_V"), py::arg("source_F"), py::arg("target_V"), py::arg("target_F"), py::arg("method") = "ctffd",
-      "Registers source to target (ctffd, icp or nicp) and matches triangles by nearest centroid. Returns "
-      "{'deformed_source', 'correspondence' (for each target triangle its source triangle), 'normal_failures', 'seconds'}.");
+      py::arg("shape_space") = "", py::arg("threads") = 0,
+      "Registers source to target (ctffd, icp or nicp) and matches triangles by nearest centroid. shape_space: a .pks "
+      "file (posekit shape-space) in the source's topology refining ct-FFD; threads: ct-FFD's (0: all cores; the same "
+      "result to rounding). Returns {'deformed_source', 'correspondence' (for each target triangle its source "
+      "triangle), 'normal_failures', 'seconds', 'shape_space_kept' (the fit was plausible and used), 'warnings'}.");
 
   m.def("compare", [](const Eigen::Ref<const Vertices>& V, const Eigen::Ref<const Faces>& F, const Eigen::Ref<const Vertices>& scan,
                       double outlier_threshold) {

@@ -109,6 +109,12 @@ def test_register_template_to_subject(f01, model):
     assert r["deformed_source"].shape == TV.shape
     with pytest.raises(posekit.InvalidInput, match="ctffd"):
         posekit.register(TV, TF, V, F, method="magic")
+    # One thread or two: the same registration to rounding.
+    one = posekit.register(TV, TF, V, F, threads=1)
+    assert abs(one["deformed_source"] - r["deformed_source"]).max() < 1e-9
+    assert (one["correspondence"] == r["correspondence"]).mean() > 0.999
+    with pytest.raises(posekit.IoError, match="nothing.pks"):
+        posekit.register(TV, TF, V, F, shape_space="/nonexistent/nothing.pks")
 
 
 def test_compare_a_mesh_with_its_scan(dataset, f01):
