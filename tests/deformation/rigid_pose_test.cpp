@@ -4,6 +4,7 @@
 
 #include <Eigen/Geometry>
 #include <Eigen/SparseLU>
+#include <cmath>
 #include <random>
 
 #include "posekit/core/error.h"
@@ -49,6 +50,38 @@ TEST(RigidPose, ChildrenTurnWithTheirParentsAndJointsStayPut) {
   EXPECT_THROW(validate_part_pose(bad, "test"), InvalidInput);
   bad.joint_rotation[3] = Eigen::Vector3d(90, 0, 0);  // degrees by mistake
   EXPECT_THROW(validate_part_pose(bad, "test"), InvalidInput);
+}
+
+TEST(RigidPose, APivotsOffsetIsItsTurnAboutThePivotToSecondOrder) {
+  // A joint turning about D (from its centre) instead of its centre: the offset coefficients give
+  // (I - R(r)) D up to third-order terms, and with them T^R turns the child about the pivot.
+  std::mt19937 rng(3);
+  std::uniform_real_distribution<double> u(-1, 1);
+  for (int trial = 0; trial < 20; ++trial) {
+    const Eigen::Vector3d D = 0.07 * Eigen::Vector3d(u(rng), u(rng), u(rng));
+    const Eigen::Matrix<double, 3, kOffsetFeatures> A = pivot_offset_coefficients(D);
+    for (const double angle : {0.01, 0.1, 0.35}) {
+      PartPose pose;
+      pose.joint_rotation[1] = Eigen::Vector3d(u(rng), u(rng), u(rng)).normalized() * angle;
+      const Eigen::Vector3d exact = (Eigen::Matrix3d::Identity() - rotation_from_axis_angle(pose.joint_rotation[1])) * D;
+      const Eigen::Vector3d second_order = A * joint_offset_features(pose, 1);
+      EXPECT_LE((second_order - exact).norm(), 0.2 * std::pow(angle, 3) * D.norm()) << trial << " " << angle;
+    }
+  }
+  // Posed with it, the chest turns about the pivot: the pivot point stays where the abdomen takes it.
+  Eigen::MatrixXd joints(kNumJoints, 3);
+  for (int j = 0; j < kNumJoints; ++j) joints.row(j) << 0.1 * j, 0.05 * j, -0.02 * j;
+  const Eigen::Vector3d D(0, 0.066, 0);
+  Eigen::MatrixXd offsets = Eigen::MatrixXd::Zero(kNumJoints, 3 * kOffsetFeatures);
+  const Eigen::Matrix<double, 3, kOffsetFeatures> A = pivot_offset_coefficients(D);
+  for (int d = 0; d < 3; ++d)
+    for (int f = 0; f < kOffsetFeatures; ++f) offsets(1, d * kOffsetFeatures + f) = A(d, f);
+  PartPose bend;
+  bend.joint_rotation[1] = Eigen::Vector3d(0, 0, 0.35);  // upper back, a side bend of 20 degrees
+  const PartTransforms T = part_transforms(bend, joints, offsets, 1.0);
+  const Eigen::Vector3d pivot = joints.row(1).transpose() + D;
+  EXPECT_LT((T.R[kChest] * pivot + T.t[kChest] - (T.R[kAbdomen] * pivot + T.t[kAbdomen])).norm(), 0.2 * std::pow(0.35, 3) * D.norm());
+  EXPECT_GT((part_transforms(bend, joints).t[kChest] - T.t[kChest]).norm(), 0.02);  // about 2.3 cm
 }
 
 TEST(RigidPose, PartPoseSurvivesTheRoundTripThroughTheRig) {

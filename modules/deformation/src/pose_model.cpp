@@ -71,79 +71,139 @@ Eigen::Matrix<double, kPoseFeatures, 1> features(const PartPose& pose, int a, in
   return x;
 }
 
-/// Joint offsets (rigid_pose.h): per training example each part's own rigid fit, the child's joint
-/// centre relative to the parent's in the parent's frame, regressed per joint on its twist features.
-Eigen::MatrixXd fit_joint_offsets(const PoseDataset& data, const std::vector<int>& examples, const PoseModel& model) {
-  PartFitOptions fit;
-  fit.joint_coupling = 0;  // each part where its own vertices put it
-  const PartPoseEstimator estimator(model.template_V, model.template_F, model.triangle_part, model.joint_centres, fit);
+/// Joint offsets (rigid_pose.h), joint by joint from the pelvis out. The target of joint j in a
+/// training example: where the child part must carry j so that T^R puts the child's own child joints
+/// where their parts' rigid fits carry them (a part that bends inside, as a chest over two thoracic
+/// bones, is placed by what hangs from it; a part without child joints by its own rigid fit),
+/// relative to where the parent carries j posed with the offsets found so far, in the parent's frame.
+/// Fitted in two steps on the examples where j moves: the point D the joint effectively turns about
+/// ((I - R(r)) D, exact in r: a side bend's mirror image follows from it), then the general
+/// regression on the twist features of what D leaves.
+/// `placed[e]`: the parts' own rigid fits in example examples[e].
+Eigen::MatrixXd fit_joint_offsets(const PoseDataset& data, const std::vector<int>& examples,
+                                  const std::vector<PartPoseEstimate>& placed, const PoseModel& model,
+                                  Eigen::MatrixXd* pivot_only = nullptr) {
   const int m = static_cast<int>(examples.size());
-  std::vector<Eigen::MatrixXd> Phi(kNumJoints, Eigen::MatrixXd(m, kOffsetFeatures)), O(kNumJoints, Eigen::MatrixXd(m, 3));
-  for (int e = 0; e < m; ++e) {
-    const size_t ex = static_cast<size_t>(examples[static_cast<size_t>(e)]);
-    const PartPoseEstimate placed = estimator.estimate(data.V[ex]);
-    const auto R = part_rotations(data.poses[ex]);
-    for (int j = 0; j < kNumJoints; ++j) {
-      const size_t c = static_cast<size_t>(j + 1), q = static_cast<size_t>(part_parent(j + 1));
-      const Eigen::Vector3d centre = model.joint_centres.row(j).transpose();
-      const Eigen::Vector3d by_child = placed.R[c] * centre + placed.t[c], by_parent = placed.R[q] * centre + placed.t[q];
-      O[static_cast<size_t>(j)].row(e) = (R[q].transpose() * (by_child - by_parent)).transpose();
-      Phi[static_cast<size_t>(j)].row(e) = joint_offset_features(data.poses[ex], j).transpose();
+  Eigen::MatrixXd offsets = Eigen::MatrixXd::Zero(kNumJoints, 3 * kOffsetFeatures);
+  if (pivot_only) pivot_only->setZero(kNumJoints, 3 * kOffsetFeatures);
+  for (int j = 0; j < kNumJoints; ++j) {  // joint j moves part j + 1; parents come first
+    const size_t c = static_cast<size_t>(j + 1), q = static_cast<size_t>(part_parent(j + 1));
+    std::vector<int> below;  // the joints of part c's children
+    for (int g = 0; g < kNumJoints; ++g)
+      if (static_cast<size_t>(part_parent(g + 1)) == c) below.push_back(g);
+    const Eigen::Vector3d centre = model.joint_centres.row(j).transpose();
+    Eigen::MatrixXd X(m, kOffsetFeatures), O(m, 3);
+    int moving = 0;
+    for (int e = 0; e < m; ++e) {
+      const PartPose& pose = data.poses[static_cast<size_t>(examples[static_cast<size_t>(e)])];
+      const PartPoseEstimate& p = placed[static_cast<size_t>(e)];
+      const PartTransforms T = part_transforms(pose, model.joint_centres, offsets, 1.0);
+      Eigen::Vector3d by_child = p.R[c] * centre + p.t[c];
+      if (!below.empty()) {
+        by_child.setZero();
+        for (int g : below) {
+          const Eigen::Vector3d jg = model.joint_centres.row(g).transpose();
+          by_child += (p.R[static_cast<size_t>(g + 1)] * jg + p.t[static_cast<size_t>(g + 1)] - T.R[c] * (jg - centre)) /
+                      static_cast<double>(below.size());
+        }
+      }
+      O.row(e) = (T.R[q].transpose() * (by_child - (T.R[q] * centre + T.t[q]))).transpose();
+      X.row(e) = joint_offset_features(pose, j).transpose();
+      moving += X.row(e).head<3>().norm() > 0.03;
     }
-  }
-  Eigen::MatrixXd offsets(kNumJoints, 3 * kOffsetFeatures);
-  for (int j = 0; j < kNumJoints; ++j) {
-    const Eigen::MatrixXd& X = Phi[static_cast<size_t>(j)];
+    // Ridges: the pivot's over the examples that turn the joint (a side bend may be one of them), the
+    // general regression's over all (twists of 0.03 rad and below carry no offset of their own).
+    Eigen::Matrix3d M = 1e-3 * std::max(moving, 1) * Eigen::Matrix3d::Identity();
+    Eigen::Vector3d b = Eigen::Vector3d::Zero();
+    for (int e = 0; e < m; ++e) {
+      const Eigen::Matrix3d K = Eigen::Matrix3d::Identity() - rotation_from_axis_angle(X.row(e).head<3>().transpose());
+      M += K.transpose() * K;
+      b += K.transpose() * O.row(e).transpose();
+    }
+    Eigen::MatrixXd A = pivot_offset_coefficients(M.ldlt().solve(b)).transpose();
+    if (pivot_only)
+      for (int d = 0; d < 3; ++d)
+        for (int f = 0; f < kOffsetFeatures; ++f) (*pivot_only)(j, d * kOffsetFeatures + f) = A(f, d);
     Eigen::MatrixXd N = X.transpose() * X;
-    N.diagonal().array() += 1e-3 * m;  // twists of 0.03 rad and below carry no offset of their own
-    const Eigen::MatrixXd A = N.ldlt().solve(X.transpose() * O[static_cast<size_t>(j)]);  // 9 x 3
+    N.diagonal().array() += 1e-3 * m;
+    A += N.ldlt().solve(X.transpose() * (O - X * A));
     for (int d = 0; d < 3; ++d)
       for (int f = 0; f < kOffsetFeatures; ++f) offsets(j, d * kOffsetFeatures + f) = A(f, d);
   }
   return offsets;
 }
 
-/// Each joint's offset earns its place: posing the template in the training poses with all offsets,
-/// and with all but that joint's, it is kept only where it lowers the mean error of the vertices it
-/// moves (its child part and everything below). On a rig whose joints do not move the offsets are
-/// fits to sliding skin and are dropped; a rising shoulder girdle keeps them.
-void keep_joint_offsets_that_help(const PoseDataset& data, const std::vector<int>& examples, PoseModel* model) {
+/// Each joint's offset earns its place on examples it was not fitted to: in each of five folds the
+/// offsets are fitted to the other examples, and the fold posed with them all, with that joint's
+/// pivot alone and with none for that joint; per joint the one of the three with the lowest error of
+/// the vertices it moves (its child part and everything below), summed over the folds, is kept, then
+/// fitted to every example. On a rig whose joints do not move the offsets fit sliding skin and are
+/// dropped; a rising shoulder girdle keeps its regression, a chest bending over two thoracic bones
+/// (one side bend in training) its pivot.
+Eigen::MatrixXd fit_joint_offsets_that_help(const PoseDataset& data, const std::vector<int>& examples, const PoseModel& model) {
+  PartFitOptions fit;
+  fit.joint_coupling = 0;  // each part where its own vertices put it
+  const PartPoseEstimator estimator(model.template_V, model.template_F, model.triangle_part, model.joint_centres, fit);
+  std::vector<PartPoseEstimate> placed(examples.size());
+  for (size_t e = 0; e < examples.size(); ++e) placed[e] = estimator.estimate(data.V[static_cast<size_t>(examples[e])]);
   SubjectSetupOptions setup;
   setup.is_template = true;
   TriangleMesh templ;
-  templ.V = model->template_V;
-  templ.F = model->template_F;
-  const auto shared = std::make_shared<const PoseModel>(*model);
-  const PoseSynthesizer synth(shared, templ, setup);
-  const Eigen::VectorXi vertex_part = vertex_labels_from_triangles(templ.V, templ.F, model->triangle_part);
+  templ.V = model.template_V;
+  templ.F = model.template_F;
+  const PoseSynthesizer synth(std::make_shared<const PoseModel>(model), templ, setup);
+  const Eigen::VectorXi vertex_part = vertex_labels_from_triangles(templ.V, templ.F, model.triangle_part);
   // Which joints move each part: the joints on its way up to the pelvis.
   std::array<unsigned, kNumParts> moved_by{};
   for (int part = 0; part < kNumParts; ++part)
     for (int p = part; p > 0; p = part_parent(p)) moved_by[static_cast<size_t>(part)] |= 1u << (p - 1);
-  // Per joint, the summed error of the vertices it moves, with every offset and without its own.
-  std::vector<double> with(kNumJoints, 0.0), without(kNumJoints, 0.0);
+  // Per joint, the summed held-out error of the vertices it moves, with every offset and without its own.
+  std::vector<double> with(kNumJoints, 0.0), without(kNumJoints, 0.0), pivot(kNumJoints, 0.0);
   Eigen::MatrixXd X;
-  auto add_errors = [&](const Eigen::MatrixXd& offsets, int only_joint, std::vector<double>* sums) {
-    for (int ex : examples) {
-      synth.pose_with_joint_offsets(data.poses[static_cast<size_t>(ex)], offsets, &X);
-      for (Eigen::Index v = 0; v < X.rows(); ++v) {
-        const unsigned mask = moved_by[static_cast<size_t>(vertex_part[v])];
-        if (only_joint >= 0 && !(mask & (1u << only_joint))) continue;
-        const double e = (X.row(v) - data.V[static_cast<size_t>(ex)].row(v)).norm();
-        for (int j = 0; j < kNumJoints; ++j)
-          if ((only_joint < 0 || only_joint == j) && (mask & (1u << j))) (*sums)[static_cast<size_t>(j)] += e;
-      }
+  auto add_errors = [&](int ex, const Eigen::MatrixXd& offsets, int only_joint, std::vector<double>* sums) {
+    synth.pose_with_joint_offsets(data.poses[static_cast<size_t>(ex)], offsets, &X);
+    for (Eigen::Index v = 0; v < X.rows(); ++v) {
+      const unsigned mask = moved_by[static_cast<size_t>(vertex_part[v])];
+      if (only_joint >= 0 && !(mask & (1u << only_joint))) continue;
+      const double e = (X.row(v) - data.V[static_cast<size_t>(ex)].row(v)).norm();
+      for (int j = 0; j < kNumJoints; ++j)
+        if ((only_joint < 0 || only_joint == j) && (mask & (1u << j))) (*sums)[static_cast<size_t>(j)] += e;
     }
   };
-  add_errors(model->joint_offsets, -1, &with);
-  Eigen::MatrixXd kept = model->joint_offsets;
-  for (int j = 0; j < kNumJoints; ++j) {
-    Eigen::MatrixXd reduced = model->joint_offsets;
-    reduced.row(j).setZero();
-    add_errors(reduced, j, &without);
-    if (!(with[static_cast<size_t>(j)] < without[static_cast<size_t>(j)])) kept.row(j).setZero();
+  constexpr int kFolds = 5;
+  for (int fold = 0; fold < kFolds; ++fold) {
+    std::vector<int> fitted, held_out;
+    std::vector<PartPoseEstimate> fitted_placed;
+    for (size_t e = 0; e < examples.size(); ++e) {
+      if (static_cast<int>(e % kFolds) == fold) {
+        held_out.push_back(examples[e]);
+      } else {
+        fitted.push_back(examples[e]);
+        fitted_placed.push_back(placed[e]);
+      }
+    }
+    if (held_out.empty() || fitted.size() < 2) continue;
+    Eigen::MatrixXd pivots;
+    const Eigen::MatrixXd offsets = fit_joint_offsets(data, fitted, fitted_placed, model, &pivots);
+    for (int ex : held_out) {
+      add_errors(ex, offsets, -1, &with);
+      for (int j = 0; j < kNumJoints; ++j) {
+        Eigen::MatrixXd reduced = offsets;
+        reduced.row(j).setZero();
+        add_errors(ex, reduced, j, &without);
+        reduced.row(j) = pivots.row(j);
+        add_errors(ex, reduced, j, &pivot);
+      }
+    }
   }
-  model->joint_offsets = kept.isZero(0) ? Eigen::MatrixXd() : kept;
+  Eigen::MatrixXd pivots;
+  Eigen::MatrixXd kept = fit_joint_offsets(data, examples, placed, model, &pivots);
+  for (int j = 0; j < kNumJoints; ++j) {
+    const double best = std::min({with[static_cast<size_t>(j)], pivot[static_cast<size_t>(j)], without[static_cast<size_t>(j)]});
+    if (best == without[static_cast<size_t>(j)]) kept.row(j).setZero();
+    else if (best == pivot[static_cast<size_t>(j)]) kept.row(j) = pivots.row(j);
+  }
+  return kept.isZero(0) ? Eigen::MatrixXd() : kept;
 }
 
 }  // namespace
@@ -302,8 +362,7 @@ PoseModel train_pose_model(const PoseDataset& data, const TrainingOptions& optio
   }
   model.fit_rms = std::sqrt(sq / std::max<long>(count, 1));
   if (options.learn_joint_offsets) {
-    model.joint_offsets = fit_joint_offsets(data, examples, model);
-    keep_joint_offsets_that_help(data, examples, &model);
+    model.joint_offsets = fit_joint_offsets_that_help(data, examples, model);
   }
   return model;
 }

@@ -37,6 +37,21 @@ Eigen::Matrix<double, kOffsetFeatures, 1> joint_offset_features(const PartPose& 
   return f;
 }
 
+Eigen::Matrix<double, 3, kOffsetFeatures> pivot_offset_coefficients(const Eigen::Vector3d& D) {
+  // (I - R) D = D x r - (r (r.D) - |r|^2 D) / 2 + O(|r|^3); rows: components, columns: features.
+  Eigen::Matrix<double, 3, kOffsetFeatures> A = Eigen::Matrix<double, 3, kOffsetFeatures>::Zero();
+  A(1, 0) = D.z(), A(2, 0) = -D.y();  // D x r
+  A(0, 1) = -D.z(), A(2, 1) = D.x();
+  A(0, 2) = D.y(), A(1, 2) = -D.x();
+  for (int k = 0; k < 3; ++k) {
+    for (int a = 0; a < 3; ++a) A(k, 3 + a) = 0.5 * D[k] - (k == a ? 0.5 * D[a] : 0.0);  // x^2, y^2, z^2
+    A(k, 6) = -0.5 * ((k == 0 ? D.y() : 0.0) + (k == 1 ? D.x() : 0.0));                  // xy
+    A(k, 7) = -0.5 * ((k == 1 ? D.z() : 0.0) + (k == 2 ? D.y() : 0.0));                  // yz
+    A(k, 8) = -0.5 * ((k == 2 ? D.x() : 0.0) + (k == 0 ? D.z() : 0.0));                  // zx
+  }
+  return A;
+}
+
 PartTransforms part_transforms(const PartPose& pose, const Eigen::MatrixXd& joints, const Eigen::MatrixXd& offsets, double scale) {
   if (offsets.size() == 0) return part_transforms(pose, joints);
   if (offsets.rows() != kNumJoints || offsets.cols() != 3 * kOffsetFeatures)

@@ -51,10 +51,12 @@ struct TrainingOptions {
   bool identity_at_rest = true;
   /// An extension beyond the paper (off by default, which is Eq. 3-5 as published; issue 18, part 5).
   /// Learn where each joint sits as a function of its twist (a rising shoulder girdle, a head turned
-  /// over its neck bones): from each part's rigid fit to every training example (part_pose_estimation.h),
-  /// the child's joint centre relative to the parent's, regressed on the joint's twist and its
-  /// quadratic terms with a small ridge; kept per joint only where it lowers the training error of
-  /// the vertices it moves.
+  /// over its neck bones, a chest bending over two thoracic bones): from each part's rigid fit to
+  /// every training example (part_pose_estimation.h), where the child must carry the joint for its
+  /// own child joints to land where their parts do, relative to the posed parent; fitted as the point
+  /// the joint effectively turns about, then a ridge regression on the twist and its quadratic terms
+  /// of what that leaves; per joint, regression, pivot alone or nothing, whichever poses held-out
+  /// examples best (five folds).
   bool learn_joint_offsets = false;
   /// An extension beyond the paper (0, the default, is Eq. 5 as published; issue 18, part 5): a
   /// smoothness prior for noisy training meshes. Each example's observed T^Q field is smoothed this many

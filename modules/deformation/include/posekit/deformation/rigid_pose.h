@@ -30,6 +30,11 @@ PartTransforms part_transforms(const PartPose& pose, const Eigen::MatrixXd& join
 constexpr int kOffsetFeatures = 9;
 Eigen::Matrix<double, kOffsetFeatures, 1> joint_offset_features(const PartPose& pose, int joint);
 
+/// The offset coefficients (3 x 9, as a row of joint offsets read 3 x 9) of a joint that turns about
+/// the point D (parent's frame, from its centre) instead of its centre: the offset (I - R(r)) D to
+/// second order in its twist r, D x r - (r (r.D) - |r|^2 D) / 2.
+Eigen::Matrix<double, 3, kOffsetFeatures> pivot_offset_coefficients(const Eigen::Vector3d& D);
+
 /// T^R with pose-dependent joint placement (issue 18, part 5): joint j's centre as the child
 /// carries it sits `scale` * A_j phi_j from where the parent carries it, in the parent's frame (a
 /// shoulder that rises with the arm, a head turning over its neck bones). `joint_offsets` is
