@@ -148,6 +148,34 @@ TEST(PoseSynthesis, RejectsBadPosesAndBodies) {
   EXPECT_THROW(PoseSynthesizer(small_model(), subject, o), InvalidInput);
 }
 
+TEST(PoseSynthesis, JointPivotsAreTheCentresOrTheLearnedOffsetsPivots) {
+  // The fit's Jacobian turns each joint about its pivot: the centre, or with the learned method's
+  // offsets the pivot of their linear part, scaled to the subject, and T^R as the posing uses it.
+  const auto& ds = test::small_dataset();
+  const TriangleMesh subject = read_mesh(ds.root + "/subjects/f01/rest.ply");
+  PoseModel with_pivot = *small_model();
+  with_pivot.joint_offsets = Eigen::MatrixXd::Zero(kNumJoints, 3 * kOffsetFeatures);
+  const Eigen::Vector3d D(0.01, 0.066, -0.02);
+  const Eigen::Matrix<double, 3, kOffsetFeatures> A = pivot_offset_coefficients(D);
+  for (int d = 0; d < 3; ++d)
+    for (int f = 0; f < kOffsetFeatures; ++f) with_pivot.joint_offsets(1, d * kOffsetFeatures + f) = A(d, f);
+  const PoseSynthesizer plain(small_model(), subject), pivoted(std::make_shared<const PoseModel>(with_pivot), subject);
+  const Eigen::MatrixXd& centres = plain.info().joint_centres;
+  EXPECT_TRUE(plain.joint_pivots(PoseMethod::kLearned) == centres);
+  EXPECT_TRUE(pivoted.joint_pivots(PoseMethod::kLbs) == centres);
+  const Eigen::MatrixXd p = pivoted.joint_pivots(PoseMethod::kLearned);
+  const double scale = (p.row(1) - centres.row(1)).norm() / D.norm();
+  EXPECT_GT(scale, 0.8);  // the subject's height over the template's
+  EXPECT_LT(scale, 1.2);
+  EXPECT_LT((p.row(1) - centres.row(1) - scale * D.transpose()).norm(), 1e-12);
+  EXPECT_TRUE(p.bottomRows(kNumJoints - 2) == centres.bottomRows(kNumJoints - 2));
+  PartPose bend;
+  bend.joint_rotation[1] = Eigen::Vector3d(0, 0, 0.35);
+  const PartTransforms T = pivoted.part_motions(bend, PoseMethod::kLearned);
+  const Eigen::Vector3d pivot = p.row(1).transpose();
+  EXPECT_LT((T.R[kChest] * pivot + T.t[kChest] - (T.R[kAbdomen] * pivot + T.t[kAbdomen])).norm(), 0.2 * std::pow(0.35, 3) * scale * D.norm());
+}
+
 TEST(PoseEvaluation, RefusesAModelOfAnotherTemplate) {
   const auto& ds = test::small_dataset();
   auto other = std::make_shared<PoseModel>(*small_model());

@@ -65,6 +65,7 @@ PoseFitResult fit_pose(const PoseSynthesizer& synth, const Eigen::MatrixXd& T, c
   const Eigen::MatrixXd& V0 = synth.rest_vertices();
   const Eigen::VectorXi& part = synth.vertex_parts();
   const Eigen::MatrixXd& joints = synth.info().joint_centres;
+  const Eigen::MatrixXd pivots = synth.joint_pivots(o.method);  // the Jacobian's centres of rotation
   const PointGrid target_grid(T, surface_cell(T));
   // A subsample of the target (at most 20,000 points) for the start hypotheses: its coarser grid
   // answers their long-range queries several times faster.
@@ -192,11 +193,11 @@ PoseFitResult fit_pose(const PoseSynthesizer& synth, const Eigen::MatrixXd& T, c
                        Eigen::Index model_stride, Eigen::Index target_stride, double prior_scale, double p2p) {
     Linearisation L;
     synth.pose(pose, o.method, &X);
-    const PartTransforms P = part_transforms(pose, joints);
-    std::array<Eigen::Vector3d, kNumJoints> centre;  // each joint's posed centre
+    const PartTransforms P = synth.part_motions(pose, o.method);
+    std::array<Eigen::Vector3d, kNumJoints> centre;  // where each joint turns, posed
     for (int j = 0; j < kNumJoints; ++j) {
       const size_t q = static_cast<size_t>(part_parent(j + 1));
-      centre[static_cast<size_t>(j)] = P.R[q] * joints.row(j).transpose() + P.t[q];
+      centre[static_cast<size_t>(j)] = P.R[q] * pivots.row(j).transpose() + P.t[q];
     }
     const Eigen::Vector3d pivot = rest_pivot + pose.root_translation;
     const Eigen::MatrixXd normals = vertex_normals(X, synth.faces());

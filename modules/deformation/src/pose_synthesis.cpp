@@ -337,6 +337,29 @@ void PoseSynthesizer::pose(const PartPose& pose, PoseMethod method, Eigen::Matri
   pose_with(pose, method, method == PoseMethod::kLearned ? impl_->model->joint_offsets : Eigen::MatrixXd(), X);
 }
 
+PartTransforms PoseSynthesizer::part_motions(const PartPose& pose, PoseMethod method) const {
+  const Impl& s = *impl_;
+  return part_transforms(pose, s.info.joint_centres,
+                         method == PoseMethod::kLearned ? s.model->joint_offsets : Eigen::MatrixXd(), s.offset_scale);
+}
+
+Eigen::MatrixXd PoseSynthesizer::joint_pivots(PoseMethod method) const {
+  const Impl& s = *impl_;
+  Eigen::MatrixXd pivots = s.info.joint_centres;
+  const Eigen::MatrixXd& offsets = s.model->joint_offsets;
+  if (method != PoseMethod::kLearned || offsets.size() == 0) return pivots;
+  for (int j = 0; j < kNumJoints; ++j) {
+    // The linear part of an offset about a pivot D is [D]x (pivot_offset_coefficients): D from its
+    // skew-symmetric part.
+    Eigen::Matrix3d L;
+    for (int d = 0; d < 3; ++d)
+      for (int f = 0; f < 3; ++f) L(d, f) = offsets(j, d * kOffsetFeatures + f);
+    const Eigen::Matrix3d S = 0.5 * (L - L.transpose());
+    pivots.row(j) += s.offset_scale * Eigen::RowVector3d(S(2, 1), S(0, 2), S(1, 0));
+  }
+  return pivots;
+}
+
 void PoseSynthesizer::pose_with_joint_offsets(const PartPose& pose, const Eigen::MatrixXd& joint_offsets, Eigen::MatrixXd* X) const {
   pose_with(pose, PoseMethod::kLearned, joint_offsets, X);
 }

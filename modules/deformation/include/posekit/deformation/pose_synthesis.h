@@ -11,6 +11,7 @@
 #include "posekit/body/parts.h"
 #include "posekit/core/triangle_mesh.h"
 #include "posekit/deformation/pose_model.h"
+#include "posekit/deformation/rigid_pose.h"
 
 namespace posekit {
 
@@ -72,6 +73,13 @@ class PoseSynthesizer {
   /// The learned method with other joint offsets than the model's (#joints x 27, or empty for none):
   /// how training decides which offsets earn their place.
   void pose_with_joint_offsets(const PartPose& pose, const Eigen::MatrixXd& joint_offsets, Eigen::MatrixXd* X) const;
+
+  /// The rigid part motions T^R that `method` poses with (the learned one with the model's joint
+  /// offsets, scaled to the subject).
+  PartTransforms part_motions(const PartPose& pose, PoseMethod method) const;
+  /// Where each joint effectively turns (#joints x 3, at rest in the parent's frame): its centre, or
+  /// with the learned method's joint offsets the pivot of their linear part (rigid_pose.h).
+  Eigen::MatrixXd joint_pivots(PoseMethod method) const;
 
   const SubjectSetupInfo& info() const;
   const Eigen::MatrixXd& rest_vertices() const;  ///< the subject at rest, #V x 3
