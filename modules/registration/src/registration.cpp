@@ -200,12 +200,22 @@ const CtffdSource::Impl& CtffdSource::impl() const { return *impl_; }
 namespace {
 
 /// The registration itself; `prepared` holds the source's side of ct-FFD (kCtffd).
-/// `target_features`: the target's, when found already (beside the source's side).
-RegistrationResult register_with(const TriangleMesh& source, const CtffdSource::Impl* prepared, const TriangleMesh& target,
-                                 const RegistrationOptions& o, const BodyFeatures* target_features = nullptr) {
+/// Both meshes usable, standing along +Y in one unit: checked once per registration, by its entry point.
+void check_inputs(const TriangleMesh& source, const TriangleMesh& target) {
   require_usable_mesh(source, "registration source");
   require_usable_mesh(target, "registration target");
   require_comparable_bodies(source, target);
+}
+
+/// RegistrationOptions::threads, 0 resolved to the hardware's.
+int thread_count(const RegistrationOptions& o) {
+  return o.threads > 0 ? o.threads : static_cast<int>(std::max(1u, std::thread::hardware_concurrency()));
+}
+
+/// Inputs checked by the caller. `target_features`: the target's, when found already (beside the
+/// source's side).
+RegistrationResult register_with(const TriangleMesh& source, const CtffdSource::Impl* prepared, const TriangleMesh& target,
+                                 const RegistrationOptions& o, const BodyFeatures* target_features = nullptr) {
   const auto t0 = std::chrono::steady_clock::now();
   RegistrationResult r;
   if (o.method == RegistrationMethod::kCtffd) {
@@ -213,7 +223,7 @@ RegistrationResult register_with(const TriangleMesh& source, const CtffdSource::
       throw InvalidInput("registration: the source was prepared with " + std::to_string(prepared->points_per_layer) +
                          " points per layer, the options ask for " + std::to_string(o.points_per_layer));
     const CtffdSource::Impl& s = *prepared;
-    const int threads = o.threads > 0 ? o.threads : static_cast<int>(std::max(1u, std::thread::hardware_concurrency()));
+    const int threads = thread_count(o);
     // With a second thread the fit's view of the target is made beside the features.
     std::unique_ptr<ShapeFitTarget> fit_target;
     std::exception_ptr fit_target_error;
@@ -309,9 +319,9 @@ RegistrationResult register_with(const TriangleMesh& source, const CtffdSource::
 }  // namespace
 
 RegistrationResult register_bodies(const TriangleMesh& source, const TriangleMesh& target, const RegistrationOptions& o) {
+  check_inputs(source, target);
   if (o.method != RegistrationMethod::kCtffd) return register_with(source, nullptr, target, o);
-  const int threads = o.threads > 0 ? o.threads : static_cast<int>(std::max(1u, std::thread::hardware_concurrency()));
-  if (threads < 2) {
+  if (thread_count(o) < 2) {
     const CtffdSource prepared(source, o.points_per_layer);  // timed with the rest
     RegistrationResult r = register_with(source, &prepared.impl(), target, o);
     r.seconds += prepared.seconds();
@@ -319,9 +329,6 @@ RegistrationResult register_bodies(const TriangleMesh& source, const TriangleMes
     return r;
   }
   // The source's side on a second thread while the target's features are found; timed as a whole.
-  require_usable_mesh(source, "registration source");
-  require_usable_mesh(target, "registration target");
-  require_comparable_bodies(source, target);
   const auto t0 = std::chrono::steady_clock::now();
   std::unique_ptr<CtffdSource> prepared;
   std::exception_ptr source_error;
@@ -349,6 +356,7 @@ RegistrationResult register_bodies(const TriangleMesh& source, const TriangleMes
 }
 
 RegistrationResult register_bodies(const CtffdSource& source, const TriangleMesh& target, const RegistrationOptions& o) {
+  check_inputs(source.mesh(), target);
   return register_with(source.mesh(), o.method == RegistrationMethod::kCtffd ? &source.impl() : nullptr, target, o);
 }
 
