@@ -67,6 +67,41 @@ TEST(MeshSlice, StackEqualsOneSliceAtATime) {
   }
 }
 
+TEST(MeshSlice, AStackOnSeveralThreadsHasTheSameLoopsToTheBit) {
+  // Over 80k faces (several ranges of faces per thread): two spheres, one of them cut open at its
+  // top (open chains there), sliced at 300 levels given out of order.
+  const TriangleMesh a = test::icosphere(6, 1.0);
+  TriangleMesh b = test::icosphere(4, 0.5);
+  b.V.col(0).array() += 2.5;
+  std::vector<int> kept;
+  for (Eigen::Index f = 0; f < b.F.rows(); ++f)
+    if (b.V(b.F(f, 0), 1) < 0.3 || b.V(b.F(f, 1), 1) < 0.3 || b.V(b.F(f, 2), 1) < 0.3) kept.push_back(static_cast<int>(f));
+  Eigen::MatrixXd V(a.V.rows() + b.V.rows(), 3);
+  V << a.V, b.V;
+  Eigen::MatrixXi F(a.F.rows() + static_cast<Eigen::Index>(kept.size()), 3);
+  F.topRows(a.F.rows()) = a.F;
+  for (size_t k = 0; k < kept.size(); ++k)
+    F.row(a.F.rows() + static_cast<Eigen::Index>(k)) = b.F.row(kept[k]).array() + static_cast<int>(a.V.rows());
+  ASSERT_GT(F.rows(), 3 * 16384);
+  std::vector<double> levels;
+  for (int k = 0; k < 300; ++k) levels.push_back(-1.05 + 2.1 * ((k * 7) % 300) / 300.0);
+  const auto one = slice_mesh_stack(V, F, Eigen::Vector3d(0, 1, 0.1), levels, 1);
+  int open = 0;
+  for (int threads : {2, 3, 0}) {
+    const auto many = slice_mesh_stack(V, F, Eigen::Vector3d(0, 1, 0.1), levels, threads);
+    ASSERT_EQ(many.size(), one.size());
+    for (size_t i = 0; i < one.size(); ++i) {
+      ASSERT_EQ(many[i].size(), one[i].size()) << threads << " threads, level " << i;
+      for (size_t l = 0; l < one[i].size(); ++l) {
+        EXPECT_EQ(many[i][l].closed, one[i][l].closed);
+        EXPECT_TRUE(many[i][l].points == one[i][l].points) << threads << " threads, level " << i << ", loop " << l;
+        open += !one[i][l].closed;
+      }
+    }
+  }
+  EXPECT_GT(open, 0);  // the cut sphere's open chains were among them
+}
+
 TEST(MeshSlice, LoopDistanceIsTheGapBetweenThePolylines) {
   // Two unit squares 0.3 apart along x, and a vertex of one facing the middle of the other's edge.
   SectionLoop a, b;

@@ -506,6 +506,10 @@ TEST(Registration, AShapeSpaceTakesCtffdsCorrespondenceToMillimetres) {
   const RegistrationResult t = register_bodies(prepared, subject, two);
   EXPECT_LT((t.deformed_source - r.deformed_source).cwiseAbs().maxCoeff(), 1e-9);
   EXPECT_TRUE(register_bodies(prepared, subject, two).deformed_source == t.deformed_source);
+  EXPECT_NEAR(t.shape_fit.median_distance, r.shape_fit.median_distance, 1e-9);  // its checks made side by side
+  EXPECT_EQ(t.shape_fit.far_share, r.shape_fit.far_share);
+  EXPECT_EQ(t.shape_fit.uncovered_share, r.shape_fit.uncovered_share);
+  EXPECT_EQ(t.shape_fit.plausible, r.shape_fit.plausible);
   // A source of another topology cannot use the space: said, not ignored.
   EXPECT_THROW(register_bodies(subject, templ.mesh, o), InvalidInput);
 }

@@ -36,6 +36,36 @@ TEST(LayeredRepresentation, EverySubjectGetsTheSameTopologyWithAllSixteenParts) 
   }
 }
 
+TEST(LayeredRepresentation, OnTwoThreadsAndFromTheFeaturesSurfaceTheSameToTheBit) {
+  POSEKIT_REQUIRE_MAKEHUMAN();
+  // A 50k-vertex remesh (scan-like: its sections are sliced in several ranges per thread), with a
+  // hole at the waist: features and representation on two threads, and the representation cut from
+  // the surface the features gave, equal the single-thread ones made the plain way.
+  TriangleMesh mesh = remesh_body(build_body(model, make_subject_specs(model, 1, 16)[3].spec).mesh, 50000);
+  std::vector<bool> keep(static_cast<size_t>(mesh.F.rows()), true);
+  const double waist = mesh.V.col(1).minCoeff() + 0.6 * (mesh.V.col(1).maxCoeff() - mesh.V.col(1).minCoeff());
+  const Eigen::Vector3d front(mesh.V.col(0).mean(), waist, mesh.V.col(2).maxCoeff());
+  for (Eigen::Index f = 0; f < mesh.F.rows(); ++f)
+    keep[static_cast<size_t>(f)] = (mesh.V.row(mesh.F(f, 0)).transpose() - front).norm() > 0.1;
+  mesh = extract_faces(mesh, keep);
+  const BodyFeatures f1 = find_body_features(mesh.V, mesh.F);
+  TriangleMesh surface;
+  const BodyFeatures f2 = find_body_features(mesh.V, mesh.F, &surface, 2);
+  for (int side : {kLeft, kRight}) {
+    EXPECT_TRUE(f1.wrist[side] == f2.wrist[side]);
+    EXPECT_TRUE(f1.elbow[side] == f2.elbow[side]);
+    EXPECT_TRUE(f1.shoulder[side] == f2.shoulder[side]);
+    EXPECT_TRUE(f1.knee[side] == f2.knee[side]);
+  }
+  EXPECT_EQ(f1.crotch_y, f2.crotch_y);
+  EXPECT_EQ(f1.arms_separate_y, f2.arms_separate_y);
+  EXPECT_EQ(f1.warnings, f2.warnings);
+  const LayeredRepresentation plain = build_layered_representation(mesh.V, mesh.F, f1);
+  const LayeredRepresentation on_surface = build_layered_representation_on_surface(surface, f2, 32, 2);
+  EXPECT_TRUE(plain.mesh.V == on_surface.mesh.V);
+  EXPECT_TRUE(plain.mesh.F == on_surface.mesh.F);
+}
+
 TEST(LayeredRepresentation, FeatureLevelsAreLayers) {
   POSEKIT_REQUIRE_MAKEHUMAN();
   const Body b = build_body(model, BodySpec{});

@@ -6,9 +6,12 @@
 #include <array>
 #include <cmath>
 #include <cstdint>
+#include <functional>
 #include <limits>
 #include <numeric>
+#include <thread>
 
+#include "posekit/core/closest_point.h"  // parallel_for_ranges
 #include "posekit/core/error.h"
 #include "posekit/core/mesh_geometry.h"
 
@@ -126,9 +129,11 @@ bool cut_face_smooth(const Eigen::MatrixXd& V, const Eigen::MatrixXi& F, const E
 }
 
 /// Sections at many parallel planes in one pass over the faces (each face only visits the planes
-/// its extent spans); on the smooth surface when N is given.
+/// its extent spans); on the smooth surface when N is given. On `threads` threads the faces are
+/// split into contiguous ranges and each plane's segments keep the faces' order, so the loops are
+/// the same to the last bit on any count.
 std::vector<std::vector<SectionLoop>> slice_stack(const Eigen::MatrixXd& V, const Eigen::MatrixXi& F, const Eigen::MatrixXd* N,
-                                                  const Eigen::Vector3d& normal, const std::vector<double>& offsets) {
+                                                  const Eigen::Vector3d& normal, const std::vector<double>& offsets, int threads) {
   const double scale = normal.norm();
   const Eigen::Vector3d n = normal / scale;
   const Eigen::VectorXd h = V * n;
@@ -138,47 +143,81 @@ std::vector<std::vector<SectionLoop>> slice_stack(const Eigen::MatrixXd& V, cons
   std::vector<double> level(offsets.size());
   for (size_t k = 0; k < order.size(); ++k) level[k] = offsets[order[k]] / scale;
   // A face meets the (sorted) planes first[f] .. last[f]-1, those with lo < level <= hi; each gives
-  // exactly one segment, so the segments of all planes fit one array, plane after plane.
+  // exactly one segment, so the segments of all planes fit one array, plane after plane, and
+  // within a plane range after range of faces.
+  constexpr long kFacesPerRange = 16384;
+  const long faces = static_cast<long>(F.rows());
+  if (threads <= 0) threads = static_cast<int>(std::max(1u, std::thread::hardware_concurrency()));
+  const int ranges = static_cast<int>(std::clamp<long>(faces / kFacesPerRange, 1, threads));
+  const long range_size = (faces + ranges - 1) / ranges;
+  const auto for_each_range = [&](const std::function<void(long, long, int)>& body) {
+    parallel_for_ranges(ranges, ranges, [&](long r0, long r1) {
+      for (long r = r0; r < r1; ++r) body(r * range_size, std::min(faces, (r + 1) * range_size), static_cast<int>(r));
+    }, 1);
+  };
   std::vector<int> first(static_cast<size_t>(F.rows())), last(static_cast<size_t>(F.rows()));
+  std::vector<std::vector<size_t>> fill(static_cast<size_t>(ranges), std::vector<size_t>(level.size() + 1, 0));
+  for_each_range([&](long f0, long f1, int r) {
+    std::vector<size_t>& count = fill[static_cast<size_t>(r)];
+    for (long f = f0; f < f1; ++f) {
+      const double h0 = h[F(f, 0)], h1 = h[F(f, 1)], h2 = h[F(f, 2)];
+      const double lo = std::min({h0, h1, h2}), hi = std::max({h0, h1, h2});
+      first[f] = static_cast<int>(std::upper_bound(level.begin(), level.end(), lo) - level.begin());
+      last[f] = static_cast<int>(std::upper_bound(level.begin() + first[f], level.end(), hi) - level.begin());
+      for (int k = first[f]; k < last[f]; ++k) ++count[k];
+    }
+  });
+  // start[k]: plane k's first segment; fill[r][k]: where range r writes its next one on plane k.
   std::vector<size_t> start(level.size() + 1, 0);
-  for (Eigen::Index f = 0; f < F.rows(); ++f) {
-    const double h0 = h[F(f, 0)], h1 = h[F(f, 1)], h2 = h[F(f, 2)];
-    const double lo = std::min({h0, h1, h2}), hi = std::max({h0, h1, h2});
-    first[f] = static_cast<int>(std::upper_bound(level.begin(), level.end(), lo) - level.begin());
-    last[f] = static_cast<int>(std::upper_bound(level.begin() + first[f], level.end(), hi) - level.begin());
-    for (int k = first[f]; k < last[f]; ++k) ++start[k + 1];
+  for (size_t k = 0; k < level.size(); ++k) {
+    size_t at = start[k];
+    for (auto& range_fill : fill) {
+      const size_t count = range_fill[k];
+      range_fill[k] = at;
+      at += count;
+    }
+    start[k + 1] = at;
   }
-  for (size_t k = 0; k < level.size(); ++k) start[k + 1] += start[k];
-  std::vector<size_t> fill(start.begin(), start.end() - 1);
   std::vector<std::vector<SectionLoop>> out(offsets.size());
+  const auto for_each_plane = [&](const std::function<void(size_t)>& body) {
+    parallel_for_ranges(static_cast<long>(level.size()), ranges, [&](long k0, long k1) {
+      for (long k = k0; k < k1; ++k) body(static_cast<size_t>(k));
+    }, 1);
+  };
   if (N) {
     std::vector<SmoothSegment> segs(start.back());
-    for (Eigen::Index f = 0; f < F.rows(); ++f)
-      for (int k = first[f]; k < last[f]; ++k) {
-        const double s[3] = {h[F(f, 0)] - level[k], h[F(f, 1)] - level[k], h[F(f, 2)] - level[k]};
-        cut_face_smooth(V, F, *N, f, s, segs[fill[k]++]);
-      }
-    for (size_t k = 0; k < level.size(); ++k) {
+    for_each_range([&](long f0, long f1, int r) {
+      std::vector<size_t>& at = fill[static_cast<size_t>(r)];
+      for (long f = f0; f < f1; ++f)
+        for (int k = first[f]; k < last[f]; ++k) {
+          const double s[3] = {h[F(f, 0)] - level[k], h[F(f, 1)] - level[k], h[F(f, 2)] - level[k]};
+          cut_face_smooth(V, F, *N, f, s, segs[at[k]++]);
+        }
+    });
+    for_each_plane([&](size_t k) {
       const SmoothSegment* seg = segs.data() + start[k];
       out[order[k]] = chain_loops(
           start[k + 1] - start[k], [&](size_t i, int e) { return seg[i].key[e]; },
           [&](size_t i, int e, std::vector<Eigen::Vector3d>& pts) { pts.push_back(seg[i].point[e]), pts.push_back(seg[i].middle); },
           [&](size_t i, int e, std::vector<Eigen::Vector3d>& pts) { pts.push_back(seg[i].point[e]); });
-    }
+    });
     return out;
   }
   // A flat section keeps only the two cut edges of each segment (16 bytes: a 50k-vertex body cut
   // at 340 heights makes half a million); the points follow from the edges and the level.
   std::vector<std::array<std::uint64_t, 2>> segs(start.back());
-  for (Eigen::Index f = 0; f < F.rows(); ++f)
-    for (int k = first[f]; k < last[f]; ++k) {
-      const double s[3] = {h[F(f, 0)] - level[k], h[F(f, 1)] - level[k], h[F(f, 2)] - level[k]};
-      std::array<std::uint64_t, 2>& seg = segs[fill[k]++];
-      int count = 0;
-      for (int c = 0; c < 3 && count < 2; ++c)
-        if ((s[c] >= 0) != (s[(c + 1) % 3] >= 0)) seg[static_cast<size_t>(count++)] = edge_key(F(f, c), F(f, (c + 1) % 3));
-    }
-  for (size_t k = 0; k < level.size(); ++k) {
+  for_each_range([&](long f0, long f1, int r) {
+    std::vector<size_t>& at = fill[static_cast<size_t>(r)];
+    for (long f = f0; f < f1; ++f)
+      for (int k = first[f]; k < last[f]; ++k) {
+        const double s[3] = {h[F(f, 0)] - level[k], h[F(f, 1)] - level[k], h[F(f, 2)] - level[k]};
+        std::array<std::uint64_t, 2>& seg = segs[at[k]++];
+        int count = 0;
+        for (int c = 0; c < 3 && count < 2; ++c)
+          if ((s[c] >= 0) != (s[(c + 1) % 3] >= 0)) seg[static_cast<size_t>(count++)] = edge_key(F(f, c), F(f, (c + 1) % 3));
+      }
+  });
+  for_each_plane([&](size_t k) {
     const std::array<std::uint64_t, 2>* seg = segs.data() + start[k];
     const double at = level[k];
     // The cut point of an edge, interpolated from its smaller index: the same on both of its faces.
@@ -189,7 +228,7 @@ std::vector<std::vector<SectionLoop>> slice_stack(const Eigen::MatrixXd& V, cons
     };
     auto emit = [&](size_t i, int e, std::vector<Eigen::Vector3d>& pts) { pts.push_back(point(seg[i][static_cast<size_t>(e)])); };
     out[order[k]] = chain_loops(start[k + 1] - start[k], [&](size_t i, int e) { return seg[i][static_cast<size_t>(e)]; }, emit, emit);
-  }
+  });
   return out;
 }
 
@@ -197,23 +236,24 @@ std::vector<std::vector<SectionLoop>> slice_stack(const Eigen::MatrixXd& V, cons
 
 std::vector<SectionLoop> slice_mesh(const Eigen::MatrixXd& V, const Eigen::MatrixXi& F, const Eigen::Vector3d& normal,
                                     double offset) {
-  return slice_mesh_stack(V, F, normal, {offset}).front();
+  return slice_stack(V, F, nullptr, normal, {offset}, 1).front();
 }
 
 std::vector<std::vector<SectionLoop>> slice_mesh_stack(const Eigen::MatrixXd& V, const Eigen::MatrixXi& F,
-                                                       const Eigen::Vector3d& normal, const std::vector<double>& offsets) {
-  return slice_stack(V, F, nullptr, normal, offsets);
+                                                       const Eigen::Vector3d& normal, const std::vector<double>& offsets,
+                                                       int threads) {
+  return slice_stack(V, F, nullptr, normal, offsets, threads);
 }
 
 std::vector<SectionLoop> slice_smooth_mesh(const Eigen::MatrixXd& V, const Eigen::MatrixXi& F, const Eigen::MatrixXd& N,
                                            const Eigen::Vector3d& normal, double offset) {
-  return slice_stack(V, F, &N, normal, {offset}).front();
+  return slice_stack(V, F, &N, normal, {offset}, 1).front();
 }
 
 std::vector<std::vector<SectionLoop>> slice_smooth_mesh_stack(const Eigen::MatrixXd& V, const Eigen::MatrixXi& F,
                                                               const Eigen::MatrixXd& N, const Eigen::Vector3d& normal,
                                                               const std::vector<double>& offsets) {
-  return slice_stack(V, F, &N, normal, offsets);
+  return slice_stack(V, F, &N, normal, offsets, 1);
 }
 
 double polyline_length(const Eigen::MatrixXd& P, bool closed) {

@@ -184,8 +184,9 @@ CtffdSource::CtffdSource(const TriangleMesh& source, int points_per_layer) {
   const auto t0 = std::chrono::steady_clock::now();
   auto impl = std::make_shared<Impl>();
   impl->mesh = source;
-  impl->features = find_body_features(source.V, source.F);
-  impl->representation = build_layered_representation(source.V, source.F, impl->features, points_per_layer);
+  TriangleMesh surface;
+  impl->features = find_body_features(source.V, source.F, &surface);
+  impl->representation = build_layered_representation_on_surface(surface, impl->features, points_per_layer);
   impl->parametrization = ctffd_parametrize(source.V, impl->representation);
   impl->points_per_layer = points_per_layer;
   impl->seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
@@ -212,10 +213,22 @@ int thread_count(const RegistrationOptions& o) {
   return o.threads > 0 ? o.threads : static_cast<int>(std::max(1u, std::thread::hardware_concurrency()));
 }
 
+/// A body's features and the surface they were found on (body_surface), which its representation is cut from.
+struct FoundFeatures {
+  BodyFeatures features;
+  TriangleMesh surface;
+};
+
+FoundFeatures found_features(const TriangleMesh& body, int threads) {
+  FoundFeatures out;
+  out.features = find_body_features(body.V, body.F, &out.surface, threads);
+  return out;
+}
+
 /// Inputs checked by the caller. `target_features`: the target's, when found already (beside the
 /// source's side).
 RegistrationResult register_with(const TriangleMesh& source, const CtffdSource::Impl* prepared, const TriangleMesh& target,
-                                 const RegistrationOptions& o, const BodyFeatures* target_features = nullptr) {
+                                 const RegistrationOptions& o, const FoundFeatures* target_features = nullptr) {
   const auto t0 = std::chrono::steady_clock::now();
   RegistrationResult r;
   if (o.method == RegistrationMethod::kCtffd) {
@@ -242,12 +255,14 @@ RegistrationResult register_with(const TriangleMesh& source, const CtffdSource::
         if (t.joinable()) t.join();
       }
     } join_on_exit{preparing};
-    const BodyFeatures ft = target_features ? *target_features : find_body_features(target.V, target.F);
+    const FoundFeatures found = target_features ? FoundFeatures{} : found_features(target, threads);
+    const FoundFeatures& t = target_features ? *target_features : found;
+    const BodyFeatures& ft = t.features;
     for (const std::string& w : s.features.warnings) r.warnings.push_back("source: " + w);
     for (const std::string& w : ft.warnings) r.warnings.push_back("target: " + w);
     for (std::string& w : implausible_limbs(s.features, ft)) r.warnings.push_back(std::move(w));
-    const LayeredRepresentation rt = build_layered_representation(
-        target.V, target.F, torso_levels_in_proportion(ft, s.features), o.points_per_layer);
+    const LayeredRepresentation rt = build_layered_representation_on_surface(
+        t.surface, torso_levels_in_proportion(ft, s.features), o.points_per_layer, threads);
     r.deformed_source = ctffd_evaluate(s.parametrization, rt);
     r.ctffd_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
     if (o.shape_space) {
@@ -289,8 +304,9 @@ RegistrationResult register_with(const TriangleMesh& source, const CtffdSource::
       r.deformed_source = r.nicp.V;
     }
   } else if (o.method == RegistrationMethod::kNicp) {
-    const LayeredRepresentation rs = build_layered_representation(source.V, source.F, find_body_features(source.V, source.F), 16);
-    const LayeredRepresentation rt = build_layered_representation(target.V, target.F, find_body_features(target.V, target.F), 16);
+    const FoundFeatures fs = found_features(source, 1), ft = found_features(target, 1);
+    const LayeredRepresentation rs = build_layered_representation_on_surface(fs.surface, fs.features, 16);
+    const LayeredRepresentation rt = build_layered_representation_on_surface(ft.surface, ft.features, 16);
     r.nicp = nonrigid_icp(source, target, o.nicp,
                           representation_landmarks(source, rs, rt, o.landmark_layer_stride, o.landmark_point_stride));
     r.deformed_source = r.nicp.V;
@@ -339,9 +355,9 @@ RegistrationResult register_bodies(const TriangleMesh& source, const TriangleMes
       source_error = std::current_exception();
     }
   });
-  BodyFeatures target_features;
+  FoundFeatures target_features;
   try {
-    target_features = find_body_features(target.V, target.F);
+    target_features = found_features(target, 1);
   } catch (...) {
     source_side.join();
     throw;

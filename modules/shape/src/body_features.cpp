@@ -3,9 +3,12 @@
 #include <Eigen/Eigenvalues>
 #include <Eigen/Geometry>
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <cstdio>
+#include <exception>
 #include <limits>
+#include <thread>
 #include <utility>
 
 #include "posekit/core/error.h"
@@ -253,7 +256,7 @@ bool parabola_vertex(const std::vector<double>& t, const std::vector<double>& v,
 
 }  // namespace
 
-SectionStack horizontal_sections(const Eigen::MatrixXd& V, const Eigen::MatrixXi& F, double step) {
+SectionStack horizontal_sections(const Eigen::MatrixXd& V, const Eigen::MatrixXi& F, double step, int threads) {
   if (V.rows() == 0 || F.rows() == 0) throw InvalidInput("horizontal_sections: empty mesh");
   if (!(step > 0)) throw InvalidInput("horizontal_sections: step must be positive");
   SectionStack s;
@@ -261,14 +264,21 @@ SectionStack horizontal_sections(const Eigen::MatrixXd& V, const Eigen::MatrixXi
   s.top_y = V.col(1).maxCoeff();
   s.step = step;
   for (double y = s.floor_y + step / 2; y < s.top_y; y += step) s.y.push_back(y);
-  s.loops = slice_mesh_stack(V, F, Eigen::Vector3d::UnitY(), s.y);
+  s.loops = slice_mesh_stack(V, F, Eigen::Vector3d::UnitY(), s.y, threads);
   return s;
 }
 
-void refine_wrists(const SectionAt& section, BodyFeatures* features) {
+void refine_wrists(const SectionAt& section, BodyFeatures* features, int threads) {
   BodyFeatures& f = *features;
-  for (int side : {kLeft, kRight}) {
-    if (!f.arm_found[side] || f.hand_cut[side]) continue;
+  // Each side's forearm followed from f as it is; the results are applied side by side afterwards.
+  struct Followed {
+    bool tried = false, palm = false;
+    Eigen::Vector3d wrist = Eigen::Vector3d::Zero();
+  };
+  auto follow = [&](int side) {
+    Followed out;
+    if (!f.arm_found[side] || f.hand_cut[side]) return out;
+    out.tried = true;
     const double reach = (f.hand_tip[side] - f.elbow[side]).norm();
     Eigen::Vector3d dir = (f.wrist[side] - f.elbow[side]).normalized(), at = f.elbow[side];
     std::vector<Eigen::Vector3d> centres, dirs;
@@ -288,18 +298,44 @@ void refine_wrists(const SectionAt& section, BodyFeatures* features) {
       if (centres.size() >= 3) dir = (centre - centres[centres.size() - 3]).normalized();  // over 2 cm
       at = centre + kForearmStep * dir;
     }
-    if (!palm) {
-      f.warnings.push_back(std::string("could not follow the ") + (side == kLeft ? "left" : "right") +
-                           " forearm to the palm with perpendicular sections: its wrist comes from horizontal sections only");
-      continue;
-    }
+    if (!palm) return out;
+    out.palm = true;
     // Between sections: the vertex of the parabola through the narrowest and its neighbours.
     double shift = 0;
     if (narrowest > 0) {
       const double a = girths[narrowest - 1], b = girths[narrowest], c = girths[narrowest + 1], curvature = a - 2 * b + c;
       if (curvature > 1e-12) shift = std::clamp(0.5 * (a - c) / curvature, -0.5, 0.5) * kForearmStep;
     }
-    f.wrist[side] = centres[narrowest] + (shift + kWristBeyondNarrowestSection) * dirs[narrowest];
+    out.wrist = centres[narrowest] + (shift + kWristBeyondNarrowestSection) * dirs[narrowest];
+    return out;
+  };
+  std::array<Followed, 2> followed;
+  if (threads != 1) {
+    std::exception_ptr error;
+    std::thread left([&] {
+      try {
+        followed[kLeft] = follow(kLeft);
+      } catch (...) {
+        error = std::current_exception();
+      }
+    });
+    try {
+      followed[kRight] = follow(kRight);
+    } catch (...) {
+      left.join();
+      throw;
+    }
+    left.join();
+    if (error) std::rethrow_exception(error);
+  } else {
+    for (int side : {kLeft, kRight}) followed[static_cast<size_t>(side)] = follow(side);
+  }
+  for (int side : {kLeft, kRight}) {
+    const Followed& r = followed[static_cast<size_t>(side)];
+    if (!r.tried) continue;
+    if (r.palm) f.wrist[side] = r.wrist;
+    else f.warnings.push_back(std::string("could not follow the ") + (side == kLeft ? "left" : "right") +
+                              " forearm to the palm with perpendicular sections: its wrist comes from horizontal sections only");
   }
   refine_elbows(&f);
 }
@@ -427,7 +463,7 @@ BodyFeatures find_body_features(const Eigen::MatrixXd& V_in, const Eigen::Matrix
   return find_body_features(V_in, F_in, nullptr);
 }
 
-BodyFeatures find_body_features(const Eigen::MatrixXd& V_in, const Eigen::MatrixXi& F_in, TriangleMesh* surface_out) {
+BodyFeatures find_body_features(const Eigen::MatrixXd& V_in, const Eigen::MatrixXi& F_in, TriangleMesh* surface_out, int threads) {
   std::string left_out;
   TriangleMesh owned;
   TriangleMesh& surface = surface_out ? *surface_out : owned;
@@ -459,8 +495,8 @@ BodyFeatures find_body_features(const Eigen::MatrixXd& V_in, const Eigen::Matrix
   if (box.extent().z() > height || box.extent().x() > 1.3 * height)
     throw InvalidInput("body features: the mesh is wider than it is tall along its up axis (posekit's Y): expected a standing body, not a lying one (wrong --up?)");
   BodyFeatures f = find_body_features(
-      horizontal_sections(V, F),
-      [&](const std::vector<double>& heights) { return slice_mesh_stack(V, F, Eigen::Vector3d::UnitY(), heights); },
+      horizontal_sections(V, F, kSectionStep, threads),
+      [&](const std::vector<double>& heights) { return slice_mesh_stack(V, F, Eigen::Vector3d::UnitY(), heights, threads); },
       top_is_cut);
   // A hand cut off (a scan's wrists): the arm ends in an opening as big round as a wrist or
   // forearm (10 to 35 cm) within 5 cm of where it was followed to. The wrist is the cut's centre.
@@ -510,7 +546,7 @@ BodyFeatures find_body_features(const Eigen::MatrixXd& V_in, const Eigen::Matrix
     const auto loops = slice_mesh(part.V, part.F, normal, normal.dot(point));
     const int k = nearest_loop(loops, point);
     return k < 0 ? SectionLoop{} : loops[static_cast<size_t>(k)];
-  }, &f);
+  }, &f, threads);
   if (!left_out.empty()) f.warnings.insert(f.warnings.begin(), left_out);
   return f;
 }

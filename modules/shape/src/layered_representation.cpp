@@ -103,7 +103,8 @@ std::vector<Eigen::Vector3d> planar_hull(const std::vector<Eigen::Vector3d>& pts
 
 class Builder {
  public:
-  Builder(const Eigen::MatrixXd& V, const Eigen::MatrixXi& F, const BodyFeatures& f, int n) : V_(V), F_(F), f_(f), n_(n) {}
+  Builder(const Eigen::MatrixXd& V, const Eigen::MatrixXi& F, const BodyFeatures& f, int n, int threads = 1)
+      : V_(V), F_(F), f_(f), n_(n), threads_(threads) {}
 
   /// The layers' planes only (centres as placed, before any section): no mesh is read.
   LayeredRepresentation plan() {
@@ -119,7 +120,7 @@ class Builder {
     head();
     for (int side : {kLeft, kRight}) leg(side);
     collecting_ = false;
-    const auto sections = slice_mesh_stack(V_, F_, Eigen::Vector3d::UnitY(), horizontal_heights_);
+    const auto sections = slice_mesh_stack(V_, F_, Eigen::Vector3d::UnitY(), horizontal_heights_, threads_);
     for (size_t i = 0; i < sections.size(); ++i) horizontal_sections_.emplace(horizontal_heights_[i], sections[i]);
     return layers();
   }
@@ -316,7 +317,7 @@ class Builder {
   const Eigen::MatrixXd& V_;
   const Eigen::MatrixXi& F_;
   const BodyFeatures& f_;
-  int n_;
+  int n_, threads_;
   bool collecting_ = false, planning_ = false;
   std::vector<double> horizontal_heights_;
   std::map<double, std::vector<SectionLoop>> horizontal_sections_;
@@ -344,15 +345,19 @@ int representation_layer_count() {
   return n;
 }
 
-LayeredRepresentation build_layered_representation(const Eigen::MatrixXd& V, const Eigen::MatrixXi& F, const BodyFeatures& f,
-                                                   int points_per_layer) {
+LayeredRepresentation build_layered_representation_on_surface(const TriangleMesh& surface, const BodyFeatures& f,
+                                                              int points_per_layer, int threads) {
   if (points_per_layer < 8) throw InvalidInput("layered representation: at least 8 points per layer");
   for (int side : {kLeft, kRight})
     if (!f.arm_found[side]) throw InvalidInput("layered representation: an arm was not found (see the features' warnings)");
+  return Builder(surface.V, surface.F, f, points_per_layer, threads).build();
+}
+
+LayeredRepresentation build_layered_representation(const Eigen::MatrixXd& V, const Eigen::MatrixXi& F, const BodyFeatures& f,
+                                                   int points_per_layer) {
   // Sections are cut from the surface the features were found on: floating bits left out and holes
   // closed, so that a section across a scan's hole is a closed loop, not an open polyline.
-  const TriangleMesh surface = body_surface(V, F);
-  return Builder(surface.V, surface.F, f, points_per_layer).build();
+  return build_layered_representation_on_surface(body_surface(V, F), f, points_per_layer);
 }
 
 }  // namespace posekit

@@ -18,7 +18,9 @@ struct SectionStack {
   std::vector<double> y;                        ///< level heights (m)
   std::vector<std::vector<SectionLoop>> loops;  ///< loops at each level
 };
-SectionStack horizontal_sections(const Eigen::MatrixXd& V, const Eigen::MatrixXi& F, double step = 0.005);
+constexpr double kSectionStep = 0.005;  ///< m between the levels features are found on
+/// On `threads` threads (0: the hardware's) the same sections as on one.
+SectionStack horizontal_sections(const Eigen::MatrixXd& V, const Eigen::MatrixXi& F, double step = kSectionStep, int threads = 1);
 
 enum Side : int { kLeft = 0, kRight = 1 };  ///< the subject's left is +X
 
@@ -72,8 +74,10 @@ TriangleMesh body_surface(const Eigen::MatrixXd& V, const Eigen::MatrixXi& F, st
 /// a mesh that is not a standing human (lying, upside-down, arms touching the torso, too small);
 /// an arm that cannot be followed to the hand (a hole in a scan) is flagged in arm_found and warnings.
 BodyFeatures find_body_features(const Eigen::MatrixXd& V, const Eigen::MatrixXi& F);
-/// The same, also giving the body_surface the features were found on.
-BodyFeatures find_body_features(const Eigen::MatrixXd& V, const Eigen::MatrixXi& F, TriangleMesh* surface);
+/// The same, also giving the body_surface the features were found on (build_layered_representation
+/// takes it), on `threads` threads (0: the hardware's) for the sections and the two forearms, with
+/// the same result as on one.
+BodyFeatures find_body_features(const Eigen::MatrixXd& V, const Eigen::MatrixXi& F, TriangleMesh* surface, int threads = 1);
 
 /// Horizontal sections at the given heights (one loop list per height), for finer levels than a stack's.
 using HorizontalSectionsAt = std::function<std::vector<std::vector<SectionLoop>>(const std::vector<double>& heights)>;
@@ -92,8 +96,10 @@ using SectionAt = std::function<SectionLoop(const Eigen::Vector3d& point, const 
 /// by their centres: the narrowest before the palm (the first section 15% fuller than the narrowest
 /// so far). Horizontal sections cannot do it when the forearm points forward. A wrist whose forearm
 /// cannot be followed keeps its estimate from horizontal sections, with a warning. Then re-places
-/// the elbows between the shoulders and the wrists found (refine_elbows).
-void refine_wrists(const SectionAt& section, BodyFeatures* features);
+/// the elbows between the shoulders and the wrists found (refine_elbows). With `threads` other
+/// than 1 the two forearms are followed at once (`section` is then called from two threads), with
+/// the same result.
+void refine_wrists(const SectionAt& section, BodyFeatures* features, int threads = 1);
 
 /// Re-places each found elbow of a nearly straight arm: at the kink of a two-line fit to the arm
 /// axis between the shoulder and the wrist, where the fit's RMS error plus a prior on where between
