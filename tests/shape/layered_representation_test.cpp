@@ -59,6 +59,9 @@ TEST(LayeredRepresentation, OnTwoThreadsAndFromTheFeaturesSurfaceTheSameToTheBit
   }
   EXPECT_EQ(f1.crotch_y, f2.crotch_y);
   EXPECT_EQ(f1.arms_separate_y, f2.arms_separate_y);
+  for (auto level : {&BodyFeatures::hip_y, &BodyFeatures::waist_y, &BodyFeatures::underbust_y, &BodyFeatures::bust_y,
+                     &BodyFeatures::neck_y})  // from the torso's girths
+    EXPECT_EQ(f1.*level, f2.*level);
   EXPECT_EQ(f1.warnings, f2.warnings);
   const LayeredRepresentation plain = build_layered_representation(mesh.V, mesh.F, f1);
   const LayeredRepresentation on_surface = build_layered_representation_on_surface(surface, f2, 32, 2);

@@ -5,8 +5,6 @@
 #include <Eigen/Geometry>
 #include <algorithm>
 #include <cmath>
-#include <exception>
-#include <thread>
 
 #include "posekit/core/closest_point.h"
 #include "posekit/core/error.h"
@@ -209,7 +207,8 @@ ShapeFitResult fit_shape_space(const ShapeSpace& space, const Eigen::MatrixXi& F
     r.accepted_fraction = static_cast<double>(used) / static_cast<double>(m);
     if (used < K + 6) break;  // too few pairs to say anything
     const auto Ju = J.topRows(used);
-    Eigen::MatrixXd H = Ju.transpose() * Ju;
+    Eigen::MatrixXd H = Eigen::MatrixXd::Zero(K + 6, K + 6);
+    H.selfadjointView<Eigen::Lower>().rankUpdate(Ju.transpose());  // J^T J's lower half: all the LDLT reads
     Eigen::VectorXd g = Ju.transpose() * residual.head(used);
     H.diagonal().head(K).array() += prior;
     g.head(K) += prior * r.coefficients;
@@ -225,43 +224,21 @@ ShapeFitResult fit_shape_space(const ShapeSpace& space, const Eigen::MatrixXi& F
   }
 
   r.V = placed(body(r.coefficients));
-  // The plausibility shares, both ways; the start's only when the fit's own exceed what is allowed
-  // beyond them. With a second thread the target's side (the fit's and start's trees) goes beside.
+  const std::vector<double> fit_distances = distances(tree.closest(rows_of(r.V), o.threads, last_faces.size() == m ? &last_faces : nullptr));
+  r.median_distance = median(fit_distances);
+  // The other way: target points the body leaves uncovered. A limb held otherwise is seen only from
+  // here (the space's straight forearm lies near the hip's surface, the target's bent one is bare).
   const Eigen::Index target_stride = std::max<Eigen::Index>(1, target.V.rows() / 2000);
   Eigen::MatrixXd target_sample((target.V.rows() + target_stride - 1) / target_stride, 3);
   for (Eigen::Index k = 0; k < target_sample.rows(); ++k) target_sample.row(k) = target.V.row(k * target_stride);
-  const bool beside = o.threads != 1;
-  // The other way: target points the body leaves uncovered. A limb held otherwise is seen only from
-  // here (the space's straight forearm lies near the hip's surface, the target's bent one is bare).
   const auto uncovered = [&](const Eigen::MatrixXd& X) {
-    return far_share(distances(TriangleTree(X, F).closest(target_sample, 1)), o.far_distance);
+    return far_share(distances(TriangleTree(X, F).closest(target_sample, o.threads)), o.far_distance);
   };
-  const auto uncovered_shares = [&] {
-    r.uncovered_share = uncovered(r.V);
-    if (r.uncovered_share > o.max_extra_far_share) r.start_uncovered_share = uncovered(start);
-  };
-  std::exception_ptr error;
-  std::thread other;
-  if (beside)
-    other = std::thread([&] {
-      try {
-        uncovered_shares();
-      } catch (...) {
-        error = std::current_exception();
-      }
-    });
-  try {
-    const std::vector<double> fit_distances = distances(tree.closest(rows_of(r.V), 1, last_faces.size() == m ? &last_faces : nullptr));
-    r.median_distance = median(fit_distances);
-    r.far_share = far_share(fit_distances, o.far_distance);
-    if (r.far_share > o.max_extra_far_share) r.start_far_share = far_share(distances(tree.closest(rows_of(start), 1)), o.far_distance);
-  } catch (...) {
-    if (other.joinable()) other.join();
-    throw;
-  }
-  if (other.joinable()) other.join();
-  else uncovered_shares();
-  if (error) std::rethrow_exception(error);
+  r.far_share = far_share(fit_distances, o.far_distance);
+  r.uncovered_share = uncovered(r.V);
+  // The start's shares only when the fit's own exceed what is allowed beyond them.
+  if (r.far_share > o.max_extra_far_share) r.start_far_share = far_share(distances(tree.closest(rows_of(start), o.threads)), o.far_distance);
+  if (r.uncovered_share > o.max_extra_far_share) r.start_uncovered_share = uncovered(start);
   r.plausible = r.median_distance <= o.max_median_distance &&
                 r.far_share <= std::max(r.start_far_share, 0.0) + o.max_extra_far_share &&
                 r.uncovered_share <= std::max(r.start_uncovered_share, 0.0) + o.max_extra_far_share;

@@ -11,6 +11,7 @@
 #include <thread>
 #include <utility>
 
+#include "posekit/core/closest_point.h"  // parallel_for_ranges
 #include "posekit/core/error.h"
 #include "posekit/core/mesh_geometry.h"
 #include "posekit/core/mesh_slice.h"
@@ -497,7 +498,7 @@ BodyFeatures find_body_features(const Eigen::MatrixXd& V_in, const Eigen::Matrix
   BodyFeatures f = find_body_features(
       horizontal_sections(V, F, kSectionStep, threads),
       [&](const std::vector<double>& heights) { return slice_mesh_stack(V, F, Eigen::Vector3d::UnitY(), heights, threads); },
-      top_is_cut);
+      top_is_cut, threads);
   // A hand cut off (a scan's wrists): the arm ends in an opening as big round as a wrist or
   // forearm (10 to 35 cm) within 5 cm of where it was followed to. The wrist is the cut's centre.
   // A hole in one hand (fingers lost) is no cut wrist: an opening that lies well beyond the other
@@ -551,7 +552,7 @@ BodyFeatures find_body_features(const Eigen::MatrixXd& V_in, const Eigen::Matrix
   return f;
 }
 
-BodyFeatures find_body_features(const SectionStack& st, const HorizontalSectionsAt& sections_at, bool top_is_cut) {
+BodyFeatures find_body_features(const SectionStack& st, const HorizontalSectionsAt& sections_at, bool top_is_cut, int threads) {
   BodyFeatures f;
   f.floor_y = st.floor_y;
   f.top_y = f.crown_y = st.top_y;
@@ -633,10 +634,15 @@ BodyFeatures find_body_features(const SectionStack& st, const HorizontalSections
     }
     if (crotch < 0) crotch = i, crotch_track_z = z_track;
     torso[i] = found;
-    torso_shape[i] = shape_of(st.loops[i][found], true);
+    torso_shape[i] = shape_of(st.loops[i][found]);
     z_track = torso_shape[i].centroid.z();
   }
   if (crotch < 0) throw InvalidInput("body features: no section encloses the body axis: could not find the crotch");
+  // The torso's girths (convex hulls: most of this function's time on a dense scan), level by level.
+  parallel_for_ranges(n, threads, [&](long begin, long end) {
+    for (long i = begin; i < end; ++i)
+      if (torso[i] >= 0) torso_shape[i].girth = convex_hull_perimeter(st.loops[i][torso[i]].points, Eigen::Vector3d::UnitY());
+  }, 64);
   if (joined)
     f.warnings.push_back("crotch: the thighs are joined into one surface below it (" +
                          std::to_string(std::lround(1000 * (joined_from - f.floor_y))) + " to " +

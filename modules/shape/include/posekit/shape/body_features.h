@@ -85,9 +85,10 @@ using HorizontalSectionsAt = std::function<std::vector<std::vector<SectionLoop>>
 /// The same from precomputed sections (`horizontal_sections`), without refine_wrists. With
 /// `sections_at`, the level where the arms separate is refined between the stack's sections.
 /// `top_is_cut`: the caller knows the top is an opening (a mesh's boundary there), which the
-/// sections alone tell only when the cut is clean.
+/// sections alone tell only when the cut is clean. `threads` (0: the hardware's) share the torso's
+/// girths, with the same result as one.
 BodyFeatures find_body_features(const SectionStack& stack, const HorizontalSectionsAt& sections_at = {},
-                                bool top_is_cut = false);
+                                bool top_is_cut = false, int threads = 1);
 
 /// A cross-section of the body through `point` with plane normal `normal` (the loop nearest the point).
 using SectionAt = std::function<SectionLoop(const Eigen::Vector3d& point, const Eigen::Vector3d& normal)>;
