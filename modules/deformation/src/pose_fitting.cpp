@@ -288,7 +288,7 @@ PoseFitResult fit_pose(const PoseSynthesizer& synth, const Eigen::MatrixXd& T, c
         prior(weight, residual(j, r), Jr);
       };
       if (held[static_cast<size_t>(j)]) prior(o.limit_prior * prior_scale, r, to_parent);
-      else if (refining) prior_by_differences(o.rest_prior * prior_scale, refinement_prior_residual);
+      else if (refining) prior_by_differences(o.refinement_rest_prior * prior_scale, refinement_prior_residual);
       else prior(o.rest_prior * prior_scale, r, to_parent);
       if (o.hinge_prior > 0 && off_hinge_axis[static_cast<size_t>(j)].squaredNorm() > 0)
         prior_by_differences(o.hinge_prior * prior_scale, off_hinge_residual);

@@ -33,6 +33,12 @@ struct PoseFitOptions {
   /// arms reaching forward 27 degrees away from their true pose. Some weight still settles how a
   /// twist is shared along a limb (elbow against wrist), which the surface hardly shows.
   double refinement_twist_weight = 0.1;
+  /// The rest prior's weight in the final refinement, weaker than while searching: by then the
+  /// hypotheses have brought the pose near the target's, and a pull towards the rest only holds large
+  /// rotations back (a half squat's lower back ended 10 degrees short at rest_prior). Over the 48
+  /// scans of eval fit, 0.3 rest_prior gave the least angle error of 0, 0.1, 0.3, 1 and 3 (see
+  /// docs/pose-model.md).
+  double refinement_rest_prior = 3e-4;
   /// Prior on the swing of elbows and knees off their hinge (about the axis across both the bone and
   /// the flexion axis), relative to the data term like rest_prior: 0 treats them as ball joints.
   double hinge_prior = 0.1;
