@@ -75,8 +75,8 @@ TriangleMesh body_surface(const Eigen::MatrixXd& V, const Eigen::MatrixXi& F, st
 /// an arm that cannot be followed to the hand (a hole in a scan) is flagged in arm_found and warnings.
 BodyFeatures find_body_features(const Eigen::MatrixXd& V, const Eigen::MatrixXi& F);
 /// The same, also giving the body_surface the features were found on (build_layered_representation
-/// takes it), on `threads` threads (0: the hardware's) for the sections and the two forearms, with
-/// the same result as on one.
+/// takes it), on `threads` threads (0: the hardware's) for the sections, the torso's girths and the
+/// two forearms, with the same result as on one.
 BodyFeatures find_body_features(const Eigen::MatrixXd& V, const Eigen::MatrixXi& F, TriangleMesh* surface, int threads = 1);
 
 /// Horizontal sections at the given heights (one loop list per height), for finer levels than a stack's.
