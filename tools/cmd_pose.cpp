@@ -663,12 +663,12 @@ int run_fit(int argc, char** argv) {
                  "target's vertical is detected; the rest pose on its feet at four headings, then six whole-body\n"
                  "starts (arms forward or up, half squat, sitting, a stride either way) are refined briefly and the\n"
                  "best fully by articulated ICP with the posing method in the loop (learned by default),\n"
-                 "correspondences both ways, Cauchy weights, a weak rest prior (in the final refinement on each\n"
-                 "joint's swing, its twist about the bone weighted 0.1: the data decides the twist), elbows and knees\n"
-                 "kept on their hinge, and the joints' ranges of motion as priors. A part the target does not show\n"
-                 "(hands cut off) has its joint held at rest, with a warning. Writes the pose, the fitted body with its\n"
-                 "per-vertex distance to the target (PLY scalar 'residual_mm') and a summary. --start skips the\n"
-                 "search (e.g. the previous frame's pose).");
+                 "correspondences both ways, Cauchy weights, a weak rest prior (in the final refinement at 0.3 of its\n"
+                 "weight, on each joint's swing, its twist about the bone weighted 0.1: the data decides the twist),\n"
+                 "elbows and knees kept on their hinge, and the joints' ranges of motion as priors. A part the target\n"
+                 "does not show (hands cut off) has its joint held at rest, with a warning. Writes the pose, the\n"
+                 "fitted body with its per-vertex distance to the target (PLY scalar 'residual_mm') and a summary.\n"
+                 "--start skips the search (e.g. the previous frame's pose).");
   args.option("model", "FILE", "trained model (.pkm, posekit train)")
       .option("subject", "FILE", "the body to pose, standing at rest (PLY/OBJ/OFF/STL)")
       .option("target", "FILE", "scan (PCD/PLY/XYZ) or mesh to match, upright")
