@@ -6,9 +6,7 @@
 #include <array>
 #include <cmath>
 #include <cstdio>
-#include <exception>
 #include <limits>
-#include <thread>
 #include <utility>
 
 #include "posekit/core/closest_point.h"  // parallel_for_ranges
@@ -311,26 +309,9 @@ void refine_wrists(const SectionAt& section, BodyFeatures* features, int threads
     return out;
   };
   std::array<Followed, 2> followed;
-  if (threads != 1) {
-    std::exception_ptr error;
-    std::thread left([&] {
-      try {
-        followed[kLeft] = follow(kLeft);
-      } catch (...) {
-        error = std::current_exception();
-      }
-    });
-    try {
-      followed[kRight] = follow(kRight);
-    } catch (...) {
-      left.join();
-      throw;
-    }
-    left.join();
-    if (error) std::rethrow_exception(error);
-  } else {
-    for (int side : {kLeft, kRight}) followed[static_cast<size_t>(side)] = follow(side);
-  }
+  parallel_for_ranges(2, threads == 1 ? 1 : 2, [&](long begin, long end) {
+    for (long side = begin; side < end; ++side) followed[static_cast<size_t>(side)] = follow(static_cast<int>(side));
+  }, 1);
   for (int side : {kLeft, kRight}) {
     const Followed& r = followed[static_cast<size_t>(side)];
     if (!r.tried) continue;
