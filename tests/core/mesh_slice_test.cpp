@@ -2,7 +2,9 @@
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
+#include <limits>
 
 #include "posekit/core/error.h"
 #include "posekit/core/winding_number.h"
@@ -117,4 +119,40 @@ TEST(MeshSlice, LoopDistanceIsTheGapBetweenThePolylines) {
   b.points.row(0) << 1.0, 0, 0.5;  // touching
   EXPECT_NEAR(loop_distance(a, b), 0.0, 1e-12);
   EXPECT_THROW(loop_distance(a, SectionLoop{}), InvalidInput);
+}
+
+TEST(MeshSlice, LoopDistanceOfLongLoopsIsTheBruteForceMinimum) {
+  // A torso-like ellipse of 500 points and arm-like circles of 120 beside it (many blocks of
+  // segments, most far from the other loop); open and closed.
+  const auto ellipse = [](int n, double cx, double cz, double rx, double rz, double phase, bool closed) {
+    SectionLoop l;
+    l.points.resize(n, 3);
+    for (int i = 0; i < n; ++i) {
+      const double t = phase + 2 * M_PI * i / n;
+      l.points.row(i) << cx + rx * std::cos(t), 0.01 * std::sin(7 * t), cz + rz * std::sin(t);
+    }
+    l.closed = closed;
+    return l;
+  };
+  const auto brute = [](const SectionLoop& a, const SectionLoop& b) {
+    double best = std::numeric_limits<double>::infinity();
+    for (const auto& [from, to] : {std::pair{&a, &b}, std::pair{&b, &a}}) {
+      const Eigen::Index n = to->points.rows(), segments = to->closed ? n : n - 1;
+      for (Eigen::Index i = 0; i < from->points.rows(); ++i)
+        for (Eigen::Index s = 0; s < segments; ++s) {
+          const Eigen::Vector3d p = from->points.row(i).transpose(), q0 = to->points.row(s).transpose(),
+                                d = to->points.row((s + 1) % n).transpose() - q0;
+          const double t = std::clamp((p - q0).dot(d) / d.squaredNorm(), 0.0, 1.0);
+          best = std::min(best, (p - q0 - t * d).norm());
+        }
+    }
+    return best;
+  };
+  const SectionLoop torso = ellipse(500, 0, 0, 0.17, 0.11, 0.3, true);
+  for (double gap : {0.0, 0.004, 0.03, 0.2})
+    for (bool closed : {true, false}) {
+      const SectionLoop arm = ellipse(120, 0.17 + 0.045 + gap, 0.01, 0.045, 0.04, 1.0, closed);
+      EXPECT_NEAR(loop_distance(torso, arm), brute(torso, arm), 1e-15) << gap;
+      EXPECT_NEAR(loop_distance(arm, torso), brute(torso, arm), 1e-15) << gap;
+    }
 }

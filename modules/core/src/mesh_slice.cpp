@@ -307,24 +307,41 @@ int nearest_loop(const std::vector<SectionLoop>& loops, const Eigen::Vector3d& p
 double loop_distance(const SectionLoop& a, const SectionLoop& b) {
   if (a.points.rows() == 0 || b.points.rows() == 0) throw InvalidInput("loop_distance: an empty loop");
   // Nearest point of each loop's segments to each vertex of the other: the polylines' distance
-  // (squared until the end: the square root keeps the order).
-  auto vertices_to_segments = [](const SectionLoop& from, const SectionLoop& to) {
+  // (squared until the end: the square root keeps the order). The segments go in blocks of
+  // kBlock consecutive ones with a bounding box; a block whose box is no nearer than the best so
+  // far is passed over (a torso's loop beside an arm's: most of it is).
+  constexpr Eigen::Index kBlock = 16;
+  auto vertices_to_segments = [](const SectionLoop& from, const SectionLoop& to, double best) {
     const Eigen::Index n = to.points.rows(), segments = to.closed ? n : n - 1;
-    double best = std::numeric_limits<double>::infinity();
+    if (segments <= 0) {
+      for (Eigen::Index i = 0; i < from.points.rows(); ++i)
+        best = std::min(best, (from.points.row(i) - to.points.row(0)).squaredNorm());
+      return best;
+    }
+    std::vector<Eigen::AlignedBox3d> box(static_cast<size_t>((segments + kBlock - 1) / kBlock));
+    for (Eigen::Index s = 0; s < segments; ++s) {
+      Eigen::AlignedBox3d& b = box[static_cast<size_t>(s / kBlock)];
+      b.extend(to.points.row(s).transpose());
+      b.extend(to.points.row((s + 1) % n).transpose());
+    }
     for (Eigen::Index i = 0; i < from.points.rows(); ++i) {
       const Eigen::Vector3d p = from.points.row(i).transpose();
-      if (segments <= 0) best = std::min(best, (p - to.points.row(0).transpose()).squaredNorm());
-      for (Eigen::Index s = 0; s < segments; ++s) {
-        const Eigen::Vector3d q0 = to.points.row(s).transpose(), q1 = to.points.row((s + 1) % n).transpose();
-        const Eigen::Vector3d d = q1 - q0;
-        const double len2 = d.squaredNorm();
-        const double t = len2 > 0 ? std::clamp((p - q0).dot(d) / len2, 0.0, 1.0) : 0.0;
-        best = std::min(best, (p - q0 - t * d).squaredNorm());
+      for (size_t k = 0; k < box.size(); ++k) {
+        if (box[k].squaredExteriorDistance(p) >= best) continue;
+        const Eigen::Index end = std::min(segments, static_cast<Eigen::Index>(k + 1) * kBlock);
+        for (Eigen::Index s = static_cast<Eigen::Index>(k) * kBlock; s < end; ++s) {
+          const Eigen::Vector3d q0 = to.points.row(s).transpose(), q1 = to.points.row((s + 1) % n).transpose();
+          const Eigen::Vector3d d = q1 - q0;
+          const double len2 = d.squaredNorm();
+          const double t = len2 > 0 ? std::clamp((p - q0).dot(d) / len2, 0.0, 1.0) : 0.0;
+          best = std::min(best, (p - q0 - t * d).squaredNorm());
+        }
       }
     }
     return best;
   };
-  return std::sqrt(std::min(vertices_to_segments(a, b), vertices_to_segments(b, a)));
+  const double a_to_b = vertices_to_segments(a, b, std::numeric_limits<double>::infinity());
+  return std::sqrt(vertices_to_segments(b, a, a_to_b));
 }
 
 }  // namespace posekit
