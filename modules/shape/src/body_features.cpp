@@ -1035,8 +1035,9 @@ BodyFeatures find_body_features(const SectionStack& st, const HorizontalSections
   Eigen::Vector3d probe[2];  // the thighs' centres that give the pelvis's lateral direction
   for (int side : {kLeft, kRight}) {
     std::vector<Eigen::Vector3d> axis;
-    std::vector<double> g, depth, back;
+    std::vector<double> depth, back;
     std::vector<int> level;
+    std::vector<SectionLoop> leg_loops;  // their girths are needed only near the ankle
     Eigen::Vector3d previous(f.axis_x + (side == kLeft ? 0.1 : -0.1), 0, f.crotch.z());
     for (int i = crotch - 1; i >= 0; --i) {
       int best = -1;
@@ -1054,12 +1055,12 @@ BodyFeatures find_body_features(const SectionStack& st, const HorizontalSections
         if (d < best_d) best = static_cast<int>(k), best_d = d, best_loop = std::move(candidate);
       }
       if (best < 0) continue;
-      const LoopShape s = shape_of(best_loop, true);
+      const LoopShape s = shape_of(best_loop);
       axis.push_back(s.centroid);
-      g.push_back(s.girth);
       depth.push_back(best_loop.points.col(2).maxCoeff() - best_loop.points.col(2).minCoeff());
       back.push_back(best_loop.points.col(2).minCoeff());
       level.push_back(i);
+      leg_loops.push_back(std::move(best_loop));
       previous = s.centroid;
     }
     if (axis.size() < 40)
@@ -1073,7 +1074,11 @@ BodyFeatures find_body_features(const SectionStack& st, const HorizontalSections
     // Ankle: below the thinnest section above the foot, the level where the section has grown 1.45
     // times as deep (front to back): the foot begins there, at the ankle joint.
     size_t ankle = index_of_height(f.floor_y + 0.07 * f.stature);
-    for (size_t k = index_of_height(f.floor_y + 0.12 * f.stature); k <= index_of_height(f.floor_y + 0.04 * f.stature); ++k)
+    const size_t ankle_from = index_of_height(f.floor_y + 0.12 * f.stature), ankle_to = index_of_height(f.floor_y + 0.04 * f.stature);
+    std::vector<double> g(axis.size(), 0.0);  // girths (convex hulls), from ankle_from to ankle_to
+    for (size_t k = std::min(ankle_from, ankle); k <= std::max(ankle_to, ankle); ++k)
+      g[k] = convex_hull_perimeter(leg_loops[k].points, Eigen::Vector3d::UnitY());
+    for (size_t k = ankle_from; k <= ankle_to; ++k)
       if (g[k] < g[ankle]) ankle = k;
     const double min_depth = depth[ankle];
     while (ankle + 1 < axis.size() && depth[ankle + 1] < 1.45 * min_depth) ++ankle;
