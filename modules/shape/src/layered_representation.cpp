@@ -8,6 +8,7 @@
 #include <map>
 
 #include "posekit/body/parts.h"
+#include "posekit/core/closest_point.h"  // parallel_for_ranges
 #include "posekit/core/error.h"
 #include "posekit/core/mesh_slice.h"
 #include "posekit/core/triangle_mesh.h"
@@ -122,6 +123,10 @@ class Builder {
     collecting_ = false;
     const auto sections = slice_mesh_stack(V_, F_, Eigen::Vector3d::UnitY(), horizontal_heights_, threads_);
     for (size_t i = 0; i < sections.size(); ++i) horizontal_sections_.emplace(horizontal_heights_[i], sections[i]);
+    // The two arms' sections side by side (each only reads the surface).
+    parallel_for_ranges(2, threads_ == 1 ? 1 : 2, [&](long begin, long end) {
+      for (long side = begin; side < end; ++side) arm_sections_[side] = arm_sections(static_cast<int>(side));
+    }, 1);
     return layers();
   }
 
@@ -141,12 +146,13 @@ class Builder {
   /// Adds one layer from the section polygon chosen by `pick` on the plane through `centre`.
   /// hull_of_nearby: the hull of the loops whose centres lie within nearby_radius of `centre`.
   /// same_side_of_x: for legs, neighbours must lie on the centre's side of this x (the other leg
-  /// may be nearer than nearby_radius when the feet are together).
+  /// may be nearer than nearby_radius when the feet are together). `given`: the plane's section,
+  /// cut already (an arm's, from the faces around it).
   void add_layer(int chain, const Eigen::Vector3d& centre, const Eigen::Vector3d& normal, int part, bool hull_of_nearby,
-                 const TriangleMesh* part_mesh = nullptr, double nearby_radius = 0.05,
+                 const std::vector<SectionLoop>* given = nullptr, double nearby_radius = 0.05,
                  double same_side_of_x = std::numeric_limits<double>::quiet_NaN()) {
     const Eigen::Vector3d n = normal.normalized();
-    const bool horizontal = !part_mesh && n == Eigen::Vector3d::UnitY();
+    const bool horizontal = !given && n == Eigen::Vector3d::UnitY();
     if (collecting_) {
       if (horizontal) horizontal_heights_.push_back(centre.y());
       return;
@@ -163,9 +169,8 @@ class Builder {
     }
     const auto cached = horizontal ? horizontal_sections_.find(centre.y()) : horizontal_sections_.end();
     std::vector<SectionLoop> sliced;
-    if (cached == horizontal_sections_.end())
-      sliced = part_mesh ? slice_mesh(part_mesh->V, part_mesh->F, n, n.dot(centre)) : slice_mesh(V_, F_, n, n.dot(centre));
-    const std::vector<SectionLoop>& loops = cached != horizontal_sections_.end() ? cached->second : sliced;
+    if (!given && cached == horizontal_sections_.end()) sliced = slice_mesh(V_, F_, n, n.dot(centre));
+    const std::vector<SectionLoop>& loops = given ? *given : cached != horizontal_sections_.end() ? cached->second : sliced;
     const int nearest = nearest_loop(loops, centre);
     if (nearest < 0)
       throw InvalidInput("layered representation: no section of the " + rep_.chain_names[chain] + " at " +
@@ -258,25 +263,49 @@ class Builder {
       }
   }
 
-  void arm(int side) {
+  /// An arm's layer planes: centre, normal (up the limb, towards the body) and part.
+  struct ArmPlane {
+    Eigen::Vector3d centre, normal;
+    int part;
+  };
+  std::array<Eigen::Vector3d, 4> arm_keys(int side) const {
     const Eigen::Vector3d shoulder = f_.shoulder[side], elbow = f_.elbow[side], wrist = f_.wrist[side];
     const Eigen::Vector3d tip = f_.hand_tip[side] - 0.01 * (f_.hand_tip[side] - wrist).normalized();
-    const Eigen::Vector3d keys[] = {shoulder + 0.35 * (elbow - shoulder), elbow, wrist, tip};
+    return {shoulder + 0.35 * (elbow - shoulder), elbow, wrist, tip};
+  }
+  std::vector<ArmPlane> arm_planes(int side) const {
+    const std::array<Eigen::Vector3d, 4> keys = arm_keys(side);
     const int parts[] = {side == kLeft ? kLeftUpperArm : kRightUpperArm, side == kLeft ? kLeftForearm : kRightForearm,
                          side == kLeft ? kLeftHand : kRightHand};
-    // Arm sections are cut from the faces around the arm only (its box grown by 8 cm).
-    TriangleMesh arm_mesh;
-    if (!planning_) arm_mesh = arm_faces(keys);
+    std::vector<ArmPlane> out;
     for (int s = 0; s < 3; ++s)
       for (int k = 0; k < kArmSegments[s] + (s == 2); ++k) {
         const Eigen::Vector3d c = keys[s] + (keys[s + 1] - keys[s]) * (static_cast<double>(k) / kArmSegments[s]);
         Eigen::Vector3d dir = (keys[s + 1] - keys[s]).normalized();
         if (k == 0 && s > 0) dir = (dir + (keys[s] - keys[s - 1]).normalized()).normalized();  // at a joint
-        add_layer(4 + side, c, -dir, parts[s], true, &arm_mesh);  // normals point up the limb, towards the body
+        out.push_back({c, -dir, parts[s]});
       }
+    return out;
+  }
+  /// An arm's sections, cut from the faces around the arm only (its box grown by 8 cm).
+  std::vector<std::vector<SectionLoop>> arm_sections(int side) const {
+    const TriangleMesh arm_mesh = arm_faces(arm_keys(side));
+    std::vector<std::vector<SectionLoop>> out;
+    for (const ArmPlane& p : arm_planes(side)) {
+      const Eigen::Vector3d n = p.normal.normalized();
+      out.push_back(slice_mesh(arm_mesh.V, arm_mesh.F, n, n.dot(p.centre)));
+    }
+    return out;
   }
 
-  TriangleMesh arm_faces(const Eigen::Vector3d (&keys)[4]) const {
+  void arm(int side) {
+    const std::vector<ArmPlane> planes = arm_planes(side);
+    for (size_t k = 0; k < planes.size(); ++k)
+      add_layer(4 + side, planes[k].centre, planes[k].normal, planes[k].part, true,
+                planning_ ? nullptr : &arm_sections_[side].at(k));
+  }
+
+  TriangleMesh arm_faces(const std::array<Eigen::Vector3d, 4>& keys) const {
     Eigen::Vector3d lo = keys[0], hi = keys[0];
     for (const auto& k : keys) lo = lo.cwiseMin(k), hi = hi.cwiseMax(k);
     lo.array() -= 0.08;
@@ -321,6 +350,7 @@ class Builder {
   bool collecting_ = false, planning_ = false;
   std::vector<double> horizontal_heights_;
   std::map<double, std::vector<SectionLoop>> horizontal_sections_;
+  std::vector<std::vector<SectionLoop>> arm_sections_[2];  ///< each arm layer's section, in arm_planes' order
   Eigen::MatrixXd points_;
   LayeredRepresentation rep_;
 };
