@@ -7,6 +7,7 @@
 #include <cmath>
 #include <cstdio>
 #include <limits>
+#include <mutex>
 #include <utility>
 
 #include "posekit/core/closest_point.h"  // parallel_for_ranges
@@ -70,6 +71,10 @@ constexpr double kWristBeyondNarrowest = 0.012;  ///< m, toward the hand (horizo
 constexpr double kWristBeyondNarrowestSection = 0.005;
 constexpr double kPalmGrowth = 1.15;    ///< the palm: a section this much fuller than the narrowest
 constexpr double kForearmStep = 0.01;  ///< m between perpendicular forearm sections
+/// m: the faces a forearm section is cut from lie this near the segment from the elbow to the hand's
+/// tip (a forearm's radius is 3-5 cm, a palm with the thumb 6-8 cm; the sections' centres stray
+/// a few cm from that segment where the wrist bends).
+constexpr double kForearmSliceRadius = 0.15;
 
 /// Neck joint height above the level b where the neck's girth reaches 1.25 times its narrowest
 /// (placed between sections): a linear regression on (1, narrowest neck level - b, crown - b,
@@ -508,23 +513,32 @@ BodyFeatures find_body_features(const Eigen::MatrixXd& V_in, const Eigen::Matrix
       f.warnings.push_back(std::string("the ") + name + " hand is cut off (the arm ends in an opening): its wrist is placed at the cut's centre");
     }
   }
-  // Forearm sections slice only the faces within reach of each elbow: the whole mesh, about 120
-  // times, would cost more than all the horizontal sections.
+  // Forearm sections slice only the faces near each forearm and hand (within kForearmSliceRadius
+  // of the segment from the elbow to the hand's tip, the reach of the sections' centres): the whole
+  // mesh, about 60 times, would cost more than all the horizontal sections. Each side's faces are
+  // picked on the thread that follows that forearm, at its first section.
   TriangleMesh arm[2];  // re-indexed, so that a section visits only the arm's vertices too
-  for (int side : {kLeft, kRight}) {
-    if (!f.arm_found[side]) continue;
-    const double radius = (f.hand_tip[side] - f.elbow[side]).norm() + 0.05;
-    const Eigen::Array<bool, Eigen::Dynamic, 1> near =
-        (V.rowwise() - f.elbow[side].transpose()).rowwise().squaredNorm().array() < radius * radius;
+  std::once_flag arm_picked[2];
+  const auto pick_arm = [&](int side) {
+    const Eigen::Vector3d a = f.elbow[side], ab = f.hand_tip[side] - f.elbow[side];
+    const double length2 = std::max(ab.squaredNorm(), 1e-12);
+    std::vector<char> near(static_cast<size_t>(V.rows()));
+    for (Eigen::Index v = 0; v < V.rows(); ++v) {
+      const Eigen::Vector3d p = V.row(v).transpose() - a;
+      const double t = std::clamp(p.dot(ab) / length2, 0.0, 1.0);
+      near[static_cast<size_t>(v)] = (p - t * ab).squaredNorm() < kForearmSliceRadius * kForearmSliceRadius;
+    }
     std::vector<bool> kept(static_cast<size_t>(F.rows()));
     for (Eigen::Index t = 0; t < F.rows(); ++t) kept[t] = near[F(t, 0)] || near[F(t, 1)] || near[F(t, 2)];
     TriangleMesh whole;
     whole.V = V;
     whole.F = F;
     arm[side] = extract_faces(whole, kept);
-  }
+  };
   refine_wrists([&](const Eigen::Vector3d& point, const Eigen::Vector3d& normal) {
-    const TriangleMesh& part = arm[point.x() > f.axis_x ? kLeft : kRight];
+    const int side = point.x() > f.axis_x ? kLeft : kRight;
+    std::call_once(arm_picked[side], pick_arm, side);
+    const TriangleMesh& part = arm[side];
     const auto loops = slice_mesh(part.V, part.F, normal, normal.dot(point));
     const int k = nearest_loop(loops, point);
     return k < 0 ? SectionLoop{} : loops[static_cast<size_t>(k)];
