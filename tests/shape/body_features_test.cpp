@@ -263,3 +263,23 @@ TEST(BodyFeatures, AHoleInAHandIsNoCutWrist) {
   EXPECT_TRUE(one.hand_cut[kRight]);
   EXPECT_FALSE(one.hand_cut[kLeft]);
 }
+
+TEST(BodyFeatures, AnArmNotFollowedLeavesItsJointsUnsetNotGarbage) {
+  POSEKIT_REQUIRE_MAKEHUMAN();
+  // Arms reaching forward (the dataset's reach_forward) leave the horizontal sections at the
+  // shoulder: neither is followed to the hand. Their elbows, wrists and hand tips are NaN (written
+  // as null), not what the memory held.
+  const Body b = build_body(model, make_subject_specs(model, 1, 16)[0].spec);
+  PartPose forward;
+  forward.joint_rotation[find_joint_index("left_shoulder")] = Eigen::Vector3d(-M_PI / 2, 0, 0);
+  forward.joint_rotation[find_joint_index("right_shoulder")] = Eigen::Vector3d(-M_PI / 2, 0, 0);
+  forward.joint_rotation[find_joint_index("lower_back")] = Eigen::Vector3d(M_PI / 12, 0, 0);
+  const Body posed = posed_body(model, b, forward);
+  const BodyFeatures f = find_body_features(posed.mesh.V, posed.mesh.F);
+  for (int side : {kLeft, kRight}) {
+    ASSERT_FALSE(f.arm_found[side]) << side;
+    for (const Eigen::Vector3d& p : {f.elbow[side], f.wrist[side], f.hand_tip[side]})
+      EXPECT_TRUE(p.array().isNaN().all()) << p.transpose();
+    EXPECT_TRUE(f.shoulder[side].allFinite());  // the placeholder above the armpit
+  }
+}

@@ -3,6 +3,7 @@
 // alone: horizontal sections, their loops, girths and centroids. Works for any topology.
 #include <Eigen/Core>
 #include <functional>
+#include <limits>
 #include <string>
 #include <vector>
 
@@ -24,6 +25,9 @@ SectionStack horizontal_sections(const Eigen::MatrixXd& V, const Eigen::MatrixXi
 
 enum Side : int { kLeft = 0, kRight = 1 };  ///< the subject's left is +X
 
+/// A point not found (the joints of an arm that could not be followed): NaN, written as null.
+inline Eigen::Vector3d unset_point() { return Eigen::Vector3d::Constant(std::numeric_limits<double>::quiet_NaN()); }
+
 struct BodyFeatures {
   double floor_y = 0, top_y = 0;  ///< soles, top of the surface (m)
   /// A cut top (no crown: an anonymised scan's head, or no head at all). The stature and the crown
@@ -38,14 +42,17 @@ struct BodyFeatures {
   Eigen::Vector3d neck_top = Eigen::Vector3d::Zero();   ///< centre of the neck's narrowest section
   Eigen::Vector3d neck_joint = Eigen::Vector3d::Zero();  ///< neck joint centre (regressed on the neck's levels)
   Eigen::Vector3d head_joint = Eigen::Vector3d::Zero();  ///< head joint centre, inside the lower head
-  Eigen::Vector3d armpit[2], shoulder[2];        ///< armpit surface points; shoulder joint centres
+  Eigen::Vector3d armpit[2] = {unset_point(), unset_point()};    ///< armpit surface points
+  Eigen::Vector3d shoulder[2] = {unset_point(), unset_point()};  ///< shoulder joint centres
   double arms_separate_y = 0;                    ///< highest level at which both arms stand 5 mm clear
                                                  ///< of the torso (between 1 mm sections on meshes,
                                                  ///< 5 mm on clouds)
-  Eigen::Vector3d elbow[2], wrist[2];            ///< joint centres (inside the limb)
-  Eigen::Vector3d knee[2], ankle[2];
-  Eigen::Vector3d hip[2];                        ///< hip joint centres: the femoral heads, above the crotch
-  Eigen::Vector3d hand_tip[2];                   ///< farthest point of each hand from the shoulder
+  Eigen::Vector3d elbow[2] = {unset_point(), unset_point()};  ///< joint centres (inside the limb)
+  Eigen::Vector3d wrist[2] = {unset_point(), unset_point()};
+  Eigen::Vector3d knee[2] = {unset_point(), unset_point()};
+  Eigen::Vector3d ankle[2] = {unset_point(), unset_point()};
+  Eigen::Vector3d hip[2] = {unset_point(), unset_point()};       ///< hip joint centres: the femoral heads, above the crotch
+  Eigen::Vector3d hand_tip[2] = {unset_point(), unset_point()};  ///< farthest point of each hand from the shoulder
   std::vector<Eigen::Vector3d> arm_axis[2];      ///< centroids of the arm's horizontal sections, armpit down
   bool arm_touches_torso[2] = {false, false};   ///< nowhere clear of the torso just below the armpit
   bool hand_cut[2] = {false, false};            ///< the arm ends in an opening: wrist = the cut's centre
