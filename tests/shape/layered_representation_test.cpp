@@ -2,6 +2,8 @@
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
+#include <cmath>
 #include <set>
 
 #include "posekit/body/parts.h"
@@ -39,16 +41,42 @@ TEST(LayeredRepresentation, EverySubjectGetsTheSameTopologyWithAllSixteenParts) 
 TEST(LayeredRepresentation, OnTwoThreadsAndFromTheFeaturesSurfaceTheSameToTheBit) {
   POSEKIT_REQUIRE_MAKEHUMAN();
   // A 50k-vertex remesh (scan-like: its sections are sliced in several ranges per thread), with a
-  // hole at the waist: features and representation on two threads, and the representation cut from
-  // the surface the features gave, equal the single-thread ones made the plain way.
+  // hole at the waist and a floating bit: features and representation on two threads, and the
+  // representation cut from the surface the features gave, equal the single-thread ones made the
+  // plain way.
   TriangleMesh mesh = remesh_body(build_body(model, make_subject_specs(model, 1, 16)[3].spec).mesh, 50000);
   std::vector<bool> keep(static_cast<size_t>(mesh.F.rows()), true);
   const double waist = mesh.V.col(1).minCoeff() + 0.6 * (mesh.V.col(1).maxCoeff() - mesh.V.col(1).minCoeff());
-  const Eigen::Vector3d front(mesh.V.col(0).mean(), waist, mesh.V.col(2).maxCoeff());
+  Eigen::Vector3d front(mesh.V.col(0).mean(), waist, -1);  // the front of the belly at that height
+  for (Eigen::Index v = 0; v < mesh.V.rows(); ++v)
+    if (std::abs(mesh.V(v, 1) - waist) < 0.01 && std::abs(mesh.V(v, 0) - front.x()) < 0.05) front.z() = std::max(front.z(), mesh.V(v, 2));
   for (Eigen::Index f = 0; f < mesh.F.rows(); ++f)
     keep[static_cast<size_t>(f)] = (mesh.V.row(mesh.F(f, 0)).transpose() - front).norm() > 0.1;
+  const Eigen::Index faces = mesh.F.rows();
   mesh = extract_faces(mesh, keep);
+  ASSERT_LT(mesh.F.rows(), faces - 100);  // the hole is there
+  // And a floating bit (a scan's strap): the ring around the hole copied 30 cm ahead of the body.
+  {
+    std::vector<bool> ring(static_cast<size_t>(mesh.F.rows()));
+    for (Eigen::Index f = 0; f < mesh.F.rows(); ++f) ring[static_cast<size_t>(f)] = (mesh.V.row(mesh.F(f, 0)).transpose() - front).norm() < 0.13;
+    TriangleMesh bit = extract_faces(mesh, ring);
+    ASSERT_GT(bit.F.rows(), 100);
+    bit.V.col(2).array() += 0.3;
+    const Eigen::Index nv = mesh.V.rows(), nf = mesh.F.rows();
+    mesh.V.conservativeResize(nv + bit.V.rows(), 3);
+    mesh.V.bottomRows(bit.V.rows()) = bit.V;
+    mesh.F.conservativeResize(nf + bit.F.rows(), 3);
+    mesh.F.bottomRows(bit.F.rows()) = bit.F.array() + static_cast<int>(nv);
+  }
+  std::vector<std::vector<int>> boundary1, boundary2;  // the input's, found beside the rest on two threads
+  const TriangleMesh surface1 = body_surface(mesh.V, mesh.F, nullptr, nullptr, nullptr, &boundary1, 1);
+  const TriangleMesh surface2 = body_surface(mesh.V, mesh.F, nullptr, nullptr, nullptr, &boundary2, 2);
+  EXPECT_TRUE(surface1.V == surface2.V);
+  EXPECT_TRUE(surface1.F == surface2.F);
+  EXPECT_EQ(boundary1, boundary2);
   const BodyFeatures f1 = find_body_features(mesh.V, mesh.F);
+  ASSERT_FALSE(f1.warnings.empty());
+  EXPECT_NE(f1.warnings.front().find("left out 1 floating piece"), std::string::npos) << f1.warnings.front();
   TriangleMesh surface;
   const BodyFeatures f2 = find_body_features(mesh.V, mesh.F, &surface, 2);
   for (int side : {kLeft, kRight}) {

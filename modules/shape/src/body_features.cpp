@@ -373,13 +373,28 @@ void refine_elbows(BodyFeatures* features) {
 }
 
 TriangleMesh body_surface(const Eigen::MatrixXd& V, const Eigen::MatrixXi& F, std::string* note, std::vector<int>* vertex_map,
-                          std::vector<int>* face_map, std::vector<std::vector<int>>* input_boundary) {
-  const FloatingBits bits = find_floating_bits(V, F);
-  TriangleMesh whole;
-  whole.V = V;
-  whole.F = F;
+                          std::vector<int>* face_map, std::vector<std::vector<int>>* input_boundary, int threads) {
+  FloatingBits bits;
   std::vector<int> vmap;
-  TriangleMesh body = extract_faces(whole, bits.keep_face, &vmap);
+  TriangleMesh body;
+  std::vector<std::vector<int>> loops, input_loops;
+  // On a second thread the input's own boundary, in case floating bits are left out (else the
+  // body's loops, renumbered, are the input's).
+  const bool speculate = input_boundary && threads != 1;
+  parallel_for_ranges(speculate ? 2 : 1, speculate ? 2 : 1, [&](long begin, long end) {
+    for (long task = begin; task < end; ++task) {
+      if (task == 1) {
+        input_loops = boundary_loops(F);
+        continue;
+      }
+      bits = find_floating_bits(V, F);
+      TriangleMesh whole;
+      whole.V = V;
+      whole.F = F;
+      body = extract_faces(whole, bits.keep_face, &vmap);
+      loops = boundary_loops(body.F);
+    }
+  }, 1);
   if (face_map) {
     face_map->clear();
     for (Eigen::Index f = 0; f < F.rows(); ++f)
@@ -390,14 +405,13 @@ TriangleMesh body_surface(const Eigen::MatrixXd& V, const Eigen::MatrixXi& F, st
   double largest = 0;
   std::vector<Eigen::RowVector3d> centres;
   std::vector<Eigen::Vector3i> caps;
-  const std::vector<std::vector<int>> loops = boundary_loops(body.F);
   if (input_boundary) {
     if (body.F.rows() == F.rows()) {  // every face kept: the same loops, renumbered
       *input_boundary = loops;
       for (auto& loop : *input_boundary)
         for (int& v : loop) v = vmap[static_cast<size_t>(v)];
     } else {
-      *input_boundary = boundary_loops(F);
+      *input_boundary = speculate ? std::move(input_loops) : boundary_loops(F);
     }
   }
   for (const auto& loop : loops) {
@@ -455,7 +469,7 @@ BodyFeatures find_body_features(const Eigen::MatrixXd& V_in, const Eigen::Matrix
   TriangleMesh owned;
   TriangleMesh& surface = surface_out ? *surface_out : owned;
   std::vector<std::vector<int>> input_boundary;
-  surface = body_surface(V_in, F_in, &left_out, nullptr, nullptr, &input_boundary);
+  surface = body_surface(V_in, F_in, &left_out, nullptr, nullptr, &input_boundary, threads);
   const Eigen::MatrixXd& V = surface.V;
   const Eigen::MatrixXi& F = surface.F;
   if (V.rows() == 0) throw InvalidInput("body features: the mesh has no faces");

@@ -71,11 +71,12 @@ struct BodyFeatures {
 /// `note` (optional) receives what was left out and filled, or stays empty; `vertex_map` and
 /// `face_map` (optional) the index in V and F of each vertex and face of the result (-1 for the
 /// fill's); `input_boundary` (optional) the boundary loops of (V, F) itself, in its vertex indices
-/// (found on the way when nothing was left out).
+/// (found on the way when nothing was left out; on a second thread beside the rest unless `threads`
+/// is 1, 0 meaning the hardware's). The same result on any count.
 constexpr double kMaxFilledHole = 0.8;  ///< m of boundary length
 TriangleMesh body_surface(const Eigen::MatrixXd& V, const Eigen::MatrixXi& F, std::string* note = nullptr,
                           std::vector<int>* vertex_map = nullptr, std::vector<int>* face_map = nullptr,
-                          std::vector<std::vector<int>>* input_boundary = nullptr);
+                          std::vector<std::vector<int>>* input_boundary = nullptr, int threads = 1);
 
 /// Finds the features of a standing human body mesh (its body_surface; what it left out is a warning). Throws InvalidInput naming what failed for
 /// a mesh that is not a standing human (lying, upside-down, arms touching the torso, too small);
