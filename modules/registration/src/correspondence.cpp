@@ -3,6 +3,7 @@
 #include <flann/flann.hpp>
 
 #include <atomic>
+#include <memory>
 #include <numeric>
 
 #include "posekit/core/closest_point.h"
@@ -80,8 +81,20 @@ Eigen::VectorXi CentroidIndex::match(const Eigen::MatrixXd& C, const Eigen::Matr
 Eigen::VectorXi nearest_centroid_correspondence(const Eigen::MatrixXd& source_V, const Eigen::MatrixXi& source_F,
                                                 const Eigen::MatrixXd& target_V, const Eigen::MatrixXi& target_F,
                                                 int* normal_failures, int threads) {
-  const CentroidIndex index(source_V, source_F);
-  return index.match(face_centroids(target_V, target_F), face_normals(target_V, target_F), 16, normal_failures, threads);
+  // The source's index and the target's centroids and normals side by side.
+  std::unique_ptr<CentroidIndex> index;
+  Eigen::MatrixXd C, N;
+  parallel_for_ranges(2, threads == 1 ? 1 : 2, [&](long begin, long end) {
+    for (long task = begin; task < end; ++task) {
+      if (task == 0) {
+        index = std::make_unique<CentroidIndex>(source_V, source_F);
+      } else {
+        C = face_centroids(target_V, target_F);
+        N = face_normals(target_V, target_F);
+      }
+    }
+  }, 1);
+  return index->match(C, N, 16, normal_failures, threads);
 }
 
 }  // namespace posekit
