@@ -69,6 +69,26 @@ TEST(MeshSlice, StackEqualsOneSliceAtATime) {
   }
 }
 
+TEST(MeshSlice, EvenAndClusteredStacksEqualOneSliceAtATimeToTheBit) {
+  // Each face meets the same planes in a stack as alone, whether the levels are even (a body's
+  // 5 mm stack) or cluster (refinement heights beside far ones).
+  const TriangleMesh s = test::icosphere(5, 1.0);
+  std::vector<double> even, clustered;
+  for (int k = 0; k < 200; ++k) even.push_back(-0.995 + 0.01 * k);  // as a body's 5 mm stack
+  for (int k = 0; k < 40; ++k) clustered.push_back(0.3 + 0.0005 * k);  // 40 levels within 2 cm
+  clustered.push_back(-0.8);
+  clustered.push_back(0.95);
+  const Eigen::Vector3d normal(0.1, 1, 0);
+  for (const std::vector<double>* levels : {&even, &clustered}) {
+    const auto stack = slice_mesh_stack(s.V, s.F, normal, *levels);
+    for (size_t i = 0; i < levels->size(); ++i) {
+      const auto one = slice_mesh(s.V, s.F, normal, (*levels)[i]);
+      ASSERT_EQ(stack[i].size(), one.size()) << "level " << (*levels)[i];
+      for (size_t l = 0; l < one.size(); ++l) EXPECT_TRUE(stack[i][l].points == one[l].points) << "level " << (*levels)[i];
+    }
+  }
+}
+
 TEST(MeshSlice, AStackOnSeveralThreadsHasTheSameLoopsToTheBit) {
   // Over 80k faces (several ranges of faces per thread): two spheres, one of them cut open at its
   // top (open chains there), sliced at 300 levels given out of order.
