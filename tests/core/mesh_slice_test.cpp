@@ -4,6 +4,9 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstring>
+#include <numeric>
+#include <random>
 #include <limits>
 
 #include "posekit/core/error.h"
@@ -42,6 +45,49 @@ TEST(MeshSlice, HullPerimeterBridgesConcavities) {
   Eigen::MatrixXd P(5, 3);  // a square with one point pushed inward
   P << 0, 0, 0, 1, 0, 0, 0.5, 0, 0.5, 1, 0, 1, 0, 0, 1;
   EXPECT_NEAR(convex_hull_perimeter(P, Eigen::Vector3d::UnitY()), 4.0, 1e-12);
+}
+
+TEST(MeshSlice, HullPerimeterDoesNotDependOnThePointsOrderToTheBit) {
+  // Loops in loop order (a few monotone runs, merged), with repeated points and ties in x, a jagged
+  // loop (many runs: sorted outright), each against the same points shuffled, and against a gift
+  // wrap of the hull.
+  std::mt19937 rng(7);
+  std::uniform_real_distribution<double> jitter(-0.02, 0.02);
+  for (int kind = 0; kind < 3; ++kind) {
+    const int n = 600;
+    Eigen::MatrixXd P(n, 3);
+    for (int i = 0; i < n; ++i) {
+      const double a = 2 * M_PI * i / n;
+      const double r = kind == 2 ? 1 + jitter(rng) * 10 : 1 + 0.3 * std::cos(3 * a);  // a trefoil-like bulge or jagged
+      P.row(i) << r * std::cos(a), 0.5, 0.7 * r * std::sin(a);
+      if (kind == 1 && i % 50 == 0 && i > 0) P.row(i) = P.row(i - 1);          // repeated points
+      if (kind == 1 && i % 75 == 0) P(i, 0) = std::round(P(i, 0) * 10) / 10;  // ties in x
+    }
+    const double in_order = convex_hull_perimeter(P, Eigen::Vector3d::UnitY());
+    std::vector<Eigen::Index> order(n);
+    std::iota(order.begin(), order.end(), 0);
+    std::shuffle(order.begin(), order.end(), rng);
+    const Eigen::MatrixXd Q = P(order, Eigen::all);
+    const double shuffled = convex_hull_perimeter(Q, Eigen::Vector3d::UnitY());
+    EXPECT_EQ(std::memcmp(&in_order, &shuffled, sizeof(double)), 0) << kind << ": " << in_order << " against " << shuffled;
+    // Gift wrapping in the XZ plane.
+    int start = 0;
+    for (int i = 1; i < n; ++i)
+      if (P(i, 0) < P(start, 0) || (P(i, 0) == P(start, 0) && P(i, 2) < P(start, 2))) start = i;
+    double length = 0;
+    int at = start;
+    do {
+      int next = at == 0 ? 1 : 0;
+      for (int i = 0; i < n; ++i) {
+        const double cross = (P(next, 0) - P(at, 0)) * (P(i, 2) - P(at, 2)) - (P(next, 2) - P(at, 2)) * (P(i, 0) - P(at, 0));
+        const double d_next = (P.row(next) - P.row(at)).squaredNorm(), d_i = (P.row(i) - P.row(at)).squaredNorm();
+        if (cross < 0 || (cross == 0 && d_i > d_next)) next = i;
+      }
+      length += (P.row(next) - P.row(at)).norm();
+      at = next;
+    } while (at != start && length < 100);
+    EXPECT_NEAR(in_order, length, 1e-9) << kind;
+  }
 }
 
 TEST(MeshSlice, OpenMeshGivesOpenChain) {
