@@ -50,6 +50,17 @@ TEST(PointGrid, NearestMatchesABruteForceSearchInsideOutsideAndWithinARadius) {
       if (expected < radius * radius) EXPECT_EQ(sq_r, expected);
       else EXPECT_EQ(k, -1);
     }
+    // Near the surface, as most of a fit's queries are: the answer's cell is beside the query's, and
+    // cells no nearer than the best so far are passed over.
+    std::normal_distribution<double> noise(0, 0.003);
+    for (int q = 0; q < 600; ++q) {
+      const Eigen::Vector3d p = P.row(q * 5).transpose() + Eigen::Vector3d(noise(rng), noise(rng), noise(rng));
+      double sq, expected;
+      const int i = grid.nearest(p, &sq, 0.1);
+      const int j = brute_nearest(P, p, -1, &expected);
+      ASSERT_EQ(i, j) << "cell " << cell << " near-surface query " << q;
+      ASSERT_EQ(sq, expected);
+    }
     // A point's nearest other point.
     for (int i = 0; i < 3000; i += 97) {
       double sq, expected;

@@ -64,6 +64,16 @@ int PointGrid::nearest(const Eigen::Vector3d& p, double* sq_distance, double max
     const int y0 = std::max(0, home[1] - ring), y1 = std::min(dims_[1] - 1, home[1] + ring);
     const int x0 = std::max(0, home[0] - ring), x1 = std::min(dims_[0] - 1, home[0] + ring);
     auto scan_cell = [&](int x, int y, int z) {
+      // A cell wholly as far as the best so far holds nothing nearer (its box widened by a hair
+      // for the rounding of the points' bucketing).
+      const int xyz[3] = {x, y, z};
+      double box = 0;
+      for (int k = 0; k < 3; ++k) {
+        const double a = lo_[k] + xyz[k] * cell_, slack = 1e-9 * cell_;
+        const double gap = std::max({a - slack - p[k], p[k] - (a + cell_ + slack), 0.0});
+        box += gap * gap;
+      }
+      if (box >= best) return;
       const size_t c = (static_cast<size_t>(z) * dims_[1] + y) * dims_[0] + x;
       for (int s = cell_start_[c]; s < cell_start_[c + 1]; ++s) {
         const double* q = &xyz_[static_cast<size_t>(3 * s)];
