@@ -314,8 +314,12 @@ TEST(PoseFitting, KeepsTheKneesOfASquatOnTheirHinge) {
   const PartPose ball = fit_pose(f.synth, f.scan.P, o).pose;
   std::cout << "half squat: knees " << off_hinge(hinge) << " degrees off their hinge, hips and knees " << leg_error(hinge)
             << " degrees off the truth (as ball joints: " << off_hinge(ball) << ", " << leg_error(ball) << ")\n";
-  // Measured 1.6 degrees off the hinge and 7.7 off the truth, against 2.8 and 8.5 as ball joints.
+  // Measured 1.6 degrees off the hinge and 7.7 off the truth, against 2.8 and 8.5 as ball joints,
+  // while the final refinement matched every fourth vertex. Matching every vertex (2026-11-27) the
+  // data alone hold this squat's knees too (1.7 off the hinge, 4.3 off the truth as ball joints,
+  // against 1.65 and 4.8 with the prior): the prior's gain is now at the elbows of arms reaching
+  // forward and over the 48 scans of eval fit (2.46 against 2.86 degrees), not here.
   EXPECT_LT(off_hinge(hinge), 2.0);
-  EXPECT_GT(off_hinge(ball), off_hinge(hinge) + 0.5);
-  EXPECT_LT(leg_error(hinge), leg_error(ball) - 0.5);
+  EXPECT_LT(leg_error(hinge), 6.0);
+  EXPECT_LT(off_hinge(ball), 3.0);
 }

@@ -304,12 +304,12 @@ PoseFitResult fit_pose(const PoseSynthesizer& synth, const Eigen::MatrixXd& T, c
   // Articulated ICP from `pose`: Levenberg-Marquardt on the objective above, a step kept only when
   // it lowers it; the correspondence distance shrinks from `d0` to `d1` over the first two thirds.
   // Returns the linearisations made.
-  auto icp = [&](PartPose& pose, int iterations, int samples, double d0, double d1) {
+  auto icp = [&](PartPose& pose, int iterations, int model_samples, int target_samples, double d0, double d1) {
     const bool coarse = d0 != d1;
     const Eigen::MatrixXd& TT = coarse ? T_coarse : T;
     const PointGrid& grid = coarse ? coarse_grid : target_grid;
-    const Eigen::Index model_stride = std::max<Eigen::Index>(1, V0.rows() / std::max(1, samples));
-    const Eigen::Index target_stride = std::max<Eigen::Index>(1, TT.rows() / std::max(1, samples));
+    const Eigen::Index model_stride = std::max<Eigen::Index>(1, V0.rows() / std::max(1, model_samples));
+    const Eigen::Index target_stride = std::max<Eigen::Index>(1, TT.rows() / std::max(1, target_samples));
     // The priors' scale: a vertex 0.3 m from a joint, times the pairs there can be.
     const double prior_scale = 0.09 * static_cast<double>(TT.rows() / target_stride + V0.rows() / model_stride);
     auto shrinking = [&](int it) { return d0 + (d1 - d0) * std::min(1.0, it / (0.66 * std::max(1, iterations - 1))); };
@@ -369,7 +369,7 @@ PoseFitResult fit_pose(const PoseSynthesizer& synth, const Eigen::MatrixXd& T, c
   };
   const Eigen::Vector3d X_ = Eigen::Vector3d::UnitX(), Z_ = Eigen::Vector3d::UnitZ();
   auto refine_and_keep = [&](PartPose start, double* best, PartPose* best_pose) {
-    icp(start, std::max(1, o.search_iterations), o.model_samples / 2, o.max_distance_start, o.max_distance_end);
+    icp(start, std::max(1, o.search_iterations), o.model_samples / 2, o.model_samples / 2, o.max_distance_start, o.max_distance_end);
     const double e = score(start);
     if (e < *best) *best = e, *best_pose = start;
   };
@@ -398,7 +398,7 @@ PoseFitResult fit_pose(const PoseSynthesizer& synth, const Eigen::MatrixXd& T, c
     refine_and_keep(start, &best, &pose);
   }
   refining = true;
-  out.iterations = icp(pose, o.iterations, o.model_samples, o.max_distance_end, o.max_distance_end);
+  out.iterations = icp(pose, o.iterations, o.refinement_model_samples, o.model_samples, o.max_distance_end, o.max_distance_end);
   // Residuals (each vertex to the target) and the fraction of each part within 1 cm of it.
   std::array<int, kNumParts> part_vertices{}, part_covered{};
   auto residuals = [&] {
@@ -430,7 +430,8 @@ PoseFitResult fit_pose(const PoseSynthesizer& synth, const Eigen::MatrixXd& T, c
   if (std::find(held.begin(), held.end(), true) != held.end()) {
     for (int j = 0; j < kNumJoints; ++j)
       if (held[static_cast<size_t>(j)]) pose.joint_rotation[static_cast<size_t>(j)].setZero();
-    out.iterations += icp(pose, std::max(1, o.iterations / 4), o.model_samples, o.max_distance_end, o.max_distance_end);
+    out.iterations += icp(pose, std::max(1, o.iterations / 4), o.refinement_model_samples, o.model_samples, o.max_distance_end,
+                          o.max_distance_end);
     residuals();
   }
   out.pose = pose;
