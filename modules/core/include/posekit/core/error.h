@@ -17,6 +17,13 @@ class IoError : public Error {
   using Error::Error;
 };
 
+/// A file or folder could not be written (no space left, a read-only filesystem, no permission):
+/// the message names the path and the system's reason. Work that writes many files stops at the first.
+class WriteError : public IoError {
+ public:
+  using IoError::IoError;
+};
+
 /// An argument or data structure violates a documented precondition.
 class InvalidInput : public Error {
  public:
