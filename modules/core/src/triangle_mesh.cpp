@@ -47,11 +47,14 @@ TriangleMesh extract_faces(const TriangleMesh& mesh, const std::vector<bool>& ke
     out.face_group.resize(kept);
     out.group_names = mesh.group_names;
   }
+  for (const auto& [name, values] : mesh.face_scalars)
+    if (values.size() == mesh.num_faces()) out.face_scalars[name].resize(kept);
   Eigen::Index row = 0;
   for (Eigen::Index f = 0; f < mesh.num_faces(); ++f) {
     if (!keep_face[f]) continue;
     for (int c = 0; c < 3; ++c) out.F(row, c) = new_index[mesh.F(f, c)];
     if (grouped) out.face_group[row] = mesh.face_group[f];
+    for (auto& [name, values] : out.face_scalars) values[row] = mesh.face_scalars.at(name)[f];
     ++row;
   }
   if (vertex_map) *vertex_map = std::move(old_index);

@@ -65,12 +65,55 @@ class TokenStream {
   }
   double number(const char* what) { return lines_.to_double(expect(what), what); }
   const LineScanner& lines() const { return lines_; }
+  /// The line scanner for reading on line by line; only where the current line is used up.
+  LineScanner& remaining_lines() { return lines_; }
+  bool at_line_end() const { return index_ >= tokens_.size(); }
 
  private:
   LineScanner lines_;
   std::vector<std::string_view> tokens_;
   size_t index_ = 0;
 };
+
+/// Reads the frames line by line: each holds exactly one value per channel, or the error names the
+/// line. Fewer lines than `frames` has rows is an error; more are ignored with a warning naming them.
+void read_frames(const std::string& path, LineScanner& lines, int channel_count, std::vector<std::string>* warnings,
+                 Eigen::MatrixXd* frames) {
+  const Eigen::Index nf = frames->rows();
+  if (channel_count == 0) return;
+  std::string_view line;
+  std::vector<std::string_view> tok;
+  Eigen::Index f = 0;
+  long long extra = 0;
+  long first_extra_line = 0;
+  while (lines.next(line)) {
+    split(line, tok);
+    if (tok.empty()) continue;
+    if (f == nf) {
+      if (static_cast<int>(tok.size()) != channel_count)
+        lines.fail("after the " + std::to_string(nf) + " frames the header declares ('Frames: " + std::to_string(nf) +
+                   "'): a line of " + std::to_string(tok.size()) + " values, expected nothing more");
+      if (extra++ == 0) first_extra_line = lines.line_number();
+      continue;
+    }
+    if (static_cast<int>(tok.size()) != channel_count)
+      lines.fail("frame " + std::to_string(f + 1) + " of " + std::to_string(nf) + " has " + std::to_string(tok.size()) +
+                 " values, expected " + std::to_string(channel_count) + " (one per channel: a truncated or damaged line)");
+    for (int c = 0; c < channel_count; ++c) {
+      const double v = lines.to_double(tok[static_cast<size_t>(c)], "a channel value");
+      if (!std::isfinite(v)) lines.fail("non-finite channel value in frame " + std::to_string(f + 1));
+      (*frames)(f, c) = v;
+    }
+    ++f;
+  }
+  if (f < nf)
+    throw IoError(path + ": the header declares " + std::to_string(nf) + " frames ('Frames: " + std::to_string(nf) +
+                  "'), the file has " + std::to_string(f) + " (truncated file)");
+  if (extra > 0)
+    warn(warnings, path + ":" + std::to_string(first_extra_line) + ": " + std::to_string(extra) +
+                       " frame line(s) after the " + std::to_string(nf) + " the header declares ('Frames: " +
+                       std::to_string(nf) + "'): ignored (correct the count to use them)");
+}
 
 }  // namespace
 
@@ -128,7 +171,7 @@ Eigen::MatrixXd BvhMotion::joint_positions(int frame) const {
   return P;
 }
 
-BvhMotion read_bvh(const std::string& path, Unit unit) {
+BvhMotion read_bvh(const std::string& path, Unit unit, std::vector<std::string>* warnings) {
   const double scale = metres_per_unit(unit);
   const std::string bytes = read_file_bytes(path);
   TokenStream ts(bytes, path);
@@ -205,17 +248,13 @@ BvhMotion read_bvh(const std::string& path, Unit unit) {
   if (static_cast<double>(nf) * channel_count > static_cast<double>(bytes.size()))
     ts.lines().fail("the header declares " + std::to_string(nf) + " frames of " + std::to_string(channel_count) +
                     " channels, more than the file holds");
+  if (!ts.at_line_end()) {
+    std::string_view extra;
+    ts.next(extra);
+    ts.lines().fail("unexpected '" + printable(extra) + "' after the frame time: each frame goes on a line of its own");
+  }
   motion.frames.resize(nf, channel_count);
-  for (Eigen::Index f = 0; f < nf; ++f)
-    for (int c = 0; c < channel_count; ++c) {
-      std::string_view tok;
-      if (!ts.next(tok))
-        throw IoError(path + ": frame " + std::to_string(f) + " of " + std::to_string(nf) + " has " + std::to_string(c) +
-                      " values, expected " + std::to_string(channel_count) + " (truncated file)");
-      const double v = ts.lines().to_double(tok, "a channel value");
-      if (!std::isfinite(v)) ts.lines().fail("non-finite channel value");
-      motion.frames(f, c) = v;
-    }
+  read_frames(path, ts.remaining_lines(), channel_count, warnings, &motion.frames);
   for (const BvhJoint& j : motion.joints)
     for (size_t c = 0; c < j.channels.size(); ++c)
       if (is_position(j.channels[c])) motion.frames.col(j.first_channel + static_cast<int>(c)) *= scale;

@@ -41,6 +41,41 @@ long long obj_index(const LineScanner& lines, std::string_view token, long long 
   return idx - 1;
 }
 
+/// Normals of an OBJ file as posekit keeps them, one per vertex: the one the faces' `v//vn` indices
+/// give it. A vertex whose corners name different normals (hard edges, flat shading) cannot keep one:
+/// the normals are then dropped with a warning, as texture seams are. Files whose faces name no
+/// normal but that have one `vn` per `v` pair them by order, with a warning.
+void read_obj_normals(const std::string& path, const std::vector<double>& vn, const std::vector<long long>& vertex_vn,
+                      long long corners_with_vn, long long corners_without_vn, long long splits,
+                      std::vector<std::string>* warnings, TriangleMesh* mesh) {
+  const Eigen::Index nv = static_cast<Eigen::Index>(vertex_vn.size());
+  if (vn.empty()) return;
+  if (corners_with_vn == 0) {
+    if (static_cast<Eigen::Index>(vn.size() / 3) == nv) {
+      mesh->N = Eigen::Map<const Eigen::Matrix<double, Eigen::Dynamic, 3, Eigen::RowMajor>>(vn.data(), nv, 3);
+      warn(warnings, path + ": the faces name no normal ('f v//vn'): the " + std::to_string(nv) +
+                         " 'vn' lines were paired with the vertices by order");
+    } else {
+      warn(warnings, path + ": normals not kept: the faces name none and there are " + std::to_string(vn.size() / 3) +
+                         " 'vn' lines for " + std::to_string(nv) + " vertices");
+    }
+    return;
+  }
+  if (splits > 0) {
+    warn(warnings, path + ": normals not kept: " + std::to_string(splits) +
+                       " face corners give a vertex another normal than its first (hard edges or flat shading; posekit "
+                       "keeps one normal per vertex)");
+    return;
+  }
+  if (corners_without_vn > 0 || std::any_of(vertex_vn.begin(), vertex_vn.end(), [](long long n) { return n < 0; })) {
+    warn(warnings, path + ": normals not kept: some vertices or face corners have none");
+    return;
+  }
+  mesh->N.resize(nv, 3);
+  for (Eigen::Index i = 0; i < nv; ++i)
+    for (int k = 0; k < 3; ++k) mesh->N(i, k) = vn[3 * static_cast<size_t>(vertex_vn[static_cast<size_t>(i)]) + k];
+}
+
 }  // namespace
 
 namespace io_detail {
@@ -54,6 +89,8 @@ TriangleMesh read_obj(const std::string& path, double scale, std::vector<std::st
   std::vector<int> tris, groups;
   std::vector<long long> vertex_vt;  // the vt each vertex uses, -1 none yet
   long long vt_seams = 0, corners_without_vt = 0;
+  std::vector<long long> vertex_vn;  // the vn each vertex's corners name, -1 none yet
+  long long vn_splits = 0, corners_with_vn = 0, corners_without_vn = 0, vertices_with_colour = 0, vn_without_lines = 0;
   std::vector<std::string> group_names;
   std::map<std::string, int> group_index;
   int current_group = -1;
@@ -86,9 +123,14 @@ TriangleMesh read_obj(const std::string& path, double scale, std::vector<std::st
         if (!std::isfinite(x)) lines.fail("non-finite vertex coordinate '" + printable(tok[k]) + "'");
         v.push_back(x * scale);
       }
-      if (tok.size() == 7)
+      if (tok.size() == 7) {
+        // Colours stay in step with the vertices: one without gets a placeholder (dropped below).
+        vc.resize(3 * (v.size() / 3 - 1), 0.0);
         for (int k = 4; k <= 6; ++k) vc.push_back(lines.to_double(tok[k], "a vertex colour"));
+        ++vertices_with_colour;
+      }
       vertex_vt.push_back(-1);
+      vertex_vn.push_back(-1);
     } else if (key == "vn") {
       if (tok.size() != 4) lines.fail("expected 'vn x y z'");
       for (int k = 1; k <= 3; ++k) vn.push_back(lines.to_double(tok[k], "a normal component"));
@@ -100,6 +142,7 @@ TriangleMesh read_obj(const std::string& path, double scale, std::vector<std::st
       if (tok.size() < 4) lines.fail("a face needs at least 3 vertices");
       const long long nv = static_cast<long long>(v.size() / 3);
       const long long nt = static_cast<long long>(vt.size() / 2);
+      const long long nn = static_cast<long long>(vn.size() / 3);
       poly.clear();
       for (size_t k = 1; k < tok.size(); ++k) {
         const std::string_view t = tok[k];
@@ -107,7 +150,23 @@ TriangleMesh read_obj(const std::string& path, double scale, std::vector<std::st
         const long long idx = obj_index(lines, t.substr(0, slash), nv, "face vertex index");
         poly.push_back(static_cast<int>(idx));
         const std::string_view rest = slash == std::string_view::npos ? std::string_view() : t.substr(slash + 1);
-        const std::string_view vt_token = rest.substr(0, rest.find('/'));
+        const size_t second_slash = rest.find('/');
+        const std::string_view vt_token = rest.substr(0, second_slash);
+        const std::string_view vn_token =
+            second_slash == std::string_view::npos ? std::string_view() : rest.substr(second_slash + 1);
+        if (vn_token.empty() || nn == 0) {  // a file without 'vn' lines: its faces' normal indices name nothing
+          ++corners_without_vn;
+          vn_without_lines += !vn_token.empty();
+        } else {
+          // v//vn: the normal belongs to this corner's vertex, whatever the order of the vn lines.
+          ++corners_with_vn;
+          const long long ni = obj_index(lines, vn_token, nn, "normal index");
+          long long& used = vertex_vn[idx];
+          if (used < 0) used = ni;
+          else if (used != ni && (vn[3 * used] != vn[3 * ni] || vn[3 * used + 1] != vn[3 * ni + 1] ||
+                                  vn[3 * used + 2] != vn[3 * ni + 2]))
+            ++vn_splits;
+        }
         if (vt_token.empty()) {
           ++corners_without_vt;
           continue;
@@ -136,9 +195,14 @@ TriangleMesh read_obj(const std::string& path, double scale, std::vector<std::st
   mesh.V = Eigen::Map<Eigen::Matrix<double, Eigen::Dynamic, 3, Eigen::RowMajor>>(v.data(), nv, 3);
   mesh.F = Eigen::Map<Eigen::Matrix<int, Eigen::Dynamic, 3, Eigen::RowMajor>>(tris.data(),
                                                                              static_cast<Eigen::Index>(tris.size() / 3), 3);
-  if (vn.size() == v.size())
-    mesh.N = Eigen::Map<Eigen::Matrix<double, Eigen::Dynamic, 3, Eigen::RowMajor>>(vn.data(), nv, 3);
-  if (vc.size() == v.size()) {
+  if (vn_without_lines > 0)
+    warn(warnings, path + ": " + std::to_string(vn_without_lines) +
+                       " face corners name a normal ('v//vn') but the file has no 'vn' lines: ignored");
+  read_obj_normals(path, vn, vertex_vn, corners_with_vn, corners_without_vn, vn_splits, warnings, &mesh);
+  if (vertices_with_colour > 0 && vertices_with_colour < nv)
+    warn(warnings, path + ": vertex colours not kept: only " + std::to_string(vertices_with_colour) + " of " +
+                       std::to_string(nv) + " vertices have one ('v x y z r g b')");
+  if (vertices_with_colour == nv) {
     mesh.C.resize(nv, 3);
     for (Eigen::Index i = 0; i < nv; ++i)
       for (int k = 0; k < 3; ++k)
@@ -478,6 +542,9 @@ std::vector<std::string> mesh_attributes_lost(const TriangleMesh& mesh, MeshForm
   for (const auto& kv : mesh.vertex_scalars) scalars += (scalars.empty() ? "" : ", ") + kv.first;
   const bool grouped = mesh.face_group.size() == mesh.F.rows() && !mesh.group_names.empty();
   lose(!scalars.empty(), format == MeshFormat::kPly, "the vertex scalar field(s) " + scalars + " (PLY can)");
+  std::string face_fields;
+  for (const auto& kv : mesh.face_scalars) face_fields += (face_fields.empty() ? "" : ", ") + kv.first;
+  lose(!face_fields.empty(), format == MeshFormat::kPly, "the face field(s) " + face_fields + " (PLY can)");
   lose(grouped, format == MeshFormat::kObj, "face groups (OBJ can)");
   lose(mesh.has_uv(), format == MeshFormat::kObj || format == MeshFormat::kPly, "texture coordinates (OBJ and PLY can)");
   lose(mesh.has_colors(), format != MeshFormat::kStl, "vertex colours (PLY, OBJ and OFF can)");
@@ -509,6 +576,7 @@ TriangleMesh read_mesh(const std::string& path, const MeshReadOptions& options) 
       mesh.C = std::move(c.C);
       mesh.UV = std::move(c.UV);
       mesh.vertex_scalars = std::move(c.scalars);
+      mesh.face_scalars = std::move(c.face_scalars);
       break;
     }
     case MeshFormat::kAuto: break;
@@ -532,7 +600,7 @@ void write_mesh(const std::string& path, const TriangleMesh& mesh, const MeshWri
     case MeshFormat::kPly: {
       io_detail::PlyContent c{mesh.V, mesh.has_normals() ? mesh.N : Eigen::MatrixXd(),
                               mesh.has_colors() ? mesh.C : RowMatrixX3u8(), mesh.has_uv() ? mesh.UV : Eigen::MatrixXd(),
-                              mesh.vertex_scalars, mesh.F};
+                              mesh.vertex_scalars, mesh.F, mesh.face_scalars};
       io_detail::write_ply(path, c, options.binary, scale);
       break;
     }

@@ -3,6 +3,8 @@
 #include <algorithm>
 #include <cmath>
 #include <iomanip>
+#include <limits>
+#include <map>
 #include <sstream>
 #include <vector>
 
@@ -213,13 +215,16 @@ class PlyParser {
       else if (p.name == "nx") s = VertexSlot::kNx;
       else if (p.name == "ny") s = VertexSlot::kNy;
       else if (p.name == "nz") s = VertexSlot::kNz;
-      else if (p.name == "red" || p.name == "r") s = VertexSlot::kRed;
-      else if (p.name == "green" || p.name == "g") s = VertexSlot::kGreen;
-      else if (p.name == "blue" || p.name == "b") s = VertexSlot::kBlue;
+      else if (p.name == "red" || p.name == "r" || p.name == "diffuse_red") s = VertexSlot::kRed;
+      else if (p.name == "green" || p.name == "g" || p.name == "diffuse_green") s = VertexSlot::kGreen;
+      else if (p.name == "blue" || p.name == "b" || p.name == "diffuse_blue") s = VertexSlot::kBlue;
       else if (p.name == "u" || p.name == "s" || p.name == "texture_u" || p.name == "texture_s") s = VertexSlot::kU;
       else if (p.name == "v" || p.name == "t" || p.name == "texture_v" || p.name == "texture_t") s = VertexSlot::kV;
       slots.push_back(s);
     }
+    for (const auto& p : e.properties)
+      if (p.is_list)
+        warn(warnings_, path_ + ": the vertex list property '" + p.name + "' is not kept (posekit keeps scalar properties)");
     auto has = [&](VertexSlot s) { return std::find(slots.begin(), slots.end(), s) != slots.end(); };
     if (!has(VertexSlot::kX) || !has(VertexSlot::kY) || !has(VertexSlot::kZ))
       throw IoError(path_ + ": element 'vertex' has no x, y, z properties");
@@ -288,14 +293,24 @@ class PlyParser {
     return static_cast<long long>(value);
   }
 
+  /// A polygon, fan-triangulated. Its indices are checked against the vertex count in finish(),
+  /// since the face element may come before the vertex element.
   void add_polygon(const PlyElement& e, long long f, const std::vector<long long>& poly) {
     if (poly.size() < 3) fail_element(e, f, "a face needs at least 3 vertices, got " + std::to_string(poly.size()));
     for (long long idx : poly)
-      if (idx < 0 || idx >= out_.V.rows())
-        fail_element(e, f, "vertex index " + std::to_string(idx) + " out of range 0.." +
-                               std::to_string(out_.V.rows() - 1));
-    for (size_t k = 1; k + 1 < poly.size(); ++k)
+      if (idx < 0) fail_element(e, f, "vertex index " + std::to_string(idx) + " out of range (negative)");
+    for (size_t k = 1; k + 1 < poly.size(); ++k) {
       tris_.insert(tris_.end(), {static_cast<int>(poly[0]), static_cast<int>(poly[k]), static_cast<int>(poly[k + 1])});
+      tri_face_.push_back(f);
+    }
+  }
+
+  /// A face's per-corner texture coordinates (MeshLab's `property list uchar float texcoord`).
+  void add_corner_uv(const PlyElement& e, long long f, const std::vector<long long>& poly, const std::vector<double>& uv) {
+    if (uv.size() != 2 * poly.size())
+      fail_element(e, f, "texcoord has " + std::to_string(uv.size()) + " values, expected 2 per corner (" +
+                             std::to_string(2 * poly.size()) + ")");
+    for (size_t k = 0; k < poly.size(); ++k) corner_uv_.push_back({poly[k], uv[2 * k], uv[2 * k + 1]});
   }
 
   /// What to do with each property of an element (shared by the ascii and binary readers).
@@ -303,6 +318,7 @@ class PlyParser {
     bool is_vertex = false, is_face = false;
     std::vector<VertexSlot> slots;  ///< vertex elements only
     int list_index = -1;            ///< face elements: the vertex_indices property
+    int texcoord_index = -1;        ///< face elements: per-corner texture coordinates
   };
   ElementPlan plan_element(const PlyElement& e) {
     ElementPlan plan;
@@ -314,18 +330,36 @@ class PlyParser {
       // PCL's pcl_pcd2ply writes 'element face 0' with no properties.
       if (plan.list_index < 0 && e.count > 0) throw IoError(path_ + ": element 'face' has no vertex_indices list");
       tris_.reserve(tris_.size() + static_cast<size_t>(e.count) * 3);
+      for (size_t i = 0; i < e.properties.size(); ++i) {
+        const PlyProperty& p = e.properties[i];
+        if (static_cast<int>(i) == plan.list_index) continue;
+        if (!p.is_list) face_values_[p.name].reserve(static_cast<size_t>(e.count));
+        else if (p.name == "texcoord" && plan.texcoord_index < 0) plan.texcoord_index = static_cast<int>(i);
+        else if (e.count > 0)
+          warn(warnings_, path_ + ": the face list property '" + p.name + "' is not kept (posekit keeps face scalars and texcoord)");
+      }
     }
+    if (!plan.is_vertex && !plan.is_face && e.count > 0)
+      warn(warnings_, path_ + ": element '" + e.name + "' (" + std::to_string(e.count) +
+                          " entries) is not kept: posekit reads 'vertex' and 'face'");
     return plan;
+  }
+
+  /// A face's scalar property value, stored per polygon (repeated on its triangles in finish()).
+  void store_face_value(const PlyElement& e, size_t prop, double value) {
+    face_values_[e.properties[prop].name].push_back(value);
   }
 
   void read_binary(ByteReader& r) {
     std::vector<long long> poly;
+    std::vector<double> uv;
     for (const auto& e : elements_) {
       const ElementPlan plan = plan_element(e);
       const bool is_vertex = plan.is_vertex, is_face = plan.is_face;
       const std::vector<VertexSlot>& slots = plan.slots;
       const int list_index = plan.list_index;
       for (long long i = 0; i < e.count; ++i) {
+        uv.clear();
         for (size_t p = 0; p < e.properties.size(); ++p) {
           const auto& prop = e.properties[p];
           double value = 0;
@@ -333,6 +367,7 @@ class PlyParser {
             if (!read_binary_value(r, prop.type, value))
               fail_element(e, i, "file ends early (truncated binary data)");
             if (is_vertex) store_vertex(e, slots, i, p, value);
+            if (is_face) store_face_value(e, p, value);
             continue;
           }
           double count = 0;
@@ -340,14 +375,17 @@ class PlyParser {
             fail_element(e, i, "file ends early (truncated binary data)");
           check_list_length(e, i, count);
           const bool keep = is_face && static_cast<int>(p) == list_index;
+          const bool keep_uv = is_face && static_cast<int>(p) == plan.texcoord_index;
           if (keep) poly.clear();
           for (long long k = 0; k < static_cast<long long>(count); ++k) {
             if (!read_binary_value(r, prop.type, value))
               fail_element(e, i, "file ends early (truncated binary data)");
             if (keep) poly.push_back(to_index(e, i, value));
+            if (keep_uv) uv.push_back(value);
           }
           if (keep) add_polygon(e, i, poly);
         }
+        if (plan.texcoord_index >= 0) add_corner_uv(e, i, poly, uv);
       }
     }
   }
@@ -357,6 +395,7 @@ class PlyParser {
     std::string_view line;
     std::vector<std::string_view> tok;
     std::vector<long long> poly;
+    std::vector<double> uv;
     for (const auto& e : elements_) {
       const ElementPlan plan = plan_element(e);
       const bool is_vertex = plan.is_vertex, is_face = plan.is_face;
@@ -372,23 +411,28 @@ class PlyParser {
           if (t >= tok.size()) fail_element(e, i, "too few values on the line");
           return tok[t++];
         };
+        uv.clear();
         for (size_t p = 0; p < e.properties.size(); ++p) {
           const auto& prop = e.properties[p];
           if (!prop.is_list) {
             const double value = to_number(take(), e, i);
             if (is_vertex) store_vertex(e, slots, i, p, value);
+            if (is_face) store_face_value(e, p, value);
             continue;
           }
           const double count = to_number(take(), e, i);
           check_list_length(e, i, count);
           const bool keep = is_face && static_cast<int>(p) == list_index;
+          const bool keep_uv = is_face && static_cast<int>(p) == plan.texcoord_index;
           if (keep) poly.clear();
           for (long long k = 0; k < static_cast<long long>(count); ++k) {
             const double value = to_number(take(), e, i);
             if (keep) poly.push_back(to_index(e, i, value));
+            if (keep_uv) uv.push_back(value);
           }
           if (keep) add_polygon(e, i, poly);
         }
+        if (plan.texcoord_index >= 0) add_corner_uv(e, i, poly, uv);
         if (t < tok.size())
           fail_element(e, i, std::to_string(tok.size() - t) + " more value(s) on the line than the " +
                                  std::to_string(e.properties.size()) + " properties declared");
@@ -406,6 +450,19 @@ class PlyParser {
     bool have_vertex = false;
     for (const auto& e : elements_) have_vertex |= e.name == "vertex";
     if (!have_vertex) throw IoError(path_ + ": PLY has no 'vertex' element");
+    const PlyElement* face_element = nullptr;
+    for (const auto& e : elements_)
+      if (e.name == "face") face_element = &e;
+    for (size_t t = 0; t < tris_.size(); ++t)
+      if (tris_[t] >= out_.V.rows())
+        fail_element(*face_element, tri_face_[t / 3], "vertex index " + std::to_string(tris_[t]) + " out of range 0.." +
+                                                          std::to_string(out_.V.rows() - 1));
+    for (const auto& [name, per_face] : face_values_) {
+      Eigen::VectorXd& values = out_.face_scalars[name];
+      values.resize(static_cast<Eigen::Index>(tri_face_.size()));
+      for (size_t t = 0; t < tri_face_.size(); ++t) values[static_cast<Eigen::Index>(t)] = per_face[static_cast<size_t>(tri_face_[t])];
+    }
+    finish_corner_uv();
     // A PLY without faces is a point cloud, whose reader drops such points instead.
     for (Eigen::Index v = 0; finite_only_ && !tris_.empty() && v < out_.V.rows(); ++v)
       if (!out_.V.row(v).allFinite())
@@ -414,6 +471,39 @@ class PlyParser {
     for (Eigen::Index f = 0; f < out_.F.rows(); ++f)
       for (int c = 0; c < 3; ++c) out_.F(f, c) = tris_[3 * f + c];
   }
+
+  /// Per-corner texture coordinates become per-vertex ones when every vertex gets one and only one;
+  /// otherwise (UV seams) they are dropped with a warning, as the OBJ reader does.
+  void finish_corner_uv() {
+    if (corner_uv_.empty()) return;
+    if (has_uv_) {
+      warn(warnings_, path_ + ": the faces' texcoord not kept: the vertices have their own texture coordinates");
+      return;
+    }
+    const Eigen::Index nv = out_.V.rows();
+    Eigen::MatrixXd uv = Eigen::MatrixXd::Constant(nv, 2, std::numeric_limits<double>::quiet_NaN());
+    long long seams = 0;
+    for (const CornerUv& c : corner_uv_) {
+      if (c.vertex >= nv) continue;  // refused above
+      if (std::isnan(uv(c.vertex, 0))) uv.row(c.vertex) << c.u, c.v;
+      else if (uv(c.vertex, 0) != c.u || uv(c.vertex, 1) != c.v) ++seams;
+    }
+    if (seams > 0) {
+      warn(warnings_, path_ + ": texture coordinates not kept: " + std::to_string(seams) +
+                          " face corners give a vertex another texture coordinate than its first (UV seams; posekit keeps one per vertex)");
+      return;
+    }
+    if (uv.hasNaN()) {
+      warn(warnings_, path_ + ": texture coordinates not kept: some vertices are on no face with a texcoord");
+      return;
+    }
+    out_.UV = std::move(uv);
+  }
+
+  struct CornerUv {
+    long long vertex;
+    double u, v;
+  };
 
   std::string path_;
   double scale_;
@@ -427,6 +517,9 @@ class PlyParser {
   bool has_colors_ = false;
   bool has_uv_ = false;
   std::vector<int> tris_;
+  std::vector<long long> tri_face_;  ///< the face (polygon) number of each triangle
+  std::map<std::string, std::vector<double>> face_values_;  ///< per polygon
+  std::vector<CornerUv> corner_uv_;
   PlyContent out_;
 };
 
@@ -450,6 +543,14 @@ void write_ply(const std::string& path, const PlyContent& c, bool binary, double
     if (values.size() != n)
       throw InvalidInput(path + ": scalar field '" + name + "' has " + std::to_string(values.size()) +
                          " values, expected one per vertex (" + std::to_string(n) + ")");
+  for (const auto& [name, values] : c.face_scalars) {
+    if (values.size() != c.F.rows())
+      throw InvalidInput(path + ": face field '" + name + "' has " + std::to_string(values.size()) +
+                         " values, expected one per triangle (" + std::to_string(c.F.rows()) + ")");
+    if (name.empty() || name == "vertex_indices" || name.find_first_of(" \t\n") != std::string::npos)
+      throw InvalidInput(path + ": face field name '" + name + "' must be non-empty without blanks");
+  }
+  const std::map<std::string, Eigen::VectorXd>& face_scalars = c.face_scalars;
   const bool little = host_is_little_endian();
   write_file_atomically(path, [&](std::ostream& out) {
     out << "ply\nformat " << (binary ? (little ? "binary_little_endian" : "binary_big_endian") : "ascii")
@@ -460,6 +561,8 @@ void write_ply(const std::string& path, const PlyContent& c, bool binary, double
     if (uv) out << "property double texture_u\nproperty double texture_v\n";
     for (const auto& kv : c.scalars) out << "property double " << kv.first << "\n";
     if (c.F.rows() > 0) out << "element face " << c.F.rows() << "\nproperty list uchar int vertex_indices\n";
+    if (c.F.rows() > 0)
+      for (const auto& kv : face_scalars) out << "property double " << kv.first << "\n";
     out << "end_header\n";
     if (binary) {
       for (Eigen::Index v = 0; v < n; ++v) {
@@ -472,6 +575,7 @@ void write_ply(const std::string& path, const PlyContent& c, bool binary, double
       for (Eigen::Index f = 0; f < c.F.rows(); ++f) {
         put<std::uint8_t>(out, 3);
         for (int k = 0; k < 3; ++k) put<std::int32_t>(out, c.F(f, k));
+        for (const auto& kv : face_scalars) put(out, kv.second[f]);
       }
     } else {
       for (Eigen::Index v = 0; v < n; ++v) {
@@ -485,8 +589,11 @@ void write_ply(const std::string& path, const PlyContent& c, bool binary, double
         for (const auto& kv : c.scalars) out << ' ', put_number(out, kv.second[v]);
         out << '\n';
       }
-      for (Eigen::Index f = 0; f < c.F.rows(); ++f)
-        out << "3 " << c.F(f, 0) << ' ' << c.F(f, 1) << ' ' << c.F(f, 2) << '\n';
+      for (Eigen::Index f = 0; f < c.F.rows(); ++f) {
+        out << "3 " << c.F(f, 0) << ' ' << c.F(f, 1) << ' ' << c.F(f, 2);
+        for (const auto& kv : face_scalars) out << ' ', put_number(out, kv.second[f]);
+        out << '\n';
+      }
     }
   });
 }

@@ -16,6 +16,8 @@ struct PlyContent {
   Eigen::MatrixXd UV;  ///< #V x 2 texture coordinates, or empty
   std::map<std::string, Eigen::VectorXd> scalars;
   Eigen::MatrixXi F;  ///< triangulated faces, empty when the file has none
+  /// Per-triangle values of the face element's scalar properties (a polygon's on each of its triangles).
+  std::map<std::string, Eigen::VectorXd> face_scalars;
 };
 
 /// `scale` multiplies coordinates (file unit -> metres). With `finite_only` a vertex with a NaN or

@@ -361,8 +361,9 @@ bool is_name_line(const std::vector<std::string_view>& tok) {
 
 /// How to read unnamed columns 4.. of an XYZ file from their values (#rows x #cols, row-major):
 /// three unit-length columns are normals, three integer 0..255 columns (not all 0/1) colours, a
-/// fourth column of a 4- or 7-column file is intensity (PTS), anything else a scalar field.
-std::vector<Column> guess_columns(const std::vector<double>& v, size_t cols, std::vector<std::string>& names,
+/// fourth column of a 4- or 7-column file is intensity (PTS) unless a 7-column file reads as RGBA,
+/// anything else a scalar field.
+std::vector<Column> guess_columns(const std::vector<double>& v, size_t cols, bool pts_count, std::vector<std::string>& names,
                                   const std::string& path, std::vector<std::string>* warnings) {
   const size_t rows = v.size() / cols;
   std::vector<Column> out(cols, Column::kScalar);
@@ -386,9 +387,24 @@ std::vector<Column> guess_columns(const std::vector<double>& v, size_t cols, std
       }
     return above_one;
   };
+  auto column_is = [&](size_t c, auto&& test) {
+    for (size_t r = 0; r < rows; ++r)
+      if (!test(v[r * cols + c], v[c])) return false;
+    return true;
+  };
+  const bool seventh_constant = cols == 7 && column_is(6, [](double x, double first) { return x == first; });
+  const bool seventh_colour_like =
+      cols == 7 && column_is(6, [](double x, double) { return x >= 0 && x <= 255 && x == std::floor(x); });
   size_t c = 3;
   std::string said;
-  if ((cols == 4 || cols == 7) && rows > 0) {
+  // X Y Z R G B A against PTS's X Y Z I R G B: colours in columns 4-6 and a constant (or, without a
+  // PTS count line, a 0..255) seventh column are RGBA.
+  if (cols == 7 && rows > 0 && is_colors(3) && seventh_colour_like && (seventh_constant || !pts_count)) {
+    out[3] = Column::kRed, out[4] = Column::kGreen, out[5] = Column::kBlue;
+    names[6] = "alpha";
+    said += ", columns 4-6 as RGB colours (0..255) and column 7 as the scalar field alpha";
+    c = 7;
+  } else if ((cols == 4 || cols == 7) && rows > 0) {
     names[3] = "intensity";
     said += ", column 4 as intensity";
     c = 4;
@@ -468,7 +484,7 @@ PointCloud read_xyz(const std::string& path, double scale, std::vector<std::stri
   if (!names.empty()) {
     for (const std::string& name : names) kind.push_back(column_of_name(name));
   } else {
-    kind = guess_columns(values, columns, names, path, warnings);
+    kind = guess_columns(values, columns, declared >= 0, names, path, warnings);
   }
   auto index_of = [&](Column c) {
     const auto it = std::find(kind.begin(), kind.end(), c);
@@ -604,7 +620,11 @@ PointCloud read_point_cloud(const std::string& path, const CloudReadOptions& opt
     }
     case CloudFormat::kAuto: break;
   }
+  const Eigen::Index read = cloud.size();
   drop_non_finite_points(cloud, path, options.warnings);
+  if (cloud.size() == 0)
+    throw IoError(path + ": no points" + (read > 0 ? " with finite coordinates (all " + std::to_string(read) + " are NaN or infinite)"
+                                                   : std::string(": the file holds an empty cloud")));
   return cloud;
 }
 
@@ -624,7 +644,7 @@ void write_point_cloud(const std::string& path, const PointCloud& cloud, const C
     case CloudFormat::kPly:
       write_ply(path, PlyContent{cloud.P, cloud.has_normals() ? cloud.N : Eigen::MatrixXd(),
                                  cloud.has_colors() ? cloud.C : RowMatrixX3u8(), Eigen::MatrixXd(), cloud.point_scalars,
-                                 Eigen::MatrixXi()},
+                                 Eigen::MatrixXi(), {}},
                 options.binary, scale);
       break;
     case CloudFormat::kObj:

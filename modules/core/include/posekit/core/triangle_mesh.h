@@ -19,6 +19,9 @@ struct TriangleMesh {
   Eigen::MatrixXd UV; ///< #V x 2 per-vertex texture coordinates, or empty
   /// Named per-vertex scalar fields, each of length #V (e.g. "error_mm", "part").
   std::map<std::string, Eigen::VectorXd> vertex_scalars;
+  /// Named per-face scalar fields, each of length #F (PLY face properties such as a face colour;
+  /// a polygon's value is repeated on each of its triangles).
+  std::map<std::string, Eigen::VectorXd> face_scalars;
   /// Per-face group index into group_names (OBJ `g`), or empty when the mesh has no groups.
   Eigen::VectorXi face_group;
   std::vector<std::string> group_names;

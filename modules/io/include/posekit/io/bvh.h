@@ -37,9 +37,11 @@ struct BvhMotion {
   Eigen::MatrixXd joint_positions(int frame) const;
 };
 
-/// Reads a BVH file; offsets and position channels are converted from `unit` to metres.
+/// Reads a BVH file; offsets and position channels are converted from `unit` to metres. Each frame
+/// is one line of exactly one value per channel. Frame lines beyond the header's `Frames:` count are
+/// ignored and named in `warnings` (nullptr: not reported); fewer are an error.
 /// Throws IoError naming the file, the line, and what was expected.
-BvhMotion read_bvh(const std::string& path, Unit unit = Unit::kMetre);
+BvhMotion read_bvh(const std::string& path, Unit unit = Unit::kMetre, std::vector<std::string>* warnings = nullptr);
 
 /// Writes a BVH file atomically (offsets and positions in `unit`).
 void write_bvh(const std::string& path, const BvhMotion& motion, Unit unit = Unit::kMetre);

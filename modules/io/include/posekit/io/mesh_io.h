@@ -28,9 +28,13 @@ struct MeshWriteOptions {
   std::vector<std::string>* warnings = nullptr;
 };
 
-/// Reads a mesh; polygons are fan-triangulated. Kept: OBJ groups (face_group), normals, vertex
-/// colours (PLY, OBJ `v x y z r g b`, COFF), texture coordinates (PLY u/v, OBJ vt when each vertex
-/// has one), and PLY vertex properties beyond those as vertex_scalars (alpha included).
+/// Reads a mesh; polygons are fan-triangulated. Kept: OBJ groups (face_group), normals (OBJ: through
+/// the faces' v//vn indices), vertex colours (PLY red/green/blue or diffuse_*, OBJ `v x y z r g b`,
+/// COFF), texture coordinates (PLY u/v or per-corner texcoord, OBJ vt, when each vertex has one),
+/// PLY vertex properties beyond those as vertex_scalars (alpha included) and PLY face properties as
+/// face_scalars. What cannot be kept (a vertex with several normals or texture coordinates, colours
+/// on some vertices only, other PLY elements) is named in options.warnings. PLY elements may come
+/// in any order.
 /// Throws IoError naming the file, the line or element, and what was expected.
 TriangleMesh read_mesh(const std::string& path, const MeshReadOptions& options = {});
 

@@ -31,10 +31,11 @@ struct CloudWriteOptions {
 };
 
 /// Reads a point cloud: positions, and normals, RGB colours and scalar fields where the file has
-/// them (PCD rgb/rgba, PLY red/green/blue, XYZ columns named by a `//X Y Z R G B` header or, without
+/// them (PCD rgb/rgba, PLY red/green/blue or diffuse_red/green/blue, XYZ columns named by a `//X Y Z R G B` header or, without
 /// one, recognised as unit normals or 0..255 colours). A mesh file yields its vertices. Every format
 /// drops points with a NaN or infinite coordinate (organised clouds mark missing returns so) and
-/// says how many in options.warnings. Throws IoError naming the file and element.
+/// says how many in options.warnings. A file with no (finite) point is refused ("no points"), since
+/// every use of a cloud needs one. Throws IoError naming the file and element.
 PointCloud read_point_cloud(const std::string& path, const CloudReadOptions& options = {});
 
 /// Writes a point cloud atomically. PCD coordinates and scalars are float32 where that moves no value
