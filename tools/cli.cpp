@@ -4,6 +4,7 @@
 
 #include <algorithm>
 #include <cstdio>
+#include <filesystem>
 #include <fstream>
 #include <iomanip>
 #include <iostream>
@@ -12,6 +13,7 @@
 
 #include "posekit/core/error.h"
 #include "posekit/core/units.h"
+#include "posekit/io/atomic_file.h"
 #include "posekit/io/mesh_io.h"
 #include "posekit/io/point_cloud_io.h"
 
@@ -42,6 +44,53 @@ ArgParser& ArgParser::flag(const std::string& name, const std::string& help) {
 ArgParser& ArgParser::example(const std::string& line) {
   examples_.push_back(line);
   return *this;
+}
+void ArgParser::add_mkdir_flag() {
+  if (std::none_of(options_.begin(), options_.end(), [](const Option& o) { return o.name == "mkdir"; }))
+    flag("mkdir", "create the missing folders of the output paths (without it a missing folder is an error)");
+}
+ArgParser& ArgParser::output(const std::string& name, const std::string& value_name, const std::string& help,
+                             const std::string& default_value) {
+  options_.push_back({name, value_name, help, default_value, false, Output::kFile});
+  add_mkdir_flag();
+  return *this;
+}
+ArgParser& ArgParser::output_folder(const std::string& name, const std::string& value_name, const std::string& help,
+                                    const std::string& default_value) {
+  options_.push_back({name, value_name, help, default_value, false, Output::kFolder});
+  add_mkdir_flag();
+  return *this;
+}
+ArgParser& ArgParser::positional_output(const std::string& name, const std::string& help) {
+  positional_specs_.push_back({name, help, true, true});
+  add_mkdir_flag();
+  return *this;
+}
+
+/// The rule for output paths: an output file's folder, or an output folder's parent, must exist;
+/// --mkdir creates what is missing. Output folders themselves are created by their commands.
+void ArgParser::check_outputs() const {
+  const bool mkdir = has("mkdir");
+  auto check_file = [&](const std::string& path) {
+    if (!path.empty()) require_output_folder(path, mkdir);
+  };
+  for (const auto& o : options_) {
+    if (o.output == Output::kNone || !has(o.name)) continue;
+    const std::string& value = get(o.name);
+    if (o.output == Output::kFile) {
+      check_file(value);
+      continue;
+    }
+    std::error_code ec;
+    if (std::filesystem::is_directory(value, ec)) continue;
+    if (std::filesystem::exists(value, ec)) throw IoError(value + ": --" + o.name + " exists and is not a folder");
+    // Its parent as for a file: the folder itself is the command's to create.
+    std::filesystem::path folder(value);
+    if (!folder.has_filename()) folder = folder.parent_path();  // "out/"
+    check_file(folder.string());
+  }
+  for (size_t k = 0; k < positional_specs_.size() && k < positional_values_.size(); ++k)
+    if (positional_specs_[k].is_output) check_file(positional_values_[k]);
 }
 
 std::string ArgParser::help() const {
@@ -109,6 +158,7 @@ bool ArgParser::parse(int argc, char** argv) {
                      command_ + " --help)");
   for (const auto& o : options_)
     if (!o.is_flag && !o.default_value.empty() && !values_.count(o.name)) values_[o.name] = o.default_value;
+  check_outputs();
   return true;
 }
 

@@ -30,6 +30,15 @@ class ArgParser {
                     const std::string& default_value = "");
   ArgParser& flag(const std::string& name, const std::string& help);
   ArgParser& example(const std::string& line);
+  /// An option naming a file the command writes: its folder must exist, or --mkdir (added with the
+  /// first output) creates it; a typo in a path is an error, not a new folder tree.
+  ArgParser& output(const std::string& name, const std::string& value_name, const std::string& help,
+                    const std::string& default_value = "");
+  /// An option naming a folder the command fills: the folder is created, its parent must exist (or --mkdir).
+  ArgParser& output_folder(const std::string& name, const std::string& value_name, const std::string& help,
+                           const std::string& default_value = "");
+  /// A positional argument naming a file the command writes (as output()).
+  ArgParser& positional_output(const std::string& name, const std::string& help);
 
   /// Parses argv; returns false when --help was printed.
   bool parse(int argc, char** argv);
@@ -44,14 +53,19 @@ class ArgParser {
   std::string help() const;
 
  private:
+  enum class Output { kNone, kFile, kFolder };
   struct Option {
     std::string name, value_name, help, default_value;
     bool is_flag = false;
+    Output output = Output::kNone;
   };
   struct Positional {
     std::string name, help;
     bool required = true;
+    bool is_output = false;
   };
+  void add_mkdir_flag();
+  void check_outputs() const;
   std::string command_, summary_;
   std::vector<Option> options_;
   std::vector<Positional> positional_specs_;

@@ -91,7 +91,7 @@ int bench_io(int argc, char** argv) {
   const int runs = static_cast<int>(args.get_int("runs"));
   if (triangles < 100 || points < 1 || runs < 1) throw UsageError("--triangles >= 100, --points >= 1, --runs >= 1");
   const auto dir = std::filesystem::path(args.get("tmp")) / ("posekit-bench-io-" + std::to_string(::getpid()));
-  std::filesystem::create_directories(dir);
+  create_folders(dir.string());
   nlohmann::json results = nlohmann::json::array();
   try {
     const TriangleMesh mesh = make_torus(triangles);
@@ -395,7 +395,7 @@ int bench_pose(int argc, char** argv) {
   const std::string dir = args.get("dataset");
   BvhMotion capture;
   if (args.has("motion")) {
-    capture = read_bvh(args.get("motion"));
+    capture = read_bvh(args.get("motion"), Unit::kMetre, io_warnings());
     if (capture.num_frames() < 1) throw InvalidInput(args.get("motion") + ": the motion has no frames");
   }
   std::vector<double> retarget_s;
@@ -643,7 +643,7 @@ PointCloud sample_surface(const TriangleMesh& mesh, long n, double sigma, unsign
 struct ScratchDir {
   std::string path;
   ScratchDir() : path((std::filesystem::temp_directory_path() / ("posekit-bench-" + std::to_string(::getpid()))).string()) {
-    std::filesystem::create_directories(path);
+    create_folders(path);
   }
   ~ScratchDir() {
     std::error_code ec;

@@ -128,7 +128,7 @@ int bench_all(int argc, char** argv) {
                  "benchmark's full output) and OUT/benchmarks.md (the table, for docs/). --quick runs each once on\n"
                  "smaller inputs (a smoke test, not figures to report).");
   args.option("dataset", "DIR", "a posekit dataset, for the pose and registration benchmarks (left out without it)")
-      .option("out", "DIR", "folder for benchmarks.json and benchmarks.md", "bench")
+      .output_folder("out", "DIR", "folder for benchmarks.json and benchmarks.md", "bench")
       .option("only", "LIST", "benchmarks to run, comma-separated (default: all)")
       .flag("peers", "also time CloudCompare and Open3D in the compare benchmark")
       .flag("quick", "one run each, small inputs")
@@ -163,7 +163,7 @@ int bench_all(int argc, char** argv) {
     }
   }
   const fs::path out = args.get("out");
-  fs::create_directories(out);
+  create_folders(out.string());
   const std::string exe = fs::read_symlink("/proc/self/exe").string();
   std::ostringstream command;
   command << "posekit bench all";

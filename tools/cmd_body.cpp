@@ -62,10 +62,10 @@ int run_body(int argc, char** argv) {
       .option("frame", "N", "BVH frame to use", "0")
       .option("pose-units", "LIST", "MakeHuman pose units Name=weight,... ('Left' units mirrored when named 'Right')")
       .option("skinning", "KIND", "lbs or dqs", "lbs")
-      .option("out", "FILE", "write the body mesh (.ply .obj .off .stl)")
+      .output("out", "FILE", "write the body mesh (.ply .obj .off .stl)")
       .option("unit", "U", "unit of the written mesh", "m")
-      .option("save-spec", "FILE", "write the effective body spec JSON")
-      .option("joints", "FILE", "write the 15 joint centres of the 16-part skeleton as JSON (m)")
+      .output("save-spec", "FILE", "write the effective body spec JSON")
+      .output("joints", "FILE", "write the 15 joint centres of the 16-part skeleton as JSON (m)")
       .flag("labels", "add the 16-part label of every vertex as scalar field 'part' (PLY)")
       .flag("list-modifiers", "list the local modifiers the data provides and exit")
       .flag("list-pose-units", "list the pose units the data provides and exit")
@@ -132,7 +132,7 @@ int run_body(int argc, char** argv) {
         std::cerr << "note: " << skipped.size() << " pose-unit bone(s) are not in the 163-bone rig and were skipped\n";
       }
     } else if (ends_with(pose_path, ".bvh") || ends_with(pose_path, ".BVH")) {
-      const BvhMotion motion = read_bvh(pose_path, Unit::kDecimetre);
+      const BvhMotion motion = read_bvh(pose_path, Unit::kDecimetre, io_warnings());
       pose = bone_pose_from_bvh(model->rig, motion, static_cast<int>(args.get_int("frame")));
     } else {
       pose = bone_pose_from_part_pose(model->rig, read_part_pose(pose_path));

@@ -16,7 +16,7 @@ int run_convert(int argc, char** argv) {
                  "point clouds; a mesh written to .pcd or .xyz keeps its vertices. Colours, normals, texture\n"
                  "coordinates and scalar fields are kept where the target format can hold them; a warning names\n"
                  "what it cannot. The output appears only when complete.");
-  args.positional("in", "input file").positional("out", "output file")
+  args.positional("in", "input file").positional_output("out", "output file")
       .option("from-unit", "U", "unit of the input: m, dm, cm, mm", "m")
       .option("to-unit", "U", "unit of the output: m, dm, cm, mm", "m")
       .option("group", "NAME", "keep only this OBJ group of a mesh")
@@ -46,6 +46,8 @@ int run_convert(int argc, char** argv) {
     if (mesh.has_normals()) cloud.N = mesh.N;
     if (mesh.has_colors()) cloud.C = mesh.C;
     cloud.point_scalars = mesh.vertex_scalars;
+    for (const auto& kv : mesh.face_scalars)
+      io_warnings()->push_back(out + ": a point cloud cannot hold the face field " + kv.first + ": not written");
     write_point_cloud(out, cloud, {to, CloudFormat::kAuto, binary, io_warnings()});
     flush_warnings();
     std::cerr << "wrote " << out << ": " << cloud.size() << " points (" << unit_name(to) << ")\n";

@@ -37,7 +37,7 @@ int customize_train(int argc, char** argv) {
                  "joints and levels regressed on them, and per layer of the representation a linear model and an\n"
                  "MLP (OpenCV ANN_MLP) predicting the section from the photos' widths and depths; the better on\n"
                  "the validation bodies (every fifth) is kept. Writes a .pkc model file.");
-  args.option("out", "FILE", "model file to write", "customization.pkc")
+  args.output("out", "FILE", "model file to write", "customization.pkc")
       .option("bodies", "N", "population size", "2000")
       .option("seed", "S", "population seed", "20261124")
       .option("threads", "N", "threads", "2")
@@ -143,7 +143,7 @@ int customize_eval(int argc, char** argv) {
       .option("model", "FILE", "customization model (posekit customize train)", "customization.pkc")
       .option("variation", "V", "photos, masks, erode2, dilate2, height+1cm, nearer20cm, farther20cm, turned5, jpeg-noise, or all", "photos")
       .option("subjects", "A,B", "only these subjects")
-      .option("json", "FILE", "write the tables as JSON")
+      .output("json", "FILE", "write the tables as JSON")
       .example("posekit customize eval --dataset ds --model customization.pkc --variation all");
   if (!args.parse(argc, argv)) return 0;
   if (!args.has("dataset")) throw UsageError("customize eval needs --dataset DIR");
@@ -187,8 +187,8 @@ int run_customize(int argc, char** argv) {
       .option("distance", "M", "without --camera: camera distance to the person", "3.0")
       .option("focal", "PX", "without --camera: focal length in pixels (default: from the stated height)")
       .option("model", "FILE", "customization model (posekit customize train)", "customization.pkc")
-      .option("out", "FILE", "customized body mesh (PLY/OBJ/OFF/STL)")
-      .option("debug", "DIR", "write the silhouettes and the features drawn on them")
+      .output("out", "FILE", "customized body mesh (PLY/OBJ/OFF/STL)")
+      .output_folder("debug", "DIR", "write the silhouettes and the features drawn on them")
       .flag("measure", "print girths of the result beside those of the photos' representation")
       .flag("json", "summary as JSON on stdout")
       .example("posekit customize --front f.png --side s.png --camera camera.json --out body.ply --measure")
@@ -210,7 +210,7 @@ int run_customize(int argc, char** argv) {
                                                                       args.has("focal") ? args.get_double("focal") : 0);
   for (const auto& a : cams.assumed) std::cerr << "posekit customize: assumed " << a << "\n";
   if (args.has("debug")) {  // the silhouettes first: they tell why the features may not be found
-    std::filesystem::create_directories(args.get("debug"));
+    create_folders(args.get("debug"));
     write_silhouette_png((std::filesystem::path(args.get("debug")) / "front_mask.png").string(), front);
     write_silhouette_png((std::filesystem::path(args.get("debug")) / "side_mask.png").string(), side);
   }

@@ -98,7 +98,7 @@ int run_eval_bodies(int argc, char** argv) {
   args.option("dataset", "DIR", "a robustness set folder")
       .option("model", "FILE", "trained model (.pkm) whose segmentation prior labels the bodies (as posekit segment --model)")
       .option("variations", "LIST", "only these variations (comma-separated)")
-      .option("report", "FILE", "also write the full results as JSON")
+      .output("report", "FILE", "also write the full results as JSON")
       .flag("json", "results as JSON on stdout")
       .example("posekit eval bodies --dataset robustness --model model.pkm")
       .example("posekit eval bodies --dataset robustness --variations scanner,thighs_touch");

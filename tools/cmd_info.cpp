@@ -29,7 +29,7 @@ nlohmann::json box_json(const BoundingBox& b, double to_unit) {
 
 /// A BVH motion: its skeleton, frames and rate, and how it maps onto the 16 parts.
 int info_bvh(const std::string& path, bool json) {
-  const BvhMotion motion = read_bvh(path);
+  const BvhMotion motion = read_bvh(path, Unit::kMetre, io_warnings());
   nlohmann::ordered_json report;
   report["file"] = path;
   report["kind"] = "BVH motion";
@@ -194,6 +194,7 @@ int run_info(int argc, char** argv) {
     report["kind"] = "point cloud";
     report["points"] = cloud.size();
     report["has_normals"] = cloud.has_normals();
+    report["has_colors"] = cloud.has_colors();
     std::vector<std::string> names;
     for (const auto& kv : cloud.point_scalars) names.push_back(kv.first);
     report["scalar_fields"] = names;
@@ -216,9 +217,12 @@ int run_info(int argc, char** argv) {
     report["triangles"] = r.num_faces;
     report["has_normals"] = mesh.has_normals();
     report["has_colors"] = mesh.has_colors();
-    std::vector<std::string> names;
+    report["has_texture_coordinates"] = mesh.has_uv();
+    std::vector<std::string> names, face_names;
     for (const auto& kv : mesh.vertex_scalars) names.push_back(kv.first);
+    for (const auto& kv : mesh.face_scalars) face_names.push_back(kv.first);
     report["scalar_fields"] = names;
+    report["face_fields"] = face_names;
     report["validity"] = {{"usable", r.usable()},
                           {"out_of_range_indices", r.out_of_range_indices},
                           {"non_finite_vertices", r.non_finite_vertices},
@@ -261,7 +265,7 @@ int run_info(int argc, char** argv) {
   std::cout << std::fixed << std::setprecision(4);
   std::cout << path << " (" << report["kind"].get<std::string>() << ", coordinates in " << unit_name(unit) << ")\n";
   if (as_cloud) {
-    std::cout << "  points:      " << cloud.size() << (cloud.has_normals() ? " (with normals)" : "") << "\n";
+    std::cout << "  points:      " << cloud.size() << "\n";
   } else {
     if (report.contains("groups_triangles")) {
       std::cout << "  groups:      " << report["groups_triangles"].size() << " (";
@@ -281,7 +285,14 @@ int run_info(int argc, char** argv) {
     std::cout << "  area:        " << report["surface_area_m2"].get<double>() << " m^2\n";
     if (report.contains("volume_litres")) std::cout << "  volume:      " << report["volume_litres"].get<double>() << " L\n";
   }
+  std::string kept;
+  for (const auto& [key, what] : {std::pair<const char*, const char*>{"has_normals", "normals"}, {"has_colors", "colours"},
+                                  {"has_texture_coordinates", "texture coordinates"}})
+    if (report.value(key, false)) kept += std::string(kept.empty() ? "" : ", ") + what;
+  std::cout << "  per vertex:  " << (kept.empty() ? "positions only" : "positions, " + kept) << "\n";
   if (!report["scalar_fields"].empty()) std::cout << "  scalars:     " << report["scalar_fields"].dump() << "\n";
+  if (report.contains("face_fields") && !report["face_fields"].empty())
+    std::cout << "  face fields: " << report["face_fields"].dump() << "\n";
   if (report.contains("bounding_box")) {
     const auto& b = report["bounding_box"];
     auto d = [&](const char* key, int i) { return b[key][i].get<double>(); };

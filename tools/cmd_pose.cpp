@@ -140,7 +140,7 @@ LoadedPoses load_poses(const std::string& path, const std::string& frames, const
     return out;
   }
   BvhMotion read;
-  if (!parsed) read = read_bvh(path);
+  if (!parsed) read = read_bvh(path, Unit::kMetre, io_warnings());
   const BvhMotion& motion = parsed ? *parsed : read;
   if (motion.num_frames() == 0) throw InvalidInput(path + ": the motion has no frames");
   long first = 0, last = motion.num_frames();
@@ -213,12 +213,12 @@ int run_train(int argc, char** argv) {
                  "(weighted Procrustes per part, joint zones down-weighted, robust to sliding skin) and the joint\n"
                  "twists follow; pose JSONs, where present, then only check the estimates.");
   args.option("dataset", "DIR", "a posekit dataset, or a folder of registered meshes (OBJ/PLY/OFF), with or without .json poses")
-      .option("out", "FILE", "model file to write (.pkm)", "model.pkm")
+      .output("out", "FILE", "model file to write (.pkm)", "model.pkm")
       .option("poses", "auto|json|estimate",
               "training poses: the JSONs, estimated from the meshes, or auto (JSONs when every example has one)", "auto")
       .option("rest", "NAME", "the rest-pose example (default: the manifest's, a zero pose, a name with rest/template, else the first)")
       .option("unit", "UNIT", "unit of the meshes: m, dm, cm, mm or auto (from the rest mesh's extent)", "auto")
-      .option("fit-report", "FILE", "per-example fit of the estimated poses (JSON: residuals, joint errors against given JSONs)")
+      .output("fit-report", "FILE", "per-example fit of the estimated poses (JSON: residuals, joint errors against given JSONs)")
       .flag("joint-offsets",
             "extension beyond the paper: learn where each joint sits as a function of its twist (a shoulder girdle\n"
             "                          that rises with the arm), kept per joint where it lowers the training error")
@@ -308,7 +308,7 @@ int run_pose(int argc, char** argv) {
   args.option("model", "FILE", "trained model (.pkm, posekit train)")
       .option("subject", "FILE", "the body to pose (PLY/OBJ/OFF/STL), standing; posed meshes come out in its frame")
       .option("pose", "FILE", "pose.json (16-part pose) or motion.bvh")
-      .option("out", "FILE", "posed mesh; several BVH frames go to <stem>_0000<ext>, <stem>_0001<ext>, ...")
+      .output("out", "FILE", "posed mesh; several BVH frames go to <stem>_0000<ext>, <stem>_0001<ext>, ...")
       .option("method", "M", "learned (the paper's), rigid (parts only) or lbs (16-part skinning)", "learned")
       .option("unit", "U", "unit of the subject mesh: m, dm, cm, mm, or auto (its largest extent tells)", "auto")
       .option("frames", "A:B", "BVH frames A to B-1 (default: all)")
@@ -339,8 +339,7 @@ int run_pose(int argc, char** argv) {
   Progress progress("pose", static_cast<long>(poses.size()));
   double pose_seconds = 0;
   std::vector<std::string> written;
-  const fs::path out = args.get("out");
-  if (!out.parent_path().empty()) fs::create_directories(out.parent_path());
+  const fs::path out = args.get("out");  // its folder checked (or made, --mkdir) by the parser
   for (size_t i = 0; i < poses.size(); ++i) {
     const auto t1 = std::chrono::steady_clock::now();
     TriangleMesh posed;
@@ -385,7 +384,7 @@ int run_retarget(int argc, char** argv) {
                  "the file's rotations applied. Poses are made for the default MakeHuman body's joints; `posekit\n"
                  "pose --pose file.bvh` retargets to the subject's own joints instead.");
   args.positional("bvh", "motion file (.bvh)")
-      .option("out", "DIR", "folder for <stem>_NNNN.json (created)")
+      .output_folder("out", "DIR", "folder for <stem>_NNNN.json (created)")
       .option("frames", "A:B", "frames A to B-1 (default: all)")
       .option("every", "N", "every N-th frame", "1")
       .option("joint-map", "FILE", "JSON {\"left_shoulder\": \"<BVH joint>\", ...} for joints the names do not tell")
@@ -402,7 +401,7 @@ int run_retarget(int argc, char** argv) {
   const LoadedPoses loaded = load_poses(args.positionals()[0], args.has("frames") ? args.get("frames") : "", args.has("data") ? args.get("data") : "",
                                         rest, args.has("joint-map") ? args.get("joint-map") : "", args.get("root-motion"));
   for (const auto& note : loaded.notes) std::cerr << "posekit retarget: " << note << "\n";
-  fs::create_directories(args.get("out"));
+  create_folders(args.get("out"));
   std::vector<std::string> written;
   for (size_t i = 0; i < loaded.poses.size(); i += static_cast<size_t>(every)) {
     const std::string path = (fs::path(args.get("out")) / (loaded.names[i] + ".json")).string();
@@ -431,8 +430,8 @@ int run_segment(int argc, char** argv) {
   args.positional("mesh", "body mesh (PLY/OBJ/OFF/STL)")
       .option("model", "FILE", "trained model (.pkm) whose segmentation prior labels the representation")
       .option("unit", "U", "unit of the mesh: m, dm, cm, mm, or auto (its largest extent tells)", "auto")
-      .option("out", "FILE", "mesh with vertex scalar 'part' (0..15); PLY keeps it for other tools")
-      .option("joints", "FILE", "write the joint centres as JSON")
+      .output("out", "FILE", "mesh with vertex scalar 'part' (0..15); PLY keeps it for other tools")
+      .output("joints", "FILE", "write the joint centres as JSON")
       .option("frame", "F", "frame of the joints written and printed: input (the file's axes) or posekit", "input")
       .flag("unchecked", "write the result even when it fails the sanity checks (they become warnings)")
       .flag("json", "summary as JSON on stdout")
@@ -675,8 +674,8 @@ int run_fit(int argc, char** argv) {
       .option("unit", "U", "unit of the subject: m, dm, cm, mm or auto", "auto")
       .option("target-unit", "U", "unit of the target: m, dm, cm, mm or auto", "auto")
       .option("method", "NAME", "posing inside the loop: learned, lbs or rigid", "learned")
-      .option("out", "FILE", "the fitted body in the target's axes, in metres (PLY with 'residual_mm' and 'part')")
-      .option("pose-out", "FILE", "the fitted 16-part pose (JSON; root rotation and translation in the subject's frame, Y up)")
+      .output("out", "FILE", "the fitted body in the target's axes, in metres (PLY with 'residual_mm' and 'part')")
+      .output("pose-out", "FILE", "the fitted 16-part pose (JSON; root rotation and translation in the subject's frame, Y up)")
       .option("iterations", "N", "Levenberg-Marquardt steps of the final refinement at most", "100")
       .option("start", "FILE", "start from this 16-part pose (e.g. the previous frame's --pose-out) instead of searching")
       .flag("json", "summary as JSON on stdout")

@@ -86,9 +86,9 @@ int run_register(int argc, char** argv) {
               "population lacks", "none")
       .option("data", "DIR", "MakeHuman data root for --shape-space (default: $POSEKIT_DATA or ../shared/datasets/makehuman)")
       .option("unit", "U", "unit of both meshes: m, dm, cm, mm, or auto (each one's largest extent tells)", "auto")
-      .option("out", "FILE", "correspondence JSON: for each target triangle its source triangle")
-      .option("deformed", "FILE", "write the source deformed onto the target (mesh)")
-      .option("quality", "FILE", "write the summary with the quality judged without ground truth (JSON)")
+      .output("out", "FILE", "correspondence JSON: for each target triangle its source triangle")
+      .output("deformed", "FILE", "write the source deformed onto the target (mesh)")
+      .output("quality", "FILE", "write the summary with the quality judged without ground truth (JSON)")
       .option("threads", "T", "ctffd: threads (0: all cores; the result is the same to rounding)", "0")
       .flag("json", "summary as JSON on stdout")
       .example("posekit register dataset/template/rest.ply dataset/subjects/f01/rest.ply --out corr.json --deformed d.ply");
@@ -206,7 +206,7 @@ int run_shape_space(int argc, char** argv) {
                  "your own registered bodies (--meshes: a folder of meshes sharing one topology, standing in one\n"
                  "pose, in any place, direction and unit; turned rigidly onto their mean before learning). Register\n"
                  "from the mesh those bodies were registered to.");
-  args.option("out", "FILE", "the shape space file to write (.pks)")
+  args.output("out", "FILE", "the shape space file to write (.pks)")
       .option("bodies", "N", "MakeHuman bodies in the population", "300")
       .option("leave-out", "WHAT", "none, men, obese or local (the measure modifiers): what the MakeHuman population lacks", "none")
       .option("data", "DIR", "MakeHuman data root (default: $POSEKIT_DATA or ../shared/datasets/makehuman)")

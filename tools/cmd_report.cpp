@@ -16,7 +16,7 @@ int run_report(int argc, char** argv) {
                  "scans (Fig. 9), the registration timing table (Table 1) and the pose error table, into\n"
                  "OUT/index.html and OUT/report.md with the PNGs (off-screen VTK; no display needed).");
   args.option("dataset", "DIR", "a posekit dataset (posekit dataset make)")
-      .option("out", "DIR", "report folder (created; report files in it are replaced)", "report")
+      .output_folder("out", "DIR", "report folder (created; report files in it are replaced)", "report")
       .option("model", "FILE", "trained model (.pkm); default: train on the dataset")
       .option("threads", "N", "threads for the scan comparisons (0: all cores)", "0")
       .option("runs", "R", "timed runs per method and subject in Table 1", "3")

@@ -1,5 +1,6 @@
 // posekit: one executable, one subcommand per task (like git or colmap).
 #include <cstring>
+#include <filesystem>
 #include <iostream>
 #include <string>
 
@@ -70,6 +71,10 @@ int main(int argc, char** argv) {
       return 2;
     } catch (const posekit::Error& e) {
       std::cerr << "posekit " << name << ": error: " << e.what() << "\n";
+      return 1;
+    } catch (const std::filesystem::filesystem_error& e) {
+      // Not an internal error: the filesystem refused (read-only, no permission, no space).
+      std::cerr << "posekit " << name << ": error: " << e.path1().string() << ": " << e.code().message() << "\n";
       return 1;
     } catch (const std::exception& e) {
       std::cerr << "posekit " << name << ": internal error: " << e.what() << "\n";

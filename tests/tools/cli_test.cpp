@@ -22,25 +22,13 @@
 #include "testing/small_dataset.h"
 #include "testing/temp_dir.h"
 #include "testing/test_meshes.h"
+#include "tools/cli_runner.h"
 
 using namespace posekit;
 
 namespace {
-struct CommandResult {
-  int code;
-  std::string out;
-};
-
-CommandResult run(const std::string& args, bool merge_stderr = false) {
-  const std::string cmd = std::string(POSEKIT_EXE) + " " + args + (merge_stderr ? " 2>&1" : " 2>/dev/null");
-  FILE* pipe = ::popen(cmd.c_str(), "r");
-  std::string out;
-  std::array<char, 4096> buf;
-  size_t n;
-  while ((n = std::fread(buf.data(), 1, buf.size(), pipe)) > 0) out.append(buf.data(), n);
-  const int status = ::pclose(pipe);
-  return {WEXITSTATUS(status), out};
-}
+using test::CommandResult;
+CommandResult run(const std::string& args, bool merge_stderr = false) { return test::run_posekit(args, merge_stderr); }
 }  // namespace
 
 TEST(Cli, EveryCommandHasHelp) {
@@ -386,6 +374,9 @@ TEST(Cli, TrainPoseSegmentAndEvalOnASmallDataset) {
   const std::string cmu = (std::filesystem::path(test::test_data_root()).parent_path() / "motions/cmu/01_01.bvh").string();
   r = run("pose --model " + dir.file("m.pkm") + " --subject " + subject + " --pose " + cmu + " --frames 100:103 --out " +
           dir.file("cmu/f.ply") + " --json");
+  EXPECT_EQ(r.code, 1) << "the folder cmu/ does not exist: an error unless --mkdir";
+  r = run("pose --model " + dir.file("m.pkm") + " --subject " + subject + " --pose " + cmu + " --frames 100:103 --out " +
+          dir.file("cmu/f.ply") + " --json --mkdir");
   ASSERT_EQ(r.code, 0) << r.out;
   EXPECT_EQ(nlohmann::json::parse(r.out)["written"].size(), 3u);
   r = run("retarget " + cmu + " --frames 0:20 --every 10 --out " + dir.file("retargeted") + " --json");
