@@ -65,12 +65,41 @@ std::vector<std::string> list_inputs(const std::string& inputs) {
 }
 
 /// Result name of an input (its result is results/<name>.json): its path with separators and
-/// spaces as "_", so inputs of the same name in different folders do not collide.
+/// spaces as "_", readable, then 8 hex digits of the CRC-32 of the input as given, so that inputs
+/// whose readable names coincide (x_y/body.ply and x/y_body.ply) never share a result.
 std::string result_name(const std::string& input) {
   std::string name = fs::path(input).lexically_normal().relative_path().string();
   for (char& c : name)
     if (c == '/' || c == '\\' || c == ':' || c == ' ' || c == '\t' || c == ',') c = '_';
-  return name;
+  char hash[16];
+  std::snprintf(hash, sizeof hash, "-%08x", static_cast<unsigned>(crc32(input.data(), input.size())));
+  return name + hash;
+}
+
+/// What a result depends on besides the command's settings: each file the input names, by size and
+/// CRC-32 of its bytes (the modification time is recorded, not compared: a copy or a touch that
+/// keeps the bytes keeps the result; another body under the same name does not).
+nlohmann::ordered_json input_content(const std::vector<std::string>& files) {
+  nlohmann::ordered_json content = nlohmann::ordered_json::array();
+  for (const std::string& file : files) {
+    std::error_code ec;
+    const auto bytes = fs::file_size(file, ec);
+    if (ec) throw IoError(file + ": cannot read (" + ec.message() + ")");
+    const auto mtime = fs::last_write_time(file, ec);
+    content.push_back({{"file", file}, {"bytes", bytes}, {"crc32", file_crc32(file)},
+                       {"mtime_ns", ec ? 0LL : static_cast<long long>(mtime.time_since_epoch().count())}});
+  }
+  return content;
+}
+
+/// Whether two input_content() records name the same bytes.
+bool same_content(const nlohmann::ordered_json& a, const nlohmann::ordered_json& b) {
+  if (!a.is_array() || !b.is_array() || a.size() != b.size()) return false;
+  for (size_t k = 0; k < a.size(); ++k)
+    if (a[k].value("file", "") != b[k].value("file", "") || a[k].value("bytes", -1LL) != b[k].value("bytes", -2LL) ||
+        a[k].value("crc32", -1LL) != b[k].value("crc32", -2LL))
+      return false;
+  return true;
 }
 
 /// A body file read quietly into posekit's frame (Y up, facing +Z) and metres: the unit from
@@ -117,6 +146,8 @@ struct BatchJob {
   /// The result fields of one input; `stem` names its extra output files. Throws on failure.
   std::function<nlohmann::ordered_json(const std::string& input, const std::string& stem)> process;
   std::vector<BatchColumn> columns;
+  /// The files an input reads (its content key); empty: the input itself.
+  std::function<std::vector<std::string>(const std::string& input)> files;
 };
 
 nlohmann::ordered_json measure_one(const std::string& path) {
@@ -215,7 +246,7 @@ std::uint32_t list_checksum(const std::vector<std::string>& inputs) {
 
 /// The options every batch command shares.
 void add_batch_options(ArgParser* args) {
-  args->option("out", "DIR", "output folder (created; shared by all shards)")
+  args->output_folder("out", "DIR", "output folder (created; its parent must exist unless --mkdir; shared by all shards)")
       .option("jobs", "N", "inputs processed at once (default: the number of cores)")
       .option("shard", "I/N", "only the inputs I, I+N, I+2N, ... (0 <= I < N)", "0/1")
       .flag("json", "the run's statistics as JSON on stdout");
@@ -239,26 +270,44 @@ int run_batch_job(const ArgParser& args, const BatchJob& job, const std::vector<
   std::vector<long> mine;
   for (long i = shard; i < static_cast<long>(all.size()); i += shards) mine.push_back(i);
   const fs::path out = args.get("out");
-  fs::create_directories(out / "results");
+  create_folders((out / "results").string());
+  // Temporaries of runs that were killed (this host's dead processes, other hosts' after a day).
+  int stale = remove_stale_temporaries(out.string());
+  for (const auto& e : fs::directory_iterator(out))
+    if (e.is_directory()) stale += remove_stale_temporaries(e.path().string());
+  if (stale > 0) std::cerr << "batch " << job.command << ": removed " << stale << " temporary file(s) of killed runs\n";
 
   std::vector<nlohmann::ordered_json> results(mine.size());
   std::atomic<size_t> next{0};
   std::atomic<long> done{0}, reused{0}, failed{0};
+  std::atomic<bool> stop{false};  // a write failed: no input is started after it
+  std::string write_error;        // the first failed write (under progress_mutex)
   std::mutex progress_mutex;
+  auto stop_on = [&](const WriteError& e) {
+    std::lock_guard<std::mutex> lock(progress_mutex);
+    if (!stop.exchange(true)) write_error = e.what();
+  };
   Progress progress("batch " + job.command, static_cast<long>(mine.size()));
   const auto t0 = std::chrono::steady_clock::now();
   auto worker = [&] {
-    for (size_t k = next++; k < mine.size(); k = next++) {
+    for (size_t k = next++; k < mine.size() && !stop; k = next++) {
       const std::string& input = all[static_cast<size_t>(mine[k])];
       const std::string name = result_name(input);
       const fs::path result_path = out / "results" / (name + ".json");
+      nlohmann::ordered_json content;
+      try {
+        content = input_content(job.files ? job.files(input) : std::vector<std::string>{input});
+      } catch (const std::exception&) {
+        content = nullptr;  // unreadable or missing: processing says why
+      }
       nlohmann::ordered_json r;
       bool have = false;
-      if (fs::exists(result_path)) {
+      if (!content.is_null() && fs::exists(result_path)) {
         try {
           r = nlohmann::ordered_json::parse(read_file_bytes(result_path.string()));
           have = r.value("ok", false) && r.value("input", "") == input && r.value("command", "") == job.command &&
-                 r.value("settings", nlohmann::ordered_json()) == job.settings;
+                 r.value("settings", nlohmann::ordered_json()) == job.settings &&
+                 same_content(r.value("input_content", nlohmann::ordered_json()), content);
         } catch (const std::exception&) {
           have = false;  // unreadable: made again
         }
@@ -266,26 +315,30 @@ int run_batch_job(const ArgParser& args, const BatchJob& job, const std::vector<
       if (have) {
         ++reused;
       } else {
-        r = nlohmann::ordered_json{{"input", input}, {"command", job.command}, {"settings", job.settings}};
+        r = nlohmann::ordered_json{{"input", input}, {"command", job.command}, {"settings", job.settings},
+                                   {"input_content", content}};
         try {
           const nlohmann::ordered_json m = job.process(input, name);
           r["ok"] = true;
           for (const auto& [key, value] : m.items()) r[key] = value;
+        } catch (const WriteError& e) {
+          stop_on(e);
+          continue;
         } catch (const std::exception& e) {
           r["ok"] = false;
           r["error"] = e.what();
         }
         try {
           write_file_atomically(result_path.string(), [&](std::ostream& os) { os << r.dump(2) << "\n"; }, false);
-        } catch (const std::exception& e) {
-          r["ok"] = false;
-          r["error"] = std::string("result not written: ") + e.what();
+        } catch (const WriteError& e) {
+          stop_on(e);
+          continue;
         }
       }
       if (!r["ok"].get<bool>()) ++failed;
       nlohmann::ordered_json row = {{"index", mine[k]}};
       for (const auto& [key, value] : r.items())
-        if (key != "index" && key != "command" && key != "settings") row[key] = value;
+        if (key != "index" && key != "command" && key != "settings" && key != "input_content") row[key] = value;
       results[k] = std::move(row);
       const long d = ++done;
       std::lock_guard<std::mutex> lock(progress_mutex);
@@ -296,6 +349,9 @@ int run_batch_job(const ArgParser& args, const BatchJob& job, const std::vector<
   std::vector<std::thread> pool;
   for (int t = 0; t < jobs; ++t) pool.emplace_back(worker);
   for (auto& t : pool) t.join();
+  if (stop)
+    throw WriteError("batch " + job.command + " stopped at the first failed write (" + std::to_string(done.load()) + " of " +
+                     std::to_string(mine.size()) + " inputs done; rerun to resume): " + write_error);
   progress.finish();
   const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
 
@@ -344,7 +400,7 @@ int run_batch_measure(int argc, char** argv) {
   if (!args.parse(argc, argv)) return 0;
   if (!args.has("inputs") || !args.has("out")) throw UsageError("--inputs and --out are required");
   BatchJob job{"measure", nlohmann::ordered_json::object(), [](const std::string& input, const std::string&) { return measure_one(input); },
-               measure_columns()};
+               measure_columns(), nullptr};
   return run_batch_job(args, job, list_inputs(args.get("inputs")));
 }
 
@@ -456,11 +512,15 @@ int run_batch_compare(int argc, char** argv) {
   if (!(o.outlier_threshold > 0)) throw UsageError("--threshold must be positive");
   const bool measure = args.flag_set("measure"), heatmaps = args.flag_set("heatmaps");
   const fs::path heatmap_dir = fs::path(args.get("out")) / "heatmaps";
-  if (heatmaps) fs::create_directories(heatmap_dir);
+  if (heatmaps) create_folders(heatmap_dir.string());
   BatchJob job;
   job.command = "compare";
   job.settings = {{"model", shared_model}, {"threshold_mm", 1000 * o.outlier_threshold}, {"coverage_mm", 1000 * o.coverage_radius},
                   {"measure", measure}, {"heatmaps", heatmaps}};
+  job.files = [&](const std::string& input) {
+    const auto [model_path, scan_path] = model_and_scan(input, shared_model);
+    return std::vector<std::string>{model_path, scan_path};
+  };
   job.process = [&](const std::string& input, const std::string& stem) {
     const auto [model_path, scan_path] = model_and_scan(input, shared_model);
     PreparedBody model = prepare_body(model_path, "auto");
@@ -558,7 +618,7 @@ int run_batch_pose(int argc, char** argv) {
   std::string ext = fs::path(pose_path).extension().string();
   std::transform(ext.begin(), ext.end(), ext.begin(), [](unsigned char c) { return static_cast<char>(std::tolower(c)); });
   BvhMotion motion;
-  if (ext == ".bvh") motion = read_bvh(pose_path);
+  if (ext == ".bvh") motion = read_bvh(pose_path, Unit::kMetre, io_warnings());
   const bool per_subject = ext == ".bvh" && motion.find_joint("upperarm01.L") < 0;
   LoadedPoses shared;
   if (!per_subject) shared = load_poses(pose_path, frames, data, Eigen::MatrixXd(), "", root_motion, ext == ".bvh" ? &motion : nullptr);
@@ -587,7 +647,7 @@ int run_batch_pose(int argc, char** argv) {
     const double setup = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
     for (const auto& problem : synth.info().skeleton_problems) warnings.push_back("the skeleton looks wrong: " + problem);
     const fs::path dir = posed_dir / stem;
-    fs::create_directories(dir);
+    create_folders(dir.string());
     TriangleMesh posed;
     posed.F = mesh.F;
     posed.vertex_scalars["part"] = vertex_labels_from_triangles(mesh.V, mesh.F, synth.info().triangle_part).cast<double>();
@@ -669,8 +729,8 @@ int run_batch_register(int argc, char** argv) {
   const std::uint32_t space_crc = is_shape_space_file(shape_arg) ? file_crc32(shape_arg) : 0;
   const fs::path out = args.get("out"), corr_dir = out / "correspondence", deformed_dir = out / "deformed";
   const bool deformed = args.flag_set("deformed");
-  fs::create_directories(corr_dir);
-  if (deformed) fs::create_directories(deformed_dir);
+  create_folders(corr_dir.string());
+  if (deformed) create_folders(deformed_dir.string());
   BatchJob job;
   job.command = "register";
   // A changed source or space file redoes every target.
