@@ -3,6 +3,8 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <cstdlib>
+#include <filesystem>
 #include <random>
 
 #include "posekit/core/error.h"
@@ -10,6 +12,10 @@
 #include "posekit/datasets/remesh.h"
 #include "posekit/datasets/scanner.h"
 #include "posekit/datasets/subjects.h"
+#include "posekit/io/atomic_file.h"
+#include "posekit/io/mesh_io.h"
+#include "posekit/io/point_cloud_io.h"
+#include "testing/temp_dir.h"
 #include "testing/makehuman_fixture.h"
 
 using namespace posekit;
@@ -258,4 +264,54 @@ TEST(Measurements, ImplausibleGirthsAreRejectedWithTheReason) {
   EXPECT_FALSE(arms.find("bust")->measured);
   EXPECT_NE(arms.find("bust")->note.find("took in the arms"), std::string::npos) << arms.find("bust")->note;
   EXPECT_TRUE(measured({{"bust", 1.30}, {"hip", 1.15}}).find("bust")->measured);
+}
+
+TEST(Measurements, WritesFuzzSeedsOfSmallBodiesThatStillMeasure) {
+  // Seeds of the measure and fit fuzz targets (scripts/fuzz.sh): a woman and a man remeshed to 500 to
+  // 1000 vertices (binary PLY meshes under 64 kB) and clouds of 500 of their vertices, small enough for
+  // libFuzzer to mutate quickly, yet bodies whose stature is measured as the full body's: mutations
+  // then start deep in the measuring code, not at its first refusal. Written to
+  // $POSEKIT_FUZZ_SEEDS/{measure,fit} when set.
+  POSEKIT_REQUIRE_MAKEHUMAN();
+  test::TempDir tmp;
+  const char* root = std::getenv("POSEKIT_FUZZ_SEEDS");
+  const std::string dir = root && *root ? std::string(root) : tmp.path();
+  std::filesystem::create_directories(dir + "/measure");
+  std::filesystem::create_directories(dir + "/fit");
+  for (double gender : {0.0, 1.0}) {
+    BodySpec spec;
+    spec.gender = gender;
+    const Body b = build_body(model, spec);
+    const BodyMeasurements full = measure_body(b.mesh.V, b.mesh.F);
+    // The remesher's smallest closed result (fewer vertices can close over the fingers or armpits).
+    TriangleMesh small;
+    for (int vertices : {500, 600, 800, 1000}) {
+      try {
+        small = remesh_body(b.mesh, vertices);
+        break;
+      } catch (const InvalidInput&) {
+      }
+    }
+    ASSERT_GT(small.V.rows(), 0) << gender;
+    const BodyMeasurements m = measure_body(small.V, small.F);
+    ASSERT_TRUE(m.stature_measured) << gender;
+    EXPECT_NEAR(m.stature, full.stature, 0.02) << gender;
+    const std::string name = gender > 0.5 ? "man" : "woman";
+    write_mesh(dir + "/measure/" + name + "_small.ply", small);
+    PointCloud cloud;
+    cloud.P.resize(500, 3);
+    for (Eigen::Index i = 0; i < 500; ++i) cloud.P.row(i) = b.mesh.V.row(i * (b.mesh.V.rows() / 500));
+    write_point_cloud(dir + "/measure/" + name + "_500_points.ply", cloud);
+    write_point_cloud(dir + "/" + name + "_500_points.xyz", cloud);
+    // fit: the first byte chooses the format (0 PLY, 1 XYZ).
+    for (const auto& [first, file] : {std::pair<char, std::string>{0, "/measure/" + name + "_500_points.ply"},
+                                      std::pair<char, std::string>{1, "/" + name + "_500_points.xyz"}}) {
+      const std::string bytes = std::string(1, first) + read_file_bytes(dir + file);
+      EXPECT_LT(bytes.size(), 65536u) << file;  // scripts/fuzz.sh's -max_len for these targets
+      write_file_atomically(dir + "/fit/" + name + (first ? "_xyz" : "_ply"), [&](std::ostream& out) { out << bytes; });
+    }
+    std::filesystem::remove(dir + "/" + name + "_500_points.xyz");
+    EXPECT_LT(std::filesystem::file_size(dir + "/measure/" + name + "_small.ply"), 65536u);
+    EXPECT_EQ(read_point_cloud(dir + "/measure/" + name + "_500_points.ply").P.rows(), 500);
+  }
 }
