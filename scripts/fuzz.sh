@@ -40,8 +40,8 @@ POSEKIT_FUZZ_SEEDS=$seeds build/release/tests/posekit_deformation_tests --gtest_
 POSEKIT_FUZZ_SEEDS=$seeds build/release/tests/posekit_registration_tests --gtest_filter='ShapeSpace.WritesFuzzSeeds*' >/dev/null
 POSEKIT_FUZZ_SEEDS=$seeds build/release/tests/posekit_shape_tests --gtest_filter='Measurements.WritesFuzzSeeds*' >/dev/null
 if [ "$fit" = ON ]; then
-  # fit's target poses this model's template: trained once on the small dataset.
-  export POSEKIT_FUZZ_MODEL=$PWD/build/fuzz/fit-model.pkm
+  # fit's target fits this model (trained once on the small dataset) to a small body of the seeds.
+  export POSEKIT_FUZZ_MODEL=$PWD/build/fuzz/fit-model.pkm POSEKIT_FUZZ_SUBJECT=$seeds/measure/woman_small.ply
   if [ ! -f "$POSEKIT_FUZZ_MODEL" ]; then
     build/release/bin/posekit dataset make --small --force --out build/fuzz/fit-dataset >/dev/null
     build/release/bin/posekit train --dataset build/fuzz/fit-dataset --out "$POSEKIT_FUZZ_MODEL" >/dev/null

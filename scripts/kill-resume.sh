@@ -22,7 +22,7 @@ if [ ! -f "$inputs/.complete" ]; then
       for height in 0.3 0.7; do
         [ $k -lt 13 ] || break
         stem=$inputs/body$(printf '%02d' $k)
-        "$posekit" body --gender $gender --weight $weight --height $height --out "$stem.ply" 2>/dev/null
+        "$posekit" body --gender $gender --weight $weight --height $height --out "$stem.ply" >/dev/null 2>&1
         for ext in obj off stl; do "$posekit" convert "$stem.ply" "$stem.$ext" 2>/dev/null; done
         "$posekit" convert "$stem.ply" "$stem.xyz" --to-unit mm 2>/dev/null
         k=$((k + 1))
@@ -30,7 +30,7 @@ if [ ! -f "$inputs/.complete" ]; then
     done
   done
   # The 13th: a body of middle proportions.
-  "$posekit" body --out "$inputs/body12.ply" 2>/dev/null
+  "$posekit" body --out "$inputs/body12.ply" >/dev/null 2>&1
   for ext in obj off stl; do "$posekit" convert "$inputs/body12.ply" "$inputs/body12.$ext" 2>/dev/null; done
   "$posekit" convert "$inputs/body12.ply" "$inputs/body12.xyz" --to-unit mm 2>/dev/null
   touch "$inputs/.complete"

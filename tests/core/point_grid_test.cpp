@@ -2,6 +2,7 @@
 
 #include <gtest/gtest.h>
 
+#include <cmath>
 #include <random>
 
 #include "posekit/core/error.h"
@@ -70,4 +71,21 @@ TEST(PointGrid, NearestMatchesABruteForceSearchInsideOutsideAndWithinARadius) {
     }
   }
   EXPECT_THROW(PointGrid(Eigen::MatrixXd(0, 3)), InvalidInput);
+}
+
+TEST(PointGrid, CoordinatesFarApartAreRefusedOrIndexedNeverUndefined) {
+  // Found by the fit fuzz target: points 1e308 apart overflowed the grid's extent into a NaN cell
+  // count (undefined behaviour casting it to int). Now refused; a volume beyond double's range
+  // (points 1e200 apart) is one cell.
+  Eigen::MatrixXd far(3, 3);
+  far << -1e308, 0, 0, 1e308, 0, 0, 0, 1, 0;
+  EXPECT_THROW(PointGrid(far, 0.0), InvalidInput);
+  Eigen::MatrixXd wide(4, 3);
+  wide << -1e200, -1e200, -1e200, 1e200, 1e200, 1e200, 0, 0, 0, 1, 1, 1;
+  double sq = 0;
+  const PointGrid grid(wide, 0.0);
+  EXPECT_EQ(grid.nearest(Eigen::Vector3d(0.9, 0.9, 0.9), &sq), 3);
+  const PointGrid nan_cell(wide, std::nan(""));
+  EXPECT_EQ(nan_cell.nearest(Eigen::Vector3d(0.1, 0, 0), &sq), 2);
+  EXPECT_NEAR(sq, 0.01, 1e-12);
 }

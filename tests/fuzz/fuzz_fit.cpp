@@ -1,8 +1,9 @@
 // libFuzzer target: fitting the body model's pose to a target (posekit fit): the target a small body
-// cloud as a PLY or XYZ (the first byte chooses), fitted with a trained model to its template, with
-// few samples and iterations so that a run takes milliseconds. The model is read once from
-// $POSEKIT_FUZZ_MODEL (scripts/fuzz.sh trains one on the small dataset); seeds: clouds of small
-// MakeHuman bodies (Measurements.WritesFuzzSeeds...).
+// cloud as a PLY or XYZ (the first byte chooses), fitted with a trained model ($POSEKIT_FUZZ_MODEL)
+// to a small subject ($POSEKIT_FUZZ_SUBJECT, a body of about 600 vertices; the model's 12k-vertex
+// template otherwise), with few samples and iterations, so that a run takes a fraction of a second.
+// scripts/fuzz.sh trains the model on the small dataset and takes the subject from the seeds; seeds:
+// clouds of small MakeHuman bodies (Measurements.WritesFuzzSeeds...).
 #include <cstdlib>
 #include <memory>
 
@@ -11,6 +12,7 @@
 #include "posekit/deformation/pose_fitting.h"
 #include "posekit/deformation/pose_model.h"
 #include "posekit/deformation/pose_synthesis.h"
+#include "posekit/io/mesh_io.h"
 #include "posekit/io/point_cloud_io.h"
 
 namespace {
@@ -24,8 +26,13 @@ const posekit::PoseSynthesizer& synthesizer() {
     }
     auto model = std::make_shared<const posekit::PoseModel>(posekit::read_pose_model(path));
     posekit::TriangleMesh subject;
-    subject.V = model->template_V;
-    subject.F = model->template_F;
+    const char* subject_path = std::getenv("POSEKIT_FUZZ_SUBJECT");
+    if (subject_path && *subject_path) {
+      subject = posekit::read_mesh(subject_path);
+    } else {
+      subject.V = model->template_V;
+      subject.F = model->template_F;
+    }
     return std::make_unique<posekit::PoseSynthesizer>(model, subject);
   }();
   return *synth;

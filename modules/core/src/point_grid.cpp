@@ -12,7 +12,10 @@ PointGrid::PointGrid(const Eigen::MatrixXd& P, double cell) {
   if (!P.allFinite()) throw InvalidInput("PointGrid: the cloud has a non-finite point");
   lo_ = P.colwise().minCoeff().transpose();
   const Eigen::Vector3d extent = (P.colwise().maxCoeff().transpose() - lo_).cwiseMax(1e-9);
-  if (!(cell > 0)) cell = 2 * std::cbrt(extent.prod() / static_cast<double>(P.rows()));
+  // Points over 1.8e308 apart: their differences overflow, and so would every distance.
+  if (!extent.allFinite()) throw InvalidInput("PointGrid: the cloud's points are too far apart to measure distances between");
+  if (!(cell > 0) || !std::isfinite(cell)) cell = 2 * std::cbrt(extent.prod() / static_cast<double>(P.rows()));
+  if (!std::isfinite(cell)) cell = extent.maxCoeff();  // a volume beyond double's range: one cell
   // At most about 4 cells per point (and 2^30 in all) whatever the cell asked for.
   const double max_cells = std::min(4.0 * static_cast<double>(P.rows()) + 64, 1073741824.0);
   while ((extent / cell).array().floor().cwiseMax(0).matrix().prod() > max_cells ||

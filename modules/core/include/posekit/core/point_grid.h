@@ -12,7 +12,8 @@ namespace posekit {
 class PointGrid {
  public:
   /// P #P x 3 (m). `cell` is the cell size (m); 0 takes twice the cube root of the box volume per point.
-  /// Throws InvalidInput for an empty or non-finite cloud.
+  /// Throws InvalidInput for an empty or non-finite cloud, or one whose points are too far apart
+  /// (over about 1e308) for their distances to be finite.
   explicit PointGrid(const Eigen::MatrixXd& P, double cell = 0);
 
   /// Index (a row of P) of the point nearest to p within `max_distance`, and its squared distance;
