@@ -174,6 +174,12 @@ nlohmann::ordered_json measure_one(const std::string& path) {
   return r;
 }
 
+/// JSON text of a result or summary; bytes that are not UTF-8 (a Latin-1 file name in an error
+/// message) are replaced rather than failing the write.
+std::string dump_json(const nlohmann::ordered_json& j) {
+  return j.dump(2, ' ', false, nlohmann::ordered_json::error_handler_t::replace);
+}
+
 std::string csv_field(const std::string& text) {
   if (text.find_first_of(",\"\n") == std::string::npos) return text;
   std::string quoted = "\"";
@@ -192,7 +198,7 @@ std::string number(const nlohmann::json& value, int digits) {
 /// one row per input in input order.
 void write_summary(const fs::path& out, const std::string& stem, const nlohmann::ordered_json& summary,
                    const std::vector<BatchColumn>& columns) {
-  write_file_atomically((out / (stem + ".json")).string(), [&](std::ostream& os) { os << summary.dump(2) << "\n"; }, false);
+  write_file_atomically((out / (stem + ".json")).string(), [&](std::ostream& os) { os << dump_json(summary) << "\n"; }, false);
   write_file_atomically((out / (stem + ".csv")).string(), [&](std::ostream& os) {
     os << "index,input,status,error";
     for (const auto& c : columns) os << "," << c.header;
@@ -329,10 +335,13 @@ int run_batch_job(const ArgParser& args, const BatchJob& job, const std::vector<
           r["error"] = e.what();
         }
         try {
-          write_file_atomically(result_path.string(), [&](std::ostream& os) { os << r.dump(2) << "\n"; }, false);
+          write_file_atomically(result_path.string(), [&](std::ostream& os) { os << dump_json(r) << "\n"; }, false);
         } catch (const WriteError& e) {
           stop_on(e);
           continue;
+        } catch (const std::exception& e) {
+          r["ok"] = false;
+          r["error"] = std::string("result not written: ") + e.what();
         }
       }
       if (!r["ok"].get<bool>()) ++failed;

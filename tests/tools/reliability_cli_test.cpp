@@ -59,6 +59,19 @@ TEST(CliReliability, BatchResumeKeysOnContentAndNamesCannotCollide) {
       << "the replaced input kept the old body's result";
 }
 
+TEST(CliReliability, BatchWritesItsSummaryWhenAnInputsNameIsNotUtf8) {
+  test::TempDir dir;
+  // A Latin-1 file name in a failed input's message: the JSON writer replaces the byte.
+  fs::create_directories(dir.file("in"));
+  dir.write("in/caf\xe9.ply", "ply\nformat ascii 1.0\nelement vertex 3\nend_header\n1 2\n");
+  const test::CommandResult r = run_posekit("batch measure --inputs " + dir.file("in") + " --out " + dir.file("out"), true);
+  EXPECT_EQ(r.code, 1) << r.out;
+  EXPECT_TRUE(contains(r.out, "1 inputs, 1 processed, 0 done earlier, 1 failed")) << r.out;
+  EXPECT_FALSE(contains(r.out, "internal error")) << r.out;
+  const auto summary = nlohmann::json::parse(read_file_bytes(dir.file("out/summary.json")));
+  EXPECT_FALSE(summary["results"][0]["ok"].get<bool>());
+}
+
 TEST(CliReliability, BatchStopsAtTheFirstFailedWriteWithTheSystemsReason) {
   ASSERT_FALSE(test::test_data_root().empty());
   test::TempDir dir;
