@@ -89,6 +89,11 @@ def test_every_file_reads_with_its_fields_or_is_refused_naming_it(corpus, tmp_pa
         assert report["vertices" if want["kind"] == "mesh" else "points"] == want["vertices"], name
         if want["kind"] == "mesh":
             assert report["triangles"] == want["faces"], name
+        # info says what is kept, for clouds as for meshes.
+        assert report["has_colors"] == ("colours" in want), name
+        assert report["has_normals"] == ("normals" in want), name
+        if "face_fields" in want:
+            assert sorted(report["face_fields"]) == sorted(want["face_fields"]), name
         ply = tmp_path / (name + ".ply")
         subprocess.run([posekit(), "convert", path, str(ply), "--ascii"], check=True, capture_output=True)
         back = read_ascii_ply(str(ply))
