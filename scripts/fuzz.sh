@@ -1,7 +1,7 @@
 #!/usr/bin/env bash
 # scripts/fuzz.sh [SECONDS] [TARGET...]: fuzz posekit's file readers, measuring and pose fitting with
 # libFuzzer under AddressSanitizer + UndefinedBehaviorSanitizer, each target for SECONDS (default 60),
-# two at a time. Targets: ply obj off stl pcd xyz bvh pose_json pkm pks measure (the default: all
+# one per core at a time. Targets: ply obj off stl pcd xyz bvh pose_json pkm pks measure (the default: all
 # these), and fit, only when named (it builds most of the library with clang, and trains a model on
 # the small dataset once: POSEKIT_DATA must point at the MakeHuman assets).
 #   1. builds the targets with clang into build/fuzz (-DPOSEKIT_FUZZ=ON),
@@ -74,5 +74,6 @@ run_one() {
 export -f run_one
 export seeds
 status=0
-printf '%s\n' "${targets[@]}" | xargs -P "$jobs" -I{} bash -c 'run_one "$@"' _ {} "$seconds" || status=1
+# POSEKIT_FUZZ_PARALLEL: targets at once (default: one per core).
+printf '%s\n' "${targets[@]}" | xargs -P "${POSEKIT_FUZZ_PARALLEL:-$jobs}" -I{} bash -c 'run_one "$@"' _ {} "$seconds" || status=1
 exit $status
