@@ -64,7 +64,7 @@ int dataset_make(int argc, char** argv) {
                  "and front/side photos with silhouette masks. Written to a temporary folder, renamed when done.\n\n"
                  "With --robustness, the robustness set instead: --shapes bodies (women, men, mixed; BMI about 15\n"
                  "to 40) each in every variation, with the rig's joints, girths and part labels as truth:" + variations);
-  args.option("out", "DIR", "output folder (must not exist unless --force)")
+  args.output_folder("out", "DIR", "output folder (must not exist unless --force; its parent must, unless --mkdir)")
       .option("data", "DIR", "MakeHuman data root")
       .option("seed", "N", "random seed (same seed, same bytes)", "1")
       .option("subjects", "N", "number of subjects (half female)", "16")
