@@ -278,8 +278,9 @@ int run_batch_job(const ArgParser& args, const BatchJob& job, const std::vector<
   const fs::path out = args.get("out");
   create_folders((out / "results").string());
   // Temporaries of runs that were killed (this host's dead processes, other hosts' after a day).
+  // Every folder of OUT: batch pose writes its meshes two levels down (posed/<input>/).
   int stale = remove_stale_temporaries(out.string());
-  for (const auto& e : fs::directory_iterator(out))
+  for (const auto& e : fs::recursive_directory_iterator(out))
     if (e.is_directory()) stale += remove_stale_temporaries(e.path().string());
   if (stale > 0) std::cerr << "batch " << job.command << ": removed " << stale << " temporary file(s) of killed runs\n";
 
