@@ -205,7 +205,12 @@ int run_shape_space(int argc, char** argv) {
                  "building it. The population: N MakeHuman bodies in its base topology (the dataset's template), or\n"
                  "your own registered bodies (--meshes: a folder of meshes sharing one topology, standing in one\n"
                  "pose, in any place, direction and unit; turned rigidly onto their mean before learning). Register\n"
-                 "from the mesh those bodies were registered to.");
+                 "from the mesh those bodies were registered to.\n"
+                 "--survey: posekit's body model population. MakeHuman's sliders (macros, measure-* modifiers, buttocks)\n"
+                 "are fitted to each subject's stature, chest, waist (at the navel), buttock, thigh, calf, neck and flexed\n"
+                 "biceps girths, crotch and acromial heights, biacromial breadth and sleeve outseam (ANSUR II columns),\n"
+                 "the fit residuals are reported, and the components kept are the fewest that reconstruct every fitted\n"
+                 "body within --max-rms-mm (docs/population.md).");
   args.output("out", "FILE", "the shape space file to write (.pks)")
       .option("bodies", "N", "MakeHuman bodies in the population", "300")
       .option("leave-out", "WHAT", "none, men, obese or local (the measure modifiers): what the MakeHuman population lacks", "none")
@@ -213,11 +218,19 @@ int run_shape_space(int argc, char** argv) {
       .option("meshes", "DIR", "learn from this folder of registered meshes (OBJ/PLY/OFF, one topology) instead of MakeHuman bodies")
       .option("unit", "U", "--meshes: their unit, m, dm, cm, mm, or auto (the first mesh's largest extent tells)", "auto")
       .flag("no-align", "--meshes: keep them where they stand (no rigid alignment onto their mean)")
+      .flag("ansur", "learn from MakeHuman bodies fitted to ANSUR II's 6,068 adults (found as --survey says)")
+      .option("survey", "DIR|FILE", "--ansur: ANSUR II's folder or one survey CSV with its columns (default: $POSEKIT_ANSUR, "
+              "else ansur2 beside the data root)")
+      .option("subjects", "N", "--ansur: that many subjects spread through the survey (0: all)", "0")
+      .option("max-rms-mm", "MM", "--ansur: keep the fewest components that reconstruct every fitted body within this RMS", "1")
+      .output("residuals", "FILE", "--ansur: write the fit residuals and each subject's sliders (JSON)")
+      .option("threads", "N", "--ansur: threads for the fits (0: all cores)", "0")
       .option("variance", "F", "share of the population's variance the components keep", "0.99999")
       .option("max-components", "K", "components at most", "60")
       .flag("json", "summary as JSON on stdout")
       .example("posekit shape-space --out makehuman300.pks")
-      .example("posekit shape-space --meshes my_registrations/ --unit mm --out mine.pks");
+      .example("posekit shape-space --meshes my_registrations/ --unit mm --out mine.pks")
+      .example("posekit shape-space --ansur --out ansur.pks --residuals ansur-fits.json");
   if (!args.parse(argc, argv)) return 0;
   if (!args.has("out")) throw UsageError("--out FILE is required");
   const double variance = args.get_double("variance");
@@ -225,7 +238,17 @@ int run_shape_space(int argc, char** argv) {
   if (!(variance > 0 && variance <= 1)) throw UsageError("--variance must be in (0, 1]");
   if (max_components < 1) throw UsageError("--max-components must be at least 1");
   ShapeSpace space;
-  if (args.has("meshes")) {
+  if (args.flag_set("ansur") || args.has("survey")) {
+    if (args.has("meshes")) throw UsageError("--ansur and --meshes are two populations: give one");
+    const long subjects = args.get_int("subjects"), threads = args.get_int("threads");
+    const double max_rms = args.get_double("max-rms-mm");
+    if (subjects < 0 || subjects == 1) throw UsageError("--subjects must be 0 (all) or at least 2");
+    if (!(max_rms > 0)) throw UsageError("--max-rms-mm must be positive");
+    if (threads < 0) throw UsageError("--threads must be 0 (all cores) or more");
+    space = survey_shape_space(args.has("survey") ? args.get("survey") : "", args.get("data"), subjects, max_rms,
+                               static_cast<int>(max_components), static_cast<int>(threads),
+                               args.has("residuals") ? args.get("residuals") : "", args.flag_set("json"));
+  } else if (args.has("meshes")) {
     const std::string dir = args.get("meshes");
     // Read in the file's numbers first when the unit is to be detected: the first mesh's extent tells.
     const bool automatic = args.get("unit") == "auto";

@@ -63,4 +63,11 @@ ShapeSpace make_makehuman_shape_space(const MakeHumanModel& model, PopulationOpt
 bool is_shape_space_file(const std::string& value);
 std::shared_ptr<const ShapeSpace> shape_space_option(const std::string& value, const std::string& leave_out,
                                                      const std::string& data_root);
+/// posekit shape-space --survey: MakeHuman sliders fitted to every subject of an ANSUR II-style survey
+/// (a folder of ANSUR II's two files or one CSV; "" finds ANSUR II), then the principal components of
+/// those bodies, keeping the fewest that reconstruct every body within `max_rms_mm`. `subjects`: that
+/// many spread through the survey (0: all). Prints the fit residuals unless `quiet`; writes them, with
+/// each subject's sliders, to `residuals_path` (JSON) when not empty.
+ShapeSpace survey_shape_space(const std::string& survey, const std::string& data_root, long subjects, double max_rms_mm,
+                              int max_components, int threads, const std::string& residuals_path, bool quiet);
 }  // namespace posekit::cli

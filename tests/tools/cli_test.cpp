@@ -794,6 +794,46 @@ TEST(Cli, RegisterRefinesByAShapeSpaceOnlyFromTheTemplatesTopology) {
   EXPECT_NE(run("register " + templ + " " + subject + " --method icp --shape-space 20").code, 0);
 }
 
+TEST(Cli, ShapeSpaceOfBodiesFittedToAnsurII) {
+  ASSERT_FALSE(test::test_data_root().empty());
+  const std::string ds = test::small_dataset().root;
+  test::TempDir dir;
+  const std::string space = dir.file("ansur60.pks"), residuals = dir.file("fits.json");
+  CommandResult r = run("shape-space --ansur --subjects 60 --threads 1 --out " + space + " --residuals " + residuals + " --json");
+  ASSERT_EQ(r.code, 0) << r.out;
+  const auto summary = nlohmann::json::parse(r.out);
+  EXPECT_GT(summary["components"].get<int>(), 5);
+  const auto fits = nlohmann::json::parse(read_file_bytes(residuals));
+  ASSERT_EQ(fits["fits"].size(), 60u);
+  EXPECT_EQ(fits["men"].get<int>() + fits["women"].get<int>(), 60);
+  EXPECT_GT(fits["women"].get<int>(), 10);  // spread through both files
+  for (const auto& [name, stats] : fits["residuals"].items())
+    for (const char* sex : {"men", "women"}) EXPECT_LT(stats[sex]["mae_mm"].get<double>(), 8.0) << name << " " << sex;
+  const auto& curve = fits["components_curve"];
+  ASSERT_EQ(curve.size(), summary["components"].get<size_t>());
+  EXPECT_LE(curve.back()["worst_rms_mm"].get<double>(), 1.0);
+  // A subject's sliders make a body: posekit body --spec takes them as they are.
+  dir.write("spec.json", fits["fits"][3]["spec"].dump());
+  EXPECT_EQ(run("body --spec " + dir.file("spec.json") + " --out " + dir.file("b.ply")).code, 0);
+  const auto info = nlohmann::json::parse(run("info " + space + " --json").out);
+  EXPECT_EQ(info["bodies"].get<int>(), 60);
+  EXPECT_NE(info["population"].get<std::string>().find("60 subjects of ansur2"), std::string::npos) << info.dump();
+  // The space registers the dataset's template (the MakeHuman topology) onto a subject.
+  r = run("register " + ds + "/template/rest.ply " + ds + "/subjects/m01/rest.ply --shape-space " + space + " --json");
+  ASSERT_EQ(r.code, 0) << r.out;
+  EXPECT_LT(nlohmann::json::parse(r.out)["shape_space"]["median_distance_mm"].get<double>(), 3.0) << r.out;
+  // Bad input names itself: a survey without a needed column, a missing file, two populations.
+  dir.write("survey.csv", "SubjectId,Gender,stature\n1,Male,1700\n");
+  r = run("shape-space --survey " + dir.file("survey.csv") + " --out " + dir.file("x.pks"), true);
+  EXPECT_EQ(r.code, 1);
+  EXPECT_NE(r.out.find("survey.csv: no column 'chestcircumference'"), std::string::npos) << r.out;
+  r = run("shape-space --survey " + dir.file("none.csv") + " --out " + dir.file("x.pks"), true);
+  EXPECT_EQ(r.code, 1);
+  EXPECT_NE(r.out.find("none.csv: not found"), std::string::npos) << r.out;
+  EXPECT_EQ(run("shape-space --ansur --meshes " + dir.path() + " --out " + dir.file("x.pks")).code, 2);
+  EXPECT_FALSE(std::filesystem::exists(dir.file("x.pks")));
+}
+
 TEST(Cli, ShapeSpaceFilesFromMakeHumanOrARegisteredFolder) {
   ASSERT_FALSE(test::test_data_root().empty());
   const std::string ds = test::small_dataset().root;

@@ -322,7 +322,7 @@ double macro_target_weight(const std::vector<std::string>& variants, const BodyS
   return w;
 }
 
-Body build_body(const MakeHumanModel& model, const BodySpec& spec) {
+Eigen::MatrixXd shaped_base_vertices(const MakeHumanModel& model, const BodySpec& spec) {
   Eigen::MatrixXd V = model.base_V;
   for (const auto& mt : model.macro_targets) add_target(V, mt.target, macro_target_weight(mt.variants, spec));
   for (const auto& [name, value] : spec.modifiers) {
@@ -334,6 +334,11 @@ Body build_body(const MakeHumanModel& model, const BodySpec& spec) {
     if (value < 0) add_target(V, model.modifier_targets[mod->negative], -value);
     if (value > 0) add_target(V, model.modifier_targets[mod->positive], value);
   }
+  return V;
+}
+
+Body build_body(const MakeHumanModel& model, const BodySpec& spec) {
+  const Eigen::MatrixXd V = shaped_base_vertices(model, spec);
   Body body;
   const Rig& rig = model.rig;
   body.bone_heads.resize(rig.num_bones(), 3);

@@ -72,6 +72,10 @@ struct Body {
 /// Macro weights of one target's variants for a spec (the product rule of the MakeHuman README).
 double macro_target_weight(const std::vector<std::string>& variants, const BodySpec& spec);
 
+/// All base.obj vertices (skin and helpers, #base x 3, m) shaped by the spec: macro targets, then
+/// local modifiers. Throws InvalidInput for an unknown modifier or out-of-range value.
+Eigen::MatrixXd shaped_base_vertices(const MakeHumanModel& model, const BodySpec& spec);
+
 /// Shapes the base mesh by the spec: macro targets, then local modifiers; recomputes the joints.
 /// Throws InvalidInput for an unknown modifier or out-of-range value.
 Body build_body(const MakeHumanModel& model, const BodySpec& spec);

@@ -1,0 +1,63 @@
+#pragma once
+// Reading an ANSUR II-style anthropometric survey: one subject per CSV row, the survey's column
+// names (Gordon et al. 2014, Natick/TR-15/007), lengths and girths in millimetres.
+#include <array>
+#include <string>
+#include <vector>
+
+namespace posekit {
+
+/// The measurements posekit's population is fitted to: ANSUR II's names, definitions in
+/// docs/population.md. A body in the MakeHuman topology is measured the same way by
+/// TemplateAnthropometry.
+enum class SurveyMeasure {
+  kStature,
+  kChestCircumference,
+  kWaistCircumference,     ///< at the omphalion (navel)
+  kButtockCircumference,
+  kThighCircumference,
+  kCalfCircumference,
+  kNeckCircumference,
+  kBicepsCircumference,    ///< ANSUR's is flexed; a relaxed model arm reads smaller
+  kCrotchHeight,
+  kAcromialHeight,
+  kBiacromialBreadth,
+  kSleeveOutseam,
+};
+constexpr int kSurveyMeasureCount = 12;
+using SurveyValues = std::array<double, kSurveyMeasureCount>;  ///< m, in SurveyMeasure order
+
+/// The ANSUR II column of a measure, e.g. "chestcircumference".
+const char* survey_column(SurveyMeasure m);
+/// A short name for tables, e.g. "chest".
+const char* survey_measure_name(SurveyMeasure m);
+/// True for circumferences, false for heights, breadths and lengths.
+bool survey_measure_is_girth(SurveyMeasure m);
+
+struct SurveySubject {
+  std::string id;       ///< SubjectId (or "row N")
+  bool male = false;
+  /// DODRace as recorded (1 white, 2 black, 3 hispanic, 4 asian, 5 native american, 6 pacific
+  /// islander, 8 other); 0 when the file has no such column.
+  int race = 0;
+  double weight_kg = 0;  ///< 0 when not recorded
+  SurveyValues values{};
+};
+
+/// Reads one survey CSV: a header row naming the columns, then one subject per row. Needs the columns
+/// of every SurveyMeasure and a sex column (`Gender`: Male/Female, or `sex`: M/F), reads `SubjectId`,
+/// `DODRace` and `weightkg` (tenths of a kg) when present. Millimetres become metres. Throws IoError
+/// for an unreadable file, InvalidInput naming the file, line and column for a missing column, a
+/// row of another length or a value that is not a positive number.
+std::vector<SurveySubject> read_survey_csv(const std::string& path);
+
+/// Reads ANSUR II from its folder: ANSUR_II_MALE_Public.csv and ANSUR_II_FEMALE_Public.csv, men first.
+/// Throws IoError naming a missing file.
+std::vector<SurveySubject> read_ansur2(const std::string& folder);
+
+/// Locates ANSUR II: `explicit_path` when not empty, else the POSEKIT_ANSUR environment variable, else
+/// the folder `ansur2` beside the MakeHuman data root (../shared/datasets/ansur2). Throws IoError
+/// saying where it looked.
+std::string find_ansur_root(const std::string& explicit_path, const std::string& makehuman_root);
+
+}  // namespace posekit
