@@ -1,5 +1,9 @@
 // posekit measure <mesh|cloud>: stature and tape girths of a standing body, with the features used.
+#include <algorithm>
 #include <cmath>
+#include <filesystem>
+#include <memory>
+#include <sstream>
 #include <iomanip>
 #include <iostream>
 #include <nlohmann/json.hpp>
@@ -10,6 +14,8 @@
 #include "posekit/io/mesh_io.h"
 #include "posekit/io/point_cloud_io.h"
 #include "posekit/shape/body_orientation.h"
+#include "posekit/core/data_root.h"
+#include "posekit/population/survey_plausibility.h"
 #include "posekit/shape/measurements.h"
 
 namespace posekit::cli {
@@ -19,6 +25,37 @@ nlohmann::json vec(const Eigen::Vector3d& v) { return {v.x(), v.y(), v.z()}; }
 
 /// A point of the results in the frame asked for.
 nlohmann::json point_in(const BodyOrientation& frame, const Eigen::Vector3d& p) { return vec(in_file_frame(frame, p)); }
+
+/// The survey's distribution, or why there is none: measuring must not depend on ANSUR II being there.
+std::unique_ptr<SurveyDistribution> load_survey(const std::string& survey_arg, std::string* why_not) {
+  try {
+    std::string makehuman_root;
+    try {
+      makehuman_root = find_data_root("");
+    } catch (const IoError&) {
+    }
+    const std::string path = find_ansur_root(survey_arg, makehuman_root);
+    const std::vector<SurveySubject> subjects =
+        std::filesystem::is_directory(path) ? read_ansur2(path) : read_survey_csv(path);
+    return std::make_unique<SurveyDistribution>(survey_distribution(subjects, path));
+  } catch (const Error& e) {
+    if (!survey_arg.empty()) throw;  // the user named it: a bad survey is an error
+    *why_not = e.what();
+    return nullptr;
+  }
+}
+
+/// A warning when the measurements are rarer than 1 in 1,000 of the survey's adults.
+std::string plausibility_warning(const Plausibility& p) {
+  if (p.more_unusual_share >= 0.001) return "";
+  std::ostringstream o;
+  o << std::fixed << std::setprecision(2) << "these proportions are rarer than 1 in 1,000 adults of the survey ("
+    << (p.male ? "as a man" : "as a woman") << ": Mahalanobis distance " << p.distance << " over " << p.measures
+    << " measures); the least expected is the " << survey_measure_name(p.most_unusual) << ", the others predict "
+    << 100 * p.expected_given_others << " cm (z = " << std::setprecision(1) << p.most_unusual_z
+    << "): check that measurement, or the body is outside the survey's adults";
+  return o.str();
+}
 
 }  // namespace
 
@@ -32,6 +69,8 @@ int run_measure(int argc, char** argv) {
       .option("unit", "U", "unit of the file: m, dm, cm, mm, or auto (its largest extent tells)", "auto")
       .flag("json", "machine-readable results on stdout (metres)")
       .option("frame", "F", "frame of the points in the results: input (the file's axes) or posekit (Y up, facing +Z; levels_y are always heights in it)", "input")
+      .option("survey", "DIR|FILE", "judge the proportions against this survey (ANSUR II's folder or a CSV in its columns; "
+              "default: $POSEKIT_ANSUR, else ansur2 beside the data root, skipped when absent)")
       .example("posekit measure subjects/f01/rest.ply")
       .example("posekit measure scans/f01/rest.pcd --json")
       .example("posekit measure registration_x_up.ply --up +X --forward -Z");
@@ -47,6 +86,15 @@ int run_measure(int argc, char** argv) {
   const bool cloud = in.is_cloud;
   const BodyMeasurements m = cloud ? measure_point_cloud(in.cloud.P) : measure_body(in.mesh.V, in.mesh.F);
   const BodyFeatures& f = m.features;
+  std::string no_survey;
+  const std::unique_ptr<SurveyDistribution> survey = load_survey(args.has("survey") ? args.get("survey") : "", &no_survey);
+  SurveyValues survey_values;
+  const SurveyMask given = survey_values_of(m, &survey_values);
+  const int given_count = static_cast<int>(std::count(given.begin(), given.end(), true));
+  std::unique_ptr<Plausibility> plausibility;
+  if (survey && given_count >= 2) plausibility = std::make_unique<Plausibility>(judge_plausibility(*survey, survey_values, given));
+  std::vector<std::string> warnings = f.warnings;
+  if (plausibility && !plausibility_warning(*plausibility).empty()) warnings.push_back(plausibility_warning(*plausibility));
   if (args.flag_set("json")) {
     nlohmann::ordered_json j;
     j["file"] = path;
@@ -75,7 +123,16 @@ int run_measure(int argc, char** argv) {
                      {"left_hip_joint", point_in(shown, f.hip[kLeft])}, {"right_hip_joint", point_in(shown, f.hip[kRight])},
                      {"left_knee", point_in(shown, f.knee[kLeft])}, {"right_knee", point_in(shown, f.knee[kRight])},
                      {"left_ankle", point_in(shown, f.ankle[kLeft])}, {"right_ankle", point_in(shown, f.ankle[kRight])}};
-    j["warnings"] = f.warnings;
+    if (plausibility) {
+      const Plausibility& p = *plausibility;
+      j["plausibility"] = {{"survey", survey->source}, {"as", p.male ? "man" : "woman"}, {"measures", p.measures},
+                           {"distance", p.distance}, {"more_unusual_share", p.more_unusual_share},
+                           {"least_expected", survey_measure_name(p.most_unusual)}, {"z", p.most_unusual_z},
+                           {"expected_given_others", p.expected_given_others}};
+    } else {
+      j["plausibility"] = {{"checked", false}, {"why", survey ? "fewer than 2 measures match the survey's" : no_survey}};
+    }
+    j["warnings"] = warnings;
     std::cout << j.dump(2) << std::endl;
     return 0;
   }
@@ -87,7 +144,10 @@ int run_measure(int argc, char** argv) {
     if (g.measured) std::cout << g.value * 100 << " cm\n";
     else std::cout << "not measured: " << g.note << "\n";
   }
-  for (const auto& w : f.warnings) std::cout << "  warning: " << w << "\n";
+  if (plausibility)
+    std::cout << "  proportions  " << std::setprecision(1) << 100 * plausibility->more_unusual_share << "% of the survey's "
+              << (plausibility->male ? "men" : "women") << " are more unusual (" << plausibility->measures << " measures)\n";
+  for (const auto& w : warnings) std::cout << "  warning: " << w << "\n";
   return 0;
 }
 

@@ -8,6 +8,7 @@
 #include "posekit/core/error.h"
 #include "posekit/population/ansur.h"
 #include "posekit/population/survey_fit.h"
+#include "posekit/population/survey_plausibility.h"
 #include "posekit/registration/shape_space.h"
 #include "posekit/shape/measurements.h"
 #include "testing/makehuman_fixture.h"
@@ -212,4 +213,42 @@ TEST(PopulationSpace, IsThePcaOfTheFullBodies) {
   }
   EXPECT_NEAR(report.worst_rms.back(), worst, 1e-9);
   EXPECT_THROW(population_shape_space(model, {specs[0]}, "one"), InvalidInput);
+}
+
+TEST(SurveyPlausibility, AnAverageBodyIsUsualAndAnInflatedGirthIsNamed) {
+  POSEKIT_REQUIRE_MAKEHUMAN();
+  const SurveyDistribution d = survey_distribution(read_ansur2(ansur_folder()), "ANSUR II");
+  SurveyMask all;
+  all.fill(true);
+  SurveyValues mean_man;
+  for (int m = 0; m < kSurveyMeasureCount; ++m) mean_man[m] = d.mean[1][m];
+  const Plausibility average = judge_plausibility(d, mean_man, all);
+  EXPECT_TRUE(average.male);
+  EXPECT_LT(average.distance, 1e-6);
+  EXPECT_GT(average.more_unusual_share, 0.999);
+  // A chest 30% fuller than the rest of an average man says: rarer than any man of the survey, and
+  // the chest is the measure to doubt; the others predict about the mean chest.
+  SurveyValues inflated = mean_man;
+  inflated[1] *= 1.3;
+  const Plausibility p = judge_plausibility(d, inflated, all);
+  EXPECT_LT(p.more_unusual_share, 0.001);
+  EXPECT_EQ(p.most_unusual, SurveyMeasure::kChestCircumference);
+  EXPECT_GT(p.most_unusual_z, 4.0);
+  EXPECT_NEAR(p.expected_given_others, mean_man[1], 0.05 * mean_man[1]);
+  // posekit measure's girths on the MakeHuman templates read as ordinary adults of their sex.
+  for (int male = 0; male < 2; ++male) {
+    BodySpec s;
+    s.gender = male;
+    const Body body = build_body(model, s);
+    SurveyValues values;
+    const SurveyMask given = survey_values_of(measure_body(body.mesh.V, body.mesh.F), &values);
+    EXPECT_EQ(std::count(given.begin(), given.end(), true), 6);
+    const Plausibility t = judge_plausibility(d, values, given);
+    EXPECT_EQ(t.male, male == 1);
+    EXPECT_GT(t.more_unusual_share, 0.01) << male << " " << t.distance;
+  }
+  SurveyMask one{};
+  one[0] = true;
+  EXPECT_THROW(judge_plausibility(d, mean_man, one), InvalidInput);
+  EXPECT_THROW(survey_distribution(std::vector<SurveySubject>(5), "five"), InvalidInput);
 }

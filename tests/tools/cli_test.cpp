@@ -614,6 +614,13 @@ TEST(Cli, CompareMeasureAndView) {
   EXPECT_NEAR(levels["arms_separate"].get<double>(), truth["arms_separate"].get<double>(), 0.003);
   EXPECT_NEAR(levels["bust"].get<double>(), truth["bust"].get<double>(), 0.01);
   EXPECT_LE(levels["bust"].get<double>(), levels["arms_separate"].get<double>() - 0.0099);
+  // Its proportions judged against ANSUR II: within the survey's men, no warning; a survey that is not there
+  // when named is an error.
+  const auto plausibility = nlohmann::json::parse(r.out)["plausibility"];
+  EXPECT_EQ(plausibility["measures"].get<int>(), 6) << plausibility.dump();
+  EXPECT_GT(plausibility["more_unusual_share"].get<double>(), 0.001) << plausibility.dump();
+  EXPECT_EQ(r.out.find("rarer than 1 in 1,000"), std::string::npos);
+  EXPECT_EQ(run("measure " + subject + " --survey " + dir.file("no-survey.csv")).code, 1);
   const TriangleMesh err = read_mesh(dir.file("err.ply"));
   EXPECT_EQ(err.vertex_scalars.count("signed_distance_mm"), 1u);
   EXPECT_EQ(err.vertex_scalars.count("covered"), 1u);
