@@ -1,7 +1,6 @@
 // posekit measure <mesh|cloud>: stature and tape girths of a standing body, with the features used.
 #include <algorithm>
 #include <cmath>
-#include <filesystem>
 #include <memory>
 #include <sstream>
 #include <iomanip>
@@ -35,9 +34,7 @@ std::unique_ptr<SurveyDistribution> load_survey(const std::string& survey_arg, s
     } catch (const IoError&) {
     }
     const std::string path = find_ansur_root(survey_arg, makehuman_root);
-    const std::vector<SurveySubject> subjects =
-        std::filesystem::is_directory(path) ? read_ansur2(path) : read_survey_csv(path);
-    return std::make_unique<SurveyDistribution>(survey_distribution(subjects, path));
+    return std::make_unique<SurveyDistribution>(survey_distribution(read_survey(path), path));
   } catch (const Error& e) {
     if (!survey_arg.empty()) throw;  // the user named it: a bad survey is an error
     *why_not = e.what();

@@ -43,8 +43,49 @@ nlohmann::ordered_json stats_json(const ResidualStats& s) {
           {"max_mm", 1000 * s.worst}};
 }
 
-std::vector<SurveySubject> read_survey(const std::string& path) {
-  return std::filesystem::is_directory(path) ? read_ansur2(path) : read_survey_csv(path);
+/// The residuals per measure and sex, and the components' curve.
+nlohmann::ordered_json fit_summary(const std::string& survey_path, const std::vector<SurveySubject>& subjects,
+                                   const std::vector<SurveyFit>& fits, const PopulationSpaceReport& report) {
+  int men = 0;
+  for (const auto& s : subjects) men += s.male;
+  nlohmann::ordered_json summary;
+  summary["survey"] = survey_path;
+  summary["subjects"] = subjects.size();
+  summary["men"] = men;
+  summary["women"] = static_cast<int>(subjects.size()) - men;
+  for (int m = 0; m < kSurveyMeasureCount; ++m) {
+    auto& j = summary["residuals"][survey_measure_name(static_cast<SurveyMeasure>(m))];
+    j["column"] = survey_column(static_cast<SurveyMeasure>(m));
+    j["men"] = stats_json(residual_stats(fits, subjects, m, 1));
+    j["women"] = stats_json(residual_stats(fits, subjects, m, 0));
+  }
+  summary["varying_targets"] = report.varying_targets;
+  summary["components"] = report.components;
+  summary["variance_kept"] = report.variance_kept.empty() ? 0.0 : report.variance_kept.back();
+  summary["worst_rms_mm"] = report.worst_rms.empty() ? 0.0 : 1000 * report.worst_rms.back();
+  summary["mean_rms_mm"] = report.mean_rms.empty() ? 0.0 : 1000 * report.mean_rms.back();
+  for (size_t k = 0; k < report.variance_kept.size(); ++k)
+    summary["components_curve"].push_back({{"components", k + 1}, {"variance_kept", report.variance_kept[k]},
+                                           {"worst_rms_mm", 1000 * report.worst_rms[k]}, {"mean_rms_mm", 1000 * report.mean_rms[k]}});
+  return summary;
+}
+
+void print_residual_table(const nlohmann::ordered_json& summary) {
+  std::cout << "Fit residuals (fitted body minus survey, mm): bias / mean absolute / 95th percentile\n\n"
+            << "| measure | men | women |\n| --- | --- | --- |\n"
+            << std::fixed << std::setprecision(1);
+  for (const auto& [name, stats] : summary["residuals"].items()) {
+    std::cout << "| " << name;
+    for (const char* sex : {"men", "women"})
+      std::cout << " | " << stats[sex]["bias_mm"].get<double>() << " / " << stats[sex]["mae_mm"].get<double>() << " / "
+                << stats[sex]["p95_mm"].get<double>();
+    std::cout << " |\n";
+  }
+  std::cout << "\nComponents: " << summary["components"].get<int>() << " keep " << std::setprecision(4)
+            << 100 * summary["variance_kept"].get<double>() << "% of the variance; every body within "
+            << std::setprecision(2) << summary["worst_rms_mm"].get<double>() << " mm RMS (mean "
+            << summary["mean_rms_mm"].get<double>() << " mm)\n";
+  std::cout.unsetf(std::ios::fixed);
 }
 
 }  // namespace
@@ -82,25 +123,7 @@ ShapeSpace survey_shape_space(const std::string& survey_arg, const std::string& 
                                  std::to_string(subjects.size() - men) + " women; 12 measurements)";
   ShapeSpace space = population_shape_space(*model, specs, population, po, &report);
 
-  nlohmann::ordered_json summary;
-  summary["survey"] = survey_path;
-  summary["subjects"] = subjects.size();
-  summary["men"] = men;
-  summary["women"] = static_cast<int>(subjects.size()) - men;
-  for (int m = 0; m < kSurveyMeasureCount; ++m) {
-    auto& j = summary["residuals"][survey_measure_name(static_cast<SurveyMeasure>(m))];
-    j["column"] = survey_column(static_cast<SurveyMeasure>(m));
-    j["men"] = stats_json(residual_stats(fits, subjects, m, 1));
-    j["women"] = stats_json(residual_stats(fits, subjects, m, 0));
-  }
-  summary["varying_targets"] = report.varying_targets;
-  summary["components"] = report.components;
-  summary["variance_kept"] = report.variance_kept.empty() ? 0.0 : report.variance_kept.back();
-  summary["worst_rms_mm"] = report.worst_rms.empty() ? 0.0 : 1000 * report.worst_rms.back();
-  summary["mean_rms_mm"] = report.mean_rms.empty() ? 0.0 : 1000 * report.mean_rms.back();
-  for (size_t k = 0; k < report.variance_kept.size(); ++k)
-    summary["components_curve"].push_back({{"components", k + 1}, {"variance_kept", report.variance_kept[k]},
-                                           {"worst_rms_mm", 1000 * report.worst_rms[k]}, {"mean_rms_mm", 1000 * report.mean_rms[k]}});
+  nlohmann::ordered_json summary = fit_summary(survey_path, subjects, fits, report);
   if (!residuals_path.empty()) {
     nlohmann::ordered_json out = summary;
     for (size_t i = 0; i < fits.size(); ++i) {
@@ -115,24 +138,7 @@ ShapeSpace survey_shape_space(const std::string& survey_arg, const std::string& 
     }
     write_file_atomically(residuals_path, [&](std::ostream& o) { o << out.dump(1) << "\n"; });
   }
-  if (!quiet) {
-    std::cout << "Fit residuals (fitted body minus survey, mm): bias / mean absolute / 95th percentile\n\n"
-              << "| measure | men | women |\n| --- | --- | --- |\n"
-              << std::fixed << std::setprecision(1);
-    for (int m = 0; m < kSurveyMeasureCount; ++m) {
-      std::cout << "| " << survey_measure_name(static_cast<SurveyMeasure>(m));
-      for (int sex : {1, 0}) {
-        const ResidualStats s = residual_stats(fits, subjects, m, sex);
-        std::cout << " | " << 1000 * s.bias << " / " << 1000 * s.mae << " / " << 1000 * s.p95;
-      }
-      std::cout << " |\n";
-    }
-    std::cout << "\nComponents: " << report.components << " keep " << std::setprecision(4)
-              << 100 * summary["variance_kept"].get<double>() << "% of the variance; every body within "
-              << std::setprecision(2) << summary["worst_rms_mm"].get<double>() << " mm RMS (mean "
-              << summary["mean_rms_mm"].get<double>() << " mm)\n";
-    std::cout.unsetf(std::ios::fixed);
-  }
+  if (!quiet) print_residual_table(summary);
   return space;
 }
 

@@ -118,6 +118,10 @@ std::vector<SurveySubject> read_ansur2(const std::string& folder) {
   return all;
 }
 
+std::vector<SurveySubject> read_survey(const std::string& path) {
+  return std::filesystem::is_directory(path) ? read_ansur2(path) : read_survey_csv(path);
+}
+
 std::string find_ansur_root(const std::string& explicit_path, const std::string& makehuman_root) {
   namespace fs = std::filesystem;
   if (!explicit_path.empty()) {

@@ -55,6 +55,9 @@ std::vector<SurveySubject> read_survey_csv(const std::string& path);
 /// Throws IoError naming a missing file.
 std::vector<SurveySubject> read_ansur2(const std::string& folder);
 
+/// Reads a survey from a path: ANSUR II's folder (read_ansur2) or one CSV (read_survey_csv).
+std::vector<SurveySubject> read_survey(const std::string& path);
+
 /// Locates ANSUR II: `explicit_path` when not empty, else the POSEKIT_ANSUR environment variable, else
 /// the folder `ansur2` beside the MakeHuman data root (../shared/datasets/ansur2). Throws IoError
 /// saying where it looked.
