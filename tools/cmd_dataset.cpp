@@ -12,6 +12,7 @@
 #include "posekit/core/error.h"
 #include "posekit/datasets/dataset.h"
 #include "posekit/datasets/robustness.h"
+#include "posekit/population/survey_fit.h"
 #include "posekit/io/atomic_file.h"
 
 namespace posekit::cli {
@@ -36,6 +37,21 @@ int make_robustness(const ArgParser& args) {
   o.shapes = static_cast<int>(shapes);
   o.only = split_list(args.get("variations"));
   o.force = args.flag_set("force");
+  const std::string population = args.get("population");
+  if (population == "ansur") {
+    // Real proportions: MakeHuman fitted to survey subjects drawn with the seed, women and men alternately.
+    const std::string survey = find_ansur_root(args.has("survey") ? args.get("survey") : "", o.data_root);
+    const std::vector<SurveySubject> drawn = sample_survey(read_survey(survey), o.shapes, o.seed);
+    const SurveyBodyFitter fitter(load_makehuman_model(o.data_root));
+    std::string ids;
+    for (const SurveySubject& subject : drawn) {
+      o.shape_specs.push_back(fitter.fit(subject).spec);
+      ids += (ids.empty() ? "" : " ") + subject.id;
+    }
+    o.shapes_source = "MakeHuman fitted to subjects of " + survey + ": " + ids;
+  } else if (population != "makehuman") {
+    throw UsageError("--population is makehuman or ansur, not '" + population + "'");
+  }
   std::optional<Progress> progress;
   o.progress = [&](int done, int total, const std::string&) {
     if (!progress) progress.emplace("dataset make --robustness", total);
@@ -78,12 +94,17 @@ int dataset_make(int argc, char** argv) {
       .flag("robustness", "write the robustness set (for posekit eval bodies) instead")
       .option("shapes", "N", "robustness set: body shapes, each in every variation", "10")
       .option("variations", "LIST", "robustness set: only these variations (comma-separated names)")
+      .option("population", "P", "robustness set: the shapes' proportions: makehuman (random sliders) or ansur (MakeHuman fitted\n"
+              "                          to ANSUR II subjects drawn with the seed, women and men alternately)", "makehuman")
+      .option("survey", "DIR|FILE", "--population ansur: ANSUR II's folder or a survey CSV (default: $POSEKIT_ANSUR, else ansur2 "
+              "beside the data root)")
       .flag("force", "replace an existing output folder")
       .flag("json", "summary as JSON on stdout")
       .example("posekit dataset make --out dataset")
       .example("posekit dataset make --out small --small --seed 7")
       .example("posekit dataset make --out anatomical --driving anatomical")
-      .example("posekit dataset make --robustness --out robustness");
+      .example("posekit dataset make --robustness --out robustness")
+      .example("posekit dataset make --robustness --population ansur --out robustness-ansur");
   if (!args.parse(argc, argv)) return 0;
   if (!args.has("out")) throw UsageError("--out DIR is required");
   if (args.flag_set("robustness")) return make_robustness(args);

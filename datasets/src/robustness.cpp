@@ -284,7 +284,7 @@ RobustnessSummary make_robustness_set(const std::string& out_dir, const Robustne
   }
   for (const auto& v : kVariations)
     if (o.only.empty() || std::find(o.only.begin(), o.only.end(), v.name) != o.only.end()) chosen.push_back(v);
-  if (o.shapes < 1) throw InvalidInput("robustness set: at least one shape is needed");
+  if (o.shape_specs.empty() && o.shapes < 1) throw InvalidInput("robustness set: at least one shape is needed");
 
   const fs::path out = fs::absolute(out_dir).lexically_normal();
   std::error_code ec;
@@ -298,11 +298,12 @@ RobustnessSummary make_robustness_set(const std::string& out_dir, const Robustne
     const auto model = load_makehuman_model(o.data_root);
     const PoseUnits units = read_pose_units(model->data_root + "/poseunits/body-poseunits.json");
     const Eigen::VectorXi rest_labels = triangle_part_labels(model->body_F, vertex_part_labels(*model));
-    const auto specs = robustness_shapes(o.seed, o.shapes);
+    const int shapes = o.shape_specs.empty() ? o.shapes : static_cast<int>(o.shape_specs.size());
+    const auto specs = o.shape_specs.empty() ? robustness_shapes(o.seed, o.shapes) : o.shape_specs;
     nlohmann::ordered_json bodies = nlohmann::ordered_json::array();
-    const int total = o.shapes * static_cast<int>(chosen.size());
+    const int total = shapes * static_cast<int>(chosen.size());
     int done = 0;
-    for (int k = 0; k < o.shapes; ++k) {
+    for (int k = 0; k < shapes; ++k) {
       char id[16];
       std::snprintf(id, sizeof id, "s%02d", k + 1);
       std::mt19937 rng(o.seed * 1000003u + static_cast<unsigned>(k));
@@ -516,7 +517,8 @@ RobustnessSummary make_robustness_set(const std::string& out_dir, const Robustne
     }
     nlohmann::ordered_json manifest;
     manifest["format"] = "posekit robustness set 1";
-    manifest["generator"] = {{"seed", o.seed}, {"shapes", o.shapes}, {"source", "MakeHuman CC0 assets (data root)"},
+    manifest["generator"] = {{"seed", o.seed}, {"shapes", shapes}, {"source", "MakeHuman CC0 assets (data root)"},
+                             {"shapes_from", o.shape_specs.empty() ? "random MakeHuman sliders" : o.shapes_source},
                              {"posing", "163-bone rig, MakeHuman skinning weights, dual quaternion skinning"}};
     nlohmann::ordered_json vars = nlohmann::ordered_json::array();
     for (const auto& v : chosen) vars.push_back({{"name", v.name}, {"description", v.description}});
@@ -528,7 +530,7 @@ RobustnessSummary make_robustness_set(const std::string& out_dir, const Robustne
     fs::rename(tmp, out);
     RobustnessSummary r;
     r.bodies = total;
-    r.shapes = o.shapes;
+    r.shapes = shapes;
     r.variations = static_cast<int>(chosen.size());
     r.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
     return r;

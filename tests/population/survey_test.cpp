@@ -4,6 +4,7 @@
 #include <algorithm>
 #include <filesystem>
 #include <random>
+#include <set>
 
 #include "posekit/core/error.h"
 #include "posekit/population/ansur.h"
@@ -251,4 +252,19 @@ TEST(SurveyPlausibility, AnAverageBodyIsUsualAndAnInflatedGirthIsNamed) {
   one[0] = true;
   EXPECT_THROW(judge_plausibility(d, mean_man, one), InvalidInput);
   EXPECT_THROW(survey_distribution(std::vector<SurveySubject>(5), "five"), InvalidInput);
+}
+
+TEST(Survey, SamplesWomenAndMenAlternatelyWithoutRepeats) {
+  std::vector<SurveySubject> subjects(7);
+  for (int i = 0; i < 7; ++i) subjects[i].id = std::to_string(i), subjects[i].male = i < 4;  // 4 men, 3 women
+  const auto a = sample_survey(subjects, 6, 9), b = sample_survey(subjects, 6, 9);
+  ASSERT_EQ(a.size(), 6u);
+  std::set<std::string> ids;
+  for (size_t k = 0; k < a.size(); ++k) {
+    EXPECT_EQ(a[k].male, k % 2 == 1) << k;
+    EXPECT_EQ(a[k].id, b[k].id);  // the same seed, the same draw
+    ids.insert(a[k].id);
+  }
+  EXPECT_EQ(ids.size(), 6u);
+  EXPECT_THROW(sample_survey(subjects, 7, 9), InvalidInput);  // a fourth woman
 }

@@ -829,6 +829,20 @@ TEST(Cli, ShapeSpaceOfBodiesFittedToAnsurII) {
   r = run("register " + ds + "/template/rest.ply " + ds + "/subjects/m01/rest.ply --shape-space " + space + " --json");
   ASSERT_EQ(r.code, 0) << r.out;
   EXPECT_LT(nlohmann::json::parse(r.out)["shape_space"]["median_distance_mm"].get<double>(), 3.0) << r.out;
+  // The robustness set in real proportions: bodies fitted to subjects drawn from the survey, which
+  // posekit measure then finds ordinary for the survey (no proportions warning).
+  r = run("dataset make --robustness --population ansur --shapes 2 --variations apose --seed 4 --out " + dir.file("rb") + " --json");
+  ASSERT_EQ(r.code, 0) << r.out;
+  const auto manifest = nlohmann::json::parse(read_file_bytes(dir.file("rb/manifest.json")));
+  EXPECT_NE(manifest["generator"]["shapes_from"].get<std::string>().find("MakeHuman fitted to subjects of"), std::string::npos);
+  ASSERT_EQ(manifest["bodies"].size(), 2u);
+  for (const auto& body : manifest["bodies"]) {
+    r = run("measure " + dir.file("rb/" + body["file"].get<std::string>()) + " --json");
+    ASSERT_EQ(r.code, 0) << r.out;
+    const auto p = nlohmann::json::parse(r.out)["plausibility"];
+    EXPECT_GT(p["more_unusual_share"].get<double>(), 0.001) << p.dump();
+  }
+  EXPECT_EQ(run("dataset make --robustness --population people --out " + dir.file("rb2")).code, 2);
   // Bad input names itself: a survey without a needed column, a missing file, two populations.
   dir.write("survey.csv", "SubjectId,Gender,stature\n1,Male,1700\n");
   r = run("shape-space --survey " + dir.file("survey.csv") + " --out " + dir.file("x.pks"), true);

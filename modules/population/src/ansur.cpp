@@ -4,7 +4,9 @@
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
+#include <algorithm>
 #include <map>
+#include <random>
 #include <sstream>
 
 #include "posekit/core/error.h"
@@ -116,6 +118,23 @@ std::vector<SurveySubject> read_ansur2(const std::string& folder) {
     all.insert(all.end(), std::make_move_iterator(part.begin()), std::make_move_iterator(part.end()));
   }
   return all;
+}
+
+std::vector<SurveySubject> sample_survey(const std::vector<SurveySubject>& subjects, int count, unsigned seed) {
+  std::vector<size_t> by_sex[2];
+  for (size_t i = 0; i < subjects.size(); ++i) by_sex[subjects[i].male].push_back(i);
+  std::mt19937 rng(seed);
+  for (auto& v : by_sex) std::shuffle(v.begin(), v.end(), rng);
+  std::vector<SurveySubject> out;
+  for (int k = 0; k < count; ++k) {
+    const int sex = k % 2;
+    const size_t taken = static_cast<size_t>(k / 2);
+    if (taken >= by_sex[sex].size())
+      throw InvalidInput("survey sample: " + std::to_string(count) + " subjects need " + std::to_string(taken + 1) + (sex ? " men" : " women") +
+                         ", the survey has " + std::to_string(by_sex[sex].size()));
+    out.push_back(subjects[by_sex[sex][taken]]);
+  }
+  return out;
 }
 
 std::vector<SurveySubject> read_survey(const std::string& path) {

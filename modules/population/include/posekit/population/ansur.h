@@ -55,6 +55,10 @@ std::vector<SurveySubject> read_survey_csv(const std::string& path);
 /// Throws IoError naming a missing file.
 std::vector<SurveySubject> read_ansur2(const std::string& folder);
 
+/// `count` subjects drawn at random from `subjects` with `seed`, women and men alternately (women
+/// first), none twice. Throws InvalidInput when a sex runs out.
+std::vector<SurveySubject> sample_survey(const std::vector<SurveySubject>& subjects, int count, unsigned seed);
+
 /// Reads a survey from a path: ANSUR II's folder (read_ansur2) or one CSV (read_survey_csv).
 std::vector<SurveySubject> read_survey(const std::string& path);
 
