@@ -24,6 +24,7 @@
 #include "posekit/deformation/pose_synthesis.h"
 #include "posekit/deformation/rigid_pose.h"
 #include "posekit/deformation/segmentation_calibration.h"
+#include "posekit/population/survey_fit.h"
 #include "posekit/evaluation/pose_evaluation.h"
 #include "posekit/io/bvh.h"
 #include "posekit/io/atomic_file.h"
@@ -200,6 +201,23 @@ PoseSynthesizer set_up_subject(std::shared_ptr<const PoseModel> model, const Tri
   }
 }
 
+/// --calibration-population: empty for random MakeHuman bodies, else `count` bodies fitted to subjects
+/// of the survey drawn with `seed` (both: and `count` random MakeHuman bodies besides).
+std::vector<BodySpec> calibration_population_specs(const ArgParser& args, int count, unsigned seed) {
+  const std::string population = args.get("calibration-population");
+  if (population == "makehuman") return {};
+  if (population != "ansur" && population != "both")
+    throw UsageError("--calibration-population is makehuman, ansur or both, not '" + population + "'");
+  const std::string data_root = find_data_root(args.has("data") ? args.get("data") : "");
+  const std::string survey = find_ansur_root(args.has("survey") ? args.get("survey") : "", data_root);
+  const SurveyBodyFitter fitter(load_makehuman_model(data_root));
+  std::vector<BodySpec> specs;
+  for (const SurveySubject& subject : sample_survey(read_survey(survey), count, seed)) specs.push_back(fitter.fit(subject).spec);
+  if (population == "both")
+    for (BodySpec& random : make_calibration_specs(seed, count)) specs.push_back(std::move(random));
+  return specs;
+}
+
 int run_train(int argc, char** argv) {
   ArgParser args("train",
                  "Learns the non-rigid pose deformation T^Q (Eq. 3-5): for every template triangle a 9 x 7 linear\n"
@@ -224,6 +242,12 @@ int run_train(int argc, char** argv) {
             "                          that rises with the arm), kept per joint where it lowers the training error")
       .option("smooth", "N", "extension beyond the paper, for noisy meshes: smooth each example's non-rigid deformation over N rounds of neighbouring triangles before Eq. 5", "0")
       .option("calibration-bodies", "N", "random MakeHuman bodies in the segmentation prior; 0: the template alone (default: 128)")
+      .option("calibration-population", "P", "the segmentation prior's bodies: makehuman (random sliders) or ansur (MakeHuman\n"
+              "                          fitted to ANSUR II subjects drawn at random, women and men alternately: real proportions)\n"
+              "                          or both (N of each)",
+              "makehuman")
+      .option("survey", "DIR|FILE", "--calibration-population ansur: ANSUR II's folder or a survey CSV (default: $POSEKIT_ANSUR, "
+              "else ansur2 beside the data root)")
       .option("data", "DIR", "MakeHuman data root, for the prior (default: POSEKIT_DATA or ../shared/...)")
       .flag("json", "summary as JSON on stdout")
       .example("posekit train --dataset out/dataset --out model.pkm")
@@ -265,6 +289,7 @@ int run_train(int argc, char** argv) {
     CalibrationOptions co;
     co.bodies = static_cast<int>(calibration_bodies);
     co.progress = [&](int done, int) { calibration.update(done); };
+    co.specs = calibration_population_specs(args, static_cast<int>(calibration_bodies), co.seed);
     prior = add_segmentation_prior(&model, args.has("data") ? args.get("data") : "", co);
     calibration.finish();
     if (!prior.not_made.empty()) std::cerr << "posekit train: segmentation prior is the template alone: " << prior.not_made << "\n";

@@ -843,6 +843,11 @@ TEST(Cli, ShapeSpaceOfBodiesFittedToAnsurII) {
     EXPECT_GT(p["more_unusual_share"].get<double>(), 0.001) << p.dump();
   }
   EXPECT_EQ(run("dataset make --robustness --population people --out " + dir.file("rb2")).code, 2);
+  // The segmentation prior of real proportions: survey subjects' bodies, or those and random ones.
+  r = run("train --dataset " + ds + " --calibration-population both --calibration-bodies 3 --out " + dir.file("m.pkm") + " --json");
+  ASSERT_EQ(r.code, 0) << r.out;
+  EXPECT_EQ(nlohmann::json::parse(run("info " + dir.file("m.pkm") + " --json").out)["segmentation_prior_bodies"].get<int>(), 7);
+  EXPECT_EQ(run("train --dataset " + ds + " --calibration-population people --out " + dir.file("n.pkm")).code, 2);
   // Bad input names itself: a survey without a needed column, a missing file, two populations.
   dir.write("survey.csv", "SubjectId,Gender,stature\n1,Male,1700\n");
   r = run("shape-space --survey " + dir.file("survey.csv") + " --out " + dir.file("x.pks"), true);

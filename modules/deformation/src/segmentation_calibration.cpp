@@ -18,7 +18,8 @@ namespace posekit {
 SegmentationPrior calibrate_segmentation(const MakeHumanModel& model, const CalibrationOptions& options, int* skipped) {
   if (options.bodies < 0) throw InvalidInput("calibrate_segmentation: the body count must not be negative");
   std::vector<BodySpec> specs{BodySpec{}};
-  for (BodySpec& s : make_calibration_specs(options.seed, options.bodies)) specs.push_back(std::move(s));
+  const std::vector<BodySpec> others = options.specs.empty() ? make_calibration_specs(options.seed, options.bodies) : options.specs;
+  specs.insert(specs.end(), others.begin(), others.end());
   const Eigen::VectorXi template_labels = triangle_part_labels(model.body_F, vertex_part_labels(model));
   std::vector<std::optional<CalibrationBody>> bodies(specs.size());
   std::mutex progress_mutex;

@@ -3,6 +3,9 @@
 // their part labels and joints come from the rig, so every body is labelled without hand work.
 #include <functional>
 #include <string>
+#include <vector>
+
+#include "posekit/body/body_spec.h"
 
 #include "posekit/segmentation/segmentation_prior.h"
 
@@ -13,6 +16,9 @@ struct PoseModel;
 
 struct CalibrationOptions {
   int bodies = 128;          ///< random bodies besides the default one (make_calibration_specs)
+  /// The bodies besides the default one when not empty (e.g. MakeHuman fitted to survey subjects,
+  /// population/survey_fit.h); `bodies` and `seed` are then not used.
+  std::vector<BodySpec> specs;
   unsigned seed = 20131122;  ///< not the dataset's subject seed, so no test subject is a calibration body
   int threads = 0;           ///< 0: all cores
   std::function<void(int, int)> progress;  ///< (bodies done, total), from any thread, serialised
