@@ -28,7 +28,7 @@ std::string survey_csv(const std::string& row2) {
   std::string header = "SubjectId,Gender,unused", row1 = "7,Male,1";
   for (int m = kSurveyMeasureCount - 1; m >= 0; --m) {
     header += std::string(",") + survey_column(static_cast<SurveyMeasure>(m));
-    row1 += "," + std::to_string(100 * (m + 1));
+    row1 += "," + std::to_string(1000 + 100 * m);
   }
   return header + "\r\n" + row1 + "\r\n" + row2 + "\n";
 }
@@ -53,13 +53,13 @@ const SurveyBodyFitter& fitter() {
 TEST(Survey, ReadsColumnsByNameInMetresAndNamesTheBadCell) {
   test::TempDir dir;
   std::string row2 = "8,Female,1";
-  for (int m = 0; m < kSurveyMeasureCount; ++m) row2 += ",500";
+  for (int m = 0; m < kSurveyMeasureCount; ++m) row2 += ",600";
   const auto subjects = read_survey_csv(dir.write("s.csv", survey_csv(row2)));
   ASSERT_EQ(subjects.size(), 2u);
   EXPECT_EQ(subjects[0].id, "7");
   EXPECT_TRUE(subjects[0].male);
   EXPECT_FALSE(subjects[1].male);
-  for (int m = 0; m < kSurveyMeasureCount; ++m) EXPECT_NEAR(subjects[0].values[m], 0.1 * (m + 1), 1e-12) << m;
+  for (int m = 0; m < kSurveyMeasureCount; ++m) EXPECT_NEAR(subjects[0].values[m], 1.0 + 0.1 * m, 1e-12) << m;
 
   std::string bad = "9,Female,1";
   for (int m = 0; m < kSurveyMeasureCount; ++m) bad += m == 3 ? ",n/a" : ",500";
@@ -71,6 +71,9 @@ TEST(Survey, ReadsColumnsByNameInMetresAndNamesTheBadCell) {
     EXPECT_NE(std::string(e.what()).find("'n/a', expected a positive number"), std::string::npos) << e.what();
   }
   EXPECT_THROW(read_survey_csv(dir.write("short.csv", survey_csv("9,Female,1,500"))), InvalidInput);
+  std::string centimetres = "9,Female,1";  // stature 50.0: another unit
+  for (int m = 0; m < kSurveyMeasureCount; ++m) centimetres += ",50";
+  EXPECT_THROW(read_survey_csv(dir.write("cm.csv", survey_csv(centimetres))), InvalidInput);
   std::string unknown_sex = "9,X,1";
   for (int m = 0; m < kSurveyMeasureCount; ++m) unknown_sex += ",500";
   EXPECT_THROW(read_survey_csv(dir.write("sex.csv", survey_csv(unknown_sex))), InvalidInput);

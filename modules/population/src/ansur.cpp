@@ -100,6 +100,9 @@ std::vector<SurveySubject> read_survey_csv(const std::string& path) {
     else if (sex == "female" || sex == "f") s.male = false;
     else throw InvalidInput(where + ": column '" + header[sex_column] + "' is '" + f[sex_column] + "', expected Male or Female");
     for (int m = 0; m < kSurveyMeasureCount; ++m) s.values[m] = number(measure_column[m]) / 1000.0;
+    const double stature = s.values[static_cast<int>(SurveyMeasure::kStature)];
+    if (stature < 0.5 || stature > 2.6)
+      throw InvalidInput(where + ": stature " + f[measure_column[0]] + " is not an adult's in millimetres (expected 500-2600)");
     if (race_column >= 0) s.race = static_cast<int>(number(race_column));
     if (weight_column >= 0) s.weight_kg = number(weight_column) / 10.0;
     subjects.push_back(std::move(s));

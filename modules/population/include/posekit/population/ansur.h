@@ -48,7 +48,8 @@ struct SurveySubject {
 /// of every SurveyMeasure and a sex column (`Gender`: Male/Female, or `sex`: M/F), reads `SubjectId`,
 /// `DODRace` and `weightkg` (tenths of a kg) when present. Millimetres become metres. Throws IoError
 /// for an unreadable file, InvalidInput naming the file, line and column for a missing column, a
-/// row of another length or a value that is not a positive number.
+/// row of another length, a value that is not a positive number or a stature outside 500-2600 mm
+/// (another unit).
 std::vector<SurveySubject> read_survey_csv(const std::string& path);
 
 /// Reads ANSUR II from its folder: ANSUR_II_MALE_Public.csv and ANSUR_II_FEMALE_Public.csv, men first.
