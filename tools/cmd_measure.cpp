@@ -42,6 +42,13 @@ std::unique_ptr<SurveyDistribution> load_survey(const std::string& survey_arg, s
   }
 }
 
+nlohmann::json plausibility_json(const Plausibility* p, const SurveyDistribution* survey, const std::string& no_survey) {
+  if (!p) return {{"checked", false}, {"why", survey ? "fewer than 2 measures match the survey's" : no_survey}};
+  return {{"survey", survey->source}, {"as", p->male ? "man" : "woman"}, {"measures", p->measures}, {"distance", p->distance},
+          {"more_unusual_share", p->more_unusual_share}, {"least_expected", survey_measure_name(p->most_unusual)},
+          {"z", p->most_unusual_z}, {"expected_given_others", p->expected_given_others}};
+}
+
 /// A warning when the measurements are rarer than 1 in 1,000 of the survey's adults.
 std::string plausibility_warning(const Plausibility& p) {
   if (p.more_unusual_share >= 0.001) return "";
@@ -81,10 +88,10 @@ int run_measure(int argc, char** argv) {
   const BodyOrientation orientation = orient_body_input(&in, args.get("up"), args.get("forward"), path, "measure");
   const BodyOrientation shown = frame == "input" ? orientation : BodyOrientation{};
   const bool cloud = in.is_cloud;
+  std::string no_survey;  // read before measuring: a survey the user named and that is not there fails at once
+  const std::unique_ptr<SurveyDistribution> survey = load_survey(args.has("survey") ? args.get("survey") : "", &no_survey);
   const BodyMeasurements m = cloud ? measure_point_cloud(in.cloud.P) : measure_body(in.mesh.V, in.mesh.F);
   const BodyFeatures& f = m.features;
-  std::string no_survey;
-  const std::unique_ptr<SurveyDistribution> survey = load_survey(args.has("survey") ? args.get("survey") : "", &no_survey);
   SurveyValues survey_values;
   const SurveyMask given = survey_values_of(m, &survey_values);
   const int given_count = static_cast<int>(std::count(given.begin(), given.end(), true));
@@ -120,15 +127,7 @@ int run_measure(int argc, char** argv) {
                      {"left_hip_joint", point_in(shown, f.hip[kLeft])}, {"right_hip_joint", point_in(shown, f.hip[kRight])},
                      {"left_knee", point_in(shown, f.knee[kLeft])}, {"right_knee", point_in(shown, f.knee[kRight])},
                      {"left_ankle", point_in(shown, f.ankle[kLeft])}, {"right_ankle", point_in(shown, f.ankle[kRight])}};
-    if (plausibility) {
-      const Plausibility& p = *plausibility;
-      j["plausibility"] = {{"survey", survey->source}, {"as", p.male ? "man" : "woman"}, {"measures", p.measures},
-                           {"distance", p.distance}, {"more_unusual_share", p.more_unusual_share},
-                           {"least_expected", survey_measure_name(p.most_unusual)}, {"z", p.most_unusual_z},
-                           {"expected_given_others", p.expected_given_others}};
-    } else {
-      j["plausibility"] = {{"checked", false}, {"why", survey ? "fewer than 2 measures match the survey's" : no_survey}};
-    }
+    j["plausibility"] = plausibility_json(plausibility.get(), survey.get(), no_survey);
     j["warnings"] = warnings;
     std::cout << j.dump(2) << std::endl;
     return 0;
