@@ -249,82 +249,108 @@ std::vector<SurveyFit> fit_survey(const SurveyBodyFitter& fitter, const std::vec
   return fits;
 }
 
-ShapeSpace population_shape_space(const MakeHumanModel& model, const std::vector<BodySpec>& specs, std::string population,
-                                  const PopulationSpaceOptions& options, PopulationSpaceReport* report) {
-  if (specs.size() < 2) throw InvalidInput("population shape space: needs at least 2 bodies, got " + std::to_string(specs.size()));
+namespace {
+
+/// Each body's weight of every target (#specs x (#macro + #modifier targets)): macro targets by the
+/// product rule, modifiers by their side.
+Eigen::MatrixXd target_weights(const MakeHumanModel& model, const std::vector<BodySpec>& specs) {
   const int n_macro = static_cast<int>(model.macro_targets.size());
-  const int n_targets = n_macro + static_cast<int>(model.modifier_targets.size());
-  const int n = static_cast<int>(specs.size());
-  // Each body's weight of every target: macro targets by the product rule, modifiers by their side.
-  Eigen::MatrixXd W = Eigen::MatrixXd::Zero(n, n_targets);
-  for (int i = 0; i < n; ++i) {
-    for (int t = 0; t < n_macro; ++t) W(i, t) = macro_target_weight(model.macro_targets[t].variants, specs[i]);
+  Eigen::MatrixXd W = Eigen::MatrixXd::Zero(static_cast<Eigen::Index>(specs.size()), n_macro + model.modifier_targets.size());
+  for (size_t i = 0; i < specs.size(); ++i) {
+    const auto row = static_cast<Eigen::Index>(i);
+    for (int t = 0; t < n_macro; ++t) W(row, t) = macro_target_weight(model.macro_targets[t].variants, specs[i]);
     for (const auto& [name, value] : specs[i].modifiers) {
       const auto* mod = model.find_modifier(name);
       if (!mod) throw InvalidInput("population shape space: unknown modifier '" + name + "'");
-      if (value < 0 && mod->negative >= 0) W(i, n_macro + mod->negative) += -value;
-      if (value > 0 && mod->positive >= 0) W(i, n_macro + mod->positive) += value;
+      if (value < 0 && mod->negative >= 0) W(row, n_macro + mod->negative) += -value;
+      if (value > 0 && mod->positive >= 0) W(row, n_macro + mod->positive) += value;
     }
   }
-  const Eigen::RowVectorXd mean_w = W.colwise().mean();
-  std::vector<int> varying;
-  for (int t = 0; t < n_targets; ++t)
-    if ((W.col(t).array() - mean_w[t]).abs().maxCoeff() > 0) varying.push_back(t);
-  const int nv = model.num_body_vertices;
-  auto target_of = [&](int t) -> const MorphTarget& {
+  return W;
+}
+
+/// The population's mean skin (#body vertices x 3) and the targets whose weight varies, as columns
+/// of x0 y0 z0 x1 ... (`D`, 3 #body vertices x #varying), with the bodies' centred weights of them.
+struct TargetSpan {
+  Eigen::MatrixXd mean, D, centred_weights;
+};
+
+TargetSpan target_span(const MakeHumanModel& model, const Eigen::MatrixXd& W) {
+  const int n_macro = static_cast<int>(model.macro_targets.size()), nv = model.num_body_vertices;
+  auto target_of = [&](Eigen::Index t) -> const MorphTarget& {
     return t < n_macro ? model.macro_targets[t].target : model.modifier_targets[t - n_macro];
   };
-  // The mean body, and the varying targets as columns of x0 y0 z0 x1 ... (skin vertices only).
-  Eigen::MatrixXd mean = model.base_V.topRows(nv);
-  for (int t = 0; t < n_targets; ++t) {
+  const Eigen::RowVectorXd mean_w = W.colwise().mean();
+  std::vector<Eigen::Index> varying;
+  for (Eigen::Index t = 0; t < W.cols(); ++t)
+    if ((W.col(t).array() - mean_w[t]).abs().maxCoeff() > 0) varying.push_back(t);
+  TargetSpan span;
+  span.mean = model.base_V.topRows(nv);
+  for (Eigen::Index t = 0; t < W.cols(); ++t) {
     const MorphTarget& target = target_of(t);
     for (size_t k = 0; k < target.index.size(); ++k)
-      if (target.index[k] < nv) mean.row(target.index[k]) += mean_w[t] * target.delta.row(static_cast<Eigen::Index>(k));
+      if (target.index[k] < nv) span.mean.row(target.index[k]) += mean_w[t] * target.delta.row(static_cast<Eigen::Index>(k));
   }
-  const int m = static_cast<int>(varying.size());
-  Eigen::MatrixXd D = Eigen::MatrixXd::Zero(3 * nv, m);
-  for (int c = 0; c < m; ++c) {
+  const auto m = static_cast<Eigen::Index>(varying.size());
+  span.D = Eigen::MatrixXd::Zero(3 * nv, m);
+  span.centred_weights.resize(W.rows(), m);
+  for (Eigen::Index c = 0; c < m; ++c) {
     const MorphTarget& target = target_of(varying[c]);
     for (size_t k = 0; k < target.index.size(); ++k)
       if (target.index[k] < nv)
-        for (int d = 0; d < 3; ++d) D(3 * target.index[k] + d, c) = target.delta(static_cast<Eigen::Index>(k), d);
+        for (int d = 0; d < 3; ++d) span.D(3 * target.index[k] + d, c) = target.delta(static_cast<Eigen::Index>(k), d);
+    span.centred_weights.col(c) = W.col(varying[c]).array() - mean_w[varying[c]];
   }
-  Eigen::MatrixXd Wc(n, m);
-  for (int c = 0; c < m; ++c) Wc.col(c) = W.col(varying[c]).array() - mean_w[varying[c]];
-  // Bodies minus the mean are Wc D^T = Wc R^T Q^T with Q orthonormal: the PCA of M = Wc R^T is the PCA of the bodies.
-  const Eigen::HouseholderQR<Eigen::MatrixXd> qr(D);
-  const Eigen::MatrixXd R = qr.matrixQR().topRows(m).triangularView<Eigen::Upper>();
-  const Eigen::MatrixXd M = Wc * R.transpose();
-  const Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> eig(M.transpose() * M / static_cast<double>(n - 1));
-  const Eigen::VectorXd lambda = eig.eigenvalues().reverse().cwiseMax(0.0);
-  const Eigen::MatrixXd U = eig.eigenvectors().rowwise().reverse();
-  const double total = std::max(lambda.sum(), 1e-300);
+  return span;
+}
 
-  PopulationSpaceReport r;
-  const int k_max = std::min({options.max_components, m, n - 1});
+/// The fewest components (columns of U, by falling variance lambda) that reconstruct every body (rows
+/// of M, in an orthonormal basis) within options.max_rms over `vertices` vertices, at most
+/// options.max_components; the report gets the curve up to there.
+int choose_components(const Eigen::MatrixXd& M, const Eigen::MatrixXd& U, const Eigen::VectorXd& lambda, int vertices,
+                      const PopulationSpaceOptions& options, PopulationSpaceReport* r) {
+  const double total = std::max(lambda.sum(), 1e-300);
+  const int k_max = static_cast<int>(std::min<Eigen::Index>({options.max_components, U.cols(), M.rows() - 1}));
   Eigen::MatrixXd residual = M;  // rows: each body's part not yet explained
-  int kept = k_max;
   double share = 0;
   for (int k = 0; k < k_max; ++k) {
     residual -= (residual * U.col(k)) * U.col(k).transpose();
     share += lambda[k] / total;
-    const Eigen::VectorXd rms = (residual.rowwise().squaredNorm() / nv).cwiseSqrt();
-    r.variance_kept.push_back(share);
-    r.worst_rms.push_back(rms.maxCoeff());
-    r.mean_rms.push_back(rms.mean());
-    if (rms.maxCoeff() <= options.max_rms) {
-      kept = k + 1;
-      break;
-    }
+    const Eigen::VectorXd rms = (residual.rowwise().squaredNorm() / vertices).cwiseSqrt();
+    r->variance_kept.push_back(share);
+    r->worst_rms.push_back(rms.maxCoeff());
+    r->mean_rms.push_back(rms.mean());
+    if (rms.maxCoeff() <= options.max_rms) return k + 1;
   }
+  return k_max;
+}
+
+}  // namespace
+
+ShapeSpace population_shape_space(const MakeHumanModel& model, const std::vector<BodySpec>& specs, std::string population,
+                                  const PopulationSpaceOptions& options, PopulationSpaceReport* report) {
+  if (specs.size() < 2) throw InvalidInput("population shape space: needs at least 2 bodies, got " + std::to_string(specs.size()));
+  const TargetSpan span = target_span(model, target_weights(model, specs));
+  const Eigen::Index m = span.D.cols();
+  // Bodies minus the mean are Wc D^T = Wc R^T Q^T with Q orthonormal: the PCA of M = Wc R^T is the PCA of the bodies.
+  const Eigen::HouseholderQR<Eigen::MatrixXd> qr(span.D);
+  const Eigen::MatrixXd R = qr.matrixQR().topRows(m).triangularView<Eigen::Upper>();
+  const Eigen::MatrixXd M = span.centred_weights * R.transpose();
+  const Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> eig(M.transpose() * M / static_cast<double>(specs.size() - 1));
+  const Eigen::VectorXd lambda = eig.eigenvalues().reverse().cwiseMax(0.0);
+  const Eigen::MatrixXd U = eig.eigenvectors().rowwise().reverse();
+
+  PopulationSpaceReport r;
+  const int kept = choose_components(M, U, lambda, model.num_body_vertices, options, &r);
   r.components = kept;
-  r.varying_targets = m;
+  r.varying_targets = static_cast<int>(m);
   ShapeSpace space;
-  space.mean = mean;
-  const Eigen::MatrixXd Q = qr.householderQ() * Eigen::MatrixXd::Identity(3 * nv, m);
+  space.mean = span.mean;
+  const Eigen::MatrixXd Q = qr.householderQ() * Eigen::MatrixXd::Identity(span.D.rows(), m);
   space.basis = Q * (U.leftCols(kept) * lambda.head(kept).cwiseSqrt().asDiagonal());
+  const double total = std::max(lambda.sum(), 1e-300);
   for (int k = 0; k < kept; ++k) space.variance_share.push_back(lambda[k] / total);
-  space.bodies = n;
+  space.bodies = static_cast<int>(specs.size());
   space.population = std::move(population);
   space.faces = model.body_F;
   if (report) *report = std::move(r);
