@@ -6,6 +6,7 @@
 #include <random>
 #include <set>
 
+#include "posekit/body/parts.h"
 #include "posekit/core/error.h"
 #include "posekit/population/ansur.h"
 #include "posekit/population/survey_fit.h"
@@ -200,6 +201,16 @@ TEST(PopulationSpace, IsThePcaOfTheFullBodies) {
   }
   EXPECT_LT(report.worst_rms.back(), 1e-9);
   EXPECT_EQ(space.faces, model.body_F);
+  // The joints move with the same coefficients as the skin: exact with every component kept.
+  ASSERT_TRUE(space.has_joints());
+  for (size_t i = 0; i < specs.size(); ++i) {
+    Eigen::VectorXd d(3 * bodies[i].rows());
+    for (Eigen::Index v = 0; v < bodies[i].rows(); ++v) d.segment<3>(3 * v) = (bodies[i].row(v) - space.mean.row(v)).transpose();
+    const Eigen::VectorXd c = (space.basis.transpose() * space.basis).ldlt().solve(space.basis.transpose() * d);
+    const Eigen::MatrixXd truth = joint_centres(model.rig, build_body(model, specs[i]));
+    EXPECT_LT((space.joints(c) - truth).cwiseAbs().maxCoeff(), 1e-9) << i;
+    EXPECT_LT((space.body(c) - bodies[i]).cwiseAbs().maxCoeff(), 1e-9) << i;
+  }
   // Fewer components: the report's worst error is that of the bodies projected onto them.
   o.max_rms = 1.0, o.max_components = 3;
   const ShapeSpace three = population_shape_space(model, specs, "test", o, &report);

@@ -14,6 +14,7 @@
 #include "posekit/core/error.h"
 #include "posekit/core/mesh_geometry.h"
 #include "posekit/datasets/remesh.h"
+#include "posekit/body/parts.h"
 #include "posekit/datasets/robustness.h"
 #include "posekit/io/atomic_file.h"
 #include "posekit/io/checksum.h"
@@ -443,6 +444,24 @@ TEST(ShapeSpace, AlignsBodiesRigidlyAndRoundTripsThroughAFile) {
   EXPECT_EQ(read.variance_share, space.variance_share);
   EXPECT_EQ(read.population, "five spheres");
   EXPECT_EQ(read.bodies, 5);
+  EXPECT_FALSE(read.has_joints());
+  // Joints (version 2) come back as they were; a version 1 file (no joints section) is still read.
+  ShapeSpace jointed = space;
+  jointed.joint_mean = Eigen::MatrixXd::Random(kNumJoints, 3);
+  jointed.joint_basis = Eigen::MatrixXd::Random(3 * kNumJoints, space.components());
+  write_shape_space(dir.path() + "/joints.pks", jointed);
+  const ShapeSpace jointed_read = read_shape_space(dir.path() + "/joints.pks");
+  EXPECT_TRUE(jointed_read.joint_mean == jointed.joint_mean && jointed_read.joint_basis == jointed.joint_basis);
+  EXPECT_LT((jointed_read.joints(Eigen::VectorXd::Ones(2)) - jointed.joint_mean - (jointed.joint_basis.leftCols(2).rowwise().sum()).reshaped(3, kNumJoints).transpose()).cwiseAbs().maxCoeff(), 1e-12);
+  {
+    std::string v1 = read_file_bytes(path);
+    v1.resize(v1.size() - 8);  // the CRC and the joint count (0)
+    const std::uint32_t one = 1;
+    std::memcpy(&v1[8], &one, 4);
+    write_file_with_crc32(dir.path() + "/v1.pks", v1);
+    const ShapeSpace old = read_shape_space(dir.path() + "/v1.pks");
+    EXPECT_TRUE(old.mean == space.mean && old.basis == space.basis && !old.has_joints());
+  }
   ShapeSpace unknown_triangles = space;  // learned through the API: no triangles recorded
   unknown_triangles.faces.resize(0, 3);
   write_shape_space(dir.path() + "/no_faces.pks", unknown_triangles);

@@ -9,6 +9,7 @@
 #include <mutex>
 #include <thread>
 
+#include "posekit/body/parts.h"
 #include "posekit/core/error.h"
 
 namespace posekit {
@@ -270,9 +271,10 @@ Eigen::MatrixXd target_weights(const MakeHumanModel& model, const std::vector<Bo
 }
 
 /// The population's mean skin (#body vertices x 3) and the targets whose weight varies, as columns
-/// of x0 y0 z0 x1 ... (`D`, 3 #body vertices x #varying), with the bodies' centred weights of them.
+/// of x0 y0 z0 x1 ... (`D`, 3 #body vertices x #varying), with the bodies' centred weights of them;
+/// the same of the 15 joint centres (means of the rig's helper vertex groups, linear in the targets).
 struct TargetSpan {
-  Eigen::MatrixXd mean, D, centred_weights;
+  Eigen::MatrixXd mean, D, centred_weights, joint_mean, joint_D;
 };
 
 TargetSpan target_span(const MakeHumanModel& model, const Eigen::MatrixXd& W) {
@@ -285,20 +287,43 @@ TargetSpan target_span(const MakeHumanModel& model, const Eigen::MatrixXd& W) {
   for (Eigen::Index t = 0; t < W.cols(); ++t)
     if ((W.col(t).array() - mean_w[t]).abs().maxCoeff() > 0) varying.push_back(t);
   TargetSpan span;
+  // Each base vertex's share in the joints whose helper group holds it.
+  std::vector<std::vector<std::pair<int, double>>> in_joint(static_cast<size_t>(model.base_V.rows()));
+  const auto roots = part_root_bones(model.rig);
+  for (int j = 0; j < kNumJoints; ++j) {
+    const auto& group = model.rig.head_vertices[static_cast<size_t>(roots[static_cast<size_t>(j + 1)])];
+    for (int v : group) in_joint[static_cast<size_t>(v)].emplace_back(j, 1.0 / static_cast<double>(group.size()));
+  }
+  // Adds `w` times a target's (or the base mesh's) displacement of the joints to column `col` of J (3 #joints rows).
+  auto add_joints = [&](Eigen::Ref<Eigen::VectorXd> J, const std::vector<int>& index, const auto& delta, double w) {
+    for (size_t k = 0; k < index.size(); ++k)
+      for (const auto& [j, share] : in_joint[static_cast<size_t>(index[k])])
+        J.segment<3>(3 * j) += w * share * delta.row(static_cast<Eigen::Index>(k)).transpose();
+  };
   span.mean = model.base_V.topRows(nv);
+  Eigen::VectorXd joint_mean = Eigen::VectorXd::Zero(3 * kNumJoints);
+  {
+    std::vector<int> all(static_cast<size_t>(model.base_V.rows()));
+    for (size_t v = 0; v < all.size(); ++v) all[v] = static_cast<int>(v);
+    add_joints(joint_mean, all, model.base_V, 1.0);
+  }
   for (Eigen::Index t = 0; t < W.cols(); ++t) {
     const MorphTarget& target = target_of(t);
     for (size_t k = 0; k < target.index.size(); ++k)
       if (target.index[k] < nv) span.mean.row(target.index[k]) += mean_w[t] * target.delta.row(static_cast<Eigen::Index>(k));
+    add_joints(joint_mean, target.index, target.delta, mean_w[t]);
   }
+  span.joint_mean = joint_mean.reshaped(3, kNumJoints).transpose();
   const auto m = static_cast<Eigen::Index>(varying.size());
   span.D = Eigen::MatrixXd::Zero(3 * nv, m);
+  span.joint_D = Eigen::MatrixXd::Zero(3 * kNumJoints, m);
   span.centred_weights.resize(W.rows(), m);
   for (Eigen::Index c = 0; c < m; ++c) {
     const MorphTarget& target = target_of(varying[c]);
     for (size_t k = 0; k < target.index.size(); ++k)
       if (target.index[k] < nv)
         for (int d = 0; d < 3; ++d) span.D(3 * target.index[k] + d, c) = target.delta(static_cast<Eigen::Index>(k), d);
+    add_joints(span.joint_D.col(c), target.index, target.delta, 1.0);
     span.centred_weights.col(c) = W.col(varying[c]).array() - mean_w[varying[c]];
   }
   return span;
@@ -348,6 +373,11 @@ ShapeSpace population_shape_space(const MakeHumanModel& model, const std::vector
   space.mean = span.mean;
   const Eigen::MatrixXd Q = qr.householderQ() * Eigen::MatrixXd::Identity(span.D.rows(), m);
   space.basis = Q * (U.leftCols(kept) * lambda.head(kept).cwiseSqrt().asDiagonal());
+  // The joints' basis: the least-squares map from the bodies' coefficients to their joints (exact with
+  // every component kept; the coefficients are uncorrelated with unit variance, so it is a covariance).
+  const Eigen::MatrixXd C = M * U.leftCols(kept) * lambda.head(kept).cwiseMax(1e-300).cwiseSqrt().cwiseInverse().asDiagonal();
+  space.joint_mean = span.joint_mean;
+  space.joint_basis = span.joint_D * (span.centred_weights.transpose() * C) / static_cast<double>(specs.size() - 1);
   const double total = std::max(lambda.sum(), 1e-300);
   for (int k = 0; k < kept; ++k) space.variance_share.push_back(lambda[k] / total);
   space.bodies = static_cast<int>(specs.size());

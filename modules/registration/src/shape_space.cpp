@@ -36,7 +36,25 @@ double far_share(const std::vector<double>& d, double limit) {
   return static_cast<double>(std::count_if(d.begin(), d.end(), [&](double x) { return x > limit; })) / static_cast<double>(d.size());
 }
 
+/// mean + basis * c read as rows of 3 (c may be shorter than the basis: the rest are 0).
+Eigen::MatrixXd add_components(const Eigen::MatrixXd& mean, const Eigen::MatrixXd& basis, const Eigen::VectorXd& c) {
+  if (c.size() > basis.cols())
+    throw InvalidInput("shape space: " + std::to_string(c.size()) + " coefficients for " + std::to_string(basis.cols()) +
+                       " components");
+  const Eigen::VectorXd flat = basis.leftCols(c.size()) * c;
+  Eigen::MatrixXd out = mean;
+  for (Eigen::Index i = 0; i < out.rows(); ++i) out.row(i) += flat.segment<3>(3 * i).transpose();
+  return out;
+}
+
 }  // namespace
+
+Eigen::MatrixXd ShapeSpace::body(const Eigen::VectorXd& c) const { return add_components(mean, basis, c); }
+
+Eigen::MatrixXd ShapeSpace::joints(const Eigen::VectorXd& c) const {
+  if (!has_joints()) throw InvalidInput("shape space: it does not know the joints (" + population + ")");
+  return add_components(joint_mean, joint_basis, c);
+}
 
 ShapeSpace learn_shape_space(const std::vector<Eigen::MatrixXd>& bodies, double variance_kept, int max_components,
                              std::string population) {

@@ -15,7 +15,8 @@ namespace posekit {
 namespace {
 
 constexpr char kMagic[8] = {'P', 'O', 'S', 'E', 'K', 'P', 'K', 'S'};
-constexpr std::uint32_t kVersion = 1;
+// Version 2 adds the joints (a count, then their mean and basis); version 1 files are still read.
+constexpr std::uint32_t kVersion = 2;
 
 template <typename T>
 void put(std::ostream& os, const T& value) {
@@ -55,7 +56,8 @@ class Reader {
 void write_shape_space(const std::string& path, const ShapeSpace& s) {
   const Eigen::Index nv = s.mean.rows(), K = s.basis.cols();
   if (s.mean.cols() != 3 || s.basis.rows() != 3 * nv || static_cast<Eigen::Index>(s.variance_share.size()) != K ||
-      (s.faces.size() > 0 && s.faces.cols() != 3))
+      (s.faces.size() > 0 && s.faces.cols() != 3) ||
+      (s.has_joints() && (s.joint_mean.cols() != 3 || s.joint_basis.rows() != 3 * s.joint_mean.rows() || s.joint_basis.cols() != K)))
     throw InvalidInput("write_shape_space: inconsistent space (" + std::to_string(nv) + " vertices, basis " +
                        std::to_string(s.basis.rows()) + " x " + std::to_string(K) + ")");
   std::ostringstream os(std::ios::binary);
@@ -73,6 +75,11 @@ void write_shape_space(const std::string& path, const ShapeSpace& s) {
   for (Eigen::Index i = 0; i < nv; ++i)
     for (int c = 0; c < 3; ++c) put(os, s.mean(i, c));
   for (Eigen::Index k = 0; k < K; ++k) os.write(reinterpret_cast<const char*>(s.basis.col(k).data()), static_cast<std::streamsize>(3 * nv * sizeof(double)));
+  put(os, static_cast<std::uint32_t>(s.joint_mean.rows()));
+  for (Eigen::Index j = 0; j < s.joint_mean.rows(); ++j)
+    for (int c = 0; c < 3; ++c) put(os, s.joint_mean(j, c));
+  for (Eigen::Index k = 0; k < s.joint_basis.cols(); ++k)
+    for (Eigen::Index r = 0; r < s.joint_basis.rows(); ++r) put(os, s.joint_basis(r, k));
   write_file_with_crc32(path, os.str());
 }
 
@@ -88,8 +95,8 @@ ShapeSpace read_shape_space(const std::string& path) {
   Reader in(bytes, path);
   for (size_t k = 0; k < sizeof(kMagic); ++k) in.get<char>("the header");
   const auto version = in.get<std::uint32_t>("the header");
-  if (version != kVersion)
-    throw IoError(path + ": .pks version " + std::to_string(version) + ", this posekit reads version " + std::to_string(kVersion));
+  if (version != 1 && version != kVersion)
+    throw IoError(path + ": .pks version " + std::to_string(version) + ", this posekit reads versions 1 to " + std::to_string(kVersion));
   const auto nv = in.get<std::uint32_t>("the header"), K = in.get<std::uint32_t>("the header");
   const auto nf = in.get<std::uint32_t>("the header");
   ShapeSpace s;
@@ -117,12 +124,24 @@ ShapeSpace read_shape_space(const std::string& path) {
   Eigen::Matrix<double, Eigen::Dynamic, 3, Eigen::RowMajor> mean(nv, 3);
   in.values(mean.data(), static_cast<size_t>(nv) * 3, "the mean body");
   s.mean = mean;
-  if (static_cast<double>(nv) * 3 * K * sizeof(double) != static_cast<double>(in.left()))
+  const double basis_bytes = static_cast<double>(nv) * 3 * K * sizeof(double);
+  if (version == 1 ? basis_bytes != static_cast<double>(in.left()) : basis_bytes + 4 > static_cast<double>(in.left()))
     throw IoError(path + ": the basis of " + std::to_string(K) + " components of " + std::to_string(nv) +
-                  " vertices does not fill the rest of the file (" + std::to_string(in.left()) + " bytes)");
+                  " vertices does not fit the rest of the file (" + std::to_string(in.left()) + " bytes)");
   s.basis.resize(3 * static_cast<Eigen::Index>(nv), K);
   in.values(s.basis.data(), static_cast<size_t>(nv) * 3 * K, "the basis");
-  if (!s.mean.allFinite() || !s.basis.allFinite() ||
+  if (version >= 2) {
+    const auto nj = in.get<std::uint32_t>("the joint count");
+    if (static_cast<double>(nj) * 24 * (1.0 + K) != static_cast<double>(in.left()))
+      throw IoError(path + ": the joints (" + std::to_string(nj) + " of them, " + std::to_string(K) +
+                    " components) do not fill the rest of the file (" + std::to_string(in.left()) + " bytes)");
+    Eigen::Matrix<double, Eigen::Dynamic, 3, Eigen::RowMajor> joint_mean(nj, 3);
+    in.values(joint_mean.data(), static_cast<size_t>(nj) * 3, "the joints' mean");
+    s.joint_mean = joint_mean;
+    s.joint_basis.resize(3 * static_cast<Eigen::Index>(nj), K);
+    in.values(s.joint_basis.data(), static_cast<size_t>(nj) * 3 * K, "the joints' basis");
+  }
+  if (!s.mean.allFinite() || !s.basis.allFinite() || !s.joint_mean.allFinite() || !s.joint_basis.allFinite() ||
       !std::all_of(s.variance_share.begin(), s.variance_share.end(), [](double v) { return std::isfinite(v); }))
     throw IoError(path + ": the shape space holds a NaN or infinite value");
   return s;

@@ -23,9 +23,17 @@ struct ShapeSpace {
   /// The bodies' triangles when known (#F x 3; empty: not recorded): a source of another
   /// connectivity with the same vertex count is refused by register_bodies.
   Eigen::MatrixXi faces;
+  /// The body's 15 joint centres (see parts.h) when the space knows them (empty: it does not): the
+  /// mean's (#joints x 3, m) and each component's displacement of them (3 #joints x K, rows x0 y0 z0
+  /// x1 ...), so a body's joints are joint_mean + joint_basis * c exactly as its vertices are.
+  Eigen::MatrixXd joint_mean, joint_basis;
 
   int components() const { return static_cast<int>(basis.cols()); }
   int vertices() const { return static_cast<int>(mean.rows()); }
+  bool has_joints() const { return joint_mean.size() > 0; }
+  /// The body of coefficients c (K; missing trailing ones are 0), #V x 3; and its joints.
+  Eigen::MatrixXd body(const Eigen::VectorXd& c) const;
+  Eigen::MatrixXd joints(const Eigen::VectorXd& c) const;
 };
 
 /// Principal components of `bodies` (each #V x 3, one topology, one frame: no alignment is done)
@@ -40,8 +48,8 @@ ShapeSpace learn_shape_space(const std::vector<Eigen::MatrixXd>& bodies, double 
 /// the first body's frame. Throws InvalidInput for bodies of different sizes.
 void align_bodies_rigidly(std::vector<Eigen::MatrixXd>& bodies, int rounds = 3);
 
-/// A shape space file (.pks: header, population, triangles, mean, basis in doubles, CRC-32 trailer;
-/// format in docs/registration.md), written through a temporary file. Throws IoError.
+/// A shape space file (.pks: header, population, triangles, mean, basis in doubles, joints when
+/// known, CRC-32 trailer; format in docs/registration.md), written through a temporary file. Throws IoError.
 void write_shape_space(const std::string& path, const ShapeSpace& space);
 /// Reads a .pks file; a truncated, corrupt or other file gets an IoError naming it.
 ShapeSpace read_shape_space(const std::string& path);
