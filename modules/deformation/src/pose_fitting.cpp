@@ -58,14 +58,37 @@ double joint_limit_degrees(int joint) {
   return joint >= 0 && joint < kNumJoints ? limits[static_cast<size_t>(joint)] : 180;
 }
 
+namespace {
+/// A subject posed by one method, as fit_pose sees it.
+class SynthesizedBody final : public PosableBody {
+ public:
+  SynthesizedBody(const PoseSynthesizer& synth, PoseMethod method) : synth_(synth), method_(method) {}
+  const Eigen::MatrixXd& rest_vertices() const override { return synth_.rest_vertices(); }
+  const Eigen::MatrixXi& faces() const override { return synth_.faces(); }
+  const Eigen::VectorXi& vertex_parts() const override { return synth_.vertex_parts(); }
+  const Eigen::MatrixXd& joint_centres() const override { return synth_.info().joint_centres; }
+  Eigen::MatrixXd joint_pivots() const override { return synth_.joint_pivots(method_); }
+  void pose(const PartPose& pose, Eigen::MatrixXd* X) const override { synth_.pose(pose, method_, X); }
+  PartTransforms part_motions(const PartPose& pose) const override { return synth_.part_motions(pose, method_); }
+
+ private:
+  const PoseSynthesizer& synth_;
+  PoseMethod method_;
+};
+}  // namespace
+
 PoseFitResult fit_pose(const PoseSynthesizer& synth, const Eigen::MatrixXd& T, const PoseFitOptions& o) {
+  return fit_pose(SynthesizedBody(synth, o.method), T, o);
+}
+
+PoseFitResult fit_pose(const PosableBody& subject, const Eigen::MatrixXd& T, const PoseFitOptions& o) {
   const auto t0 = std::chrono::steady_clock::now();
   if (T.rows() < 100 || T.cols() != 3 || !T.allFinite())
     throw InvalidInput("fit: the target has " + std::to_string(T.rows()) + " points (at least 100 finite ones needed)");
-  const Eigen::MatrixXd& V0 = synth.rest_vertices();
-  const Eigen::VectorXi& part = synth.vertex_parts();
-  const Eigen::MatrixXd& joints = synth.info().joint_centres;
-  const Eigen::MatrixXd pivots = synth.joint_pivots(o.method);  // the Jacobian's centres of rotation
+  const Eigen::MatrixXd& V0 = subject.rest_vertices();
+  const Eigen::VectorXi& part = subject.vertex_parts();
+  const Eigen::MatrixXd& joints = subject.joint_centres();
+  const Eigen::MatrixXd pivots = subject.joint_pivots();  // the Jacobian's centres of rotation
   const PointGrid target_grid(T, surface_cell(T));
   // A subsample of the target (at most 20,000 points) for the start hypotheses: its coarser grid
   // answers their long-range queries several times faster.
@@ -165,7 +188,7 @@ PoseFitResult fit_pose(const PoseSynthesizer& synth, const Eigen::MatrixXd& T, c
   // How well a pose explains the target: the mean distance of target points to the body, each
   // capped at 10 cm so that outliers and holes do not decide.
   auto score = [&](const PartPose& pose) {
-    synth.pose(pose, o.method, &X);
+    subject.pose(pose, &X);
     const PointGrid body(X, surface_cell(X));
     double sum = 0;
     long n = 0;
@@ -192,15 +215,15 @@ PoseFitResult fit_pose(const PoseSynthesizer& synth, const Eigen::MatrixXd& T, c
   auto linearise = [&](const Eigen::MatrixXd& target, const PointGrid& grid, const PartPose& pose, double max_d, double sigma,
                        Eigen::Index model_stride, Eigen::Index target_stride, double prior_scale, double p2p) {
     Linearisation L;
-    synth.pose(pose, o.method, &X);
-    const PartTransforms P = synth.part_motions(pose, o.method);
+    subject.pose(pose, &X);
+    const PartTransforms P = subject.part_motions(pose);
     std::array<Eigen::Vector3d, kNumJoints> centre;  // where each joint turns, posed
     for (int j = 0; j < kNumJoints; ++j) {
       const size_t q = static_cast<size_t>(part_parent(j + 1));
       centre[static_cast<size_t>(j)] = P.R[q] * pivots.row(j).transpose() + P.t[q];
     }
     const Eigen::Vector3d pivot = rest_pivot + pose.root_translation;
-    const Eigen::MatrixXd normals = vertex_normals(X, synth.faces());
+    const Eigen::MatrixXd normals = vertex_normals(X, subject.faces());
     const PointGrid model_grid(X, surface_cell(X));
     const double s2 = sigma * sigma;
     auto rho = [&](double s) { return 0.5 * s2 * std::log1p(s / s2); };
@@ -360,7 +383,7 @@ PoseFitResult fit_pose(const PoseSynthesizer& synth, const Eigen::MatrixXd& T, c
   auto hypothesis = [&](const std::vector<std::pair<const char*, Eigen::Vector3d>>& joints_deg) {
     PartPose h = standing_start;
     for (const auto& [name, v] : joints_deg) h.joint_rotation[static_cast<size_t>(find_joint_index(name))] = v * deg;
-    synth.pose(h, o.method, &X);
+    subject.pose(h, &X);
     std::vector<double> ty(static_cast<size_t>(T.rows())), xy(static_cast<size_t>(X.rows()));
     for (Eigen::Index i = 0; i < T.rows(); ++i) ty[static_cast<size_t>(i)] = T(i, 1);
     for (Eigen::Index i = 0; i < X.rows(); ++i) xy[static_cast<size_t>(i)] = X(i, 1);
@@ -402,7 +425,7 @@ PoseFitResult fit_pose(const PoseSynthesizer& synth, const Eigen::MatrixXd& T, c
   // Residuals (each vertex to the target) and the fraction of each part within 1 cm of it.
   std::array<int, kNumParts> part_vertices{}, part_covered{};
   auto residuals = [&] {
-    synth.pose(pose, o.method, &X);
+    subject.pose(pose, &X);
     out.residual.resize(X.rows());
     part_vertices.fill(0), part_covered.fill(0);
     for (Eigen::Index v = 0; v < X.rows(); ++v) {

@@ -10,6 +10,7 @@
 
 #include "posekit/body/parts.h"
 #include "posekit/deformation/pose_synthesis.h"
+#include "posekit/deformation/rigid_pose.h"
 
 namespace posekit {
 
@@ -59,6 +60,24 @@ struct PoseFitOptions {
   std::optional<PartPose> start;
 };
 
+/// What fit_pose moves: a body at rest with a part per vertex, posed by a 16-part pose. A
+/// PoseSynthesizer with a method is one; a shape-space body posed by skinning (fitting/body_model.h)
+/// is another.
+class PosableBody {
+ public:
+  virtual ~PosableBody() = default;
+  virtual const Eigen::MatrixXd& rest_vertices() const = 0;  ///< #V x 3, m, Y up, facing +Z
+  virtual const Eigen::MatrixXi& faces() const = 0;
+  virtual const Eigen::VectorXi& vertex_parts() const = 0;   ///< #V, in [0, 16)
+  virtual const Eigen::MatrixXd& joint_centres() const = 0;  ///< #joints x 3 at rest
+  /// Where each joint effectively turns (#joints x 3, at rest): the Jacobian's centres of rotation.
+  virtual Eigen::MatrixXd joint_pivots() const = 0;
+  /// The posed body into X (#V x 3). Safe to call from several threads at once.
+  virtual void pose(const PartPose& pose, Eigen::MatrixXd* X) const = 0;
+  /// The rigid motion of each part in the pose.
+  virtual PartTransforms part_motions(const PartPose& pose) const = 0;
+};
+
 /// The largest rotation (degrees) each joint takes before the limit prior acts, by joint index.
 double joint_limit_degrees(int joint);
 
@@ -79,5 +98,7 @@ struct PoseFitResult {
 /// briefly and the best fully. Throws InvalidInput for a target of under 100 finite points or one
 /// with no point near the body.
 PoseFitResult fit_pose(const PoseSynthesizer& synth, const Eigen::MatrixXd& T, const PoseFitOptions& options = {});
+/// The same for any posable body (options.method is then unused).
+PoseFitResult fit_pose(const PosableBody& body, const Eigen::MatrixXd& T, const PoseFitOptions& options = {});
 
 }  // namespace posekit
