@@ -1,0 +1,84 @@
+#pragma once
+// The body model fitted to any body (issue 44, part 2): a target of any topology or a scan (any
+// density, holes, cut head or hands, noise), standing, kneeling, sitting or bending, in any axis
+// convention. A global search over pose hypotheses (a pose library at every heading, each up
+// direction the axes allow) picks the start; then articulated fitting (fit_pose, robust weights and
+// joint limits) alternates with the shape coefficients' least squares. Parts, joints and pose are
+// read off the fitted model, with a confidence and its reasons.
+#include <Eigen/Core>
+#include <string>
+#include <vector>
+
+#include "posekit/body/parts.h"
+#include "posekit/fitting/body_model.h"
+
+namespace posekit {
+
+/// A named whole-body pose the search starts from (the pose library).
+struct LibraryPose {
+  std::string name;
+  PartPose pose;
+};
+/// Standing (A, T, arms down and touching, hands on hips, arms crossed, forward, overhead), a raised
+/// knee, a lunge, kneeling on one and both knees, squatting, sitting on a chair and on the floor,
+/// bending forward. Each is said as bones swung towards directions, made joint rotations for a body
+/// of these rest joint centres (#joints x 3, Y up, facing +Z).
+std::vector<LibraryPose> pose_library(const Eigen::MatrixXd& rest_joints);
+
+struct BodyFitOptions {
+  /// The working cloud: the target's points averaged in cubic cells of this size (m), so that a 10M
+  /// point scan and a 5k-vertex mesh cost and weigh alike.
+  double working_cell = 0.012;
+  /// Up directions tried (unit vectors in the target's frame); empty: +-X, +-Y, +-Z.
+  std::vector<Eigen::Vector3d> up_candidates;
+  int headings = 8;            ///< headings tried about the up direction for every library pose
+  int hypotheses_refined = 6;  ///< the best-scoring distinct starts that get a brief articulated fit
+  /// Alternations of the shape's least squares and a brief articulated refit (8: the shoulders of
+  /// three A-pose robustness bodies ended 13-23 mm from the rig's, at 2 rounds 32-41 mm).
+  int shape_rounds = 8;
+  /// The shape prior: one standard deviation of a component costs as much as every pair sitting
+  /// this much (m) further off the target.
+  double shape_prior = 0.0005;
+  /// Confidence: the fit is poor when less than `min_coverage` of the fitted body lies within 2 cm
+  /// of the target, when a twentieth of the target lies over `max_target_p95` (m) from the fitted
+  /// body, or when the shape lies outside the population (Mahalanobis distance over `max_shape_sigma`
+  /// standard deviations of chi(K) from its mean).
+  double min_coverage = 0.5, max_target_p95 = 0.03, max_shape_sigma = 6;
+  /// ... or when less than this share of a trunk or limb part (not the head, hands or feet, which
+  /// scans cut) lies within 3 cm of the target: that part was placed where the body is not.
+  double min_part_coverage = 0.3;
+};
+
+struct BodyFit {
+  Eigen::VectorXd coefficients;   ///< K shape coefficients (standard deviations)
+  PartPose pose;                  ///< in the fit frame: the target turned by `to_fit_frame`
+  Eigen::Matrix3d to_fit_frame = Eigen::Matrix3d::Identity();  ///< target frame -> fit frame (up: +Y)
+  Eigen::Vector3d up = Eigen::Vector3d::UnitY();  ///< the target's up direction found
+  std::string start;              ///< the library pose the fit started from
+  Eigen::MatrixXd V;              ///< the fitted body in the target's frame (#V x 3, template topology)
+  Eigen::MatrixXd joints;         ///< joint centres in the target's frame (#joints x 3)
+  /// #T: the part of each target point (the nearest fitted vertex's); -1 for a point over 25 cm from
+  /// the fitted body (an outlier, the floor).
+  Eigen::VectorXi target_part;
+  Eigen::VectorXd target_distance;  ///< #T: each target point's distance to the nearest fitted vertex (m; infinite beyond 25 cm)
+  double coverage = 0;            ///< of the fitted body's vertices within 2 cm of the target
+  double target_mean = 0, target_p95 = 0;  ///< the working cloud to the fitted surface (m; 25 cm at most)
+  double shape_mahalanobis = 0;   ///< |c|
+  int working_points = 0;
+  double seconds = 0;
+  bool confident = false;
+  std::vector<std::string> reasons;   ///< why the fit is poor (empty when confident)
+  std::vector<std::string> warnings;  ///< from the articulated fit (a part unseen, a joint at its limit)
+};
+
+/// Fits the model to target points T (#T x 3, metres, any frame; a mesh's vertices, or a scan).
+/// Throws InvalidInput for fewer than 100 finite points.
+BodyFit fit_body_model(const BodyModel& model, const Eigen::MatrixXd& T, const BodyFitOptions& options = {});
+
+/// The same for a mesh (V metres, F its triangles): its floating bits (a scan's straps and hair
+/// clumps, under 5% of the body's area) and vertices no triangle uses are left out of the fit and
+/// labelled -1; target_part and target_distance have a row per vertex of V.
+BodyFit fit_body_model_to_mesh(const BodyModel& model, const Eigen::MatrixXd& V, const Eigen::MatrixXi& F,
+                               const BodyFitOptions& options = {});
+
+}  // namespace posekit

@@ -1,0 +1,583 @@
+#include "posekit/fitting/body_fit.h"
+
+#include <Eigen/Cholesky>
+#include <Eigen/Geometry>
+#include <algorithm>
+#include <array>
+#include <memory>
+#include <chrono>
+#include <cmath>
+#include <cstdint>
+#include <limits>
+#include <sstream>
+#include <unordered_map>
+
+#include "posekit/core/closest_point.h"
+#include "posekit/core/error.h"
+#include "posekit/core/mesh_geometry.h"
+#include "posekit/core/point_grid.h"
+#include "posekit/deformation/rigid_pose.h"
+#include "posekit/shape/body_features.h"
+
+namespace posekit {
+namespace {
+
+constexpr double kDeg = M_PI / 180;
+
+/// The points averaged per cubic cell: a cloud whose density no longer depends on the scanner's.
+Eigen::MatrixXd working_cloud(const Eigen::MatrixXd& T, double cell) {
+  const Eigen::RowVector3d lo = T.colwise().minCoeff();
+  std::unordered_map<std::uint64_t, int> slot;
+  std::vector<Eigen::Vector3d> sum;
+  std::vector<int> count;
+  slot.reserve(1 << 15);
+  for (Eigen::Index i = 0; i < T.rows(); ++i) {
+    const Eigen::Array3d q = ((T.row(i) - lo) / cell).array().floor();
+    const std::uint64_t key = (static_cast<std::uint64_t>(q.x()) << 42) | (static_cast<std::uint64_t>(q.y()) << 21) |
+                              static_cast<std::uint64_t>(q.z());
+    const auto [it, inserted] = slot.try_emplace(key, static_cast<int>(sum.size()));
+    if (inserted) sum.emplace_back(Eigen::Vector3d::Zero()), count.push_back(0);
+    sum[static_cast<size_t>(it->second)] += T.row(i).transpose();
+    ++count[static_cast<size_t>(it->second)];
+  }
+  Eigen::MatrixXd W(static_cast<Eigen::Index>(sum.size()), 3);
+  for (size_t k = 0; k < sum.size(); ++k) W.row(static_cast<Eigen::Index>(k)) = (sum[k] / count[k]).transpose();
+  return W;
+}
+
+double quantile(std::vector<double> v, double q) {
+  if (v.empty()) return 0;
+  const size_t k = std::min(v.size() - 1, static_cast<size_t>(q * static_cast<double>(v.size())));
+  std::nth_element(v.begin(), v.begin() + static_cast<long>(k), v.end());
+  return v[k];
+}
+
+/// One vertex per cubic cell of this size (m): a sample spread by area. MakeHuman's hands and face
+/// hold a third of its vertices; every n-th vertex let the hands decide how arms score.
+std::vector<int> spread_rows(const Eigen::MatrixXd& V, double cell) {
+  const Eigen::RowVector3d lo = V.colwise().minCoeff();
+  std::unordered_map<std::uint64_t, int> taken;
+  std::vector<int> rows;
+  for (Eigen::Index v = 0; v < V.rows(); ++v) {
+    const Eigen::Array3d q = ((V.row(v) - lo) / cell).array().floor();
+    const std::uint64_t key = (static_cast<std::uint64_t>(q.x()) << 42) | (static_cast<std::uint64_t>(q.y()) << 21) |
+                              static_cast<std::uint64_t>(q.z());
+    if (taken.emplace(key, 0).second) rows.push_back(static_cast<int>(v));
+  }
+  return rows;
+}
+
+/// Rows 0, s, 2s, ... of a matrix.
+Eigen::MatrixXd every(const Eigen::MatrixXd& P, Eigen::Index stride) {
+  return P(Eigen::seq(0, P.rows() - 1, std::max<Eigen::Index>(1, stride)), Eigen::all);
+}
+
+/// How badly a posed body explains a cloud: the mean of each point's distance to the other set,
+/// capped at `cap`, both ways.
+double mismatch(const Eigen::MatrixXd& body, const Eigen::MatrixXd& cloud, const PointGrid& cloud_grid, double cap) {
+  const PointGrid body_grid(body, 0.03);
+  double sum = 0;
+  for (Eigen::Index i = 0; i < cloud.rows(); ++i) {
+    double sq = 0;
+    sum += body_grid.nearest(cloud.row(i).transpose(), &sq, cap) >= 0 ? std::sqrt(sq) : cap;
+  }
+  double back = 0;
+  for (Eigen::Index v = 0; v < body.rows(); ++v) {
+    double sq = 0;
+    back += cloud_grid.nearest(body.row(v).transpose(), &sq, cap) >= 0 ? std::sqrt(sq) : cap;
+  }
+  return sum / static_cast<double>(std::max<Eigen::Index>(1, cloud.rows())) +
+         back / static_cast<double>(std::max<Eigen::Index>(1, body.rows()));
+}
+
+/// Moves a pose so that the posed body's lowest point meets the cloud's and their horizontal centres meet.
+void stand_on(const Eigen::MatrixXd& body, const Eigen::MatrixXd& cloud, PartPose* pose) {
+  std::vector<double> cy(static_cast<size_t>(cloud.rows()));
+  for (Eigen::Index i = 0; i < cloud.rows(); ++i) cy[static_cast<size_t>(i)] = cloud(i, 1);
+  const Eigen::RowVector3d bc = 0.5 * (body.colwise().minCoeff() + body.colwise().maxCoeff()),
+                           cc = 0.5 * (cloud.colwise().minCoeff() + cloud.colwise().maxCoeff());
+  pose->root_translation += Eigen::Vector3d(cc.x() - bc.x(), quantile(cy, 0.005) - body.col(1).minCoeff(), cc.z() - bc.z());
+}
+
+}  // namespace
+
+namespace {
+
+/// Joint rotations said as a bone swung towards a direction of the rest frame, for a body of these
+/// rest joint centres. A joint's bone points to the next joint down the limb (spine and neck: up).
+class BoneSwing {
+ public:
+  explicit BoneSwing(const Eigen::MatrixXd& J) : J_(J) {}
+  /// The rotation swinging `joint`'s bone towards `e` by `degrees` (at most all the way).
+  Eigen::Vector3d rotation(const std::string& joint, Eigen::Vector3d e, double degrees) const {
+    const Eigen::Vector3d d = bone(joint);
+    e.normalize();
+    const Eigen::Vector3d axis = d.cross(e);
+    if (axis.norm() < 1e-9) return Eigen::Vector3d::Zero();
+    return std::min(degrees * kDeg, std::atan2(axis.norm(), d.dot(e))) * axis.normalized();
+  }
+  void operator()(PartPose& p, const std::string& joint, const Eigen::Vector3d& e, double degrees) const {
+    p.joint_rotation[static_cast<size_t>(find_joint_index(joint))] = rotation(joint, e, degrees);
+  }
+
+ private:
+  Eigen::Vector3d at(const std::string& name) const { return J_.row(find_joint_index(name)).transpose(); }
+  Eigen::Vector3d bone(const std::string& joint) const {
+    static const std::vector<std::pair<std::string, std::string>> next = {
+        {"left_shoulder", "left_elbow"}, {"left_elbow", "left_wrist"}, {"right_shoulder", "right_elbow"},
+        {"right_elbow", "right_wrist"},  {"left_hip", "left_knee"},    {"left_knee", "left_ankle"},
+        {"right_hip", "right_knee"},     {"right_knee", "right_ankle"}, {"lower_back", "upper_back"},
+        {"upper_back", "neck"}};
+    for (const auto& [a, b] : next)
+      if (a == joint) return (at(b) - at(a)).normalized();
+    return Eigen::Vector3d::UnitY();
+  }
+  const Eigen::MatrixXd& J_;
+};
+
+/// One arm's shoulder and elbow rotations to try on their own (side: +1 left, -1 right): the upper
+/// arm down, out, forward, up or back, each with the elbow straight as at rest or bent forward or
+/// across the body.
+std::vector<std::array<Eigen::Vector3d, 2>> arm_options(const Eigen::MatrixXd& J, double side) {
+  const BoneSwing swing(J);
+  const std::string s = side > 0 ? "left_" : "right_";
+  const Eigen::Vector3d up = Eigen::Vector3d::UnitY(), fwd = Eigen::Vector3d::UnitZ(), out = side * Eigen::Vector3d::UnitX();
+  std::vector<Eigen::Vector3d> shoulders = {Eigen::Vector3d::Zero(), swing.rotation(s + "shoulder", -up, 25),
+                                            swing.rotation(s + "shoulder", -up, 90), swing.rotation(s + "shoulder", out, 90),
+                                            swing.rotation(s + "shoulder", fwd, 45), swing.rotation(s + "shoulder", fwd, 90),
+                                            swing.rotation(s + "shoulder", up, 180), swing.rotation(s + "shoulder", -up - 0.4 * fwd, 90)};
+  std::vector<Eigen::Vector3d> elbows = {Eigen::Vector3d::Zero(), swing.rotation(s + "elbow", fwd, 45),
+                                         swing.rotation(s + "elbow", fwd, 90), swing.rotation(s + "elbow", fwd - out, 90),
+                                         swing.rotation(s + "elbow", fwd - out, 130), swing.rotation(s + "elbow", -out + 0.3 * fwd, 100)};
+  std::vector<std::array<Eigen::Vector3d, 2>> options;
+  for (const auto& sh : shoulders)
+    for (const auto& el : elbows) options.push_back({sh, el});
+  return options;
+}
+
+}  // namespace
+
+std::vector<LibraryPose> pose_library(const Eigen::MatrixXd& J) {
+  const BoneSwing swing(J);
+  const Eigen::Vector3d up = Eigen::Vector3d::UnitY(), down = -up, fwd = Eigen::Vector3d::UnitZ(), back = -fwd,
+                        left = Eigen::Vector3d::UnitX(), right = -left;
+  std::vector<LibraryPose> lib;
+  auto add = [&](const std::string& name, const auto& make) {
+    PartPose p;
+    make(p);
+    lib.push_back({name, p});
+  };
+  auto both_arms = [&](PartPose& p, const Eigen::Vector3d& l, double degrees) {
+    swing(p, "left_shoulder", l, degrees);
+    swing(p, "right_shoulder", Eigen::Vector3d(-l.x(), l.y(), l.z()), degrees);
+  };
+  add("a_pose", [](PartPose&) {});
+  add("arms_down", [&](PartPose& p) { both_arms(p, down, 25); });
+  add("arms_touching", [&](PartPose& p) { both_arms(p, down, 90); });
+  add("t_pose", [&](PartPose& p) { both_arms(p, left, 90); });
+  add("arms_forward", [&](PartPose& p) { both_arms(p, fwd, 90); });
+  add("arms_overhead", [&](PartPose& p) { both_arms(p, up, 180); });
+  add("hands_on_hips", [&](PartPose& p) {
+    both_arms(p, Eigen::Vector3d(0.5, -1, -0.3), 90);
+    swing(p, "left_elbow", Eigen::Vector3d(-1, -0.2, 0.4), 100), swing(p, "right_elbow", Eigen::Vector3d(1, -0.2, 0.4), 100);
+  });
+  add("arms_crossed", [&](PartPose& p) {
+    both_arms(p, Eigen::Vector3d(0, -1, 0.5), 90);
+    swing(p, "left_elbow", Eigen::Vector3d(-1, 0.3, 0.5), 110), swing(p, "right_elbow", Eigen::Vector3d(1, 0.3, 0.5), 110);
+  });
+  add("raised_knee", [&](PartPose& p) { swing(p, "left_hip", fwd, 90), swing(p, "left_knee", back, 90); });
+  add("lunge", [&](PartPose& p) {
+    swing(p, "left_hip", fwd, 60), swing(p, "left_knee", back, 60), swing(p, "right_hip", back, 20), swing(p, "right_knee", back, 30);
+  });
+  add("stride", [&](PartPose& p) {
+    swing(p, "left_hip", fwd, 25), swing(p, "right_hip", back, 25), swing(p, "left_knee", back, 10), swing(p, "right_knee", back, 25);
+  });
+  add("kneel_one_knee", [&](PartPose& p) {
+    swing(p, "left_hip", fwd, 90), swing(p, "left_knee", back, 90), swing(p, "right_knee", back, 90);
+  });
+  add("kneel_both_knees", [&](PartPose& p) { swing(p, "left_knee", back, 90), swing(p, "right_knee", back, 90); });
+  add("kneel_sitting_back", [&](PartPose& p) {
+    swing(p, "left_hip", fwd, 40), swing(p, "right_hip", fwd, 40), swing(p, "left_knee", back, 150), swing(p, "right_knee", back, 150);
+  });
+  add("squat", [&](PartPose& p) {
+    swing(p, "left_hip", fwd, 110), swing(p, "right_hip", fwd, 110), swing(p, "left_knee", back, 130), swing(p, "right_knee", back, 130);
+    swing(p, "lower_back", fwd, 20), both_arms(p, fwd, 60);
+  });
+  add("sit_chair", [&](PartPose& p) {
+    swing(p, "left_hip", fwd, 90), swing(p, "right_hip", fwd, 90), swing(p, "left_knee", back, 90), swing(p, "right_knee", back, 90);
+    both_arms(p, down, 90);
+  });
+  add("sit_floor", [&](PartPose& p) {
+    swing(p, "left_hip", fwd, 90), swing(p, "right_hip", fwd, 90), both_arms(p, down, 60);
+  });
+  add("bend_forward", [&](PartPose& p) {
+    p.root_rotation = 40 * kDeg * left;  // the pelvis tips forward, the legs stay upright
+    p.joint_rotation[static_cast<size_t>(find_joint_index("left_hip"))] = -40 * kDeg * left;
+    p.joint_rotation[static_cast<size_t>(find_joint_index("right_hip"))] = -40 * kDeg * left;
+    swing(p, "lower_back", fwd, 30), both_arms(p, down, 90);
+  });
+  (void)right;
+  return lib;
+}
+
+namespace {
+
+/// One shape least-squares round set (Gauss-Newton on the coefficients, pose fixed): pairs both ways
+/// between the working cloud P and sampled vertices, point-to-plane with a little point-to-point,
+/// Cauchy weights, and the Gaussian prior of BodyFitOptions::shape_prior.
+Eigen::VectorXd fit_shape(const BodyModel& model, Eigen::VectorXd c, PartPose* pose_io, const Eigen::MatrixXd& P,
+                          const PointGrid& grid, const BodyFitOptions& o) {
+  PartPose& pose = *pose_io;
+  const ShapeSpace& S = model.space();
+  const int K = S.components();
+  const std::vector<int> rows = spread_rows(S.mean, 0.02);
+  const auto n = static_cast<Eigen::Index>(rows.size());
+  // x(c) = x0 + A c exactly for a fixed pose: skinning is affine in the vertices and joints.
+  Eigen::MatrixXd X0, Xk;
+  ShapedBody::skin(model, S.mean, part_transforms(pose, S.joint_mean), rows, &X0);
+  // Unknowns: the coefficients and the body's translation (a taller body stands elsewhere).
+  Eigen::MatrixXd A = Eigen::MatrixXd::Zero(3 * n, K + 3);
+  for (Eigen::Index i = 0; i < n; ++i) A.block<3, 3>(3 * i, K).setIdentity();
+  using RowMajorX3 = Eigen::Matrix<double, Eigen::Dynamic, 3, Eigen::RowMajor>;
+  for (int k = 0; k < K; ++k) {
+    const Eigen::MatrixXd Vk = S.mean + Eigen::Map<const RowMajorX3>(S.basis.col(k).data(), S.vertices(), 3);
+    const Eigen::MatrixXd Jk = S.joint_mean + Eigen::Map<const RowMajorX3>(S.joint_basis.col(k).data(), S.joint_mean.rows(), 3);
+    ShapedBody::skin(model, Vk, part_transforms(pose, Jk), rows, &Xk);
+    Xk -= X0;
+    for (Eigen::Index i = 0; i < n; ++i) A.block(3 * i, k, 3, 1) = Xk.row(i).transpose();
+  }
+  const double max_d = 0.08, sigma = 0.03, p2p = 0.1;
+  for (int round = 0; round < 4; ++round) {
+    Eigen::MatrixXd full;
+    ShapedBody(model, c).pose(pose, &full);
+    const Eigen::MatrixXd normals = vertex_normals(full, model.faces());
+    Eigen::MatrixXd X(n, 3);
+    for (Eigen::Index i = 0; i < n; ++i) X.row(i) = full.row(rows[static_cast<size_t>(i)]);
+    const PointGrid body_grid(X, 0.03);
+    // Pairs (vertex, target point); then their rows of the weighted least squares: along the normal,
+    // and point-to-point with weight p2p, each times the square root of its Cauchy weight.
+    std::vector<std::pair<Eigen::Index, Eigen::Index>> pairs;
+    for (Eigen::Index t = 0; t < P.rows(); ++t) {
+      double sq = 0;
+      const int i = body_grid.nearest(P.row(t).transpose(), &sq, max_d);
+      if (i >= 0) pairs.emplace_back(i, t);
+    }
+    for (Eigen::Index i = 0; i < n; ++i) {
+      double sq = 0, back = 0;
+      const int t = grid.nearest(X.row(i).transpose(), &sq, max_d);
+      if (t < 0) continue;
+      const int u = body_grid.nearest(P.row(t).transpose(), &back, max_d);
+      if (u >= 0 && (X.row(u) - X.row(i)).norm() < 0.03) pairs.emplace_back(i, t);
+    }
+    const auto m = static_cast<Eigen::Index>(pairs.size());
+    Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor> J(4 * m, K + 3);
+    Eigen::VectorXd r(4 * m);
+    double weight = 0;
+    for (Eigen::Index k = 0; k < m; ++k) {
+      const auto [i, t] = pairs[static_cast<size_t>(k)];
+      const Eigen::Vector3d d = X.row(i).transpose() - P.row(t).transpose(), nn = normals.row(rows[static_cast<size_t>(i)]).transpose();
+      const double along = nn.dot(d), w = 1 / (1 + (along * along + p2p * d.squaredNorm()) / (sigma * sigma));
+      const double sw = std::sqrt(w), swp = std::sqrt(w * p2p);
+      const auto Ai = A.middleRows(3 * i, 3);
+      J.row(4 * k).noalias() = sw * nn.transpose() * Ai;
+      J.middleRows(4 * k + 1, 3) = swp * Ai;
+      r[4 * k] = sw * along;
+      r.segment<3>(4 * k + 1) = swp * d;
+      weight += w;
+    }
+    Eigen::MatrixXd H = Eigen::MatrixXd::Zero(K + 3, K + 3);
+    H.selfadjointView<Eigen::Lower>().rankUpdate(J.transpose());
+    H = H.selfadjointView<Eigen::Lower>();
+    Eigen::VectorXd g = J.transpose() * r;
+    if (weight <= 0) break;
+    const double lambda = weight * o.shape_prior * o.shape_prior;
+    H.diagonal().head(K).array() += lambda;
+    H.diagonal().tail(3).array() += 1e-9 * weight;
+    g.head(K) += lambda * c;
+    const Eigen::VectorXd step = H.ldlt().solve(-g);
+    if (!step.allFinite()) break;
+    c += step.head(K);
+    pose.root_translation += step.tail(3);
+    if (step.norm() < 0.01) break;
+  }
+  return c;
+}
+
+/// The target seen with one up direction: turned so that it points +Y, and a coarse sample of it.
+struct UpFrame {
+  Eigen::Matrix3d rotation;  ///< target frame -> this frame
+  Eigen::MatrixXd cloud, coarse;
+  std::unique_ptr<PointGrid> coarse_grid;
+};
+
+/// A start of the articulated fit: a library pose at a heading, placed on one up frame's cloud.
+struct Start {
+  double score;  ///< mismatch of the mean body so placed (m)
+  size_t up;
+  std::string name;
+  PartPose pose;
+};
+
+/// The global search: every up direction, library pose and heading, placed on the cloud and scored on
+/// a few hundred points; then the arms of every library pose on the best few (legs and arms combine
+/// freely: sitting with the arms out, kneeling with hands on hips). Best first.
+std::vector<Start> search_starts(const BodyModel& model, const ShapedBody& mean_body, const std::vector<LibraryPose>& library,
+                                 const std::vector<UpFrame>& frames, int headings) {
+  const std::vector<int> sample_rows = spread_rows(mean_body.rest_vertices(), 0.04);
+  auto place = [&](size_t u, PartPose pose, const std::string& name) {
+    Eigen::MatrixXd X;
+    ShapedBody::skin(model, mean_body.rest_vertices(), mean_body.part_motions(pose), sample_rows, &X);
+    const Eigen::Vector3d placed = pose.root_translation;
+    stand_on(X, frames[u].coarse, &pose);
+    X.rowwise() += (pose.root_translation - placed).transpose();
+    return Start{mismatch(X, frames[u].coarse, *frames[u].coarse_grid, 0.15), u, name, pose};
+  };
+  auto by_score = [](const Start& a, const Start& b) { return a.score < b.score; };
+  std::vector<Start> starts;
+  for (size_t u = 0; u < frames.size(); ++u)
+    for (const LibraryPose& lib : library)
+      for (int h = 0; h < headings; ++h) {
+        PartPose pose = lib.pose;
+        pose.root_rotation = axis_angle_from_rotation(rotation_from_axis_angle(2 * M_PI * h / headings * Eigen::Vector3d::UnitY()) *
+                                                      rotation_from_axis_angle(pose.root_rotation));
+        starts.push_back(place(u, pose, lib.name));
+      }
+  std::sort(starts.begin(), starts.end(), by_score);
+  std::vector<int> arm_joints;
+  for (const char* side : {"left_", "right_"})
+    for (const char* joint : {"shoulder", "elbow", "wrist"}) arm_joints.push_back(find_joint_index(std::string(side) + joint));
+  auto arms_of = [&](const PartPose& p) {
+    std::vector<Eigen::Vector3d> a;
+    for (int j : arm_joints) a.push_back(p.joint_rotation[static_cast<size_t>(j)]);
+    return a;
+  };
+  std::vector<Start> mixed;
+  for (size_t k = 0; k < std::min<size_t>(3, starts.size()); ++k) {
+    std::vector<std::vector<Eigen::Vector3d>> seen = {arms_of(starts[k].pose)};
+    for (const LibraryPose& lib : library) {
+      const auto arms = arms_of(lib.pose);
+      if (std::find(seen.begin(), seen.end(), arms) != seen.end()) continue;
+      seen.push_back(arms);
+      PartPose pose = starts[k].pose;
+      for (size_t i = 0; i < arm_joints.size(); ++i) pose.joint_rotation[static_cast<size_t>(arm_joints[i])] = arms[i];
+      mixed.push_back(place(starts[k].up, pose, starts[k].name + ", arms as " + lib.name));
+    }
+  }
+  starts.insert(starts.end(), mixed.begin(), mixed.end());
+  std::sort(starts.begin(), starts.end(), by_score);
+  return starts;
+}
+
+/// What is read off the fitted body (out->V, in the target's frame): each target point's part and
+/// distance, the working cloud's distances to the fitted surface, coverage, and the confidence.
+void read_off_fit(const BodyModel& model, const Eigen::MatrixXd& T, const Eigen::MatrixXd& W, const BodyFitOptions& o,
+                  const std::vector<std::string>& pose_warnings, BodyFit* out) {
+  // A point farther than kOutlier from the body is no part of it (a scanner's stray return, the
+  // floor): labelled -1. (An unbounded search from far away also visits every empty cell between.)
+  constexpr double kOutlier = 0.25;
+  const PointGrid body_grid(out->V, 0.02);
+  out->target_part.resize(T.rows());
+  out->target_distance.resize(T.rows());
+  const Eigen::VectorXi& part = model.vertex_parts();
+  for (Eigen::Index i = 0; i < T.rows(); ++i) {
+    double sq = 0;
+    const int v = body_grid.nearest(T.row(i).transpose(), &sq, kOutlier);
+    out->target_part[i] = v >= 0 ? part[v] : -1;
+    out->target_distance[i] = v >= 0 ? std::sqrt(sq) : std::numeric_limits<double>::infinity();
+  }
+  // The working cloud's distances to the fitted surface (not its vertices, 1-3 cm apart on the trunk).
+  const TriangleTree surface(out->V, model.faces());
+  std::vector<double> d(static_cast<size_t>(W.rows()));
+  double sum = 0;
+  for (Eigen::Index i = 0; i < W.rows(); ++i) {
+    Eigen::Vector3d point;
+    double distance = kOutlier;
+    if (surface.closest(W.row(i).transpose(), &point, &distance, kOutlier) < 0) distance = kOutlier;
+    d[static_cast<size_t>(i)] = distance;
+    sum += distance;
+  }
+  out->target_mean = sum / static_cast<double>(W.rows());
+  out->target_p95 = quantile(d, 0.95);
+  const PointGrid cloud_grid(W, 0.03);
+  int covered = 0;
+  for (Eigen::Index v = 0; v < out->V.rows(); ++v) {
+    double sq = 0;
+    covered += cloud_grid.nearest(out->V.row(v).transpose(), &sq, 0.02) >= 0;
+  }
+  out->coverage = static_cast<double>(covered) / static_cast<double>(out->V.rows());
+  out->shape_mahalanobis = out->coefficients.norm();
+
+  std::ostringstream msg;
+  msg.precision(1);
+  msg << std::fixed;
+  auto reason = [&] { out->reasons.push_back(msg.str()), msg.str(""); };
+  if (out->coverage < o.min_coverage) msg << "only " << 100 * out->coverage << "% of the fitted body lies within 2 cm of the target", reason();
+  if (out->target_p95 > o.max_target_p95)
+    msg << "a twentieth of the target lies over " << 1000 * out->target_p95 << " mm from the fitted body", reason();
+  // |c| of a population member follows a chi distribution with K degrees of freedom.
+  const double K = static_cast<double>(model.components());
+  const double chi_mean = std::sqrt(std::max(0.5, K - 0.5)), chi_sd = std::sqrt(0.5);
+  if (out->shape_mahalanobis > chi_mean + o.max_shape_sigma * chi_sd)
+    msg << "the fitted shape lies " << (out->shape_mahalanobis - chi_mean) / chi_sd
+        << " standard deviations outside the population (" << model.space().population << ")", reason();
+  for (const auto& w : pose_warnings)
+    if (w.find("beyond its range of motion") != std::string::npos) out->reasons.push_back(w);
+  // A limb or trunk part the target does not show near it: placed wrongly (scans cut heads, hands
+  // and feet, so those may go unseen).
+  std::array<int, kNumParts> seen{}, all{};
+  for (Eigen::Index v = 0; v < out->V.rows(); ++v) {
+    double sq = 0;
+    ++all[static_cast<size_t>(part[v])];
+    seen[static_cast<size_t>(part[v])] += cloud_grid.nearest(out->V.row(v).transpose(), &sq, 0.03) >= 0;
+  }
+  for (int p = 0; p < kNumParts; ++p)
+    if (p != kHead && p != kLeftHand && p != kRightHand && p != kLeftFoot && p != kRightFoot && all[static_cast<size_t>(p)] > 0 &&
+        seen[static_cast<size_t>(p)] < o.min_part_coverage * all[static_cast<size_t>(p)])
+      msg << "only " << 100.0 * seen[static_cast<size_t>(p)] / all[static_cast<size_t>(p)] << "% of the fitted " << part_name(p)
+          << " lies within 3 cm of the target", reason();
+  out->warnings = pose_warnings;
+  out->confident = out->reasons.empty();
+}
+
+}  // namespace
+
+BodyFit fit_body_model(const BodyModel& model, const Eigen::MatrixXd& T, const BodyFitOptions& o) {
+  const auto t0 = std::chrono::steady_clock::now();
+  if (T.rows() < 100 || T.cols() != 3 || !T.allFinite())
+    throw InvalidInput("body fit: the target has " + std::to_string(T.rows()) + " points (at least 100 finite ones needed)");
+  const Eigen::MatrixXd W = working_cloud(T, o.working_cell);
+  if (W.rows() < 100)
+    throw InvalidInput("body fit: the target covers only " + std::to_string(W.rows()) + " cells of " +
+                       std::to_string(o.working_cell) + " m; is it in metres?");
+  const Eigen::RowVector3d centre = W.colwise().mean();
+  const int K = model.components();
+  const ShapedBody mean_body(model, Eigen::VectorXd::Zero(K));
+  const std::vector<LibraryPose> library = pose_library(mean_body.joint_centres());
+
+  std::vector<Eigen::Vector3d> ups = o.up_candidates;
+  if (ups.empty())
+    for (int a = 0; a < 3; ++a) ups.push_back(Eigen::Vector3d::Unit(a)), ups.push_back(-Eigen::Vector3d::Unit(a));
+  std::vector<UpFrame> frames(ups.size());
+  for (size_t u = 0; u < ups.size(); ++u) {
+    UpFrame& f = frames[u];
+    f.rotation = Eigen::Quaterniond::FromTwoVectors(ups[u].normalized(), Eigen::Vector3d::UnitY()).toRotationMatrix();
+    f.cloud = (W.rowwise() - centre) * f.rotation.transpose();
+    f.coarse = every(f.cloud, std::max<Eigen::Index>(1, W.rows() / 700));
+    f.coarse_grid = std::make_unique<PointGrid>(f.coarse, 0.03);
+  }
+  const std::vector<Start> starts = search_starts(model, mean_body, library, frames, o.headings);
+
+  // The best starts, each fitted briefly with the mean shape; the best of those goes on.
+  PoseFitOptions brief;
+  brief.iterations = 20;
+  brief.model_samples = 1500;
+  brief.refinement_model_samples = 3000;
+  brief.max_distance_end = 0.15;
+  double best_score = std::numeric_limits<double>::infinity();
+  const Start* best = nullptr;
+  PartPose pose;
+  const std::vector<int> spread = spread_rows(mean_body.rest_vertices(), 0.02);
+  // Distinct starts only: the same library pose at the next heading, or the same joints reached by
+  // another name (legs of one pose, arms of another), is the same start to a brief fit.
+  auto same_start = [](const Start& a, const Start& b) {
+    if (a.up != b.up) return false;
+    if (a.name == b.name) return true;
+    for (size_t j = 0; j < a.pose.joint_rotation.size(); ++j)
+      if ((a.pose.joint_rotation[j] - b.pose.joint_rotation[j]).norm() > 1e-9) return false;
+    return (a.pose.root_rotation - b.pose.root_rotation).norm() < 1e-9;
+  };
+  std::vector<const Start*> tried;
+  for (size_t k = 0; k < starts.size() && static_cast<int>(tried.size()) < std::max(1, o.hypotheses_refined); ++k) {
+    if (std::any_of(tried.begin(), tried.end(), [&](const Start* t) { return same_start(*t, starts[k]); })) continue;
+    tried.push_back(&starts[k]);
+    brief.start = starts[k].pose;
+    const UpFrame& f = frames[starts[k].up];
+    const PoseFitResult r = fit_pose(mean_body, f.cloud, brief);
+    const PointGrid grid(f.cloud, 0.03);
+    const double score = mismatch(r.V(spread, Eigen::all), f.cloud, grid, 0.15);
+    if (score < best_score) best_score = score, best = &starts[k], pose = r.pose;
+  }
+  const UpFrame& frame = frames[best->up];
+  const PointGrid grid(frame.cloud, 0.03);
+
+  // Each arm on its own from the best start: arms are where whole-body starts miss most (hands on
+  // hips, arms crossed), and the two arms' options multiply. Kept when its brief fit is better.
+  {
+    const std::vector<int> coarse_rows = spread_rows(mean_body.rest_vertices(), 0.04);
+    auto arm_score = [&](const PartPose& p) {
+      Eigen::MatrixXd X;
+      ShapedBody::skin(model, mean_body.rest_vertices(), mean_body.part_motions(p), coarse_rows, &X);
+      return mismatch(X, frame.coarse, *frame.coarse_grid, 0.15);
+    };
+    PartPose armed = pose;
+    double armed_score = arm_score(armed);
+    bool changed = false;
+    for (const double side : {1.0, -1.0}) {
+      const std::string s = side > 0 ? "left_" : "right_";
+      const auto shoulder = static_cast<size_t>(find_joint_index(s + "shoulder")), elbow = static_cast<size_t>(find_joint_index(s + "elbow")),
+                 wrist = static_cast<size_t>(find_joint_index(s + "wrist"));
+      PartPose best_arm = armed;
+      for (const auto& option : arm_options(mean_body.joint_centres(), side)) {
+        PartPose candidate = armed;
+        candidate.joint_rotation[shoulder] = option[0], candidate.joint_rotation[elbow] = option[1];
+        candidate.joint_rotation[wrist].setZero();
+        const double score = arm_score(candidate);
+        if (score < armed_score) armed_score = score, best_arm = candidate, changed = true;
+      }
+      armed = best_arm;
+    }
+    if (changed) {
+      brief.start = armed;
+      const PoseFitResult r = fit_pose(mean_body, frame.cloud, brief);
+      const double score = mismatch(r.V(spread, Eigen::all), frame.cloud, grid, 0.15);
+      if (score < best_score) best_score = score, pose = r.pose;
+    }
+  }
+
+  // Shape and pose in turn, then the final articulated refinement.
+  Eigen::VectorXd c = Eigen::VectorXd::Zero(K);
+  PoseFitOptions refine;
+  PoseFitResult result;
+  for (int round = 0; round <= o.shape_rounds; ++round) {
+    if (round > 0) c = fit_shape(model, c, &pose, frame.cloud, grid, o);
+    refine.start = pose;
+    if (round < o.shape_rounds) refine.iterations = 8, refine.refinement_model_samples = 3000;  // brief: the shape moves on
+    else refine.iterations = 100, refine.refinement_model_samples = 12000;
+    result = fit_pose(ShapedBody(model, c), frame.cloud, refine);
+    pose = result.pose;
+  }
+
+  BodyFit out;
+  out.coefficients = c;
+  out.pose = pose;
+  out.to_fit_frame = frame.rotation;
+  out.up = ups[best->up].normalized();
+  out.start = best->name;
+  out.working_points = static_cast<int>(W.rows());
+  // Back to the target's frame: x = R^T y + centre.
+  out.V = (result.V * frame.rotation).rowwise() + centre;
+  out.joints = (ShapedBody(model, c).posed_joints(pose) * frame.rotation).rowwise() + centre;
+  read_off_fit(model, T, W, o, result.warnings, &out);
+  out.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  return out;
+}
+
+BodyFit fit_body_model_to_mesh(const BodyModel& model, const Eigen::MatrixXd& V, const Eigen::MatrixXi& F, const BodyFitOptions& o) {
+  std::vector<int> vertex_map;
+  body_surface(V, F, nullptr, &vertex_map);
+  std::vector<int> kept;
+  for (int v : vertex_map)
+    if (v >= 0) kept.push_back(v);
+  BodyFit fit = fit_body_model(model, V(kept, Eigen::all), o);
+  Eigen::VectorXi part = Eigen::VectorXi::Constant(V.rows(), -1);
+  Eigen::VectorXd distance = Eigen::VectorXd::Constant(V.rows(), std::numeric_limits<double>::infinity());
+  for (size_t k = 0; k < kept.size(); ++k) {
+    part[kept[k]] = fit.target_part[static_cast<Eigen::Index>(k)];
+    distance[kept[k]] = fit.target_distance[static_cast<Eigen::Index>(k)];
+  }
+  fit.target_part = std::move(part);
+  fit.target_distance = std::move(distance);
+  return fit;
+}
+
+}  // namespace posekit
