@@ -18,6 +18,7 @@
 #include "posekit/core/data_root.h"
 #include "posekit/core/error.h"
 #include "posekit/datasets/dataset.h"
+#include "posekit/fitting/body_fit.h"
 #include "posekit/deformation/part_pose_estimation.h"
 #include "posekit/deformation/pose_fitting.h"
 #include "posekit/deformation/pose_model.h"
@@ -25,10 +26,12 @@
 #include "posekit/deformation/rigid_pose.h"
 #include "posekit/deformation/segmentation_calibration.h"
 #include "posekit/population/survey_fit.h"
+#include "posekit/registration/shape_space.h"
 #include "posekit/evaluation/pose_evaluation.h"
 #include "posekit/io/bvh.h"
 #include "posekit/io/atomic_file.h"
 #include "posekit/io/mesh_io.h"
+#include "posekit/io/point_cloud_io.h"
 #include "posekit/core/mesh_geometry.h"
 #include "posekit/core/mesh_validation.h"
 #include "posekit/segmentation/body_segmentation.h"
@@ -445,15 +448,85 @@ int run_retarget(int argc, char** argv) {
   return 0;
 }
 
+namespace {
+
+/// segment --body-model: the body model fitted to the body (any pose, frame, mesh or cloud), its
+/// labels and joints read off the fit.
+int segment_by_body_model(const ArgParser& args) {
+  const std::string path = args.positionals()[0];
+  BodyUnit unit;
+  const BodyInput input = read_body_input(path, args.get("unit"), "segment", &unit);
+  const Eigen::MatrixXd& V = input.is_cloud ? input.cloud.P : input.mesh.V;
+  const auto makehuman = load_makehuman_model(find_data_root(args.get("data")));
+  const BodyModel model(read_shape_space(args.get("body-model")), *makehuman);
+  const BodyFit fit = input.is_cloud ? fit_body_model(model, V) : fit_body_model_to_mesh(model, V, input.mesh.F);
+  for (const auto& w : fit.warnings) std::cerr << "warning: " << path << ": " << w << "\n";
+  std::string why;
+  for (const auto& r : fit.reasons) why += (why.empty() ? "" : "; ") + r;
+  if (!fit.confident) {
+    if (!args.flag_set("accept-poor"))
+      throw BelowConfidence(path + ": the body model's fit is poor (" + why +
+                            "); nothing written (--accept-poor writes it anyway, marked as poor)");
+    std::cerr << "warning: " << path << ": the body model's fit is poor (" << why << "); written as asked, marked poor\n";
+  }
+  if (args.has("out")) {
+    const Eigen::VectorXd part = fit.target_part.cast<double>();
+    if (input.is_cloud) {
+      PointCloud labelled = input.cloud;
+      labelled.point_scalars["part"] = part;
+      write_point_cloud(args.get("out"), labelled, {unit.unit, CloudFormat::kAuto, true, io_warnings()});
+    } else {
+      TriangleMesh labelled = input.mesh;
+      labelled.vertex_scalars["part"] = part;
+      write_mesh(args.get("out"), labelled, {unit.unit, MeshFormat::kAuto, true, io_warnings()});
+    }
+  }
+  nlohmann::ordered_json joints;
+  for (int j = 0; j < kNumJoints; ++j) joints[joint_name(j)] = {fit.joints(j, 0), fit.joints(j, 1), fit.joints(j, 2)};
+  nlohmann::ordered_json pose = nlohmann::ordered_json::parse(part_pose_to_json(fit.pose));
+  nlohmann::ordered_json summary = {
+      {"mesh", path}, {"method", "body model"}, {"body_model", args.get("body-model")}, {"confident", fit.confident},
+      {"reasons", fit.reasons}, {"warnings", fit.warnings}, {"start", fit.start},
+      {"up", {fit.up.x(), fit.up.y(), fit.up.z()}}, {"coverage", fit.coverage},
+      {"target_mean_mm", 1000 * fit.target_mean}, {"target_p95_mm", 1000 * fit.target_p95},
+      {"shape_mahalanobis", fit.shape_mahalanobis}, {"components", model.components()},
+      {"working_points", fit.working_points}, {"seconds", fit.seconds}, {"joints", joints}, {"pose_fit_frame", pose}};
+  if (args.has("joints")) {
+    nlohmann::ordered_json jj = {{"units", "m"}, {"frame", "input"}, {"confident", fit.confident}, {"joints", joints}};
+    const std::string text = jj.dump(2) + "\n";
+    write_file_atomically(args.get("joints"), [&](std::ostream& o) { o << text; }, false);
+  }
+  if (args.flag_set("json")) {
+    print_json(summary);
+    return 0;
+  }
+  std::cout << "fitted the body model to " << path << " in " << std::fixed << std::setprecision(2) << fit.seconds
+            << " s (started from " << fit.start << ", up " << fit.up.transpose().format(Eigen::IOFormat(2, 0, " ", " ", "", "", "(", ")"))
+            << "): " << std::setprecision(1) << 100 * fit.coverage << "% of the body within 2 cm of the target, 95% of the target within "
+            << 1000 * fit.target_p95 << " mm" << (fit.confident ? "" : " (POOR FIT)") << "\n";
+  for (int j = 0; j < kNumJoints; ++j)
+    std::cout << "  " << std::left << std::setw(16) << joint_name(j) << std::right << std::setprecision(3) << fit.joints(j, 0)
+              << " " << fit.joints(j, 1) << " " << fit.joints(j, 2) << " m\n";
+  return 0;
+}
+
+}  // namespace
+
 int run_segment(int argc, char** argv) {
   ArgParser args("segment",
                  "Segments a standing body mesh into the 16 rigid parts (Eq. 2a-2c) and embeds the 15-joint\n"
                  "skeleton. With --model, the representation's labels and the skeleton come from the model's\n"
                  "segmentation prior: the labelled bodies shaped most like this one (recommended); without, from\n"
                  "the representation's own layer labels and the body's features. Either way the hips are the\n"
-                 "femoral heads found from the body's own pelvis, and limb joints follow the body's features.");
-  args.positional("mesh", "body mesh (PLY/OBJ/OFF/STL)")
+                 "femoral heads found from the body's own pelvis, and limb joints follow the body's features.\n"
+                 "With --body-model, the body model is fitted instead (any pose: kneeling, sitting, arms close; any\n"
+                 "axes; a mesh or a scan) and labels and joints are read off the fit. A poor fit exits with status 3\n"
+                 "and writes nothing unless --accept-poor.");
+  args.positional("mesh", "body mesh (PLY/OBJ/OFF/STL), or with --body-model also a scan's points")
       .option("model", "FILE", "trained model (.pkm) whose segmentation prior labels the representation")
+      .option("body-model", "FILE", "fit this body model (a shape space with joints: posekit shape-space --ansur) instead")
+      .option("data", "DIR", "MakeHuman data root for --body-model (default: $POSEKIT_DATA or ../shared/datasets/makehuman)")
+      .flag("accept-poor", "with --body-model: write the result of a poor fit too (marked; exit status 0)")
       .option("unit", "U", "unit of the mesh: m, dm, cm, mm, or auto (its largest extent tells)", "auto")
       .output("out", "FILE", "mesh with vertex scalar 'part' (0..15); PLY keeps it for other tools")
       .output("joints", "FILE", "write the joint centres as JSON")
@@ -461,9 +534,11 @@ int run_segment(int argc, char** argv) {
       .flag("unchecked", "write the result even when it fails the sanity checks (they become warnings)")
       .flag("json", "summary as JSON on stdout")
       .example("posekit segment out/dataset/subjects/m01/rest.ply --model model.pkm --out m01_parts.ply")
-      .example("posekit segment registration_z_up.obj --up +Z --joints joints.json");
+      .example("posekit segment registration_z_up.obj --up +Z --joints joints.json")
+      .example("posekit segment kneeling_scan.ply --body-model ansur.pks --out parts.ply --joints joints.json");
   add_orientation_options(&args);
   if (!args.parse(argc, argv)) return 0;
+  if (args.has("body-model")) return segment_by_body_model(args);
   const std::string frame = args.get("frame");
   if (frame != "input" && frame != "posekit") throw UsageError("--frame expects input or posekit, got '" + frame + "'");
   BodyUnit unit;

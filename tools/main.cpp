@@ -69,6 +69,9 @@ int main(int argc, char** argv) {
     } catch (const posekit::cli::UsageError& e) {
       std::cerr << "posekit " << name << ": " << e.what() << "\n";
       return 2;
+    } catch (const posekit::BelowConfidence& e) {
+      std::cerr << "posekit " << name << ": below confidence: " << e.what() << "\n";
+      return 3;
     } catch (const posekit::Error& e) {
       std::cerr << "posekit " << name << ": error: " << e.what() << "\n";
       return 1;

@@ -8,6 +8,7 @@
 #include <fstream>
 #include <iterator>
 #include <nlohmann/json.hpp>
+#include <random>
 #include <sstream>
 #include <string>
 
@@ -18,6 +19,7 @@
 #include "posekit/io/bvh.h"
 #include "posekit/io/mesh_io.h"
 #include "posekit/io/point_cloud_io.h"
+#include "posekit/shape/body_orientation.h"
 #include "posekit/version.h"
 #include "testing/small_dataset.h"
 #include "testing/temp_dir.h"
@@ -858,6 +860,61 @@ TEST(Cli, ShapeSpaceOfBodiesFittedToAnsurII) {
   EXPECT_NE(r.out.find("none.csv: not found"), std::string::npos) << r.out;
   EXPECT_EQ(run("shape-space --ansur --meshes " + dir.path() + " --out " + dir.file("x.pks")).code, 2);
   EXPECT_FALSE(std::filesystem::exists(dir.file("x.pks")));
+}
+
+TEST(Cli, SegmentByTheBodyModelKneelingInAnyFrameAndRefusePoorFits) {
+  ASSERT_FALSE(test::test_data_root().empty());
+  test::TempDir dir;
+  const std::string space = dir.file("ansur60.pks");
+  ASSERT_EQ(run("shape-space --ansur --subjects 60 --threads 2 --out " + space).code, 0);
+  // Bodies of held-out survey subjects (another seed's sample), kneeling and tilted, as users' files.
+  CommandResult r = run("dataset make --robustness --population ansur --shapes 1 --seed 21 --variations kneeling,tilted,zup --out " +
+                        dir.file("rb") + " --json");
+  ASSERT_EQ(r.code, 0) << r.out;
+  for (const char* variation : {"kneeling", "tilted", "zup"}) {
+    const std::string name = std::string("s01_") + variation;
+    const auto truth = nlohmann::json::parse(read_file_bytes(dir.file("rb/truth/" + name + ".json")));
+    const std::string file = dir.file("rb/" + truth["file"]["path"].get<std::string>());
+    r = run("segment " + file + " --body-model " + space + " --out " + dir.file(name + "_parts.ply") + " --joints " +
+            dir.file(name + "_joints.json") + " --json");
+    ASSERT_EQ(r.code, 0) << name << ": " << r.out;
+    const auto summary = nlohmann::json::parse(r.out);
+    EXPECT_TRUE(summary["confident"].get<bool>()) << summary.dump();
+    // Joints in the file's frame against the rig's (the zup file is Z up, facing -Y).
+    const Eigen::Matrix3d to_file = std::string(variation) == "zup" ? orientation_from_axes(parse_axis("+Z"), parse_axis("-Y")).rotation
+                                                                     : Eigen::Matrix3d::Identity();
+    const auto joints = nlohmann::json::parse(read_file_bytes(dir.file(name + "_joints.json")))["joints"];
+    for (const auto& [joint, xyz] : truth["joints"].items()) {
+      const Eigen::Vector3d want = to_file.transpose() * Eigen::Vector3d(xyz[0], xyz[1], xyz[2]);
+      const Eigen::Vector3d got(joints[joint][0], joints[joint][1], joints[joint][2]);
+      EXPECT_LT((got - want).norm(), 0.04) << name << " " << joint;
+    }
+    // Every vertex labelled, and the labels those of the rig on nearly all of the surface.
+    const TriangleMesh parts = read_mesh(dir.file(name + "_parts.ply"));
+    const Eigen::VectorXd& label = parts.vertex_scalars.at("part");
+    int same = 0;
+    for (Eigen::Index f = 0; f < parts.F.rows(); ++f) same += static_cast<int>(label[parts.F(f, 0)]) == truth["triangle_part"][f].get<int>();
+    EXPECT_GT(same, 0.93 * parts.F.rows()) << name;
+  }
+  // Not a body: a box of random points. The fit is poor: exit status 3, the reason, nothing written.
+  std::string cloud = "";
+  std::mt19937 rng(3);
+  std::uniform_real_distribution<double> u(0, 1);
+  for (int i = 0; i < 3000; ++i) cloud += std::to_string(u(rng)) + " " + std::to_string(2 * u(rng)) + " " + std::to_string(u(rng)) + "\n";
+  dir.write("box.xyz", cloud);
+  r = run("segment " + dir.file("box.xyz") + " --unit m --body-model " + space + " --out " + dir.file("box_parts.ply"), true);
+  EXPECT_EQ(r.code, 3) << r.out;
+  EXPECT_NE(r.out.find("below confidence"), std::string::npos) << r.out;
+  EXPECT_FALSE(std::filesystem::exists(dir.file("box_parts.ply")));
+  r = run("segment " + dir.file("box.xyz") + " --unit m --body-model " + space + " --accept-poor --out " + dir.file("box_parts.ply") + " --json");
+  EXPECT_EQ(r.code, 0) << r.out;
+  EXPECT_FALSE(nlohmann::json::parse(r.out)["confident"].get<bool>());
+  EXPECT_TRUE(std::filesystem::exists(dir.file("box_parts.ply")));
+  // A space that does not know the joints (learned from bodies without a rig) is refused by name.
+  ASSERT_EQ(run("shape-space --bodies 4 --out " + dir.file("nojoints.pks")).code, 0);
+  r = run("segment " + dir.file("box.xyz") + " --body-model " + dir.file("nojoints.pks"), true);
+  EXPECT_EQ(r.code, 1);
+  EXPECT_NE(r.out.find("does not know the 15 joints"), std::string::npos) << r.out;
 }
 
 TEST(Cli, ShapeSpaceFilesFromMakeHumanOrARegisteredFolder) {

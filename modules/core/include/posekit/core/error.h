@@ -30,4 +30,12 @@ class InvalidInput : public Error {
   using Error::Error;
 };
 
+/// A result was computed but its own checks say it is probably wrong (a poor body fit: little of the
+/// body on the target, much of the target off the body, an implausible shape): the command writes
+/// nothing unless told to accept it, and exits with status 3.
+class BelowConfidence : public Error {
+ public:
+  using Error::Error;
+};
+
 }  // namespace posekit
