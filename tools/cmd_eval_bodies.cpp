@@ -9,7 +9,10 @@
 
 #include "cli.h"
 #include "commands.h"
+#include "posekit/body/makehuman_model.h"
+#include "posekit/core/data_root.h"
 #include "posekit/evaluation/body_evaluation.h"
+#include "posekit/fitting/body_model.h"
 #include "posekit/io/atomic_file.h"
 
 namespace posekit::cli {
@@ -25,22 +28,33 @@ double median_of(std::vector<double> v) {
   return v.size() % 2 ? v[v.size() / 2] : 0.5 * (v[v.size() / 2 - 1] + v[v.size() / 2]);
 }
 
+double mean_of(const std::vector<double>& v) {
+  double sum = 0;
+  for (double x : v) sum += x;
+  return v.empty() ? std::nan("") : sum / static_cast<double>(v.size());
+}
+
 /// Counts over a group of bodies (a variation, or all).
 struct Tally {
-  int bodies = 0, meshes = 0, frame_right = 0, measured = 0, segmented = 0, agree = 0, joints = 0, both = 0, silent = 0;
+  int bodies = 0, meshes = 0, labelled = 0, frame_right = 0, measured = 0, segmented = 0, agree = 0, joints = 0, both = 0, silent = 0;
   int iso_within[3] = {0, 0, 0}, iso_measured[3] = {0, 0, 0};
-  std::vector<double> joint_max, agreement, roughness, truth_roughness;
+  std::vector<double> joint_max, agreement, roughness, truth_roughness, angle;
   void add(const BodyResult& b) {
     ++bodies;
-    meshes += b.kind == "mesh";
+    // Bodies that get parts and joints: meshes, and scans too when the body model is fitted.
+    const bool parted = b.kind == "mesh" || b.by_body_model;
+    meshes += parted;
+    labelled += !std::isnan(b.segmentation_agreement);
+    if (!std::isnan(b.joint_angle_error_mean)) angle.push_back(b.joint_angle_error_mean * 180 / M_PI);
     frame_right += b.unit_right && b.orientation_right;
     measured += b.measured;
     segmented += b.segmented;
     agree += b.segmented && b.segmentation_agreement >= kAgreementBar;
     joints += b.segmented && b.joint_error_max <= kJointBar;
-    both += b.segmented && b.segmentation_agreement >= kAgreementBar && b.joint_error_max <= kJointBar;
+    both += b.segmented && (std::isnan(b.segmentation_agreement) || b.segmentation_agreement >= kAgreementBar) &&
+            b.joint_error_max <= kJointBar;
     silent += !b.silent_nonsense.empty();
-    if (b.kind == "mesh") joint_max.push_back(b.joint_error_max), agreement.push_back(b.segmentation_agreement);
+    if (parted) joint_max.push_back(b.joint_error_max), agreement.push_back(b.segmentation_agreement);
     if (!std::isnan(b.border_roughness)) roughness.push_back(b.border_roughness);
     if (!std::isnan(b.truth_border_roughness)) truth_roughness.push_back(b.truth_border_roughness);
     for (int g = 0; g < 3; ++g) {
@@ -58,7 +72,8 @@ struct Tally {
             {"agreement_and_joints", both},
             {"girths_iso_20685", iso}, {"median_joint_error_max_mm", 1000 * median_of(joint_max)},
             {"median_agreement", median_of(agreement)}, {"median_border_roughness", median_of(roughness)},
-            {"median_truth_border_roughness", median_of(truth_roughness)}, {"silent_nonsense", silent}};
+            {"median_truth_border_roughness", median_of(truth_roughness)},
+            {"mean_joint_angle_error_deg", angle.empty() ? std::nan("") : mean_of(angle)}, {"silent_nonsense", silent}};
   }
 };
 
@@ -71,7 +86,7 @@ std::string percent(int part, int whole) {
 
 void print_row(const std::string& name, const Tally& t) {
   std::cout << "| " << name << " | " << t.bodies << " | " << percent(t.frame_right, t.bodies) << " | "
-            << percent(t.measured, t.bodies) << " | " << percent(t.segmented, t.meshes) << " | " << percent(t.agree, t.meshes)
+            << percent(t.measured, t.bodies) << " | " << percent(t.segmented, t.meshes) << " | " << percent(t.agree, t.labelled)
             << " | " << percent(t.joints, t.meshes) << " | " << percent(t.both, t.meshes) << " |";
   for (int g = 0; g < 3; ++g) std::cout << " " << percent(t.iso_within[g], t.iso_measured[g]) << " |";
   auto one_decimal = [](double v) {
@@ -81,7 +96,7 @@ void print_row(const std::string& name, const Tally& t) {
     return s.str();
   };
   std::cout << " " << one_decimal(1000 * median_of(t.joint_max)) << " | " << one_decimal(100 * median_of(t.agreement)) << " | "
-            << t.silent << " |\n";
+            << one_decimal(t.angle.empty() ? std::nan("") : mean_of(t.angle)) << " | " << t.silent << " |\n";
 }
 
 }  // namespace
@@ -97,6 +112,8 @@ int run_eval_bodies(int argc, char** argv) {
                  "failure with its message, and every result returned as good that is far off (silent nonsense).");
   args.option("dataset", "DIR", "a robustness set folder")
       .option("model", "FILE", "trained model (.pkm) whose segmentation prior labels the bodies (as posekit segment --model)")
+      .option("body-model", "FILE", "fit this body model to every body, meshes and scans (as posekit segment --body-model)")
+      .option("data", "DIR", "MakeHuman data root for --body-model (default: $POSEKIT_DATA or ../shared/datasets/makehuman)")
       .option("variations", "LIST", "only these variations (comma-separated)")
       .output("report", "FILE", "also write the full results as JSON")
       .flag("json", "results as JSON on stdout")
@@ -106,6 +123,12 @@ int run_eval_bodies(int argc, char** argv) {
   if (!args.has("dataset")) throw UsageError("--dataset DIR is required");
   BodyEvaluationOptions o;
   o.model_path = args.get("model");
+  std::unique_ptr<BodyModel> body_model;
+  if (args.has("body-model")) {
+    body_model = std::make_unique<BodyModel>(read_shape_space(args.get("body-model")),
+                                             *load_makehuman_model(find_data_root(args.get("data"))));
+    o.body_model = body_model.get();
+  }
   std::stringstream list(args.get("variations"));
   for (std::string item; std::getline(list, item, ',');)
     if (!item.empty()) o.only.push_back(item);
@@ -134,6 +157,8 @@ int run_eval_bodies(int argc, char** argv) {
     nlohmann::ordered_json j = {{"name", b.name}, {"variation", b.variation}, {"kind", b.kind}, {"unit_right", b.unit_right},
                                 {"orientation_right", b.orientation_right}, {"orientation", b.orientation},
                                 {"measured", b.measured}, {"segmented", b.segmented}, {"seconds", b.seconds}};
+    if (b.by_body_model) j["fit_start"] = b.fit_start;
+    if (!std::isnan(b.joint_angle_error_mean)) j["joint_angle_error_mean_deg"] = b.joint_angle_error_mean * 180 / M_PI;
     if (!b.measure_error.empty()) j["measure_error"] = b.measure_error;
     if (!b.segment_error.empty()) j["segment_error"] = b.segment_error;
     if (!std::isnan(b.segmentation_agreement)) j["segmentation_agreement"] = b.segmentation_agreement;
@@ -161,20 +186,25 @@ int run_eval_bodies(int argc, char** argv) {
     return 0;
   }
   std::cout << "robustness set " << args.get("dataset") << ": " << ev.bodies.size() << " bodies in " << std::fixed
-            << std::setprecision(0) << ev.seconds << " s; segmentation " << (o.model_path.empty() ? "without a model" : "with " + o.model_path)
+            << std::setprecision(0) << ev.seconds << " s; segmentation "
+            << (o.body_model ? "by the body model " + args.get("body-model") : o.model_path.empty() ? "without a model" : "with " + o.model_path)
             << "\n\n| variation | bodies | unit+orientation | measured | segmented (checked) | agreement >= 95% | "
-               "joints <= 3 cm | both | bust ISO | waist ISO | hip ISO | median worst joint mm | median agreement % | silent nonsense |\n"
-               "|---|---|---|---|---|---|---|---|---|---|---|---|---|---|\n";
+               "joints <= 3 cm | both | bust ISO | waist ISO | hip ISO | median worst joint mm | median agreement % | mean joint angle error deg | "
+               "silent nonsense |\n"
+               "|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|\n";
   for (size_t v = 0; v < per.size(); ++v) print_row(ev.variations[v], per[v]);
   print_row("**all**", all);
-  std::cout << "\nsegmented, agreement and joints count meshes (scans are measured only); both: agreement and joints\n"
-               "on the same body; a girth's ISO column counts the bodies where it was measured.\n"
+  std::cout << (o.body_model ? "\nsegmented (a confident fit), agreement (meshes) and joints count meshes and scans; both: agreement and\n"
+                               "joints on the same body; joint angles where the truth has the pose (the pose kinds);"
+                             : "\nsegmented, agreement and joints count meshes (scans are measured only); both: agreement and joints\n"
+                               "on the same body;")
+            << " a girth's ISO column counts the bodies where it was measured.\n"
             << "part borders' roughness (edge length over the hull's perimeter, median of the joints' borders; 1 is a\n"
                "smooth ring): median " << std::setprecision(3) << median_of(all.roughness) << " ours, "
             << median_of(all.truth_roughness) << " the rig's labels\n";
   bool header = false;
   for (const auto& b : ev.bodies) {
-    if (b.measured && (b.segmented || b.kind == "scan") && b.silent_nonsense.empty()) continue;
+    if (b.measured && (b.segmented || (b.kind == "scan" && !b.by_body_model)) && b.silent_nonsense.empty()) continue;
     if (!header) std::cout << "\nfailures:\n", header = true;
     if (!b.measure_error.empty()) std::cout << "  " << b.name << ": measure: " << b.measure_error << "\n";
     if (!b.segment_error.empty()) std::cout << "  " << b.name << ": segment: " << b.segment_error << "\n";

@@ -8,6 +8,7 @@
 #include <cmath>
 #include <filesystem>
 #include <nlohmann/json.hpp>
+#include <optional>
 #include <random>
 
 #include "posekit/body/makehuman_model.h"
@@ -74,6 +75,20 @@ const std::vector<RobustnessVariation> kVariations = {
     {"components", "4 floating bits and 32 loose vertices beside the body"},
     {"scanner", "head cut, hands cut, soles open, 25 holes, 4 floating bits, 32 loose vertices, 1 mm noise"},
     {"scan_cloud", "a simulated 8-camera booth scan (points, mm): 1.5 mm noise, occlusion holes, outliers"},
+    // Pose kinds (issue 44): what people do in front of a scanner or a camera, angles drawn at random.
+    {"arms_touching", "a natural rest pose: arms 2-8 degrees from the vertical, touching the torso below the armpits"},
+    {"hands_on_hips", "arms 35-45 degrees out and 10-20 back, elbows bent 90-110 degrees"},
+    {"arms_crossed", "upper arms 40-50 degrees forward and in, elbows bent 110-130 degrees"},
+    {"arms_overhead", "arms raised 150-170 degrees"},
+    {"raised_knee", "left hip flexed 80-100 degrees, left knee 80-100"},
+    {"lunge", "left hip flexed 50-70, knee 60-80; right hip extended 15-25, knee 20-40 degrees"},
+    {"kneeling", "on both knees: knees flexed 85-95 degrees, thighs upright"},
+    {"kneeling_one", "on the right knee: left hip and knee 85-95 degrees, right knee 85-95"},
+    {"squatting", "hips flexed 100-120, knees 120-140, back 15-25 degrees forward, arms forward"},
+    {"sitting_chair", "hips and knees flexed 85-95 degrees (no chair)"},
+    {"sitting_floor", "hips flexed 85-95 degrees, knees 0-10, arms down"},
+    {"bending_forward", "pelvis tipped 30-45 degrees forward over upright legs, back 20-30 more"},
+    {"tilted", "the A-pose tilted 5-15 degrees about a random horizontal axis (a scanner's frame)"},
 };
 
 nlohmann::ordered_json vec(const Eigen::Vector3d& v) { return {v.x(), v.y(), v.z()}; }
@@ -128,6 +143,64 @@ void set_elbow_flexion(const Eigen::MatrixXd& J, double flexion, PartPose* pose)
     pose->joint_rotation[find_joint_index(s + "_elbow")] = (flexion - rest) * upper.cross(fore).normalized();
   }
 }
+
+/// The 16-part pose of a pose-kind variation, angles drawn from its ranges (flexion of hips and
+/// shoulders forward is about -X, of knees about +X; Y up, facing +Z); none for another variation.
+std::optional<PartPose> pose_kind(const std::string& v, const Eigen::MatrixXd& J, std::mt19937& rng) {
+  std::uniform_real_distribution<double> u(0.0, 1.0);
+  auto deg = [&](double lo, double hi) { return (lo + (hi - lo) * u(rng)) * kDeg; };
+  const Eigen::Vector3d X = Eigen::Vector3d::UnitX(), Z = Eigen::Vector3d::UnitZ();
+  PartPose p;
+  auto set = [&](const char* joint, const Eigen::Vector3d& r) { p.joint_rotation[static_cast<size_t>(find_joint_index(joint))] = r; };
+  if (v == "arms_touching") {
+    set_arm_abduction(J, deg(2, 8), &p);
+  } else if (v == "hands_on_hips") {
+    set_arm_abduction(J, deg(35, 45), &p);
+    const Eigen::Matrix3d back = rotation_from_axis_angle(deg(10, 20) * X);
+    for (const char* side : {"left_shoulder", "right_shoulder"})
+      set(side, axis_angle_from_rotation(back * rotation_from_axis_angle(p.joint_rotation[static_cast<size_t>(find_joint_index(side))])));
+    set_elbow_flexion(J, deg(90, 110), &p);
+  } else if (v == "arms_crossed") {
+    const double fwd = deg(40, 50), in = deg(10, 20);
+    set("left_shoulder", axis_angle_from_rotation(rotation_from_axis_angle(-fwd * X) * rotation_from_axis_angle(-in * Z)));
+    set("right_shoulder", axis_angle_from_rotation(rotation_from_axis_angle(-fwd * X) * rotation_from_axis_angle(in * Z)));
+    set_elbow_flexion(J, deg(110, 130), &p);
+  } else if (v == "arms_overhead") {
+    set_arm_abduction(J, deg(150, 170), &p);
+  } else if (v == "raised_knee") {
+    set("left_hip", -deg(80, 100) * X), set("left_knee", deg(80, 100) * X);
+  } else if (v == "lunge") {
+    set("left_hip", -deg(50, 70) * X), set("left_knee", deg(60, 80) * X);
+    set("right_hip", deg(15, 25) * X), set("right_knee", deg(20, 40) * X);
+  } else if (v == "kneeling") {
+    set("left_knee", deg(85, 95) * X), set("right_knee", deg(85, 95) * X);
+  } else if (v == "kneeling_one") {
+    set("left_hip", -deg(85, 95) * X), set("left_knee", deg(85, 95) * X), set("right_knee", deg(85, 95) * X);
+  } else if (v == "squatting") {
+    set("left_hip", -deg(100, 120) * X), set("right_hip", -deg(100, 120) * X);
+    set("left_knee", deg(120, 140) * X), set("right_knee", deg(120, 140) * X);
+    set("lower_back", deg(15, 25) * X);
+    set("left_shoulder", -deg(50, 70) * X), set("right_shoulder", -deg(50, 70) * X);
+  } else if (v == "sitting_chair") {
+    set("left_hip", -deg(85, 95) * X), set("right_hip", -deg(85, 95) * X);
+    set("left_knee", deg(85, 95) * X), set("right_knee", deg(85, 95) * X);
+  } else if (v == "sitting_floor") {
+    set("left_hip", -deg(85, 95) * X), set("right_hip", -deg(85, 95) * X);
+    set("left_knee", deg(0, 10) * X), set("right_knee", deg(0, 10) * X);
+    set_arm_abduction(J, deg(15, 25), &p);
+  } else if (v == "bending_forward") {
+    const double tip = deg(30, 45);
+    p.root_rotation = tip * X;
+    set("left_hip", -tip * X), set("right_hip", -tip * X), set("lower_back", deg(20, 30) * X);
+  } else if (v == "tilted") {
+    const double heading = deg(0, 360);
+    p.root_rotation = deg(5, 15) * Eigen::Vector3d(std::cos(heading), 0, std::sin(heading));
+  } else {
+    return std::nullopt;
+  }
+  return p;
+}
+
 
 const std::vector<std::pair<std::string, double>> kFists = {
     {"Finger1CloseLeft", 0.8}, {"Finger2CloseLeft", 1.0}, {"Finger3CloseLeft", 1.0}, {"Finger4CloseLeft", 1.0},
@@ -469,6 +542,8 @@ RobustnessSummary make_robustness_set(const std::string& out_dir, const Robustne
         } else if (v == "scan_cloud") {
           s = apose;
           form.scan = true;
+        } else if (const auto kind = pose_kind(v, J, rng)) {
+          s = posed(*kind, {}, {{"pose_kind", v}, {"pose", nlohmann::ordered_json::parse(part_pose_to_json(*kind))}}, rest);
         }
         const std::string name = std::string(id) + "_" + v;
         const std::string file = "bodies/" + name + "." + (form.scan ? "ply" : form.extension);

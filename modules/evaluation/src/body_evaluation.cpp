@@ -5,6 +5,7 @@
 #include <cmath>
 #include <filesystem>
 #include <memory>
+#include <optional>
 #include <nlohmann/json.hpp>
 
 #include "posekit/body/parts.h"
@@ -13,6 +14,8 @@
 #include "posekit/core/mesh_validation.h"
 #include "posekit/core/units.h"
 #include "posekit/deformation/pose_model.h"
+#include "posekit/deformation/rigid_pose.h"
+#include "posekit/fitting/body_fit.h"
 #include "posekit/io/atomic_file.h"
 #include "posekit/io/mesh_io.h"
 #include "posekit/io/point_cloud_io.h"
@@ -36,7 +39,68 @@ constexpr double kSilentJoint = 0.05, kSilentAgreement = 0.80, kSilentGirth = 0.
 Eigen::Vector3d vec3(const nlohmann::json& j) { return Eigen::Vector3d(j[0].get<double>(), j[1].get<double>(), j[2].get<double>()); }
 
 /// One body through unit, orientation, measurement and segmentation, compared with its truth.
-BodyResult evaluate_body(const fs::path& dir, const nlohmann::json& entry, const SegmentationPrior* prior) {
+/// What a user would take for good and is not (`unwarned`: the orientation came without a warning).
+void flag_silent_nonsense(bool unwarned, BodyResult* result) {
+  BodyResult& r = *result;
+  if (!r.orientation_right && (r.measured || (r.segmented && !r.by_body_model)) && unwarned)
+    r.silent_nonsense.push_back("orientation " + r.orientation + " is wrong, without a warning");
+  const std::string passed = r.by_body_model ? "the body model's fit was confident" : "skeleton passed its checks";
+  if (r.segmented && r.joint_error_max > kSilentJoint)
+    r.silent_nonsense.push_back(passed + " with the " + r.worst_joint + " " +
+                                std::to_string(static_cast<int>(std::lround(r.joint_error_max * 1000))) + " mm off");
+  if (r.segmented && r.segmentation_agreement < kSilentAgreement)
+    r.silent_nonsense.push_back((r.by_body_model ? passed + "," : std::string("segmentation passed its checks")) + " agreeing with the rig on only " +
+                                std::to_string(static_cast<int>(std::lround(100 * r.segmentation_agreement))) + "% of the area");
+  for (const auto& [name, e] : r.girth_error)
+    if (std::abs(e) > kSilentGirth)
+      r.silent_nonsense.push_back(name + " girth returned as measured " + std::to_string(static_cast<int>(std::lround(e * 1000))) +
+                                  " mm off");
+}
+
+/// The body model's fit of a body in the file's frame (metres) against the truth: labels (meshes),
+/// joints and, where the truth has its pose, joint angles.
+void evaluate_fit(const BodyFit& fit, const nlohmann::json& truth, const TriangleMesh* mesh, const Eigen::Matrix3d& file_to_posekit,
+                  BodyResult* r) {
+  r->by_body_model = true;
+  r->fit_start = fit.start;
+  r->segmented = fit.confident;
+  for (const auto& reason : fit.reasons) r->segment_error += (r->segment_error.empty() ? "below confidence: " : "; ") + reason;
+  if (mesh && truth.at("triangle_part").size() == static_cast<size_t>(mesh->F.rows())) {
+    const Eigen::VectorXi ours = triangle_part_labels(mesh->F, fit.target_part);
+    const Eigen::VectorXd area = face_areas(mesh->V, mesh->F);
+    double same = 0, all = 0;
+    Eigen::VectorXi theirs(mesh->F.rows());
+    for (Eigen::Index f = 0; f < mesh->F.rows(); ++f) {
+      theirs[f] = truth.at("triangle_part")[static_cast<size_t>(f)].get<int>();
+      if (theirs[f] < 0) continue;
+      all += area[f];
+      if (theirs[f] == ours[f]) same += area[f];
+    }
+    r->segmentation_agreement = all > 0 ? same / all : 0.0;
+    r->border_roughness = border_roughness(mesh->V, mesh->F, ours);
+    r->truth_border_roughness = border_roughness(mesh->V, mesh->F, theirs);
+  }
+  r->joint_error_max = r->joint_error_mean = 0;
+  for (int j = 0; j < kNumJoints; ++j) {
+    const Eigen::Vector3d rig = file_to_posekit.transpose() * vec3(truth.at("joints").at(joint_name(j)));
+    const double e = (fit.joints.row(j).transpose() - rig).norm();
+    r->joint_error[joint_name(j)] = e;
+    r->joint_error_mean += e / kNumJoints;
+    if (e > r->joint_error_max) r->joint_error_max = e, r->worst_joint = joint_name(j);
+  }
+  if (truth.contains("done") && truth.at("done").contains("pose")) {
+    const PartPose want = part_pose_from_json(truth.at("done").at("pose").dump(), "truth");
+    double sum = 0;
+    for (int j = 0; j < kNumJoints; ++j)
+      sum += Eigen::AngleAxisd(rotation_from_axis_angle(fit.pose.joint_rotation[static_cast<size_t>(j)]).transpose() *
+                               rotation_from_axis_angle(want.joint_rotation[static_cast<size_t>(j)]))
+                 .angle();
+    r->joint_angle_error_mean = sum / kNumJoints;
+  }
+}
+
+BodyResult evaluate_body(const fs::path& dir, const nlohmann::json& entry, const SegmentationPrior* prior,
+                         const BodyModel* body_model) {
   const auto t0 = std::chrono::steady_clock::now();
   BodyResult r;
   r.name = entry.at("name").get<std::string>();
@@ -61,17 +125,31 @@ BodyResult evaluate_body(const fs::path& dir, const nlohmann::json& entry, const
   }
   r.unit_right = unit_name(unit) == truth.at("file").at("unit").get<std::string>();
   P *= metres_per_unit(unit);
+  // The body model fits the file's points as they are: it finds the up direction itself.
+  std::optional<BodyFit> fit;
+  if (body_model) {
+    try {
+      fit = scan ? fit_body_model(*body_model, P) : fit_body_model_to_mesh(*body_model, P, mesh.F);
+    } catch (const InvalidInput& e) {
+      r.segment_error = std::string("body model fit: ") + e.what();
+    }
+  }
+  const TriangleMesh file_mesh = body_model && !scan ? mesh : TriangleMesh{};
+  const BodyOrientation expected = orientation_from_axes(parse_axis(truth.at("file").at("up").get<std::string>()),
+                                                         parse_axis(truth.at("file").at("forward").get<std::string>()));
   BodyOrientation orientation;
   try {
     orientation = scan ? detect_body_orientation(P, {}) : detect_mesh_orientation(mesh.V, mesh.F);
   } catch (const InvalidInput& e) {
-    r.measure_error = r.segment_error = std::string("orientation: ") + e.what();
+    r.measure_error = std::string("orientation: ") + e.what();
+    if (!body_model) r.segment_error = r.measure_error;
+    else if (fit) evaluate_fit(*fit, truth, scan ? nullptr : &file_mesh, expected.rotation, &r);
+    flag_silent_nonsense(false, &r);
+    r.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
     return r;
   }
   r.orientation = orientation.describe();
   for (const auto& w : orientation.warnings) r.warnings.push_back("orientation: " + w);
-  const BodyOrientation expected = orientation_from_axes(parse_axis(truth.at("file").at("up").get<std::string>()),
-                                                         parse_axis(truth.at("file").at("forward").get<std::string>()));
   // Right within 15 degrees: a twisted torso has no single facing direction to the degree.
   const double off = Eigen::AngleAxisd(orientation.rotation * expected.rotation.transpose()).angle();
   r.orientation_right = off < 15 * M_PI / 180;
@@ -94,7 +172,9 @@ BodyResult evaluate_body(const fs::path& dir, const nlohmann::json& entry, const
   }
 
   // Segment and embed the skeleton, as `posekit segment` does.
-  if (!scan) {
+  if (body_model) {
+    if (fit) evaluate_fit(*fit, truth, scan ? nullptr : &file_mesh, expected.rotation, &r);
+  } else if (!scan) {
     try {
       // As `posekit segment` does: floating bits are left out (and not counted in the agreement).
       std::vector<int> surface_face;
@@ -143,19 +223,7 @@ BodyResult evaluate_body(const fs::path& dir, const nlohmann::json& entry, const
     }
   }
 
-  // What a user would take for good and is not.
-  if (!r.orientation_right && (r.measured || r.segmented) && orientation.warnings.empty())
-    r.silent_nonsense.push_back("orientation " + r.orientation + " is wrong, without a warning");
-  if (r.segmented && r.joint_error_max > kSilentJoint)
-    r.silent_nonsense.push_back("skeleton passed its checks with the " + r.worst_joint + " " +
-                                std::to_string(static_cast<int>(std::lround(r.joint_error_max * 1000))) + " mm off");
-  if (r.segmented && r.segmentation_agreement < kSilentAgreement)
-    r.silent_nonsense.push_back("segmentation passed its checks agreeing with the rig on only " +
-                                std::to_string(static_cast<int>(std::lround(100 * r.segmentation_agreement))) + "% of the area");
-  for (const auto& [name, e] : r.girth_error)
-    if (std::abs(e) > kSilentGirth)
-      r.silent_nonsense.push_back(name + " girth returned as measured " + std::to_string(static_cast<int>(std::lround(e * 1000))) +
-                                  " mm off");
+  flag_silent_nonsense(orientation.warnings.empty(), &r);
   r.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   return r;
 }
@@ -194,7 +262,7 @@ BodyEvaluation evaluate_bodies(const std::string& dir, const BodyEvaluationOptio
       entries.push_back(b);
   for (size_t k = 0; k < entries.size(); ++k) {
     try {
-      ev.bodies.push_back(evaluate_body(root, entries[k], prior.get()));
+      ev.bodies.push_back(evaluate_body(root, entries[k], prior.get(), o.body_model));
     } catch (const nlohmann::json::exception& e) {
       throw IoError(dir + ": the truth of " + entries[k].value("name", "?") + " is malformed (" + e.what() + ")");
     }

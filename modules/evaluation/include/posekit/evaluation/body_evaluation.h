@@ -11,6 +11,8 @@
 
 namespace posekit {
 
+class BodyModel;
+
 /// ISO 20685-1 allowable errors of girths (m): bust/chest 15 mm, waist 12 mm, hip 12 mm.
 double iso_allowable_girth_error(const std::string& girth);
 
@@ -32,6 +34,11 @@ struct BodyResult {
   double joint_error_mean = std::numeric_limits<double>::quiet_NaN();        ///< m
   std::string worst_joint;
   std::map<std::string, double> joint_error;  ///< joint name -> m
+  /// With a body model: the fit labelled and placed the joints (meshes and scans alike); the mean
+  /// angle (radians) between each fitted joint rotation and the truth's, where the truth has a pose.
+  bool by_body_model = false;
+  double joint_angle_error_mean = std::numeric_limits<double>::quiet_NaN();
+  std::string fit_start;  ///< the library pose the fit started from
   double seconds = 0;
   /// A result returned as good that is far from the truth (orientation, joints over 5 cm, agreement
   /// under 80%, a girth off by more than 5 cm): what a user would not notice. Filled by evaluate_bodies.
@@ -40,6 +47,9 @@ struct BodyResult {
 
 struct BodyEvaluationOptions {
   std::string model_path;           ///< trained model whose segmentation prior labels the body; "" for none
+  /// When set, the body model is fitted to every body (posekit segment --body-model) in place of the
+  /// rule-based segmentation; labels, joints and pose are read off the fit.
+  const BodyModel* body_model = nullptr;
   std::vector<std::string> only;    ///< only these variations (all when empty)
   std::function<void(int, int, const std::string&)> progress;
 };
