@@ -25,6 +25,7 @@ namespace {
 constexpr double kDeg = M_PI / 180;
 
 /// The points averaged per cubic cell: a cloud whose density no longer depends on the scanner's.
+/// (T has at least one point.)
 Eigen::MatrixXd working_cloud(const Eigen::MatrixXd& T, double cell) {
   const Eigen::RowVector3d lo = T.colwise().minCoeff();
   std::unordered_map<std::uint64_t, int> slot;
@@ -40,8 +41,16 @@ Eigen::MatrixXd working_cloud(const Eigen::MatrixXd& T, double cell) {
     sum[static_cast<size_t>(it->second)] += T.row(i).transpose();
     ++count[static_cast<size_t>(it->second)];
   }
-  Eigen::MatrixXd W(static_cast<Eigen::Index>(sum.size()), 3);
-  for (size_t k = 0; k < sum.size(); ++k) W.row(static_cast<Eigen::Index>(k)) = (sum[k] / count[k]).transpose();
+  // A cell holding under a tenth of the typical cell's points is a scanner's stray return, not
+  // surface (on a mesh, one vertex per cell is typical and every cell is kept).
+  std::vector<int> sorted = count;
+  std::nth_element(sorted.begin(), sorted.begin() + static_cast<long>(sorted.size() / 2), sorted.end());
+  const double least = 0.1 * sorted[sorted.size() / 2];
+  std::vector<Eigen::Vector3d> kept;
+  for (size_t k = 0; k < sum.size(); ++k)
+    if (count[k] >= least) kept.push_back(sum[k] / count[k]);
+  Eigen::MatrixXd W(static_cast<Eigen::Index>(kept.size()), 3);
+  for (size_t k = 0; k < kept.size(); ++k) W.row(static_cast<Eigen::Index>(k)) = kept[k].transpose();
   return W;
 }
 
@@ -247,6 +256,7 @@ Eigen::VectorXd fit_shape(const BodyModel& model, Eigen::VectorXd c, PartPose* p
     for (Eigen::Index i = 0; i < n; ++i) A.block(3 * i, k, 3, 1) = Xk.row(i).transpose();
   }
   const double max_d = 0.08, sigma = 0.03, p2p = 0.1;
+  const Eigen::Index target_stride = std::max<Eigen::Index>(1, P.rows() / 8000);  // about 8,000 target points
   for (int round = 0; round < 4; ++round) {
     Eigen::MatrixXd full;
     ShapedBody(model, c).pose(pose, &full);
@@ -257,7 +267,7 @@ Eigen::VectorXd fit_shape(const BodyModel& model, Eigen::VectorXd c, PartPose* p
     // Pairs (vertex, target point); then their rows of the weighted least squares: along the normal,
     // and point-to-point with weight p2p, each times the square root of its Cauchy weight.
     std::vector<std::pair<Eigen::Index, Eigen::Index>> pairs;
-    for (Eigen::Index t = 0; t < P.rows(); ++t) {
+    for (Eigen::Index t = 0; t < P.rows(); t += target_stride) {
       double sq = 0;
       const int i = body_grid.nearest(P.row(t).transpose(), &sq, max_d);
       if (i >= 0) pairs.emplace_back(i, t);
@@ -269,26 +279,33 @@ Eigen::VectorXd fit_shape(const BodyModel& model, Eigen::VectorXd c, PartPose* p
       const int u = body_grid.nearest(P.row(t).transpose(), &back, max_d);
       if (u >= 0 && (X.row(u) - X.row(i)).norm() < 0.03) pairs.emplace_back(i, t);
     }
-    const auto m = static_cast<Eigen::Index>(pairs.size());
-    Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor> J(4 * m, K + 3);
-    Eigen::VectorXd r(4 * m);
-    double weight = 0;
-    for (Eigen::Index k = 0; k < m; ++k) {
-      const auto [i, t] = pairs[static_cast<size_t>(k)];
-      const Eigen::Vector3d d = X.row(i).transpose() - P.row(t).transpose(), nn = normals.row(rows[static_cast<size_t>(i)]).transpose();
-      const double along = nn.dot(d), w = 1 / (1 + (along * along + p2p * d.squaredNorm()) / (sigma * sigma));
-      const double sw = std::sqrt(w), swp = std::sqrt(w * p2p);
-      const auto Ai = A.middleRows(3 * i, 3);
-      J.row(4 * k).noalias() = sw * nn.transpose() * Ai;
-      J.middleRows(4 * k + 1, 3) = swp * Ai;
-      r[4 * k] = sw * along;
-      r.segment<3>(4 * k + 1) = swp * d;
-      weight += w;
-    }
+    // The normal equations in blocks of pairs (one buffer, no matrix of every pair's rows).
+    constexpr Eigen::Index kBlock = 512;
     Eigen::MatrixXd H = Eigen::MatrixXd::Zero(K + 3, K + 3);
-    H.selfadjointView<Eigen::Lower>().rankUpdate(J.transpose());
+    Eigen::VectorXd g = Eigen::VectorXd::Zero(K + 3);
+    Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor> J(4 * kBlock, K + 3);
+    Eigen::VectorXd r(4 * kBlock);
+    double weight = 0;
+    const auto m = static_cast<Eigen::Index>(pairs.size());
+    for (Eigen::Index start = 0; start < m; start += kBlock) {
+      const Eigen::Index count = std::min(kBlock, m - start);
+      for (Eigen::Index k = 0; k < count; ++k) {
+        const auto [i, t] = pairs[static_cast<size_t>(start + k)];
+        const Eigen::Vector3d d = X.row(i).transpose() - P.row(t).transpose(), nn = normals.row(rows[static_cast<size_t>(i)]).transpose();
+        const double along = nn.dot(d), w = 1 / (1 + (along * along + p2p * d.squaredNorm()) / (sigma * sigma));
+        const double sw = std::sqrt(w), swp = std::sqrt(w * p2p);
+        const auto Ai = A.middleRows(3 * i, 3);
+        J.row(4 * k).noalias() = sw * nn.transpose() * Ai;
+        J.middleRows(4 * k + 1, 3) = swp * Ai;
+        r[4 * k] = sw * along;
+        r.segment<3>(4 * k + 1) = swp * d;
+        weight += w;
+      }
+      const auto Jb = J.topRows(4 * count);
+      H.selfadjointView<Eigen::Lower>().rankUpdate(Jb.transpose());
+      g.noalias() += Jb.transpose() * r.head(4 * count);
+    }
     H = H.selfadjointView<Eigen::Lower>();
-    Eigen::VectorXd g = J.transpose() * r;
     if (weight <= 0) break;
     const double lambda = weight * o.shape_prior * o.shape_prior;
     H.diagonal().head(K).array() += lambda;

@@ -27,7 +27,8 @@ std::vector<LibraryPose> pose_library(const Eigen::MatrixXd& rest_joints);
 
 struct BodyFitOptions {
   /// The working cloud: the target's points averaged in cubic cells of this size (m), so that a 10M
-  /// point scan and a 5k-vertex mesh cost and weigh alike.
+  /// point scan and a 5k-vertex mesh cost and weigh alike; cells holding under a tenth of the median
+  /// cell's points (stray returns) are left out.
   double working_cell = 0.012;
   /// Up directions tried (unit vectors in the target's frame); empty: +-X, +-Y, +-Z.
   std::vector<Eigen::Vector3d> up_candidates;
