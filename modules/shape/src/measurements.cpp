@@ -478,6 +478,14 @@ SectionStack sections_of_clean_points(const Eigen::MatrixXd& P, double step, dou
 
 }  // namespace
 
+SectionLoop section_from_planar_points(const std::vector<Eigen::Vector3d>& points, const Eigen::Vector3d& normal,
+                                       double max_gap_deg) {
+  if (points.empty()) return SectionLoop{};
+  return loop_from_points(points, normal.normalized(), max_gap_deg);
+}
+
+double section_slab_thickness(double spacing) { return slicing_for_spacing(spacing).thickness; }
+
 SectionStack horizontal_sections_of_points(const Eigen::MatrixXd& scan, double step, double max_gap_deg) {
   if (scan.rows() < 1000) throw InvalidInput("measure: the point cloud has " + std::to_string(scan.rows()) + " points, too few for a body");
   const Eigen::MatrixXd P = drop_isolated_points(scan);

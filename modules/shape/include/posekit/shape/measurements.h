@@ -49,4 +49,12 @@ BodyMeasurements measure_point_cloud(const Eigen::MatrixXd& P);
 /// `max_gap_deg`.
 SectionStack horizontal_sections_of_points(const Eigen::MatrixXd& P, double step = 0.005, double max_gap_deg = 40);
 
+/// A scan's section from its points in one slab, projected into the plane (normal n): the median
+/// radius about their centroid in each angular sector (which also removes the scanner's noise);
+/// closed when no run of empty sectors spans more than `max_gap_deg`.
+SectionLoop section_from_planar_points(const std::vector<Eigen::Vector3d>& points, const Eigen::Vector3d& normal,
+                                       double max_gap_deg = 40);
+/// The slab thickness (m) that cuts whole sections from a scan whose points are `spacing` (m) apart.
+double section_slab_thickness(double spacing);
+
 }  // namespace posekit
