@@ -13,12 +13,14 @@
 
 #include "cli.h"
 #include "commands.h"
+#include "fitted_input.h"
 #include "posekit/body/makehuman_model.h"
 #include "posekit/body/parts.h"
 #include "posekit/core/data_root.h"
 #include "posekit/core/error.h"
 #include "posekit/datasets/dataset.h"
 #include "posekit/fitting/body_fit.h"
+#include "posekit/fitting/body_model.h"
 #include "posekit/deformation/part_pose_estimation.h"
 #include "posekit/deformation/pose_fitting.h"
 #include "posekit/deformation/pose_model.h"
@@ -195,13 +197,23 @@ LoadedPoses load_poses(const std::string& path, const std::string& frames, const
   return out;
 }
 
-PoseSynthesizer set_up_subject(std::shared_ptr<const PoseModel> model, const TriangleMesh& subject, const std::string& path) {
+PoseSynthesizer set_up_subject(std::shared_ptr<const PoseModel> model, const TriangleMesh& subject, const std::string& path,
+                               const SubjectSetupOptions& options) {
   try {
-    return PoseSynthesizer(std::move(model), subject);
+    return PoseSynthesizer(std::move(model), subject, options);
   } catch (const InvalidInput& e) {
     throw InvalidInput(path + ": cannot be set up for posing: " + e.what() +
-                       "; a subject must stand upright in the standard pose, arms away from the body");
+                       (options.joint_centres.size() ? std::string() : "; a subject must stand upright in the standard pose, arms away from the body (or give --body-model)"));
   }
+}
+
+/// With --body-model, the subject's parts and joints from the body model's fit; else computed by set-up.
+SubjectSetupOptions subject_setup(const ArgParser& args, const TriangleMesh& subject) {
+  SubjectSetupOptions o;
+  if (!args.has("body-model")) return o;
+  const std::unique_ptr<BodyModel> body_model = load_body_model(args);
+  segment_subject_by_body_model(*body_model, subject, args.get("subject"), args, &o.triangle_part, &o.joint_centres);
+  return o;
 }
 
 /// --calibration-population: empty for random MakeHuman bodies, else `count` bodies fitted to subjects
@@ -346,6 +358,7 @@ int run_pose(int argc, char** argv) {
       .flag("json", "summary as JSON on stdout")
       .example("posekit pose --model model.pkm --subject out/dataset/subjects/f01/rest.ply --pose out/dataset/subjects/f01/posed/squat_half.json --out posed.ply")
       .example("posekit pose --model model.pkm --subject body.ply --pose cmu/01_01.bvh --frames 0:100 --out walk/frame.ply");
+  add_body_model_options(&args, false);
   add_orientation_options(&args, "", "the subject");
   if (!args.parse(argc, argv)) return 0;
   for (const char* required : {"model", "subject", "pose", "out"})
@@ -356,7 +369,7 @@ int run_pose(int argc, char** argv) {
   BodyUnit unit;
   const TriangleMesh subject = read_posing_subject(args, "pose", &orientation, &unit);
   const auto t0 = std::chrono::steady_clock::now();
-  const PoseSynthesizer synth = set_up_subject(model, subject, args.get("subject"));
+  const PoseSynthesizer synth = set_up_subject(model, subject, args.get("subject"), subject_setup(args, subject));
   const double setup = seconds_since(t0);
   for (const auto& problem : synth.info().skeleton_problems)
     std::cerr << "warning: " << args.get("subject") << ": the subject's skeleton looks wrong: " << problem << "\n";
@@ -456,19 +469,9 @@ int segment_by_body_model(const ArgParser& args) {
   const std::string path = args.positionals()[0];
   BodyUnit unit;
   const BodyInput input = read_body_input(path, args.get("unit"), "segment", &unit);
-  const Eigen::MatrixXd& V = input.is_cloud ? input.cloud.P : input.mesh.V;
-  const auto makehuman = load_makehuman_model(find_data_root(args.get("data")));
-  const BodyModel model(read_shape_space(args.get("body-model")), *makehuman);
-  const BodyFit fit = input.is_cloud ? fit_body_model(model, V) : fit_body_model_to_mesh(model, V, input.mesh.F);
-  for (const auto& w : fit.warnings) std::cerr << "warning: " << path << ": " << w << "\n";
-  std::string why;
-  for (const auto& r : fit.reasons) why += (why.empty() ? "" : "; ") + r;
-  if (!fit.confident) {
-    if (!args.flag_set("accept-poor"))
-      throw BelowConfidence(path + ": the body model's fit is poor (" + why +
-                            "); nothing written (--accept-poor writes it anyway, marked as poor)");
-    std::cerr << "warning: " << path << ": the body model's fit is poor (" << why << "); written as asked, marked poor\n";
-  }
+  const std::unique_ptr<BodyModel> body_model = load_body_model(args);
+  const BodyModel& model = *body_model;
+  const BodyFit fit = fit_body_model_to_input(model, input, path, args);
   if (args.has("out")) {
     const Eigen::VectorXd part = fit.target_part.cast<double>();
     if (input.is_cloud) {
@@ -524,9 +527,6 @@ int run_segment(int argc, char** argv) {
                  "and writes nothing unless --accept-poor.");
   args.positional("mesh", "body mesh (PLY/OBJ/OFF/STL), or with --body-model also a scan's points")
       .option("model", "FILE", "trained model (.pkm) whose segmentation prior labels the representation")
-      .option("body-model", "FILE", "fit this body model (a shape space with joints: posekit shape-space --ansur) instead")
-      .option("data", "DIR", "MakeHuman data root for --body-model (default: $POSEKIT_DATA or ../shared/datasets/makehuman)")
-      .flag("accept-poor", "with --body-model: write the result of a poor fit too (marked; exit status 0)")
       .option("unit", "U", "unit of the mesh: m, dm, cm, mm, or auto (its largest extent tells)", "auto")
       .output("out", "FILE", "mesh with vertex scalar 'part' (0..15); PLY keeps it for other tools")
       .output("joints", "FILE", "write the joint centres as JSON")
@@ -536,6 +536,7 @@ int run_segment(int argc, char** argv) {
       .example("posekit segment out/dataset/subjects/m01/rest.ply --model model.pkm --out m01_parts.ply")
       .example("posekit segment registration_z_up.obj --up +Z --joints joints.json")
       .example("posekit segment kneeling_scan.ply --body-model ansur.pks --out parts.ply --joints joints.json");
+  add_body_model_options(&args);
   add_orientation_options(&args);
   if (!args.parse(argc, argv)) return 0;
   if (args.has("body-model")) return segment_by_body_model(args);
@@ -767,7 +768,8 @@ int run_fit(int argc, char** argv) {
                  "elbows and knees kept on their hinge, and the joints' ranges of motion as priors. A part the target\n"
                  "does not show (hands cut off) has its joint held at rest, with a warning. Writes the pose, the\n"
                  "fitted body with its per-vertex distance to the target (PLY scalar 'residual_mm') and a summary.\n"
-                 "--start skips the search (e.g. the previous frame's pose).");
+                 "--start skips the search (e.g. the previous frame's pose). With --body-model, the subject's parts and\n"
+                 "joints come from the body model fitted to it (any rest pose, arms close); a poor fit exits with status 3.");
   args.option("model", "FILE", "trained model (.pkm, posekit train)")
       .option("subject", "FILE", "the body to pose, standing at rest (PLY/OBJ/OFF/STL)")
       .option("target", "FILE", "scan (PCD/PLY/XYZ) or mesh to match, upright")
@@ -782,6 +784,7 @@ int run_fit(int argc, char** argv) {
       .example("posekit fit --model model.pkm --subject ds/subjects/f01/rest.ply --target ds/scans/f01/squat_half.pcd "
                "--out fitted.ply --pose-out pose.json");
   args.option("target-up", "AXIS", "the axis the target stands along (+X, -Y, ...) or auto (detected); its heading is fitted", "auto");
+  add_body_model_options(&args);
   add_orientation_options(&args, "", "the subject");
   if (!args.parse(argc, argv)) return 0;
   for (const char* required : {"model", "subject", "target"})
@@ -810,7 +813,7 @@ int run_fit(int argc, char** argv) {
       std::cerr << "posekit fit: " << args.get("target") << ": up " << axis_name(up) << ", turned to +Y\n";
     }
   }
-  const PoseSynthesizer synth = set_up_subject(model, subject, args.get("subject"));
+  const PoseSynthesizer synth = set_up_subject(model, subject, args.get("subject"), subject_setup(args, subject));
   PoseFitOptions o;
   o.method = parse_pose_method(args.get("method"));
   o.iterations = static_cast<int>(args.get_int("iterations"));

@@ -49,7 +49,9 @@ LoadedPoses load_poses(const std::string& path, const std::string& frames, const
 
 /// Sets a subject up for posing (segmentation, skeleton, correspondence); a body that cannot be set
 /// up is an InvalidInput naming `path` and the likely cause (it does not stand in the standard pose).
-PoseSynthesizer set_up_subject(std::shared_ptr<const PoseModel> model, const TriangleMesh& subject, const std::string& path);
+/// `options` may carry the subject's parts and joints (from the body model's fit).
+PoseSynthesizer set_up_subject(std::shared_ptr<const PoseModel> model, const TriangleMesh& subject, const std::string& path,
+                               const SubjectSetupOptions& options = {});
 
 /// What a shape-space population leaves out: none, men (gender over 0.5), obese (BMI 30 and over) or
 /// local (the measure modifiers that give the subjects their local shape). Throws UsageError.

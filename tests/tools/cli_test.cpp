@@ -862,13 +862,13 @@ TEST(Cli, ShapeSpaceOfBodiesFittedToAnsurII) {
   EXPECT_FALSE(std::filesystem::exists(dir.file("x.pks")));
 }
 
-TEST(Cli, SegmentByTheBodyModelKneelingInAnyFrameAndRefusePoorFits) {
+TEST(Cli, SegmentAndMeasureByTheBodyModelKneelingInAnyFrameAndRefusePoorFits) {
   ASSERT_FALSE(test::test_data_root().empty());
   test::TempDir dir;
   const std::string space = dir.file("ansur60.pks");
   ASSERT_EQ(run("shape-space --ansur --subjects 60 --threads 2 --out " + space).code, 0);
   // Bodies of held-out survey subjects (another seed's sample), kneeling and tilted, as users' files.
-  CommandResult r = run("dataset make --robustness --population ansur --shapes 1 --seed 21 --variations kneeling,tilted,zup --out " +
+  CommandResult r = run("dataset make --robustness --population ansur --shapes 1 --seed 21 --variations kneeling,tilted,zup,arms_touching --out " +
                         dir.file("rb") + " --json");
   ASSERT_EQ(r.code, 0) << r.out;
   for (const char* variation : {"kneeling", "tilted", "zup"}) {
@@ -896,6 +896,21 @@ TEST(Cli, SegmentByTheBodyModelKneelingInAnyFrameAndRefusePoorFits) {
     for (Eigen::Index f = 0; f < parts.F.rows(); ++f) same += static_cast<int>(label[parts.F(f, 0)]) == truth["triangle_part"][f].get<int>();
     EXPECT_GT(same, 0.93 * parts.F.rows()) << name;
   }
+  // Arms resting on the torso below the armpits: measured through the fit, the bust too, within
+  // ISO 20685-1's allowances of the body's standing girths.
+  {
+    const auto truth = nlohmann::json::parse(read_file_bytes(dir.file("rb/truth/s01_arms_touching.json")));
+    r = run("measure " + dir.file("rb/" + truth["file"]["path"].get<std::string>()) + " --body-model " + space + " --json");
+    ASSERT_EQ(r.code, 0) << r.out;
+    const auto m = nlohmann::json::parse(r.out);
+    EXPECT_EQ(m["method"], "body model");
+    for (const auto& [name, bar] : {std::pair<const char*, double>{"bust", 0.015}, {"waist", 0.012}, {"hip", 0.012}}) {
+      ASSERT_TRUE(m["girths"][name]["measured"].get<bool>()) << name << ": " << m["girths"][name].dump();
+      EXPECT_NEAR(m["girths"][name]["value"].get<double>(), truth["girths"][name].get<double>(), bar) << name;
+    }
+    EXPECT_TRUE(m["landmarks"].contains("left_armpit"));
+    EXPECT_TRUE(m["cross_check"].contains("ran"));
+  }
   // Not a body: a box of random points. The fit is poor: exit status 3, the reason, nothing written.
   std::string cloud = "";
   std::mt19937 rng(3);
@@ -910,6 +925,8 @@ TEST(Cli, SegmentByTheBodyModelKneelingInAnyFrameAndRefusePoorFits) {
   EXPECT_EQ(r.code, 0) << r.out;
   EXPECT_FALSE(nlohmann::json::parse(r.out)["confident"].get<bool>());
   EXPECT_TRUE(std::filesystem::exists(dir.file("box_parts.ply")));
+  r = run("measure " + dir.file("box.xyz") + " --unit m --body-model " + space, true);
+  EXPECT_EQ(r.code, 3) << r.out;
   // A space that does not know the joints (learned from bodies without a rig) is refused by name.
   ASSERT_EQ(run("shape-space --bodies 4 --out " + dir.file("nojoints.pks")).code, 0);
   r = run("segment " + dir.file("box.xyz") + " --body-model " + dir.file("nojoints.pks"), true);

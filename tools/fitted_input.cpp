@@ -1,0 +1,58 @@
+#include "fitted_input.h"
+
+#include <cmath>
+#include <iostream>
+
+#include "posekit/body/makehuman_model.h"
+#include "posekit/body/parts.h"
+#include "posekit/core/data_root.h"
+#include "posekit/core/error.h"
+#include "posekit/core/point_grid.h"
+#include "posekit/registration/shape_space.h"
+
+namespace posekit::cli {
+
+void add_body_model_options(ArgParser* args, bool data_option) {
+  args->option("body-model", "FILE", "fit this body model (a shape space with joints: posekit shape-space --ansur)")
+      .flag("accept-poor", "with --body-model: give the result of a poor fit too (marked poor; exit status 0)");
+  if (data_option)
+    args->option("data", "DIR", "MakeHuman data root for --body-model (default: $POSEKIT_DATA or ../shared/datasets/makehuman)");
+}
+
+std::unique_ptr<BodyModel> load_body_model(const ArgParser& args) {
+  const auto makehuman = load_makehuman_model(find_data_root(args.get("data")));
+  return std::make_unique<BodyModel>(read_shape_space(args.get("body-model")), *makehuman);
+}
+
+BodyFit fit_body_model_to_input(const BodyModel& model, const BodyInput& input, const std::string& path, const ArgParser& args) {
+  const BodyFit fit = input.is_cloud ? fit_body_model(model, input.cloud.P) : fit_body_model_to_mesh(model, input.mesh.V, input.mesh.F);
+  for (const auto& w : fit.warnings) std::cerr << "warning: " << path << ": " << w << "\n";
+  if (fit.confident) return fit;
+  std::string why;
+  for (const auto& r : fit.reasons) why += (why.empty() ? "" : "; ") + r;
+  if (!args.flag_set("accept-poor"))
+    throw BelowConfidence(path + ": the body model's fit is poor (" + why + "); nothing written (--accept-poor gives it anyway, marked as poor)");
+  std::cerr << "warning: " << path << ": the body model's fit is poor (" << why << "); given as asked, marked poor\n";
+  return fit;
+}
+
+void segment_subject_by_body_model(const BodyModel& model, const TriangleMesh& subject, const std::string& path,
+                                   const ArgParser& args, Eigen::VectorXi* triangle_part, Eigen::MatrixXd* joint_centres) {
+  BodyInput input;
+  input.mesh = subject;
+  const BodyFit fit = fit_body_model_to_input(model, input, path, args);
+  // Vertices the fit left out (floating bits) move with the part of the nearest fitted vertex.
+  const PointGrid fitted(fit.V);
+  Eigen::VectorXi vertex_part = fit.target_part;
+  for (Eigen::Index v = 0; v < vertex_part.size(); ++v) {
+    if (vertex_part[v] >= 0) continue;
+    double sq = 0;
+    vertex_part[v] = model.vertex_parts()[fitted.nearest(subject.V.row(v).transpose(), &sq)];
+  }
+  *triangle_part = triangle_part_labels(subject.F, vertex_part);
+  *joint_centres = fit.joints;
+  std::cerr << "posekit: " << path << ": parts and joints from the body model's fit (" << fit.start << ", "
+            << static_cast<int>(std::lround(100 * fit.coverage)) << "% coverage)\n";
+}
+
+}  // namespace posekit::cli

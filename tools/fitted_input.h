@@ -1,0 +1,29 @@
+#pragma once
+// --body-model in the commands: the body model fitted to a body file as the user gave it.
+#include <memory>
+#include <string>
+
+#include "cli.h"
+#include "posekit/fitting/body_fit.h"
+
+namespace posekit::cli {
+
+/// The options every --body-model command takes: --body-model FILE, --accept-poor, and unless the
+/// command has it already (`data_option` false), --data DIR.
+void add_body_model_options(ArgParser* args, bool data_option = true);
+
+/// The body model of --body-model (its MakeHuman data from --data).
+std::unique_ptr<BodyModel> load_body_model(const ArgParser& args);
+
+/// The body model fitted to `input` read from `path` (a mesh or a scan, any frame). The fit's
+/// warnings go to stderr; a poor fit throws BelowConfidence with its reasons unless --accept-poor,
+/// when it is announced on stderr and returned (fit.confident false).
+BodyFit fit_body_model_to_input(const BodyModel& model, const BodyInput& input, const std::string& path, const ArgParser& args);
+
+/// A subject's segmentation (#F) and joint centres read off the body model fitted to it (its own
+/// frame), for SubjectSetupOptions: posing then needs no rule about its sections (arms close, a
+/// natural stance). A poor fit as fit_body_model_to_input.
+void segment_subject_by_body_model(const BodyModel& model, const TriangleMesh& subject, const std::string& path,
+                                   const ArgParser& args, Eigen::VectorXi* triangle_part, Eigen::MatrixXd* joint_centres);
+
+}  // namespace posekit::cli
