@@ -89,7 +89,18 @@ const std::vector<RobustnessVariation> kVariations = {
     {"sitting_floor", "hips flexed 85-95 degrees, knees 0-10, arms down"},
     {"bending_forward", "pelvis tipped 30-45 degrees forward over upright legs, back 20-30 more"},
     {"tilted", "the A-pose tilted 5-15 degrees about a random horizontal axis (a scanner's frame)"},
+    // Booth scans of pose kinds (as scan_cloud): what a body scanner gives of people who do not hold
+    // the scanning posture.
+    {"scan_arms_touching", "arms_touching as a simulated booth scan (points, mm)"},
+    {"scan_hands_on_hips", "hands_on_hips as a simulated booth scan (points, mm)"},
+    {"scan_kneeling", "kneeling as a simulated booth scan (points, mm)"},
+    {"scan_sitting_chair", "sitting_chair as a simulated booth scan (points, mm)"},
 };
+
+/// The pose kind of a variation: its name, or for a scan of a pose kind the name without "scan_".
+std::string pose_kind_of(const std::string& v) {
+  return v.rfind("scan_", 0) == 0 && v != "scan_cloud" ? v.substr(5) : v;
+}
 
 nlohmann::ordered_json vec(const Eigen::Vector3d& v) { return {v.x(), v.y(), v.z()}; }
 
@@ -542,8 +553,13 @@ RobustnessSummary make_robustness_set(const std::string& out_dir, const Robustne
         } else if (v == "scan_cloud") {
           s = apose;
           form.scan = true;
-        } else if (const auto kind = pose_kind(v, J, rng)) {
-          s = posed(*kind, {}, {{"pose_kind", v}, {"pose", nlohmann::ordered_json::parse(part_pose_to_json(*kind))}}, rest);
+        } else if (const auto kind = pose_kind(pose_kind_of(v), J, rng)) {
+          s = posed(*kind, {}, {{"pose_kind", pose_kind_of(v)}, {"pose", nlohmann::ordered_json::parse(part_pose_to_json(*kind))}}, rest);
+          form.scan = v != pose_kind_of(v);
+          // Girths are the person's in the standing posture (ISO 8559-1): a horizontal tape round a
+          // kneeling or sitting body, or round arms resting on the chest, is no girth of theirs.
+          s.girths = apose.girths;
+          s.girth_truth = "rest pose (girths are measured standing, ISO 8559-1)";
         }
         const std::string name = std::string(id) + "_" + v;
         const std::string file = "bodies/" + name + "." + (form.scan ? "ply" : form.extension);

@@ -1,7 +1,9 @@
 #include "posekit/evaluation/body_evaluation.h"
 
 #include <Eigen/Geometry>
+#include <algorithm>
 #include <chrono>
+#include <cstdio>
 #include <cmath>
 #include <filesystem>
 #include <memory>
@@ -16,6 +18,7 @@
 #include "posekit/deformation/pose_model.h"
 #include "posekit/deformation/rigid_pose.h"
 #include "posekit/fitting/body_fit.h"
+#include "posekit/fitting/fitted_measurements.h"
 #include "posekit/io/atomic_file.h"
 #include "posekit/io/mesh_io.h"
 #include "posekit/io/point_cloud_io.h"
@@ -99,6 +102,16 @@ void evaluate_fit(const BodyFit& fit, const nlohmann::json& truth, const Triangl
   }
 }
 
+/// Each girth the truth knows: measured minus truth, or the reason it was not measured.
+void record_girths(const BodyMeasurements& m, const nlohmann::json& truth, BodyResult* r) {
+  for (const auto& [name, value] : truth.at("girths").items()) {
+    const Girth* g = m.find(name);
+    if (!g) continue;
+    if (g->measured) r->girth_error[name] = g->value - value.get<double>();
+    else r->girth_not_measured[name] = g->note;
+  }
+}
+
 BodyResult evaluate_body(const fs::path& dir, const nlohmann::json& entry, const SegmentationPrior* prior,
                          const BodyModel* body_model) {
   const auto t0 = std::chrono::steady_clock::now();
@@ -134,16 +147,43 @@ BodyResult evaluate_body(const fs::path& dir, const nlohmann::json& entry, const
       r.segment_error = std::string("body model fit: ") + e.what();
     }
   }
-  const TriangleMesh file_mesh = body_model && !scan ? mesh : TriangleMesh{};
+  // Measured as `posekit measure --body-model` does: girths on the file's surface in the fitted
+  // body's planes. A poor fit measures nothing (the command exits 3).
+  if (fit) {
+    if (!fit->confident) {
+      r.measure_error = "the body model's fit is poor";
+    } else {
+      try {
+        const FittedMeasurements fm = measure_by_body_fit(*body_model, *fit, P, scan ? Eigen::MatrixXi() : mesh.F);
+        r.measured = true;
+        record_girths(fm.target, truth, &r);
+      } catch (const InvalidInput& e) {
+        r.measure_error = e.what();
+      }
+    }
+  }
   const BodyOrientation expected = orientation_from_axes(parse_axis(truth.at("file").at("up").get<std::string>()),
                                                          parse_axis(truth.at("file").at("forward").get<std::string>()));
+  if (body_model) {
+    // The body model's path uses no orientation detector: the fit finds the up direction.
+    if (fit) {
+      const Eigen::Vector3d truth_up = expected.rotation.transpose() * Eigen::Vector3d::UnitY();
+      char up[64];
+      std::snprintf(up, sizeof up, "up (%.3f, %.3f, %.3f)", fit->up.x(), fit->up.y(), fit->up.z());
+      r.orientation = std::string(up) + " (the body model's fit)";
+      r.orientation_right = std::acos(std::clamp(fit->up.dot(truth_up), -1.0, 1.0)) < 15 * M_PI / 180;
+      evaluate_fit(*fit, truth, scan ? nullptr : &mesh, expected.rotation, &r);
+    }
+    flag_silent_nonsense(true, &r);
+    r.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+    return r;
+  }
   BodyOrientation orientation;
   try {
     orientation = scan ? detect_body_orientation(P, {}) : detect_mesh_orientation(mesh.V, mesh.F);
   } catch (const InvalidInput& e) {
     r.measure_error = std::string("orientation: ") + e.what();
-    if (!body_model) r.segment_error = r.measure_error;
-    else if (fit) evaluate_fit(*fit, truth, scan ? nullptr : &file_mesh, expected.rotation, &r);
+    r.segment_error = r.measure_error;
     flag_silent_nonsense(false, &r);
     r.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
     return r;
@@ -161,20 +201,13 @@ BodyResult evaluate_body(const fs::path& dir, const nlohmann::json& entry, const
     m = scan ? measure_point_cloud(P) : measure_body(mesh.V, mesh.F);
     r.measured = true;
     for (const auto& w : m.features.warnings) r.warnings.push_back(w);
-    for (const auto& [name, value] : truth.at("girths").items()) {
-      const Girth* g = m.find(name);
-      if (!g) continue;
-      if (g->measured) r.girth_error[name] = g->value - value.get<double>();
-      else r.girth_not_measured[name] = g->note;
-    }
+    record_girths(m, truth, &r);
   } catch (const InvalidInput& e) {
     r.measure_error = e.what();
   }
 
   // Segment and embed the skeleton, as `posekit segment` does.
-  if (body_model) {
-    if (fit) evaluate_fit(*fit, truth, scan ? nullptr : &file_mesh, expected.rotation, &r);
-  } else if (!scan) {
+  if (!scan) {
     try {
       // As `posekit segment` does: floating bits are left out (and not counted in the agreement).
       std::vector<int> surface_face;
