@@ -329,8 +329,8 @@ struct UpFrame {
 
 /// A start of the articulated fit: a library pose at a heading, placed on one up frame's cloud.
 struct Start {
-  double score;  ///< mismatch of the mean body so placed (m)
-  size_t up;
+  double score = 0;  ///< mismatch of the mean body so placed (m)
+  size_t up = 0;
   std::string name;
   PartPose pose;
 };
@@ -339,7 +339,7 @@ struct Start {
 /// a few hundred points; then the arms of every library pose on the best few (legs and arms combine
 /// freely: sitting with the arms out, kneeling with hands on hips). Best first.
 std::vector<Start> search_starts(const BodyModel& model, const ShapedBody& mean_body, const std::vector<LibraryPose>& library,
-                                 const std::vector<UpFrame>& frames, int headings) {
+                                 const std::vector<UpFrame>& frames, int headings, int threads) {
   const std::vector<int> sample_rows = spread_rows(mean_body.rest_vertices(), 0.04);
   auto place = [&](size_t u, PartPose pose, const std::string& name) {
     Eigen::MatrixXd X;
@@ -350,15 +350,19 @@ std::vector<Start> search_starts(const BodyModel& model, const ShapedBody& mean_
     return Start{mismatch(X, frames[u].coarse, *frames[u].coarse_grid, 0.15), u, name, pose};
   };
   auto by_score = [](const Start& a, const Start& b) { return a.score < b.score; };
-  std::vector<Start> starts;
-  for (size_t u = 0; u < frames.size(); ++u)
-    for (const LibraryPose& lib : library)
-      for (int h = 0; h < headings; ++h) {
-        PartPose pose = lib.pose;
-        pose.root_rotation = axis_angle_from_rotation(rotation_from_axis_angle(2 * M_PI * h / headings * Eigen::Vector3d::UnitY()) *
-                                                      rotation_from_axis_angle(pose.root_rotation));
-        starts.push_back(place(u, pose, lib.name));
-      }
+  const long per_up = static_cast<long>(library.size()) * headings;
+  std::vector<Start> starts(frames.size() * static_cast<size_t>(per_up));
+  parallel_for_ranges(static_cast<long>(starts.size()), threads, [&](long begin, long end) {
+    for (long k = begin; k < end; ++k) {
+      const size_t u = static_cast<size_t>(k / per_up);
+      const LibraryPose& lib = library[static_cast<size_t>((k % per_up) / headings)];
+      const int h = static_cast<int>(k % headings);
+      PartPose pose = lib.pose;
+      pose.root_rotation = axis_angle_from_rotation(rotation_from_axis_angle(2 * M_PI * h / headings * Eigen::Vector3d::UnitY()) *
+                                                    rotation_from_axis_angle(pose.root_rotation));
+      starts[static_cast<size_t>(k)] = place(u, pose, lib.name);
+    }
+  }, 1);
   std::sort(starts.begin(), starts.end(), by_score);
   std::vector<int> arm_joints;
   for (const char* side : {"left_", "right_"})
@@ -396,12 +400,14 @@ void read_off_fit(const BodyModel& model, const Eigen::MatrixXd& T, const Eigen:
   out->target_part.resize(T.rows());
   out->target_distance.resize(T.rows());
   const Eigen::VectorXi& part = model.vertex_parts();
-  for (Eigen::Index i = 0; i < T.rows(); ++i) {
-    double sq = 0;
-    const int v = body_grid.nearest(T.row(i).transpose(), &sq, kOutlier);
-    out->target_part[i] = v >= 0 ? part[v] : -1;
-    out->target_distance[i] = v >= 0 ? std::sqrt(sq) : std::numeric_limits<double>::infinity();
-  }
+  parallel_for_ranges(T.rows(), o.threads, [&](long begin, long end) {
+    for (Eigen::Index i = begin; i < end; ++i) {
+      double sq = 0;
+      const int v = body_grid.nearest(T.row(i).transpose(), &sq, kOutlier);
+      out->target_part[i] = v >= 0 ? part[v] : -1;
+      out->target_distance[i] = v >= 0 ? std::sqrt(sq) : std::numeric_limits<double>::infinity();
+    }
+  });
   // The working cloud's distances to the fitted surface (not its vertices, 1-3 cm apart on the trunk).
   const TriangleTree surface(out->V, model.faces());
   std::vector<double> d(static_cast<size_t>(W.rows()));
@@ -482,7 +488,7 @@ BodyFit fit_body_model(const BodyModel& model, const Eigen::MatrixXd& T, const B
     f.coarse = every(f.cloud, std::max<Eigen::Index>(1, W.rows() / 700));
     f.coarse_grid = std::make_unique<PointGrid>(f.coarse, 0.03);
   }
-  const std::vector<Start> starts = search_starts(model, mean_body, library, frames, o.headings);
+  const std::vector<Start> starts = search_starts(model, mean_body, library, frames, o.headings, o.threads);
 
   // The best starts, each fitted briefly with the mean shape; the best of those goes on.
   PoseFitOptions brief;
@@ -504,16 +510,23 @@ BodyFit fit_body_model(const BodyModel& model, const Eigen::MatrixXd& T, const B
     return (a.pose.root_rotation - b.pose.root_rotation).norm() < 1e-9;
   };
   std::vector<const Start*> tried;
-  for (size_t k = 0; k < starts.size() && static_cast<int>(tried.size()) < std::max(1, o.hypotheses_refined); ++k) {
-    if (std::any_of(tried.begin(), tried.end(), [&](const Start* t) { return same_start(*t, starts[k]); })) continue;
-    tried.push_back(&starts[k]);
-    brief.start = starts[k].pose;
-    const UpFrame& f = frames[starts[k].up];
-    const PoseFitResult r = fit_pose(mean_body, f.cloud, brief);
-    const PointGrid grid(f.cloud, 0.03);
-    const double score = mismatch(r.V(spread, Eigen::all), f.cloud, grid, 0.15);
-    if (score < best_score) best_score = score, best = &starts[k], pose = r.pose;
-  }
+  for (size_t k = 0; k < starts.size() && static_cast<int>(tried.size()) < std::max(1, o.hypotheses_refined); ++k)
+    if (std::none_of(tried.begin(), tried.end(), [&](const Start* t) { return same_start(*t, starts[k]); })) tried.push_back(&starts[k]);
+  std::vector<double> tried_score(tried.size());
+  std::vector<PartPose> tried_pose(tried.size());
+  parallel_for_ranges(static_cast<long>(tried.size()), o.threads, [&](long begin, long end) {
+    for (long k = begin; k < end; ++k) {
+      PoseFitOptions mine = brief;
+      mine.start = tried[static_cast<size_t>(k)]->pose;
+      const UpFrame& f = frames[tried[static_cast<size_t>(k)]->up];
+      const PoseFitResult r = fit_pose(mean_body, f.cloud, mine);
+      const PointGrid grid(f.cloud, 0.03);
+      tried_score[static_cast<size_t>(k)] = mismatch(r.V(spread, Eigen::all), f.cloud, grid, 0.15);
+      tried_pose[static_cast<size_t>(k)] = r.pose;
+    }
+  }, 1);
+  for (size_t k = 0; k < tried.size(); ++k)  // in the starts' order: the same choice on any number of threads
+    if (tried_score[k] < best_score) best_score = tried_score[k], best = tried[k], pose = tried_pose[k];
   const UpFrame& frame = frames[best->up];
   const PointGrid grid(frame.cloud, 0.03);
 

@@ -552,12 +552,11 @@ void write_xyz(const std::string& path, const PointCloud& cloud, double scale) {
 /// The one rule for every cloud format: points with a NaN or infinite coordinate are dropped
 /// (organised clouds mark missing returns so), and the caller is told how many.
 void drop_non_finite_points(PointCloud& cloud, const std::string& path, std::vector<std::string>* warnings) {
+  if (cloud.P.allFinite()) return;  // the usual case: one pass down the columns, nothing copied
   std::vector<Eigen::Index> keep;
-  keep.reserve(static_cast<size_t>(cloud.size()));
   for (Eigen::Index i = 0; i < cloud.size(); ++i)
     if (cloud.P.row(i).allFinite()) keep.push_back(i);
   const auto n = static_cast<Eigen::Index>(keep.size());
-  if (n == cloud.size()) return;
   warn(warnings, path + ": dropped " + std::to_string(cloud.size() - n) + " of " + std::to_string(cloud.size()) +
                      " points with a NaN or infinite coordinate");
   PointCloud kept;

@@ -48,6 +48,9 @@ struct BodyFitOptions {
   /// ... or when less than this share of a trunk or limb part (not the head, hands or feet, which
   /// scans cut) lies within 3 cm of the target: that part was placed where the body is not.
   double min_part_coverage = 0.3;
+  /// Threads for the global search and the brief fits of its best starts (0: the hardware's); the
+  /// result does not depend on it.
+  int threads = 0;
 };
 
 struct BodyFit {
