@@ -87,7 +87,8 @@ nlohmann::ordered_json fit_report_json(const DatasetTrainingReport& r) {
     examples.push_back(x);
   }
   return {{"rest", r.rest_name}, {"rest_reason", r.rest_reason}, {"unit", r.unit}, {"orientation", r.orientation},
-          {"labels", r.labels_from_dataset ? "template/parts.json, template/joints.json" : "segmented (Eq. 2)"},
+          {"labels", r.labels_from_dataset ? "template/parts.json, template/joints.json"
+                                           : r.labels_from_body_model ? "the body model's fit" : "segmented (Eq. 2)"},
           {"poses", r.poses_estimated ? "estimated from the meshes" : "pose JSONs"},
           {"examples", examples}, {"warnings", r.warnings}};
 }
@@ -95,7 +96,7 @@ nlohmann::ordered_json fit_report_json(const DatasetTrainingReport& r) {
 /// What a user needs to hear about the template and the estimated poses, on stderr.
 void report_pose_estimation(const DatasetTrainingReport& r, std::ostream& err) {
   err << "posekit train: template '" << r.rest_name << "' (" << r.rest_reason << "), unit " << r.unit << ", "
-      << r.orientation << "; labels " << (r.labels_from_dataset ? "from the dataset" : "from its own segmentation (Eq. 2)")
+      << r.orientation << "; labels " << (r.labels_from_dataset ? "from the dataset" : r.labels_from_body_model ? "from the body model's fit" : "from its own segmentation (Eq. 2)")
       << "\n";
   if (!r.poses_estimated) return;
   std::vector<double> rms, joint;
@@ -244,7 +245,8 @@ int run_train(int argc, char** argv) {
                  "A folder of registered meshes alone (SCAPE, FAUST, your own 4D captures: one topology, no joint\n"
                  "angles) is learned from too: each example's part rotations T^R(i) are estimated from its vertices\n"
                  "(weighted Procrustes per part, joint zones down-weighted, robust to sliding skin) and the joint\n"
-                 "twists follow; pose JSONs, where present, then only check the estimates.");
+                 "twists follow; pose JSONs, where present, then only check the estimates. With --body-model, the rest\n"
+                 "example's parts and joints come from the body model fitted to it (a natural stance, arms close).");
   args.option("dataset", "DIR", "a posekit dataset, or a folder of registered meshes (OBJ/PLY/OFF), with or without .json poses")
       .output("out", "FILE", "model file to write (.pkm)", "model.pkm")
       .option("poses", "auto|json|estimate",
@@ -267,6 +269,7 @@ int run_train(int argc, char** argv) {
       .flag("json", "summary as JSON on stdout")
       .example("posekit train --dataset out/dataset --out model.pkm")
       .example("posekit train --dataset scape_meshes/ --rest mesh000 --fit-report fits.json");
+  add_body_model_options(&args, false);
   add_orientation_options(&args, "", "the meshes' body");
   if (!args.parse(argc, argv)) return 0;
   if (!args.has("dataset")) throw UsageError("--dataset DIR is required");
@@ -281,6 +284,9 @@ int run_train(int argc, char** argv) {
   if (dto.unit != "auto") parse_unit(dto.unit);
   dto.up = args.get("up");
   dto.forward = args.get("forward");
+  std::unique_ptr<BodyModel> body_model;
+  if (args.has("body-model")) body_model = load_body_model(args), dto.body_model = body_model.get();
+  dto.accept_poor_fit = args.flag_set("accept-poor");
   Progress progress("train", 100);
   TrainingOptions o;
   o.progress = [&](int done, int total) { progress.update(100L * done / std::max(total, 1)); };

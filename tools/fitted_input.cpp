@@ -7,7 +7,6 @@
 #include "posekit/body/parts.h"
 #include "posekit/core/data_root.h"
 #include "posekit/core/error.h"
-#include "posekit/core/point_grid.h"
 #include "posekit/registration/shape_space.h"
 
 namespace posekit::cli {
@@ -41,15 +40,7 @@ void segment_subject_by_body_model(const BodyModel& model, const TriangleMesh& s
   BodyInput input;
   input.mesh = subject;
   const BodyFit fit = fit_body_model_to_input(model, input, path, args);
-  // Vertices the fit left out (floating bits) move with the part of the nearest fitted vertex.
-  const PointGrid fitted(fit.V);
-  Eigen::VectorXi vertex_part = fit.target_part;
-  for (Eigen::Index v = 0; v < vertex_part.size(); ++v) {
-    if (vertex_part[v] >= 0) continue;
-    double sq = 0;
-    vertex_part[v] = model.vertex_parts()[fitted.nearest(subject.V.row(v).transpose(), &sq)];
-  }
-  *triangle_part = triangle_part_labels(subject.F, vertex_part);
+  *triangle_part = triangle_part_labels(subject.F, parts_of_every_vertex(model, fit, subject.V));
   *joint_centres = fit.joints;
   std::cerr << "posekit: " << path << ": parts and joints from the body model's fit (" << fit.start << ", "
             << static_cast<int>(std::lround(100 * fit.coverage)) << "% coverage)\n";

@@ -9,9 +9,11 @@
 #include "posekit/core/error.h"
 #include "posekit/datasets/dataset.h"
 #include "posekit/datasets/remesh.h"
+#include "posekit/fitting/body_fit.h"
 #include "posekit/io/atomic_file.h"
 #include "posekit/io/mesh_io.h"
 #include "manifest.h"
+#include "posekit/body/parts.h"
 #include "posekit/segmentation/segmentation.h"
 #include "posekit/segmentation/skeleton_embedding.h"
 #include "posekit/shape/body_features.h"
@@ -122,6 +124,19 @@ PoseModel train_on_dataset(const std::string& dir, const TrainingOptions& base, 
     o.triangle_part = ann.triangle_part;
     o.joint_centres = ann.joint_centres;
     rep.labels_from_dataset = true;
+  } else if (options.body_model) {
+    // No labels shipped: the body model's fit labels the rest example and places its joints.
+    const BodyFit fit = fit_body_model_to_mesh(*options.body_model, V, data.F);
+    if (!fit.confident) {
+      std::string why;
+      for (const auto& r : fit.reasons) why += (why.empty() ? "" : "; ") + r;
+      const std::string poor = "the body model's fit to the rest example '" + data.rest_name + "' is poor (" + why + ")";
+      if (!options.accept_poor_fit) throw BelowConfidence(dir + ": " + poor + "; --accept-poor trains on it anyway");
+      rep.warnings.push_back(poor + ": its parts and joints taken as asked");
+    }
+    o.triangle_part = triangle_part_labels(data.F, parts_of_every_vertex(*options.body_model, fit, V));
+    o.joint_centres = fit.joints;
+    rep.labels_from_body_model = true;
   } else {
     // No labels shipped: the template's own segmentation (Eq. 2) and skeleton.
     try {

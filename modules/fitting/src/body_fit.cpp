@@ -610,4 +610,18 @@ BodyFit fit_body_model_to_mesh(const BodyModel& model, const Eigen::MatrixXd& V,
   return fit;
 }
 
+Eigen::VectorXi parts_of_every_vertex(const BodyModel& model, const BodyFit& fit, const Eigen::MatrixXd& V) {
+  if (fit.target_part.size() != V.rows())
+    throw InvalidInput("parts_of_every_vertex: the fit labels " + std::to_string(fit.target_part.size()) + " points, the mesh has " +
+                       std::to_string(V.rows()) + " vertices");
+  const PointGrid fitted(fit.V);
+  Eigen::VectorXi part = fit.target_part;
+  for (Eigen::Index v = 0; v < part.size(); ++v) {
+    if (part[v] >= 0) continue;
+    double sq = 0;
+    part[v] = model.vertex_parts()[fitted.nearest(V.row(v).transpose(), &sq)];
+  }
+  return part;
+}
+
 }  // namespace posekit

@@ -77,6 +77,8 @@ enum class TrainingPoses {
 };
 TrainingPoses parse_training_poses(const std::string& name);  ///< "auto", "json" or "estimate"
 
+class BodyModel;
+
 struct DatasetTrainingOptions {
   TrainingPoses poses = TrainingPoses::kAuto;
   /// The rest-pose example (the template). Empty: the manifest's, else the first whose pose JSON is
@@ -85,6 +87,11 @@ struct DatasetTrainingOptions {
   std::string unit = "m";                   ///< m, dm, cm, mm, or auto (from the rest mesh's extent)
   std::string up = "+Y", forward = "+Z";    ///< file axes of the body, or auto (from the rest mesh)
   PartFitOptions fit;
+  /// When set, a rest example without shipped labels takes its parts and joints from this body
+  /// model fitted to it (any rest pose) instead of from the rules about its sections; a poor fit
+  /// throws BelowConfidence unless `accept_poor_fit` (then it is a warning of the report).
+  const BodyModel* body_model = nullptr;
+  bool accept_poor_fit = false;
 };
 
 /// How one example's estimated pose fits (millimetres, degrees).
@@ -107,6 +114,7 @@ struct DatasetTrainingReport {
   bool poses_estimated = false;
   std::string unit, orientation;       ///< as read
   bool labels_from_dataset = false;    ///< template/parts.json and joints.json, else segmented (Eq. 2)
+  bool labels_from_body_model = false; ///< DatasetTrainingOptions::body_model's fit
   std::vector<ExamplePoseFit> examples;   ///< every example, when the poses were estimated
   std::vector<std::string> warnings;
 };

@@ -85,4 +85,8 @@ BodyFit fit_body_model(const BodyModel& model, const Eigen::MatrixXd& T, const B
 BodyFit fit_body_model_to_mesh(const BodyModel& model, const Eigen::MatrixXd& V, const Eigen::MatrixXi& F,
                                const BodyFitOptions& options = {});
 
+/// Every vertex's part for a mesh the fit was made to (V its vertices): the fit's labels, and for the
+/// vertices it left out (floating bits, far points) the nearest fitted vertex's part. #V.
+Eigen::VectorXi parts_of_every_vertex(const BodyModel& model, const BodyFit& fit, const Eigen::MatrixXd& V);
+
 }  // namespace posekit
