@@ -1,11 +1,14 @@
 // posekit register <source> <target>: ct-FFD or ICP registration and the triangle correspondence;
 // posekit shape-space: a shape space file for register --shape-space.
+#include <chrono>
 #include <iomanip>
+#include <memory>
 #include <iostream>
 #include <nlohmann/json.hpp>
 
 #include "cli.h"
 #include "commands.h"
+#include "fitted_input.h"
 #include "posekit/core/data_root.h"
 #include "posekit/core/error.h"
 #include "posekit/core/units.h"
@@ -13,6 +16,8 @@
 #include "posekit/datasets/dataset.h"
 #include "posekit/evaluation/registration_table.h"
 #include "posekit/io/mesh_io.h"
+#include "posekit/registration/correspondence.h"
+#include "posekit/registration/nicp.h"
 #include "posekit/registration/registration.h"
 
 namespace posekit::cli {
@@ -59,6 +64,36 @@ std::shared_ptr<const ShapeSpace> shape_space_option(const std::string& value, c
   return std::make_shared<const ShapeSpace>(make_makehuman_shape_space(*load_makehuman_model(find_data_root(data_root)), po));
 }
 
+namespace {
+
+/// register --method body-model: the fitted body is the source deformed onto the target (the source
+/// in the body model's topology), optionally refined by soft non-rigid ICP; then nearest centroids.
+RegistrationResult register_by_body_model(const TriangleMesh& source, const TriangleMesh& target, const RegistrationOptions& o,
+                                          const ArgParser& args) {
+  const auto t0 = std::chrono::steady_clock::now();
+  const std::unique_ptr<BodyModel> model = load_body_model(args);
+  if (source.V.rows() != model->space().vertices() || source.F != model->faces())
+    throw InvalidInput(args.positionals()[0] + ": --method body-model registers a source of the body model's topology (MakeHuman's "
+                       "template, " + std::to_string(model->space().vertices()) + " vertices); this one has " +
+                       std::to_string(source.V.rows()) + " (use --method ctffd)");
+  BodyInput in;
+  in.mesh = target;
+  const BodyFit fit = fit_body_model_to_input(*model, in, args.positionals()[1], args);
+  RegistrationResult r;
+  r.deformed_source = fit.V;
+  if (o.refine) {
+    r.nicp = nonrigid_icp(source, target, o.refinement, {}, &fit.V);
+    r.deformed_source = r.nicp.V;
+  }
+  r.correspondence = nearest_centroid_correspondence(r.deformed_source, source.F, target.V, target.F, &r.normal_failures,
+                                                     o.threads);
+  r.warnings = fit.warnings;
+  r.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  return r;
+}
+
+}  // namespace
+
 int run_register(int argc, char** argv) {
   ArgParser args("register",
                  "Registers a source body (e.g. the template) to a target body (a customized model) and matches\n"
@@ -70,11 +105,14 @@ int run_register(int argc, char** argv) {
                  "target from ct-FFD's result (sub-millimetre on bodies the space holds). Prints the quality judged\n"
                  "without ground truth (distance to the target, coverage, normal agreement, fold-overs) and warns\n"
                  "when it is poor.\n"
-                 "Both bodies standing, in any axis convention and unit (detected, or given).");
+                 "body-model: the body model (--body-model, a shape space with joints) fitted to the target in any\n"
+                 "pose and frame, its vertices the source's (the source must be MakeHuman's template topology);\n"
+                 "--refine adds the soft non-rigid ICP steps after it. A poor fit exits with status 3.\n"
+                 "Both bodies standing (any pose for body-model), in any axis convention and unit (detected, or given).");
   args.positional("source", "source mesh").positional("target", "target mesh")
-      .option("method", "M", "ctffd, icp or nicp", "ctffd")
+      .option("method", "M", "ctffd, icp, nicp or body-model", "ctffd")
       .option("iterations", "N", "ICP iterations", "6")
-      .flag("refine", "ctffd: refine by soft non-rigid ICP steps started from ct-FFD's result")
+      .flag("refine", "ctffd, body-model: refine by soft non-rigid ICP steps started from its result")
       .option("stiffness", "A,B,..", "non-rigid ICP stiffness schedule, stiff to soft (default: nicp 100,50,25,12,6,3,1.5; refine 4,2)")
       .option("landmark-weight", "W", "non-rigid ICP landmark weight at the first stiffness (falls with it)", "10")
       .option("steps", "N", "non-rigid ICP iterations at most per stiffness (default: nicp 5, refine 2)")
@@ -84,7 +122,7 @@ int run_register(int argc, char** argv) {
               "(posekit shape-space) in the source's topology; 0: not", "0")
       .option("shape-space-leave-out", "WHAT", "none, men, obese or local (the measure modifiers): what the shape space's "
               "population lacks", "none")
-      .option("data", "DIR", "MakeHuman data root for --shape-space (default: $POSEKIT_DATA or ../shared/datasets/makehuman)")
+      .option("data", "DIR", "MakeHuman data root for --shape-space and --body-model (default: $POSEKIT_DATA or ../shared/datasets/makehuman)")
       .option("unit", "U", "unit of both meshes: m, dm, cm, mm, or auto (each one's largest extent tells)", "auto")
       .output("out", "FILE", "correspondence JSON: for each target triangle its source triangle")
       .output("deformed", "FILE", "write the source deformed onto the target (mesh)")
@@ -92,12 +130,17 @@ int run_register(int argc, char** argv) {
       .option("threads", "T", "ctffd: threads (0: all cores; the result is the same to rounding)", "0")
       .flag("json", "summary as JSON on stdout")
       .example("posekit register dataset/template/rest.ply dataset/subjects/f01/rest.ply --out corr.json --deformed d.ply");
+  add_body_model_options(&args, false);
   add_orientation_options(&args, "source-", "the source");
   add_orientation_options(&args, "target-", "the target");
   if (!args.parse(argc, argv)) return 0;
+  const bool by_body_model = args.get("method") == "body-model";
+  if (by_body_model != args.has("body-model"))
+    throw UsageError(by_body_model ? "--method body-model needs --body-model FILE" : "--body-model needs --method body-model");
   auto read_body = [&](const std::string& path, const std::string& prefix, BodyUnit* unit, BodyOrientation* orientation) {
     BodyInput in = read_body_input(path, args.get("unit"), "register", unit);
     if (in.is_cloud) throw InvalidInput(path + ": register needs a mesh (triangles); this file has only points");
+    if (by_body_model && prefix == "target-") return std::move(in.mesh);  // the fit finds its frame: any pose
     *orientation = orient_body_input(&in, args.get(prefix + "up"), args.get(prefix + "forward"), path, "register");
     return std::move(in.mesh);
   };
@@ -106,10 +149,10 @@ int run_register(int argc, char** argv) {
   const TriangleMesh source = read_body(args.positionals()[0], "source-", &source_unit, &source_orientation);
   const TriangleMesh target = read_body(args.positionals()[1], "target-", &target_unit, &target_orientation);
   RegistrationOptions o;
-  o.method = parse_registration_method(args.get("method"));
+  if (!by_body_model) o.method = parse_registration_method(args.get("method"));
   o.icp_iterations = static_cast<int>(args.get_int("iterations"));
   o.refine = args.flag_set("refine");
-  if (o.refine && o.method != RegistrationMethod::kCtffd) throw UsageError("--refine applies to --method ctffd");
+  if (o.refine && o.method != RegistrationMethod::kCtffd) throw UsageError("--refine applies to --method ctffd or body-model");
   const long threads = args.get_int("threads");
   if (threads < 0 || threads > 256) throw UsageError("--threads must be between 0 (all cores) and 256");
   o.threads = static_cast<int>(threads);
@@ -123,7 +166,7 @@ int run_register(int argc, char** argv) {
   }
   const std::string shape_arg = args.get("shape-space");
   const bool shape_file = is_shape_space_file(shape_arg);
-  if (shape_arg != "0" && o.method != RegistrationMethod::kCtffd) throw UsageError("--shape-space applies to --method ctffd");
+  if (shape_arg != "0" && (o.method != RegistrationMethod::kCtffd || by_body_model)) throw UsageError("--shape-space applies to --method ctffd");
   o.shape_space = shape_space_option(shape_arg, args.get("shape-space-leave-out"), args.get("data"));
   if (o.shape_space && (o.shape_space->vertices() != source.num_vertices() ||
                         (o.shape_space->faces.size() > 0 && o.shape_space->faces != source.F)))
@@ -133,7 +176,7 @@ int run_register(int argc, char** argv) {
                        std::to_string(source.num_vertices()) + " and " + std::to_string(source.num_faces()) + ")" +
                        (shape_file ? std::string(": register from the mesh the space's bodies were registered to")
                                    : std::string(": MakeHuman's spaces need its base topology, the dataset's template (template/rest.ply)")));
-  const RegistrationResult r = register_bodies(source, target, o);
+  const RegistrationResult r = by_body_model ? register_by_body_model(source, target, o, args) : register_bodies(source, target, o);
   if (args.has("out")) {
     nlohmann::json j;
     j["source"] = args.positionals()[0];

@@ -862,7 +862,7 @@ TEST(Cli, ShapeSpaceOfBodiesFittedToAnsurII) {
   EXPECT_FALSE(std::filesystem::exists(dir.file("x.pks")));
 }
 
-TEST(Cli, SegmentMeasureTrainAndPoseByTheBodyModelInAnyFrameAndRefusePoorFits) {
+TEST(Cli, SegmentMeasureRegisterTrainAndPoseByTheBodyModelInAnyFrameAndRefusePoorFits) {
   ASSERT_FALSE(test::test_data_root().empty());
   test::TempDir dir;
   const std::string space = dir.file("ansur60.pks");
@@ -910,6 +910,24 @@ TEST(Cli, SegmentMeasureTrainAndPoseByTheBodyModelInAnyFrameAndRefusePoorFits) {
     }
     EXPECT_TRUE(m["landmarks"].contains("left_armpit"));
     EXPECT_TRUE(m["cross_check"].contains("ran"));
+  }
+  // The template registered to the kneeling body (same topology: each triangle's truth is itself)
+  // through the fit: ct-FFD cannot take a kneeling body at all.
+  {
+    const auto truth = nlohmann::json::parse(read_file_bytes(dir.file("rb/truth/s01_kneeling.json")));
+    const std::string target = dir.file("rb/" + truth["file"]["path"].get<std::string>());
+    r = run("register " + test::small_dataset().root + "/template/rest.ply " + target + " --method body-model --body-model " +
+            space + " --refine --out " + dir.file("corr.json"), true);
+    ASSERT_EQ(r.code, 0) << r.out;
+    const TriangleMesh t = read_mesh(target);
+    const auto corr = nlohmann::json::parse(read_file_bytes(dir.file("corr.json")))["target_to_source"];
+    ASSERT_EQ(corr.size(), static_cast<size_t>(t.F.rows()));
+    auto centroid = [&](Eigen::Index f) { return Eigen::Vector3d((t.V.row(t.F(f, 0)) + t.V.row(t.F(f, 1)) + t.V.row(t.F(f, 2))) / 3); };
+    std::vector<double> error;
+    for (Eigen::Index f = 0; f < t.F.rows(); ++f) error.push_back((centroid(corr[static_cast<size_t>(f)].get<int>()) - centroid(f)).norm());
+    std::sort(error.begin(), error.end());
+    EXPECT_LT(error[error.size() / 2], 0.003);
+    EXPECT_LT(error[error.size() * 95 / 100], 0.015);
   }
   // A folder of meshes alone: the rest example's parts and joints from the fit, which explain the
   // poses better than the rules' (Eq. 5's RMS residual 0.0112 against 0.0171 on this folder).
