@@ -36,6 +36,7 @@
 #include "posekit/io/point_cloud_io.h"
 #include "posekit/core/mesh_geometry.h"
 #include "posekit/core/mesh_validation.h"
+#include "posekit/core/point_grid.h"
 #include "posekit/segmentation/body_segmentation.h"
 #include "posekit/segmentation/segmentation.h"
 #include "posekit/segmentation/segmentation_prior.h"
@@ -469,6 +470,45 @@ int run_retarget(int argc, char** argv) {
 
 namespace {
 
+/// A joint the rule-based segmentation puts this far (m) from the body model's: one of them is wrong.
+constexpr double kJointDisagreement = 0.05;
+
+/// The paper's rule-based segmentation (Eq. 2) of a mesh stood upright by the fit, as a cross-check of
+/// the body model's joints: warnings naming each joint over kJointDisagreement apart; why it did not
+/// run when it cannot (kneeling, arms touching: not its standing pose).
+nlohmann::ordered_json rule_based_cross_check(const TriangleMesh& file_mesh, const BodyFit& fit, std::vector<std::string>* warnings) {
+  nlohmann::ordered_json out = {{"method", "rule-based (posekit segment without --body-model)"}};
+  try {
+    TriangleMesh upright = file_mesh;
+    upright.V = file_mesh.V * fit.to_fit_frame.transpose();
+    upright.N.resize(0, 3);
+    const BodyOrientation facing = detect_mesh_orientation(upright.V, upright.F);
+    upright.V = (upright.V * facing.rotation.transpose()).eval();
+    const TriangleMesh surface = body_surface(upright.V, upright.F, nullptr, nullptr);
+    const BodyFeatures features = find_body_features(upright.V, upright.F);
+    const LayeredRepresentation rep = build_layered_representation(surface.V, surface.F, features);
+    const BodySegmentation result = segment_standing_body(surface.V, surface.F, rep, features, nullptr);
+    if (!result.check.ok()) return out["ran"] = false, out["why"] = "fails its sanity checks: " + result.check.summary(), out;
+    const Eigen::Matrix3d to_file = (facing.rotation * fit.to_fit_frame).transpose();
+    out["ran"] = true;
+    for (int j = 0; j < kNumJoints; ++j) {
+      const Eigen::Vector3d theirs = to_file * result.joints.row(j).transpose();
+      const double apart = (theirs - fit.joints.row(j).transpose()).norm();
+      out["joints_apart_mm"][joint_name(j)] = 1000 * apart;
+      // The rules place the back's two joints at the waist's and chest's sections, the rig at its spine
+      // bones' heads: 4-7 cm apart on every body (docs/body-fitting.md); not a disagreement.
+      const bool back = joint_name(j) == "lower_back" || joint_name(j) == "upper_back";
+      if (!back && apart > kJointDisagreement)
+        warnings->push_back("the rule-based segmentation puts the " + joint_name(j) + " " + std::to_string(std::lround(1000 * apart)) +
+                            " mm from the body model's: one of the two is wrong there");
+    }
+  } catch (const InvalidInput& e) {
+    out["ran"] = false;
+    out["why"] = e.what();
+  }
+  return out;
+}
+
 /// segment --body-model: the body model fitted to the body (any pose, frame, mesh or cloud), its
 /// labels and joints read off the fit.
 int segment_by_body_model(const ArgParser& args) {
@@ -493,13 +533,35 @@ int segment_by_body_model(const ArgParser& args) {
   nlohmann::ordered_json joints;
   for (int j = 0; j < kNumJoints; ++j) joints[joint_name(j)] = {fit.joints(j, 0), fit.joints(j, 1), fit.joints(j, 2)};
   nlohmann::ordered_json pose = nlohmann::ordered_json::parse(part_pose_to_json(fit.pose));
+  std::vector<std::string> disagreements;
+  const nlohmann::ordered_json cross = input.is_cloud ? nlohmann::ordered_json{{"ran", false}, {"why", "a scan: the rules segment meshes"}}
+                                                      : rule_based_cross_check(input.mesh, fit, &disagreements);
+  for (const auto& w : disagreements) std::cerr << "warning: " << path << ": " << w << "\n";
   nlohmann::ordered_json summary = {
       {"mesh", path}, {"method", "body model"}, {"body_model", args.get("body-model")}, {"confident", fit.confident},
       {"reasons", fit.reasons}, {"warnings", fit.warnings}, {"start", fit.start},
       {"up", {fit.up.x(), fit.up.y(), fit.up.z()}}, {"coverage", fit.coverage},
       {"target_mean_mm", 1000 * fit.target_mean}, {"target_p95_mm", 1000 * fit.target_p95},
       {"shape_mahalanobis", fit.shape_mahalanobis}, {"components", model.components()},
-      {"working_points", fit.working_points}, {"seconds", fit.seconds}, {"joints", joints}, {"pose_fit_frame", pose}};
+      {"working_points", fit.working_points}, {"seconds", fit.seconds}, {"joints", joints}, {"pose_fit_frame", pose},
+      {"cross_check", cross}, {"disagreements", disagreements}};
+  if (args.has("fitted")) {
+    // The fitted body (the template's topology: vertex k is the template's vertex k, a correspondence)
+    // with each vertex's distance to the target, the residual map.
+    TriangleMesh fitted;
+    fitted.V = fit.V;
+    fitted.F = model.faces();
+    const PointGrid target_grid(input.is_cloud ? input.cloud.P : input.mesh.V);
+    Eigen::VectorXd residual(fit.V.rows());
+    for (Eigen::Index v = 0; v < fit.V.rows(); ++v) {
+      double sq = 0;
+      target_grid.nearest(fit.V.row(v).transpose(), &sq);
+      residual[v] = 1000 * std::sqrt(sq);
+    }
+    fitted.vertex_scalars["residual_mm"] = residual;
+    fitted.vertex_scalars["part"] = model.vertex_parts().cast<double>();
+    write_mesh(args.get("fitted"), fitted, {unit.unit, MeshFormat::kAuto, true, io_warnings()});
+  }
   if (args.has("joints")) {
     nlohmann::ordered_json jj = {{"units", "m"}, {"frame", "input"}, {"confident", fit.confident}, {"joints", joints}};
     const std::string text = jj.dump(2) + "\n";
@@ -536,6 +598,8 @@ int run_segment(int argc, char** argv) {
       .option("unit", "U", "unit of the mesh: m, dm, cm, mm, or auto (its largest extent tells)", "auto")
       .output("out", "FILE", "mesh with vertex scalar 'part' (0..15); PLY keeps it for other tools")
       .output("joints", "FILE", "write the joint centres as JSON")
+      .output("fitted", "FILE", "with --body-model: the fitted body (the template's vertices, in order) with vertex scalars "
+              "'residual_mm' (distance to the body given) and 'part'")
       .option("frame", "F", "frame of the joints written and printed: input (the file's axes) or posekit", "input")
       .flag("unchecked", "write the result even when it fails the sanity checks (they become warnings)")
       .flag("json", "summary as JSON on stdout")
