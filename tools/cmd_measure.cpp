@@ -67,6 +67,40 @@ std::string plausibility_warning(const Plausibility& p) {
 /// A torso girth the rule-based measurement puts this far (m) from the body model's: one is wrong.
 constexpr double kCrossCheckDisagreement = 0.02;
 
+/// The paper's rule-based pipeline as a cross-check of the body model's torso girths `m`, on the
+/// body stood upright by the fit: a girth over kCrossCheckDisagreement apart is a warning. It
+/// measures standing bodies only, and says why when it cannot.
+nlohmann::ordered_json rule_based_cross_check(const BodyInput& in, const BodyFit& fit, const BodyMeasurements& m,
+                                              std::vector<std::string>* warnings) {
+  nlohmann::ordered_json cross = {{"method", "rule-based (posekit measure without --body-model)"}};
+  const Eigen::MatrixXd& T = in.is_cloud ? in.cloud.P : in.mesh.V;
+  // A dense scan is thinned for it to half a million points (the rules cost a second per million).
+  constexpr Eigen::Index kCrossCheckPoints = 500000;
+  const Eigen::Index stride = in.is_cloud ? (T.rows() + kCrossCheckPoints - 1) / kCrossCheckPoints : 1;
+  Eigen::MatrixXd upright(stride > 1 ? (T.rows() + stride - 1) / stride : T.rows(), 3);
+  for (Eigen::Index i = 0; i < upright.rows(); ++i) upright.row(i) = T.row(i * stride) * fit.to_fit_frame.transpose();
+  if (stride > 1) cross["thinned_to_points"] = upright.rows();
+  try {
+    const BodyMeasurements rule = in.is_cloud ? measure_point_cloud(upright) : measure_body(upright, in.mesh.F);
+    cross["ran"] = true;
+    for (const char* name : {"bust", "underbust", "waist", "hip"}) {
+      const Girth *ours = m.find(name), *theirs = rule.find(name);
+      if (!ours || !theirs || !ours->measured || !theirs->measured) continue;
+      cross["girths"][name] = theirs->value;
+      if (std::abs(theirs->value - ours->value) <= kCrossCheckDisagreement) continue;
+      std::ostringstream w;
+      w << std::fixed << std::setprecision(1) << "the rule-based measurement gives a " << name << " of " << 100 * theirs->value
+        << " cm, " << 100 * (theirs->value - ours->value) << " cm from the body model's " << 100 * ours->value
+        << " cm: one of the two is wrong there (look at the landmarks in --json)";
+      warnings->push_back(w.str());
+    }
+  } catch (const InvalidInput& e) {
+    cross["ran"] = false;
+    cross["why"] = e.what();
+  }
+  return cross;
+}
+
 /// measure --body-model: the body model fitted to the body; landmark levels from the fitted body,
 /// girths on the body's own surface with the arms and the other leg left out by the fit's labels.
 int measure_by_body_model(const ArgParser& args, const SurveyDistribution* survey, const std::string& no_survey) {
@@ -91,39 +125,9 @@ int measure_by_body_model(const ArgParser& args, const SurveyDistribution* surve
   const BodyMeasurements& m = fm.target;
   std::vector<std::string> warnings;
 
-  // The paper's rule-based pipeline as a cross-check, on the body stood upright by the fit: it
-  // measures standing bodies only, and says so when it cannot.
-  nlohmann::ordered_json cross = {{"method", "rule-based (posekit measure without --body-model)"}};
-  if (args.flag_set("no-cross-check")) {
-    cross["ran"] = false;
-    cross["why"] = "--no-cross-check";
-  } else {
-    // A dense scan is thinned for it to half a million points (the rules cost a second per million).
-    constexpr Eigen::Index kCrossCheckPoints = 500000;
-    const Eigen::Index stride = in.is_cloud ? (T.rows() + kCrossCheckPoints - 1) / kCrossCheckPoints : 1;
-    Eigen::MatrixXd upright(stride > 1 ? (T.rows() + stride - 1) / stride : T.rows(), 3);
-    for (Eigen::Index i = 0; i < upright.rows(); ++i) upright.row(i) = T.row(i * stride) * fit.to_fit_frame.transpose();
-    if (stride > 1) cross["thinned_to_points"] = upright.rows();
-    try {
-      const BodyMeasurements rule = in.is_cloud ? measure_point_cloud(upright) : measure_body(upright, in.mesh.F);
-      cross["ran"] = true;
-      for (const char* name : {"bust", "underbust", "waist", "hip"}) {
-        const Girth *ours = m.find(name), *theirs = rule.find(name);
-        if (!ours || !theirs || !ours->measured || !theirs->measured) continue;
-        cross["girths"][name] = theirs->value;
-        if (std::abs(theirs->value - ours->value) > kCrossCheckDisagreement) {
-          std::ostringstream w;
-          w << std::fixed << std::setprecision(1) << "the rule-based measurement gives a " << name << " of " << 100 * theirs->value
-            << " cm, " << 100 * (theirs->value - ours->value) << " cm from the body model's " << 100 * ours->value
-            << " cm: one of the two is wrong there (look at the landmarks in --json)";
-          warnings.push_back(w.str());
-        }
-      }
-    } catch (const InvalidInput& e) {
-      cross["ran"] = false;
-      cross["why"] = e.what();
-    }
-  }
+  const nlohmann::ordered_json cross = args.flag_set("no-cross-check")
+                                          ? nlohmann::ordered_json{{"ran", false}, {"why", "--no-cross-check"}}
+                                          : rule_based_cross_check(in, fit, m, &warnings);
   const double cross_seconds = since(t_cross);
   SurveyValues survey_values;
   const SurveyMask given = survey_values_of(m, &survey_values);

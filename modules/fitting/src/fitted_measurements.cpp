@@ -214,6 +214,23 @@ SectionGirth girth_in_section(const LabelledSurface& surface, const CarriedSecti
   return out;
 }
 
+/// Landmarks in the target's frame: the torso's at its girths' tape points (`target`), the others
+/// carried from the fitted body at rest (`fitted`'s features) by the body's local motion.
+std::vector<Landmark> carried_landmarks(const Eigen::MatrixXd& rest, const Eigen::MatrixXd& posed, const BodyMeasurements& fitted,
+                                        const BodyMeasurements& target) {
+  const BodyFeatures& f = fitted.features;
+  auto carried = [&](const Eigen::Vector3d& p) { return local_motion(rest, posed, p) * p; };
+  std::vector<Landmark> out = {{"neck_base", carried(f.neck_base)}, {"left_armpit", carried(f.armpit[kLeft])},
+                               {"right_armpit", carried(f.armpit[kRight])}};
+  for (const char* name : {"bust", "underbust", "waist", "hip"})
+    if (const Girth* fitted_girth = fitted.find(name); fitted_girth && fitted_girth->measured)
+      out.push_back({name, target.find(name)->point});
+  out.push_back({"crotch", carried(f.crotch)});
+  out.push_back({"left_knee", carried(f.knee[kLeft])});
+  out.push_back({"left_ankle", carried(f.ankle[kLeft])});
+  return out;
+}
+
 }  // namespace
 
 FittedMeasurements measure_by_body_fit(const BodyModel& model, const BodyFit& fit, const Eigen::MatrixXd& T,
@@ -302,18 +319,7 @@ FittedMeasurements measure_by_body_fit(const BodyModel& model, const BodyFit& fi
   }
   reject_implausible_girths(&m);
 
-  // Landmarks: the torso's at its girths' tape points, the others carried by the body's local motion.
-  const BodyFeatures& f = out.fitted.features;
-  auto carried = [&](const Eigen::Vector3d& p) { return local_motion(rest, fit.V, p) * p; };
-  out.landmarks.push_back({"neck_base", carried(f.neck_base)});
-  out.landmarks.push_back({"left_armpit", carried(f.armpit[kLeft])});
-  out.landmarks.push_back({"right_armpit", carried(f.armpit[kRight])});
-  for (const char* name : {"bust", "underbust", "waist", "hip"})
-    if (const Girth* fitted_girth = out.fitted.find(name); fitted_girth && fitted_girth->measured)
-      out.landmarks.push_back({name, m.find(name)->point});
-  out.landmarks.push_back({"crotch", carried(f.crotch)});
-  out.landmarks.push_back({"left_knee", carried(f.knee[kLeft])});
-  out.landmarks.push_back({"left_ankle", carried(f.ankle[kLeft])});
+  out.landmarks = carried_landmarks(rest, fit.V, out.fitted, m);
   return out;
 }
 
