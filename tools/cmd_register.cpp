@@ -69,7 +69,7 @@ namespace {
 /// register --method body-model: the fitted body is the source deformed onto the target (the source
 /// in the body model's topology), optionally refined by soft non-rigid ICP; then nearest centroids.
 RegistrationResult register_by_body_model(const TriangleMesh& source, const TriangleMesh& target, const RegistrationOptions& o,
-                                          const ArgParser& args) {
+                                          const ArgParser& args, Eigen::MatrixXd* fitted) {
   const auto t0 = std::chrono::steady_clock::now();
   const std::unique_ptr<BodyModel> model = load_body_model(args);
   if (source.V.rows() != model->space().vertices() || source.F != model->faces())
@@ -80,7 +80,7 @@ RegistrationResult register_by_body_model(const TriangleMesh& source, const Tria
   in.mesh = target;
   const BodyFit fit = fit_body_model_to_input(*model, in, args.positionals()[1], args);
   RegistrationResult r;
-  r.deformed_source = fit.V;
+  r.deformed_source = *fitted = fit.V;
   if (o.refine) {
     r.nicp = nonrigid_icp(source, target, o.refinement, {}, &fit.V);
     r.deformed_source = r.nicp.V;
@@ -176,7 +176,11 @@ int run_register(int argc, char** argv) {
                        std::to_string(source.num_vertices()) + " and " + std::to_string(source.num_faces()) + ")" +
                        (shape_file ? std::string(": register from the mesh the space's bodies were registered to")
                                    : std::string(": MakeHuman's spaces need its base topology, the dataset's template (template/rest.ply)")));
-  const RegistrationResult r = by_body_model ? register_by_body_model(source, target, o, args) : register_bodies(source, target, o);
+  // Folds are judged against the source as the method poses it: the body model's fitted body (a
+  // kneeling or Z-up target turns most triangles away from the template's own directions).
+  TriangleMesh posed_source = source;
+  const RegistrationResult r =
+      by_body_model ? register_by_body_model(source, target, o, args, &posed_source.V) : register_bodies(source, target, o);
   if (args.has("out")) {
     nlohmann::json j;
     j["source"] = args.positionals()[0];
@@ -193,7 +197,7 @@ int run_register(int argc, char** argv) {
     d.F = source.F;
     write_mesh(args.get("deformed"), d, {target_unit.unit, MeshFormat::kAuto, true, io_warnings()});
   }
-  const RegistrationQuality q = assess_registration(source, r.deformed_source, target);
+  const RegistrationQuality q = assess_registration(posed_source, r.deformed_source, target);
   nlohmann::ordered_json s = {{"method", args.get("method")}, {"refine", o.refine}, {"source_vertices", source.num_vertices()},
                               {"target_triangles", target.num_faces()}, {"seconds", r.seconds},
                               {"normal_failures", r.normal_failures},
