@@ -103,6 +103,12 @@ TEST(BodyFit, KneelingSittingAndArmsCloseInAnyFrame) {
       // model's 16 parts do, and the hips come out 4-5 cm off (docs/body-fitting.md).
       {"sitting", pose_of({{"left_hip", -90 * X}, {"right_hip", -90 * X}, {"left_knee", 90 * X}, {"right_knee", 90 * X}}),
        Eigen::Matrix3d::Identity(), 0.05},
+      // A deep squat with the arms crossed: neither is a pose a bone swung towards one direction says.
+      {"squatting, arms crossed",
+       pose_of({{"left_hip", -110 * X}, {"right_hip", -110 * X}, {"left_knee", 130 * X}, {"right_knee", 130 * X}, {"lower_back", 20 * X},
+                {"left_shoulder", -45 * X}, {"right_shoulder", -45 * X}, {"left_elbow", Eigen::Vector3d(-60, -55, 0)},
+                {"right_elbow", Eigen::Vector3d(-60, 55, 0)}}),
+       Eigen::Matrix3d::Identity(), 0.05},
   };
   // The natural rest pose: the upper arms 5 degrees from the vertical, resting on the torso below
   // the armpits (the rule-based bust cannot be measured there).

@@ -112,120 +112,124 @@ void stand_on(const Eigen::MatrixXd& body, const Eigen::MatrixXd& cloud, PartPos
 
 namespace {
 
-/// Joint rotations said as a bone swung towards a direction of the rest frame, for a body of these
-/// rest joint centres. A joint's bone points to the next joint down the limb (spine and neck: up).
-class BoneSwing {
+/// Joint rotations said in anatomical angles (degrees) for a body of these rest joint centres (Y up,
+/// facing +Z, left +X): an arm's abduction (its angle from hanging straight down, in the frontal plane)
+/// then its flexion (forward elevation from there; negative: backwards); the elbow's and knee's
+/// flexion about their hinge (0: straight); a hip's flexion and abduction; the spine's forward bend.
+/// Whole angles, not changes from the rest pose: the template's A-pose arms hang about 45 degrees
+/// out with the elbows a little bent, and any other rest pose says the same.
+class Anatomy {
  public:
-  explicit BoneSwing(const Eigen::MatrixXd& J) : J_(J) {}
-  /// The rotation swinging `joint`'s bone towards `e` by `degrees` (at most all the way).
-  Eigen::Vector3d rotation(const std::string& joint, Eigen::Vector3d e, double degrees) const {
-    const Eigen::Vector3d d = bone(joint);
-    e.normalize();
-    const Eigen::Vector3d axis = d.cross(e);
-    if (axis.norm() < 1e-9) return Eigen::Vector3d::Zero();
-    return std::min(degrees * kDeg, std::atan2(axis.norm(), d.dot(e))) * axis.normalized();
+  explicit Anatomy(const Eigen::MatrixXd& J) : J_(J) {}
+
+  void arm(PartPose& p, double side, double abduction, double flexion, double elbow_flexion) const {
+    const std::string s = side > 0 ? "left_" : "right_";
+    set(p, s + "shoulder", shoulder(side, abduction, flexion));
+    set(p, s + "elbow", elbow(side, elbow_flexion));
   }
-  void operator()(PartPose& p, const std::string& joint, const Eigen::Vector3d& e, double degrees) const {
-    p.joint_rotation[static_cast<size_t>(find_joint_index(joint))] = rotation(joint, e, degrees);
+  void arms(PartPose& p, double abduction, double flexion, double elbow_flexion) const {
+    arm(p, 1, abduction, flexion, elbow_flexion), arm(p, -1, abduction, flexion, elbow_flexion);
+  }
+  /// An arm whose elbow keeps its rest bend.
+  void arm_at_rest_elbow(PartPose& p, double side, double abduction, double flexion) const {
+    set(p, std::string(side > 0 ? "left_" : "right_") + "shoulder", shoulder(side, abduction, flexion));
+  }
+  void leg(PartPose& p, double side, double hip_flexion, double knee_flexion, double hip_abduction = 0) const {
+    const std::string s = side > 0 ? "left_" : "right_";
+    set(p, s + "hip", axis_angle_from_rotation(rotation_from_axis_angle(-hip_flexion * kDeg * Eigen::Vector3d::UnitX()) *
+                                               rotation_from_axis_angle(side * hip_abduction * kDeg * Eigen::Vector3d::UnitZ())));
+    set(p, s + "knee", knee_flexion * kDeg * Eigen::Vector3d::UnitX());
+  }
+  void legs(PartPose& p, double hip_flexion, double knee_flexion) const {
+    leg(p, 1, hip_flexion, knee_flexion), leg(p, -1, hip_flexion, knee_flexion);
+  }
+  void spine(PartPose& p, double flexion) const { set(p, "lower_back", flexion * kDeg * Eigen::Vector3d::UnitX()); }
+
+  Eigen::Vector3d shoulder(double side, double abduction, double flexion) const {
+    const std::string s = side > 0 ? "left_" : "right_";
+    const Eigen::Vector3d d = at(s + "elbow") - at(s + "shoulder");
+    const double rest = std::atan2(std::abs(d.x()), -d.y());
+    const Eigen::Matrix3d R = rotation_from_axis_angle(-flexion * kDeg * Eigen::Vector3d::UnitX()) *
+                              rotation_from_axis_angle(side * (abduction * kDeg - rest) * Eigen::Vector3d::UnitZ());
+    return axis_angle_from_rotation(R);
+  }
+  Eigen::Vector3d elbow(double side, double flexion) const {
+    const std::string s = side > 0 ? "left_" : "right_";
+    const Eigen::Vector3d upper = (at(s + "elbow") - at(s + "shoulder")).normalized(), fore = (at(s + "wrist") - at(s + "elbow")).normalized();
+    Eigen::Vector3d hinge = upper.cross(fore);
+    // A straight arm at rest has no bend to tell the hinge: the forearm then flexes forward.
+    if (hinge.norm() < 0.05) hinge = upper.cross(Eigen::Vector3d::UnitZ());
+    return (flexion * kDeg - std::acos(std::clamp(upper.dot(fore), -1.0, 1.0))) * hinge.normalized();
   }
 
  private:
-  Eigen::Vector3d at(const std::string& name) const { return J_.row(find_joint_index(name)).transpose(); }
-  Eigen::Vector3d bone(const std::string& joint) const {
-    static const std::vector<std::pair<std::string, std::string>> next = {
-        {"left_shoulder", "left_elbow"}, {"left_elbow", "left_wrist"}, {"right_shoulder", "right_elbow"},
-        {"right_elbow", "right_wrist"},  {"left_hip", "left_knee"},    {"left_knee", "left_ankle"},
-        {"right_hip", "right_knee"},     {"right_knee", "right_ankle"}, {"lower_back", "upper_back"},
-        {"upper_back", "neck"}};
-    for (const auto& [a, b] : next)
-      if (a == joint) return (at(b) - at(a)).normalized();
-    return Eigen::Vector3d::UnitY();
+  static void set(PartPose& p, const std::string& joint, const Eigen::Vector3d& r) {
+    p.joint_rotation[static_cast<size_t>(find_joint_index(joint))] = r;
   }
+  Eigen::Vector3d at(const std::string& name) const { return J_.row(find_joint_index(name)).transpose(); }
   const Eigen::MatrixXd& J_;
 };
 
 /// One arm's shoulder and elbow rotations to try on their own (side: +1 left, -1 right): the upper
-/// arm down, out, forward, up or back, each with the elbow straight as at rest or bent forward or
-/// across the body.
+/// arm hanging, out, up, forward, back or across, each with the elbow straight, at right angles or
+/// bent further.
 std::vector<std::array<Eigen::Vector3d, 2>> arm_options(const Eigen::MatrixXd& J, double side) {
-  const BoneSwing swing(J);
-  const std::string s = side > 0 ? "left_" : "right_";
-  const Eigen::Vector3d up = Eigen::Vector3d::UnitY(), fwd = Eigen::Vector3d::UnitZ(), out = side * Eigen::Vector3d::UnitX();
-  std::vector<Eigen::Vector3d> shoulders = {Eigen::Vector3d::Zero(), swing.rotation(s + "shoulder", -up, 25),
-                                            swing.rotation(s + "shoulder", -up, 90), swing.rotation(s + "shoulder", out, 90),
-                                            swing.rotation(s + "shoulder", fwd, 45), swing.rotation(s + "shoulder", fwd, 90),
-                                            swing.rotation(s + "shoulder", up, 180), swing.rotation(s + "shoulder", -up - 0.4 * fwd, 90)};
-  std::vector<Eigen::Vector3d> elbows = {Eigen::Vector3d::Zero(), swing.rotation(s + "elbow", fwd, 45),
-                                         swing.rotation(s + "elbow", fwd, 90), swing.rotation(s + "elbow", fwd - out, 90),
-                                         swing.rotation(s + "elbow", fwd - out, 130), swing.rotation(s + "elbow", -out + 0.3 * fwd, 100)};
+  const Anatomy body(J);
+  const std::vector<std::array<double, 2>> shoulders = {{5, 0},   {20, 0},  {45, 0},  {90, 0},   {165, 0}, {5, 45}, {5, 90},
+                                                        {20, 45}, {30, 90}, {30, -20}, {40, -15}, {10, 60}, {5, 150}};
   std::vector<std::array<Eigen::Vector3d, 2>> options;
-  for (const auto& sh : shoulders)
-    for (const auto& el : elbows) options.push_back({sh, el});
+  for (const auto& [abduction, flexion] : shoulders)
+    for (const double elbow : {10.0, 45.0, 90.0, 125.0})
+      options.push_back({body.shoulder(side, abduction, flexion), body.elbow(side, elbow)});
   return options;
 }
 
 }  // namespace
 
 std::vector<LibraryPose> pose_library(const Eigen::MatrixXd& J) {
-  const BoneSwing swing(J);
-  const Eigen::Vector3d up = Eigen::Vector3d::UnitY(), down = -up, fwd = Eigen::Vector3d::UnitZ(), back = -fwd,
-                        left = Eigen::Vector3d::UnitX(), right = -left;
+  const Anatomy body(J);
   std::vector<LibraryPose> lib;
-  auto add = [&](const std::string& name, const auto& make) {
+  auto add = [&](const std::string& kind, const std::string& variant, const auto& make) {
     PartPose p;
     make(p);
-    lib.push_back({name, p});
+    lib.push_back({variant.empty() ? kind : kind + " (" + variant + ")", kind, p});
   };
-  auto both_arms = [&](PartPose& p, const Eigen::Vector3d& l, double degrees) {
-    swing(p, "left_shoulder", l, degrees);
-    swing(p, "right_shoulder", Eigen::Vector3d(-l.x(), l.y(), l.z()), degrees);
-  };
-  add("a_pose", [](PartPose&) {});
-  add("arms_down", [&](PartPose& p) { both_arms(p, down, 25); });
-  add("arms_touching", [&](PartPose& p) { both_arms(p, down, 90); });
-  add("t_pose", [&](PartPose& p) { both_arms(p, left, 90); });
-  add("arms_forward", [&](PartPose& p) { both_arms(p, fwd, 90); });
-  add("arms_overhead", [&](PartPose& p) { both_arms(p, up, 180); });
-  add("hands_on_hips", [&](PartPose& p) {
-    both_arms(p, Eigen::Vector3d(0.5, -1, -0.3), 90);
-    swing(p, "left_elbow", Eigen::Vector3d(-1, -0.2, 0.4), 100), swing(p, "right_elbow", Eigen::Vector3d(1, -0.2, 0.4), 100);
+  // Standing, the arms' kinds.
+  add("a_pose", "", [](PartPose&) {});
+  add("arms_down", "", [&](PartPose& p) { body.arm_at_rest_elbow(p, 1, 20, 0), body.arm_at_rest_elbow(p, -1, 20, 0); });
+  add("arms_touching", "", [&](PartPose& p) { body.arm_at_rest_elbow(p, 1, 4, 0), body.arm_at_rest_elbow(p, -1, 4, 0); });
+  add("t_pose", "", [&](PartPose& p) { body.arms(p, 90, 0, 5); });
+  add("arms_forward", "", [&](PartPose& p) { body.arms(p, 5, 90, 5); });
+  add("arms_overhead", "", [&](PartPose& p) { body.arms(p, 160, 0, 10); });
+  add("arms_overhead", "forward", [&](PartPose& p) { body.arms(p, 10, 160, 10); });
+  for (const double elbow : {90.0, 110.0})
+    add("hands_on_hips", "elbows " + std::to_string(static_cast<int>(elbow)), [&](PartPose& p) { body.arms(p, 40, -15, elbow); });
+  for (const double flexion : {30.0, 50.0})
+    for (const double elbow : {105.0, 130.0})
+      add("arms_crossed", std::to_string(static_cast<int>(flexion)) + "/" + std::to_string(static_cast<int>(elbow)),
+          [&](PartPose& p) { body.arms(p, 25, flexion, elbow); });
+  // The legs' kinds, either leg in front where the two differ.
+  for (const double side : {1.0, -1.0}) {
+    const std::string leg = side > 0 ? "left" : "right";
+    add("raised_knee", leg, [&](PartPose& p) { body.leg(p, side, 90, 90); });
+    add("lunge", leg, [&](PartPose& p) { body.leg(p, side, 60, 70), body.leg(p, -side, -20, 30); });
+    add("stride", leg, [&](PartPose& p) { body.leg(p, side, 25, 10), body.leg(p, -side, -25, 25); });
+    add("kneel_one_knee", leg, [&](PartPose& p) { body.leg(p, side, 90, 90), body.leg(p, -side, 0, 90); });
+  }
+  add("kneel_both_knees", "", [&](PartPose& p) { body.legs(p, 0, 90); });
+  add("kneel_sitting_back", "", [&](PartPose& p) { body.legs(p, 60, 150); });
+  add("squat", "half", [&](PartPose& p) { body.legs(p, 60, 80), body.spine(p, 10), body.arms(p, 10, 40, 20); });
+  for (const double hip : {100.0, 120.0})
+    add("squat", std::to_string(static_cast<int>(hip)), [&](PartPose& p) {
+      body.legs(p, hip, hip + 25), body.spine(p, 20), body.arms(p, 10, 60, 10);
+    });
+  add("sit_chair", "", [&](PartPose& p) { body.legs(p, 90, 90), body.arm_at_rest_elbow(p, 1, 5, 0), body.arm_at_rest_elbow(p, -1, 5, 0); });
+  add("sit_floor", "", [&](PartPose& p) { body.legs(p, 90, 5), body.arm_at_rest_elbow(p, 1, 20, 0), body.arm_at_rest_elbow(p, -1, 20, 0); });
+  add("bend_forward", "", [&](PartPose& p) {
+    p.root_rotation = 40 * kDeg * Eigen::Vector3d::UnitX();  // the pelvis tips forward, the legs stay upright
+    body.legs(p, 40, 0), body.spine(p, 25);
+    body.arm_at_rest_elbow(p, 1, 5, 65), body.arm_at_rest_elbow(p, -1, 5, 65);  // hanging
   });
-  add("arms_crossed", [&](PartPose& p) {
-    both_arms(p, Eigen::Vector3d(0, -1, 0.5), 90);
-    swing(p, "left_elbow", Eigen::Vector3d(-1, 0.3, 0.5), 110), swing(p, "right_elbow", Eigen::Vector3d(1, 0.3, 0.5), 110);
-  });
-  add("raised_knee", [&](PartPose& p) { swing(p, "left_hip", fwd, 90), swing(p, "left_knee", back, 90); });
-  add("lunge", [&](PartPose& p) {
-    swing(p, "left_hip", fwd, 60), swing(p, "left_knee", back, 60), swing(p, "right_hip", back, 20), swing(p, "right_knee", back, 30);
-  });
-  add("stride", [&](PartPose& p) {
-    swing(p, "left_hip", fwd, 25), swing(p, "right_hip", back, 25), swing(p, "left_knee", back, 10), swing(p, "right_knee", back, 25);
-  });
-  add("kneel_one_knee", [&](PartPose& p) {
-    swing(p, "left_hip", fwd, 90), swing(p, "left_knee", back, 90), swing(p, "right_knee", back, 90);
-  });
-  add("kneel_both_knees", [&](PartPose& p) { swing(p, "left_knee", back, 90), swing(p, "right_knee", back, 90); });
-  add("kneel_sitting_back", [&](PartPose& p) {
-    swing(p, "left_hip", fwd, 40), swing(p, "right_hip", fwd, 40), swing(p, "left_knee", back, 150), swing(p, "right_knee", back, 150);
-  });
-  add("squat", [&](PartPose& p) {
-    swing(p, "left_hip", fwd, 110), swing(p, "right_hip", fwd, 110), swing(p, "left_knee", back, 130), swing(p, "right_knee", back, 130);
-    swing(p, "lower_back", fwd, 20), both_arms(p, fwd, 60);
-  });
-  add("sit_chair", [&](PartPose& p) {
-    swing(p, "left_hip", fwd, 90), swing(p, "right_hip", fwd, 90), swing(p, "left_knee", back, 90), swing(p, "right_knee", back, 90);
-    both_arms(p, down, 90);
-  });
-  add("sit_floor", [&](PartPose& p) {
-    swing(p, "left_hip", fwd, 90), swing(p, "right_hip", fwd, 90), both_arms(p, down, 60);
-  });
-  add("bend_forward", [&](PartPose& p) {
-    p.root_rotation = 40 * kDeg * left;  // the pelvis tips forward, the legs stay upright
-    p.joint_rotation[static_cast<size_t>(find_joint_index("left_hip"))] = -40 * kDeg * left;
-    p.joint_rotation[static_cast<size_t>(find_joint_index("right_hip"))] = -40 * kDeg * left;
-    swing(p, "lower_back", fwd, 30), both_arms(p, down, 90);
-  });
-  (void)right;
   return lib;
 }
 
@@ -331,7 +335,7 @@ struct UpFrame {
 struct Start {
   double score = 0;  ///< mismatch of the mean body so placed (m)
   size_t up = 0;
-  std::string name;
+  std::string name, kind;
   PartPose pose;
 };
 
@@ -341,13 +345,13 @@ struct Start {
 std::vector<Start> search_starts(const BodyModel& model, const ShapedBody& mean_body, const std::vector<LibraryPose>& library,
                                  const std::vector<UpFrame>& frames, int headings, int threads) {
   const std::vector<int> sample_rows = spread_rows(mean_body.rest_vertices(), 0.04);
-  auto place = [&](size_t u, PartPose pose, const std::string& name) {
+  auto place = [&](size_t u, PartPose pose, const std::string& name, const std::string& kind) {
     Eigen::MatrixXd X;
     ShapedBody::skin(model, mean_body.rest_vertices(), mean_body.part_motions(pose), sample_rows, &X);
     const Eigen::Vector3d placed = pose.root_translation;
     stand_on(X, frames[u].coarse, &pose);
     X.rowwise() += (pose.root_translation - placed).transpose();
-    return Start{mismatch(X, frames[u].coarse, *frames[u].coarse_grid, 0.15), u, name, pose};
+    return Start{mismatch(X, frames[u].coarse, *frames[u].coarse_grid, 0.15), u, name, kind, pose};
   };
   auto by_score = [](const Start& a, const Start& b) { return a.score < b.score; };
   const long per_up = static_cast<long>(library.size()) * headings;
@@ -360,7 +364,7 @@ std::vector<Start> search_starts(const BodyModel& model, const ShapedBody& mean_
       PartPose pose = lib.pose;
       pose.root_rotation = axis_angle_from_rotation(rotation_from_axis_angle(2 * M_PI * h / headings * Eigen::Vector3d::UnitY()) *
                                                     rotation_from_axis_angle(pose.root_rotation));
-      starts[static_cast<size_t>(k)] = place(u, pose, lib.name);
+      starts[static_cast<size_t>(k)] = place(u, pose, lib.name, lib.kind);
     }
   }, 1);
   std::sort(starts.begin(), starts.end(), by_score);
@@ -381,7 +385,7 @@ std::vector<Start> search_starts(const BodyModel& model, const ShapedBody& mean_
       seen.push_back(arms);
       PartPose pose = starts[k].pose;
       for (size_t i = 0; i < arm_joints.size(); ++i) pose.joint_rotation[static_cast<size_t>(arm_joints[i])] = arms[i];
-      mixed.push_back(place(starts[k].up, pose, starts[k].name + ", arms as " + lib.name));
+      mixed.push_back(place(starts[k].up, pose, starts[k].name + ", arms as " + lib.name, starts[k].kind + "+" + lib.kind));
     }
   }
   starts.insert(starts.end(), mixed.begin(), mixed.end());
@@ -504,7 +508,7 @@ BodyFit fit_body_model(const BodyModel& model, const Eigen::MatrixXd& T, const B
   // another name (legs of one pose, arms of another), is the same start to a brief fit.
   auto same_start = [](const Start& a, const Start& b) {
     if (a.up != b.up) return false;
-    if (a.name == b.name) return true;
+    if (a.kind == b.kind) return true;
     for (size_t j = 0; j < a.pose.joint_rotation.size(); ++j)
       if ((a.pose.joint_rotation[j] - b.pose.joint_rotation[j]).norm() > 1e-9) return false;
     return (a.pose.root_rotation - b.pose.root_rotation).norm() < 1e-9;

@@ -16,13 +16,16 @@ namespace posekit {
 
 /// A named whole-body pose the search starts from (the pose library).
 struct LibraryPose {
-  std::string name;
+  std::string name;  ///< unique: the kind and its variant ("squat (120)")
+  std::string kind;  ///< the search refines one variant of a kind, its best-scoring
   PartPose pose;
 };
 /// Standing (A, T, arms down and touching, hands on hips, arms crossed, forward, overhead), a raised
-/// knee, a lunge, kneeling on one and both knees, squatting, sitting on a chair and on the floor,
-/// bending forward. Each is said as bones swung towards directions, made joint rotations for a body
-/// of these rest joint centres (#joints x 3, Y up, facing +Z).
+/// knee, a lunge and a stride, kneeling on one and both knees and sitting back on the heels, a half
+/// and a full squat, sitting on a chair and on the floor, bending forward; either leg in front. Each
+/// is said in anatomical angles (abduction and flexion of shoulders and hips, flexion of elbows, knees
+/// and spine), made joint rotations for a body of these rest joint centres (#joints x 3, Y up,
+/// facing +Z).
 std::vector<LibraryPose> pose_library(const Eigen::MatrixXd& rest_joints);
 
 struct BodyFitOptions {
