@@ -165,6 +165,7 @@ int run_eval_bodies(int argc, char** argv) {
                                 {"measured", b.measured}, {"segmented", b.segmented}, {"seconds", b.seconds}};
     if (b.by_body_model) j["fit_start"] = b.fit_start;
     if (!std::isnan(b.joint_angle_error_mean)) j["joint_angle_error_mean_deg"] = b.joint_angle_error_mean * 180 / M_PI;
+    for (const auto& [joint, e] : b.joint_angle_error) j["joint_angle_error_deg"][joint] = e * 180 / M_PI;
     if (!b.measure_error.empty()) j["measure_error"] = b.measure_error;
     if (!b.segment_error.empty()) j["segment_error"] = b.segment_error;
     if (!std::isnan(b.segmentation_agreement)) j["segmentation_agreement"] = b.segmentation_agreement;

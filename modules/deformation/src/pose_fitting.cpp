@@ -166,6 +166,10 @@ PoseFitResult fit_pose(const PosableBody& subject, const Eigen::MatrixXd& T, con
     return Eigen::Vector3d(swing_twist(j, r).swing.dot(n) * n);
   };
   bool refining = false;  // the final refinement: the rest prior on swing and weighted twist
+  // Where the joint priors pull: the rest, or the pose the caller recognised (PoseFitOptions::prior_pose).
+  std::array<Eigen::Vector3d, kNumJoints> prior_centre;
+  for (int j = 0; j < kNumJoints; ++j)
+    prior_centre[static_cast<size_t>(j)] = o.prior_pose ? o.prior_pose->joint_rotation[static_cast<size_t>(j)] : Eigen::Vector3d::Zero();
   std::array<bool, kNumJoints> held{};  // joints of parts the target does not show: held at rest
   Eigen::MatrixXd X;
   // Applies a Gauss-Newton step: world increments accumulate down the tree; relative rotations follow.
@@ -310,9 +314,13 @@ PoseFitResult fit_pose(const PosableBody& subject, const Eigen::MatrixXd& T, con
         }
         prior(weight, residual(j, r), Jr);
       };
+      const Eigen::Vector3d& centre = prior_centre[static_cast<size_t>(j)];
       if (held[static_cast<size_t>(j)]) prior(o.limit_prior * prior_scale, r, to_parent);
-      else if (refining) prior_by_differences(o.refinement_rest_prior * prior_scale, refinement_prior_residual);
-      else prior(o.rest_prior * prior_scale, r, to_parent);
+      else if (refining)
+        prior_by_differences(o.refinement_rest_prior * prior_scale, [&](int i, const Eigen::Vector3d& v) {
+          return Eigen::Vector3d(refinement_prior_residual(i, v) - refinement_prior_residual(i, centre));
+        });
+      else prior(o.rest_prior * prior_scale, r - centre, to_parent);
       if (o.hinge_prior > 0 && off_hinge_axis[static_cast<size_t>(j)].squaredNorm() > 0)
         prior_by_differences(o.hinge_prior * prior_scale, off_hinge_residual);
       const double limit = joint_limit_degrees(j) * M_PI / 180, angle = r.norm();
@@ -439,7 +447,8 @@ PoseFitResult fit_pose(const PosableBody& subject, const Eigen::MatrixXd& T, con
   residuals();
   // A part the target does not show (cut off, hidden), nor any part beyond it, has its joint set by the
   // priors and its neighbours' pairs alone: with the hands cut off the wrists came out 57 degrees off.
-  // Such a joint is held at its rest rotation (the least committal guess) and the rest refined again.
+  // Such a joint is held at its rest rotation (the least committal guess; at a recognised pose's, arms
+  // crossed with the hands cut off folded the forearms onto the upper arms) and the rest refined again.
   auto unseen = [&](int c) {
     return part_vertices[static_cast<size_t>(c)] > 0 && part_covered[static_cast<size_t>(c)] < 0.2 * part_vertices[static_cast<size_t>(c)];
   };

@@ -94,10 +94,13 @@ void evaluate_fit(const BodyFit& fit, const nlohmann::json& truth, const Triangl
   if (truth.contains("done") && truth.at("done").contains("pose")) {
     const PartPose want = part_pose_from_json(truth.at("done").at("pose").dump(), "truth");
     double sum = 0;
-    for (int j = 0; j < kNumJoints; ++j)
-      sum += Eigen::AngleAxisd(rotation_from_axis_angle(fit.pose.joint_rotation[static_cast<size_t>(j)]).transpose() *
-                               rotation_from_axis_angle(want.joint_rotation[static_cast<size_t>(j)]))
-                 .angle();
+    for (int j = 0; j < kNumJoints; ++j) {
+      const double e = Eigen::AngleAxisd(rotation_from_axis_angle(fit.pose.joint_rotation[static_cast<size_t>(j)]).transpose() *
+                                         rotation_from_axis_angle(want.joint_rotation[static_cast<size_t>(j)]))
+                           .angle();
+      r->joint_angle_error[joint_name(j)] = e;
+      sum += e;
+    }
     r->joint_angle_error_mean = sum / kNumJoints;
   }
 }

@@ -201,7 +201,6 @@ std::vector<LibraryPose> pose_library(const Eigen::MatrixXd& J) {
   add("t_pose", "", [&](PartPose& p) { body.arms(p, 90, 0, 5); });
   add("arms_forward", "", [&](PartPose& p) { body.arms(p, 5, 90, 5); });
   add("arms_overhead", "", [&](PartPose& p) { body.arms(p, 160, 0, 10); });
-  add("arms_overhead", "forward", [&](PartPose& p) { body.arms(p, 10, 160, 10); });
   for (const double elbow : {90.0, 110.0})
     add("hands_on_hips", "elbows " + std::to_string(static_cast<int>(elbow)), [&](PartPose& p) { body.arms(p, 40, -15, elbow); });
   for (const double flexion : {30.0, 50.0})
@@ -500,6 +499,7 @@ BodyFit fit_body_model(const BodyModel& model, const Eigen::MatrixXd& T, const B
   brief.model_samples = 1500;
   brief.refinement_model_samples = 3000;
   brief.max_distance_end = 0.15;
+  brief.refinement_twist_weight = 1;  // as in the final refinement below
   double best_score = std::numeric_limits<double>::infinity();
   const Start* best = nullptr;
   PartPose pose;
@@ -521,7 +521,7 @@ BodyFit fit_body_model(const BodyModel& model, const Eigen::MatrixXd& T, const B
   parallel_for_ranges(static_cast<long>(tried.size()), o.threads, [&](long begin, long end) {
     for (long k = begin; k < end; ++k) {
       PoseFitOptions mine = brief;
-      mine.start = tried[static_cast<size_t>(k)]->pose;
+      mine.start = mine.prior_pose = tried[static_cast<size_t>(k)]->pose;
       const UpFrame& f = frames[tried[static_cast<size_t>(k)]->up];
       const PoseFitResult r = fit_pose(mean_body, f.cloud, mine);
       const PointGrid grid(f.cloud, 0.03);
@@ -531,6 +531,8 @@ BodyFit fit_body_model(const BodyModel& model, const Eigen::MatrixXd& T, const B
   }, 1);
   for (size_t k = 0; k < tried.size(); ++k)  // in the starts' order: the same choice on any number of threads
     if (tried_score[k] < best_score) best_score = tried_score[k], best = tried[k], pose = tried_pose[k];
+  // The recognised pose: the priors of every later fit pull towards it, not towards standing.
+  PartPose recognised = best->pose;
   const UpFrame& frame = frames[best->up];
   const PointGrid grid(frame.cloud, 0.03);
 
@@ -562,15 +564,27 @@ BodyFit fit_body_model(const BodyModel& model, const Eigen::MatrixXd& T, const B
     }
     if (changed) {
       brief.start = armed;
+      PartPose armed_recognised = recognised;
+      for (const char* side : {"left_", "right_"})
+        for (const char* joint : {"shoulder", "elbow", "wrist"}) {
+          const auto j = static_cast<size_t>(find_joint_index(std::string(side) + joint));
+          armed_recognised.joint_rotation[j] = armed.joint_rotation[j];
+        }
+      brief.prior_pose = armed_recognised;
       const PoseFitResult r = fit_pose(mean_body, frame.cloud, brief);
       const double score = mismatch(r.V(spread, Eigen::all), frame.cloud, grid, 0.15);
-      if (score < best_score) best_score = score, pose = r.pose;
+      if (score < best_score) best_score = score, pose = r.pose, recognised = armed_recognised;
     }
   }
 
   // Shape and pose in turn, then the final articulated refinement.
   Eigen::VectorXd c = Eigen::VectorXd::Zero(K);
   PoseFitOptions refine;
+  refine.prior_pose = recognised;
+  // A limb's twist about its bone hardly shows on the surface (an elbow turned one way, the wrist back):
+  // pulled as hard as the swing towards the recognised pose's, the robustness set's mean joint-angle
+  // error fell from 6.1 to 4.2 degrees over 15 bodies (standing, sitting, bending, tilted), joints as close.
+  refine.refinement_twist_weight = 1;
   PoseFitResult result;
   for (int round = 0; round <= o.shape_rounds; ++round) {
     if (round > 0) c = fit_shape(model, c, &pose, frame.cloud, grid, o);

@@ -58,6 +58,11 @@ struct PoseFitOptions {
   /// When set, the fit starts from this pose (e.g. the previous frame of a sequence) instead of
   /// searching headings and whole-body hypotheses.
   std::optional<PartPose> start;
+  /// When set, the joint priors (rest_prior, refinement_rest_prior) pull towards this pose's joint
+  /// rotations instead of the rest: a pose the caller recognised (a library pose). Where the surface leaves a choice open (a sitting
+  /// body's pelvis tipped back with the hips flexed less and the lower back more: 35-43 degrees off
+  /// on the robustness set's chair sitters) it then decides as that pose does, not towards standing.
+  std::optional<PartPose> prior_pose;
 };
 
 /// What fit_pose moves: a body at rest with a part per vertex, posed by a 16-part pose. A

@@ -38,6 +38,7 @@ struct BodyResult {
   /// angle (radians) between each fitted joint rotation and the truth's, where the truth has a pose.
   bool by_body_model = false;
   double joint_angle_error_mean = std::numeric_limits<double>::quiet_NaN();
+  std::map<std::string, double> joint_angle_error;  ///< joint name -> radians, where the truth has a pose
   std::string fit_start;  ///< the library pose the fit started from
   double seconds = 0;
   /// A result returned as good that is far from the truth (orientation, joints over 5 cm, agreement

@@ -28,6 +28,7 @@ struct LibraryPose {
 /// facing +Z).
 std::vector<LibraryPose> pose_library(const Eigen::MatrixXd& rest_joints);
 
+
 struct BodyFitOptions {
   /// The working cloud: the target's points averaged in cubic cells of this size (m), so that a 10M
   /// point scan and a 5k-vertex mesh cost and weigh alike; cells holding under a tenth of the median
