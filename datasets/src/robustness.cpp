@@ -89,6 +89,8 @@ const std::vector<RobustnessVariation> kVariations = {
     {"sitting_floor", "hips flexed 85-95 degrees, knees 0-10, arms down"},
     {"bending_forward", "pelvis tipped 30-45 degrees forward over upright legs, back 20-30 more"},
     {"tilted", "the A-pose tilted 5-15 degrees about a random horizontal axis (a scanner's frame)"},
+    {"random_pose", "each joint at random within a range of motion: arms 0-110 degrees out and -20-90 forward, elbows 0-120, "
+                    "hips -15-90 forward and 0-25 out, knees 0-100, back -10-30 forward and 15 twisted, neck -20-30"},
     // Booth scans of pose kinds (as scan_cloud): what a body scanner gives of people who do not hold
     // the scanning posture.
     {"scan_arms_touching", "arms_touching as a simulated booth scan (points, mm)"},
@@ -203,6 +205,27 @@ std::optional<PartPose> pose_kind(const std::string& v, const Eigen::MatrixXd& J
     const double tip = deg(30, 45);
     p.root_rotation = tip * X;
     set("left_hip", -tip * X), set("right_hip", -tip * X), set("lower_back", deg(20, 30) * X);
+  } else if (v == "random_pose") {
+    // Anatomical angles as the fit's library says them (abduction then flexion; hinge flexion), each
+    // side on its own: no library pose but many of its neighbours.
+    for (const double side : {1.0, -1.0}) {
+      const std::string s = side > 0 ? "left_" : "right_";
+      const Eigen::Vector3d d = joint(J, s + "elbow") - joint(J, s + "shoulder");
+      const double rest = std::atan2(std::abs(d.x()), -d.y());
+      set((s + "shoulder").c_str(), axis_angle_from_rotation(rotation_from_axis_angle(-deg(-20, 90) * X) *
+                                                           rotation_from_axis_angle(side * (deg(0, 110) - rest) * Z)));
+      set((s + "hip").c_str(), axis_angle_from_rotation(rotation_from_axis_angle(-deg(-15, 90) * X) * rotation_from_axis_angle(side * deg(0, 25) * Z)));
+      set((s + "knee").c_str(), deg(0, 100) * X);
+    }
+    PartPose elbows;
+    set_elbow_flexion(J, deg(0, 120), &elbows);  // (both sides alike; the other side's drawn next)
+    const size_t left = static_cast<size_t>(find_joint_index("left_elbow")), right = static_cast<size_t>(find_joint_index("right_elbow"));
+    p.joint_rotation[left] = elbows.joint_rotation[left];
+    set_elbow_flexion(J, deg(0, 120), &elbows);
+    p.joint_rotation[right] = elbows.joint_rotation[right];
+    set("lower_back", axis_angle_from_rotation(rotation_from_axis_angle(deg(-10, 30) * X) *
+                                               rotation_from_axis_angle(deg(-15, 15) * Eigen::Vector3d::UnitY())));
+    set("neck", deg(-20, 30) * X);
   } else if (v == "tilted") {
     const double heading = deg(0, 360);
     p.root_rotation = deg(5, 15) * Eigen::Vector3d(std::cos(heading), 0, std::sin(heading));
