@@ -453,12 +453,28 @@ TEST(ShapeSpace, AlignsBodiesRigidlyAndRoundTripsThroughAFile) {
   const ShapeSpace jointed_read = read_shape_space(dir.path() + "/joints.pks");
   EXPECT_TRUE(jointed_read.joint_mean == jointed.joint_mean && jointed_read.joint_basis == jointed.joint_basis);
   EXPECT_LT((jointed_read.joints(Eigen::VectorXd::Ones(2)) - jointed.joint_mean - (jointed.joint_basis.leftCols(2).rowwise().sum()).reshaped(3, kNumJoints).transpose()).cwiseAbs().maxCoeff(), 1e-12);
+  // Poses (version 3) come back with their names; a pose count that does not match the names is refused.
+  ShapeSpace posed = jointed;
+  posed.poses = Eigen::MatrixXd::Random(2, 3 * (1 + kNumJoints));
+  posed.pose_names = {"01_01 frame 120", "walk"};
+  write_shape_space(dir.path() + "/poses.pks", posed);
+  const ShapeSpace posed_read = read_shape_space(dir.path() + "/poses.pks");
+  EXPECT_TRUE(posed_read.poses == posed.poses && posed_read.pose_names == posed.pose_names && posed_read.joint_mean == posed.joint_mean);
+  posed.pose_names.pop_back();
+  EXPECT_THROW(write_shape_space(dir.path() + "/poses2.pks", posed), InvalidInput);
   {
-    std::string v1 = read_file_bytes(path);
-    v1.resize(v1.size() - 8);  // the CRC and the joint count (0)
-    const std::uint32_t one = 1;
-    std::memcpy(&v1[8], &one, 4);
-    write_file_with_crc32(dir.path() + "/v1.pks", v1);
+    // Versions 1 (no joints) and 2 (joints, no poses) are still read.
+    std::string old_bytes = read_file_bytes(path);
+    old_bytes.resize(old_bytes.size() - 12);  // the CRC, the pose count and width (0 and 0)
+    std::uint32_t version = 2;
+    std::memcpy(&old_bytes[8], &version, 4);
+    write_file_with_crc32(dir.path() + "/v2.pks", old_bytes);
+    const ShapeSpace v2 = read_shape_space(dir.path() + "/v2.pks");
+    EXPECT_TRUE(v2.mean == space.mean && v2.basis == space.basis && !v2.has_joints() && v2.poses.rows() == 0);
+    old_bytes.resize(old_bytes.size() - 4);  // the joint count (0)
+    version = 1;
+    std::memcpy(&old_bytes[8], &version, 4);
+    write_file_with_crc32(dir.path() + "/v1.pks", old_bytes);
     const ShapeSpace old = read_shape_space(dir.path() + "/v1.pks");
     EXPECT_TRUE(old.mean == space.mean && old.basis == space.basis && !old.has_joints());
   }

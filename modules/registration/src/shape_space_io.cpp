@@ -15,8 +15,9 @@ namespace posekit {
 namespace {
 
 constexpr char kMagic[8] = {'P', 'O', 'S', 'E', 'K', 'P', 'K', 'S'};
-// Version 2 adds the joints (a count, then their mean and basis); version 1 files are still read.
-constexpr std::uint32_t kVersion = 2;
+// Version 2 adds the joints (a count, then their mean and basis), version 3 the poses (a count and a
+// row width, then each pose's name length, name and row); older versions are still read.
+constexpr std::uint32_t kVersion = 3;
 
 template <typename T>
 void put(std::ostream& os, const T& value) {
@@ -60,6 +61,8 @@ void write_shape_space(const std::string& path, const ShapeSpace& s) {
       (s.has_joints() && (s.joint_mean.cols() != 3 || s.joint_basis.rows() != 3 * s.joint_mean.rows() || s.joint_basis.cols() != K)))
     throw InvalidInput("write_shape_space: inconsistent space (" + std::to_string(nv) + " vertices, basis " +
                        std::to_string(s.basis.rows()) + " x " + std::to_string(K) + ")");
+  if (static_cast<size_t>(s.poses.rows()) != s.pose_names.size())
+    throw InvalidInput("write_shape_space: " + std::to_string(s.poses.rows()) + " poses and " + std::to_string(s.pose_names.size()) + " names");
   std::ostringstream os(std::ios::binary);
   os.write(kMagic, sizeof(kMagic));
   put(os, kVersion);
@@ -80,6 +83,14 @@ void write_shape_space(const std::string& path, const ShapeSpace& s) {
     for (int c = 0; c < 3; ++c) put(os, s.joint_mean(j, c));
   for (Eigen::Index k = 0; k < s.joint_basis.cols(); ++k)
     for (Eigen::Index r = 0; r < s.joint_basis.rows(); ++r) put(os, s.joint_basis(r, k));
+  put(os, static_cast<std::uint32_t>(s.poses.rows()));
+  put(os, static_cast<std::uint32_t>(s.poses.cols()));
+  for (Eigen::Index p = 0; p < s.poses.rows(); ++p) {
+    const std::string& name = s.pose_names[static_cast<size_t>(p)];
+    put(os, static_cast<std::uint32_t>(name.size()));
+    os.write(name.data(), static_cast<std::streamsize>(name.size()));
+    for (Eigen::Index c = 0; c < s.poses.cols(); ++c) put(os, s.poses(p, c));
+  }
   write_file_with_crc32(path, os.str());
 }
 
@@ -95,7 +106,7 @@ ShapeSpace read_shape_space(const std::string& path) {
   Reader in(bytes, path);
   for (size_t k = 0; k < sizeof(kMagic); ++k) in.get<char>("the header");
   const auto version = in.get<std::uint32_t>("the header");
-  if (version != 1 && version != kVersion)
+  if (version < 1 || version > kVersion)
     throw IoError(path + ": .pks version " + std::to_string(version) + ", this posekit reads versions 1 to " + std::to_string(kVersion));
   const auto nv = in.get<std::uint32_t>("the header"), K = in.get<std::uint32_t>("the header");
   const auto nf = in.get<std::uint32_t>("the header");
@@ -132,7 +143,8 @@ ShapeSpace read_shape_space(const std::string& path) {
   in.values(s.basis.data(), static_cast<size_t>(nv) * 3 * K, "the basis");
   if (version >= 2) {
     const auto nj = in.get<std::uint32_t>("the joint count");
-    if (static_cast<double>(nj) * 24 * (1.0 + K) != static_cast<double>(in.left()))
+    const double joint_bytes = static_cast<double>(nj) * 24 * (1.0 + K);
+    if (version == 2 ? joint_bytes != static_cast<double>(in.left()) : joint_bytes + 8 > static_cast<double>(in.left()))
       throw IoError(path + ": the joints (" + std::to_string(nj) + " of them, " + std::to_string(K) +
                     " components) do not fill the rest of the file (" + std::to_string(in.left()) + " bytes)");
     Eigen::Matrix<double, Eigen::Dynamic, 3, Eigen::RowMajor> joint_mean(nj, 3);
@@ -141,7 +153,25 @@ ShapeSpace read_shape_space(const std::string& path) {
     s.joint_basis.resize(3 * static_cast<Eigen::Index>(nj), K);
     in.values(s.joint_basis.data(), static_cast<size_t>(nj) * 3 * K, "the joints' basis");
   }
-  if (!s.mean.allFinite() || !s.basis.allFinite() || !s.joint_mean.allFinite() || !s.joint_basis.allFinite() ||
+  if (version >= 3) {
+    const auto np = in.get<std::uint32_t>("the pose count"), width = in.get<std::uint32_t>("the pose count");
+    if (static_cast<double>(np) * (4.0 + 8.0 * width) > static_cast<double>(in.left()) || (np > 0 && width != 3 * (1 + s.joint_mean.rows())))
+      throw IoError(path + ": implausible poses section (" + std::to_string(np) + " poses of " + std::to_string(width) + " values, " +
+                    std::to_string(s.joint_mean.rows()) + " joints)");
+    s.poses.resize(np, width);
+    for (std::uint32_t p = 0; p < np; ++p) {
+      const auto length = in.get<std::uint32_t>("a pose's name");
+      if (length > in.left()) throw IoError(path + ": pose " + std::to_string(p) + "'s name runs past the end of the file");
+      std::string name(length, '\0');
+      in.values(name.data(), length, "a pose's name");
+      s.pose_names.push_back(std::move(name));
+      Eigen::RowVectorXd row(width);
+      in.values(row.data(), width, "a pose");
+      s.poses.row(p) = row;
+    }
+    if (in.left() != 0) throw IoError(path + ": " + std::to_string(in.left()) + " bytes after the poses (a newer .pks?)");
+  }
+  if (!s.mean.allFinite() || !s.basis.allFinite() || !s.joint_mean.allFinite() || !s.joint_basis.allFinite() || !s.poses.allFinite() ||
       !std::all_of(s.variance_share.begin(), s.variance_share.end(), [](double v) { return std::isfinite(v); }))
     throw IoError(path + ": the shape space holds a NaN or infinite value");
   return s;

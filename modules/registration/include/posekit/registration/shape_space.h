@@ -27,6 +27,12 @@ struct ShapeSpace {
   /// mean's (#joints x 3, m) and each component's displacement of them (3 #joints x K, rows x0 y0 z0
   /// x1 ...), so a body's joints are joint_mean + joint_basis * c exactly as its vertices are.
   Eigen::MatrixXd joint_mean, joint_basis;
+  /// Poses people take, for a body-model fit's search (posekit shape-space --motions: frames of
+  /// motion capture retargeted to the mean body and chosen far apart): a row each, the pelvis's
+  /// rotation (heading removed) then every joint's relative to its parent, axis-angle (3 + 3 #joints);
+  /// and their names. Empty: none.
+  Eigen::MatrixXd poses;
+  std::vector<std::string> pose_names;
 
   int components() const { return static_cast<int>(basis.cols()); }
   int vertices() const { return static_cast<int>(mean.rows()); }
