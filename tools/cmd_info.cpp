@@ -113,6 +113,10 @@ int info_model(const std::string& path, const std::string& ext, bool json) {
     report["variance_kept"] = kept;
     report["first_components_variance"] = std::vector<double>(s.variance_share.begin(),
                                                               s.variance_share.begin() + std::min<size_t>(5, s.variance_share.size()));
+    report["joints"] = s.joint_mean.rows();
+    report["motion_poses"] = s.poses.rows();  // the body-model fit's search, beside its built-in library
+    if (s.poses.rows() > 0)
+      report["first_motion_poses"] = std::vector<std::string>(s.pose_names.begin(), s.pose_names.begin() + std::min<size_t>(5, s.pose_names.size()));
   } else if (ext == ".pkm") {
     const PoseModel m = read_pose_model(path);
     int offsets = 0;

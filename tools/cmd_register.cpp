@@ -1,6 +1,9 @@
 // posekit register <source> <target>: ct-FFD or ICP registration and the triangle correspondence;
 // posekit shape-space: a shape space file for register --shape-space.
+#include <algorithm>
 #include <chrono>
+#include <filesystem>
+#include <sstream>
 #include <iomanip>
 #include <memory>
 #include <iostream>
@@ -15,12 +18,14 @@
 #include "posekit/io/atomic_file.h"
 #include "posekit/datasets/dataset.h"
 #include "posekit/evaluation/registration_table.h"
+#include "posekit/fitting/body_fit.h"
 #include "posekit/io/mesh_io.h"
 #include "posekit/registration/correspondence.h"
 #include "posekit/registration/nicp.h"
 #include "posekit/registration/registration.h"
 
 namespace posekit::cli {
+namespace fs = std::filesystem;
 
 void set_population_leave_out(PopulationOptions& o, const std::string& what) {
   if (what == "men") {
@@ -245,6 +250,68 @@ int run_register(int argc, char** argv) {
   return 0;
 }
 
+namespace {
+
+/// The BVH files `list` names (comma-separated files and folders, searched recursively); "auto": the
+/// motions folder beside the data root and the data root's own poses and animations, where they are.
+std::vector<std::string> motion_files(const std::string& list, const std::string& data_root) {
+  std::vector<std::string> roots;
+  if (list == "auto") {
+    const fs::path data(data_root);
+    for (const fs::path& p : {data.parent_path() / "motions", data / "poses", data / "animations"})
+      if (fs::is_directory(p)) roots.push_back(p.string());
+  } else {
+    std::stringstream in(list);
+    for (std::string item; std::getline(in, item, ',');)
+      if (!item.empty()) roots.push_back(item);
+  }
+  std::vector<std::string> files;
+  for (const std::string& root : roots) {
+    if (!fs::exists(root)) throw UsageError("--motions: " + root + " does not exist");
+    if (!fs::is_directory(root)) {
+      files.push_back(root);
+      continue;
+    }
+    for (const auto& e : fs::recursive_directory_iterator(root)) {
+      std::string ext = e.path().extension().string();
+      std::transform(ext.begin(), ext.end(), ext.begin(), [](unsigned char c) { return static_cast<char>(std::tolower(c)); });
+      if (e.is_regular_file() && ext == ".bvh") files.push_back(e.path().string());
+    }
+  }
+  std::sort(files.begin(), files.end());
+  return files;
+}
+
+/// Every `every`-th frame of the motions retargeted to the space's mean body, the most distinct of
+/// them (distinct_motion_poses) stored in the space for the body-model fit's search.
+void add_motion_poses(const std::vector<std::string>& files, const std::string& data_root, int every, int max_poses, ShapeSpace* space) {
+  std::vector<LibraryPose> frames;
+  int used = 0;
+  for (const std::string& file : files) {
+    try {
+      const LoadedPoses loaded = load_poses(file, "", data_root, space->joint_mean, "", "none");
+      for (size_t f = 0; f < loaded.poses.size(); f += static_cast<size_t>(every)) {
+        const std::string name = fs::path(file).stem().string() + (loaded.poses.size() > 1 ? " frame " + std::to_string(f) : "");
+        frames.push_back({name, name, loaded.poses[f]});
+      }
+      ++used;
+    } catch (const Error& e) {
+      std::cerr << "warning: --motions: " << file << " left out: " << e.what() << "\n";
+    }
+  }
+  const std::vector<LibraryPose> chosen = distinct_motion_poses(frames, pose_library(space->joint_mean), max_poses);
+  space->poses.resize(static_cast<Eigen::Index>(chosen.size()), 3 * (1 + kNumJoints));
+  space->pose_names.clear();
+  for (size_t k = 0; k < chosen.size(); ++k) {
+    space->poses.row(static_cast<Eigen::Index>(k)) = pose_row(chosen[k].pose);
+    space->pose_names.push_back(chosen[k].name);
+  }
+  std::cerr << "posekit shape-space: " << chosen.size() << " poses for the fit's search, the most distinct of " << frames.size()
+            << " frames (every " << every << ") of " << used << " motion files\n";
+}
+
+}  // namespace
+
 int run_shape_space(int argc, char** argv) {
   ArgParser args("shape-space",
                  "Learns a shape space (principal components of a population of bodies in one topology) and writes\n"
@@ -272,6 +339,12 @@ int run_shape_space(int argc, char** argv) {
       .option("max-rms-mm", "MM", "--ansur: keep the fewest components that reconstruct every fitted body within this RMS", "1")
       .output("residuals", "FILE", "--ansur: write the fit residuals and each subject's sliders (JSON)")
       .option("threads", "N", "--ansur: threads for the fits (0: all cores)", "0")
+      .option("motions", "LIST", "--ansur: motion capture (BVH files or folders, comma-separated) whose most distinct frames join "
+              "the body-model fit's pose library; auto: the motions folder beside the data root and the data root's poses "
+              "and animations; none: the built-in library only", "auto")
+      .option("motion-poses", "N", "--motions: poses kept at most (each at least 30 degrees at some joint from the others "
+              "and the built-in library)", "40")
+      .option("motion-every", "N", "--motions: every N-th frame is a candidate", "10")
       .option("variance", "F", "share of the population's variance the components keep", "0.99999")
       .option("max-components", "K", "components at most", "60")
       .flag("json", "summary as JSON on stdout")
@@ -292,9 +365,16 @@ int run_shape_space(int argc, char** argv) {
     if (subjects < 0 || subjects == 1) throw UsageError("--subjects must be 0 (all) or at least 2");
     if (!(max_rms > 0)) throw UsageError("--max-rms-mm must be positive");
     if (threads < 0) throw UsageError("--threads must be 0 (all cores) or more");
+    const long motion_poses = args.get_int("motion-poses"), every = args.get_int("motion-every");
+    if (motion_poses < 0) throw UsageError("--motion-poses must be 0 or more");
+    if (every < 1) throw UsageError("--motion-every must be at least 1");
+    const std::string data_root = find_data_root(args.get("data"));
+    const std::vector<std::string> motions =
+        args.get("motions") == "none" || motion_poses == 0 ? std::vector<std::string>{} : motion_files(args.get("motions"), data_root);
     space = survey_shape_space(args.has("survey") ? args.get("survey") : "", args.get("data"), subjects, max_rms,
                                static_cast<int>(max_components), static_cast<int>(threads),
                                args.has("residuals") ? args.get("residuals") : "", args.flag_set("json"));
+    if (!motions.empty()) add_motion_poses(motions, data_root, static_cast<int>(every), static_cast<int>(motion_poses), &space);
   } else if (args.has("meshes")) {
     const std::string dir = args.get("meshes");
     // Read in the file's numbers first when the unit is to be detected: the first mesh's extent tells.

@@ -827,6 +827,12 @@ TEST(Cli, ShapeSpaceOfBodiesFittedToAnsurII) {
   const auto info = nlohmann::json::parse(run("info " + space + " --json").out);
   EXPECT_EQ(info["bodies"].get<int>(), 60);
   EXPECT_NE(info["population"].get<std::string>().find("60 subjects of ansur2"), std::string::npos) << info.dump();
+  // Frames of the CMU and MakeHuman motions beside the data root join the fit's pose library.
+  EXPECT_GE(info["motion_poses"].get<int>(), 10) << info.dump();
+  EXPECT_LE(info["motion_poses"].get<int>(), 40) << info.dump();
+  r = run("shape-space --ansur --motions " + dir.file("no_such_motions") + " --out " + dir.file("x.pks"), true);
+  EXPECT_EQ(r.code, 2);
+  EXPECT_NE(r.out.find("no_such_motions does not exist"), std::string::npos) << r.out;
   // The space registers the dataset's template (the MakeHuman topology) onto a subject.
   r = run("register " + ds + "/template/rest.ply " + ds + "/subjects/m01/rest.ply --shape-space " + space + " --json");
   ASSERT_EQ(r.code, 0) << r.out;

@@ -184,6 +184,23 @@ std::vector<std::array<Eigen::Vector3d, 2>> arm_options(const Eigen::MatrixXd& J
   return options;
 }
 
+/// One leg's hip and knee rotations to try on their own: the thigh back, down, forward, level or
+/// up, straight out or spread, each with the knee straight, half or fully bent.
+std::vector<std::array<Eigen::Vector3d, 2>> leg_options(const Eigen::MatrixXd& J, double side) {
+  const Anatomy body(J);
+  const std::string s = side > 0 ? "left_" : "right_";
+  const auto hip = static_cast<size_t>(find_joint_index(s + "hip")), knee = static_cast<size_t>(find_joint_index(s + "knee"));
+  std::vector<std::array<Eigen::Vector3d, 2>> options;
+  for (const double flexion : {-15.0, 0.0, 30.0, 60.0, 90.0, 115.0})
+    for (const double abduction : {0.0, 25.0})
+      for (const double knee_flexion : {0.0, 45.0, 90.0, 130.0}) {
+        PartPose p;
+        body.leg(p, side, flexion, knee_flexion, abduction);
+        options.push_back({p.joint_rotation[hip], p.joint_rotation[knee]});
+      }
+  return options;
+}
+
 }  // namespace
 
 std::vector<LibraryPose> pose_library(const Eigen::MatrixXd& J) {
@@ -230,6 +247,60 @@ std::vector<LibraryPose> pose_library(const Eigen::MatrixXd& J) {
     body.arm_at_rest_elbow(p, 1, 5, 65), body.arm_at_rest_elbow(p, -1, 5, 65);  // hanging
   });
   return lib;
+}
+
+namespace {
+
+/// The largest angle (radians) between two poses' joint rotations and their pelvises' rotations.
+double pose_distance(const PartPose& a, const PartPose& b) {
+  double worst = Eigen::AngleAxisd(rotation_from_axis_angle(a.root_rotation).transpose() * rotation_from_axis_angle(b.root_rotation)).angle();
+  for (size_t j = 0; j < a.joint_rotation.size(); ++j)
+    worst = std::max(worst, Eigen::AngleAxisd(rotation_from_axis_angle(a.joint_rotation[j]).transpose() *
+                                              rotation_from_axis_angle(b.joint_rotation[j])).angle());
+  return worst;
+}
+
+}  // namespace
+
+Eigen::RowVectorXd pose_row(const PartPose& pose) {
+  Eigen::RowVectorXd row(3 * (1 + kNumJoints));
+  row.head<3>() = pose.root_rotation.transpose();
+  for (int j = 0; j < kNumJoints; ++j) row.segment<3>(3 + 3 * j) = pose.joint_rotation[static_cast<size_t>(j)].transpose();
+  return row;
+}
+
+PartPose pose_from_row(const Eigen::RowVectorXd& row) {
+  if (row.size() != 3 * (1 + kNumJoints))
+    throw InvalidInput("a stored pose has " + std::to_string(row.size()) + " values, " + std::to_string(3 * (1 + kNumJoints)) + " expected");
+  PartPose pose;
+  pose.root_rotation = row.head<3>().transpose();
+  for (int j = 0; j < kNumJoints; ++j) pose.joint_rotation[static_cast<size_t>(j)] = row.segment<3>(3 + 3 * j).transpose();
+  return pose;
+}
+
+std::vector<LibraryPose> distinct_motion_poses(const std::vector<LibraryPose>& frames, const std::vector<LibraryPose>& library,
+                                               int max_poses, double min_degrees) {
+  std::vector<LibraryPose> level;  // the frames, heading off, standing at the origin
+  for (const LibraryPose& f : frames) {
+    LibraryPose p = f;
+    const Eigen::Matrix3d R = rotation_from_axis_angle(p.pose.root_rotation);
+    const Eigen::Vector3d left = R * Eigen::Vector3d::UnitX();  // horizontal however far the body bends forward
+    const double heading = std::atan2(-left.z(), left.x());
+    p.pose.root_rotation = axis_angle_from_rotation(rotation_from_axis_angle(-heading * Eigen::Vector3d::UnitY()) * R);
+    p.pose.root_translation.setZero();
+    level.push_back(std::move(p));
+  }
+  std::vector<double> nearest(level.size(), std::numeric_limits<double>::infinity());
+  for (size_t f = 0; f < level.size(); ++f)
+    for (const LibraryPose& l : library) nearest[f] = std::min(nearest[f], pose_distance(level[f].pose, l.pose));
+  std::vector<LibraryPose> chosen;
+  while (static_cast<int>(chosen.size()) < max_poses && !level.empty()) {
+    const size_t far = static_cast<size_t>(std::max_element(nearest.begin(), nearest.end()) - nearest.begin());
+    if (nearest[far] < min_degrees * kDeg) break;
+    chosen.push_back(level[far]);
+    for (size_t f = 0; f < level.size(); ++f) nearest[f] = std::min(nearest[f], pose_distance(level[f].pose, level[far].pose));
+  }
+  return chosen;
 }
 
 namespace {
@@ -342,7 +413,8 @@ struct Start {
 /// a few hundred points; then the arms of every library pose on the best few (legs and arms combine
 /// freely: sitting with the arms out, kneeling with hands on hips). Best first.
 std::vector<Start> search_starts(const BodyModel& model, const ShapedBody& mean_body, const std::vector<LibraryPose>& library,
-                                 const std::vector<UpFrame>& frames, int headings, int threads) {
+                                 const std::vector<LibraryPose>& motion_poses, const std::vector<UpFrame>& frames, int headings,
+                                 int threads) {
   const std::vector<int> sample_rows = spread_rows(mean_body.rest_vertices(), 0.04);
   auto place = [&](size_t u, PartPose pose, const std::string& name, const std::string& kind) {
     Eigen::MatrixXd X;
@@ -353,20 +425,37 @@ std::vector<Start> search_starts(const BodyModel& model, const ShapedBody& mean_
     return Start{mismatch(X, frames[u].coarse, *frames[u].coarse_grid, 0.15), u, name, kind, pose};
   };
   auto by_score = [](const Start& a, const Start& b) { return a.score < b.score; };
-  const long per_up = static_cast<long>(library.size()) * headings;
-  std::vector<Start> starts(frames.size() * static_cast<size_t>(per_up));
-  parallel_for_ranges(static_cast<long>(starts.size()), threads, [&](long begin, long end) {
-    for (long k = begin; k < end; ++k) {
-      const size_t u = static_cast<size_t>(k / per_up);
-      const LibraryPose& lib = library[static_cast<size_t>((k % per_up) / headings)];
-      const int h = static_cast<int>(k % headings);
-      PartPose pose = lib.pose;
-      pose.root_rotation = axis_angle_from_rotation(rotation_from_axis_angle(2 * M_PI * h / headings * Eigen::Vector3d::UnitY()) *
-                                                    rotation_from_axis_angle(pose.root_rotation));
-      starts[static_cast<size_t>(k)] = place(u, pose, lib.name, lib.kind);
-    }
-  }, 1);
+  // Every pose of `poses` at every heading on each of the up frames `ups`.
+  auto place_all = [&](const std::vector<LibraryPose>& poses, const std::vector<size_t>& ups) {
+    const long per_up = static_cast<long>(poses.size()) * headings;
+    std::vector<Start> placed(ups.size() * static_cast<size_t>(per_up));
+    parallel_for_ranges(static_cast<long>(placed.size()), threads, [&](long begin, long end) {
+      for (long k = begin; k < end; ++k) {
+        const size_t u = ups[static_cast<size_t>(k / per_up)];
+        const LibraryPose& lib = poses[static_cast<size_t>((k % per_up) / headings)];
+        const int h = static_cast<int>(k % headings);
+        PartPose pose = lib.pose;
+        pose.root_rotation = axis_angle_from_rotation(rotation_from_axis_angle(2 * M_PI * h / headings * Eigen::Vector3d::UnitY()) *
+                                                      rotation_from_axis_angle(pose.root_rotation));
+        placed[static_cast<size_t>(k)] = place(u, pose, lib.name, lib.kind);
+      }
+    }, 1);
+    return placed;
+  };
+  std::vector<size_t> all_ups(frames.size());
+  for (size_t u = 0; u < frames.size(); ++u) all_ups[u] = u;
+  std::vector<Start> starts = place_all(library, all_ups);
   std::sort(starts.begin(), starts.end(), by_score);
+  // The motion poses only on the two up directions the library liked best: they are many, and the
+  // vertical is told by the library's standing, kneeling and sitting poses alike.
+  if (!motion_poses.empty()) {
+    std::vector<size_t> best_ups;
+    for (const Start& s : starts)
+      if (best_ups.size() < 2 && std::find(best_ups.begin(), best_ups.end(), s.up) == best_ups.end()) best_ups.push_back(s.up);
+    std::vector<Start> more = place_all(motion_poses, best_ups);
+    starts.insert(starts.end(), more.begin(), more.end());
+    std::sort(starts.begin(), starts.end(), by_score);
+  }
   std::vector<int> arm_joints;
   for (const char* side : {"left_", "right_"})
     for (const char* joint : {"shoulder", "elbow", "wrist"}) arm_joints.push_back(find_joint_index(std::string(side) + joint));
@@ -461,6 +550,22 @@ void read_off_fit(const BodyModel& model, const Eigen::MatrixXd& T, const Eigen:
         seen[static_cast<size_t>(p)] < o.min_part_coverage * all[static_cast<size_t>(p)])
       msg << "only " << 100.0 * seen[static_cast<size_t>(p)] / all[static_cast<size_t>(p)] << "% of the fitted " << part_name(p)
           << " lies within 3 cm of the target", reason();
+  // An arm or leg lying along the target's but bent or turned elsewhere (an elbow 8 cm behind the
+  // real one) is near the target nearly everywhere, but leaves some of the target's limb unexplained:
+  // a twentieth of the whole target hardly notices a forearm. Asked of the target, not of the fitted
+  // body, so that surface a scanner did not see (the inside of an arm at the torso) does not count.
+  std::array<int, kNumParts> labelled{}, explained{};
+  for (Eigen::Index i = 0; i < W.rows(); ++i) {
+    double sq = 0;
+    const int v = body_grid.nearest(W.row(i).transpose(), &sq, kOutlier);
+    if (v < 0) continue;
+    ++labelled[static_cast<size_t>(part[v])];
+    explained[static_cast<size_t>(part[v])] += d[static_cast<size_t>(i)] <= o.limb_close_distance;
+  }
+  for (int p : {kLeftUpperArm, kLeftForearm, kRightUpperArm, kRightForearm, kLeftThigh, kLeftShank, kRightThigh, kRightShank})
+    if (labelled[static_cast<size_t>(p)] >= 20 && explained[static_cast<size_t>(p)] < o.min_limb_explained * labelled[static_cast<size_t>(p)])
+      msg << "only " << 100.0 * explained[static_cast<size_t>(p)] / labelled[static_cast<size_t>(p)] << "% of the target nearest the fitted "
+          << part_name(p) << " lies within " << 1000 * o.limb_close_distance << " mm of it (the limb bent or turned elsewhere)", reason();
   out->warnings = pose_warnings;
   out->confident = out->reasons.empty();
 }
@@ -479,6 +584,12 @@ BodyFit fit_body_model(const BodyModel& model, const Eigen::MatrixXd& T, const B
   const int K = model.components();
   const ShapedBody mean_body(model, Eigen::VectorXd::Zero(K));
   const std::vector<LibraryPose> library = pose_library(mean_body.joint_centres());
+  std::vector<LibraryPose> motion_poses;  // the model's own, from motion capture
+  const ShapeSpace& space = model.space();
+  for (Eigen::Index p = 0; p < space.poses.rows(); ++p) {
+    const std::string& name = space.pose_names[static_cast<size_t>(p)];
+    motion_poses.push_back({name, name, pose_from_row(space.poses.row(p))});
+  }
 
   std::vector<Eigen::Vector3d> ups = o.up_candidates;
   if (ups.empty())
@@ -491,7 +602,7 @@ BodyFit fit_body_model(const BodyModel& model, const Eigen::MatrixXd& T, const B
     f.coarse = every(f.cloud, std::max<Eigen::Index>(1, W.rows() / 700));
     f.coarse_grid = std::make_unique<PointGrid>(f.coarse, 0.03);
   }
-  const std::vector<Start> starts = search_starts(model, mean_body, library, frames, o.headings, o.threads);
+  const std::vector<Start> starts = search_starts(model, mean_body, library, motion_poses, frames, o.headings, o.threads);
 
   // The best starts, each fitted briefly with the mean shape; the best of those goes on.
   PoseFitOptions brief;
@@ -500,9 +611,6 @@ BodyFit fit_body_model(const BodyModel& model, const Eigen::MatrixXd& T, const B
   brief.refinement_model_samples = 3000;
   brief.max_distance_end = 0.15;
   brief.refinement_twist_weight = 1;  // as in the final refinement below
-  double best_score = std::numeric_limits<double>::infinity();
-  const Start* best = nullptr;
-  PartPose pose;
   const std::vector<int> spread = spread_rows(mean_body.rest_vertices(), 0.02);
   // Distinct starts only: the same library pose at the next heading, or the same joints reached by
   // another name (legs of one pose, arms of another), is the same start to a brief fit.
@@ -529,83 +637,112 @@ BodyFit fit_body_model(const BodyModel& model, const Eigen::MatrixXd& T, const B
       tried_pose[static_cast<size_t>(k)] = r.pose;
     }
   }, 1);
-  for (size_t k = 0; k < tried.size(); ++k)  // in the starts' order: the same choice on any number of threads
-    if (tried_score[k] < best_score) best_score = tried_score[k], best = tried[k], pose = tried_pose[k];
-  // The recognised pose: the priors of every later fit pull towards it, not towards standing.
-  PartPose recognised = best->pose;
-  const UpFrame& frame = frames[best->up];
-  const PointGrid grid(frame.cloud, 0.03);
+  // The brief fits by score (ties in the starts' order: the same choice on any number of threads).
+  std::vector<size_t> ranked(tried.size());
+  for (size_t k = 0; k < ranked.size(); ++k) ranked[k] = k;
+  std::stable_sort(ranked.begin(), ranked.end(), [&](size_t a, size_t b) { return tried_score[a] < tried_score[b]; });
+  const std::vector<int> coarse_rows = spread_rows(mean_body.rest_vertices(), 0.04);
 
-  // Each arm on its own from the best start: arms are where whole-body starts miss most (hands on
-  // hips, arms crossed), and the two arms' options multiply. Kept when its brief fit is better.
-  {
-    const std::vector<int> coarse_rows = spread_rows(mean_body.rest_vertices(), 0.04);
-    auto arm_score = [&](const PartPose& p) {
+  // From one brief fit to the result: the arm step, shape and pose in turn, the final refinement, and
+  // what is read off the fit.
+  auto finish_from = [&](size_t k) {
+    const Start* best = tried[k];
+    double best_score = tried_score[k];
+    PartPose pose = tried_pose[k];
+    // The recognised pose: the priors of every later fit pull towards it, not towards standing.
+    PartPose recognised = best->pose;
+    const UpFrame& frame = frames[best->up];
+    const PointGrid grid(frame.cloud, 0.03);
+
+    // Each arm on its own: arms are where whole-body starts miss most (hands on hips, arms crossed),
+    // and the two arms' options multiply. Kept when its brief fit is better.
+    auto limb_score = [&](const PartPose& p) {
       Eigen::MatrixXd X;
       ShapedBody::skin(model, mean_body.rest_vertices(), mean_body.part_motions(p), coarse_rows, &X);
       return mismatch(X, frame.coarse, *frame.coarse_grid, 0.15);
     };
-    PartPose armed = pose;
-    double armed_score = arm_score(armed);
+    // Then each leg on its own the same way: a library pose's legs go together, a person's need not.
+    PartPose limbed = pose;
+    double limbed_score = limb_score(limbed);
     bool changed = false;
-    for (const double side : {1.0, -1.0}) {
-      const std::string s = side > 0 ? "left_" : "right_";
-      const auto shoulder = static_cast<size_t>(find_joint_index(s + "shoulder")), elbow = static_cast<size_t>(find_joint_index(s + "elbow")),
-                 wrist = static_cast<size_t>(find_joint_index(s + "wrist"));
-      PartPose best_arm = armed;
-      for (const auto& option : arm_options(mean_body.joint_centres(), side)) {
-        PartPose candidate = armed;
-        candidate.joint_rotation[shoulder] = option[0], candidate.joint_rotation[elbow] = option[1];
-        candidate.joint_rotation[wrist].setZero();
-        const double score = arm_score(candidate);
-        if (score < armed_score) armed_score = score, best_arm = candidate, changed = true;
-      }
-      armed = best_arm;
-    }
-    if (changed) {
-      brief.start = armed;
-      PartPose armed_recognised = recognised;
-      for (const char* side : {"left_", "right_"})
-        for (const char* joint : {"shoulder", "elbow", "wrist"}) {
-          const auto j = static_cast<size_t>(find_joint_index(std::string(side) + joint));
-          armed_recognised.joint_rotation[j] = armed.joint_rotation[j];
+    struct Limb {
+      const char* first;
+      const char* second;
+      const char* end;  // set to rest with the option
+      bool arm;
+    };
+    for (const Limb& limb : {Limb{"shoulder", "elbow", "wrist", true}, Limb{"hip", "knee", "ankle", false}})
+      for (const double side : {1.0, -1.0}) {
+        const std::string s = side > 0 ? "left_" : "right_";
+        const auto first = static_cast<size_t>(find_joint_index(s + limb.first)), second = static_cast<size_t>(find_joint_index(s + limb.second)),
+                   end = static_cast<size_t>(find_joint_index(s + limb.end));
+        PartPose best_limb = limbed;
+        for (const auto& option : limb.arm ? arm_options(mean_body.joint_centres(), side) : leg_options(mean_body.joint_centres(), side)) {
+          PartPose candidate = limbed;
+          candidate.joint_rotation[first] = option[0], candidate.joint_rotation[second] = option[1];
+          candidate.joint_rotation[end].setZero();
+          const double score = limb_score(candidate);
+          if (score < limbed_score) limbed_score = score, best_limb = candidate, changed = true;
         }
-      brief.prior_pose = armed_recognised;
-      const PoseFitResult r = fit_pose(mean_body, frame.cloud, brief);
+        limbed = best_limb;
+      }
+    if (changed) {
+      PoseFitOptions limbs = brief;
+      limbs.start = limbed;
+      PartPose limbed_recognised = recognised;
+      for (const char* side : {"left_", "right_"})
+        for (const char* joint : {"shoulder", "elbow", "wrist", "hip", "knee", "ankle"}) {
+          const auto j = static_cast<size_t>(find_joint_index(std::string(side) + joint));
+          limbed_recognised.joint_rotation[j] = limbed.joint_rotation[j];
+        }
+      limbs.prior_pose = limbed_recognised;
+      const PoseFitResult r = fit_pose(mean_body, frame.cloud, limbs);
       const double score = mismatch(r.V(spread, Eigen::all), frame.cloud, grid, 0.15);
-      if (score < best_score) best_score = score, pose = r.pose, recognised = armed_recognised;
+      if (score < best_score) best_score = score, pose = r.pose, recognised = limbed_recognised;
+    }
+
+    // Shape and pose in turn, then the final articulated refinement.
+    Eigen::VectorXd c = Eigen::VectorXd::Zero(K);
+    PoseFitOptions refine;
+    refine.prior_pose = recognised;
+    // A limb's twist about its bone hardly shows on the surface (an elbow turned one way, the wrist
+    // back): pulled as hard as the swing towards the recognised pose's, the robustness set's mean
+    // joint-angle error fell from 6.1 to 4.2 degrees over 15 bodies (standing, sitting, bending,
+    // tilted), joints as close.
+    refine.refinement_twist_weight = 1;
+    PoseFitResult result;
+    for (int round = 0; round <= o.shape_rounds; ++round) {
+      if (round > 0) c = fit_shape(model, c, &pose, frame.cloud, grid, o);
+      refine.start = pose;
+      if (round < o.shape_rounds) refine.iterations = 8, refine.refinement_model_samples = 3000;  // brief: the shape moves on
+      else refine.iterations = 100, refine.refinement_model_samples = 12000;
+      result = fit_pose(ShapedBody(model, c), frame.cloud, refine);
+      pose = result.pose;
+    }
+
+    BodyFit out;
+    out.coefficients = c;
+    out.pose = pose;
+    out.to_fit_frame = frame.rotation;
+    out.up = ups[best->up].normalized();
+    out.start = best->name;
+    out.working_points = static_cast<int>(W.rows());
+    // Back to the target's frame: x = R^T y + centre.
+    out.V = (result.V * frame.rotation).rowwise() + centre;
+    out.joints = (ShapedBody(model, c).posed_joints(pose) * frame.rotation).rowwise() + centre;
+    read_off_fit(model, T, W, o, result.warnings, &out);
+    return out;
+  };
+  BodyFit out = finish_from(ranked.front());
+  // A poor fit from the best brief fit: the runner-up's start may be the right one (an elbow bent
+  // where the arm is straight scored best on a tilted A-pose body). Kept when it is confident.
+  if (!out.confident && ranked.size() > 1) {
+    BodyFit second = finish_from(ranked[1]);
+    if (second.confident) {
+      second.warnings.push_back("the best start (" + out.start + ") gave a poor fit (" + out.reasons.front() + "); the runner-up's is kept");
+      out = std::move(second);
     }
   }
-
-  // Shape and pose in turn, then the final articulated refinement.
-  Eigen::VectorXd c = Eigen::VectorXd::Zero(K);
-  PoseFitOptions refine;
-  refine.prior_pose = recognised;
-  // A limb's twist about its bone hardly shows on the surface (an elbow turned one way, the wrist back):
-  // pulled as hard as the swing towards the recognised pose's, the robustness set's mean joint-angle
-  // error fell from 6.1 to 4.2 degrees over 15 bodies (standing, sitting, bending, tilted), joints as close.
-  refine.refinement_twist_weight = 1;
-  PoseFitResult result;
-  for (int round = 0; round <= o.shape_rounds; ++round) {
-    if (round > 0) c = fit_shape(model, c, &pose, frame.cloud, grid, o);
-    refine.start = pose;
-    if (round < o.shape_rounds) refine.iterations = 8, refine.refinement_model_samples = 3000;  // brief: the shape moves on
-    else refine.iterations = 100, refine.refinement_model_samples = 12000;
-    result = fit_pose(ShapedBody(model, c), frame.cloud, refine);
-    pose = result.pose;
-  }
-
-  BodyFit out;
-  out.coefficients = c;
-  out.pose = pose;
-  out.to_fit_frame = frame.rotation;
-  out.up = ups[best->up].normalized();
-  out.start = best->name;
-  out.working_points = static_cast<int>(W.rows());
-  // Back to the target's frame: x = R^T y + centre.
-  out.V = (result.V * frame.rotation).rowwise() + centre;
-  out.joints = (ShapedBody(model, c).posed_joints(pose) * frame.rotation).rowwise() + centre;
-  read_off_fit(model, T, W, o, result.warnings, &out);
   out.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   return out;
 }
