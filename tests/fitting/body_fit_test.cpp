@@ -175,8 +175,9 @@ TEST(BodyFit, PosesTheSpacesBodyAboutItsOwnJointsAndRefusesANonBody) {
   EXPECT_LT((J.row(find_joint_index("left_elbow")) - body.joint_centres().row(find_joint_index("left_elbow"))).norm(), 1e-12);
   EXPECT_GT((J.row(find_joint_index("left_wrist")) - body.joint_centres().row(find_joint_index("left_wrist"))).norm(), 0.1);
   for (Eigen::Index v = 0; v < X.rows(); ++v)
-    if (m.part_weights()[static_cast<size_t>(v)].size() == 1 && m.vertex_parts()[v] == kPelvis)
+    if (m.part_weights()[static_cast<size_t>(v)].size() == 1 && m.vertex_parts()[v] == kPelvis) {
       ASSERT_LT((X.row(v) - body.rest_vertices().row(v)).norm(), 1e-12) << v;
+    }
   // The library's poses are named once each and within the joints' ranges.
   const auto library = pose_library(body.joint_centres());
   EXPECT_GE(library.size(), 15u);

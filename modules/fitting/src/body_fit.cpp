@@ -576,6 +576,70 @@ void read_off_fit(const BodyModel& model, const Eigen::MatrixXd& T, const Eigen:
 
 }  // namespace
 
+namespace {
+
+/// Each arm, then each leg, on its own from `pose`: the options of arm_options and leg_options scored
+/// on the coarse samples, the best kept limb by limb. Arms are where whole-body starts miss most (hands
+/// on hips, arms crossed) and the options of two arms multiply; a library pose's legs go together, a
+/// person's need not. `changed`: whether any limb moved.
+PartPose limbs_one_by_one(const BodyModel& model, const ShapedBody& mean_body, const UpFrame& frame, const std::vector<int>& coarse_rows,
+                          PartPose pose, bool* changed) {
+  auto score_of = [&](const PartPose& p) {
+    Eigen::MatrixXd X;
+    ShapedBody::skin(model, mean_body.rest_vertices(), mean_body.part_motions(p), coarse_rows, &X);
+    return mismatch(X, frame.coarse, *frame.coarse_grid, 0.15, kCoarseCell);
+  };
+  double score = score_of(pose);
+  *changed = false;
+  struct Limb {
+    const char *first, *second, *end;  // the end joint goes to rest with each option
+    bool arm;
+  };
+  for (const Limb& limb : {Limb{"shoulder", "elbow", "wrist", true}, Limb{"hip", "knee", "ankle", false}})
+    for (const double side : {1.0, -1.0}) {
+      const std::string s = side > 0 ? "left_" : "right_";
+      const auto first = static_cast<size_t>(find_joint_index(s + limb.first)), second = static_cast<size_t>(find_joint_index(s + limb.second)),
+                 end = static_cast<size_t>(find_joint_index(s + limb.end));
+      PartPose best = pose;
+      for (const auto& option : limb.arm ? arm_options(mean_body.joint_centres(), side) : leg_options(mean_body.joint_centres(), side)) {
+        PartPose candidate = pose;
+        candidate.joint_rotation[first] = option[0], candidate.joint_rotation[second] = option[1];
+        candidate.joint_rotation[end].setZero();
+        const double candidate_score = score_of(candidate);
+        if (candidate_score < score) score = candidate_score, best = candidate, *changed = true;
+      }
+      pose = best;
+    }
+  return pose;
+}
+
+/// Shape and pose in turn from `pose` (o.shape_rounds rounds of fit_shape and a brief articulated
+/// refit), then the final articulated refinement; the joint priors pull towards `recognised`. Leaves
+/// the pose in `pose`, the coefficients in `c`.
+PoseFitResult fit_shape_and_pose(const BodyModel& model, const UpFrame& frame, const PointGrid& grid, const BodyFitOptions& o,
+                                 const PartPose& recognised, PartPose* pose, Eigen::VectorXd* c) {
+  *c = Eigen::VectorXd::Zero(model.components());
+  PoseFitOptions refine;
+  refine.prior_pose = recognised;
+  // A limb's twist about its bone hardly shows on the surface (an elbow turned one way, the wrist
+  // back): pulled as hard as the swing towards the recognised pose's, the robustness set's mean
+  // joint-angle error fell from 6.1 to 4.2 degrees over 15 bodies (standing, sitting, bending,
+  // tilted), joints as close.
+  refine.refinement_twist_weight = 1;
+  PoseFitResult result;
+  for (int round = 0; round <= o.shape_rounds; ++round) {
+    if (round > 0) *c = fit_shape(model, *c, pose, frame.cloud, grid, o);
+    refine.start = *pose;
+    if (round < o.shape_rounds) refine.iterations = 8, refine.refinement_model_samples = 3000;  // brief: the shape moves on
+    else refine.iterations = 100, refine.refinement_model_samples = 12000;
+    result = fit_pose(ShapedBody(model, *c), frame.cloud, refine);
+    *pose = result.pose;
+  }
+  return result;
+}
+
+}  // namespace
+
 BodyFit fit_body_model(const BodyModel& model, const Eigen::MatrixXd& T, const BodyFitOptions& o) {
   const auto t0 = std::chrono::steady_clock::now();
   if (T.rows() < 100 || T.cols() != 3 || !T.allFinite())
@@ -651,45 +715,16 @@ BodyFit fit_body_model(const BodyModel& model, const Eigen::MatrixXd& T, const B
   // what is read off the fit.
   auto finish_from = [&](size_t k) {
     const Start* best = tried[k];
-    double best_score = tried_score[k];
+    const double best_score = tried_score[k];
     PartPose pose = tried_pose[k];
     // The recognised pose: the priors of every later fit pull towards it, not towards standing.
     PartPose recognised = best->pose;
     const UpFrame& frame = frames[best->up];
     const PointGrid grid(frame.cloud, 0.03);
 
-    // Each arm on its own: arms are where whole-body starts miss most (hands on hips, arms crossed),
-    // and the two arms' options multiply. Kept when its brief fit is better.
-    auto limb_score = [&](const PartPose& p) {
-      Eigen::MatrixXd X;
-      ShapedBody::skin(model, mean_body.rest_vertices(), mean_body.part_motions(p), coarse_rows, &X);
-      return mismatch(X, frame.coarse, *frame.coarse_grid, 0.15, kCoarseCell);
-    };
-    // Then each leg on its own the same way: a library pose's legs go together, a person's need not.
-    PartPose limbed = pose;
-    double limbed_score = limb_score(limbed);
+    // Each arm, then each leg, on its own (limbs_one_by_one); kept when its brief fit is better.
     bool changed = false;
-    struct Limb {
-      const char* first;
-      const char* second;
-      const char* end;  // set to rest with the option
-      bool arm;
-    };
-    for (const Limb& limb : {Limb{"shoulder", "elbow", "wrist", true}, Limb{"hip", "knee", "ankle", false}})
-      for (const double side : {1.0, -1.0}) {
-        const std::string s = side > 0 ? "left_" : "right_";
-        const auto first = static_cast<size_t>(find_joint_index(s + limb.first)), second = static_cast<size_t>(find_joint_index(s + limb.second)),
-                   end = static_cast<size_t>(find_joint_index(s + limb.end));
-        PartPose best_limb = limbed;
-        for (const auto& option : limb.arm ? arm_options(mean_body.joint_centres(), side) : leg_options(mean_body.joint_centres(), side)) {
-          PartPose candidate = limbed;
-          candidate.joint_rotation[first] = option[0], candidate.joint_rotation[second] = option[1];
-          candidate.joint_rotation[end].setZero();
-          const double score = limb_score(candidate);
-          if (score < limbed_score) limbed_score = score, best_limb = candidate, changed = true;
-        }
-        limbed = best_limb;
-      }
+    const PartPose limbed = limbs_one_by_one(model, mean_body, frame, coarse_rows, pose, &changed);
     if (changed) {
       PoseFitOptions limbs = brief;
       limbs.start = limbed;
@@ -702,27 +737,11 @@ BodyFit fit_body_model(const BodyModel& model, const Eigen::MatrixXd& T, const B
       limbs.prior_pose = limbed_recognised;
       const PoseFitResult r = fit_pose(mean_body, frame.cloud, limbs);
       const double score = mismatch(r.V(spread, Eigen::all), frame.cloud, grid, 0.15);
-      if (score < best_score) best_score = score, pose = r.pose, recognised = limbed_recognised;
+      if (score < best_score) pose = r.pose, recognised = limbed_recognised;
     }
 
-    // Shape and pose in turn, then the final articulated refinement.
-    Eigen::VectorXd c = Eigen::VectorXd::Zero(K);
-    PoseFitOptions refine;
-    refine.prior_pose = recognised;
-    // A limb's twist about its bone hardly shows on the surface (an elbow turned one way, the wrist
-    // back): pulled as hard as the swing towards the recognised pose's, the robustness set's mean
-    // joint-angle error fell from 6.1 to 4.2 degrees over 15 bodies (standing, sitting, bending,
-    // tilted), joints as close.
-    refine.refinement_twist_weight = 1;
-    PoseFitResult result;
-    for (int round = 0; round <= o.shape_rounds; ++round) {
-      if (round > 0) c = fit_shape(model, c, &pose, frame.cloud, grid, o);
-      refine.start = pose;
-      if (round < o.shape_rounds) refine.iterations = 8, refine.refinement_model_samples = 3000;  // brief: the shape moves on
-      else refine.iterations = 100, refine.refinement_model_samples = 12000;
-      result = fit_pose(ShapedBody(model, c), frame.cloud, refine);
-      pose = result.pose;
-    }
+    Eigen::VectorXd c;
+    const PoseFitResult result = fit_shape_and_pose(model, frame, grid, o, recognised, &pose, &c);
 
     BodyFit out;
     out.coefficients = c;
