@@ -9,6 +9,7 @@
 #include <limits>
 #include <sstream>
 
+#include "posekit/core/closest_point.h"
 #include "posekit/core/error.h"
 #include "posekit/core/mesh_geometry.h"
 #include "posekit/core/point_grid.h"
@@ -237,39 +238,63 @@ PoseFitResult fit_pose(const PosableBody& subject, const Eigen::MatrixXd& T, con
     // Per part, the pairs' normal equations in the twist (t, w) of a rigid motion about the origin,
     // J0 = [I, -[x]x]; a rotation w about a centre c is the twist ([c]x w, w), so each unknown's
     // columns are J0 [[c]x; I] and the 6 x 6 sums map to the unknowns once per part.
-    std::array<Eigen::Matrix<double, 6, 6>, kNumParts> H;
-    std::array<Eigen::Matrix<double, 6, 1>, kNumParts> b;
-    for (int q = 0; q < kNumParts; ++q) H[static_cast<size_t>(q)].setZero(), b[static_cast<size_t>(q)].setZero();
-    auto add = [&](Eigen::Index v, const Eigen::Vector3d& y) {
+    struct Sums {
+      std::array<Eigen::Matrix<double, 6, 6>, kNumParts> H;
+      std::array<Eigen::Matrix<double, 6, 1>, kNumParts> b;
+      double cost = 0, weight = 0;
+    };
+    auto add = [&](Sums& S, Eigen::Index v, const Eigen::Vector3d& y) {
       const Eigen::Vector3d x = X.row(v).transpose(), r = x - y, n = normals.row(v).transpose();
       const Eigen::Matrix3d M0 = n * n.transpose() + p2p * Eigen::Matrix3d::Identity();
       const double s = r.dot(M0 * r);
-      L.cost += rho(s);
+      S.cost += rho(s);
       const double w = 1 / (1 + s / s2);
       Eigen::Matrix<double, 3, 6> J0;
       J0.leftCols<3>().setIdentity();
       J0.rightCols<3>() = -skew(x);
       const Eigen::Matrix<double, 6, 3> J0tM = w * J0.transpose() * M0;
       const size_t q = static_cast<size_t>(part[v]);
-      H[q].noalias() += J0tM * J0;
-      b[q].noalias() += J0tM * r;
-      L.data_weight += w;
+      S.H[q].noalias() += J0tM * J0;
+      S.b[q].noalias() += J0tM * r;
+      S.weight += w;
     };
     // Every sampled target point is explained by the body (its nearest vertex); a sampled body vertex
     // pulls towards the target only where that is mutual (the target point's nearest vertex is close
     // by), so that body seen nowhere (holes, occluded sides) is not dragged onto other surfaces.
-    for (Eigen::Index i = 0; i < target.rows(); i += target_stride) {
-      double sq = 0;
-      const int k = model_grid.nearest(target.row(i).transpose(), &sq, max_d);
-      if (k >= 0) add(k, target.row(i).transpose());
-      else L.cost += unpaired;
-    }
-    for (Eigen::Index v = 0; v < X.rows(); v += model_stride) {
-      double sq = 0, back = 0;
-      const int k = grid.nearest(X.row(v).transpose(), &sq, max_d);
-      const int u = k >= 0 ? model_grid.nearest(target.row(k).transpose(), &back, max_d) : -1;
-      if (u >= 0 && (X.row(u) - X.row(v)).squaredNorm() <= o.mutual_distance * o.mutual_distance) add(v, target.row(k).transpose());
-      else L.cost += unpaired;
+    // Samples 0..target_count-1 are target points, the rest body vertices; summed per block of
+    // kBlock samples, the blocks in order.
+    const Eigen::Index target_count = (target.rows() + target_stride - 1) / target_stride,
+                       model_count = (X.rows() + model_stride - 1) / model_stride;
+    constexpr Eigen::Index kBlock = 1024;
+    const long blocks = static_cast<long>((target_count + model_count + kBlock - 1) / kBlock);
+    std::vector<Sums> block_sums(static_cast<size_t>(blocks));
+    parallel_for_ranges(blocks, o.threads, [&](long begin, long end) {
+      for (long k = begin; k < end; ++k) {
+        Sums& S = block_sums[static_cast<size_t>(k)];
+        for (int q = 0; q < kNumParts; ++q) S.H[static_cast<size_t>(q)].setZero(), S.b[static_cast<size_t>(q)].setZero();
+        for (Eigen::Index sample = k * kBlock; sample < std::min((k + 1) * kBlock, target_count + model_count); ++sample) {
+          double sq = 0, back = 0;
+          if (sample < target_count) {
+            const Eigen::Index i = sample * target_stride;
+            const int v = model_grid.nearest(target.row(i).transpose(), &sq, max_d);
+            if (v >= 0) add(S, v, target.row(i).transpose());
+            else S.cost += unpaired;
+            continue;
+          }
+          const Eigen::Index v = (sample - target_count) * model_stride;
+          const int t = grid.nearest(X.row(v).transpose(), &sq, max_d);
+          const int u = t >= 0 ? model_grid.nearest(target.row(t).transpose(), &back, max_d) : -1;
+          if (u >= 0 && (X.row(u) - X.row(v)).squaredNorm() <= o.mutual_distance * o.mutual_distance) add(S, v, target.row(t).transpose());
+          else S.cost += unpaired;
+        }
+      }
+    }, 2);
+    std::array<Eigen::Matrix<double, 6, 6>, kNumParts> H;
+    std::array<Eigen::Matrix<double, 6, 1>, kNumParts> b;
+    for (int q = 0; q < kNumParts; ++q) H[static_cast<size_t>(q)].setZero(), b[static_cast<size_t>(q)].setZero();
+    for (const Sums& S : block_sums) {
+      for (int q = 0; q < kNumParts; ++q) H[static_cast<size_t>(q)] += S.H[static_cast<size_t>(q)], b[static_cast<size_t>(q)] += S.b[static_cast<size_t>(q)];
+      L.cost += S.cost, L.data_weight += S.weight;
     }
     for (int q = 0; q < kNumParts; ++q) {
       // B maps the unknowns that move part q to its twist.

@@ -63,6 +63,9 @@ struct PoseFitOptions {
   /// body's pelvis tipped back with the hips flexed less and the lower back more: 35-43 degrees off
   /// on the robustness set's chair sitters) it then decides as that pose does, not towards standing.
   std::optional<PartPose> prior_pose;
+  /// Threads matching the pairs of each iteration (0: the hardware's). The pairs are summed in
+  /// fixed blocks, in order: the result does not depend on it.
+  int threads = 1;
 };
 
 /// What fit_pose moves: a body at rest with a part per vertex, posed by a 16-part pose. A
