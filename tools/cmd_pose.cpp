@@ -545,6 +545,7 @@ int segment_by_body_model(const ArgParser& args) {
       {"shape_mahalanobis", fit.shape_mahalanobis}, {"components", model.components()},
       {"working_points", fit.working_points}, {"seconds", fit.seconds}, {"joints", joints}, {"pose_fit_frame", pose},
       {"cross_check", cross}, {"disagreements", disagreements}};
+  for (const auto& [stage, seconds] : fit.stage_seconds) summary["stage_seconds"][stage] = seconds;
   if (args.has("fitted")) {
     // The fitted body (the template's topology: vertex k is the template's vertex k, a correspondence)
     // with each vertex's distance to the target, the residual map.

@@ -320,19 +320,22 @@ Eigen::VectorXd fit_shape(const BodyModel& model, Eigen::VectorXd c, PartPose* p
   const std::vector<int> rows = spread_rows(S.mean, 0.02);
   const auto n = static_cast<Eigen::Index>(rows.size());
   // x(c) = x0 + A c exactly for a fixed pose: skinning is affine in the vertices and joints.
-  Eigen::MatrixXd X0, Xk;
+  Eigen::MatrixXd X0;
   ShapedBody::skin(model, S.mean, part_transforms(pose, S.joint_mean), rows, &X0);
   // Unknowns: the coefficients and the body's translation (a taller body stands elsewhere).
   Eigen::MatrixXd A = Eigen::MatrixXd::Zero(3 * n, K + 3);
   for (Eigen::Index i = 0; i < n; ++i) A.block<3, 3>(3 * i, K).setIdentity();
   using RowMajorX3 = Eigen::Matrix<double, Eigen::Dynamic, 3, Eigen::RowMajor>;
-  for (int k = 0; k < K; ++k) {
-    const Eigen::MatrixXd Vk = S.mean + Eigen::Map<const RowMajorX3>(S.basis.col(k).data(), S.vertices(), 3);
-    const Eigen::MatrixXd Jk = S.joint_mean + Eigen::Map<const RowMajorX3>(S.joint_basis.col(k).data(), S.joint_mean.rows(), 3);
-    ShapedBody::skin(model, Vk, part_transforms(pose, Jk), rows, &Xk);
-    Xk -= X0;
-    for (Eigen::Index i = 0; i < n; ++i) A.block(3 * i, k, 3, 1) = Xk.row(i).transpose();
-  }
+  parallel_for_ranges(K, o.threads, [&](long k0, long k1) {
+    Eigen::MatrixXd Xk;
+    for (long k = k0; k < k1; ++k) {
+      const Eigen::MatrixXd Vk = S.mean + Eigen::Map<const RowMajorX3>(S.basis.col(k).data(), S.vertices(), 3);
+      const Eigen::MatrixXd Jk = S.joint_mean + Eigen::Map<const RowMajorX3>(S.joint_basis.col(k).data(), S.joint_mean.rows(), 3);
+      ShapedBody::skin(model, Vk, part_transforms(pose, Jk), rows, &Xk);
+      Xk -= X0;
+      for (Eigen::Index i = 0; i < n; ++i) A.block(3 * i, k, 3, 1) = Xk.row(i).transpose();
+    }
+  }, 1);
   const double max_d = 0.08, sigma = 0.03, p2p = 0.1;
   const Eigen::Index target_stride = std::max<Eigen::Index>(1, P.rows() / 8000);  // about 8,000 target points
   for (int round = 0; round < 4; ++round) {
@@ -344,45 +347,68 @@ Eigen::VectorXd fit_shape(const BodyModel& model, Eigen::VectorXd c, PartPose* p
     const PointGrid body_grid(X, 0.03);
     // Pairs (vertex, target point); then their rows of the weighted least squares: along the normal,
     // and point-to-point with weight p2p, each times the square root of its Cauchy weight.
-    std::vector<std::pair<Eigen::Index, Eigen::Index>> pairs;
-    for (Eigen::Index t = 0; t < P.rows(); t += target_stride) {
-      double sq = 0;
-      const int i = body_grid.nearest(P.row(t).transpose(), &sq, max_d);
-      if (i >= 0) pairs.emplace_back(i, t);
-    }
-    for (Eigen::Index i = 0; i < n; ++i) {
-      double sq = 0, back = 0;
-      const int t = grid.nearest(X.row(i).transpose(), &sq, max_d);
-      if (t < 0) continue;
-      const int u = body_grid.nearest(P.row(t).transpose(), &back, max_d);
-      if (u >= 0 && (X.row(u) - X.row(i)).norm() < 0.03) pairs.emplace_back(i, t);
-    }
-    // The normal equations in blocks of pairs (one buffer, no matrix of every pair's rows).
-    constexpr Eigen::Index kBlock = 512;
-    Eigen::MatrixXd H = Eigen::MatrixXd::Zero(K + 3, K + 3);
-    Eigen::VectorXd g = Eigen::VectorXd::Zero(K + 3);
-    Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor> J(4 * kBlock, K + 3);
-    Eigen::VectorXd r(4 * kBlock);
-    double weight = 0;
-    const auto m = static_cast<Eigen::Index>(pairs.size());
-    for (Eigen::Index start = 0; start < m; start += kBlock) {
-      const Eigen::Index count = std::min(kBlock, m - start);
-      for (Eigen::Index k = 0; k < count; ++k) {
-        const auto [i, t] = pairs[static_cast<size_t>(start + k)];
-        const Eigen::Vector3d d = X.row(i).transpose() - P.row(t).transpose(), nn = normals.row(rows[static_cast<size_t>(i)]).transpose();
-        const double along = nn.dot(d), w = 1 / (1 + (along * along + p2p * d.squaredNorm()) / (sigma * sigma));
-        const double sw = std::sqrt(w), swp = std::sqrt(w * p2p);
-        const auto Ai = A.middleRows(3 * i, 3);
-        J.row(4 * k).noalias() = sw * nn.transpose() * Ai;
-        J.middleRows(4 * k + 1, 3) = swp * Ai;
-        r[4 * k] = sw * along;
-        r.segment<3>(4 * k + 1) = swp * d;
-        weight += w;
+    // Found in two halves on their own threads, kept in order (the same pairs on any number of threads).
+    const Eigen::Index target_count = (P.rows() + target_stride - 1) / target_stride;
+    std::array<std::vector<std::pair<Eigen::Index, Eigen::Index>>, 2> found;
+    parallel_for_ranges(2, o.threads, [&](long h0, long h1) {
+      for (long h = h0; h < h1; ++h) {
+        auto& mine = found[static_cast<size_t>(h)];
+        for (Eigen::Index s = h * (target_count + n) / 2; s < (h + 1) * (target_count + n) / 2; ++s) {
+          double sq = 0, back = 0;
+          if (s < target_count) {
+            const Eigen::Index t = s * target_stride;
+            const int i = body_grid.nearest(P.row(t).transpose(), &sq, max_d);
+            if (i >= 0) mine.emplace_back(i, t);
+            continue;
+          }
+          const Eigen::Index i = s - target_count;
+          const int t = grid.nearest(X.row(i).transpose(), &sq, max_d);
+          if (t < 0) continue;
+          const int u = body_grid.nearest(P.row(t).transpose(), &back, max_d);
+          if (u >= 0 && (X.row(u) - X.row(i)).norm() < 0.03) mine.emplace_back(i, t);
+        }
       }
-      const auto Jb = J.topRows(4 * count);
-      H.selfadjointView<Eigen::Lower>().rankUpdate(Jb.transpose());
-      g.noalias() += Jb.transpose() * r.head(4 * count);
-    }
+    }, 1);
+    std::vector<std::pair<Eigen::Index, Eigen::Index>> pairs = std::move(found[0]);
+    pairs.insert(pairs.end(), found[1].begin(), found[1].end());
+    // The normal equations, in blocks of pairs (one buffer, no matrix of every pair's rows), the
+    // pairs in two fixed halves on their own threads. A pair's three rows are sqrt(w) S (its rows of
+    // A, and its offset) with S = sqrt(p2p) I + (sqrt(1 + p2p) - sqrt(p2p)) n n^T, the square root of
+    // n n^T + p2p I: along the normal with a little point-to-point.
+    constexpr Eigen::Index kBlock = 512;
+    const auto m = static_cast<Eigen::Index>(pairs.size());
+    std::array<Eigen::MatrixXd, 2> half_H;
+    std::array<Eigen::VectorXd, 2> half_g;
+    std::array<double, 2> half_weight{};
+    const double a = std::sqrt(p2p), b = std::sqrt(1 + p2p) - std::sqrt(p2p);
+    parallel_for_ranges(2, o.threads, [&](long h0, long h1) {
+      Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor> J(3 * kBlock, K + 3);
+      Eigen::VectorXd r(3 * kBlock);
+      for (long h = h0; h < h1; ++h) {
+        Eigen::MatrixXd& H = half_H[static_cast<size_t>(h)];
+        Eigen::VectorXd& g = half_g[static_cast<size_t>(h)];
+        H = Eigen::MatrixXd::Zero(K + 3, K + 3), g = Eigen::VectorXd::Zero(K + 3);
+        const Eigen::Index end = (h + 1) * m / 2;
+        for (Eigen::Index start = h * m / 2; start < end; start += kBlock) {
+          const Eigen::Index count = std::min(kBlock, end - start);
+          for (Eigen::Index k = 0; k < count; ++k) {
+            const auto [i, t] = pairs[static_cast<size_t>(start + k)];
+            const Eigen::Vector3d d = X.row(i).transpose() - P.row(t).transpose(), nn = normals.row(rows[static_cast<size_t>(i)]).transpose();
+            const double along = nn.dot(d), w = 1 / (1 + (along * along + p2p * d.squaredNorm()) / (sigma * sigma));
+            const Eigen::Matrix3d S = std::sqrt(w) * (a * Eigen::Matrix3d::Identity() + b * nn * nn.transpose());
+            J.middleRows(3 * k, 3).noalias() = S * A.middleRows(3 * i, 3);
+            r.segment<3>(3 * k) = S * d;
+            half_weight[static_cast<size_t>(h)] += w;
+          }
+          const auto Jb = J.topRows(3 * count);
+          H.selfadjointView<Eigen::Lower>().rankUpdate(Jb.transpose());
+          g.noalias() += Jb.transpose() * r.head(3 * count);
+        }
+      }
+    }, 1);
+    Eigen::MatrixXd H = half_H[0] + half_H[1];
+    Eigen::VectorXd g = half_g[0] + half_g[1];
+    const double weight = half_weight[0] + half_weight[1];
     H = H.selfadjointView<Eigen::Lower>();
     if (weight <= 0) break;
     const double lambda = weight * o.shape_prior * o.shape_prior;
@@ -398,11 +424,12 @@ Eigen::VectorXd fit_shape(const BodyModel& model, Eigen::VectorXd c, PartPose* p
   return c;
 }
 
-/// The target seen with one up direction: turned so that it points +Y, and a coarse sample of it.
+/// The target seen with one up direction: turned so that it points +Y, and a coarse and a sparse
+/// sample of it.
 struct UpFrame {
   Eigen::Matrix3d rotation;  ///< target frame -> this frame
-  Eigen::MatrixXd cloud, coarse;
-  std::unique_ptr<PointGrid> coarse_grid;
+  Eigen::MatrixXd cloud, coarse, sparse;
+  std::unique_ptr<PointGrid> coarse_grid, sparse_grid;
 };
 
 /// A start of the articulated fit: a library pose at a heading, placed on one up frame's cloud.
@@ -414,19 +441,26 @@ struct Start {
 };
 
 /// The global search: every up direction, library pose and heading, placed on the cloud and scored on
-/// a few hundred points; then the arms of every library pose on the best few (legs and arms combine
-/// freely: sitting with the arms out, kneeling with hands on hips). Best first.
+/// a sparse sample (a fifth of the body's coarse vertices, 200 target points); the best
+/// `rescored` of those again on the coarse sample (700 target points); then the arms of every library
+/// pose on the best few (legs and arms combine freely: sitting with the arms out, kneeling with hands
+/// on hips). Best first.
 std::vector<Start> search_starts(const BodyModel& model, const ShapedBody& mean_body, const std::vector<LibraryPose>& library,
                                  const std::vector<LibraryPose>& motion_poses, const std::vector<UpFrame>& frames, int headings,
-                                 int threads) {
+                                 int rescored, int threads) {
   const std::vector<int> sample_rows = spread_rows(mean_body.rest_vertices(), 0.04);
-  auto place = [&](size_t u, PartPose pose, const std::string& name, const std::string& kind) {
+  const Eigen::Index sparse_stride = 5;
+  // The body placed (its feet on the cloud's lowest points, centred over it) and scored on the
+  // sparse or the coarse samples; the same placement either way.
+  auto place = [&](size_t u, PartPose pose, const std::string& name, const std::string& kind, bool sparse) {
     Eigen::MatrixXd X;
     ShapedBody::skin(model, mean_body.rest_vertices(), mean_body.part_motions(pose), sample_rows, &X);
     const Eigen::Vector3d placed = pose.root_translation;
     stand_on(X, frames[u].coarse, &pose);
     X.rowwise() += (pose.root_translation - placed).transpose();
-    return Start{mismatch(X, frames[u].coarse, *frames[u].coarse_grid, 0.15, kCoarseCell), u, name, kind, pose};
+    const double score = sparse ? mismatch(every(X, sparse_stride), frames[u].sparse, *frames[u].sparse_grid, 0.15, 2 * kCoarseCell)
+                                : mismatch(X, frames[u].coarse, *frames[u].coarse_grid, 0.15, kCoarseCell);
+    return Start{score, u, name, kind, pose};
   };
   auto by_score = [](const Start& a, const Start& b) { return a.score < b.score; };
   // Every pose of `poses` at every heading on each of the up frames `ups`.
@@ -441,7 +475,7 @@ std::vector<Start> search_starts(const BodyModel& model, const ShapedBody& mean_
         PartPose pose = lib.pose;
         pose.root_rotation = axis_angle_from_rotation(rotation_from_axis_angle(2 * M_PI * h / headings * Eigen::Vector3d::UnitY()) *
                                                       rotation_from_axis_angle(pose.root_rotation));
-        placed[static_cast<size_t>(k)] = place(u, pose, lib.name, lib.kind);
+        placed[static_cast<size_t>(k)] = place(u, pose, lib.name, lib.kind, true);
       }
     }, 1);
     return placed;
@@ -460,6 +494,15 @@ std::vector<Start> search_starts(const BodyModel& model, const ShapedBody& mean_
     starts.insert(starts.end(), more.begin(), more.end());
     std::sort(starts.begin(), starts.end(), by_score);
   }
+  // The best on the sparse samples, scored again on the coarse ones.
+  starts.resize(std::min(starts.size(), static_cast<size_t>(std::max(1, rescored))));
+  parallel_for_ranges(static_cast<long>(starts.size()), threads, [&](long begin, long end) {
+    for (long k = begin; k < end; ++k) {
+      Start& s = starts[static_cast<size_t>(k)];
+      s = place(s.up, s.pose, s.name, s.kind, false);
+    }
+  }, 1);
+  std::sort(starts.begin(), starts.end(), by_score);
   std::vector<int> arm_joints;
   for (const char* side : {"left_", "right_"})
     for (const char* joint : {"shoulder", "elbow", "wrist"}) arm_joints.push_back(find_joint_index(std::string(side) + joint));
@@ -477,7 +520,7 @@ std::vector<Start> search_starts(const BodyModel& model, const ShapedBody& mean_
       seen.push_back(arms);
       PartPose pose = starts[k].pose;
       for (size_t i = 0; i < arm_joints.size(); ++i) pose.joint_rotation[static_cast<size_t>(arm_joints[i])] = arms[i];
-      mixed.push_back(place(starts[k].up, pose, starts[k].name + ", arms as " + lib.name, starts[k].kind + "+" + lib.kind));
+      mixed.push_back(place(starts[k].up, pose, starts[k].name + ", arms as " + lib.name, starts[k].kind + "+" + lib.kind, false));
     }
   }
   starts.insert(starts.end(), mixed.begin(), mixed.end());
@@ -626,6 +669,7 @@ PoseFitResult fit_shape_and_pose(const BodyModel& model, const UpFrame& frame, c
   // joint-angle error fell from 6.1 to 4.2 degrees over 15 bodies (standing, sitting, bending,
   // tilted), joints as close.
   refine.refinement_twist_weight = 1;
+  refine.threads = o.threads;
   PoseFitResult result;
   for (int round = 0; round <= o.shape_rounds; ++round) {
     if (round > 0) *c = fit_shape(model, *c, pose, frame.cloud, grid, o);
@@ -642,6 +686,16 @@ PoseFitResult fit_shape_and_pose(const BodyModel& model, const UpFrame& frame, c
 
 BodyFit fit_body_model(const BodyModel& model, const Eigen::MatrixXd& T, const BodyFitOptions& o) {
   const auto t0 = std::chrono::steady_clock::now();
+  std::vector<std::pair<std::string, double>> stages;
+  auto lap_start = t0;
+  auto lap = [&](const std::string& stage) {  // the time since the last lap, added to the stage's
+    const auto now = std::chrono::steady_clock::now();
+    const double s = std::chrono::duration<double>(now - lap_start).count();
+    lap_start = now;
+    for (auto& [name, seconds] : stages)
+      if (name == stage) return void(seconds += s);
+    stages.emplace_back(stage, s);
+  };
   if (T.rows() < 100 || T.cols() != 3 || !T.allFinite())
     throw InvalidInput("body fit: the target has " + std::to_string(T.rows()) + " points (at least 100 finite ones needed)");
   const Eigen::MatrixXd W = working_cloud(T, o.working_cell);
@@ -669,8 +723,13 @@ BodyFit fit_body_model(const BodyModel& model, const Eigen::MatrixXd& T, const B
     f.cloud = (W.rowwise() - centre) * f.rotation.transpose();
     f.coarse = every(f.cloud, std::max<Eigen::Index>(1, W.rows() / 700));
     f.coarse_grid = std::make_unique<PointGrid>(f.coarse, kCoarseCell);
+    f.sparse = every(f.cloud, std::max<Eigen::Index>(1, W.rows() / 200));
+    f.sparse_grid = std::make_unique<PointGrid>(f.sparse, 2 * kCoarseCell);
   }
-  const std::vector<Start> starts = search_starts(model, mean_body, library, motion_poses, frames, o.headings, o.threads);
+  lap("working cloud");
+  const std::vector<Start> starts =
+      search_starts(model, mean_body, library, motion_poses, frames, o.headings, o.starts_rescored, o.threads);
+  lap("search");
 
   // The best starts, each fitted briefly with the mean shape; the best of those goes on.
   PoseFitOptions brief;
@@ -710,6 +769,7 @@ BodyFit fit_body_model(const BodyModel& model, const Eigen::MatrixXd& T, const B
   for (size_t k = 0; k < ranked.size(); ++k) ranked[k] = k;
   std::stable_sort(ranked.begin(), ranked.end(), [&](size_t a, size_t b) { return tried_score[a] < tried_score[b]; });
   const std::vector<int> coarse_rows = spread_rows(mean_body.rest_vertices(), 0.04);
+  lap("brief fits");
 
   // From one brief fit to the result: the arm step, shape and pose in turn, the final refinement, and
   // what is read off the fit.
@@ -728,6 +788,7 @@ BodyFit fit_body_model(const BodyModel& model, const Eigen::MatrixXd& T, const B
     if (changed) {
       PoseFitOptions limbs = brief;
       limbs.start = limbed;
+      limbs.threads = o.threads;
       PartPose limbed_recognised = recognised;
       for (const char* side : {"left_", "right_"})
         for (const char* joint : {"shoulder", "elbow", "wrist", "hip", "knee", "ankle"}) {
@@ -739,9 +800,11 @@ BodyFit fit_body_model(const BodyModel& model, const Eigen::MatrixXd& T, const B
       const double score = mismatch(r.V(spread, Eigen::all), frame.cloud, grid, 0.15);
       if (score < best_score) pose = r.pose, recognised = limbed_recognised;
     }
+    lap("limbs");
 
     Eigen::VectorXd c;
     const PoseFitResult result = fit_shape_and_pose(model, frame, grid, o, recognised, &pose, &c);
+    lap("shape and pose");
 
     BodyFit out;
     out.coefficients = c;
@@ -754,6 +817,7 @@ BodyFit fit_body_model(const BodyModel& model, const Eigen::MatrixXd& T, const B
     out.V = (result.V * frame.rotation).rowwise() + centre;
     out.joints = (ShapedBody(model, c).posed_joints(pose) * frame.rotation).rowwise() + centre;
     read_off_fit(model, T, W, o, result.warnings, &out);
+    lap("read-off");
     return out;
   };
   BodyFit out = finish_from(ranked.front());
@@ -767,6 +831,7 @@ BodyFit fit_body_model(const BodyModel& model, const Eigen::MatrixXd& T, const B
     }
   }
   out.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  out.stage_seconds = std::move(stages);
   return out;
 }
 

@@ -7,6 +7,7 @@
 // read off the fitted model, with a confidence and its reasons.
 #include <Eigen/Core>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "posekit/body/parts.h"
@@ -48,6 +49,8 @@ struct BodyFitOptions {
   /// Up directions tried (unit vectors in the target's frame); empty: +-X, +-Y, +-Z.
   std::vector<Eigen::Vector3d> up_candidates;
   int headings = 8;            ///< headings tried about the up direction for every library pose
+  /// The search scores every start on a sparse sample first, then these best again on a denser one.
+  int starts_rescored = 300;
   int hypotheses_refined = 6;  ///< the best-scoring distinct starts that get a brief articulated fit
   /// Alternations of the shape's least squares and a brief articulated refit (8: the shoulders of
   /// three A-pose robustness bodies ended 13-23 mm from the rig's, at 2 rounds 32-41 mm).
@@ -91,6 +94,8 @@ struct BodyFit {
   double shape_mahalanobis = 0;   ///< |c|
   int working_points = 0;
   double seconds = 0;
+  /// Seconds of each stage, in order: working cloud, search, brief fits, limbs, shape and pose, read-off.
+  std::vector<std::pair<std::string, double>> stage_seconds;
   bool confident = false;
   std::vector<std::string> reasons;   ///< why the fit is poor (empty when confident)
   std::vector<std::string> warnings;  ///< from the articulated fit (a part unseen, a joint at its limit)
