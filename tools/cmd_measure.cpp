@@ -2,6 +2,7 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <future>
 #include <memory>
 #include <sstream>
 #include <iomanip>
@@ -74,8 +75,8 @@ nlohmann::ordered_json rule_based_cross_check(const BodyInput& in, const BodyFit
                                               std::vector<std::string>* warnings) {
   nlohmann::ordered_json cross = {{"method", "rule-based (posekit measure without --body-model)"}};
   const Eigen::MatrixXd& T = in.is_cloud ? in.cloud.P : in.mesh.V;
-  // A dense scan is thinned for it to half a million points (the rules cost a second per million).
-  constexpr Eigen::Index kCrossCheckPoints = 500000;
+  // A dense scan is thinned for it to 200,000 points (the rules cost a second per million).
+  constexpr Eigen::Index kCrossCheckPoints = 200000;
   const Eigen::Index stride = in.is_cloud ? (T.rows() + kCrossCheckPoints - 1) / kCrossCheckPoints : 1;
   Eigen::MatrixXd upright(stride > 1 ? (T.rows() + stride - 1) / stride : T.rows(), 3);
   for (Eigen::Index i = 0; i < upright.rows(); ++i) upright.row(i) = T.row(i * stride) * fit.to_fit_frame.transpose();
@@ -111,9 +112,11 @@ int measure_by_body_model(const ArgParser& args, const SurveyDistribution* surve
   auto since = [](Clock::time_point t) { return std::chrono::duration<double>(Clock::now() - t).count(); };
   const Clock::time_point t0 = Clock::now();
   BodyUnit unit;
+  // The body model loads while the body is read (load_seconds: the wait after the read).
+  std::future<std::unique_ptr<BodyModel>> loading = std::async(std::launch::async, [&] { return load_body_model(args); });
   const BodyInput in = read_body_input(path, args.get("unit"), "measure", &unit);
   const double read_seconds = since(t0);
-  const std::unique_ptr<BodyModel> model = load_body_model(args);
+  const std::unique_ptr<BodyModel> model = loading.get();
   const double load_seconds = since(t0) - read_seconds;
   const BodyFit fit = fit_body_model_to_input(*model, in, path, args);
   const Eigen::MatrixXd& T = in.is_cloud ? in.cloud.P : in.mesh.V;
@@ -147,6 +150,7 @@ int measure_by_body_model(const ArgParser& args, const SurveyDistribution* surve
     j["frame"] = "input";
     j["fit"] = {{"confident", fit.confident}, {"reasons", fit.reasons}, {"start", fit.start}, {"up", vec(fit.up)},
                 {"coverage", fit.coverage}, {"target_p95_mm", 1000 * fit.target_p95}, {"seconds", fit.seconds}};
+    for (const auto& [stage, seconds] : fit.stage_seconds) j["fit"]["stage_seconds"][stage] = seconds;
     j["stature"] = m.stature;
     j["stature_note"] = m.stature_note;
     for (size_t k = 0; k < m.girths.size(); ++k) {
