@@ -760,7 +760,15 @@ BodyFit fit_body_model(const BodyModel& model, const Eigen::MatrixXd& T, const B
       const UpFrame& f = frames[tried[static_cast<size_t>(k)]->up];
       const PoseFitResult r = fit_pose(mean_body, f.cloud, mine);
       const PointGrid grid(f.cloud, 0.03);
-      tried_score[static_cast<size_t>(k)] = mismatch(r.V(spread, Eigen::all), f.cloud, grid, 0.15);
+      // Scored with the shape fitted to it once: with the mean shape the body's own proportions
+      // (3 cm) outweighed a forearm turned wrong.
+      BodyFitOptions one_thread = o;
+      one_thread.threads = 1;
+      PartPose shaped_pose = r.pose;
+      const Eigen::VectorXd c = fit_shape(model, Eigen::VectorXd::Zero(K), &shaped_pose, f.cloud, grid, one_thread);
+      Eigen::MatrixXd X;
+      ShapedBody(model, c).pose(shaped_pose, &X);
+      tried_score[static_cast<size_t>(k)] = mismatch(X(spread, Eigen::all), f.cloud, grid, 0.15);
       tried_pose[static_cast<size_t>(k)] = r.pose;
     }
   }, 1);
