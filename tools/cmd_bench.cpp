@@ -18,6 +18,8 @@
 #include "posekit/body/bvh_retarget.h"
 #include "posekit/io/bvh.h"
 #include "commands.h"
+#include "fitted_input.h"
+#include "posekit/fitting/fitted_measurements.h"
 #include "posekit/body/makehuman_model.h"
 #include "posekit/body/parts.h"
 #include "posekit/body/skinning.h"
@@ -741,6 +743,137 @@ int bench_measure(int argc, char** argv) {
   return 0;
 }
 
+int bench_fit(int argc, char** argv) {
+  ArgParser args("bench fit",
+                 "Times `posekit measure --body-model` in process: the body model fitted to the default MakeHuman\n"
+                 "body (its 13,380-vertex mesh) and to scans of it of --points samples (1.5 mm noise), then the girths\n"
+                 "measured on the target by the fit. Per input: reading the binary PLY, the fit (and its stages),\n"
+                 "measuring, the total, and the peak resident memory of that input's runs; median, min and max over\n"
+                 "--runs. The body model is loaded once, before (its time is given apart). No peer tool (PCL, Open3D,\n"
+                 "CloudCompare) fits a body model, so there is no comparison.");
+  args.option("body-model", "FILE", "the body model (.pks from posekit shape-space --ansur)")
+      .option("points", "LIST", "the scans' sizes, comma-separated", "1000000,10000000")
+      .option("runs", "R", "runs per input", "3")
+      .option("data", "DIR", "MakeHuman data root (default: POSEKIT_DATA or ../shared/...)")
+      .flag("json", "results as JSON on stdout")
+      .example("posekit shape-space --ansur --out ansur.pks && posekit bench fit --body-model ansur.pks");
+  if (!args.parse(argc, argv)) return 0;
+  if (!args.has("body-model")) throw UsageError("--body-model FILE is required (build one with posekit shape-space --ansur --out FILE)");
+  const int runs = static_cast<int>(args.get_int("runs"));
+  if (runs < 1) throw UsageError("--runs must be at least 1");
+  std::vector<long> sizes;
+  std::istringstream list(args.get("points"));
+  for (std::string item; std::getline(list, item, ',');) {
+    size_t used = 0;
+    long n = 0;
+    try {
+      n = std::stol(item, &used);
+    } catch (...) {
+    }
+    if (used != item.size() || n < 1000) throw UsageError("--points: each scan needs a whole number of at least 1000 points, not '" + item + "'");
+    sizes.push_back(n);
+  }
+  auto t_load = Clock::now();
+  const std::unique_ptr<BodyModel> body_model = load_body_model(args);
+  const double load_seconds = std::chrono::duration<double>(Clock::now() - t_load).count();
+  const auto makehuman = load_makehuman_model(find_data_root(args.get("data")));
+  const Body body = build_body(*makehuman, BodySpec{});
+  ScratchDir dir;
+  std::vector<std::string> inputs = {dir.path + "/body.ply"};
+  write_mesh(inputs[0], body.mesh);
+  for (const long n : sizes) {
+    std::cerr << "bench fit: sampling a scan of " << n << " points\n";
+    inputs.push_back(dir.path + "/scan_" + std::to_string(n) + ".ply");
+    write_point_cloud(inputs.back(), sample_surface(body.mesh, n, 0.0015, 13));
+  }
+  struct Timings {
+    std::vector<double> read, fit, measure, total;
+    std::vector<std::pair<std::string, std::vector<double>>> stages;  // in the fit's order
+    double peak_mib = 0;
+    long points = 0;
+    bool confident = true;
+    std::map<std::string, double> girths;
+  };
+  std::vector<Timings> timings(inputs.size());
+  Progress progress("bench fit", static_cast<long>(inputs.size()) * runs);
+  for (size_t k = 0; k < inputs.size(); ++k) {
+    Timings& t = timings[k];
+    reset_peak_rss();
+    for (int r = 0; r < runs; ++r) {
+      const auto t0 = Clock::now();
+      const BodyInput in = read_body_input(inputs[k], Unit::kMetre);
+      const auto t1 = Clock::now();
+      const Eigen::MatrixXd& T = in.is_cloud ? in.cloud.P : in.mesh.V;
+      const BodyFit fit = in.is_cloud ? fit_body_model(*body_model, T) : fit_body_model_to_mesh(*body_model, T, in.mesh.F);
+      const auto t2 = Clock::now();
+      const FittedMeasurements fm = measure_by_body_fit(*body_model, fit, T, in.is_cloud ? Eigen::MatrixXi() : in.mesh.F);
+      const auto t3 = Clock::now();
+      t.read.push_back(std::chrono::duration<double>(t1 - t0).count());
+      t.fit.push_back(std::chrono::duration<double>(t2 - t1).count());
+      t.measure.push_back(std::chrono::duration<double>(t3 - t2).count());
+      t.total.push_back(std::chrono::duration<double>(t3 - t0).count());
+      for (const auto& [stage, seconds] : fit.stage_seconds) {
+        auto it = std::find_if(t.stages.begin(), t.stages.end(), [&](const auto& e) { return e.first == stage; });
+        if (it == t.stages.end()) it = t.stages.insert(t.stages.end(), {stage, {}});
+        it->second.push_back(seconds);
+      }
+      t.points = T.rows();
+      t.confident = t.confident && fit.confident;
+      for (const Girth& g : fm.target.girths)
+        if (g.measured && (g.name == "bust" || g.name == "waist" || g.name == "hip")) t.girths[g.name] = g.value;
+      progress.update(static_cast<long>(k) * runs + r + 1);
+    }
+    t.peak_mib = peak_rss_mib();
+  }
+  progress.finish();
+  auto stats_j = [](const std::vector<double>& v) {
+    const Stats st = stats_of(v);
+    return nlohmann::ordered_json{{"median", st.median}, {"min", st.min}, {"max", st.max}};
+  };
+  nlohmann::ordered_json out = {{"runs", runs}, {"units", "s"}, {"body_model", args.get("body-model")},
+                                {"load_body_model_s", load_seconds}, {"inputs", nlohmann::ordered_json::array()}};
+  for (size_t k = 0; k < inputs.size(); ++k) {
+    const Timings& t = timings[k];
+    nlohmann::ordered_json e = {{"input", k == 0 ? "mesh" : "scan"}, {"points", t.points}, {"confident", t.confident},
+                                {"read", stats_j(t.read)}, {"fit", stats_j(t.fit)}, {"measure", stats_j(t.measure)},
+                                {"total", stats_j(t.total)}, {"peak_rss_mib", t.peak_mib}, {"girths_m", t.girths}};
+    for (const auto& [stage, v] : t.stages) e["fit_stages"][stage] = stats_j(v);
+    out["inputs"].push_back(e);
+  }
+  if (args.flag_set("json")) {
+    print_json(out);
+    return 0;
+  }
+  auto cell = [](const std::vector<double>& v) {
+    const Stats st = stats_of(v);
+    std::ostringstream c;
+    c << std::fixed << std::setprecision(2) << st.median << " (" << st.min << "-" << st.max << ")";
+    return c.str();
+  };
+  std::cout << std::fixed << "measure --body-model, median of " << runs << " runs (min-max), seconds; body model loaded in "
+            << std::setprecision(2) << load_seconds << " s\n\n"
+            << "| input | read | fit | measure | total | peak RSS (MiB) | bust / waist / hip (cm) |\n|---|---|---|---|---|---|---|\n";
+  for (size_t k = 0; k < inputs.size(); ++k) {
+    const Timings& t = timings[k];
+    std::ostringstream g;
+    g << std::fixed << std::setprecision(1);
+    for (const char* name : {"bust", "waist", "hip"}) {
+      const auto it = t.girths.find(name);
+      g << (name[0] == 'b' ? "" : " / ") << (it == t.girths.end() ? std::string("-") : std::to_string(100 * it->second).substr(0, 5));
+    }
+    std::cout << "| " << t.points << (k == 0 ? "-vertex mesh" : "-point scan") << (t.confident ? "" : " (POOR FIT)") << " | "
+              << cell(t.read) << " | " << cell(t.fit) << " | " << cell(t.measure) << " | " << cell(t.total) << " | "
+              << std::setprecision(0) << t.peak_mib << " | " << g.str() << " |\n";
+  }
+  std::cout << "\nfit stages, median seconds:\n";
+  for (size_t k = 0; k < inputs.size(); ++k) {
+    std::cout << "  " << timings[k].points << ":";
+    for (const auto& [stage, v] : timings[k].stages) std::cout << " " << stage << " " << std::setprecision(2) << stats_of(v).median << ",";
+    std::cout << "\n";
+  }
+  return 0;
+}
+
 int bench_compare(int argc, char** argv) {
   ArgParser args("bench compare",
                  "Times posekit compare: a MakeHuman body (26,756 triangles) against a synthetic scan of N points\n"
@@ -855,6 +988,7 @@ int run_bench(int argc, char** argv) {
       "  pose  training, per-subject set-up and per-pose time of the pose deformation\n"
       "  compare  a 1M-point scan against a 25k-triangle model\n"
       "  measure  measuring a 300k-vertex mesh and a 300k-point scan\n"
+      "  fit   the body model fitted and measuring by it: a mesh, 1M- and 10M-point scans\n"
       "  all   every benchmark above, one table with the date and machine (benchmarks.json, benchmarks.md)\n";
   if (argc < 1 || std::string(argv[0]) == "--help" || std::string(argv[0]) == "-h") {
     std::cout << usage;
@@ -868,6 +1002,7 @@ int run_bench(int argc, char** argv) {
   if (what == "pose") return bench_pose(argc - 1, argv + 1);
   if (what == "compare") return bench_compare(argc - 1, argv + 1);
   if (what == "measure") return bench_measure(argc - 1, argv + 1);
+  if (what == "fit") return bench_fit(argc - 1, argv + 1);
   if (what == "all") return bench_all(argc - 1, argv + 1);
   throw UsageError("unknown benchmark '" + what + "'\n" + usage);
 }
