@@ -242,6 +242,21 @@ struct F01InPose {
 
 }  // namespace
 
+TEST(PoseFitting, GivesTheSamePoseOnAnyNumberOfThreads) {
+  // The pairs are summed per fixed block, the blocks in order: not a bit of difference.
+  const F01InPose f("walk_phase_1");
+  PoseFitOptions o;
+  o.start = f.truth;
+  o.iterations = 10;
+  o.threads = 1;
+  const PartPose one = fit_pose(f.synth, f.scan.P, o).pose;
+  o.threads = 2;
+  const PartPose two = fit_pose(f.synth, f.scan.P, o).pose;
+  EXPECT_EQ(one.root_translation, two.root_translation);
+  EXPECT_EQ(one.root_rotation, two.root_rotation);
+  for (int j = 0; j < kNumJoints; ++j) EXPECT_EQ(one.joint_rotation[static_cast<size_t>(j)], two.joint_rotation[static_cast<size_t>(j)]) << joint_name(j);
+}
+
 TEST(PoseFitting, LeavesTheTwistOfAStraightArmToTheData) {
   // Started at the true pose of arms reaching forward (-90 degrees about X at each shoulder), a prior
   // pulling the whole rotation towards the rest twisted the arms towards the smallest rotation that

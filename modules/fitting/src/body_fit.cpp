@@ -309,11 +309,11 @@ std::vector<LibraryPose> distinct_motion_poses(const std::vector<LibraryPose>& f
 
 namespace {
 
-/// One shape least-squares round set (Gauss-Newton on the coefficients, pose fixed): pairs both ways
-/// between the working cloud P and sampled vertices, point-to-plane with a little point-to-point,
-/// Cauchy weights, and the Gaussian prior of BodyFitOptions::shape_prior.
+/// One shape least-squares round set (at most `rounds` Gauss-Newton steps on the coefficients, pose
+/// fixed): pairs both ways between the working cloud P and sampled vertices, point-to-plane with a
+/// little point-to-point, Cauchy weights, and the Gaussian prior of BodyFitOptions::shape_prior.
 Eigen::VectorXd fit_shape(const BodyModel& model, Eigen::VectorXd c, PartPose* pose_io, const Eigen::MatrixXd& P,
-                          const PointGrid& grid, const BodyFitOptions& o) {
+                          const PointGrid& grid, const BodyFitOptions& o, int rounds = 4) {
   PartPose& pose = *pose_io;
   const ShapeSpace& S = model.space();
   const int K = S.components();
@@ -338,7 +338,7 @@ Eigen::VectorXd fit_shape(const BodyModel& model, Eigen::VectorXd c, PartPose* p
   }, 1);
   const double max_d = 0.08, sigma = 0.03, p2p = 0.1;
   const Eigen::Index target_stride = std::max<Eigen::Index>(1, P.rows() / 8000);  // about 8,000 target points
-  for (int round = 0; round < 4; ++round) {
+  for (int round = 0; round < rounds; ++round) {
     Eigen::MatrixXd full;
     ShapedBody(model, c).pose(pose, &full);
     const Eigen::MatrixXd normals = vertex_normals(full, model.faces());
@@ -760,12 +760,12 @@ BodyFit fit_body_model(const BodyModel& model, const Eigen::MatrixXd& T, const B
       const UpFrame& f = frames[tried[static_cast<size_t>(k)]->up];
       const PoseFitResult r = fit_pose(mean_body, f.cloud, mine);
       const PointGrid grid(f.cloud, 0.03);
-      // Scored with the shape fitted to it once: with the mean shape the body's own proportions
-      // (3 cm) outweighed a forearm turned wrong.
+      // Scored with the shape fitted to it (two Gauss-Newton steps): with the mean shape the body's
+      // own proportions (3 cm) outweighed a forearm turned wrong.
       BodyFitOptions one_thread = o;
       one_thread.threads = 1;
       PartPose shaped_pose = r.pose;
-      const Eigen::VectorXd c = fit_shape(model, Eigen::VectorXd::Zero(K), &shaped_pose, f.cloud, grid, one_thread);
+      const Eigen::VectorXd c = fit_shape(model, Eigen::VectorXd::Zero(K), &shaped_pose, f.cloud, grid, one_thread, 2);
       Eigen::MatrixXd X;
       ShapedBody(model, c).pose(shaped_pose, &X);
       tried_score[static_cast<size_t>(k)] = mismatch(X(spread, Eigen::all), f.cloud, grid, 0.15);
