@@ -641,6 +641,20 @@ PointCloud sample_surface(const TriangleMesh& mesh, long n, double sigma, unsign
   return scan;
 }
 
+/// Median, min and max of timings as JSON.
+nlohmann::ordered_json stats_json(const std::vector<double>& v) {
+  const Stats st = stats_of(v);
+  return {{"median", st.median}, {"min", st.min}, {"max", st.max}};
+}
+
+/// Median (min-max) of timings as a table cell.
+std::string stats_cell(const std::vector<double>& v, int digits) {
+  const Stats st = stats_of(v);
+  std::ostringstream c;
+  c << std::fixed << std::setprecision(digits) << st.median << " (" << st.min << "-" << st.max << ")";
+  return c.str();
+}
+
 /// A temporary folder removed on scope exit.
 struct ScratchDir {
   std::string path;
@@ -710,16 +724,12 @@ int bench_measure(int argc, char** argv) {
   const double peak = peak_rss_mib();
   nlohmann::ordered_json out = {{"runs", runs}, {"mesh_vertices", mesh.V.rows()}, {"mesh_triangles", mesh.F.rows()},
                                 {"scan_points", scan.P.rows()}, {"units", "s"}, {"peak_rss_mib", peak}};
-  auto stats_j = [](const std::vector<double>& v) {
-    const Stats st = stats_of(v);
-    return nlohmann::ordered_json{{"median", st.median}, {"min", st.min}, {"max", st.max}};
-  };
   for (int kind = 0; kind < 2; ++kind) {
     nlohmann::ordered_json g;
     for (const auto& m : last[kind].girths)
       if (m.name == "bust" || m.name == "waist" || m.name == "hip") g[m.name] = m.measured ? nlohmann::json(m.value) : nlohmann::json(m.note);
-    out[kind == 0 ? "mesh" : "scan"] = {{"read", stats_j(stages[kind].read)}, {"unit_and_orientation", stats_j(stages[kind].orient)},
-                                        {"measure", stats_j(stages[kind].measure)}, {"total", stats_j(stages[kind].total)},
+    out[kind == 0 ? "mesh" : "scan"] = {{"read", stats_json(stages[kind].read)}, {"unit_and_orientation", stats_json(stages[kind].orient)},
+                                        {"measure", stats_json(stages[kind].measure)}, {"total", stats_json(stages[kind].total)},
                                         {"girths_m", g}};
   }
   if (args.flag_set("json")) {
@@ -730,14 +740,9 @@ int bench_measure(int argc, char** argv) {
             << "| input | read | unit + orientation | measure | total |\n|---|---|---|---|---|\n";
   for (int kind = 0; kind < 2; ++kind) {
     const Stage& s = stages[kind];
-    auto cell = [](const std::vector<double>& v) {
-      const Stats st = stats_of(v);
-      std::ostringstream c;
-      c << std::fixed << std::setprecision(3) << st.median << " (" << st.min << "-" << st.max << ")";
-      return c.str();
-    };
     std::cout << "| " << (kind == 0 ? std::to_string(mesh.V.rows()) + "-vertex mesh" : std::to_string(scan.P.rows()) + "-point scan")
-              << " | " << cell(s.read) << " | " << cell(s.orient) << " | " << cell(s.measure) << " | " << cell(s.total) << " |\n";
+              << " | " << stats_cell(s.read, 3) << " | " << stats_cell(s.orient, 3) << " | " << stats_cell(s.measure, 3) << " | "
+              << stats_cell(s.total, 3) << " |\n";
   }
   std::cout << "\npeak RSS " << std::setprecision(0) << peak << " MiB\n";
   return 0;
@@ -826,30 +831,20 @@ int bench_fit(int argc, char** argv) {
     t.peak_mib = peak_rss_mib();
   }
   progress.finish();
-  auto stats_j = [](const std::vector<double>& v) {
-    const Stats st = stats_of(v);
-    return nlohmann::ordered_json{{"median", st.median}, {"min", st.min}, {"max", st.max}};
-  };
   nlohmann::ordered_json out = {{"runs", runs}, {"units", "s"}, {"body_model", args.get("body-model")},
                                 {"load_body_model_s", load_seconds}, {"inputs", nlohmann::ordered_json::array()}};
   for (size_t k = 0; k < inputs.size(); ++k) {
     const Timings& t = timings[k];
     nlohmann::ordered_json e = {{"input", k == 0 ? "mesh" : "scan"}, {"points", t.points}, {"confident", t.confident},
-                                {"read", stats_j(t.read)}, {"fit", stats_j(t.fit)}, {"measure", stats_j(t.measure)},
-                                {"total", stats_j(t.total)}, {"peak_rss_mib", t.peak_mib}, {"girths_m", t.girths}};
-    for (const auto& [stage, v] : t.stages) e["fit_stages"][stage] = stats_j(v);
+                                {"read", stats_json(t.read)}, {"fit", stats_json(t.fit)}, {"measure", stats_json(t.measure)},
+                                {"total", stats_json(t.total)}, {"peak_rss_mib", t.peak_mib}, {"girths_m", t.girths}};
+    for (const auto& [stage, v] : t.stages) e["fit_stages"][stage] = stats_json(v);
     out["inputs"].push_back(e);
   }
   if (args.flag_set("json")) {
     print_json(out);
     return 0;
   }
-  auto cell = [](const std::vector<double>& v) {
-    const Stats st = stats_of(v);
-    std::ostringstream c;
-    c << std::fixed << std::setprecision(2) << st.median << " (" << st.min << "-" << st.max << ")";
-    return c.str();
-  };
   std::cout << std::fixed << "measure --body-model, median of " << runs << " runs (min-max), seconds; body model loaded in "
             << std::setprecision(2) << load_seconds << " s\n\n"
             << "| input | read | fit | measure | total | peak RSS (MiB) | bust / waist / hip (cm) |\n|---|---|---|---|---|---|---|\n";
@@ -862,7 +857,7 @@ int bench_fit(int argc, char** argv) {
       g << (name[0] == 'b' ? "" : " / ") << (it == t.girths.end() ? std::string("-") : std::to_string(100 * it->second).substr(0, 5));
     }
     std::cout << "| " << t.points << (k == 0 ? "-vertex mesh" : "-point scan") << (t.confident ? "" : " (POOR FIT)") << " | "
-              << cell(t.read) << " | " << cell(t.fit) << " | " << cell(t.measure) << " | " << cell(t.total) << " | "
+              << stats_cell(t.read, 2) << " | " << stats_cell(t.fit, 2) << " | " << stats_cell(t.measure, 2) << " | " << stats_cell(t.total, 2) << " | "
               << std::setprecision(0) << t.peak_mib << " | " << g.str() << " |\n";
   }
   std::cout << "\nfit stages, median seconds:\n";
