@@ -24,7 +24,7 @@ struct BodyResult {
   std::string measure_error;                 ///< the named error when it did not
   bool segmented = false;                    ///< segmentation and skeleton made and passed their checks
   std::string segment_error;                 ///< the named error or the failed checks
-  std::vector<std::string> warnings;         ///< orientation, feature and measurement warnings
+  std::vector<std::string> warnings;         ///< orientation, feature, measurement and body-model fit warnings
   std::map<std::string, double> girth_error; ///< measured minus truth (m), girths the rig defines
   std::map<std::string, std::string> girth_not_measured;  ///< girth -> the reason given
   double segmentation_agreement = std::numeric_limits<double>::quiet_NaN();  ///< of the truth-labelled area
