@@ -493,6 +493,14 @@ TEST(ShapeSpace, AlignsBodiesRigidlyAndRoundTripsThroughAFile) {
       EXPECT_NE(std::string(e.what()).find("bad.pks"), std::string::npos) << e.what();
     }
   }
+  {
+    // No poses but a pose width of 3.5e9 (fuzz_pks): refused at once, not a 0 x 3.5e9 matrix scanned.
+    std::string wide = bytes.substr(0, bytes.size() - 4);
+    const std::uint32_t width = 3500000000u;
+    std::memcpy(&wide[wide.size() - 4], &width, 4);
+    write_file_with_crc32(dir.path() + "/wide.pks", wide);
+    EXPECT_THROW(read_shape_space(dir.path() + "/wide.pks"), IoError);
+  }
   // A header claiming a billion vertices, its checksum mended: refused before anything is allocated.
   std::string huge = bytes.substr(0, bytes.size() - 4);
   const std::uint32_t billion = 1000000000u;

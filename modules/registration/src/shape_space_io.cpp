@@ -155,7 +155,10 @@ ShapeSpace read_shape_space(const std::string& path) {
   }
   if (version >= 3) {
     const auto np = in.get<std::uint32_t>("the pose count"), width = in.get<std::uint32_t>("the pose count");
-    if (static_cast<double>(np) * (4.0 + 8.0 * width) > static_cast<double>(in.left()) || (np > 0 && width != 3 * (1 + s.joint_mean.rows())))
+    // The width is the joints' (or 0 with no poses): a wild width with no poses made a 0 x 3.5e9
+    // matrix that took a minute to check (found by fuzz_pks).
+    if (static_cast<double>(np) * (4.0 + 8.0 * width) > static_cast<double>(in.left()) ||
+        (width != 3 * (1 + s.joint_mean.rows()) && (np > 0 || width != 0)))
       throw IoError(path + ": implausible poses section (" + std::to_string(np) + " poses of " + std::to_string(width) + " values, " +
                     std::to_string(s.joint_mean.rows()) + " joints)");
     s.poses.resize(np, width);
