@@ -5,13 +5,11 @@
 #include <cmath>
 #include <iomanip>
 #include <limits>
-#include <opencv2/core.hpp>
-#include <opencv2/imgcodecs.hpp>
 #include <sstream>
 
 #include "posekit/core/error.h"
 #include "posekit/core/mesh_geometry.h"
-#include "posekit/io/atomic_file.h"
+#include "posekit/io/image_io.h"
 
 namespace posekit {
 
@@ -108,20 +106,14 @@ std::string camera_to_json(const PinholeCamera& c) {
 
 void write_gray_png(const std::string& path, int width, int height, const std::vector<std::uint8_t>& pixels) {
   if (static_cast<size_t>(width) * height != pixels.size()) throw InvalidInput(path + ": image size does not match its pixels");
-  const cv::Mat image(height, width, CV_8UC1, const_cast<std::uint8_t*>(pixels.data()));
-  std::vector<uchar> png;
-  if (!cv::imencode(".png", image, png)) throw IoError(path + ": PNG encoding failed");
-  write_file_atomically(path, [&](std::ostream& out) { out.write(reinterpret_cast<const char*>(png.data()), static_cast<std::streamsize>(png.size())); });
+  write_png(path, Image8{width, height, 1, pixels});
 }
 
 std::vector<std::uint8_t> read_gray_png(const std::string& path, int* width, int* height) {
-  const cv::Mat image = cv::imread(path, cv::IMREAD_GRAYSCALE);
-  if (image.empty()) throw IoError(path + ": cannot read as an image (expected PNG)");
-  *width = image.cols;
-  *height = image.rows;
-  std::vector<std::uint8_t> pixels(static_cast<size_t>(image.cols) * image.rows);
-  for (int y = 0; y < image.rows; ++y) std::copy(image.ptr<uchar>(y), image.ptr<uchar>(y) + image.cols, pixels.begin() + static_cast<long>(y) * image.cols);
-  return pixels;
+  Image8 image = read_image(path, ImageColor::kGray);
+  *width = image.width;
+  *height = image.height;
+  return std::move(image.pixels);
 }
 
 }  // namespace posekit

@@ -10,7 +10,6 @@
 #include <mutex>
 #include <nlohmann/json.hpp>
 #include <opencv2/core.hpp>
-#include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 #include <opencv2/ml.hpp>
 #include <random>
@@ -23,6 +22,7 @@
 #include "posekit/customization/photo_customization.h"
 #include "posekit/datasets/subjects.h"
 #include "posekit/io/atomic_file.h"
+#include "posekit/io/image_io.h"
 #include "posekit/registration/ctffd.h"
 #include "posekit/version.h"
 
@@ -215,16 +215,14 @@ struct Sample {
 };
 
 std::vector<std::uint8_t> encode(const std::vector<std::uint8_t>& mask, int w, int h) {
-  std::vector<std::uint8_t> buf;
-  cv::imencode(".png", cv::Mat(h, w, CV_8U, const_cast<std::uint8_t*>(mask.data())), buf);
-  return buf;
+  return encode_png(Image8{w, h, 1, mask});
 }
 
 Silhouette decode(const std::vector<std::uint8_t>& png) {
-  const cv::Mat m = cv::imdecode(png, cv::IMREAD_GRAYSCALE);
+  Image8 m = decode_image(std::string(png.begin(), png.end()), ImageColor::kGray, "a customization model's silhouette");
   Silhouette s;
-  s.width = m.cols, s.height = m.rows;
-  s.mask.assign(m.data, m.data + m.total());
+  s.width = m.width, s.height = m.height;
+  s.mask = std::move(m.pixels);
   return s;
 }
 
@@ -591,9 +589,8 @@ void write_photo_features_png(const std::string& path, const Silhouette& sil, co
       cv::circle(img, cv::Point(static_cast<int>(p.x()), static_cast<int>(p.y())), 1,
                  chain_colours[std::clamp(body.representation.layers[i].chain, 0, 5)], cv::FILLED);
     }
-  std::vector<std::uint8_t> buf;
-  cv::imencode(".png", img, buf);
-  write_file_atomically(path, [&](std::ostream& os) { os.write(reinterpret_cast<const char*>(buf.data()), static_cast<std::streamsize>(buf.size())); });
+  CV_Assert(img.type() == CV_8UC3 && img.isContinuous());
+  write_png(path, Image8{img.cols, img.rows, 3, std::vector<std::uint8_t>(img.data, img.data + img.total() * 3)});
 }
 
 void save_customization_model(const std::string& path, const CustomizationModel& m) {

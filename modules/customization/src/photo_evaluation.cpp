@@ -7,12 +7,12 @@
 #include <fstream>
 #include <nlohmann/json.hpp>
 #include <opencv2/core.hpp>
-#include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 
 #include "posekit/core/closest_point.h"
 #include "posekit/core/error.h"
 #include "posekit/datasets/dataset.h"
+#include "posekit/io/image_io.h"
 #include "posekit/shape/measurements.h"
 
 namespace posekit {
@@ -49,8 +49,8 @@ Silhouette morph(Silhouette s, bool erode, int px) {
 }
 
 Silhouette degraded_photo(const std::string& path, const std::string& what, unsigned seed) {
-  cv::Mat img = cv::imread(path, cv::IMREAD_COLOR);
-  if (img.empty()) throw IoError("cannot read '" + path + "'");
+  Image8 photo = read_image(path, ImageColor::kBgr);
+  cv::Mat img(photo.height, photo.width, CV_8UC3, photo.pixels.data());
   cv::Mat noise(img.size(), CV_32FC3);
   cv::RNG rng(seed);
   rng.fill(noise, cv::RNG::NORMAL, 0, 4);
@@ -58,10 +58,9 @@ Silhouette degraded_photo(const std::string& path, const std::string& what, unsi
   img.convertTo(f, CV_32FC3);
   f += noise;
   f.convertTo(img, CV_8UC3);
-  std::vector<std::uint8_t> jpg;
-  cv::imencode(".jpg", img, jpg, {cv::IMWRITE_JPEG_QUALITY, 60});
-  const cv::Mat back = cv::imdecode(jpg, cv::IMREAD_COLOR);
-  return silhouette_from_pixels(back.cols, back.rows, 3, back.data, what);
+  const std::vector<std::uint8_t> jpg = encode_jpeg(photo, 60);
+  Image8 back = decode_image(std::string(jpg.begin(), jpg.end()), ImageColor::kBgr, what);
+  return silhouette_from_pixels(back.width, back.height, 3, back.pixels.data(), what);
 }
 
 }  // namespace

@@ -6,13 +6,12 @@
 #include <fstream>
 #include <nlohmann/json.hpp>
 #include <opencv2/core.hpp>
-#include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 #include <sstream>
 
 #include "posekit/core/error.h"
 #include "posekit/customization/photo_customization.h"
-#include "posekit/io/atomic_file.h"
+#include "posekit/io/image_io.h"
 
 namespace posekit {
 namespace {
@@ -215,14 +214,13 @@ Silhouette silhouette_from_render(const RenderBuffers& b) {
 }
 
 Silhouette silhouette_from_photo(const std::string& path, const std::string& what, const SilhouetteOptions& o) {
-  const cv::Mat img = cv::imread(path, cv::IMREAD_COLOR);
-  if (img.empty()) throw IoError(what + ": cannot read image '" + path + "'");
-  return silhouette_from_pixels(img.cols, img.rows, 3, img.data, what + " '" + path + "'", o);
+  const Image8 img = read_image(path, ImageColor::kBgr);
+  return silhouette_from_pixels(img.width, img.height, 3, img.pixels.data(), what + " '" + path + "'", o);
 }
 
 Silhouette read_silhouette_mask(const std::string& path, const std::string& what) {
-  const cv::Mat img = cv::imread(path, cv::IMREAD_GRAYSCALE);
-  if (img.empty()) throw IoError(what + ": cannot read mask '" + path + "'");
+  Image8 gray = read_image(path, ImageColor::kGray);
+  const cv::Mat img(gray.height, gray.width, CV_8UC1, gray.pixels.data());
   int second = 0;
   cv::Mat m = largest_component_filled(img > 127, &second);
   check_mask(m, second, what + " '" + path + "'", 0.005);
@@ -230,9 +228,7 @@ Silhouette read_silhouette_mask(const std::string& path, const std::string& what
 }
 
 void write_silhouette_png(const std::string& path, const Silhouette& s) {
-  std::vector<std::uint8_t> buf;
-  cv::imencode(".png", cv::Mat(s.height, s.width, CV_8U, const_cast<std::uint8_t*>(s.mask.data())), buf);
-  write_file_atomically(path, [&](std::ostream& os) { os.write(reinterpret_cast<const char*>(buf.data()), static_cast<std::streamsize>(buf.size())); });
+  write_png(path, Image8{s.width, s.height, 1, s.mask});
 }
 
 PhotoCameras read_photo_cameras(const std::string& path) {
