@@ -132,7 +132,7 @@ int run_eval_bodies(int argc, char** argv) {
   std::unique_ptr<BodyModel> body_model;
   if (args.has("body-model")) {
     body_model = std::make_unique<BodyModel>(read_shape_space(args.get("body-model")),
-                                             *load_makehuman_model(find_data_root(args.get("data"))));
+                                             *load_makehuman_model(find_data_root(args.get("data")), MakeHumanParts::kSkin));
     o.body_model = body_model.get();
   }
   std::stringstream list(args.get("variations"));

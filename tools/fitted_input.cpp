@@ -19,7 +19,7 @@ void add_body_model_options(ArgParser* args, bool data_option) {
 }
 
 std::unique_ptr<BodyModel> load_body_model(const ArgParser& args) {
-  const auto makehuman = load_makehuman_model(find_data_root(args.get("data")));
+  const auto makehuman = load_makehuman_model(find_data_root(args.get("data")), MakeHumanParts::kSkin);
   return std::make_unique<BodyModel>(read_shape_space(args.get("body-model")), *makehuman);
 }
 

@@ -140,38 +140,10 @@ const MakeHumanModel::Modifier* MakeHumanModel::find_modifier(const std::string&
   return nullptr;
 }
 
-std::shared_ptr<const MakeHumanModel> load_makehuman_model(const std::string& data_root) {
-  auto model = std::make_shared<MakeHumanModel>();
-  model->data_root = data_root;
-  const fs::path root(data_root);
-  const std::string base_path = (root / "3dobjs" / "base.obj").string();
-  const TriangleMesh base = read_mesh(base_path, {Unit::kDecimetre});
-  model->base_V = base.V;
-  const TriangleMesh body = [&] {
-    std::vector<bool> keep(base.num_faces());
-    int group = -1;
-    for (size_t g = 0; g < base.group_names.size(); ++g)
-      if (base.group_names[g] == "body") group = static_cast<int>(g);
-    if (group < 0) throw IoError(base_path + ": no group 'body' (the MakeHuman skin)");
-    TriangleMesh m;
-    std::vector<int> rows;
-    for (Eigen::Index f = 0; f < base.num_faces(); ++f)
-      if (base.face_group[f] == group) rows.push_back(static_cast<int>(f));
-    m.F.resize(static_cast<Eigen::Index>(rows.size()), 3);
-    for (size_t i = 0; i < rows.size(); ++i) m.F.row(i) = base.F.row(rows[i]);
-    return m;
-  }();
-  model->body_F = body.F;
-  model->num_body_vertices = body.F.maxCoeff() + 1;
-  {
-    std::vector<bool> used(model->num_body_vertices, false);
-    for (Eigen::Index i = 0; i < body.F.size(); ++i) used[body.F.data()[i]] = true;
-    if (std::find(used.begin(), used.end(), false) != used.end())
-      throw IoError(base_path + ": the 'body' group does not use vertices 1.." + std::to_string(model->num_body_vertices) +
-                    " contiguously, as the MakeHuman skin does");
-  }
-  const int nv = static_cast<int>(model->base_V.rows());
+namespace {
 
+/// The macro and modifier targets of a data root into `model`.
+void load_targets(const fs::path& root, int nv, MakeHumanModel* model) {
   // Macro targets: the variant names in the file name multiply to the target's weight.
   const fs::path macro_dir = root / "targets" / "macrodetails";
   if (!fs::is_directory(macro_dir)) throw IoError(macro_dir.string() + ": missing (MakeHuman macro targets expected)");
@@ -263,6 +235,42 @@ std::shared_ptr<const MakeHumanModel> load_makehuman_model(const std::string& da
       model->modifiers.push_back(std::move(mod));
     }
   }
+}
+
+}  // namespace
+
+std::shared_ptr<const MakeHumanModel> load_makehuman_model(const std::string& data_root, MakeHumanParts parts) {
+  auto model = std::make_shared<MakeHumanModel>();
+  model->data_root = data_root;
+  const fs::path root(data_root);
+  const std::string base_path = (root / "3dobjs" / "base.obj").string();
+  const TriangleMesh base = read_mesh(base_path, {Unit::kDecimetre});
+  model->base_V = base.V;
+  const TriangleMesh body = [&] {
+    std::vector<bool> keep(base.num_faces());
+    int group = -1;
+    for (size_t g = 0; g < base.group_names.size(); ++g)
+      if (base.group_names[g] == "body") group = static_cast<int>(g);
+    if (group < 0) throw IoError(base_path + ": no group 'body' (the MakeHuman skin)");
+    TriangleMesh m;
+    std::vector<int> rows;
+    for (Eigen::Index f = 0; f < base.num_faces(); ++f)
+      if (base.face_group[f] == group) rows.push_back(static_cast<int>(f));
+    m.F.resize(static_cast<Eigen::Index>(rows.size()), 3);
+    for (size_t i = 0; i < rows.size(); ++i) m.F.row(i) = base.F.row(rows[i]);
+    return m;
+  }();
+  model->body_F = body.F;
+  model->num_body_vertices = body.F.maxCoeff() + 1;
+  {
+    std::vector<bool> used(model->num_body_vertices, false);
+    for (Eigen::Index i = 0; i < body.F.size(); ++i) used[body.F.data()[i]] = true;
+    if (std::find(used.begin(), used.end(), false) != used.end())
+      throw IoError(base_path + ": the 'body' group does not use vertices 1.." + std::to_string(model->num_body_vertices) +
+                    " contiguously, as the MakeHuman skin does");
+  }
+  const int nv = static_cast<int>(model->base_V.rows());
+  if (parts == MakeHumanParts::kAll) load_targets(root, nv, model.get());
 
   model->rig = read_rig((root / "rigs" / "default.mhskel").string(), nv);
   const std::string weights_path = (root / "rigs" / "default_weights.mhw").string();

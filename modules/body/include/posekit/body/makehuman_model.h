@@ -55,9 +55,14 @@ struct MakeHumanModel {
   const Modifier* find_modifier(const std::string& name) const;
 };
 
-/// Loads everything from a MakeHuman data root (see find_data_root). Throws IoError naming the
-/// missing or malformed file.
-std::shared_ptr<const MakeHumanModel> load_makehuman_model(const std::string& data_root);
+/// What load_makehuman_model reads: everything, or the skin alone (base mesh, rig and skinning
+/// weights, no targets: enough to pose a shape space's bodies, in a tenth of the time).
+enum class MakeHumanParts { kAll, kSkin };
+
+/// Loads a MakeHuman data root (see find_data_root). Throws IoError naming the missing or malformed
+/// file.
+std::shared_ptr<const MakeHumanModel> load_makehuman_model(const std::string& data_root,
+                                                           MakeHumanParts parts = MakeHumanParts::kAll);
 
 /// A shaped body: the skin mesh and the rig's joint positions for that shape.
 struct Body {
