@@ -150,6 +150,7 @@ class ByteReader {
     return true;
   }
   size_t remaining() const { return static_cast<size_t>(end_ - p_); }
+  const char* position() const { return p_; }
 
  private:
   const char* p_;

@@ -1,13 +1,16 @@
 #include "ply_format.h"
 
 #include <algorithm>
+#include <cstring>
 #include <cmath>
 #include <iomanip>
 #include <limits>
 #include <map>
+#include <memory>
 #include <sstream>
 #include <vector>
 
+#include "mapped_file.h"
 #include "parse_util.h"
 #include "posekit/core/error.h"
 #include "posekit/io/atomic_file.h"
@@ -87,7 +90,8 @@ class PlyParser {
       : path_(path), scale_(scale), finite_only_(finite_only), warnings_(warnings) {}
 
   PlyContent parse() {
-    bytes_ = read_file_bytes(path_);
+    file_ = std::make_unique<MappedFile>(path_);
+    bytes_ = file_->bytes();
     if (bytes_.size() < 3 || bytes_.compare(0, 3, "ply") != 0)
       throw IoError(path_ + ": not a PLY file (expected the first line 'ply')");
     parse_header();
@@ -99,7 +103,7 @@ class PlyParser {
     } else {
       const bool swap = (encoding_ == PlyEncoding::kBinaryLittle) != host_is_little_endian();
       ByteReader reader(data_begin, data_end, swap);
-      read_binary(reader);
+      read_binary(reader, swap);
     }
     finish();
     return std::move(out_);
@@ -192,10 +196,10 @@ class PlyParser {
     size_t pos = 0;
     while (true) {
       const size_t hit = bytes_.find("end_header", pos);
-      if (hit == std::string::npos || hit > (1u << 20))
+      if (hit == std::string_view::npos || hit > (1u << 20))
         throw IoError(path_ + ": PLY header has no 'end_header' line");
       size_t eol = bytes_.find('\n', hit);
-      if (eol == std::string::npos) {
+      if (eol == std::string_view::npos) {
         if (bytes_.size() - hit <= 11) return bytes_.size();  // header only
         throw IoError(path_ + ": PLY header has no line break after 'end_header'");
       }
@@ -350,7 +354,28 @@ class PlyParser {
     face_values_[e.properties[prop].name].push_back(value);
   }
 
-  void read_binary(ByteReader& r) {
+  /// A vertex element whose properties are all float or all double in the host's byte order (how
+  /// scanners and most tools write clouds), wholly present: read record by record without a check
+  /// per value. False when the element is not such (the general reader takes it).
+  template <typename T>
+  bool read_uniform_vertices(ByteReader& r, const PlyElement& e, const std::vector<VertexSlot>& slots, PlyType type, bool swap) {
+    const size_t k = e.properties.size(), record = k * sizeof(T);
+    if (swap || k == 0 || k > 64) return false;
+    for (const auto& p : e.properties)
+      if (p.is_list || p.type != type) return false;
+    const auto count = static_cast<size_t>(e.count);
+    if (r.remaining() / record < count) return false;  // the general reader names the vertex where the file ends
+    const char* at = r.position();
+    T values[64];
+    for (size_t i = 0; i < count; ++i, at += record) {
+      std::memcpy(values, at, record);
+      for (size_t q = 0; q < k; ++q) store_vertex(e, slots, static_cast<long long>(i), q, static_cast<double>(values[q]));
+    }
+    r.skip(count * record);
+    return true;
+  }
+
+  void read_binary(ByteReader& r, bool swap) {
     std::vector<long long> poly;
     std::vector<double> uv;
     for (const auto& e : elements_) {
@@ -358,6 +383,9 @@ class PlyParser {
       const bool is_vertex = plan.is_vertex, is_face = plan.is_face;
       const std::vector<VertexSlot>& slots = plan.slots;
       const int list_index = plan.list_index;
+      if (is_vertex && (read_uniform_vertices<float>(r, e, slots, PlyType::kFloat32, swap) ||
+                        read_uniform_vertices<double>(r, e, slots, PlyType::kFloat64, swap)))
+        continue;
       for (long long i = 0; i < e.count; ++i) {
         uv.clear();
         for (size_t p = 0; p < e.properties.size(); ++p) {
@@ -509,7 +537,8 @@ class PlyParser {
   double scale_;
   bool finite_only_;
   std::vector<std::string>* warnings_;
-  std::string bytes_;
+  std::unique_ptr<MappedFile> file_;
+  std::string_view bytes_;
   size_t header_end_ = 0;
   PlyEncoding encoding_ = PlyEncoding::kAscii;
   std::vector<PlyElement> elements_;
