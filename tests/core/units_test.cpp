@@ -2,6 +2,8 @@
 
 #include <gtest/gtest.h>
 
+#include <cmath>
+
 #include "posekit/core/error.h"
 
 using namespace posekit;
@@ -38,4 +40,17 @@ TEST(Units, RobustExtentIgnoresAFewStrayPoints) {
   ASSERT_TRUE(guess_body_unit(robust_largest_extent(P * 1000), &unit));
   EXPECT_EQ(unit, Unit::kMillimetre);
   EXPECT_EQ(robust_largest_extent(Eigen::MatrixXd(0, 3)), 0.0);
+}
+
+TEST(Units, RobustExtentOfADenseScanFromItsSample) {
+  // 1.5M points: a 1.7 m column (its points in scanner order, bottom to top, ring by ring) and 0.25%
+  // stray points up to 40 m away, spread through the file: the sample gives the column's extent.
+  const Eigen::Index n = 1500000;
+  Eigen::MatrixXd P(n, 3);
+  for (Eigen::Index i = 0; i < n; ++i) {
+    const double t = static_cast<double>(i) / static_cast<double>(n - 1);
+    P.row(i) << 0.2 * std::cos(1000 * t), 1.7 * t, 0.2 * std::sin(1000 * t);
+    if (i % 401 == 0) P.row(i) << 40 * t, -40 * t, 0;
+  }
+  EXPECT_NEAR(robust_largest_extent(P), 1.7, 0.03);
 }

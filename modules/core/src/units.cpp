@@ -54,8 +54,12 @@ bool guess_body_unit(double largest_extent, Unit* unit) {
 
 double robust_largest_extent(const Eigen::MatrixXd& P) {
   double extent = 0;
+  constexpr Eigen::Index kSample = 200000;
+  const Eigen::Index stride = (P.rows() + kSample - 1) / kSample;
   for (Eigen::Index axis = 0; axis < P.cols() && P.rows() > 0; ++axis) {
-    std::vector<double> values(P.col(axis).data(), P.col(axis).data() + P.rows());
+    std::vector<double> values;
+    values.reserve(static_cast<size_t>(P.rows() / stride + 1));
+    for (Eigen::Index i = 0; i < P.rows(); i += stride) values.push_back(P(i, axis));
     const auto at = [&](double fraction) {
       auto nth = values.begin() + static_cast<long>(fraction * static_cast<double>(values.size() - 1));
       std::nth_element(values.begin(), nth, values.end());

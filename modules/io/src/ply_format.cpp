@@ -365,11 +365,31 @@ class PlyParser {
       if (p.is_list || p.type != type) return false;
     const auto count = static_cast<size_t>(e.count);
     if (r.remaining() / record < count) return false;  // the general reader names the vertex where the file ends
+    // Each property's column (colours, which need converting, go through store_vertex).
+    double* column[64] = {};
+    double factor[64];
+    bool colours = false;
+    for (size_t q = 0; q < k; ++q) {
+      factor[q] = 1;
+      switch (slots[q]) {
+        case VertexSlot::kX: case VertexSlot::kY: case VertexSlot::kZ:
+          column[q] = out_.V.col(static_cast<int>(slots[q]) - static_cast<int>(VertexSlot::kX)).data(), factor[q] = scale_; break;
+        case VertexSlot::kNx: case VertexSlot::kNy: case VertexSlot::kNz:
+          column[q] = out_.N.col(static_cast<int>(slots[q]) - static_cast<int>(VertexSlot::kNx)).data(); break;
+        case VertexSlot::kU: column[q] = out_.UV.col(0).data(); break;
+        case VertexSlot::kV: column[q] = out_.UV.col(1).data(); break;
+        case VertexSlot::kScalar: column[q] = out_.scalars[e.properties[q].name].data(); break;
+        case VertexSlot::kRed: case VertexSlot::kGreen: case VertexSlot::kBlue: colours = true; break;
+        case VertexSlot::kIgnore: break;
+      }
+    }
     const char* at = r.position();
     T values[64];
     for (size_t i = 0; i < count; ++i, at += record) {
       std::memcpy(values, at, record);
-      for (size_t q = 0; q < k; ++q) store_vertex(e, slots, static_cast<long long>(i), q, static_cast<double>(values[q]));
+      for (size_t q = 0; q < k; ++q)
+        if (column[q]) column[q][i] = factor[q] * static_cast<double>(values[q]);
+        else if (colours) store_vertex(e, slots, static_cast<long long>(i), q, static_cast<double>(values[q]));
     }
     r.skip(count * record);
     return true;

@@ -22,7 +22,8 @@ std::string unit_name(Unit unit);
 bool guess_body_unit(double largest_extent, Unit* unit);
 
 /// A body's largest extent, robust to a scanner's stray points: the largest 0.5th-to-99.5th
-/// percentile range of the coordinates (#P x 3) along an axis. 0 for no points.
+/// percentile range of the coordinates (#P x 3) along an axis. 0 for no points. Over 200,000 points
+/// it looks at 200,000 of them, evenly spread through the rows (a 10M-point scan in milliseconds).
 double robust_largest_extent(const Eigen::MatrixXd& P);
 
 }  // namespace posekit
