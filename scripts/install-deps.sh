@@ -2,7 +2,7 @@
 # Installs the Debian 12 packages posekit needs, only those missing. Needs root (or sudo).
 set -euo pipefail
 packages=(build-essential cmake ninja-build ccache git pkg-config
-          libeigen3-dev libpcl-dev libflann-dev libvtk9-dev libopencv-dev libgtest-dev
+          libeigen3-dev libpcl-dev libflann-dev libvtk9-dev libopencv-dev libpng-dev libjpeg-dev zlib1g-dev libgtest-dev
           nlohmann-json3-dev libsuitesparse-dev xvfb xauth clang libclang-rt-14-dev
           pybind11-dev python3-dev python3-numpy python3-pytest chromium)
 missing=()
