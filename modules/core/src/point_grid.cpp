@@ -59,6 +59,18 @@ int PointGrid::nearest(const Eigen::Vector3d& p, double* sq_distance, double max
   }
   margin = std::max(margin, 0.0);
   const int max_ring = std::max({dims_[0], dims_[1], dims_[2]}) + 1;
+  // The squared gap from p to each cell's slab along each axis (widened by a hair for the rounding of
+  // the points' bucketing), per ring: a cell's squared box distance is the sum of its three; a slab
+  // or row already as far as the best so far is skipped whole.
+  thread_local std::vector<double> gap2[3];  // kept between queries: no allocation per query
+  auto slab_gaps = [&](int k, int from, int to) {
+    gap2[k].resize(static_cast<size_t>(to - from + 1));
+    for (int c = from; c <= to; ++c) {
+      const double a = lo_[k] + c * cell_, slack = 1e-9 * cell_;
+      const double gap = std::max({a - slack - p[k], p[k] - (a + cell_ + slack), 0.0});
+      gap2[k][static_cast<size_t>(c - from)] = gap * gap;
+    }
+  };
   for (int ring = 0; ring <= max_ring; ++ring) {
     // Every point in this ring or beyond is at least this far.
     const double bound = ring == 0 ? 0 : margin + (ring - 1) * cell_;
@@ -66,17 +78,11 @@ int PointGrid::nearest(const Eigen::Vector3d& p, double* sq_distance, double max
     const int z0 = std::max(0, home[2] - ring), z1 = std::min(dims_[2] - 1, home[2] + ring);
     const int y0 = std::max(0, home[1] - ring), y1 = std::min(dims_[1] - 1, home[1] + ring);
     const int x0 = std::max(0, home[0] - ring), x1 = std::min(dims_[0] - 1, home[0] + ring);
-    auto scan_cell = [&](int x, int y, int z) {
-      // A cell wholly as far as the best so far holds nothing nearer (its box widened by a hair
-      // for the rounding of the points' bucketing).
-      const int xyz[3] = {x, y, z};
-      double box = 0;
-      for (int k = 0; k < 3; ++k) {
-        const double a = lo_[k] + xyz[k] * cell_, slack = 1e-9 * cell_;
-        const double gap = std::max({a - slack - p[k], p[k] - (a + cell_ + slack), 0.0});
-        box += gap * gap;
-      }
-      if (box >= best) return;
+    if (z0 > z1 || y0 > y1 || x0 > x1) continue;
+    slab_gaps(0, x0, x1), slab_gaps(1, y0, y1), slab_gaps(2, z0, z1);
+    auto scan_cell = [&](int x, int y, int z, double yz) {
+      // A cell wholly as far as the best so far holds nothing nearer.
+      if (yz + gap2[0][static_cast<size_t>(x - x0)] >= best) return;
       const size_t c = (static_cast<size_t>(z) * dims_[1] + y) * dims_[0] + x;
       for (int s = cell_start_[c]; s < cell_start_[c + 1]; ++s) {
         const double* q = &xyz_[static_cast<size_t>(3 * s)];
@@ -87,15 +93,20 @@ int PointGrid::nearest(const Eigen::Vector3d& p, double* sq_distance, double max
         }
       }
     };
-    for (int z = z0; z <= z1; ++z)
+    for (int z = z0; z <= z1; ++z) {
+      const double gz = gap2[2][static_cast<size_t>(z - z0)];
+      if (gz >= best) continue;
       for (int y = y0; y <= y1; ++y) {
+        const double yz = gz + gap2[1][static_cast<size_t>(y - y0)];
+        if (yz >= best) continue;
         if (std::abs(z - home[2]) == ring || std::abs(y - home[1]) == ring) {
-          for (int x = x0; x <= x1; ++x) scan_cell(x, y, z);
+          for (int x = x0; x <= x1; ++x) scan_cell(x, y, z, yz);
         } else {  // inside the shell only the two x ends are new
-          if (home[0] - ring >= 0 && home[0] - ring < dims_[0]) scan_cell(home[0] - ring, y, z);
-          if (home[0] + ring >= 0 && home[0] + ring < dims_[0]) scan_cell(home[0] + ring, y, z);
+          if (home[0] - ring >= 0 && home[0] - ring < dims_[0]) scan_cell(home[0] - ring, y, z, yz);
+          if (home[0] + ring >= 0 && home[0] + ring < dims_[0]) scan_cell(home[0] + ring, y, z, yz);
         }
       }
+    }
   }
   if (sq_distance) *sq_distance = best_index >= 0 ? best : std::numeric_limits<double>::infinity();
   return best_index;
