@@ -68,36 +68,53 @@ std::string plausibility_warning(const Plausibility& p) {
 /// A torso girth the rule-based measurement puts this far (m) from the body model's: one is wrong.
 constexpr double kCrossCheckDisagreement = 0.02;
 
-/// The paper's rule-based pipeline as a cross-check of the body model's torso girths `m`, on the
-/// body stood upright by the fit: a girth over kCrossCheckDisagreement apart is a warning. It
-/// measures standing bodies only, and says why when it cannot.
-nlohmann::ordered_json rule_based_cross_check(const BodyInput& in, const BodyFit& fit, const BodyMeasurements& m,
-                                              std::vector<std::string>* warnings) {
-  nlohmann::ordered_json cross = {{"method", "rule-based (posekit measure without --body-model)"}};
+/// The paper's rule-based pipeline on the body stood upright by `to_fit_frame` (the body model
+/// fit's), for the cross-check below. It measures standing bodies only, and says why when it cannot.
+struct RuleMeasurement {
+  bool ran = false;
+  std::string why;
+  Eigen::Index thinned_to = 0;  ///< the points it measured when a dense scan was thinned; 0 otherwise
+  BodyMeasurements m;
+};
+
+RuleMeasurement rule_measurement(const BodyInput& in, const Eigen::Matrix3d& to_fit_frame) {
+  RuleMeasurement out;
   const Eigen::MatrixXd& T = in.is_cloud ? in.cloud.P : in.mesh.V;
   // A dense scan is thinned for it to 200,000 points (the rules cost a second per million).
   constexpr Eigen::Index kCrossCheckPoints = 200000;
   const Eigen::Index stride = in.is_cloud ? (T.rows() + kCrossCheckPoints - 1) / kCrossCheckPoints : 1;
   Eigen::MatrixXd upright(stride > 1 ? (T.rows() + stride - 1) / stride : T.rows(), 3);
-  for (Eigen::Index i = 0; i < upright.rows(); ++i) upright.row(i) = T.row(i * stride) * fit.to_fit_frame.transpose();
-  if (stride > 1) cross["thinned_to_points"] = upright.rows();
+  for (Eigen::Index i = 0; i < upright.rows(); ++i) upright.row(i) = T.row(i * stride) * to_fit_frame.transpose();
+  if (stride > 1) out.thinned_to = upright.rows();
   try {
-    const BodyMeasurements rule = in.is_cloud ? measure_point_cloud(upright) : measure_body(upright, in.mesh.F);
-    cross["ran"] = true;
-    for (const char* name : {"bust", "underbust", "waist", "hip"}) {
-      const Girth *ours = m.find(name), *theirs = rule.find(name);
-      if (!ours || !theirs || !ours->measured || !theirs->measured) continue;
-      cross["girths"][name] = theirs->value;
-      if (std::abs(theirs->value - ours->value) <= kCrossCheckDisagreement) continue;
-      std::ostringstream w;
-      w << std::fixed << std::setprecision(1) << "the rule-based measurement gives a " << name << " of " << 100 * theirs->value
-        << " cm, " << 100 * (theirs->value - ours->value) << " cm from the body model's " << 100 * ours->value
-        << " cm: one of the two is wrong there (look at the landmarks in --json)";
-      warnings->push_back(w.str());
-    }
+    out.m = in.is_cloud ? measure_point_cloud(upright) : measure_body(upright, in.mesh.F);
+    out.ran = true;
   } catch (const InvalidInput& e) {
-    cross["ran"] = false;
-    cross["why"] = e.what();
+    out.why = e.what();
+  }
+  return out;
+}
+
+/// The rule-based measurement as a cross-check of the body model's torso girths `m`: a girth over
+/// kCrossCheckDisagreement apart is a warning.
+nlohmann::ordered_json rule_based_cross_check(const RuleMeasurement& rule, const BodyMeasurements& m, std::vector<std::string>* warnings) {
+  nlohmann::ordered_json cross = {{"method", "rule-based (posekit measure without --body-model)"}};
+  if (rule.thinned_to > 0) cross["thinned_to_points"] = rule.thinned_to;
+  cross["ran"] = rule.ran;
+  if (!rule.ran) {
+    cross["why"] = rule.why;
+    return cross;
+  }
+  for (const char* name : {"bust", "underbust", "waist", "hip"}) {
+    const Girth *ours = m.find(name), *theirs = rule.m.find(name);
+    if (!ours || !theirs || !ours->measured || !theirs->measured) continue;
+    cross["girths"][name] = theirs->value;
+    if (std::abs(theirs->value - ours->value) <= kCrossCheckDisagreement) continue;
+    std::ostringstream w;
+    w << std::fixed << std::setprecision(1) << "the rule-based measurement gives a " << name << " of " << 100 * theirs->value
+      << " cm, " << 100 * (theirs->value - ours->value) << " cm from the body model's " << 100 * ours->value
+      << " cm: one of the two is wrong there (look at the landmarks in --json)";
+    warnings->push_back(w.str());
   }
   return cross;
 }
@@ -118,7 +135,19 @@ int measure_by_body_model(const ArgParser& args, const SurveyDistribution* surve
   const double read_seconds = since(t0);
   const std::unique_ptr<BodyModel> model = loading.get();
   const double load_seconds = since(t0) - read_seconds;
-  const BodyFit fit = fit_body_model_to_input(*model, in, path, args);
+  // The rule cross-check runs beside the fit from the moment the fit has stood the body upright
+  // (again after the fit when the fit was redone in another frame).
+  const bool cross_check = !args.flag_set("no-cross-check");
+  std::future<RuleMeasurement> early_rule;
+  Eigen::Matrix3d early_frame = Eigen::Matrix3d::Identity();
+  BodyFitOptions options;
+  if (cross_check)
+    options.frame_chosen = [&](const Eigen::Matrix3d& to_fit_frame) {
+      if (early_rule.valid()) return;
+      early_frame = to_fit_frame;
+      early_rule = std::async(std::launch::async, [&in, to_fit_frame] { return rule_measurement(in, to_fit_frame); });
+    };
+  const BodyFit fit = fit_body_model_to_input(*model, in, path, args, options);
   const Eigen::MatrixXd& T = in.is_cloud ? in.cloud.P : in.mesh.V;
   const Eigen::MatrixXi no_faces;
   const Clock::time_point t_measure = Clock::now();
@@ -128,9 +157,13 @@ int measure_by_body_model(const ArgParser& args, const SurveyDistribution* surve
   const BodyMeasurements& m = fm.target;
   std::vector<std::string> warnings;
 
-  const nlohmann::ordered_json cross = args.flag_set("no-cross-check")
-                                          ? nlohmann::ordered_json{{"ran", false}, {"why", "--no-cross-check"}}
-                                          : rule_based_cross_check(in, fit, m, &warnings);
+  nlohmann::ordered_json cross = {{"ran", false}, {"why", "--no-cross-check"}};
+  if (cross_check) {
+    const bool early = early_rule.valid();
+    RuleMeasurement rule = early ? early_rule.get() : RuleMeasurement{};
+    if (!early || !fit.to_fit_frame.isApprox(early_frame)) rule = rule_measurement(in, fit.to_fit_frame);
+    cross = rule_based_cross_check(rule, m, &warnings);
+  }
   const double cross_seconds = since(t_cross);
   SurveyValues survey_values;
   const SurveyMask given = survey_values_of(m, &survey_values);

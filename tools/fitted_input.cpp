@@ -23,8 +23,10 @@ std::unique_ptr<BodyModel> load_body_model(const ArgParser& args) {
   return std::make_unique<BodyModel>(read_shape_space(args.get("body-model")), *makehuman);
 }
 
-BodyFit fit_body_model_to_input(const BodyModel& model, const BodyInput& input, const std::string& path, const ArgParser& args) {
-  const BodyFit fit = input.is_cloud ? fit_body_model(model, input.cloud.P) : fit_body_model_to_mesh(model, input.mesh.V, input.mesh.F);
+BodyFit fit_body_model_to_input(const BodyModel& model, const BodyInput& input, const std::string& path, const ArgParser& args,
+                                const BodyFitOptions& options) {
+  const BodyFit fit =
+      input.is_cloud ? fit_body_model(model, input.cloud.P, options) : fit_body_model_to_mesh(model, input.mesh.V, input.mesh.F, options);
   for (const auto& w : fit.warnings) std::cerr << "warning: " << path << ": " << w << "\n";
   if (fit.confident) return fit;
   std::string why;

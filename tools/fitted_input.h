@@ -18,7 +18,8 @@ std::unique_ptr<BodyModel> load_body_model(const ArgParser& args);
 /// The body model fitted to `input` read from `path` (a mesh or a scan, any frame). The fit's
 /// warnings go to stderr; a poor fit throws BelowConfidence with its reasons unless --accept-poor,
 /// when it is announced on stderr and returned (fit.confident false).
-BodyFit fit_body_model_to_input(const BodyModel& model, const BodyInput& input, const std::string& path, const ArgParser& args);
+BodyFit fit_body_model_to_input(const BodyModel& model, const BodyInput& input, const std::string& path, const ArgParser& args,
+                                const BodyFitOptions& options = {});
 
 /// A subject's segmentation (#F) and joint centres read off the body model fitted to it (its own
 /// frame), for SubjectSetupOptions: posing then needs no rule about its sections (arms close, a

@@ -131,7 +131,16 @@ TEST(BodyFit, KneelingSittingAndArmsCloseInAnyFrame) {
     const Case& c = cases[k];
     const Truth truth = posed_body(pop.held_out[k % pop.held_out.size()], c.pose);
     const Eigen::MatrixXd target = truth.V * c.to_file.transpose();
-    const BodyFit fit = fit_body_model(*pop.model, target);
+    // frame_chosen reports the frame the fit ends in, before the fit ends (the last call counts: a
+    // fit redone from another start calls it again).
+    BodyFitOptions options;
+    std::vector<Eigen::Matrix3d> frames_chosen;
+    options.frame_chosen = [&](const Eigen::Matrix3d& to_fit_frame) { frames_chosen.push_back(to_fit_frame); };
+    const BodyFit fit = fit_body_model(*pop.model, target, options);
+    ASSERT_FALSE(frames_chosen.empty()) << c.name;
+    EXPECT_TRUE(frames_chosen.back().isApprox(fit.to_fit_frame)) << c.name;
+    // The frame is one of the six axis directions: a tilt stays in the pose (8 degrees here).
+    EXPECT_GT((frames_chosen.back() * c.to_file * Eigen::Vector3d::UnitY()).y(), std::cos(15 * M_PI / 180)) << c.name << ": up is +Y";
     const Score s = score(fit, truth, c.to_file);
     std::printf("%s: start %s, agreement %.3f, worst joint %.1f mm (%s), coverage %.3f, p95 %.1f mm, |c| %.1f, %.2f s%s\n", c.name,
                 fit.start.c_str(), s.agreement, 1000 * s.worst_joint, s.worst.c_str(), fit.coverage, 1000 * fit.target_p95, fit.shape_mahalanobis,

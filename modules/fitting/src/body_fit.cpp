@@ -788,6 +788,7 @@ BodyFit fit_body_model(const BodyModel& model, const Eigen::MatrixXd& T, const B
     // The recognised pose: the priors of every later fit pull towards it, not towards standing.
     PartPose recognised = best->pose;
     const UpFrame& frame = frames[best->up];
+    if (o.frame_chosen) o.frame_chosen(frame.rotation);
     const PointGrid grid(frame.cloud, 0.03);
 
     // Each arm, then each leg, on its own (limbs_one_by_one); kept when its brief fit is better.

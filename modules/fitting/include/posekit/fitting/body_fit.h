@@ -6,6 +6,7 @@
 // joint limits) alternates with the shape coefficients' least squares. Parts, joints and pose are
 // read off the fitted model, with a confidence and its reasons.
 #include <Eigen/Core>
+#include <functional>
 #include <string>
 #include <utility>
 #include <vector>
@@ -75,6 +76,10 @@ struct BodyFitOptions {
   /// Threads for the global search and the brief fits of its best starts (0: the hardware's); the
   /// result does not depend on it.
   int threads = 0;
+  /// Called (on the calling thread) as soon as the up direction is chosen, with what will be
+  /// BodyFit::to_fit_frame, so that work needing the body upright can start while the fit goes on.
+  /// Called again when the fit is redone from another start (its frame may differ).
+  std::function<void(const Eigen::Matrix3d& to_fit_frame)> frame_chosen;
 };
 
 struct BodyFit {
