@@ -126,6 +126,19 @@ BodyOrientation detect_body_orientation(const Eigen::MatrixXd& P, const Eigen::V
   const Eigen::Index n = P.rows();
   if (n < 10 || P.cols() != 3) throw InvalidInput("orientation: too few points to tell a body's orientation");
   if (weights.size() != 0 && weights.size() != n) throw InvalidInput("orientation: one weight per point expected");
+  // A dense scan (or a fine mesh's faces) on an evenly spread sample: its moments and quantiles are
+  // the same to well under a degree, in milliseconds instead of a sort of every point.
+  constexpr Eigen::Index kSample = 200000;
+  if (n > kSample) {
+    const Eigen::Index stride = (n + kSample - 1) / kSample, m = (n + stride - 1) / stride;
+    Eigen::MatrixXd sample(m, 3);
+    Eigen::VectorXd sample_weights(weights.size() == n ? m : 0);
+    for (Eigen::Index i = 0; i < m; ++i) {
+      sample.row(i) = P.row(i * stride);
+      if (sample_weights.size() > 0) sample_weights[i] = weights[i * stride];
+    }
+    return detect_body_orientation(sample, sample_weights, options);
+  }
   std::vector<double> w(static_cast<size_t>(n), 1.0);
   if (weights.size() == n)
     for (Eigen::Index i = 0; i < n; ++i) w[static_cast<size_t>(i)] = std::max(0.0, weights[i]);

@@ -50,6 +50,7 @@ struct OrientationOptions {
 /// give a warning; without feet the front is taken nearest the file's +Z, with a warning.
 ///  P        #P x 3 surface samples (a scan's points, or a mesh's face centroids), any unit
 ///  weights  #P surface area per sample (empty: equal weights)
+/// Over 200,000 samples it looks at an evenly spread 200,000 of them.
 /// Throws InvalidInput when the body has no clear long axis (not a standing body, or a blob).
 BodyOrientation detect_body_orientation(const Eigen::MatrixXd& P, const Eigen::VectorXd& weights = {},
                                         const OrientationOptions& options = {});
