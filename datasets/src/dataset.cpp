@@ -11,6 +11,7 @@
 #include <optional>
 #include <sstream>
 
+#include "json_helpers.h"
 #include "posekit/body/makehuman_model.h"
 #include "posekit/body/anatomical_driving.h"
 #include "posekit/body/skinning.h"
@@ -26,6 +27,7 @@
 #include "posekit/io/point_cloud_io.h"
 
 namespace posekit {
+using datasets_detail::vec;
 namespace fs = std::filesystem;
 
 namespace {
@@ -74,8 +76,6 @@ class DatasetWriter {
 };
 
 std::string pose_json(const NamedPose& p) { return part_pose_to_json(p.pose); }
-
-nlohmann::ordered_json vec(const Eigen::Vector3d& v) { return {v.x(), v.y(), v.z()}; }
 
 /// The posed ground truth of a body: one bone per part, or spread over the rig's chains.
 Eigen::MatrixXd pose_body(const MakeHumanModel& model, const Body& body, const PartPose& pose,

@@ -4,10 +4,11 @@
 #include <cmath>
 #include <random>
 
-namespace posekit {
-namespace {
+#include "json_helpers.h"
 
-constexpr double kDeg = M_PI / 180.0;
+namespace posekit {
+using datasets_detail::kDeg;
+namespace {
 
 int J(const char* name) { return find_joint_index(name); }
 

@@ -11,6 +11,7 @@
 #include <optional>
 #include <random>
 
+#include "json_helpers.h"
 #include "posekit/body/makehuman_model.h"
 #include "posekit/body/parts.h"
 #include "posekit/body/pose_units.h"
@@ -28,11 +29,11 @@
 #include "posekit/shape/body_orientation.h"
 
 namespace posekit {
+using datasets_detail::kDeg;
+using datasets_detail::vec;
 namespace fs = std::filesystem;
 
 namespace {
-
-constexpr double kDeg = M_PI / 180.0;
 
 /// A body of the set in posekit's frame (Y up, facing +Z, metres) with its truth.
 struct Sample {
@@ -103,8 +104,6 @@ const std::vector<RobustnessVariation> kVariations = {
 std::string pose_kind_of(const std::string& v) {
   return v.rfind("scan_", 0) == 0 && v != "scan_cloud" ? v.substr(5) : v;
 }
-
-nlohmann::ordered_json vec(const Eigen::Vector3d& v) { return {v.x(), v.y(), v.z()}; }
 
 Eigen::Vector3d joint(const Eigen::MatrixXd& J, const std::string& name) { return J.row(find_joint_index(name)).transpose(); }
 

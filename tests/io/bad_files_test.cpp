@@ -11,10 +11,12 @@
 #include "posekit/io/bvh.h"
 #include "posekit/io/mesh_io.h"
 #include "posekit/io/point_cloud_io.h"
+#include "testing/bytes_of.h"
 #include "testing/temp_dir.h"
 #include "testing/test_meshes.h"
 
 using namespace posekit;
+using posekit::test::bytes_of;
 
 namespace {
 
@@ -22,11 +24,6 @@ std::string binary_ply_header(int nv, int nf) {
   return "ply\nformat binary_little_endian 1.0\nelement vertex " + std::to_string(nv) +
          "\nproperty float x\nproperty float y\nproperty float z\nelement face " + std::to_string(nf) +
          "\nproperty list uchar int vertex_indices\nend_header\n";
-}
-
-template <typename T>
-std::string bytes_of(T v) {
-  return std::string(reinterpret_cast<const char*>(&v), sizeof(T));
 }
 
 std::string one_binary_triangle(int i0, int i1, int i2, float x0 = 0) {

@@ -14,21 +14,18 @@
 #include "posekit/io/json.h"
 #include "posekit/io/mesh_io.h"
 #include "posekit/io/point_cloud_io.h"
+#include "testing/bytes_of.h"
 #include "testing/temp_dir.h"
 #include "testing/test_meshes.h"
 
 using namespace posekit;
+using posekit::test::bytes_of;
 
 namespace {
 
 std::string slurp(const std::string& path) {
   std::ifstream in(path, std::ios::binary);
   return std::string((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
-}
-
-template <typename T>
-std::string bytes_of(T v) {
-  return std::string(reinterpret_cast<const char*>(&v), sizeof(T));
 }
 
 bool contains(const std::vector<std::string>& lines, const std::string& phrase) {

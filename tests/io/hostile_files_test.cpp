@@ -12,16 +12,13 @@
 #include "posekit/io/bvh.h"
 #include "posekit/io/mesh_io.h"
 #include "posekit/io/point_cloud_io.h"
+#include "testing/bytes_of.h"
 #include "testing/temp_dir.h"
 
 using namespace posekit;
+using posekit::test::bytes_of;
 
 namespace {
-
-template <typename T>
-std::string bytes_of(T v) {
-  return std::string(reinterpret_cast<const char*>(&v), sizeof(T));
-}
 
 /// Peak resident memory (VmHWM) in bytes, or -1 where /proc cannot tell.
 long long peak_rss_bytes() {

@@ -11,17 +11,13 @@
 #include <numeric>
 #include <thread>
 
+#include "edge_key.h"
 #include "posekit/core/closest_point.h"  // parallel_for_ranges
 #include "posekit/core/error.h"
 #include "posekit/core/mesh_geometry.h"
 
 namespace posekit {
-namespace {
-std::uint64_t edge_key(int a, int b) {
-  const auto lo = static_cast<std::uint32_t>(std::min(a, b)), hi = static_cast<std::uint32_t>(std::max(a, b));
-  return (static_cast<std::uint64_t>(lo) << 32) | hi;
-}
-}  // namespace
+using core_detail::undirected_edge_key;
 
 namespace {
 
@@ -117,7 +113,7 @@ bool cut_face_smooth(const Eigen::MatrixXd& V, const Eigen::MatrixXi& F, const E
     if ((sa >= 0) == (sb >= 0)) continue;
     // From the smaller index, so both faces of the edge compute the same point.
     const double t = a < b ? sa / (sa - sb) : sb / (sb - sa);
-    seg.key[count] = edge_key(a, b);
+    seg.key[count] = undirected_edge_key(a, b);
     seg.point[count] = phong_surface_point(V, N, Eigen::Vector3i(std::min(a, b), std::max(a, b), a), Eigen::Vector3d(1 - t, t, 0));
     face_w[c] += 0.5 * (a < b ? 1 - t : t);
     face_w[(c + 1) % 3] += 0.5 * (a < b ? t : 1 - t);
@@ -214,7 +210,7 @@ std::vector<std::vector<SectionLoop>> slice_stack(const Eigen::MatrixXd& V, cons
         std::array<std::uint64_t, 2>& seg = segs[at[k]++];
         int count = 0;
         for (int c = 0; c < 3 && count < 2; ++c)
-          if ((s[c] >= 0) != (s[(c + 1) % 3] >= 0)) seg[static_cast<size_t>(count++)] = edge_key(F(f, c), F(f, (c + 1) % 3));
+          if ((s[c] >= 0) != (s[(c + 1) % 3] >= 0)) seg[static_cast<size_t>(count++)] = undirected_edge_key(F(f, c), F(f, (c + 1) % 3));
       }
   });
   for_each_plane([&](size_t k) {

@@ -6,7 +6,10 @@
 #include <numeric>
 #include <unordered_map>
 
+#include "edge_key.h"
+
 namespace posekit {
+using core_detail::undirected_edge_key;
 namespace {
 
 struct HalfEdge {
@@ -15,18 +18,12 @@ struct HalfEdge {
   int corner;         // edge (F(face,corner), F(face,corner+1))
 };
 
-std::uint64_t edge_key(int a, int b) {
-  const auto lo = static_cast<std::uint32_t>(std::min(a, b));
-  const auto hi = static_cast<std::uint32_t>(std::max(a, b));
-  return (static_cast<std::uint64_t>(lo) << 32) | hi;
-}
-
 std::vector<HalfEdge> sorted_half_edges(const Eigen::MatrixXi& F) {
   std::vector<HalfEdge> h;
   h.reserve(static_cast<size_t>(F.rows()) * 3);
   for (Eigen::Index f = 0; f < F.rows(); ++f)
     for (int c = 0; c < 3; ++c)
-      h.push_back({edge_key(F(f, c), F(f, (c + 1) % 3)), static_cast<int>(f), c});
+      h.push_back({undirected_edge_key(F(f, c), F(f, (c + 1) % 3)), static_cast<int>(f), c});
   std::sort(h.begin(), h.end(), [](const HalfEdge& a, const HalfEdge& b) {
     return a.key != b.key ? a.key < b.key : a.face < b.face;
   });

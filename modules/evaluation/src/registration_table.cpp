@@ -27,12 +27,12 @@ namespace fs = std::filesystem;
 namespace posekit {
 namespace {
 
-struct ErrorStats {
+struct SampleStats {
   double mean = 0, p95 = 0, max = 0;
 };
 
-ErrorStats error_stats(std::vector<double> d) {
-  ErrorStats s;
+SampleStats sample_stats(std::vector<double> d) {
+  SampleStats s;
   if (d.empty()) return s;
   for (double x : d) s.mean += x / static_cast<double>(d.size());
   std::sort(d.begin(), d.end());
@@ -43,17 +43,17 @@ ErrorStats error_stats(std::vector<double> d) {
 
 /// Triangle match error (mm): for each subject triangle, the distance on the template between the
 /// centroid of its matched template triangle and the true point of its centroid.
-ErrorStats triangle_match_error_mm(const TriangleMesh& templ, const Eigen::MatrixXd& true_centroids, const Eigen::VectorXi& match) {
+SampleStats triangle_match_error_mm(const TriangleMesh& templ, const Eigen::MatrixXd& true_centroids, const Eigen::VectorXi& match) {
   const Eigen::MatrixXd source_centroids = face_centroids(templ.V, templ.F);
   std::vector<double> d(static_cast<size_t>(match.size()));
   for (Eigen::Index k = 0; k < match.size(); ++k)
     d[static_cast<size_t>(k)] = 1000 * (source_centroids.row(match[k]) - true_centroids.row(k)).norm();
-  return error_stats(std::move(d));
+  return sample_stats(std::move(d));
 }
 
 /// Point correspondence error (mm): each subject vertex's closest point on the registered source,
 /// taken back to the template by its triangle and barycentric coordinates, against its true point.
-ErrorStats point_error_mm(const TriangleMesh& templ, const Eigen::MatrixXd& deformed, const TriangleMesh& subject,
+SampleStats point_error_mm(const TriangleMesh& templ, const Eigen::MatrixXd& deformed, const TriangleMesh& subject,
                           const Eigen::MatrixXd& true_points) {
   TriangleMesh registered;
   registered.V = deformed;
@@ -63,12 +63,12 @@ ErrorStats point_error_mm(const TriangleMesh& templ, const Eigen::MatrixXd& defo
   std::vector<double> d(static_cast<size_t>(subject.V.rows()));
   for (Eigen::Index k = 0; k < subject.V.rows(); ++k)
     d[static_cast<size_t>(k)] = 1000 * (on_template.row(k) - true_points.row(k)).norm();
-  return error_stats(std::move(d));
+  return sample_stats(std::move(d));
 }
 
 /// The triangle match error of the true correspondence itself: each subject triangle matched to the
 /// template triangle holding its true centroid point. No registration can go below it.
-ErrorStats triangle_match_floor_mm(const TriangleMesh& templ, const Eigen::MatrixXd& true_centroids) {
+SampleStats triangle_match_floor_mm(const TriangleMesh& templ, const Eigen::MatrixXd& true_centroids) {
   return triangle_match_error_mm(templ, true_centroids, closest_surface_points(templ, true_centroids).face);
 }
 
@@ -224,8 +224,8 @@ RegistrationTable measure_registration_table(const std::string& dir, const Regis
     table.template_triangles = templ.num_faces();
     table.rows.resize(methods.size());
     for (size_t m = 0; m < methods.size(); ++m) table.rows[m].method = methods[m].name;
-    std::vector<std::vector<ErrorStats>> point(methods.size()), match(methods.size());
-    std::vector<ErrorStats> floor;
+    std::vector<std::vector<SampleStats>> point(methods.size()), match(methods.size());
+    std::vector<SampleStats> floor;
     std::vector<std::vector<double>> pose_transfer(methods.size());
     std::vector<double> pose_transfer_true;
     long vertices = 0, triangles = 0;
@@ -293,7 +293,7 @@ RegistrationTable measure_registration_table(const std::string& dir, const Regis
         row.pose_transfer_mm = std::accumulate(pose_transfer[m].begin(), pose_transfer[m].end(), 0.0) /
                                static_cast<double>(pose_transfer[m].size());
     }
-    for (const ErrorStats& f : floor) {
+    for (const SampleStats& f : floor) {
       table.triangle_floor_mean_mm += f.mean / static_cast<double>(floor.size());
       table.triangle_floor_p95_mm += f.p95 / static_cast<double>(floor.size());
     }

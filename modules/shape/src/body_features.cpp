@@ -10,6 +10,7 @@
 #include <mutex>
 #include <utility>
 
+#include "bust_band.h"
 #include "posekit/core/closest_point.h"  // parallel_for_ranges
 #include "posekit/core/error.h"
 #include "posekit/core/mesh_geometry.h"
@@ -20,6 +21,8 @@
 #include "posekit/core/triangle_mesh.h"
 
 namespace posekit {
+using shape_detail::kBustBelowArmpits;
+using shape_detail::kBustPlateau;
 namespace {
 
 /// A gap between joined thighs (thighs_apart): two thigh sections (at least kThighMinArea, centroids
@@ -37,11 +40,9 @@ constexpr double kCutTopGirth = 0.42;
 constexpr double kStatureFromArmsSeparate = 0.75;
 constexpr double kCrotchOverStature = 0.465;  ///< the first, rougher estimate, before the arms are found
 constexpr double kArmSectionArea = 1.5e-3;  ///< m^2: a thin adult upper arm's section is over 30 cm^2, an ear under 10
-constexpr double kBustBelowArmpits = 0.01;  ///< m: the bust band ends this far below the arms' separation
 constexpr int kRefineSteps = 5;  ///< finer sections per step that place the arms' separation (the crotch: 4x)
 constexpr double kArmClearance = 0.005;  ///< m: the arms separate where they stand this clear of the torso
 constexpr int kArmClearanceSections = 8;  ///< sections below the armpit level searched for that clearance
-constexpr double kBustPlateau = 0.003;   ///< m of girth: levels this close to the fullest count as the bust
 constexpr double kWaistBandStart = 0.33;
 constexpr double kWaistTieTolerance = 0.002;  ///< m of girth
 constexpr double kKneeFraction = 0.563;   ///< knee joint between ankle joint and crotch

@@ -13,19 +13,20 @@
 #include <numeric>
 #include <utility>
 
+#include "bust_band.h"
 #include "posekit/core/error.h"
 #include "posekit/core/mesh_geometry.h"
 #include "posekit/core/profile.h"
 
 namespace posekit {
+using shape_detail::kBustBelowArmpits;
+using shape_detail::kBustPlateau;
 namespace {
 
 constexpr double kMaxGapDeg = 40.0;
 constexpr double kBustSearch = 0.03;        ///< m each side of the bust level searched for the fullest girth
 constexpr double kBustProfile = 0.04;       ///< m each side of the features' bust level sectioned again
-constexpr double kBustPlateau = 0.003;      ///< m of girth: levels this close to the fullest count as the bust
 constexpr double kUnderbustBand[2] = {0.03, 0.12};  ///< m below the bust level: the underbust band
-constexpr double kBustBelowArmpits = 0.01;  ///< m: the bust band's end below the arms' separation (as in the features)
 constexpr double kCrotchArchHalfWidth = 0.015;  ///< m each side of the body axis fitted (crotch_on_smooth_surface)
 constexpr double kClusterCell = 0.008;  ///< m: scan points closer than about this belong to one section
 constexpr double kSparsestBustCell = 0.025;  ///< m: clusters coarser than this join the arms to the chest: no bust
