@@ -344,7 +344,9 @@ TEST(Nicp, PairsOnAHolesBorderAreRejected) {
   o.reject_boundary = false;
   const NicpResult without = nonrigid_icp(sphere, open, o);
   for (Eigen::Index i = 0; i < sphere.V.rows(); ++i)
-    if (sphere.V(i, 1) > 0.4) EXPECT_NEAR(with.V.row(i).norm(), 0.5, 0.015) << i;
+    if (sphere.V(i, 1) > 0.4) {
+      EXPECT_NEAR(with.V.row(i).norm(), 0.5, 0.015) << i;
+    }
   EXPECT_LT(with.accepted_fraction, 0.95);
   EXPECT_LT(with.accepted_fraction, without.accepted_fraction - 0.02);
 }
