@@ -375,6 +375,7 @@ PoseFitResult fit_pose(const PosableBody& subject, const Eigen::MatrixXd& T, con
     };
     double damping = 1e-4, max_d = d0;
     int it = 0;
+    std::vector<double> accepted;  // the objective after each step kept at the final distance
     Linearisation current = at(pose, max_d);
     if (current.data_weight <= 0)
       throw InvalidInput("fit: no target point within " + std::to_string(max_d) + " m of the body; is the target in metres and upright?");
@@ -400,6 +401,9 @@ PoseFitResult fit_pose(const PosableBody& subject, const Eigen::MatrixXd& T, con
         current = std::move(next);
         damping = std::max(1e-7, damping / 3);
         if (gain < 1e-6 * current.cost) break;
+        accepted.push_back(current.cost);
+        const size_t window = static_cast<size_t>(std::max(1, o.stall_window));
+        if (accepted.size() > window && accepted[accepted.size() - 1 - window] - current.cost < o.stall_gain * current.cost) break;
       } else {
         damping *= 8;  // rejected: a shorter, more gradient-like step
         if (damping > 1e4) break;

@@ -670,6 +670,12 @@ PoseFitResult fit_shape_and_pose(const BodyModel& model, const UpFrame& frame, c
   // tilted), joints as close.
   refine.refinement_twist_weight = 1;
   refine.threads = o.threads;
+  // A refinement crawling on ends: on a 940k-point scan the final refinement took 60 steps, the last
+  // 50 lowering the objective by 0.15% in all. Ended at 1e-3 over 5 steps, the robustness set's 117
+  // fits came out as accurate (joint angles and girths to the tenth, joints 0.01 mm apart on
+  // average) and `eval bodies` took 203-219 s in two runs instead of 249.
+  refine.stall_window = 5;
+  refine.stall_gain = 1e-3;
   PoseFitResult result;
   for (int round = 0; round <= o.shape_rounds; ++round) {
     if (round > 0) *c = fit_shape(model, *c, pose, frame.cloud, grid, o);
@@ -738,6 +744,7 @@ BodyFit fit_body_model(const BodyModel& model, const Eigen::MatrixXd& T, const B
   brief.refinement_model_samples = 3000;
   brief.max_distance_end = 0.15;
   brief.refinement_twist_weight = 1;  // as in the final refinement below
+  brief.stall_window = 5, brief.stall_gain = 1e-3;  // as in fit_shape_and_pose
   const std::vector<int> spread = spread_rows(mean_body.rest_vertices(), 0.02);
   // Distinct starts only: the same library pose at the next heading, or the same joints reached by
   // another name (legs of one pose, arms of another), is the same start to a brief fit.

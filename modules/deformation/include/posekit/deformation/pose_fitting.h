@@ -17,8 +17,15 @@ namespace posekit {
 struct PoseFitOptions {
   PoseMethod method = PoseMethod::kLearned;  ///< the posing run inside the loop
   /// Levenberg-Marquardt steps of the final refinement at most (it stops earlier when a step lowers
-  /// the objective by under a millionth), and of each start hypothesis's brief refinement.
+  /// the objective by under a millionth, or `stall_window` accepted steps together by under
+  /// `stall_gain` of it), and of each start hypothesis's brief refinement.
   int iterations = 100, search_iterations = 8;
+  /// A refinement crawling on ends early when set (0: off, the default): `stall_window` accepted
+  /// steps together lowering the objective by under `stall_gain` of it. The body model's fit sets
+  /// 1e-3 over 5 steps (see fit_body_model); `posekit fit`'s figures (docs/pose-model.md) were
+  /// measured without it.
+  int stall_window = 5;
+  double stall_gain = 0;
   int model_samples = 3000;    ///< model vertices and target points matched each way per iteration
   /// Model vertices matched per iteration in the final refinement (target points: model_samples):
   /// every vertex of a body of up to this many. Every fourth vertex of a 12.4k-vertex subject, as
