@@ -150,21 +150,38 @@ PoseFitResult fit_pose(const PosableBody& subject, const Eigen::MatrixXd& T, con
     const SwingTwist st = swing_twist(j, r);
     return Eigen::Vector3d(st.swing + o.refinement_twist_weight * st.twist * bone_axis[static_cast<size_t>(j)]);
   };
-  // Elbows and knees are hinges: they flex about the axis across the limb in the body's frontal
-  // plane (limb x forward, the limb from shoulder to wrist or hip to ankle; the rest body faces +Z)
-  // and twist about the bone, but barely swing about the third axis (no varus or valgus). That axis per hinge joint (zero for the others), and the
-  // residual of the swing about it.
-  std::array<Eigen::Vector3d, kNumJoints> off_hinge_axis;
+  // Elbows and knees are hinges: they flex about an axis h across the limb and twist about the
+  // bone, but barely swing about the third axis (no varus or valgus). An elbow's h lies in the
+  // body's frontal plane across the arm (arm x forward, the arm from shoulder to wrist; the rest body
+  // faces +Z), whatever the arm's abduction; a knee's is the body's left-right axis, about which the
+  // pose library and the robustness set bend knees (across a leg leaning 5 degrees, a knee bent
+  // 138 degrees about it read as 8 degrees of varus). Per hinge joint (zero for the others) h and
+  // that third axis n = h x bone.
+  std::array<Eigen::Vector3d, kNumJoints> hinge_axis, off_hinge_axis;
   for (auto& n : off_hinge_axis) n.setZero();
   for (int c : {kLeftForearm, kRightForearm, kLeftShank, kRightShank}) {
     const Eigen::Vector3d& a = bone_axis[static_cast<size_t>(c - 1)];
     const Eigen::Vector3d limb = (joints.row(c) - joints.row(part_parent(c) - 1)).transpose().normalized();  // shoulder to wrist, hip to ankle
-    const Eigen::Vector3d h = limb.cross(Eigen::Vector3d::UnitZ());
-    if (h.norm() > 0.5) off_hinge_axis[static_cast<size_t>(c - 1)] = h.normalized().cross(a).normalized();
+    const Eigen::Vector3d h = c == kLeftShank || c == kRightShank ? Eigen::Vector3d::UnitX() : limb.cross(Eigen::Vector3d::UnitZ());
+    if (h.norm() > 0.5) {
+      hinge_axis[static_cast<size_t>(c - 1)] = h.normalized();
+      off_hinge_axis[static_cast<size_t>(c - 1)] = h.normalized().cross(a).normalized();
+    }
   }
+  // The residual: the joint rotation as a flexion about h after a swing s across h (r = flex * s),
+  // s's part about n. Zero for any flexion alone, however deep; a twist about the bone is s about
+  // the bone, also free. (The swing left by twisting about the bone first grows with the flexion: a
+  // 138-degree knee bent about an axis 5 degrees off h showed a 25-degree twist, and the prior turned
+  // the squatting robustness bodies' thighs by 20 degrees.)
   auto off_hinge_residual = [&](int j, const Eigen::Vector3d& r) {
-    const Eigen::Vector3d& n = off_hinge_axis[static_cast<size_t>(j)];
-    return Eigen::Vector3d(swing_twist(j, r).swing.dot(n) * n);
+    const Eigen::Vector3d &h = hinge_axis[static_cast<size_t>(j)], &n = off_hinge_axis[static_cast<size_t>(j)];
+    const Eigen::Quaterniond q(Eigen::AngleAxisd(r.norm(), r.norm() > 1e-12 ? Eigen::Vector3d(r.normalized()) : Eigen::Vector3d::UnitX()));
+    Eigen::Quaterniond flex(q.w(), 0, 0, 0);
+    flex.vec() = q.vec().dot(h) * h;
+    if (flex.norm() < 1e-12) return Eigen::Vector3d(r.dot(n) * n);  // a half turn across h: all swing
+    flex.normalize();
+    const Eigen::AngleAxisd swing(flex.conjugate() * q);
+    return Eigen::Vector3d((swing.angle() * swing.axis()).dot(n) * n);
   };
   bool refining = false;  // the final refinement: the rest prior on swing and weighted twist
   // Where the joint priors pull: the rest, or the pose the caller recognised (PoseFitOptions::prior_pose).
