@@ -158,6 +158,7 @@ PoseFitResult fit_pose(const PosableBody& subject, const Eigen::MatrixXd& T, con
   // 138 degrees about it read as 8 degrees of varus). Per hinge joint (zero for the others) h and
   // that third axis n = h x bone.
   std::array<Eigen::Vector3d, kNumJoints> hinge_axis, off_hinge_axis;
+  for (auto& n : hinge_axis) n.setZero();
   for (auto& n : off_hinge_axis) n.setZero();
   for (int c : {kLeftForearm, kRightForearm, kLeftShank, kRightShank}) {
     const Eigen::Vector3d& a = bone_axis[static_cast<size_t>(c - 1)];
