@@ -189,8 +189,8 @@ std::vector<std::array<Eigen::Vector3d, 2>> arm_options(const Eigen::MatrixXd& J
 }
 
 /// One leg's hip and knee rotations to try on their own: the thigh back, down, forward, level or
-/// up, straight out or spread, each with the knee straight, half or fully bent.
-std::vector<std::array<Eigen::Vector3d, 2>> leg_options(const Eigen::MatrixXd& J, double side) {
+/// up, straight out or (`spread`) also spread, each with the knee straight, half or fully bent.
+std::vector<std::array<Eigen::Vector3d, 2>> leg_options(const Eigen::MatrixXd& J, double side, bool spread = true) {
   const Anatomy body(J);
   const std::string s = side > 0 ? "left_" : "right_";
   const auto hip = static_cast<size_t>(find_joint_index(s + "hip")), knee = static_cast<size_t>(find_joint_index(s + "knee"));
@@ -198,6 +198,7 @@ std::vector<std::array<Eigen::Vector3d, 2>> leg_options(const Eigen::MatrixXd& J
   for (const double flexion : {-15.0, 0.0, 30.0, 60.0, 90.0, 115.0})
     for (const double abduction : {0.0, 25.0})
       for (const double knee_flexion : {0.0, 45.0, 90.0, 130.0}) {
+        if (abduction > 0 && !spread) continue;
         PartPose p;
         body.leg(p, side, flexion, knee_flexion, abduction);
         options.push_back({p.joint_rotation[hip], p.joint_rotation[knee]});
@@ -436,6 +437,7 @@ struct UpFrame {
 struct Start {
   double score = 0;  ///< mismatch of the mean body so placed (m)
   size_t up = 0;
+  int heading = 0;
   std::string name, kind;
   PartPose pose;
 };
@@ -444,15 +446,16 @@ struct Start {
 /// a sparse sample (a fifth of the body's coarse vertices, 200 target points); the best
 /// `rescored` of those again on the coarse sample (700 target points); then the arms of every library
 /// pose on the best few (legs and arms combine freely: sitting with the arms out, kneeling with hands
-/// on hips). Best first.
+/// on hips). With `legs_searched` > 0, also the legs searched (both together, then each on its own)
+/// on that many of the best up directions and headings. Best first.
 std::vector<Start> search_starts(const BodyModel& model, const ShapedBody& mean_body, const std::vector<LibraryPose>& library,
                                  const std::vector<LibraryPose>& motion_poses, const std::vector<UpFrame>& frames, int headings,
-                                 int rescored, int threads) {
+                                 int rescored, int legs_searched, int threads) {
   const std::vector<int> sample_rows = spread_rows(mean_body.rest_vertices(), 0.04);
   const Eigen::Index sparse_stride = 5;
   // The body placed (its feet on the cloud's lowest points, centred over it) and scored on the
   // sparse or the coarse samples; the same placement either way.
-  auto place = [&](size_t u, PartPose pose, const std::string& name, const std::string& kind, bool sparse) {
+  auto place = [&](size_t u, int heading, PartPose pose, const std::string& name, const std::string& kind, bool sparse) {
     Eigen::MatrixXd X;
     ShapedBody::skin(model, mean_body.rest_vertices(), mean_body.part_motions(pose), sample_rows, &X);
     const Eigen::Vector3d placed = pose.root_translation;
@@ -460,7 +463,7 @@ std::vector<Start> search_starts(const BodyModel& model, const ShapedBody& mean_
     X.rowwise() += (pose.root_translation - placed).transpose();
     const double score = sparse ? mismatch(every(X, sparse_stride), frames[u].sparse, *frames[u].sparse_grid, 0.15, 2 * kCoarseCell)
                                 : mismatch(X, frames[u].coarse, *frames[u].coarse_grid, 0.15, kCoarseCell);
-    return Start{score, u, name, kind, pose};
+    return Start{score, u, heading, name, kind, pose};
   };
   auto by_score = [](const Start& a, const Start& b) { return a.score < b.score; };
   // Every pose of `poses` at every heading on each of the up frames `ups`.
@@ -475,7 +478,7 @@ std::vector<Start> search_starts(const BodyModel& model, const ShapedBody& mean_
         PartPose pose = lib.pose;
         pose.root_rotation = axis_angle_from_rotation(rotation_from_axis_angle(2 * M_PI * h / headings * Eigen::Vector3d::UnitY()) *
                                                       rotation_from_axis_angle(pose.root_rotation));
-        placed[static_cast<size_t>(k)] = place(u, pose, lib.name, lib.kind, true);
+        placed[static_cast<size_t>(k)] = place(u, h, pose, lib.name, lib.kind, true);
       }
     }, 1);
     return placed;
@@ -499,9 +502,60 @@ std::vector<Start> search_starts(const BodyModel& model, const ShapedBody& mean_
   parallel_for_ranges(static_cast<long>(starts.size()), threads, [&](long begin, long end) {
     for (long k = begin; k < end; ++k) {
       Start& s = starts[static_cast<size_t>(k)];
-      s = place(s.up, s.pose, s.name, s.kind, false);
+      s = place(s.up, s.heading, s.pose, s.name, s.kind, false);
     }
   }, 1);
+  std::sort(starts.begin(), starts.end(), by_score);
+  // The legs searched on the best start of each of the best up directions and headings, placed on
+  // the cloud again for every option: a library pose's legs go together, a person's need not (one
+  // thigh raised, the other knee bent back), and such a body matched the library better on its
+  // side or facing away than upright with the library's legs. Both legs together first, on the
+  // sparse samples (the placement, on the lowest point, depends on both: one at a time stopped at a
+  // thigh raised 30 degrees of 76), then each on its own with the thighs also spread.
+  std::vector<Start> legged;
+  for (const Start& s : starts)
+    if (static_cast<int>(legged.size()) < legs_searched &&
+        std::none_of(legged.begin(), legged.end(), [&](const Start& t) { return t.up == s.up && t.heading == s.heading; }))
+      legged.push_back(s);
+  const Eigen::MatrixXd& J = mean_body.joint_centres();
+  const std::array<std::vector<std::array<Eigen::Vector3d, 2>>, 2> leg_choices = {leg_options(J, 1), leg_options(J, -1)},
+                                                                    leg_pairs = {leg_options(J, 1, false), leg_options(J, -1, false)};
+  std::array<std::array<size_t, 3>, 2> leg_joints;
+  for (int i = 0; i < 2; ++i) {
+    const std::string s = i == 0 ? "left_" : "right_";
+    leg_joints[static_cast<size_t>(i)] = {static_cast<size_t>(find_joint_index(s + "hip")), static_cast<size_t>(find_joint_index(s + "knee")),
+                                          static_cast<size_t>(find_joint_index(s + "ankle"))};
+  }
+  auto set_leg = [&](PartPose* pose, int side, const std::array<Eigen::Vector3d, 2>& option) {
+    const auto& [hip, knee, ankle] = leg_joints[static_cast<size_t>(side)];
+    pose->joint_rotation[hip] = option[0], pose->joint_rotation[knee] = option[1], pose->joint_rotation[ankle].setZero();
+  };
+  parallel_for_ranges(static_cast<long>(legged.size()), threads, [&](long begin, long end) {
+    for (long k = begin; k < end; ++k) {
+      Start& best = legged[static_cast<size_t>(k)];
+      const std::string name = best.name + ", legs searched", kind = best.kind + "+legs";
+      Start pair = place(best.up, best.heading, best.pose, name, kind, true);
+      const PartPose base = best.pose;
+      for (const auto& left : leg_pairs[0])
+        for (const auto& right : leg_pairs[1]) {
+          PartPose pose = base;
+          set_leg(&pose, 0, left), set_leg(&pose, 1, right);
+          const Start candidate = place(best.up, best.heading, pose, name, kind, true);
+          if (candidate.score < pair.score) pair = candidate;
+        }
+      best = place(best.up, best.heading, pair.pose, name, kind, false);
+      for (const int side : {0, 1}) {
+        const PartPose held = best.pose;
+        for (const auto& option : leg_choices[static_cast<size_t>(side)]) {
+          PartPose pose = held;
+          set_leg(&pose, side, option);
+          const Start candidate = place(best.up, best.heading, pose, name, kind, false);
+          if (candidate.score < best.score) best = candidate;
+        }
+      }
+    }
+  }, 1);
+  starts.insert(starts.end(), legged.begin(), legged.end());
   std::sort(starts.begin(), starts.end(), by_score);
   std::vector<int> arm_joints;
   for (const char* side : {"left_", "right_"})
@@ -520,7 +574,7 @@ std::vector<Start> search_starts(const BodyModel& model, const ShapedBody& mean_
       seen.push_back(arms);
       PartPose pose = starts[k].pose;
       for (size_t i = 0; i < arm_joints.size(); ++i) pose.joint_rotation[static_cast<size_t>(arm_joints[i])] = arms[i];
-      mixed.push_back(place(starts[k].up, pose, starts[k].name + ", arms as " + lib.name, starts[k].kind + "+" + lib.kind, false));
+      mixed.push_back(place(starts[k].up, starts[k].heading, pose, starts[k].name + ", arms as " + lib.name, starts[k].kind + "+" + lib.kind, false));
     }
   }
   starts.insert(starts.end(), mixed.begin(), mixed.end());
@@ -733,11 +787,8 @@ BodyFit fit_body_model(const BodyModel& model, const Eigen::MatrixXd& T, const B
     f.sparse_grid = std::make_unique<PointGrid>(f.sparse, 2 * kCoarseCell);
   }
   lap("working cloud");
-  const std::vector<Start> starts =
-      search_starts(model, mean_body, library, motion_poses, frames, o.headings, o.starts_rescored, o.threads);
-  lap("search");
 
-  // The best starts, each fitted briefly with the mean shape; the best of those goes on.
+  // The best starts, each fitted briefly; the best of those goes on.
   PoseFitOptions brief;
   brief.iterations = 20;
   brief.model_samples = 1500;
@@ -746,6 +797,7 @@ BodyFit fit_body_model(const BodyModel& model, const Eigen::MatrixXd& T, const B
   brief.refinement_twist_weight = 1;  // as in the final refinement below
   brief.stall_window = 5, brief.stall_gain = 1e-3;  // as in fit_shape_and_pose
   const std::vector<int> spread = spread_rows(mean_body.rest_vertices(), 0.02);
+  const std::vector<int> coarse_rows = spread_rows(mean_body.rest_vertices(), 0.04);
   // Distinct starts only: the same library pose at the next heading, or the same joints reached by
   // another name (legs of one pose, arms of another), is the same start to a brief fit.
   auto same_start = [](const Start& a, const Start& b) {
@@ -755,45 +807,55 @@ BodyFit fit_body_model(const BodyModel& model, const Eigen::MatrixXd& T, const B
       if ((a.pose.joint_rotation[j] - b.pose.joint_rotation[j]).norm() > 1e-9) return false;
     return (a.pose.root_rotation - b.pose.root_rotation).norm() < 1e-9;
   };
-  std::vector<const Start*> tried;
-  for (size_t k = 0; k < starts.size() && static_cast<int>(tried.size()) < std::max(1, o.hypotheses_refined); ++k)
-    if (std::none_of(tried.begin(), tried.end(), [&](const Start* t) { return same_start(*t, starts[k]); })) tried.push_back(&starts[k]);
-  std::vector<double> tried_score(tried.size());
-  std::vector<PartPose> tried_pose(tried.size());
-  parallel_for_ranges(static_cast<long>(tried.size()), o.threads, [&](long begin, long end) {
-    for (long k = begin; k < end; ++k) {
-      PoseFitOptions mine = brief;
-      mine.start = mine.prior_pose = tried[static_cast<size_t>(k)]->pose;
-      const UpFrame& f = frames[tried[static_cast<size_t>(k)]->up];
-      const PointGrid grid(f.cloud, 0.03);
-      BodyFitOptions one_thread = o;
-      one_thread.threads = 1;
-      // Fitted with the shape fitted at the start (two Gauss-Newton steps), not the mean shape: a
-      // pelvis fitted with another body's buttocks and thighs tipped 16-18 degrees in a squat, the
-      // lower back and hips making up for it, and the later shape fits settled in that tilt.
-      const Eigen::VectorXd start_shape = fit_shape(model, Eigen::VectorXd::Zero(K), &mine.start.value(), f.cloud, grid, one_thread, 2);
-      const PoseFitResult r = fit_pose(ShapedBody(model, start_shape), f.cloud, mine);
-      // Scored with the shape fitted to it (two Gauss-Newton steps): with the mean shape the body's
-      // own proportions (3 cm) outweighed a forearm turned wrong.
-      PartPose shaped_pose = r.pose;
-      const Eigen::VectorXd c = fit_shape(model, Eigen::VectorXd::Zero(K), &shaped_pose, f.cloud, grid, one_thread, 2);
-      Eigen::MatrixXd X;
-      ShapedBody(model, c).pose(shaped_pose, &X);
-      tried_score[static_cast<size_t>(k)] = mismatch(X(spread, Eigen::all), f.cloud, grid, 0.15);
-      tried_pose[static_cast<size_t>(k)] = r.pose;
-    }
-  }, 1);
-  // The brief fits by score (ties in the starts' order: the same choice on any number of threads).
-  std::vector<size_t> ranked(tried.size());
-  for (size_t k = 0; k < ranked.size(); ++k) ranked[k] = k;
-  std::stable_sort(ranked.begin(), ranked.end(), [&](size_t a, size_t b) { return tried_score[a] < tried_score[b]; });
-  const std::vector<int> coarse_rows = spread_rows(mean_body.rest_vertices(), 0.04);
-  lap("brief fits");
+  // The search (search_starts), and brief fits of its best distinct starts, not fitted before, best
+  // first.
+  std::vector<Start> tried;
+  std::vector<double> tried_score;
+  std::vector<PartPose> tried_pose;
+  auto search_and_brief_fits = [&](int legs_searched) {
+    const std::vector<Start> starts =
+        search_starts(model, mean_body, library, motion_poses, frames, o.headings, o.starts_rescored, legs_searched, o.threads);
+    lap("search");
+    const size_t first = tried.size();
+    for (size_t k = 0; k < starts.size() && static_cast<int>(tried.size() - first) < std::max(1, o.hypotheses_refined); ++k)
+      if (std::none_of(tried.begin(), tried.end(), [&](const Start& t) { return same_start(t, starts[k]); })) tried.push_back(starts[k]);
+    tried_score.resize(tried.size()), tried_pose.resize(tried.size());
+    parallel_for_ranges(static_cast<long>(tried.size() - first), o.threads, [&](long begin, long end) {
+      for (long i = begin; i < end; ++i) {
+        const auto k = static_cast<size_t>(i) + first;
+        PoseFitOptions mine = brief;
+        mine.start = mine.prior_pose = tried[k].pose;
+        const UpFrame& f = frames[tried[k].up];
+        const PointGrid grid(f.cloud, 0.03);
+        BodyFitOptions one_thread = o;
+        one_thread.threads = 1;
+        // Fitted with the shape fitted at the start (two Gauss-Newton steps), not the mean shape: a
+        // pelvis fitted with another body's buttocks and thighs tipped 16-18 degrees in a squat, the
+        // lower back and hips making up for it, and the later shape fits settled in that tilt.
+        const Eigen::VectorXd start_shape = fit_shape(model, Eigen::VectorXd::Zero(K), &mine.start.value(), f.cloud, grid, one_thread, 2);
+        const PoseFitResult r = fit_pose(ShapedBody(model, start_shape), f.cloud, mine);
+        // Scored with the shape fitted to it (two Gauss-Newton steps): with the mean shape the body's
+        // own proportions (3 cm) outweighed a forearm turned wrong.
+        PartPose shaped_pose = r.pose;
+        const Eigen::VectorXd c = fit_shape(model, Eigen::VectorXd::Zero(K), &shaped_pose, f.cloud, grid, one_thread, 2);
+        Eigen::MatrixXd X;
+        ShapedBody(model, c).pose(shaped_pose, &X);
+        tried_score[k] = mismatch(X(spread, Eigen::all), f.cloud, grid, 0.15);
+        tried_pose[k] = r.pose;
+      }
+    }, 1);
+    // By score (ties in the starts' order: the same choice on any number of threads).
+    std::vector<size_t> ranked(tried.size() - first);
+    for (size_t k = 0; k < ranked.size(); ++k) ranked[k] = k + first;
+    std::stable_sort(ranked.begin(), ranked.end(), [&](size_t a, size_t b) { return tried_score[a] < tried_score[b]; });
+    lap("brief fits");
+    return ranked;
+  };
 
   // From one brief fit to the result: the arm step, shape and pose in turn, the final refinement, and
   // what is read off the fit.
   auto finish_from = [&](size_t k) {
-    const Start* best = tried[k];
+    const Start* best = &tried[k];
     const double best_score = tried_score[k];
     PartPose pose = tried_pose[k];
     // The recognised pose: the priors of every later fit pull towards it, not towards standing.
@@ -840,14 +902,32 @@ BodyFit fit_body_model(const BodyModel& model, const Eigen::MatrixXd& T, const B
     lap("read-off");
     return out;
   };
-  BodyFit out = finish_from(ranked.front());
-  // A poor fit from the best brief fit: the runner-up's start may be the right one (an elbow bent
-  // where the arm is straight scored best on a tilted A-pose body). Kept when it is confident.
-  if (!out.confident && ranked.size() > 1) {
-    BodyFit second = finish_from(ranked[1]);
-    if (second.confident) {
-      second.warnings.push_back("the best start (" + out.start + ") gave a poor fit (" + out.reasons.front() + "); the runner-up's is kept");
-      out = std::move(second);
+  // The best brief fit finished; when that is poor, the runner-up's (an elbow bent where the arm is
+  // straight scored best on a tilted A-pose body), kept when it is confident.
+  auto finish_best = [&](const std::vector<size_t>& ranked) {
+    BodyFit out = finish_from(ranked.front());
+    if (!out.confident && ranked.size() > 1) {
+      BodyFit second = finish_from(ranked[1]);
+      if (second.confident) {
+        second.warnings.push_back("the best start (" + out.start + ") gave a poor fit (" + out.reasons.front() + "); the runner-up's is kept");
+        out = std::move(second);
+      }
+    }
+    return out;
+  };
+  BodyFit out = finish_best(search_and_brief_fits(0));
+  // Still poor: the body may hold its legs as no library pose does. The search again with each leg
+  // on its own, only now: on bodies that the library's starts fit, starts with the legs searched
+  // scored better and fitted worse (a pelvis tipped 10-15 degrees, the hips and back making up).
+  if (!out.confident && o.legs_searched > 0) {
+    const std::vector<size_t> ranked = search_and_brief_fits(o.legs_searched);
+    if (!ranked.empty()) {
+      BodyFit legged = finish_best(ranked);
+      if (legged.confident) {
+        legged.warnings.push_back("the library's starts gave a poor fit (" + out.reasons.front() +
+                                  "); a start with each leg searched on its own is kept");
+        out = std::move(legged);
+      }
     }
   }
   out.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
