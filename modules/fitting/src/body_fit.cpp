@@ -442,35 +442,152 @@ struct Start {
   PartPose pose;
 };
 
-/// The global search: every up direction, library pose and heading, placed on the cloud and scored on
-/// a sparse sample (a fifth of the body's coarse vertices, 200 target points); the best
-/// `rescored` of those again on the coarse sample (700 target points); then the arms of every library
-/// pose on the best few (legs and arms combine freely: sitting with the arms out, kneeling with hands
-/// on hips). With `legs_searched` > 0, also the legs searched (both together, then each on its own)
-/// on that many of the best up directions and headings. Best first.
-std::vector<Start> search_starts(const BodyModel& model, const ShapedBody& mean_body, const std::vector<LibraryPose>& library,
-                                 const std::vector<LibraryPose>& motion_poses, const std::vector<UpFrame>& frames, int headings,
-                                 int rescored, int legs_searched, int threads) {
-  const std::vector<int> sample_rows = spread_rows(mean_body.rest_vertices(), 0.04);
-  const Eigen::Index sparse_stride = 5;
-  // The body placed (its feet on the cloud's lowest points, centred over it) and scored on the
-  // sparse or the coarse samples; the same placement either way.
-  auto place = [&](size_t u, int heading, PartPose pose, const std::string& name, const std::string& kind, bool sparse) {
+/// The global search for starts of the articulated fit, in stages: the library at every up
+/// direction and heading (library_starts), the legs searched on the best of those (with_legs_searched),
+/// and the arms of every library pose on the best few (with_arms_mixed). Each start is the mean body
+/// placed on the cloud (its feet on the cloud's lowest points, centred over it) and scored on a sparse
+/// sample (a fifth of the body's coarse vertices, 200 target points) or a coarse one (700 target
+/// points); the same placement either way. Every stage returns its starts best first.
+class StartSearch {
+ public:
+  StartSearch(const BodyModel& model, const ShapedBody& mean_body, const std::vector<UpFrame>& frames, int threads)
+      : model_(model), mean_body_(mean_body), frames_(frames), threads_(threads),
+        sample_rows_(spread_rows(mean_body.rest_vertices(), 0.04)) {}
+
+  /// Every library pose at `headings` headings on every up frame, and the model's motion poses on the
+  /// two up directions the library liked best, on the sparse samples; the best `rescored` of those
+  /// again on the coarse ones.
+  std::vector<Start> library_starts(const std::vector<LibraryPose>& library, const std::vector<LibraryPose>& motion_poses, int headings,
+                                    int rescored) const {
+    std::vector<size_t> all_ups(frames_.size());
+    for (size_t u = 0; u < frames_.size(); ++u) all_ups[u] = u;
+    std::vector<Start> starts = place_all(library, all_ups, headings);
+    std::sort(starts.begin(), starts.end(), by_score);
+    // The motion poses only on the two best up directions: they are many, and the vertical is told
+    // by the library's standing, kneeling and sitting poses alike.
+    if (!motion_poses.empty()) {
+      std::vector<size_t> best_ups;
+      for (const Start& s : starts)
+        if (best_ups.size() < 2 && std::find(best_ups.begin(), best_ups.end(), s.up) == best_ups.end()) best_ups.push_back(s.up);
+      std::vector<Start> more = place_all(motion_poses, best_ups, headings);
+      starts.insert(starts.end(), more.begin(), more.end());
+      std::sort(starts.begin(), starts.end(), by_score);
+    }
+    starts.resize(std::min(starts.size(), static_cast<size_t>(std::max(1, rescored))));
+    parallel_for_ranges(static_cast<long>(starts.size()), threads_, [&](long begin, long end) {
+      for (long k = begin; k < end; ++k) {
+        Start& s = starts[static_cast<size_t>(k)];
+        s = place(s.up, s.heading, s.pose, s.name, s.kind, false);
+      }
+    }, 1);
+    std::sort(starts.begin(), starts.end(), by_score);
+    return starts;
+  }
+
+  /// `starts` and, on the best start of each of the `count` best pairs of up direction and heading,
+  /// the legs searched, the body placed on the cloud again for every option: a library pose's legs go
+  /// together, a person's need not (one thigh raised, the other knee bent back), and such a body
+  /// matched the library better on its side or facing away than upright with the library's legs.
+  /// Both legs together first, on the sparse samples (the placement, on the lowest point, depends on
+  /// both: one at a time stopped at a thigh raised 30 degrees of 76), then each on its own with the
+  /// thighs also spread.
+  std::vector<Start> with_legs_searched(std::vector<Start> starts, int count) const {
+    std::vector<Start> legged;
+    for (const Start& s : starts)
+      if (static_cast<int>(legged.size()) < count &&
+          std::none_of(legged.begin(), legged.end(), [&](const Start& t) { return t.up == s.up && t.heading == s.heading; }))
+        legged.push_back(s);
+    const Eigen::MatrixXd& J = mean_body_.joint_centres();
+    const std::array<std::vector<std::array<Eigen::Vector3d, 2>>, 2> each = {leg_options(J, 1), leg_options(J, -1)},
+                                                                      pairs = {leg_options(J, 1, false), leg_options(J, -1, false)};
+    std::array<std::array<size_t, 3>, 2> joints;
+    for (int i = 0; i < 2; ++i) {
+      const std::string s = i == 0 ? "left_" : "right_";
+      joints[static_cast<size_t>(i)] = {static_cast<size_t>(find_joint_index(s + "hip")), static_cast<size_t>(find_joint_index(s + "knee")),
+                                        static_cast<size_t>(find_joint_index(s + "ankle"))};
+    }
+    auto set_leg = [&](PartPose* pose, int side, const std::array<Eigen::Vector3d, 2>& option) {
+      const auto& [hip, knee, ankle] = joints[static_cast<size_t>(side)];
+      pose->joint_rotation[hip] = option[0], pose->joint_rotation[knee] = option[1], pose->joint_rotation[ankle].setZero();
+    };
+    parallel_for_ranges(static_cast<long>(legged.size()), threads_, [&](long begin, long end) {
+      for (long k = begin; k < end; ++k) {
+        Start& best = legged[static_cast<size_t>(k)];
+        const std::string name = best.name + ", legs searched", kind = best.kind + "+legs";
+        Start pair = place(best.up, best.heading, best.pose, name, kind, true);
+        const PartPose base = best.pose;
+        for (const auto& left : pairs[0])
+          for (const auto& right : pairs[1]) {
+            PartPose pose = base;
+            set_leg(&pose, 0, left), set_leg(&pose, 1, right);
+            const Start candidate = place(best.up, best.heading, pose, name, kind, true);
+            if (candidate.score < pair.score) pair = candidate;
+          }
+        best = place(best.up, best.heading, pair.pose, name, kind, false);
+        for (const int side : {0, 1}) {
+          const PartPose held = best.pose;
+          for (const auto& option : each[static_cast<size_t>(side)]) {
+            PartPose pose = held;
+            set_leg(&pose, side, option);
+            const Start candidate = place(best.up, best.heading, pose, name, kind, false);
+            if (candidate.score < best.score) best = candidate;
+          }
+        }
+      }
+    }, 1);
+    starts.insert(starts.end(), legged.begin(), legged.end());
+    std::sort(starts.begin(), starts.end(), by_score);
+    return starts;
+  }
+
+  /// `starts` and the arms of every library pose on the best three (legs and arms combine freely:
+  /// sitting with the arms out, kneeling with hands on hips).
+  std::vector<Start> with_arms_mixed(std::vector<Start> starts, const std::vector<LibraryPose>& library) const {
+    std::vector<int> arm_joints;
+    for (const char* side : {"left_", "right_"})
+      for (const char* joint : {"shoulder", "elbow", "wrist"}) arm_joints.push_back(find_joint_index(std::string(side) + joint));
+    auto arms_of = [&](const PartPose& p) {
+      std::vector<Eigen::Vector3d> a;
+      for (int j : arm_joints) a.push_back(p.joint_rotation[static_cast<size_t>(j)]);
+      return a;
+    };
+    std::vector<Start> mixed;
+    for (size_t k = 0; k < std::min<size_t>(3, starts.size()); ++k) {
+      std::vector<std::vector<Eigen::Vector3d>> seen = {arms_of(starts[k].pose)};
+      for (const LibraryPose& lib : library) {
+        const auto arms = arms_of(lib.pose);
+        if (std::find(seen.begin(), seen.end(), arms) != seen.end()) continue;
+        seen.push_back(arms);
+        PartPose pose = starts[k].pose;
+        for (size_t i = 0; i < arm_joints.size(); ++i) pose.joint_rotation[static_cast<size_t>(arm_joints[i])] = arms[i];
+        mixed.push_back(
+            place(starts[k].up, starts[k].heading, pose, starts[k].name + ", arms as " + lib.name, starts[k].kind + "+" + lib.kind, false));
+      }
+    }
+    starts.insert(starts.end(), mixed.begin(), mixed.end());
+    std::sort(starts.begin(), starts.end(), by_score);
+    return starts;
+  }
+
+ private:
+  static bool by_score(const Start& a, const Start& b) { return a.score < b.score; }
+
+  Start place(size_t u, int heading, PartPose pose, const std::string& name, const std::string& kind, bool sparse) const {
     Eigen::MatrixXd X;
-    ShapedBody::skin(model, mean_body.rest_vertices(), mean_body.part_motions(pose), sample_rows, &X);
+    ShapedBody::skin(model_, mean_body_.rest_vertices(), mean_body_.part_motions(pose), sample_rows_, &X);
     const Eigen::Vector3d placed = pose.root_translation;
-    stand_on(X, frames[u].coarse, &pose);
+    stand_on(X, frames_[u].coarse, &pose);
     X.rowwise() += (pose.root_translation - placed).transpose();
-    const double score = sparse ? mismatch(every(X, sparse_stride), frames[u].sparse, *frames[u].sparse_grid, 0.15, 2 * kCoarseCell)
-                                : mismatch(X, frames[u].coarse, *frames[u].coarse_grid, 0.15, kCoarseCell);
+    const double score = sparse ? mismatch(every(X, kSparseStride), frames_[u].sparse, *frames_[u].sparse_grid, 0.15, 2 * kCoarseCell)
+                                : mismatch(X, frames_[u].coarse, *frames_[u].coarse_grid, 0.15, kCoarseCell);
     return Start{score, u, heading, name, kind, pose};
-  };
-  auto by_score = [](const Start& a, const Start& b) { return a.score < b.score; };
-  // Every pose of `poses` at every heading on each of the up frames `ups`.
-  auto place_all = [&](const std::vector<LibraryPose>& poses, const std::vector<size_t>& ups) {
+  }
+
+  /// Every pose of `poses` at every heading on each of the up frames `ups`, on the sparse samples.
+  std::vector<Start> place_all(const std::vector<LibraryPose>& poses, const std::vector<size_t>& ups, int headings) const {
     const long per_up = static_cast<long>(poses.size()) * headings;
     std::vector<Start> placed(ups.size() * static_cast<size_t>(per_up));
-    parallel_for_ranges(static_cast<long>(placed.size()), threads, [&](long begin, long end) {
+    parallel_for_ranges(static_cast<long>(placed.size()), threads_, [&](long begin, long end) {
       for (long k = begin; k < end; ++k) {
         const size_t u = ups[static_cast<size_t>(k / per_up)];
         const LibraryPose& lib = poses[static_cast<size_t>((k % per_up) / headings)];
@@ -482,105 +599,15 @@ std::vector<Start> search_starts(const BodyModel& model, const ShapedBody& mean_
       }
     }, 1);
     return placed;
-  };
-  std::vector<size_t> all_ups(frames.size());
-  for (size_t u = 0; u < frames.size(); ++u) all_ups[u] = u;
-  std::vector<Start> starts = place_all(library, all_ups);
-  std::sort(starts.begin(), starts.end(), by_score);
-  // The motion poses only on the two up directions the library liked best: they are many, and the
-  // vertical is told by the library's standing, kneeling and sitting poses alike.
-  if (!motion_poses.empty()) {
-    std::vector<size_t> best_ups;
-    for (const Start& s : starts)
-      if (best_ups.size() < 2 && std::find(best_ups.begin(), best_ups.end(), s.up) == best_ups.end()) best_ups.push_back(s.up);
-    std::vector<Start> more = place_all(motion_poses, best_ups);
-    starts.insert(starts.end(), more.begin(), more.end());
-    std::sort(starts.begin(), starts.end(), by_score);
   }
-  // The best on the sparse samples, scored again on the coarse ones.
-  starts.resize(std::min(starts.size(), static_cast<size_t>(std::max(1, rescored))));
-  parallel_for_ranges(static_cast<long>(starts.size()), threads, [&](long begin, long end) {
-    for (long k = begin; k < end; ++k) {
-      Start& s = starts[static_cast<size_t>(k)];
-      s = place(s.up, s.heading, s.pose, s.name, s.kind, false);
-    }
-  }, 1);
-  std::sort(starts.begin(), starts.end(), by_score);
-  // The legs searched on the best start of each of the best up directions and headings, placed on
-  // the cloud again for every option: a library pose's legs go together, a person's need not (one
-  // thigh raised, the other knee bent back), and such a body matched the library better on its
-  // side or facing away than upright with the library's legs. Both legs together first, on the
-  // sparse samples (the placement, on the lowest point, depends on both: one at a time stopped at a
-  // thigh raised 30 degrees of 76), then each on its own with the thighs also spread.
-  std::vector<Start> legged;
-  for (const Start& s : starts)
-    if (static_cast<int>(legged.size()) < legs_searched &&
-        std::none_of(legged.begin(), legged.end(), [&](const Start& t) { return t.up == s.up && t.heading == s.heading; }))
-      legged.push_back(s);
-  const Eigen::MatrixXd& J = mean_body.joint_centres();
-  const std::array<std::vector<std::array<Eigen::Vector3d, 2>>, 2> leg_choices = {leg_options(J, 1), leg_options(J, -1)},
-                                                                    leg_pairs = {leg_options(J, 1, false), leg_options(J, -1, false)};
-  std::array<std::array<size_t, 3>, 2> leg_joints;
-  for (int i = 0; i < 2; ++i) {
-    const std::string s = i == 0 ? "left_" : "right_";
-    leg_joints[static_cast<size_t>(i)] = {static_cast<size_t>(find_joint_index(s + "hip")), static_cast<size_t>(find_joint_index(s + "knee")),
-                                          static_cast<size_t>(find_joint_index(s + "ankle"))};
-  }
-  auto set_leg = [&](PartPose* pose, int side, const std::array<Eigen::Vector3d, 2>& option) {
-    const auto& [hip, knee, ankle] = leg_joints[static_cast<size_t>(side)];
-    pose->joint_rotation[hip] = option[0], pose->joint_rotation[knee] = option[1], pose->joint_rotation[ankle].setZero();
-  };
-  parallel_for_ranges(static_cast<long>(legged.size()), threads, [&](long begin, long end) {
-    for (long k = begin; k < end; ++k) {
-      Start& best = legged[static_cast<size_t>(k)];
-      const std::string name = best.name + ", legs searched", kind = best.kind + "+legs";
-      Start pair = place(best.up, best.heading, best.pose, name, kind, true);
-      const PartPose base = best.pose;
-      for (const auto& left : leg_pairs[0])
-        for (const auto& right : leg_pairs[1]) {
-          PartPose pose = base;
-          set_leg(&pose, 0, left), set_leg(&pose, 1, right);
-          const Start candidate = place(best.up, best.heading, pose, name, kind, true);
-          if (candidate.score < pair.score) pair = candidate;
-        }
-      best = place(best.up, best.heading, pair.pose, name, kind, false);
-      for (const int side : {0, 1}) {
-        const PartPose held = best.pose;
-        for (const auto& option : leg_choices[static_cast<size_t>(side)]) {
-          PartPose pose = held;
-          set_leg(&pose, side, option);
-          const Start candidate = place(best.up, best.heading, pose, name, kind, false);
-          if (candidate.score < best.score) best = candidate;
-        }
-      }
-    }
-  }, 1);
-  starts.insert(starts.end(), legged.begin(), legged.end());
-  std::sort(starts.begin(), starts.end(), by_score);
-  std::vector<int> arm_joints;
-  for (const char* side : {"left_", "right_"})
-    for (const char* joint : {"shoulder", "elbow", "wrist"}) arm_joints.push_back(find_joint_index(std::string(side) + joint));
-  auto arms_of = [&](const PartPose& p) {
-    std::vector<Eigen::Vector3d> a;
-    for (int j : arm_joints) a.push_back(p.joint_rotation[static_cast<size_t>(j)]);
-    return a;
-  };
-  std::vector<Start> mixed;
-  for (size_t k = 0; k < std::min<size_t>(3, starts.size()); ++k) {
-    std::vector<std::vector<Eigen::Vector3d>> seen = {arms_of(starts[k].pose)};
-    for (const LibraryPose& lib : library) {
-      const auto arms = arms_of(lib.pose);
-      if (std::find(seen.begin(), seen.end(), arms) != seen.end()) continue;
-      seen.push_back(arms);
-      PartPose pose = starts[k].pose;
-      for (size_t i = 0; i < arm_joints.size(); ++i) pose.joint_rotation[static_cast<size_t>(arm_joints[i])] = arms[i];
-      mixed.push_back(place(starts[k].up, starts[k].heading, pose, starts[k].name + ", arms as " + lib.name, starts[k].kind + "+" + lib.kind, false));
-    }
-  }
-  starts.insert(starts.end(), mixed.begin(), mixed.end());
-  std::sort(starts.begin(), starts.end(), by_score);
-  return starts;
-}
+
+  static constexpr Eigen::Index kSparseStride = 5;
+  const BodyModel& model_;
+  const ShapedBody& mean_body_;
+  const std::vector<UpFrame>& frames_;
+  int threads_;
+  std::vector<int> sample_rows_;
+};
 
 /// What is read off the fitted body (out->V, in the target's frame): each target point's part and
 /// distance, the working cloud's distances to the fitted surface, coverage, and the confidence.
@@ -807,15 +834,11 @@ BodyFit fit_body_model(const BodyModel& model, const Eigen::MatrixXd& T, const B
       if ((a.pose.joint_rotation[j] - b.pose.joint_rotation[j]).norm() > 1e-9) return false;
     return (a.pose.root_rotation - b.pose.root_rotation).norm() < 1e-9;
   };
-  // The search (search_starts), and brief fits of its best distinct starts, not fitted before, best
-  // first.
+  // Brief fits of the best distinct starts not fitted before, best first.
   std::vector<Start> tried;
   std::vector<double> tried_score;
   std::vector<PartPose> tried_pose;
-  auto search_and_brief_fits = [&](int legs_searched) {
-    const std::vector<Start> starts =
-        search_starts(model, mean_body, library, motion_poses, frames, o.headings, o.starts_rescored, legs_searched, o.threads);
-    lap("search");
+  auto brief_fits = [&](const std::vector<Start>& starts) {
     const size_t first = tried.size();
     for (size_t k = 0; k < starts.size() && static_cast<int>(tried.size() - first) < std::max(1, o.hypotheses_refined); ++k)
       if (std::none_of(tried.begin(), tried.end(), [&](const Start& t) { return same_start(t, starts[k]); })) tried.push_back(starts[k]);
@@ -915,12 +938,18 @@ BodyFit fit_body_model(const BodyModel& model, const Eigen::MatrixXd& T, const B
     }
     return out;
   };
-  BodyFit out = finish_best(search_and_brief_fits(0));
+  const StartSearch search(model, mean_body, frames, o.threads);
+  const std::vector<Start> library_starts = search.library_starts(library, motion_poses, o.headings, o.starts_rescored);
+  std::vector<Start> starts = search.with_arms_mixed(library_starts, library);
+  lap("search");
+  BodyFit out = finish_best(brief_fits(starts));
   // Still poor: the body may hold its legs as no library pose does. The search again with each leg
   // on its own, only now: on bodies that the library's starts fit, starts with the legs searched
   // scored better and fitted worse (a pelvis tipped 10-15 degrees, the hips and back making up).
   if (!out.confident && o.legs_searched > 0) {
-    const std::vector<size_t> ranked = search_and_brief_fits(o.legs_searched);
+    starts = search.with_arms_mixed(search.with_legs_searched(library_starts, o.legs_searched), library);
+    lap("search");
+    const std::vector<size_t> ranked = brief_fits(starts);
     if (!ranked.empty()) {
       BodyFit legged = finish_best(ranked);
       if (legged.confident) {
