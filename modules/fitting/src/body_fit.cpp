@@ -175,12 +175,13 @@ class Anatomy {
 };
 
 /// One arm's shoulder and elbow rotations to try on their own (side: +1 left, -1 right): the upper
-/// arm hanging, out, up, forward, back or across, each with the elbow straight, at right angles or
-/// bent further.
+/// arm hanging, out, raised (hands about the head's height: between out and overhead, which an arm
+/// drawn at 150-170 degrees from the rig's rest and reaching forward fitted neither), up, forward,
+/// back or across, each with the elbow straight, at right angles or bent further.
 std::vector<std::array<Eigen::Vector3d, 2>> arm_options(const Eigen::MatrixXd& J, double side) {
   const Anatomy body(J);
-  const std::vector<std::array<double, 2>> shoulders = {{5, 0},   {20, 0},  {45, 0},  {90, 0},   {165, 0}, {5, 45}, {5, 90},
-                                                        {20, 45}, {30, 90}, {30, -20}, {40, -15}, {10, 60}, {5, 150}};
+  const std::vector<std::array<double, 2>> shoulders = {{5, 0},   {20, 0},  {45, 0},   {90, 0},   {125, 0}, {125, 30}, {165, 0},
+                                                        {5, 45},  {5, 90},  {20, 45},  {30, 90},  {30, -20}, {40, -15}, {10, 60}, {5, 150}};
   std::vector<std::array<Eigen::Vector3d, 2>> options;
   for (const auto& [abduction, flexion] : shoulders)
     for (const double elbow : {10.0, 45.0, 90.0, 125.0})
