@@ -944,8 +944,8 @@ BodyFit fit_body_model(const BodyModel& model, const Eigen::MatrixXd& T, const B
   std::vector<Start> starts = search.with_arms_mixed(library_starts, library);
   lap("search");
   BodyFit out = finish_best(brief_fits(starts));
-  // Still poor: the body may hold its legs as no library pose does. The search again with each leg
-  // on its own, only now: on bodies that the library's starts fit, starts with the legs searched
+  // Still poor: the body may hold its legs as no library pose does. The search again with the legs
+  // searched, only now: on bodies that the library's starts fit, starts with the legs searched
   // scored better and fitted worse (a pelvis tipped 10-15 degrees, the hips and back making up).
   if (!out.confident && o.legs_searched > 0) {
     starts = search.with_arms_mixed(search.with_legs_searched(library_starts, o.legs_searched), library);
@@ -955,7 +955,7 @@ BodyFit fit_body_model(const BodyModel& model, const Eigen::MatrixXd& T, const B
       BodyFit legged = finish_best(ranked);
       if (legged.confident) {
         legged.warnings.push_back("the library's starts gave a poor fit (" + out.reasons.front() +
-                                  "); a start with each leg searched on its own is kept");
+                                  "); a start with the legs searched is kept");
         out = std::move(legged);
       }
     }

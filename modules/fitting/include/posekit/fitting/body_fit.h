@@ -53,8 +53,8 @@ struct BodyFitOptions {
   /// The search scores every start on a sparse sample first, then these best again on a denser one.
   int starts_rescored = 300;
   int hypotheses_refined = 6;  ///< the best-scoring distinct starts that get a brief articulated fit
-  /// When the fits from the library's starts are poor, the search again with each leg on its own on
-  /// this many of the best up directions and headings (0: not).
+  /// When the fits from the library's starts are poor, the search again with the legs searched (both
+  /// together, then each on its own) on this many of the best pairs of up direction and heading (0: not).
   int legs_searched = 8;
   /// Alternations of the shape's least squares and a brief articulated refit (8: the shoulders of
   /// three A-pose robustness bodies ended 13-23 mm from the rig's, at 2 rounds 32-41 mm).
