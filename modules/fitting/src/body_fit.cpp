@@ -434,6 +434,35 @@ struct UpFrame {
   std::unique_ptr<PointGrid> coarse_grid, sparse_grid;
 };
 
+/// Seconds per named stage: lap(stage) adds the time since the last lap to the stage's.
+struct StageTimer {
+  std::vector<std::pair<std::string, double>> stages;
+  std::chrono::steady_clock::time_point last = std::chrono::steady_clock::now();
+  void lap(const std::string& stage) {
+    const auto now = std::chrono::steady_clock::now();
+    const double s = std::chrono::duration<double>(now - last).count();
+    last = now;
+    for (auto& [name, seconds] : stages)
+      if (name == stage) return void(seconds += s);
+    stages.emplace_back(stage, s);
+  }
+};
+
+/// The working cloud W seen with each of the up directions `ups` (about its centre).
+std::vector<UpFrame> up_frames(const Eigen::MatrixXd& W, const Eigen::RowVector3d& centre, const std::vector<Eigen::Vector3d>& ups) {
+  std::vector<UpFrame> frames(ups.size());
+  for (size_t u = 0; u < ups.size(); ++u) {
+    UpFrame& f = frames[u];
+    f.rotation = Eigen::Quaterniond::FromTwoVectors(ups[u].normalized(), Eigen::Vector3d::UnitY()).toRotationMatrix();
+    f.cloud = (W.rowwise() - centre) * f.rotation.transpose();
+    f.coarse = every(f.cloud, std::max<Eigen::Index>(1, W.rows() / 700));
+    f.coarse_grid = std::make_unique<PointGrid>(f.coarse, kCoarseCell);
+    f.sparse = every(f.cloud, std::max<Eigen::Index>(1, W.rows() / 200));
+    f.sparse_grid = std::make_unique<PointGrid>(f.sparse, 2 * kCoarseCell);
+  }
+  return frames;
+}
+
 /// A start of the articulated fit: a library pose at a heading, placed on one up frame's cloud.
 struct Start {
   double score = 0;  ///< mismatch of the mean body so placed (m)
@@ -703,6 +732,31 @@ void read_off_fit(const BodyModel& model, const Eigen::MatrixXd& T, const Eigen:
 
 namespace {
 
+/// A brief articulated fit from `start` (its prior pulling towards it) on one thread; *score: the
+/// fitted body's mismatch over the rows `spread`.
+PartPose brief_fit(const BodyModel& model, const Eigen::MatrixXd& cloud, const PartPose& start, const PoseFitOptions& brief,
+                   const std::vector<int>& spread, const BodyFitOptions& o, double* score) {
+  const Eigen::VectorXd zero = Eigen::VectorXd::Zero(model.components());
+  PoseFitOptions mine = brief;
+  mine.start = mine.prior_pose = start;
+  const PointGrid grid(cloud, 0.03);
+  BodyFitOptions one_thread = o;
+  one_thread.threads = 1;
+  // Fitted with the shape fitted at the start (two Gauss-Newton steps), not the mean shape: a pelvis
+  // fitted with another body's buttocks and thighs tipped 16-18 degrees in a squat, the lower back
+  // and hips making up for it, and the later shape fits settled in that tilt.
+  const Eigen::VectorXd start_shape = fit_shape(model, zero, &mine.start.value(), cloud, grid, one_thread, 2);
+  const PoseFitResult r = fit_pose(ShapedBody(model, start_shape), cloud, mine);
+  // Scored with the shape fitted to it (two Gauss-Newton steps): with the mean shape the body's own
+  // proportions (3 cm) outweighed a forearm turned wrong.
+  PartPose shaped_pose = r.pose;
+  const Eigen::VectorXd c = fit_shape(model, zero, &shaped_pose, cloud, grid, one_thread, 2);
+  Eigen::MatrixXd X;
+  ShapedBody(model, c).pose(shaped_pose, &X);
+  *score = mismatch(X(spread, Eigen::all), cloud, grid, 0.15);
+  return r.pose;
+}
+
 /// Each arm, then each leg, on its own from `pose`: the options of arm_options and leg_options scored
 /// on the coarse samples, the best kept limb by limb. Arms are where whole-body starts miss most (hands
 /// on hips, arms crossed) and the options of two arms multiply; a library pose's legs go together, a
@@ -774,16 +828,8 @@ PoseFitResult fit_shape_and_pose(const BodyModel& model, const UpFrame& frame, c
 
 BodyFit fit_body_model(const BodyModel& model, const Eigen::MatrixXd& T, const BodyFitOptions& o) {
   const auto t0 = std::chrono::steady_clock::now();
-  std::vector<std::pair<std::string, double>> stages;
-  auto lap_start = t0;
-  auto lap = [&](const std::string& stage) {  // the time since the last lap, added to the stage's
-    const auto now = std::chrono::steady_clock::now();
-    const double s = std::chrono::duration<double>(now - lap_start).count();
-    lap_start = now;
-    for (auto& [name, seconds] : stages)
-      if (name == stage) return void(seconds += s);
-    stages.emplace_back(stage, s);
-  };
+  StageTimer timer;
+  auto lap = [&](const std::string& stage) { timer.lap(stage); };
   if (T.rows() < 100 || T.cols() != 3 || !T.allFinite())
     throw InvalidInput("body fit: the target has " + std::to_string(T.rows()) + " points (at least 100 finite ones needed)");
   const Eigen::MatrixXd W = working_cloud(T, o.working_cell);
@@ -804,16 +850,7 @@ BodyFit fit_body_model(const BodyModel& model, const Eigen::MatrixXd& T, const B
   std::vector<Eigen::Vector3d> ups = o.up_candidates;
   if (ups.empty())
     for (int a = 0; a < 3; ++a) ups.push_back(Eigen::Vector3d::Unit(a)), ups.push_back(-Eigen::Vector3d::Unit(a));
-  std::vector<UpFrame> frames(ups.size());
-  for (size_t u = 0; u < ups.size(); ++u) {
-    UpFrame& f = frames[u];
-    f.rotation = Eigen::Quaterniond::FromTwoVectors(ups[u].normalized(), Eigen::Vector3d::UnitY()).toRotationMatrix();
-    f.cloud = (W.rowwise() - centre) * f.rotation.transpose();
-    f.coarse = every(f.cloud, std::max<Eigen::Index>(1, W.rows() / 700));
-    f.coarse_grid = std::make_unique<PointGrid>(f.coarse, kCoarseCell);
-    f.sparse = every(f.cloud, std::max<Eigen::Index>(1, W.rows() / 200));
-    f.sparse_grid = std::make_unique<PointGrid>(f.sparse, 2 * kCoarseCell);
-  }
+  const std::vector<UpFrame> frames = up_frames(W, centre, ups);
   lap("working cloud");
 
   // The best starts, each fitted briefly; the best of those goes on.
@@ -847,25 +884,7 @@ BodyFit fit_body_model(const BodyModel& model, const Eigen::MatrixXd& T, const B
     parallel_for_ranges(static_cast<long>(tried.size() - first), o.threads, [&](long begin, long end) {
       for (long i = begin; i < end; ++i) {
         const auto k = static_cast<size_t>(i) + first;
-        PoseFitOptions mine = brief;
-        mine.start = mine.prior_pose = tried[k].pose;
-        const UpFrame& f = frames[tried[k].up];
-        const PointGrid grid(f.cloud, 0.03);
-        BodyFitOptions one_thread = o;
-        one_thread.threads = 1;
-        // Fitted with the shape fitted at the start (two Gauss-Newton steps), not the mean shape: a
-        // pelvis fitted with another body's buttocks and thighs tipped 16-18 degrees in a squat, the
-        // lower back and hips making up for it, and the later shape fits settled in that tilt.
-        const Eigen::VectorXd start_shape = fit_shape(model, Eigen::VectorXd::Zero(K), &mine.start.value(), f.cloud, grid, one_thread, 2);
-        const PoseFitResult r = fit_pose(ShapedBody(model, start_shape), f.cloud, mine);
-        // Scored with the shape fitted to it (two Gauss-Newton steps): with the mean shape the body's
-        // own proportions (3 cm) outweighed a forearm turned wrong.
-        PartPose shaped_pose = r.pose;
-        const Eigen::VectorXd c = fit_shape(model, Eigen::VectorXd::Zero(K), &shaped_pose, f.cloud, grid, one_thread, 2);
-        Eigen::MatrixXd X;
-        ShapedBody(model, c).pose(shaped_pose, &X);
-        tried_score[k] = mismatch(X(spread, Eigen::all), f.cloud, grid, 0.15);
-        tried_pose[k] = r.pose;
+        tried_pose[k] = brief_fit(model, frames[tried[k].up].cloud, tried[k].pose, brief, spread, o, &tried_score[k]);
       }
     }, 1);
     // By score (ties in the starts' order: the same choice on any number of threads).
@@ -961,7 +980,7 @@ BodyFit fit_body_model(const BodyModel& model, const Eigen::MatrixXd& T, const B
     }
   }
   out.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
-  out.stage_seconds = std::move(stages);
+  out.stage_seconds = std::move(timer.stages);
   return out;
 }
 
