@@ -18,13 +18,7 @@
 namespace posekit {
 namespace {
 
-constexpr int kUnknowns = 6 + 3 * kNumJoints;  // root translation, root rotation, each joint's rotation
-
-Eigen::Matrix3d skew(const Eigen::Vector3d& v) {
-  Eigen::Matrix3d S;
-  S << 0, -v.z(), v.y(), v.z(), 0, -v.x(), -v.y(), v.x(), 0;
-  return S;
-}
+constexpr int kUnknowns = kPoseIncrementSize;
 
 /// The value below which a fraction q of v lies.
 // A grid cell holding about ten points of a sampled surface (a scan, a body's vertices): three
@@ -191,23 +185,7 @@ PoseFitResult fit_pose(const PosableBody& subject, const Eigen::MatrixXd& T, con
     prior_centre[static_cast<size_t>(j)] = o.prior_pose ? o.prior_pose->joint_rotation[static_cast<size_t>(j)] : Eigen::Vector3d::Zero();
   std::array<bool, kNumJoints> held{};  // joints of parts the target does not show: held at rest
   Eigen::MatrixXd X;
-  // Applies a Gauss-Newton step: world increments accumulate down the tree; relative rotations follow.
-  auto apply_step = [&](PartPose& pose, const Eigen::Matrix<double, kUnknowns, 1>& step) {
-    const auto R = part_rotations(pose);
-    std::array<Eigen::Matrix3d, kNumParts> W;
-    W[kPelvis] = rotation_from_axis_angle(step.segment<3>(3)) * R[kPelvis];
-    std::array<Eigen::Vector3d, kNumParts> increment;
-    increment[kPelvis] = step.segment<3>(3);
-    for (int c = 1; c < kNumParts; ++c) {
-      increment[static_cast<size_t>(c)] = increment[static_cast<size_t>(part_parent(c))] + step.segment<3>(6 + 3 * (c - 1));
-      W[static_cast<size_t>(c)] = rotation_from_axis_angle(increment[static_cast<size_t>(c)]) * R[static_cast<size_t>(c)];
-    }
-    pose.root_rotation = axis_angle_from_rotation(W[kPelvis]);
-    pose.root_translation += step.head<3>();
-    for (int c = 1; c < kNumParts; ++c)
-      pose.joint_rotation[static_cast<size_t>(c - 1)] =
-          axis_angle_from_rotation(W[static_cast<size_t>(part_parent(c))].transpose() * W[static_cast<size_t>(c)]);
-  };
+
   // How well a pose explains the target: the mean distance of target points to the body, each
   // capped at 10 cm so that outliers and holes do not decide.
   auto score = [&](const PartPose& pose) {
@@ -269,7 +247,7 @@ PoseFitResult fit_pose(const PosableBody& subject, const Eigen::MatrixXd& T, con
       const double w = 1 / (1 + s / s2);
       Eigen::Matrix<double, 3, 6> J0;
       J0.leftCols<3>().setIdentity();
-      J0.rightCols<3>() = -skew(x);
+      J0.rightCols<3>() = -cross_product_matrix(x);
       const Eigen::Matrix<double, 6, 3> J0tM = w * J0.transpose() * M0;
       const size_t q = static_cast<size_t>(part[v]);
       S.H[q].noalias() += J0tM * J0;
@@ -319,13 +297,13 @@ PoseFitResult fit_pose(const PosableBody& subject, const Eigen::MatrixXd& T, con
       Eigen::Matrix<double, 6, Eigen::Dynamic, 0, 6, kMaxActive> B = Eigen::Matrix<double, 6, Eigen::Dynamic, 0, 6, kMaxActive>::Zero(6, 6);
       std::array<int, kMaxActive> column{};
       B.topLeftCorner<3, 3>().setIdentity();
-      B.block<3, 3>(0, 3) = skew(pivot);
+      B.block<3, 3>(0, 3) = cross_product_matrix(pivot);
       B.block<3, 3>(3, 3).setIdentity();
       for (int k = 0; k < 6; ++k) column[static_cast<size_t>(k)] = k;
       for (int j : chain[static_cast<size_t>(q)]) {
         const Eigen::Index c = B.cols();
         B.conservativeResize(6, c + 3);
-        B.block<3, 3>(0, c) = skew(centre[static_cast<size_t>(j)]);
+        B.block<3, 3>(0, c) = cross_product_matrix(centre[static_cast<size_t>(j)]);
         B.block<3, 3>(3, c).setIdentity();
         for (int k = 0; k < 3; ++k) column[static_cast<size_t>(c + k)] = 6 + 3 * j + k;
       }
@@ -403,7 +381,7 @@ PoseFitResult fit_pose(const PosableBody& subject, const Eigen::MatrixXd& T, con
       const Vector step = A.ldlt().solve(-current.g);
       if (!step.allFinite()) break;
       PartPose trial = pose;
-      apply_step(trial, step);
+      apply_pose_increment(&trial, step);
       ++it;
       if (max_d != d1) {
         // While the distance shrinks the objective changes with it: every step is taken.

@@ -30,6 +30,31 @@ std::array<Eigen::Matrix3d, kNumParts> part_rotations(const PartPose& pose) {
   return R;
 }
 
+Eigen::Matrix3d cross_product_matrix(const Eigen::Vector3d& v) {
+  Eigen::Matrix3d S;
+  S << 0, -v.z(), v.y(), v.z(), 0, -v.x(), -v.y(), v.x(), 0;
+  return S;
+}
+
+void apply_pose_increment(PartPose* pose, const Eigen::Ref<const Eigen::VectorXd>& step) {
+  if (step.size() != kPoseIncrementSize)
+    throw InvalidInput("apply_pose_increment: expected " + std::to_string(kPoseIncrementSize) + " unknowns, got " + std::to_string(step.size()));
+  const auto R = part_rotations(*pose);
+  std::array<Eigen::Matrix3d, kNumParts> W;
+  std::array<Eigen::Vector3d, kNumParts> increment;
+  increment[kPelvis] = step.segment<3>(3);
+  W[kPelvis] = rotation_from_axis_angle(increment[kPelvis]) * R[kPelvis];
+  for (int c = 1; c < kNumParts; ++c) {
+    increment[static_cast<size_t>(c)] = increment[static_cast<size_t>(part_parent(c))] + step.segment<3>(6 + 3 * (c - 1));
+    W[static_cast<size_t>(c)] = rotation_from_axis_angle(increment[static_cast<size_t>(c)]) * R[static_cast<size_t>(c)];
+  }
+  pose->root_rotation = axis_angle_from_rotation(W[kPelvis]);
+  pose->root_translation += step.head<3>();
+  for (int c = 1; c < kNumParts; ++c)
+    pose->joint_rotation[static_cast<size_t>(c - 1)] =
+        axis_angle_from_rotation(W[static_cast<size_t>(part_parent(c))].transpose() * W[static_cast<size_t>(c)]);
+}
+
 Eigen::Matrix<double, kOffsetFeatures, 1> joint_offset_features(const PartPose& pose, int joint) {
   const Eigen::Vector3d& r = pose.joint_rotation[static_cast<size_t>(joint)];
   Eigen::Matrix<double, kOffsetFeatures, 1> f;

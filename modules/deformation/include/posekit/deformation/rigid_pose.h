@@ -20,6 +20,18 @@ void validate_part_pose(const PartPose& pose, const std::string& context);
 /// World rotation of each part: R[child] = R[parent] * rotation(joint), R[pelvis] = root rotation.
 std::array<Eigen::Matrix3d, kNumParts> part_rotations(const PartPose& pose);
 
+/// [v]x: the matrix whose product with u is v x u.
+Eigen::Matrix3d cross_product_matrix(const Eigen::Vector3d& v);
+
+/// Unknowns of a pose increment: root translation, root rotation, each joint's rotation.
+constexpr int kPoseIncrementSize = 6 + 3 * kNumJoints;
+
+/// Applies a Gauss-Newton pose increment `step` (kPoseIncrementSize): the root translation (3), then
+/// world-frame rotation increments of the pelvis and of each joint (3 each, joint order). A joint's
+/// increment turns its whole subtree, so increments accumulate down the tree; the relative rotations
+/// follow from the new world rotations.
+void apply_pose_increment(PartPose* pose, const Eigen::Ref<const Eigen::VectorXd>& step);
+
 /// Forward kinematics about the joint centres (#joints x 3, rest pose); the pelvis turns about the
 /// mean of its three joints and then moves by the root translation.
 PartTransforms part_transforms(const PartPose& pose, const Eigen::MatrixXd& joint_centres);
