@@ -311,38 +311,61 @@ std::vector<LibraryPose> distinct_motion_poses(const std::vector<LibraryPose>& f
 
 namespace {
 
-/// One shape least-squares round set (at most `rounds` Gauss-Newton steps on the coefficients, pose
-/// fixed): pairs both ways between the working cloud P and sampled vertices, point-to-plane with a
-/// little point-to-point, Cauchy weights, and the Gaussian prior of BodyFitOptions::shape_prior.
+/// One shape least-squares round set (at most `rounds` Gauss-Newton steps on the coefficients):
+/// pairs both ways between the working cloud P and sampled vertices, point-to-plane with a little
+/// point-to-point, Cauchy weights, and the Gaussian prior of BodyFitOptions::shape_prior. The body's
+/// translation moves too; with `with_pose` every joint's rotation as well (the pose's Jacobian by
+/// parts, as fit_pose's), so that a shape change the pose must follow (wider shoulders, arms hung
+/// from them at another angle) is found in one step instead of in turns.
 Eigen::VectorXd fit_shape(const BodyModel& model, Eigen::VectorXd c, PartPose* pose_io, const Eigen::MatrixXd& P,
-                          const PointGrid& grid, const BodyFitOptions& o, int rounds = 4) {
+                          const PointGrid& grid, const BodyFitOptions& o, int rounds = 4, bool with_pose = false) {
   PartPose& pose = *pose_io;
   const ShapeSpace& S = model.space();
   const int K = S.components();
   const std::vector<int> rows = spread_rows(S.mean, 0.02);
   const auto n = static_cast<Eigen::Index>(rows.size());
+  using RowMajorX3 = Eigen::Matrix<double, Eigen::Dynamic, 3, Eigen::RowMajor>;
   // x(c) = x0 + A c exactly for a fixed pose: skinning is affine in the vertices and joints.
-  Eigen::MatrixXd X0;
-  ShapedBody::skin(model, S.mean, part_transforms(pose, S.joint_mean), rows, &X0);
   // Unknowns: the coefficients and the body's translation (a taller body stands elsewhere).
   Eigen::MatrixXd A = Eigen::MatrixXd::Zero(3 * n, K + 3);
   for (Eigen::Index i = 0; i < n; ++i) A.block<3, 3>(3 * i, K).setIdentity();
-  using RowMajorX3 = Eigen::Matrix<double, Eigen::Dynamic, 3, Eigen::RowMajor>;
-  parallel_for_ranges(K, o.threads, [&](long k0, long k1) {
-    Eigen::MatrixXd Xk;
-    for (long k = k0; k < k1; ++k) {
-      const Eigen::MatrixXd Vk = S.mean + Eigen::Map<const RowMajorX3>(S.basis.col(k).data(), S.vertices(), 3);
-      const Eigen::MatrixXd Jk = S.joint_mean + Eigen::Map<const RowMajorX3>(S.joint_basis.col(k).data(), S.joint_mean.rows(), 3);
-      ShapedBody::skin(model, Vk, part_transforms(pose, Jk), rows, &Xk);
-      Xk -= X0;
-      for (Eigen::Index i = 0; i < n; ++i) A.block(3 * i, k, 3, 1) = Xk.row(i).transpose();
-    }
-  }, 1);
+  auto shape_columns = [&] {
+    Eigen::MatrixXd X0;
+    ShapedBody::skin(model, S.mean, part_transforms(pose, S.joint_mean), rows, &X0);
+    parallel_for_ranges(K, o.threads, [&](long k0, long k1) {
+      Eigen::MatrixXd Xk;
+      for (long k = k0; k < k1; ++k) {
+        const Eigen::MatrixXd Vk = S.mean + Eigen::Map<const RowMajorX3>(S.basis.col(k).data(), S.vertices(), 3);
+        const Eigen::MatrixXd Jk = S.joint_mean + Eigen::Map<const RowMajorX3>(S.joint_basis.col(k).data(), S.joint_mean.rows(), 3);
+        ShapedBody::skin(model, Vk, part_transforms(pose, Jk), rows, &Xk);
+        Xk -= X0;
+        for (Eigen::Index i = 0; i < n; ++i) A.block(3 * i, k, 3, 1) = Xk.row(i).transpose();
+      }
+    }, 1);
+  };
+  shape_columns();
+  // The pose's unknowns (with_pose): the pelvis's and each joint's world rotation increment; part
+  // q's twist is B_q times them (the translation is the shape's unknown already).
+  constexpr int kRotations = kPoseIncrementSize - 3;
+  std::array<std::vector<int>, kNumParts> chain;  // the joints that move each part
+  for (int q = 0; q < kNumParts; ++q)
+    for (int j = q; j > 0; j = part_parent(j)) chain[static_cast<size_t>(q)].push_back(j - 1);
+  const Eigen::VectorXi& vertex_part = model.vertex_parts();
+  using Twist = Eigen::Matrix<double, 6, 6>;
+  struct Sums {
+    Eigen::MatrixXd H;
+    Eigen::VectorXd g;
+    double weight = 0;
+    std::array<Twist, kNumParts> H6;                       // per part: the twist's normal equations
+    std::array<Eigen::Matrix<double, 6, 1>, kNumParts> b6;
+    std::array<Eigen::MatrixXd, kNumParts> C;              // per part: shape-twist cross terms
+  };
   const double max_d = 0.08, sigma = 0.03, p2p = 0.1;
   const Eigen::Index target_stride = std::max<Eigen::Index>(1, P.rows() / 8000);  // about 8,000 target points
   for (int round = 0; round < rounds; ++round) {
     Eigen::MatrixXd full;
-    ShapedBody(model, c).pose(pose, &full);
+    const ShapedBody body(model, c);
+    body.pose(pose, &full);
     const Eigen::MatrixXd normals = vertex_normals(full, model.faces());
     Eigen::MatrixXd X(n, 3);
     for (Eigen::Index i = 0; i < n; ++i) X.row(i) = full.row(rows[static_cast<size_t>(i)]);
@@ -379,48 +402,93 @@ Eigen::VectorXd fit_shape(const BodyModel& model, Eigen::VectorXd c, PartPose* p
     // n n^T + p2p I: along the normal with a little point-to-point.
     constexpr Eigen::Index kBlock = 512;
     const auto m = static_cast<Eigen::Index>(pairs.size());
-    std::array<Eigen::MatrixXd, 2> half_H;
-    std::array<Eigen::VectorXd, 2> half_g;
-    std::array<double, 2> half_weight{};
+    std::array<Sums, 2> half;
     const double a = std::sqrt(p2p), b = std::sqrt(1 + p2p) - std::sqrt(p2p);
     parallel_for_ranges(2, o.threads, [&](long h0, long h1) {
       Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor> J(3 * kBlock, K + 3);
       Eigen::VectorXd r(3 * kBlock);
       for (long h = h0; h < h1; ++h) {
-        Eigen::MatrixXd& H = half_H[static_cast<size_t>(h)];
-        Eigen::VectorXd& g = half_g[static_cast<size_t>(h)];
-        H = Eigen::MatrixXd::Zero(K + 3, K + 3), g = Eigen::VectorXd::Zero(K + 3);
+        Sums& mine = half[static_cast<size_t>(h)];
+        mine.H = Eigen::MatrixXd::Zero(K + 3, K + 3), mine.g = Eigen::VectorXd::Zero(K + 3);
+        if (with_pose)
+          for (int q = 0; q < kNumParts; ++q)
+            mine.H6[static_cast<size_t>(q)].setZero(), mine.b6[static_cast<size_t>(q)].setZero(),
+                mine.C[static_cast<size_t>(q)] = Eigen::MatrixXd::Zero(K + 3, 6);
         const Eigen::Index end = (h + 1) * m / 2;
         for (Eigen::Index start = h * m / 2; start < end; start += kBlock) {
           const Eigen::Index count = std::min(kBlock, end - start);
           for (Eigen::Index k = 0; k < count; ++k) {
             const auto [i, t] = pairs[static_cast<size_t>(start + k)];
-            const Eigen::Vector3d d = X.row(i).transpose() - P.row(t).transpose(), nn = normals.row(rows[static_cast<size_t>(i)]).transpose();
+            const Eigen::Vector3d x = X.row(i).transpose(), d = x - P.row(t).transpose(),
+                                  nn = normals.row(rows[static_cast<size_t>(i)]).transpose();
             const double along = nn.dot(d), w = 1 / (1 + (along * along + p2p * d.squaredNorm()) / (sigma * sigma));
-            const Eigen::Matrix3d S = std::sqrt(w) * (a * Eigen::Matrix3d::Identity() + b * nn * nn.transpose());
-            J.middleRows(3 * k, 3).noalias() = S * A.middleRows(3 * i, 3);
-            r.segment<3>(3 * k) = S * d;
-            half_weight[static_cast<size_t>(h)] += w;
+            const Eigen::Matrix3d Sw = std::sqrt(w) * (a * Eigen::Matrix3d::Identity() + b * nn * nn.transpose());
+            J.middleRows(3 * k, 3).noalias() = Sw * A.middleRows(3 * i, 3);
+            r.segment<3>(3 * k) = Sw * d;
+            mine.weight += w;
+            if (!with_pose) continue;
+            // The twist (t, w) of the vertex's part moves it by t - [x]x w.
+            Eigen::Matrix<double, 3, 6> SJ0;
+            SJ0.leftCols<3>() = Sw;
+            SJ0.rightCols<3>().noalias() = -Sw * cross_product_matrix(x);
+            const size_t q = static_cast<size_t>(vertex_part[rows[static_cast<size_t>(i)]]);
+            mine.H6[q].noalias() += SJ0.transpose() * SJ0;
+            mine.b6[q].noalias() += SJ0.transpose() * r.segment<3>(3 * k);
+            mine.C[q].noalias() += J.middleRows(3 * k, 3).transpose() * SJ0;
           }
           const auto Jb = J.topRows(3 * count);
-          H.selfadjointView<Eigen::Lower>().rankUpdate(Jb.transpose());
-          g.noalias() += Jb.transpose() * r.head(3 * count);
+          mine.H.selfadjointView<Eigen::Lower>().rankUpdate(Jb.transpose());
+          mine.g.noalias() += Jb.transpose() * r.head(3 * count);
         }
       }
     }, 1);
-    Eigen::MatrixXd H = half_H[0] + half_H[1];
-    Eigen::VectorXd g = half_g[0] + half_g[1];
-    const double weight = half_weight[0] + half_weight[1];
-    H = H.selfadjointView<Eigen::Lower>();
+    const int N = K + 3 + (with_pose ? kRotations : 0);
+    Eigen::MatrixXd H = Eigen::MatrixXd::Zero(N, N);
+    Eigen::VectorXd g = Eigen::VectorXd::Zero(N);
+    H.topLeftCorner(K + 3, K + 3) = (half[0].H + half[1].H).selfadjointView<Eigen::Lower>();
+    g.head(K + 3) = half[0].g + half[1].g;
+    const double weight = half[0].weight + half[1].weight;
     if (weight <= 0) break;
+    if (with_pose) {
+      const Eigen::MatrixXd Jc = body.joint_centres();
+      const PartTransforms T = body.part_motions(pose);
+      const Eigen::Vector3d pivot =
+          (Jc.row(kAbdomen - 1) + Jc.row(kLeftThigh - 1) + Jc.row(kRightThigh - 1)).transpose() / 3 + pose.root_translation;
+      for (int q = 0; q < kNumParts; ++q) {
+        Eigen::Matrix<double, 6, kRotations> B = Eigen::Matrix<double, 6, kRotations>::Zero();
+        B.block<3, 3>(0, 0) = cross_product_matrix(pivot);
+        B.block<3, 3>(3, 0).setIdentity();
+        for (int j : chain[static_cast<size_t>(q)]) {
+          const size_t parent = static_cast<size_t>(part_parent(j + 1));
+          const Eigen::Vector3d centre = T.R[parent] * Jc.row(j).transpose() + T.t[parent];
+          B.block<3, 3>(0, 3 + 3 * j) = cross_product_matrix(centre);
+          B.block<3, 3>(3, 3 + 3 * j).setIdentity();
+        }
+        const size_t p = static_cast<size_t>(q);
+        const Twist H6 = half[0].H6[p] + half[1].H6[p];
+        H.block(0, K + 3, K + 3, kRotations).noalias() += (half[0].C[p] + half[1].C[p]) * B;
+        H.bottomRightCorner<kRotations, kRotations>().noalias() += B.transpose() * H6 * B;
+        g.tail<kRotations>().noalias() += B.transpose() * (half[0].b6[p] + half[1].b6[p]);
+      }
+      H.block(K + 3, 0, kRotations, K + 3) = H.block(0, K + 3, K + 3, kRotations).transpose();
+      // A little Levenberg damping: joints the pairs hardly see (a hand's twist) stay put.
+      H.diagonal().tail<kRotations>() += 1e-3 * H.diagonal().tail<kRotations>() + Eigen::VectorXd::Constant(kRotations, 1e-6 * weight);
+    }
     const double lambda = weight * o.shape_prior * o.shape_prior;
     H.diagonal().head(K).array() += lambda;
-    H.diagonal().tail(3).array() += 1e-9 * weight;
+    H.diagonal().segment<3>(K).array() += 1e-9 * weight;
     g.head(K) += lambda * c;
     const Eigen::VectorXd step = H.ldlt().solve(-g);
     if (!step.allFinite()) break;
     c += step.head(K);
-    pose.root_translation += step.tail(3);
+    if (with_pose) {
+      Eigen::VectorXd increment(kPoseIncrementSize);
+      increment << step.segment<3>(K), step.tail<kRotations>();
+      apply_pose_increment(&pose, increment);
+      shape_columns();
+    } else {
+      pose.root_translation += step.segment<3>(K);
+    }
     if (step.norm() < 0.01) break;
   }
   return c;
@@ -792,9 +860,9 @@ PartPose limbs_one_by_one(const BodyModel& model, const ShapedBody& mean_body, c
   return pose;
 }
 
-/// Shape and pose in turn from `pose` (o.shape_rounds rounds of fit_shape and a brief articulated
-/// refit), then the final articulated refinement; the joint priors pull towards `recognised`. Leaves
-/// the pose in `pose`, the coefficients in `c`.
+/// Shape and pose from `pose`: o.shape_rounds rounds of fit_shape (the pose moving with the shape)
+/// and a brief articulated refit with the joints' priors, then the final articulated refinement; the
+/// joint priors pull towards `recognised`. Leaves the pose in `pose`, the coefficients in `c`.
 PoseFitResult fit_shape_and_pose(const BodyModel& model, const UpFrame& frame, const PointGrid& grid, const BodyFitOptions& o,
                                  const PartPose& recognised, PartPose* pose, Eigen::VectorXd* c) {
   *c = Eigen::VectorXd::Zero(model.components());
@@ -814,7 +882,7 @@ PoseFitResult fit_shape_and_pose(const BodyModel& model, const UpFrame& frame, c
   refine.stall_gain = 1e-3;
   PoseFitResult result;
   for (int round = 0; round <= o.shape_rounds; ++round) {
-    if (round > 0) *c = fit_shape(model, *c, pose, frame.cloud, grid, o);
+    if (round > 0) *c = fit_shape(model, *c, pose, frame.cloud, grid, o, 4, true);
     refine.start = *pose;
     if (round < o.shape_rounds) refine.iterations = 8, refine.refinement_model_samples = 3000;  // brief: the shape moves on
     else refine.iterations = 100, refine.refinement_model_samples = 12000;
