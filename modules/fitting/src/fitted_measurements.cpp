@@ -4,6 +4,7 @@
 #include <algorithm>
 #include <cmath>
 #include <limits>
+#include <memory>
 #include <set>
 #include <iomanip>
 #include <sstream>
@@ -39,6 +40,33 @@ int part_chain(int part) {
   return 1 + (part - kLeftUpperArm) / 3;
 }
 
+/// A body stands when its hips, knees and back are each turned under this (degrees) from rest.
+constexpr double kStandingJointDeg = 25;
+/// A stance whose thighs' spread is within this (degrees) of the rest's is the rest's: the fit's
+/// joint angles on standing bodies are about 1 degree off, and a hip's fullest level can jump
+/// between the buttocks and the thighs' tops on a change that small (a tilted body's hip 13 mm off).
+constexpr double kStanceDeg = 2;
+
+/// The posture a girth is given in (ISO 8559-1 measures standing, the arms clear of the torso): a
+/// body that stands, in its own stance (each thigh's spread from the pelvis, about the forward
+/// axis: feet together or wide apart change a hip by up to 4 cm, and a tape on the person reads
+/// that; see kStanceDeg), otherwise at rest; any other body (kneeling, sitting, bending, a knee raised) at rest.
+/// The rest of the pose stays at rest: a fit's small errors in the back and the legs' other angles
+/// (a tilted body's pelvis tipped 7 degrees) would move the levels the rules find. Returns whether
+/// the body stands.
+bool girth_posture(const PartPose& fitted, PartPose* posture) {
+  *posture = PartPose();
+  for (int part : {kAbdomen, kChest, kLeftThigh, kLeftShank, kRightThigh, kRightShank})
+    if (fitted.joint_rotation[static_cast<size_t>(part - 1)].norm() > kStandingJointDeg * M_PI / 180) return false;
+  bool own_stance = false;
+  for (int thigh : {kLeftThigh, kRightThigh})
+    own_stance = own_stance || std::abs(fitted.joint_rotation[static_cast<size_t>(thigh - 1)].z()) > kStanceDeg * M_PI / 180;
+  if (own_stance)
+    for (int thigh : {kLeftThigh, kRightThigh})
+      posture->joint_rotation[static_cast<size_t>(thigh - 1)].z() = fitted.joint_rotation[static_cast<size_t>(thigh - 1)].z();
+  return true;
+}
+
 /// Rigid motion of the rest points `rest` onto `posed` (rows), least squares (Kabsch).
 Eigen::Isometry3d rigid_motion(const Eigen::MatrixXd& rest, const Eigen::MatrixXd& posed) {
   const Eigen::Matrix4d m = Eigen::umeyama(rest.transpose(), posed.transpose(), false);
@@ -71,7 +99,8 @@ double largest_angular_gap(const std::vector<Eigen::Vector3d>& pts, const Eigen:
   return gap * 180 / M_PI;
 }
 
-/// A girth's plane carried from the fitted body at rest to the fitted pose in the target's frame.
+/// A girth's plane carried from the fitted body in the girths' posture (`source`, where `g` was
+/// measured) to the fitted pose in the target's frame.
 struct CarriedSection {
   Eigen::Vector3d point, normal, centre;
   std::vector<Eigen::Vector3d> loop;  ///< the fitted body's section, posed (target frame)
@@ -79,10 +108,10 @@ struct CarriedSection {
   double near = kNearMax;             ///< m: how far from `loop` the target's section may lie
 };
 
-CarriedSection carry_section(const BodyModel& model, const Eigen::MatrixXd& rest, const Eigen::MatrixXd& rest_normals,
-                             const PointGrid& rest_grid, const Eigen::MatrixXd& posed, const Girth& g) {
+CarriedSection carry_section(const BodyModel& model, const Eigen::MatrixXd& source, const Eigen::MatrixXd& source_normals,
+                             const PointGrid& source_grid, const Eigen::MatrixXd& posed, const Girth& g) {
   CarriedSection s;
-  const auto loops = slice_smooth_mesh(rest, model.faces(), rest_normals, g.normal, g.normal.dot(g.point));
+  const auto loops = slice_smooth_mesh(source, model.faces(), source_normals, g.normal, g.normal.dot(g.point));
   const int k = nearest_loop(loops, g.point);
   if (k < 0) return s;
   const Eigen::MatrixXd& L = loops[static_cast<size_t>(k)].points;
@@ -90,7 +119,7 @@ CarriedSection carry_section(const BodyModel& model, const Eigen::MatrixXd& rest
   std::vector<int> count(kNumParts, 0);
   for (Eigen::Index i = 0; i < L.rows(); ++i) {
     double d2 = 0;
-    const int v = rest_grid.nearest(L.row(i).transpose(), &d2);
+    const int v = source_grid.nearest(L.row(i).transpose(), &d2);
     ring.push_back(v);
     ++count[static_cast<size_t>(model.vertex_parts()[v])];
   }
@@ -106,7 +135,7 @@ CarriedSection carry_section(const BodyModel& model, const Eigen::MatrixXd& rest
   std::sort(ring.begin(), ring.end());
   ring.erase(std::unique(ring.begin(), ring.end()), ring.end());
   Eigen::MatrixXd a(static_cast<Eigen::Index>(ring.size()), 3), b(a.rows(), 3);
-  for (size_t i = 0; i < ring.size(); ++i) a.row(static_cast<Eigen::Index>(i)) = rest.row(ring[i]), b.row(static_cast<Eigen::Index>(i)) = posed.row(ring[i]);
+  for (size_t i = 0; i < ring.size(); ++i) a.row(static_cast<Eigen::Index>(i)) = source.row(ring[i]), b.row(static_cast<Eigen::Index>(i)) = posed.row(ring[i]);
   const Eigen::Isometry3d m = rigid_motion(a, b);
   s.point = m * g.point;
   s.normal = (m.linear() * g.normal).normalized();
@@ -258,8 +287,6 @@ FittedMeasurements measure_by_body_fit(const BodyModel& model, const BodyFit& fi
   } catch (const InvalidInput& e) {
     throw InvalidInput(std::string("measure_by_body_fit: the fitted body cannot be measured at rest: ") + e.what());
   }
-  const Eigen::MatrixXd rest_normals = vertex_normals(rest, model.faces());
-  const PointGrid rest_grid(rest);
   LabelledSurface target{T, F, Eigen::MatrixXd(), fit.target_part, 0};
   if (F.rows() == 0) {
     // Point spacing from the fitted body's area and the target's points (a scan covers most of it).
@@ -269,21 +296,50 @@ FittedMeasurements measure_by_body_fit(const BodyModel& model, const BodyFit& fi
     target.N = vertex_normals(T, F);
   }
   const LabelledSurface fitted_posed{fit.V, model.faces(), vertex_normals(fit.V, model.faces()), model.vertex_parts(), 0};
+  // The fitted body in the posture the girths are given in, measured there by the rules: its levels
+  // (a hip's fullest level rises from the tops of spread thighs to the buttocks as the feet come
+  // together) and its girths. At rest for a body that does not stand, and for a girth the rules
+  // cannot take in the posture (a thigh pressed against the other).
+  const Eigen::MatrixXd rest_normals = vertex_normals(rest, model.faces());
+  const PointGrid rest_grid(rest);
+  PartPose posture;
+  const bool stands = girth_posture(fit.pose, &posture);
+  Eigen::MatrixXd posture_V, posture_normals;
+  std::unique_ptr<PointGrid> posture_grid;
+  BodyMeasurements in_posture;
+  bool at_rest = true;
+  for (const Eigen::Vector3d& r : posture.joint_rotation) at_rest = at_rest && r.isZero(0);
+  if (!at_rest) {
+    body.pose(posture, &posture_V);
+    try {
+      in_posture = measure_body(posture_V, model.faces());
+      posture_normals = vertex_normals(posture_V, model.faces());
+      posture_grid = std::make_unique<PointGrid>(posture_V);
+    } catch (const InvalidInput&) {
+    }
+  }
 
   BodyMeasurements& m = out.target;
   m.stature = out.fitted.stature;
   m.stature_note = "the fitted body's, standing";
   m.features = out.fitted.features;
   for (const Girth& rest_girth : out.fitted.girths) {
+    const Girth* posture_girth = posture_grid ? in_posture.find(rest_girth.name) : nullptr;
+    const bool in_own_posture = posture_girth && posture_girth->measured;
+    const Girth& reference_girth = in_own_posture ? *posture_girth : rest_girth;
     Girth g;
-    g.name = rest_girth.name;
-    if (!rest_girth.measured) {
-      g.note = "not measured on the fitted body: " + rest_girth.note;
+    g.name = reference_girth.name;
+    if (!reference_girth.measured) {
+      g.note = "not measured on the fitted body: " + reference_girth.note;
       m.girths.push_back(g);
       out.as_posed.push_back(std::numeric_limits<double>::quiet_NaN());
       continue;
     }
-    const CarriedSection s = carry_section(model, rest, rest_normals, rest_grid, fit.V, rest_girth);
+    CarriedSection s = in_own_posture ? carry_section(model, posture_V, posture_normals, *posture_grid, fit.V, reference_girth)
+                                      : carry_section(model, rest, rest_normals, rest_grid, fit.V, reference_girth);
+    // Standing, a tape round the pelvis goes round the tops of the thighs too (feet together, they
+    // are the hip's sides).
+    if (stands && s.parts.count(kPelvis)) s.parts.insert({kLeftThigh, kRightThigh});
     if (s.loop.empty()) {
       g.note = "the fitted body has no section here";
       m.girths.push_back(g);
@@ -300,7 +356,7 @@ FittedMeasurements measure_by_body_fit(const BodyModel& model, const BodyFit& fi
       continue;
     }
     // The girth standing: the pose's change of the section as the fitted body shows it (its section
-    // here posed, against at rest) taken off the target's (an arm lowered onto the chest flattens
+    // here posed, against in the girths' posture) taken off the target's (an arm lowered onto the chest flattens
     // its sides; a sitting body's belly folds).
     const SectionGirth on_fitted = girth_in_section(fitted_posed, s);
     out.as_posed.push_back(on_target.value);
@@ -322,7 +378,7 @@ FittedMeasurements measure_by_body_fit(const BodyModel& model, const BodyFit& fi
       m.girths.push_back(g);
       continue;
     }
-    g.value = on_target.value - (on_fitted.value - rest_girth.value);
+    g.value = on_target.value - (on_fitted.value - reference_girth.value);
     g.note = on_target.note;
     g.measured = true;
     m.girths.push_back(g);

@@ -20,7 +20,9 @@ struct Landmark {
 
 struct FittedMeasurements {
   /// Girths of the target standing: each taken on the target's surface, less the change the pose
-  /// makes to the fitted body's section there (posed against at rest). Points and normals in the
+  /// makes to the fitted body's section there (posed, against in the girths' posture: a standing
+  /// body's own stance with the arms at rest; the rest pose for a body kneeling, sitting, bending or
+  /// with a knee raised). Points and normals in the
   /// target's frame; stature of the fitted body standing; `features` the fitted body's at rest
   /// (posekit's frame).
   BodyMeasurements target;
