@@ -8,6 +8,7 @@
 #include "posekit/core/data_root.h"
 #include "posekit/core/error.h"
 #include "posekit/registration/shape_space.h"
+#include "posekit/shape/body_orientation.h"
 
 namespace posekit::cli {
 
@@ -25,8 +26,10 @@ std::unique_ptr<BodyModel> load_body_model(const ArgParser& args) {
 
 BodyFit fit_body_model_to_input(const BodyModel& model, const BodyInput& input, const std::string& path, const ArgParser& args,
                                 const BodyFitOptions& options) {
-  const BodyFit fit =
-      input.is_cloud ? fit_body_model(model, input.cloud.P, options) : fit_body_model_to_mesh(model, input.mesh.V, input.mesh.F, options);
+  // An up axis given (--up) is the only one tried; auto: every axis direction.
+  BodyFitOptions o = options;
+  if (const std::string& up = args.get("up"); !up.empty() && up != "auto" && o.up_candidates.empty()) o.up_candidates = {parse_axis(up)};
+  const BodyFit fit = input.is_cloud ? fit_body_model(model, input.cloud.P, o) : fit_body_model_to_mesh(model, input.mesh.V, input.mesh.F, o);
   for (const auto& w : fit.warnings) std::cerr << "warning: " << path << ": " << w << "\n";
   if (fit.confident) return fit;
   std::string why;

@@ -917,6 +917,16 @@ TEST(Cli, SegmentMeasureRegisterTrainAndPoseByTheBodyModelInAnyFrameAndRefusePoo
     for (Eigen::Index f = 0; f < parts.F.rows(); ++f) same += static_cast<int>(label[parts.F(f, 0)]) == truth["triangle_part"][f].get<int>();
     EXPECT_GT(same, 0.93 * parts.F.rows()) << name;
   }
+  // An up axis given is the only one tried: the Z-up body told it stands along -Z is fitted upside
+  // down, refused, and given as asked with --accept-poor.
+  {
+    const auto truth = nlohmann::json::parse(read_file_bytes(dir.file("rb/truth/s01_zup.json")));
+    const std::string file = dir.file("rb/" + truth["file"]["path"].get<std::string>());
+    EXPECT_EQ(run("segment " + file + " --body-model " + space + " --up -Z", true).code, 3);
+    r = run("segment " + file + " --body-model " + space + " --up -Z --accept-poor --json");
+    ASSERT_EQ(r.code, 0) << r.out;
+    EXPECT_EQ(nlohmann::json::parse(r.out)["up"], nlohmann::json::array({0.0, 0.0, -1.0})) << r.out;
+  }
   // Arms resting on the torso below the armpits: measured through the fit, the bust too, within
   // ISO 20685-1's allowances of the body's standing girths.
   {
