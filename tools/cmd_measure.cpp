@@ -233,7 +233,10 @@ int run_measure(int argc, char** argv) {
                  "topology and on scans (point clouds): a girth whose scan section has a hole is reported, not guessed.\n"
                  "With --body-model, the body model is fitted first (any pose, any axes, arms touching the torso):\n"
                  "the landmark levels come from the fitted body, and the girths are taken on the file's own surface\n"
-                 "with the arms and the other leg left out by the fit's part labels. A poor fit exits with status 3.");
+                 "with the arms and the other leg left out by the fit's part labels, and given standing: a standing\n"
+                 "body in its own stance with the arms at rest, a kneeling, sitting or bending one at rest (the pose's\n"
+                 "change to the fitted body's section is taken off; --json gives the girth as posed too). A poor fit\n"
+                 "exits with status 3.");
   args.positional("file", "body mesh (OBJ/PLY/OFF/STL) or scan (PCD/PLY/XYZ)")
       .option("unit", "U", "unit of the file: m, dm, cm, mm, or auto (its largest extent tells)", "auto")
       .flag("json", "machine-readable results on stdout (metres)")
