@@ -311,6 +311,161 @@ std::vector<LibraryPose> distinct_motion_poses(const std::vector<LibraryPose>& f
 
 namespace {
 
+using VertexTargetPairs = std::vector<std::pair<Eigen::Index, Eigen::Index>>;
+
+/// d x / d (c, translation) of the posed vertices `rows` (3 rows each): exact for a fixed pose, as
+/// skinning is affine in the vertices and joints.
+Eigen::MatrixXd shape_jacobian(const BodyModel& model, const PartPose& pose, const std::vector<int>& rows, int threads) {
+  const ShapeSpace& S = model.space();
+  const int K = S.components();
+  const auto n = static_cast<Eigen::Index>(rows.size());
+  using RowMajorX3 = Eigen::Matrix<double, Eigen::Dynamic, 3, Eigen::RowMajor>;
+  Eigen::MatrixXd A = Eigen::MatrixXd::Zero(3 * n, K + 3);
+  for (Eigen::Index i = 0; i < n; ++i) A.block<3, 3>(3 * i, K).setIdentity();
+  Eigen::MatrixXd X0;
+  ShapedBody::skin(model, S.mean, part_transforms(pose, S.joint_mean), rows, &X0);
+  parallel_for_ranges(K, threads, [&](long k0, long k1) {
+    Eigen::MatrixXd Xk;
+    for (long k = k0; k < k1; ++k) {
+      const Eigen::MatrixXd Vk = S.mean + Eigen::Map<const RowMajorX3>(S.basis.col(k).data(), S.vertices(), 3);
+      const Eigen::MatrixXd Jk = S.joint_mean + Eigen::Map<const RowMajorX3>(S.joint_basis.col(k).data(), S.joint_mean.rows(), 3);
+      ShapedBody::skin(model, Vk, part_transforms(pose, Jk), rows, &Xk);
+      Xk -= X0;
+      for (Eigen::Index i = 0; i < n; ++i) A.block(3 * i, k, 3, 1) = Xk.row(i).transpose();
+    }
+  }, 1);
+  return A;
+}
+
+/// Pairs (row of X, target point) both ways within max_d: every `target_stride`-th target point
+/// and its nearest vertex; each vertex and its nearest target point where that is mutual (the
+/// point's nearest vertex within 3 cm). Found in two halves on their own threads, kept in order (the
+/// same pairs on any number of threads).
+VertexTargetPairs mutual_pairs(const Eigen::MatrixXd& X, const Eigen::MatrixXd& P, const PointGrid& grid, Eigen::Index target_stride,
+                               double max_d, int threads) {
+  const PointGrid body_grid(X, 0.03);
+  const Eigen::Index n = X.rows(), target_count = (P.rows() + target_stride - 1) / target_stride;
+  std::array<VertexTargetPairs, 2> found;
+  parallel_for_ranges(2, threads, [&](long h0, long h1) {
+    for (long h = h0; h < h1; ++h) {
+      auto& mine = found[static_cast<size_t>(h)];
+      for (Eigen::Index s = h * (target_count + n) / 2; s < (h + 1) * (target_count + n) / 2; ++s) {
+        double sq = 0, back = 0;
+        if (s < target_count) {
+          const Eigen::Index t = s * target_stride;
+          const int i = body_grid.nearest(P.row(t).transpose(), &sq, max_d);
+          if (i >= 0) mine.emplace_back(i, t);
+          continue;
+        }
+        const Eigen::Index i = s - target_count;
+        const int t = grid.nearest(X.row(i).transpose(), &sq, max_d);
+        if (t < 0) continue;
+        const int u = body_grid.nearest(P.row(t).transpose(), &back, max_d);
+        if (u >= 0 && (X.row(u) - X.row(i)).norm() < 0.03) mine.emplace_back(i, t);
+      }
+    }
+  }, 1);
+  VertexTargetPairs pairs = std::move(found[0]);
+  pairs.insert(pairs.end(), found[1].begin(), found[1].end());
+  return pairs;
+}
+
+/// The shape fit's normal equations over its pairs: in (c, translation) H and g; with the pose, per
+/// part the twist's 6 x 6 equations and their cross terms with (c, translation).
+struct ShapeNormalEquations {
+  Eigen::MatrixXd H;  ///< lower half summed
+  Eigen::VectorXd g;
+  double weight = 0;  ///< the pairs' Cauchy weights summed
+  std::array<Eigen::Matrix<double, 6, 6>, kNumParts> H6;
+  std::array<Eigen::Matrix<double, 6, 1>, kNumParts> b6;
+  std::array<Eigen::MatrixXd, kNumParts> C;  ///< (K + 3) x 6
+};
+
+/// Sums the pairs' rows, in blocks (one buffer, no matrix of every pair's rows), the pairs in two
+/// fixed halves on their own threads. A pair's three rows are sqrt(w) S (its rows of A, and its
+/// offset) with S = sqrt(p2p) I + (sqrt(1 + p2p) - sqrt(p2p)) n n^T, the square root of
+/// n n^T + p2p I: along the normal with a little point-to-point; w its Cauchy weight (sigma).
+/// `part`: each row of X's part (with_pose).
+ShapeNormalEquations shape_normal_equations(const Eigen::MatrixXd& A, const Eigen::MatrixXd& X, const Eigen::MatrixXd& normals,
+                                            const Eigen::MatrixXd& P, const VertexTargetPairs& pairs, const std::vector<int>& part,
+                                            bool with_pose, double sigma, double p2p, int threads) {
+  const Eigen::Index unknowns = A.cols();
+  constexpr Eigen::Index kBlock = 512;
+  const auto m = static_cast<Eigen::Index>(pairs.size());
+  std::array<ShapeNormalEquations, 2> half;
+  const double a = std::sqrt(p2p), b = std::sqrt(1 + p2p) - std::sqrt(p2p);
+  parallel_for_ranges(2, threads, [&](long h0, long h1) {
+    Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor> J(3 * kBlock, unknowns);
+    Eigen::VectorXd r(3 * kBlock);
+    for (long h = h0; h < h1; ++h) {
+      ShapeNormalEquations& mine = half[static_cast<size_t>(h)];
+      mine.H = Eigen::MatrixXd::Zero(unknowns, unknowns), mine.g = Eigen::VectorXd::Zero(unknowns);
+      for (int q = 0; q < kNumParts && with_pose; ++q)
+        mine.H6[static_cast<size_t>(q)].setZero(), mine.b6[static_cast<size_t>(q)].setZero(),
+            mine.C[static_cast<size_t>(q)] = Eigen::MatrixXd::Zero(unknowns, 6);
+      const Eigen::Index end = (h + 1) * m / 2;
+      for (Eigen::Index start = h * m / 2; start < end; start += kBlock) {
+        const Eigen::Index count = std::min(kBlock, end - start);
+        for (Eigen::Index k = 0; k < count; ++k) {
+          const auto [i, t] = pairs[static_cast<size_t>(start + k)];
+          const Eigen::Vector3d x = X.row(i).transpose(), d = x - P.row(t).transpose(), nn = normals.row(i).transpose();
+          const double along = nn.dot(d), w = 1 / (1 + (along * along + p2p * d.squaredNorm()) / (sigma * sigma));
+          const Eigen::Matrix3d Sw = std::sqrt(w) * (a * Eigen::Matrix3d::Identity() + b * nn * nn.transpose());
+          J.middleRows(3 * k, 3).noalias() = Sw * A.middleRows(3 * i, 3);
+          r.segment<3>(3 * k) = Sw * d;
+          mine.weight += w;
+          if (!with_pose) continue;
+          // The twist (t, w) of the vertex's part moves it by t - [x]x w.
+          Eigen::Matrix<double, 3, 6> SJ0;
+          SJ0.leftCols<3>() = Sw;
+          SJ0.rightCols<3>().noalias() = -Sw * cross_product_matrix(x);
+          const size_t q = static_cast<size_t>(part[static_cast<size_t>(i)]);
+          mine.H6[q].noalias() += SJ0.transpose() * SJ0;
+          mine.b6[q].noalias() += SJ0.transpose() * r.segment<3>(3 * k);
+          mine.C[q].noalias() += J.middleRows(3 * k, 3).transpose() * SJ0;
+        }
+        const auto Jb = J.topRows(3 * count);
+        mine.H.selfadjointView<Eigen::Lower>().rankUpdate(Jb.transpose());
+        mine.g.noalias() += Jb.transpose() * r.head(3 * count);
+      }
+    }
+  }, 1);
+  ShapeNormalEquations sum = std::move(half[0]);
+  sum.H += half[1].H, sum.g += half[1].g, sum.weight += half[1].weight;
+  for (size_t q = 0; q < kNumParts && with_pose; ++q) sum.H6[q] += half[1].H6[q], sum.b6[q] += half[1].b6[q], sum.C[q] += half[1].C[q];
+  return sum;
+}
+
+/// The pose's unknowns added to the shape's system `*H`, `*g` (of size K + 3 + 48): the pelvis's and
+/// each joint's world rotation increment, about the pelvis's pivot and the posed joint centres; part
+/// q's twist is B_q times them (its translation is the shape's unknown already).
+void add_pose_unknowns(const ShapedBody& body, const PartPose& pose, const ShapeNormalEquations& e, Eigen::MatrixXd* H,
+                       Eigen::VectorXd* g) {
+  constexpr int kRotations = kPoseIncrementSize - 3;
+  const Eigen::Index shape = e.g.size();
+  const Eigen::MatrixXd& Jc = body.joint_centres();
+  const PartTransforms T = body.part_motions(pose);
+  const Eigen::Vector3d pivot =
+      (Jc.row(kAbdomen - 1) + Jc.row(kLeftThigh - 1) + Jc.row(kRightThigh - 1)).transpose() / 3 + pose.root_translation;
+  for (int q = 0; q < kNumParts; ++q) {
+    Eigen::Matrix<double, 6, kRotations> B = Eigen::Matrix<double, 6, kRotations>::Zero();
+    B.block<3, 3>(0, 0) = cross_product_matrix(pivot);
+    B.block<3, 3>(3, 0).setIdentity();
+    for (int j = q - 1; j >= 0; j = part_parent(j + 1) - 1) {  // the joints that move part q
+      const size_t parent = static_cast<size_t>(part_parent(j + 1));
+      B.block<3, 3>(0, 3 + 3 * j) = cross_product_matrix(T.R[parent] * Jc.row(j).transpose() + T.t[parent]);
+      B.block<3, 3>(3, 3 + 3 * j).setIdentity();
+    }
+    const size_t p = static_cast<size_t>(q);
+    H->block(0, shape, shape, kRotations).noalias() += e.C[p] * B;
+    H->bottomRightCorner<kRotations, kRotations>().noalias() += B.transpose() * e.H6[p] * B;
+    g->tail<kRotations>().noalias() += B.transpose() * e.b6[p];
+  }
+  H->block(shape, 0, kRotations, shape) = H->block(0, shape, shape, kRotations).transpose();
+  // A little Levenberg damping: joints the pairs hardly see (a hand's twist) stay put.
+  H->diagonal().tail<kRotations>() += 1e-3 * H->diagonal().tail<kRotations>() + Eigen::VectorXd::Constant(kRotations, 1e-6 * e.weight);
+}
+
 /// One shape least-squares round set (at most `rounds` Gauss-Newton steps on the coefficients):
 /// pairs both ways between the working cloud P and sampled vertices, point-to-plane with a little
 /// point-to-point, Cauchy weights, and the Gaussian prior of BodyFitOptions::shape_prior. The body's
@@ -320,172 +475,39 @@ namespace {
 Eigen::VectorXd fit_shape(const BodyModel& model, Eigen::VectorXd c, PartPose* pose_io, const Eigen::MatrixXd& P,
                           const PointGrid& grid, const BodyFitOptions& o, int rounds = 4, bool with_pose = false) {
   PartPose& pose = *pose_io;
-  const ShapeSpace& S = model.space();
-  const int K = S.components();
-  const std::vector<int> rows = spread_rows(S.mean, 0.02);
-  const auto n = static_cast<Eigen::Index>(rows.size());
-  using RowMajorX3 = Eigen::Matrix<double, Eigen::Dynamic, 3, Eigen::RowMajor>;
-  // x(c) = x0 + A c exactly for a fixed pose: skinning is affine in the vertices and joints.
-  // Unknowns: the coefficients and the body's translation (a taller body stands elsewhere).
-  Eigen::MatrixXd A = Eigen::MatrixXd::Zero(3 * n, K + 3);
-  for (Eigen::Index i = 0; i < n; ++i) A.block<3, 3>(3 * i, K).setIdentity();
-  auto shape_columns = [&] {
-    Eigen::MatrixXd X0;
-    ShapedBody::skin(model, S.mean, part_transforms(pose, S.joint_mean), rows, &X0);
-    parallel_for_ranges(K, o.threads, [&](long k0, long k1) {
-      Eigen::MatrixXd Xk;
-      for (long k = k0; k < k1; ++k) {
-        const Eigen::MatrixXd Vk = S.mean + Eigen::Map<const RowMajorX3>(S.basis.col(k).data(), S.vertices(), 3);
-        const Eigen::MatrixXd Jk = S.joint_mean + Eigen::Map<const RowMajorX3>(S.joint_basis.col(k).data(), S.joint_mean.rows(), 3);
-        ShapedBody::skin(model, Vk, part_transforms(pose, Jk), rows, &Xk);
-        Xk -= X0;
-        for (Eigen::Index i = 0; i < n; ++i) A.block(3 * i, k, 3, 1) = Xk.row(i).transpose();
-      }
-    }, 1);
-  };
-  shape_columns();
-  // The pose's unknowns (with_pose): the pelvis's and each joint's world rotation increment; part
-  // q's twist is B_q times them (the translation is the shape's unknown already).
-  constexpr int kRotations = kPoseIncrementSize - 3;
-  std::array<std::vector<int>, kNumParts> chain;  // the joints that move each part
-  for (int q = 0; q < kNumParts; ++q)
-    for (int j = q; j > 0; j = part_parent(j)) chain[static_cast<size_t>(q)].push_back(j - 1);
-  const Eigen::VectorXi& vertex_part = model.vertex_parts();
-  using Twist = Eigen::Matrix<double, 6, 6>;
-  struct Sums {
-    Eigen::MatrixXd H;
-    Eigen::VectorXd g;
-    double weight = 0;
-    std::array<Twist, kNumParts> H6;                       // per part: the twist's normal equations
-    std::array<Eigen::Matrix<double, 6, 1>, kNumParts> b6;
-    std::array<Eigen::MatrixXd, kNumParts> C;              // per part: shape-twist cross terms
-  };
+  const int K = model.components();
+  const std::vector<int> rows = spread_rows(model.space().mean, 0.02);
+  std::vector<int> part(rows.size());
+  for (size_t i = 0; i < rows.size(); ++i) part[i] = model.vertex_parts()[rows[i]];
+  Eigen::MatrixXd A = shape_jacobian(model, pose, rows, o.threads);
   const double max_d = 0.08, sigma = 0.03, p2p = 0.1;
   const Eigen::Index target_stride = std::max<Eigen::Index>(1, P.rows() / 8000);  // about 8,000 target points
   for (int round = 0; round < rounds; ++round) {
     Eigen::MatrixXd full;
     const ShapedBody body(model, c);
     body.pose(pose, &full);
-    const Eigen::MatrixXd normals = vertex_normals(full, model.faces());
-    Eigen::MatrixXd X(n, 3);
-    for (Eigen::Index i = 0; i < n; ++i) X.row(i) = full.row(rows[static_cast<size_t>(i)]);
-    const PointGrid body_grid(X, 0.03);
-    // Pairs (vertex, target point); then their rows of the weighted least squares: along the normal,
-    // and point-to-point with weight p2p, each times the square root of its Cauchy weight.
-    // Found in two halves on their own threads, kept in order (the same pairs on any number of threads).
-    const Eigen::Index target_count = (P.rows() + target_stride - 1) / target_stride;
-    std::array<std::vector<std::pair<Eigen::Index, Eigen::Index>>, 2> found;
-    parallel_for_ranges(2, o.threads, [&](long h0, long h1) {
-      for (long h = h0; h < h1; ++h) {
-        auto& mine = found[static_cast<size_t>(h)];
-        for (Eigen::Index s = h * (target_count + n) / 2; s < (h + 1) * (target_count + n) / 2; ++s) {
-          double sq = 0, back = 0;
-          if (s < target_count) {
-            const Eigen::Index t = s * target_stride;
-            const int i = body_grid.nearest(P.row(t).transpose(), &sq, max_d);
-            if (i >= 0) mine.emplace_back(i, t);
-            continue;
-          }
-          const Eigen::Index i = s - target_count;
-          const int t = grid.nearest(X.row(i).transpose(), &sq, max_d);
-          if (t < 0) continue;
-          const int u = body_grid.nearest(P.row(t).transpose(), &back, max_d);
-          if (u >= 0 && (X.row(u) - X.row(i)).norm() < 0.03) mine.emplace_back(i, t);
-        }
-      }
-    }, 1);
-    std::vector<std::pair<Eigen::Index, Eigen::Index>> pairs = std::move(found[0]);
-    pairs.insert(pairs.end(), found[1].begin(), found[1].end());
-    // The normal equations, in blocks of pairs (one buffer, no matrix of every pair's rows), the
-    // pairs in two fixed halves on their own threads. A pair's three rows are sqrt(w) S (its rows of
-    // A, and its offset) with S = sqrt(p2p) I + (sqrt(1 + p2p) - sqrt(p2p)) n n^T, the square root of
-    // n n^T + p2p I: along the normal with a little point-to-point.
-    constexpr Eigen::Index kBlock = 512;
-    const auto m = static_cast<Eigen::Index>(pairs.size());
-    std::array<Sums, 2> half;
-    const double a = std::sqrt(p2p), b = std::sqrt(1 + p2p) - std::sqrt(p2p);
-    parallel_for_ranges(2, o.threads, [&](long h0, long h1) {
-      Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor> J(3 * kBlock, K + 3);
-      Eigen::VectorXd r(3 * kBlock);
-      for (long h = h0; h < h1; ++h) {
-        Sums& mine = half[static_cast<size_t>(h)];
-        mine.H = Eigen::MatrixXd::Zero(K + 3, K + 3), mine.g = Eigen::VectorXd::Zero(K + 3);
-        if (with_pose)
-          for (int q = 0; q < kNumParts; ++q)
-            mine.H6[static_cast<size_t>(q)].setZero(), mine.b6[static_cast<size_t>(q)].setZero(),
-                mine.C[static_cast<size_t>(q)] = Eigen::MatrixXd::Zero(K + 3, 6);
-        const Eigen::Index end = (h + 1) * m / 2;
-        for (Eigen::Index start = h * m / 2; start < end; start += kBlock) {
-          const Eigen::Index count = std::min(kBlock, end - start);
-          for (Eigen::Index k = 0; k < count; ++k) {
-            const auto [i, t] = pairs[static_cast<size_t>(start + k)];
-            const Eigen::Vector3d x = X.row(i).transpose(), d = x - P.row(t).transpose(),
-                                  nn = normals.row(rows[static_cast<size_t>(i)]).transpose();
-            const double along = nn.dot(d), w = 1 / (1 + (along * along + p2p * d.squaredNorm()) / (sigma * sigma));
-            const Eigen::Matrix3d Sw = std::sqrt(w) * (a * Eigen::Matrix3d::Identity() + b * nn * nn.transpose());
-            J.middleRows(3 * k, 3).noalias() = Sw * A.middleRows(3 * i, 3);
-            r.segment<3>(3 * k) = Sw * d;
-            mine.weight += w;
-            if (!with_pose) continue;
-            // The twist (t, w) of the vertex's part moves it by t - [x]x w.
-            Eigen::Matrix<double, 3, 6> SJ0;
-            SJ0.leftCols<3>() = Sw;
-            SJ0.rightCols<3>().noalias() = -Sw * cross_product_matrix(x);
-            const size_t q = static_cast<size_t>(vertex_part[rows[static_cast<size_t>(i)]]);
-            mine.H6[q].noalias() += SJ0.transpose() * SJ0;
-            mine.b6[q].noalias() += SJ0.transpose() * r.segment<3>(3 * k);
-            mine.C[q].noalias() += J.middleRows(3 * k, 3).transpose() * SJ0;
-          }
-          const auto Jb = J.topRows(3 * count);
-          mine.H.selfadjointView<Eigen::Lower>().rankUpdate(Jb.transpose());
-          mine.g.noalias() += Jb.transpose() * r.head(3 * count);
-        }
-      }
-    }, 1);
-    const int N = K + 3 + (with_pose ? kRotations : 0);
+    const Eigen::MatrixXd X = full(rows, Eigen::all), normals = vertex_normals(full, model.faces())(rows, Eigen::all);
+    const ShapeNormalEquations e =
+        shape_normal_equations(A, X, normals, P, mutual_pairs(X, P, grid, target_stride, max_d, o.threads), part, with_pose, sigma, p2p, o.threads);
+    if (e.weight <= 0) break;
+    const Eigen::Index N = K + 3 + (with_pose ? kPoseIncrementSize - 3 : 0);
     Eigen::MatrixXd H = Eigen::MatrixXd::Zero(N, N);
     Eigen::VectorXd g = Eigen::VectorXd::Zero(N);
-    H.topLeftCorner(K + 3, K + 3) = (half[0].H + half[1].H).selfadjointView<Eigen::Lower>();
-    g.head(K + 3) = half[0].g + half[1].g;
-    const double weight = half[0].weight + half[1].weight;
-    if (weight <= 0) break;
-    if (with_pose) {
-      const Eigen::MatrixXd Jc = body.joint_centres();
-      const PartTransforms T = body.part_motions(pose);
-      const Eigen::Vector3d pivot =
-          (Jc.row(kAbdomen - 1) + Jc.row(kLeftThigh - 1) + Jc.row(kRightThigh - 1)).transpose() / 3 + pose.root_translation;
-      for (int q = 0; q < kNumParts; ++q) {
-        Eigen::Matrix<double, 6, kRotations> B = Eigen::Matrix<double, 6, kRotations>::Zero();
-        B.block<3, 3>(0, 0) = cross_product_matrix(pivot);
-        B.block<3, 3>(3, 0).setIdentity();
-        for (int j : chain[static_cast<size_t>(q)]) {
-          const size_t parent = static_cast<size_t>(part_parent(j + 1));
-          const Eigen::Vector3d centre = T.R[parent] * Jc.row(j).transpose() + T.t[parent];
-          B.block<3, 3>(0, 3 + 3 * j) = cross_product_matrix(centre);
-          B.block<3, 3>(3, 3 + 3 * j).setIdentity();
-        }
-        const size_t p = static_cast<size_t>(q);
-        const Twist H6 = half[0].H6[p] + half[1].H6[p];
-        H.block(0, K + 3, K + 3, kRotations).noalias() += (half[0].C[p] + half[1].C[p]) * B;
-        H.bottomRightCorner<kRotations, kRotations>().noalias() += B.transpose() * H6 * B;
-        g.tail<kRotations>().noalias() += B.transpose() * (half[0].b6[p] + half[1].b6[p]);
-      }
-      H.block(K + 3, 0, kRotations, K + 3) = H.block(0, K + 3, K + 3, kRotations).transpose();
-      // A little Levenberg damping: joints the pairs hardly see (a hand's twist) stay put.
-      H.diagonal().tail<kRotations>() += 1e-3 * H.diagonal().tail<kRotations>() + Eigen::VectorXd::Constant(kRotations, 1e-6 * weight);
-    }
-    const double lambda = weight * o.shape_prior * o.shape_prior;
+    H.topLeftCorner(K + 3, K + 3) = e.H.selfadjointView<Eigen::Lower>();
+    g.head(K + 3) = e.g;
+    if (with_pose) add_pose_unknowns(body, pose, e, &H, &g);
+    const double lambda = e.weight * o.shape_prior * o.shape_prior;
     H.diagonal().head(K).array() += lambda;
-    H.diagonal().segment<3>(K).array() += 1e-9 * weight;
+    H.diagonal().segment<3>(K).array() += 1e-9 * e.weight;
     g.head(K) += lambda * c;
     const Eigen::VectorXd step = H.ldlt().solve(-g);
     if (!step.allFinite()) break;
     c += step.head(K);
     if (with_pose) {
       Eigen::VectorXd increment(kPoseIncrementSize);
-      increment << step.segment<3>(K), step.tail<kRotations>();
+      increment << step.segment<3>(K), step.tail(N - K - 3);
       apply_pose_increment(&pose, increment);
-      shape_columns();
+      A = shape_jacobian(model, pose, rows, o.threads);
     } else {
       pose.root_translation += step.segment<3>(K);
     }
