@@ -562,6 +562,13 @@ struct Start {
   PartPose pose;
 };
 
+/// The search's placements scored on the sparse samples only, and the up directions the motion
+/// poses were placed on.
+struct SparsePlacements {
+  std::vector<Start> starts;
+  std::vector<size_t> motion_ups;
+};
+
 /// The global search for starts of the articulated fit, in stages: the library at every up
 /// direction and heading (library_starts), the legs searched on the best of those (with_legs_searched),
 /// and the arms of every library pose on the best few (with_arms_mixed). Each start is the mean body
@@ -578,28 +585,43 @@ class StartSearch {
   /// two up directions the library liked best, on the sparse samples; the best `rescored` of those
   /// again on the coarse ones.
   std::vector<Start> library_starts(const std::vector<LibraryPose>& library, const std::vector<LibraryPose>& motion_poses, int headings,
-                                    int rescored) const {
+                                    int rescored, SparsePlacements* sparse) const {
     std::vector<size_t> all_ups(frames_.size());
     for (size_t u = 0; u < frames_.size(); ++u) all_ups[u] = u;
     std::vector<Start> starts = place_all(library, all_ups, headings);
     std::sort(starts.begin(), starts.end(), by_score);
     // The motion poses only on the two best up directions: they are many, and the vertical is told
     // by the library's standing, kneeling and sitting poses alike.
+    sparse->motion_ups.clear();
     if (!motion_poses.empty()) {
-      std::vector<size_t> best_ups;
       for (const Start& s : starts)
-        if (best_ups.size() < 2 && std::find(best_ups.begin(), best_ups.end(), s.up) == best_ups.end()) best_ups.push_back(s.up);
-      std::vector<Start> more = place_all(motion_poses, best_ups, headings);
+        if (sparse->motion_ups.size() < 2 && std::find(sparse->motion_ups.begin(), sparse->motion_ups.end(), s.up) == sparse->motion_ups.end())
+          sparse->motion_ups.push_back(s.up);
+      std::vector<Start> more = place_all(motion_poses, sparse->motion_ups, headings);
       starts.insert(starts.end(), more.begin(), more.end());
-      std::sort(starts.begin(), starts.end(), by_score);
     }
-    starts.resize(std::min(starts.size(), static_cast<size_t>(std::max(1, rescored))));
-    parallel_for_ranges(static_cast<long>(starts.size()), threads_, [&](long begin, long end) {
-      for (long k = begin; k < end; ++k) {
-        Start& s = starts[static_cast<size_t>(k)];
-        s = place(s.up, s.heading, s.pose, s.name, s.kind, false);
+    sparse->starts = starts;
+    return rescored_best(std::move(starts), rescored);
+  }
+
+  /// `starts` and, on every up direction, its own best `per_up` placements of the library and the
+  /// model's motion poses (those of `sparse`, the motion poses placed on the other directions too),
+  /// each with the arms of every library pose on its best three: library_starts keeps the best over
+  /// all directions, and a crouch with the back bent had its library poses upside down fill them and
+  /// its upright start (a motion pose with the arms forward) cut before its arms were tried.
+  std::vector<Start> with_best_of_every_up(std::vector<Start> starts, const SparsePlacements& sparse, const std::vector<LibraryPose>& library,
+                                           const std::vector<LibraryPose>& motion_poses, int headings, int per_up) const {
+    for (size_t u = 0; u < frames_.size(); ++u) {
+      std::vector<Start> placed;
+      for (const Start& s : sparse.starts)
+        if (s.up == u) placed.push_back(s);
+      if (std::find(sparse.motion_ups.begin(), sparse.motion_ups.end(), u) == sparse.motion_ups.end()) {
+        const std::vector<Start> motion = place_all(motion_poses, {u}, headings);
+        placed.insert(placed.end(), motion.begin(), motion.end());
       }
-    }, 1);
+      const std::vector<Start> best = with_arms_mixed(rescored_best(std::move(placed), per_up), library);
+      starts.insert(starts.end(), best.begin(), best.end());
+    }
     std::sort(starts.begin(), starts.end(), by_score);
     return starts;
   }
@@ -704,6 +726,20 @@ class StartSearch {
   }
 
   /// Every pose of `poses` at every heading on each of the up frames `ups`, on the sparse samples.
+  /// The best `count` of `starts` (sparse scores), placed again and scored on the coarse samples, best first.
+  std::vector<Start> rescored_best(std::vector<Start> starts, int count) const {
+    std::sort(starts.begin(), starts.end(), by_score);
+    starts.resize(std::min(starts.size(), static_cast<size_t>(std::max(1, count))));
+    parallel_for_ranges(static_cast<long>(starts.size()), threads_, [&](long begin, long end) {
+      for (long k = begin; k < end; ++k) {
+        Start& s = starts[static_cast<size_t>(k)];
+        s = place(s.up, s.heading, s.pose, s.name, s.kind, false);
+      }
+    }, 1);
+    std::sort(starts.begin(), starts.end(), by_score);
+    return starts;
+  }
+
   std::vector<Start> place_all(const std::vector<LibraryPose>& poses, const std::vector<size_t>& ups, int headings) const {
     const long per_up = static_cast<long>(poses.size()) * headings;
     std::vector<Start> placed(ups.size() * static_cast<size_t>(per_up));
@@ -1049,7 +1085,8 @@ BodyFit fit_body_model(const BodyModel& model, const Eigen::MatrixXd& T, const B
     return out;
   };
   const StartSearch search(model, mean_body, frames, o.threads);
-  const std::vector<Start> library_starts = search.library_starts(library, motion_poses, o.headings, o.starts_rescored);
+  SparsePlacements sparse;
+  const std::vector<Start> library_starts = search.library_starts(library, motion_poses, o.headings, o.starts_rescored, &sparse);
   std::vector<Start> starts = search.with_arms_mixed(library_starts, library);
   lap("search");
   BodyFit out = finish_best(brief_fits(starts));
@@ -1057,7 +1094,9 @@ BodyFit fit_body_model(const BodyModel& model, const Eigen::MatrixXd& T, const B
   // searched, only now: on bodies that the library's starts fit, starts with the legs searched
   // scored better and fitted worse (a pelvis tipped 10-15 degrees, the hips and back making up).
   if (!out.confident && o.legs_searched > 0) {
-    starts = search.with_arms_mixed(search.with_legs_searched(library_starts, o.legs_searched), library);
+    const std::vector<Start> every_up =
+        search.with_best_of_every_up(library_starts, sparse, library, motion_poses, o.headings, o.starts_rescored / static_cast<int>(frames.size()));
+    starts = search.with_arms_mixed(search.with_legs_searched(every_up, o.legs_searched), library);
     lap("search");
     const std::vector<size_t> ranked = brief_fits(starts);
     if (!ranked.empty()) {
