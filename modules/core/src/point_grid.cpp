@@ -48,12 +48,15 @@ PointGrid::PointGrid(const Eigen::MatrixXd& P, double cell) {
 
 int PointGrid::nearest(const Eigen::Vector3d& p, double* sq_distance, double max_distance, int skip) const {
   double best = max_distance * max_distance;
-  int best_index = -1;
+  int best_slot = -1;
   int home[3];
   double margin = std::numeric_limits<double>::infinity();  // p to the nearest face of its (clamped) cell
   for (int k = 0; k < 3; ++k) {
     const double x = (p[k] - lo_[k]) / cell_;
-    home[k] = static_cast<int>(std::clamp(std::floor(x), -1.0, static_cast<double>(dims_[k])));
+    // floor by hand: std::floor is a library call without SSE4.1, and this runs per query.
+    const double clamped = std::clamp(x, -1.0, static_cast<double>(dims_[k]));
+    home[k] = static_cast<int>(clamped);
+    if (home[k] > clamped) --home[k];
     const double in = x - home[k];
     margin = std::min(margin, cell_ * std::min(in, 1 - in));
   }
@@ -84,14 +87,29 @@ int PointGrid::nearest(const Eigen::Vector3d& p, double* sq_distance, double max
       // A cell wholly as far as the best so far holds nothing nearer.
       if (yz + gap2[0][static_cast<size_t>(x - x0)] >= best) return;
       const size_t c = (static_cast<size_t>(z) * dims_[1] + y) * dims_[0] + x;
-      for (int s = cell_start_[c]; s < cell_start_[c + 1]; ++s) {
+      auto sq_to = [&](int s) {
         const double* q = &xyz_[static_cast<size_t>(3 * s)];
-        const double d = (q[0] - p[0]) * (q[0] - p[0]) + (q[1] - p[1]) * (q[1] - p[1]) + (q[2] - p[2]) * (q[2] - p[2]);
-        if (d < best && index_[static_cast<size_t>(s)] != skip) {
-          best = d;
-          best_index = index_[static_cast<size_t>(s)];
+        return (q[0] - p[0]) * (q[0] - p[0]) + (q[1] - p[1]) * (q[1] - p[1]) + (q[2] - p[2]) * (q[2] - p[2]);
+      };
+      const int end = cell_start_[c + 1];
+      if (skip >= 0) {
+        for (int s = cell_start_[c]; s < end; ++s) {
+          const double d = sq_to(s);
+          if (d < best && index_[static_cast<size_t>(s)] != skip) best = d, best_slot = s;
         }
+        return;
       }
+      // Without a jump: which slot wins changes often in the first cells searched, and a mispredicted
+      // branch per point cost more than the selects (a body fit 20% faster).
+      double b = best;
+      int bs = best_slot;
+      for (int s = cell_start_[c]; s < end; ++s) {
+        const double d = sq_to(s);
+        const bool better = d < b;
+        b = better ? d : b;
+        bs = better ? s : bs;
+      }
+      best = b, best_slot = bs;
     };
     for (int z = z0; z <= z1; ++z) {
       const double gz = gap2[2][static_cast<size_t>(z - z0)];
@@ -108,6 +126,7 @@ int PointGrid::nearest(const Eigen::Vector3d& p, double* sq_distance, double max
       }
     }
   }
+  const int best_index = best_slot >= 0 ? index_[static_cast<size_t>(best_slot)] : -1;
   if (sq_distance) *sq_distance = best_index >= 0 ? best : std::numeric_limits<double>::infinity();
   return best_index;
 }
