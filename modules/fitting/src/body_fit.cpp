@@ -5,6 +5,7 @@
 #include <algorithm>
 #include <array>
 #include <memory>
+#include <set>
 #include <chrono>
 #include <cmath>
 #include <cstdint>
@@ -117,13 +118,24 @@ double cloud_quantile_to_body(const Eigen::MatrixXd& body, const Eigen::MatrixXd
   return quantile(std::move(d), q);
 }
 
-/// Moves a pose so that the posed body's lowest point meets the cloud's and their horizontal centres meet.
-void stand_on(const Eigen::MatrixXd& body, const Eigen::MatrixXd& cloud, PartPose* pose) {
+/// Where a body is stood on a cloud: its floor (a low quantile of its heights, not a stray point)
+/// and the centre of its horizontal extent.
+struct Ground {
+  double floor = 0;
+  Eigen::RowVector3d centre = Eigen::RowVector3d::Zero();
+};
+
+Ground ground_of(const Eigen::MatrixXd& cloud) {
   std::vector<double> cy(static_cast<size_t>(cloud.rows()));
   for (Eigen::Index i = 0; i < cloud.rows(); ++i) cy[static_cast<size_t>(i)] = cloud(i, 1);
-  const Eigen::RowVector3d bc = 0.5 * (body.colwise().minCoeff() + body.colwise().maxCoeff()),
-                           cc = 0.5 * (cloud.colwise().minCoeff() + cloud.colwise().maxCoeff());
-  pose->root_translation += Eigen::Vector3d(cc.x() - bc.x(), quantile(cy, 0.005) - body.col(1).minCoeff(), cc.z() - bc.z());
+  return {quantile(cy, 0.005), 0.5 * (cloud.colwise().minCoeff() + cloud.colwise().maxCoeff())};
+}
+
+/// Moves a pose so that the posed body's lowest point meets the ground's floor and their horizontal centres meet.
+void stand_on(const Eigen::MatrixXd& body, const Ground& ground, PartPose* pose) {
+  const Eigen::RowVector3d bc = 0.5 * (body.colwise().minCoeff() + body.colwise().maxCoeff());
+  const Eigen::RowVector3d& cc = ground.centre;
+  pose->root_translation += Eigen::Vector3d(cc.x() - bc.x(), ground.floor - body.col(1).minCoeff(), cc.z() - bc.z());
 }
 
 }  // namespace
@@ -536,6 +548,7 @@ struct UpFrame {
   Eigen::Matrix3d rotation;  ///< target frame -> this frame
   Eigen::MatrixXd cloud, coarse, sparse;
   std::unique_ptr<PointGrid> coarse_grid, sparse_grid;
+  Ground coarse_ground;  ///< where the search stands its starts (on the coarse samples)
 };
 
 /// Seconds per named stage: lap(stage) adds the time since the last lap to the stage's.
@@ -561,6 +574,7 @@ std::vector<UpFrame> up_frames(const Eigen::MatrixXd& W, const Eigen::RowVector3
     f.cloud = (W.rowwise() - centre) * f.rotation.transpose();
     f.coarse = every(f.cloud, std::max<Eigen::Index>(1, W.rows() / 700));
     f.coarse_grid = std::make_unique<PointGrid>(f.coarse, kCoarseCell);
+    f.coarse_ground = ground_of(f.coarse);
     f.sparse = every(f.cloud, std::max<Eigen::Index>(1, W.rows() / 200));
     f.sparse_grid = std::make_unique<PointGrid>(f.sparse, 2 * kCoarseCell);
   }
@@ -593,7 +607,14 @@ class StartSearch {
  public:
   StartSearch(const BodyModel& model, const ShapedBody& mean_body, const std::vector<UpFrame>& frames, int threads)
       : model_(model), mean_body_(mean_body), frames_(frames), threads_(threads),
-        sample_rows_(spread_rows(mean_body.rest_vertices(), 0.04)) {}
+        sample_rows_(spread_rows(mean_body.rest_vertices(), 0.04)) {
+    const std::set<int> legs = {kLeftThigh, kLeftShank, kLeftFoot, kRightThigh, kRightShank, kRightFoot};
+    for (size_t i = 0; i < sample_rows_.size(); ++i) {
+      const auto& weights = model.part_weights()[static_cast<size_t>(sample_rows_[i])];
+      if (std::any_of(weights.begin(), weights.end(), [&](const auto& w) { return legs.count(w.first) > 0; }))
+        leg_sample_.push_back(static_cast<Eigen::Index>(i)), leg_rows_.push_back(sample_rows_[i]);
+    }
+  }
 
   /// Every library pose at `headings` headings on every up frame, and the model's motion poses on the
   /// two up directions the library liked best, on the sparse samples; the best `rescored` of those
@@ -672,11 +693,16 @@ class StartSearch {
         const std::string name = best.name + ", legs searched", kind = best.kind + "+legs";
         Start pair = place(best.up, best.heading, best.pose, name, kind, true);
         const PartPose base = best.pose;
+        // The legs move only the sample rows a leg part weighs on: the rest skinned once.
+        Eigen::MatrixXd X, legs_X;
+        ShapedBody::skin(model_, mean_body_.rest_vertices(), mean_body_.part_motions(base), sample_rows_, &X);
         for (const auto& left : pairs[0])
           for (const auto& right : pairs[1]) {
             PartPose pose = base;
             set_leg(&pose, 0, left), set_leg(&pose, 1, right);
-            const Start candidate = place(best.up, best.heading, pose, name, kind, true);
+            ShapedBody::skin(model_, mean_body_.rest_vertices(), mean_body_.part_motions(pose), leg_rows_, &legs_X);
+            for (size_t i = 0; i < leg_sample_.size(); ++i) X.row(leg_sample_[i]) = legs_X.row(static_cast<Eigen::Index>(i));
+            const Start candidate = place_skinned(best.up, best.heading, pose, X, name, kind, true);
             if (candidate.score < pair.score) pair = candidate;
           }
         best = place(best.up, best.heading, pair.pose, name, kind, false);
@@ -731,8 +757,14 @@ class StartSearch {
   Start place(size_t u, int heading, PartPose pose, const std::string& name, const std::string& kind, bool sparse) const {
     Eigen::MatrixXd X;
     ShapedBody::skin(model_, mean_body_.rest_vertices(), mean_body_.part_motions(pose), sample_rows_, &X);
+    return place_skinned(u, heading, std::move(pose), std::move(X), name, kind, sparse);
+  }
+
+  /// place() of a pose whose sample rows are skinned already (X).
+  Start place_skinned(size_t u, int heading, PartPose pose, Eigen::MatrixXd X, const std::string& name, const std::string& kind,
+                      bool sparse) const {
     const Eigen::Vector3d placed = pose.root_translation;
-    stand_on(X, frames_[u].coarse, &pose);
+    stand_on(X, frames_[u].coarse_ground, &pose);
     X.rowwise() += (pose.root_translation - placed).transpose();
     const double score = sparse ? mismatch(every(X, kSparseStride), frames_[u].sparse, *frames_[u].sparse_grid, 0.15, 2 * kCoarseCell)
                                 : mismatch(X, frames_[u].coarse, *frames_[u].coarse_grid, 0.15, kCoarseCell);
@@ -777,6 +809,8 @@ class StartSearch {
   const std::vector<UpFrame>& frames_;
   int threads_;
   std::vector<int> sample_rows_;
+  std::vector<Eigen::Index> leg_sample_;  ///< the sample rows a leg part weighs on (places in sample_rows_)
+  std::vector<int> leg_rows_;             ///< and their vertices
 };
 
 /// What is read off the fitted body (out->V, in the target's frame): each target point's part and
