@@ -170,6 +170,7 @@ int run_eval_bodies(int argc, char** argv) {
                                 {"orientation_right", b.orientation_right}, {"orientation", b.orientation},
                                 {"measured", b.measured}, {"segmented", b.segmented}, {"seconds", b.seconds}};
     if (b.by_body_model) j["fit_start"] = b.fit_start;
+    if (!std::isnan(b.fit_seconds)) j["fit_seconds"] = b.fit_seconds;
     if (!std::isnan(b.joint_angle_error_mean)) j["joint_angle_error_mean_deg"] = b.joint_angle_error_mean * 180 / M_PI;
     for (const auto& [joint, e] : b.joint_angle_error) j["joint_angle_error_deg"][joint] = e * 180 / M_PI;
     if (!b.measure_error.empty()) j["measure_error"] = b.measure_error;
@@ -217,6 +218,14 @@ int run_eval_bodies(int argc, char** argv) {
             << "part borders' roughness (edge length over the hull's perimeter, median of the joints' borders; 1 is a\n"
                "smooth ring): median " << std::setprecision(3) << median_of(all.roughness) << " ours, "
             << median_of(all.truth_roughness) << " the rig's labels\n";
+  std::vector<double> fit_seconds;
+  for (const auto& b : ev.bodies)
+    if (!std::isnan(b.fit_seconds)) fit_seconds.push_back(b.fit_seconds);
+  if (!fit_seconds.empty())
+    std::cout << "the body model's fits: median " << std::setprecision(2) << median_of(fit_seconds) << " s, slowest "
+              << *std::max_element(fit_seconds.begin(), fit_seconds.end()) << " s, "
+              << std::count_if(fit_seconds.begin(), fit_seconds.end(), [](double s) { return s > 3; }) << " of " << fit_seconds.size()
+              << " over 3 s\n";
   bool header = false;
   for (const auto& b : ev.bodies) {
     if (b.measured && (b.segmented || (b.kind == "scan" && !b.by_body_model)) && b.silent_nonsense.empty()) continue;

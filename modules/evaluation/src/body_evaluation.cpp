@@ -66,6 +66,7 @@ void evaluate_fit(const BodyFit& fit, const nlohmann::json& truth, const Triangl
                   BodyResult* r) {
   r->by_body_model = true;
   r->fit_start = fit.start;
+  r->fit_seconds = fit.seconds;
   for (const auto& w : fit.warnings) r->warnings.push_back("fit: " + w);
   r->segmented = fit.confident;
   for (const auto& reason : fit.reasons) r->segment_error += (r->segment_error.empty() ? "below confidence: " : "; ") + reason;

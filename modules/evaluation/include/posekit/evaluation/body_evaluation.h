@@ -40,7 +40,8 @@ struct BodyResult {
   double joint_angle_error_mean = std::numeric_limits<double>::quiet_NaN();
   std::map<std::string, double> joint_angle_error;  ///< joint name -> radians, where the truth has a pose
   std::string fit_start;  ///< the library pose the fit started from
-  double seconds = 0;
+  double fit_seconds = std::numeric_limits<double>::quiet_NaN();  ///< the body model fit's own time (s)
+  double seconds = 0;     ///< the body's whole evaluation: reading, fit, measuring
   /// A result returned as good that is far from the truth (orientation, joints over 5 cm, agreement
   /// under 80%, a girth off by more than 5 cm): what a user would not notice. Filled by evaluate_bodies.
   std::vector<std::string> silent_nonsense;
