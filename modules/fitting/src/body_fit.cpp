@@ -733,19 +733,25 @@ class StartSearch {
       for (int j : arm_joints) a.push_back(p.joint_rotation[static_cast<size_t>(j)]);
       return a;
     };
-    std::vector<Start> mixed;
+    std::vector<Start> mixed;  // unplaced first, then placed on the threads
     for (size_t k = 0; k < std::min<size_t>(3, starts.size()); ++k) {
       std::vector<std::vector<Eigen::Vector3d>> seen = {arms_of(starts[k].pose)};
       for (const LibraryPose& lib : library) {
         const auto arms = arms_of(lib.pose);
         if (std::find(seen.begin(), seen.end(), arms) != seen.end()) continue;
         seen.push_back(arms);
-        PartPose pose = starts[k].pose;
-        for (size_t i = 0; i < arm_joints.size(); ++i) pose.joint_rotation[static_cast<size_t>(arm_joints[i])] = arms[i];
-        mixed.push_back(
-            place(starts[k].up, starts[k].heading, pose, starts[k].name + ", arms as " + lib.name, starts[k].kind + "+" + lib.kind, false));
+        Start m = starts[k];
+        for (size_t i = 0; i < arm_joints.size(); ++i) m.pose.joint_rotation[static_cast<size_t>(arm_joints[i])] = arms[i];
+        m.name += ", arms as " + lib.name, m.kind += "+" + lib.kind;
+        mixed.push_back(std::move(m));
       }
     }
+    parallel_for_ranges(static_cast<long>(mixed.size()), threads_, [&](long begin, long end) {
+      for (long i = begin; i < end; ++i) {
+        Start& m = mixed[static_cast<size_t>(i)];
+        m = place(m.up, m.heading, m.pose, m.name, m.kind, false);
+      }
+    }, 1);
     starts.insert(starts.end(), mixed.begin(), mixed.end());
     std::sort(starts.begin(), starts.end(), by_score);
     return starts;
@@ -935,7 +941,7 @@ PartPose brief_fit(const BodyModel& model, const Eigen::MatrixXd& cloud, const P
 /// on hips, arms crossed) and the options of two arms multiply; a library pose's legs go together, a
 /// person's need not. `changed`: whether any limb moved.
 PartPose limbs_one_by_one(const BodyModel& model, const ShapedBody& mean_body, const UpFrame& frame, const std::vector<int>& coarse_rows,
-                          PartPose pose, bool* changed) {
+                          PartPose pose, int threads, bool* changed) {
   auto score_of = [&](const PartPose& p) {
     Eigen::MatrixXd X;
     ShapedBody::skin(model, mean_body.rest_vertices(), mean_body.part_motions(p), coarse_rows, &X);
@@ -952,14 +958,19 @@ PartPose limbs_one_by_one(const BodyModel& model, const ShapedBody& mean_body, c
       const std::string s = side > 0 ? "left_" : "right_";
       const auto first = static_cast<size_t>(find_joint_index(s + limb.first)), second = static_cast<size_t>(find_joint_index(s + limb.second)),
                  end = static_cast<size_t>(find_joint_index(s + limb.end));
-      PartPose best = pose;
+      std::vector<PartPose> candidates;
       for (const auto& option : limb.arm ? arm_options(mean_body.joint_centres(), side) : leg_options(mean_body.joint_centres(), side)) {
-        PartPose candidate = pose;
+        PartPose& candidate = candidates.emplace_back(pose);
         candidate.joint_rotation[first] = option[0], candidate.joint_rotation[second] = option[1];
         candidate.joint_rotation[end].setZero();
-        const double candidate_score = score_of(candidate);
-        if (candidate_score < score) score = candidate_score, best = candidate, *changed = true;
       }
+      std::vector<double> scores(candidates.size());
+      parallel_for_ranges(static_cast<long>(candidates.size()), threads, [&](long begin, long end_) {
+        for (long i = begin; i < end_; ++i) scores[static_cast<size_t>(i)] = score_of(candidates[static_cast<size_t>(i)]);
+      }, 1);
+      PartPose best = pose;
+      for (size_t i = 0; i < candidates.size(); ++i)  // the first best in the options' order
+        if (scores[i] < score) score = scores[i], best = candidates[i], *changed = true;
       pose = best;
     }
   return pose;
@@ -1088,7 +1099,7 @@ BodyFit fit_body_model(const BodyModel& model, const Eigen::MatrixXd& T, const B
 
     // Each arm, then each leg, on its own (limbs_one_by_one); kept when its brief fit is better.
     bool changed = false;
-    const PartPose limbed = limbs_one_by_one(model, mean_body, frame, coarse_rows, pose, &changed);
+    const PartPose limbed = limbs_one_by_one(model, mean_body, frame, coarse_rows, pose, o.threads, &changed);
     if (changed) {
       PoseFitOptions limbs = brief;
       limbs.start = limbed;
