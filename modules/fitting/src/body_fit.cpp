@@ -1002,7 +1002,7 @@ PoseFitResult fit_shape_and_pose(const BodyModel& model, const UpFrame& frame, c
     refine.start = *pose;
     if (round < o.shape_rounds) refine.iterations = 8, refine.refinement_model_samples = 3000;  // brief: the shape moves on
     else refine.iterations = 100, refine.refinement_model_samples = 12000;
-    result = fit_pose(ShapedBody(model, *c), frame.cloud, refine);
+    result = fit_pose(ShapedBody(model, *c, o.threads), frame.cloud, refine);
     *pose = result.pose;
   }
   return result;

@@ -37,7 +37,8 @@ class BodyModel {
 /// The model's body of shape coefficients c, posable by skinning (what fit_pose moves).
 class ShapedBody final : public PosableBody {
  public:
-  ShapedBody(const BodyModel& model, const Eigen::VectorXd& coefficients);
+  /// `threads` skin the whole body in pose() (1 where many bodies are posed at once).
+  ShapedBody(const BodyModel& model, const Eigen::VectorXd& coefficients, int threads = 1);
   const Eigen::MatrixXd& rest_vertices() const override { return V_; }
   const Eigen::MatrixXi& faces() const override { return model_.faces(); }
   const Eigen::VectorXi& vertex_parts() const override { return model_.vertex_parts(); }
@@ -52,12 +53,13 @@ class ShapedBody final : public PosableBody {
   /// Dual quaternion skinning by the part motions T of the model's vertices `rows` (all when empty)
   /// placed at V (#V x 3, all vertices), into X (#rows x 3).
   static void skin(const BodyModel& model, const Eigen::MatrixXd& V, const PartTransforms& T, const std::vector<int>& rows,
-                   Eigen::MatrixXd* X);
+                   Eigen::MatrixXd* X, int threads = 1);
 
  private:
   const BodyModel& model_;
   Eigen::VectorXd c_;
   Eigen::MatrixXd V_, J_;
+  int threads_ = 1;
 };
 
 }  // namespace posekit
