@@ -819,17 +819,15 @@ class StartSearch {
   std::vector<int> leg_rows_;             ///< and their vertices
 };
 
-/// What is read off the fitted body (out->V, in the target's frame): each target point's part and
-/// distance, the working cloud's distances to the fitted surface, coverage, and the confidence.
-void read_off_fit(const BodyModel& model, const Eigen::MatrixXd& T, const Eigen::MatrixXd& W, const BodyFitOptions& o,
-                  const std::vector<std::string>& pose_warnings, BodyFit* out) {
-  // A point farther than kOutlier from the body is labelled -1. (An unbounded search from far away
-  // also visits every empty cell between.)
+/// Each target point's part (its nearest fitted vertex's) and distance to the fitted body (out->V);
+/// a point farther than kOutlier is labelled -1. (An unbounded search from far away also visits
+/// every empty cell between.)
+void label_target(const BodyModel& model, const Eigen::MatrixXd& T, int threads, BodyFit* out) {
   const PointGrid body_grid(out->V, 0.02);
   out->target_part.resize(T.rows());
   out->target_distance.resize(T.rows());
   const Eigen::VectorXi& part = model.vertex_parts();
-  parallel_for_ranges(T.rows(), o.threads, [&](long begin, long end) {
+  parallel_for_ranges(T.rows(), threads, [&](long begin, long end) {
     for (Eigen::Index i = begin; i < end; ++i) {
       double sq = 0;
       const int v = body_grid.nearest(T.row(i).transpose(), &sq, kOutlier);
@@ -837,6 +835,14 @@ void read_off_fit(const BodyModel& model, const Eigen::MatrixXd& T, const Eigen:
       out->target_distance[i] = v >= 0 ? std::sqrt(sq) : std::numeric_limits<double>::infinity();
     }
   });
+}
+
+/// What tells a fit's confidence, read off the fitted body (out->V, in the target's frame) against
+/// the working cloud W: its distances to the fitted surface, coverage, each part's and limb's.
+void read_off_fit(const BodyModel& model, const Eigen::MatrixXd& W, const BodyFitOptions& o, const std::vector<std::string>& pose_warnings,
+                  BodyFit* out) {
+  const PointGrid body_grid(out->V, 0.02);
+  const Eigen::VectorXi& part = model.vertex_parts();
   // The working cloud's distances to the fitted surface (not its vertices, 1-3 cm apart on the trunk).
   const TriangleTree surface(out->V, model.faces());
   std::vector<double> d(static_cast<size_t>(W.rows()));
@@ -1130,7 +1136,7 @@ BodyFit fit_body_model(const BodyModel& model, const Eigen::MatrixXd& T, const B
       // Back to the target's frame: x = R^T y + centre.
       fit.V = (V * frame.rotation).rowwise() + centre;
       fit.joints = (ShapedBody(model, c).posed_joints(pose) * frame.rotation).rowwise() + centre;
-      read_off_fit(model, T, W, o, warnings, &fit);
+      read_off_fit(model, W, o, warnings, &fit);
       lap("read-off");
       return out;
     };
@@ -1195,7 +1201,10 @@ BodyFit fit_body_model(const BodyModel& model, const Eigen::MatrixXd& T, const B
   }
   // A refusal still gives the best start's fit whole (--accept-poor writes it).
   if (out.cut_short) out = finish_from(out.from, true);
+  // The target's points labelled once, for the fit returned (a dense scan's take the most time).
   BodyFit& fit = out.fit;
+  label_target(model, T, o.threads, &fit);
+  lap("read-off");
   fit.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   fit.stage_seconds = std::move(timer.stages);
   return std::move(fit);
