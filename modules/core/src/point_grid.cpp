@@ -67,7 +67,7 @@ int PointGrid::nearest(const Eigen::Vector3d& p, double* sq_distance, double max
   // or row already as far as the best so far is skipped whole.
   thread_local std::vector<double> gap2[3];  // kept between queries: no allocation per query
   auto slab_gaps = [&](int k, int from, int to) {
-    gap2[k].resize(static_cast<size_t>(to - from + 1));
+    if (gap2[k].size() < static_cast<size_t>(to - from + 1)) gap2[k].resize(static_cast<size_t>(to - from + 1));  // grows only
     for (int c = from; c <= to; ++c) {
       const double a = lo_[k] + c * cell_, slack = 1e-9 * cell_;
       const double gap = std::max({a - slack - p[k], p[k] - (a + cell_ + slack), 0.0});
