@@ -90,21 +90,31 @@ Eigen::MatrixXd every(const Eigen::MatrixXd& P, Eigen::Index stride) {
 
 /// How badly a posed body explains a cloud: the mean of each point's distance to the other set,
 /// capped at `cap`, both ways. `cell`: the body grid's (a sparse sample searches faster in larger
-/// cells: fewer empty ones between a misplaced limb and the cloud).
-double mismatch(const Eigen::MatrixXd& body, const Eigen::MatrixXd& cloud, const PointGrid& cloud_grid, double cap, double cell = 0.03) {
+/// cells: fewer empty ones between a misplaced limb and the cloud). A search for the best of many
+/// passes the best so far as `bound`: once the partial sums reach it (they only grow) the placement
+/// cannot win and a value >= bound is returned; below it the value is exact.
+double mismatch(const Eigen::MatrixXd& body, const Eigen::MatrixXd& cloud, const PointGrid& cloud_grid, double cap, double cell = 0.03,
+                double bound = std::numeric_limits<double>::infinity()) {
+  const auto body_n = static_cast<double>(std::max<Eigen::Index>(1, body.rows()));
+  const auto cloud_n = static_cast<double>(std::max<Eigen::Index>(1, cloud.rows()));
+  constexpr Eigen::Index kCheckEvery = 16;
+  // Body to cloud first: the cloud's grid is built already, the body's only when it is needed.
+  double back = 0;
+  for (Eigen::Index v = 0; v < body.rows(); ++v) {
+    double sq = 0;
+    back += cloud_grid.nearest(body.row(v).transpose(), &sq, cap) >= 0 ? std::sqrt(sq) : cap;
+    if (v % kCheckEvery == kCheckEvery - 1 && back / body_n >= bound) return back / body_n;
+  }
+  const double back_mean = back / body_n;
+  if (back_mean >= bound) return back_mean;
   const PointGrid body_grid(body, cell);
   double sum = 0;
   for (Eigen::Index i = 0; i < cloud.rows(); ++i) {
     double sq = 0;
     sum += body_grid.nearest(cloud.row(i).transpose(), &sq, cap) >= 0 ? std::sqrt(sq) : cap;
+    if (i % kCheckEvery == kCheckEvery - 1 && sum / cloud_n + back_mean >= bound) return sum / cloud_n + back_mean;
   }
-  double back = 0;
-  for (Eigen::Index v = 0; v < body.rows(); ++v) {
-    double sq = 0;
-    back += cloud_grid.nearest(body.row(v).transpose(), &sq, cap) >= 0 ? std::sqrt(sq) : cap;
-  }
-  return sum / static_cast<double>(std::max<Eigen::Index>(1, cloud.rows())) +
-         back / static_cast<double>(std::max<Eigen::Index>(1, body.rows()));
+  return sum / cloud_n + back_mean;
 }
 
 /// The `q` quantile of the cloud's distances to the body's nearest points, each capped at `cap`.
@@ -702,7 +712,7 @@ class StartSearch {
             set_leg(&pose, 0, left), set_leg(&pose, 1, right);
             ShapedBody::skin(model_, mean_body_.rest_vertices(), mean_body_.part_motions(pose), leg_rows_, &legs_X);
             for (size_t i = 0; i < leg_sample_.size(); ++i) X.row(leg_sample_[i]) = legs_X.row(static_cast<Eigen::Index>(i));
-            const Start candidate = place_skinned(best.up, best.heading, pose, X, name, kind, true);
+            const Start candidate = place_skinned(best.up, best.heading, pose, X, name, kind, true, pair.score);
             if (candidate.score < pair.score) pair = candidate;
           }
         best = place(best.up, best.heading, pair.pose, name, kind, false);
@@ -711,7 +721,7 @@ class StartSearch {
           for (const auto& option : each[static_cast<size_t>(side)]) {
             PartPose pose = held;
             set_leg(&pose, side, option);
-            const Start candidate = place(best.up, best.heading, pose, name, kind, false);
+            const Start candidate = place(best.up, best.heading, pose, name, kind, false, best.score);
             if (candidate.score < best.score) best = candidate;
           }
         }
@@ -760,20 +770,22 @@ class StartSearch {
  private:
   static bool by_score(const Start& a, const Start& b) { return a.score < b.score; }
 
-  Start place(size_t u, int heading, PartPose pose, const std::string& name, const std::string& kind, bool sparse) const {
+  /// `bound`: see mismatch (a search for the best placement passes the best score so far).
+  Start place(size_t u, int heading, PartPose pose, const std::string& name, const std::string& kind, bool sparse,
+              double bound = std::numeric_limits<double>::infinity()) const {
     Eigen::MatrixXd X;
     ShapedBody::skin(model_, mean_body_.rest_vertices(), mean_body_.part_motions(pose), sample_rows_, &X);
-    return place_skinned(u, heading, std::move(pose), std::move(X), name, kind, sparse);
+    return place_skinned(u, heading, std::move(pose), std::move(X), name, kind, sparse, bound);
   }
 
   /// place() of a pose whose sample rows are skinned already (X).
   Start place_skinned(size_t u, int heading, PartPose pose, Eigen::MatrixXd X, const std::string& name, const std::string& kind,
-                      bool sparse) const {
+                      bool sparse, double bound = std::numeric_limits<double>::infinity()) const {
     const Eigen::Vector3d placed = pose.root_translation;
     stand_on(X, frames_[u].coarse_ground, &pose);
     X.rowwise() += (pose.root_translation - placed).transpose();
-    const double score = sparse ? mismatch(every(X, kSparseStride), frames_[u].sparse, *frames_[u].sparse_grid, 0.15, 2 * kCoarseCell)
-                                : mismatch(X, frames_[u].coarse, *frames_[u].coarse_grid, 0.15, kCoarseCell);
+    const double score = sparse ? mismatch(every(X, kSparseStride), frames_[u].sparse, *frames_[u].sparse_grid, 0.15, 2 * kCoarseCell, bound)
+                                : mismatch(X, frames_[u].coarse, *frames_[u].coarse_grid, 0.15, kCoarseCell, bound);
     return Start{score, u, heading, name, kind, pose};
   }
 
@@ -948,12 +960,12 @@ PartPose brief_fit(const BodyModel& model, const Eigen::MatrixXd& cloud, const P
 /// person's need not. `changed`: whether any limb moved.
 PartPose limbs_one_by_one(const BodyModel& model, const ShapedBody& mean_body, const UpFrame& frame, const std::vector<int>& coarse_rows,
                           PartPose pose, int threads, bool* changed) {
-  auto score_of = [&](const PartPose& p) {
+  auto score_of = [&](const PartPose& p, double bound) {
     Eigen::MatrixXd X;
     ShapedBody::skin(model, mean_body.rest_vertices(), mean_body.part_motions(p), coarse_rows, &X);
-    return mismatch(X, frame.coarse, *frame.coarse_grid, 0.15, kCoarseCell);
+    return mismatch(X, frame.coarse, *frame.coarse_grid, 0.15, kCoarseCell, bound);
   };
-  double score = score_of(pose);
+  double score = score_of(pose, std::numeric_limits<double>::infinity());
   *changed = false;
   struct Limb {
     const char *first, *second, *end;  // the end joint goes to rest with each option
@@ -970,9 +982,10 @@ PartPose limbs_one_by_one(const BodyModel& model, const ShapedBody& mean_body, c
         candidate.joint_rotation[first] = option[0], candidate.joint_rotation[second] = option[1];
         candidate.joint_rotation[end].setZero();
       }
+      // Each scored up to the pose's own score: a candidate that reaches it is not kept.
       std::vector<double> scores(candidates.size());
       parallel_for_ranges(static_cast<long>(candidates.size()), threads, [&](long begin, long end_) {
-        for (long i = begin; i < end_; ++i) scores[static_cast<size_t>(i)] = score_of(candidates[static_cast<size_t>(i)]);
+        for (long i = begin; i < end_; ++i) scores[static_cast<size_t>(i)] = score_of(candidates[static_cast<size_t>(i)], score);
       }, 1);
       PartPose best = pose;
       for (size_t i = 0; i < candidates.size(); ++i)  // the first best in the options' order
