@@ -2,7 +2,6 @@
 #include <algorithm>
 #include <atomic>
 #include <functional>
-#include <chrono>
 #include <filesystem>
 #include <fstream>
 #include <iomanip>
@@ -15,6 +14,7 @@
 #include "cli.h"
 #include "commands.h"
 #include "posekit/core/error.h"
+#include "posekit/core/timer.h"
 #include "posekit/core/units.h"
 #include "posekit/io/atomic_file.h"
 #include "posekit/io/checksum.h"
@@ -295,7 +295,7 @@ int run_batch_job(const ArgParser& args, const BatchJob& job, const std::vector<
     if (!stop.exchange(true)) write_error = e.what();
   };
   Progress progress("batch " + job.command, static_cast<long>(mine.size()));
-  const auto t0 = std::chrono::steady_clock::now();
+  const Stopwatch t0;
   auto worker = [&] {
     for (size_t k = next++; k < mine.size() && !stop; k = next++) {
       const std::string& input = all[static_cast<size_t>(mine[k])];
@@ -363,7 +363,7 @@ int run_batch_job(const ArgParser& args, const BatchJob& job, const std::vector<
     throw WriteError("batch " + job.command + " stopped at the first failed write (" + std::to_string(done.load()) + " of " +
                      std::to_string(mine.size()) + " inputs done; rerun to resume): " + write_error);
   progress.finish();
-  const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  const double seconds = t0.seconds();
 
   nlohmann::ordered_json summary;
   summary["command"] = job.command;
@@ -652,9 +652,9 @@ int run_batch_pose(int argc, char** argv) {
     std::vector<std::string> warnings = subject.warnings;
     if (report.boundary_loops > 0)
       warnings.push_back(std::to_string(report.boundary_loops) + " holes: features near them may be off");
-    const auto t0 = std::chrono::steady_clock::now();
+    const Stopwatch t0;
     const PoseSynthesizer synth = set_up_subject(model, mesh, input);
-    const double setup = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+    const double setup = t0.seconds();
     for (const auto& problem : synth.info().skeleton_problems) warnings.push_back("the skeleton looks wrong: " + problem);
     const fs::path dir = posed_dir / stem;
     create_folders(dir.string());
@@ -662,7 +662,7 @@ int run_batch_pose(int argc, char** argv) {
     posed.F = mesh.F;
     posed.vertex_scalars["part"] = vertex_labels_from_triangles(mesh.V, mesh.F, synth.info().triangle_part).cast<double>();
     nlohmann::ordered_json files = nlohmann::ordered_json::array();
-    const auto t1 = std::chrono::steady_clock::now();
+    const Stopwatch t1;
     const LoadedPoses own = per_subject ? load_poses(pose_path, frames, data, synth.info().joint_centres, joint_map, root_motion, &motion)
                                          : LoadedPoses{};
     const LoadedPoses& poses = per_subject ? own : shared;
@@ -677,7 +677,7 @@ int run_batch_pose(int argc, char** argv) {
       warnings.insert(warnings.end(), io.begin(), io.end());
       files.push_back((fs::path("posed") / stem / (name + "." + format)).string());  // relative to OUT: the summary moves with it
     }
-    const double posing = std::chrono::duration<double>(std::chrono::steady_clock::now() - t1).count();
+    const double posing = t1.seconds();
     {
       std::lock_guard<std::mutex> lock(timing_mutex);
       setup_seconds.push_back(setup);

@@ -23,7 +23,7 @@
 #include "posekit/body/makehuman_model.h"
 #include "posekit/body/parts.h"
 #include "posekit/body/skinning.h"
-#include "posekit/core/closest_point.h"
+#include "posekit/core/parallel.h"
 #include "posekit/core/data_root.h"
 #include "posekit/core/error.h"
 #include "posekit/core/mesh_geometry.h"

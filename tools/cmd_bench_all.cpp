@@ -2,7 +2,6 @@
 #include <sys/utsname.h>
 #include <unistd.h>
 
-#include <chrono>
 #include <cstdlib>
 #include <ctime>
 #include <filesystem>
@@ -17,6 +16,7 @@
 #include "cli.h"
 #include "commands.h"
 #include "posekit/core/error.h"
+#include "posekit/core/timer.h"
 #include "posekit/io/atomic_file.h"
 #include "posekit/version.h"
 
@@ -185,11 +185,11 @@ int bench_all(int argc, char** argv) {
     }
     std::cerr << "bench all: " << s.name << " (" << s.options << ")\n";
     const std::string json_path = (out / ("." + s.name + ".json")).string(), log = (out / (s.name + ".log")).string();
-    const auto t0 = std::chrono::steady_clock::now();
+    const Stopwatch t0;
     const int status = std::system((shell_quote(exe) + " bench " + s.name + " " + s.options + " --json >" + shell_quote(json_path) +
                                     " 2>" + shell_quote(log))
                                        .c_str());
-    b["wall_s"] = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+    b["wall_s"] = t0.seconds();
     nlohmann::ordered_json result;
     try {
       if (status != 0) throw IoError("exit status " + std::to_string(status));

@@ -1,5 +1,4 @@
 // posekit body: shape the MakeHuman body from sliders, optionally pose it, write it.
-#include <chrono>
 #include <iomanip>
 #include <iostream>
 #include <nlohmann/json.hpp>
@@ -15,6 +14,7 @@
 #include "posekit/core/data_root.h"
 #include "posekit/core/error.h"
 #include "posekit/core/mesh_geometry.h"
+#include "posekit/core/timer.h"
 #include "posekit/io/bvh.h"
 #include "posekit/io/atomic_file.h"
 #include "posekit/io/mesh_io.h"
@@ -73,9 +73,9 @@ int run_body(int argc, char** argv) {
       .example("posekit body --gender 1 --weight 0.8 --out man.ply --labels")
       .example("posekit body --spec subject.json --pose walk.json --skinning dqs --out posed.ply");
   if (!args.parse(argc, argv)) return 0;
-  const auto t0 = std::chrono::steady_clock::now();
+  const Stopwatch t0;
   const auto model = load_makehuman_model(find_data_root(args.get("data")));
-  const double load_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  const double load_s = t0.seconds();
   if (args.flag_set("list-modifiers")) {
     for (const auto& m : model->modifiers) std::cout << m.name << (m.two_sided ? "  [-1, 1]\n" : "  [0, 1]\n");
     return 0;

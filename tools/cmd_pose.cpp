@@ -1,7 +1,6 @@
 // posekit train / pose / segment / eval: the pose deformation pipeline of section 3.3.
 #include <Eigen/Geometry>
 #include <algorithm>
-#include <chrono>
 #include <filesystem>
 #include <sstream>
 #include <iomanip>
@@ -18,6 +17,7 @@
 #include "posekit/body/parts.h"
 #include "posekit/core/data_root.h"
 #include "posekit/core/error.h"
+#include "posekit/core/timer.h"
 #include "posekit/datasets/dataset.h"
 #include "posekit/fitting/body_fit.h"
 #include "posekit/fitting/body_model.h"
@@ -50,10 +50,6 @@ namespace fs = std::filesystem;
 
 namespace posekit::cli {
 namespace {
-
-double seconds_since(std::chrono::steady_clock::time_point t0) {
-  return std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
-}
 
 /// Subject meshes for posing must be closed bodies in one piece: say so before any work.
 void check_subject(const TriangleMesh& mesh, const std::string& path) {
@@ -295,10 +291,10 @@ int run_train(int argc, char** argv) {
   const long smoothing = args.get_int("smooth");
   if (smoothing < 0 || smoothing > 1000) throw UsageError("--smooth expects 0 to 1000 iterations, got " + args.get("smooth"));
   o.smoothing_iterations = static_cast<int>(smoothing);
-  const auto t0 = std::chrono::steady_clock::now();
+  const Stopwatch t0;
   DatasetTrainingReport fits;
   PoseModel model = train_on_dataset(args.get("dataset"), o, dto, &fits);
-  const double seconds = seconds_since(t0);
+  const double seconds = t0.seconds();
   progress.finish();
   const nlohmann::ordered_json fit_json = fit_report_json(fits);
   report_pose_estimation(fits, std::cerr);
@@ -375,9 +371,9 @@ int run_pose(int argc, char** argv) {
   BodyOrientation orientation;
   BodyUnit unit;
   const TriangleMesh subject = read_posing_subject(args, "pose", &orientation, &unit);
-  const auto t0 = std::chrono::steady_clock::now();
+  const Stopwatch t0;
   const PoseSynthesizer synth = set_up_subject(model, subject, args.get("subject"), subject_setup(args, subject));
-  const double setup = seconds_since(t0);
+  const double setup = t0.seconds();
   for (const auto& problem : synth.info().skeleton_problems)
     std::cerr << "warning: " << args.get("subject") << ": the subject's skeleton looks wrong: " << problem << "\n";
   const LoadedPoses loaded = load_poses(args.get("pose"), args.has("frames") ? args.get("frames") : "", args.has("data") ? args.get("data") : "",
@@ -389,10 +385,10 @@ int run_pose(int argc, char** argv) {
   std::vector<std::string> written;
   const fs::path out = args.get("out");  // its folder checked (or made, --mkdir) by the parser
   for (size_t i = 0; i < poses.size(); ++i) {
-    const auto t1 = std::chrono::steady_clock::now();
+    const Stopwatch t1;
     TriangleMesh posed;
     synth.pose(poses[i], method, &posed.V);
-    pose_seconds += seconds_since(t1);
+    pose_seconds += t1.seconds();
     posed.F = subject.F;
     posed.vertex_scalars["part"] = vertex_labels_from_triangles(subject.V, subject.F, synth.info().triangle_part).cast<double>();
     std::string path = out.string();
@@ -624,7 +620,7 @@ int run_segment(int argc, char** argv) {
   std::vector<int> surface_vertex;  // index in the file of each vertex segmented
   const TriangleMesh mesh = body_surface(input.mesh.V, input.mesh.F, &left_out, &surface_vertex);
   if (!left_out.empty()) std::cerr << "warning: " << args.positionals()[0] << ": " << left_out << " (floating pieces are labelled -1)\n";
-  const auto t0 = std::chrono::steady_clock::now();
+  const Stopwatch t0;
   const BodyFeatures features = find_body_features(input.mesh.V, input.mesh.F);  // sees the openings (cut hands, head)
   const LayeredRepresentation rep = build_layered_representation(mesh.V, mesh.F, features);
   SegmentationPrior prior;
@@ -633,7 +629,7 @@ int run_segment(int argc, char** argv) {
   for (const auto& r : result.notes) std::cerr << "note: " << args.positionals()[0] << ": " << r << "\n";
   const Segmentation& seg = result.segmentation;
   Eigen::MatrixXd& joints = result.joints;
-  const double seconds = seconds_since(t0);
+  const double seconds = t0.seconds();
   // Left is left, parts whole and in proportion, joints at their borders: never a wrong skeleton silently.
   const SkeletonCheck& check = result.check;
   if (!check.ok()) {
@@ -712,7 +708,7 @@ int run_eval(int argc, char** argv) {
   if (!args.parse(argc - 1, argv + 1)) return 0;
   if (!args.has("dataset")) throw UsageError("--dataset DIR is required");
   const std::string dir = args.get("dataset");
-  auto t0 = std::chrono::steady_clock::now();
+  Stopwatch t0;
   std::shared_ptr<const PoseModel> model;
   if (args.has("model")) {
     model = std::make_shared<const PoseModel>(read_pose_model(args.get("model")));
@@ -722,7 +718,7 @@ int run_eval(int argc, char** argv) {
     if (!prior.not_made.empty()) std::cerr << "posekit eval: segmentation prior is the template alone: " << prior.not_made << "\n";
     model = std::make_shared<const PoseModel>(std::move(trained));
   }
-  const double train_seconds = seconds_since(t0);
+  const double train_seconds = t0.seconds();
   PoseEvaluationOptions o;
   std::unique_ptr<Progress> progress;
   o.progress = [&](int done, int total, const std::string&) {

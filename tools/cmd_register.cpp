@@ -1,7 +1,6 @@
 // posekit register <source> <target>: ct-FFD or ICP registration and the triangle correspondence;
 // posekit shape-space: a shape space file for register --shape-space.
 #include <algorithm>
-#include <chrono>
 #include <filesystem>
 #include <sstream>
 #include <iomanip>
@@ -14,6 +13,7 @@
 #include "fitted_input.h"
 #include "posekit/core/data_root.h"
 #include "posekit/core/error.h"
+#include "posekit/core/timer.h"
 #include "posekit/core/units.h"
 #include "posekit/io/atomic_file.h"
 #include "posekit/datasets/dataset.h"
@@ -75,7 +75,7 @@ namespace {
 /// in the body model's topology), optionally refined by soft non-rigid ICP; then nearest centroids.
 RegistrationResult register_by_body_model(const TriangleMesh& source, const TriangleMesh& target, const RegistrationOptions& o,
                                           const ArgParser& args, Eigen::MatrixXd* fitted) {
-  const auto t0 = std::chrono::steady_clock::now();
+  const Stopwatch t0;
   const std::unique_ptr<BodyModel> model = load_body_model(args);
   if (source.V.rows() != model->space().vertices() || source.F != model->faces())
     throw InvalidInput(args.positionals()[0] + ": --method body-model registers a source of the body model's topology (MakeHuman's "
@@ -93,7 +93,7 @@ RegistrationResult register_by_body_model(const TriangleMesh& source, const Tria
   r.correspondence = nearest_centroid_correspondence(r.deformed_source, source.F, target.V, target.F, &r.normal_failures,
                                                      o.threads);
   r.warnings = fit.warnings;
-  r.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  r.seconds = t0.seconds();
   return r;
 }
 

@@ -3,7 +3,6 @@
 #include <unistd.h>
 
 #include <algorithm>
-#include <chrono>
 #include <filesystem>
 #include <fstream>
 #include <iomanip>
@@ -19,6 +18,7 @@
 #include "posekit/datasets/pose_set.h"
 #include "posekit/datasets/rasterizer.h"
 #include "posekit/core/mesh_geometry.h"
+#include "posekit/core/timer.h"
 #include "posekit/datasets/remesh.h"
 #include "posekit/datasets/scanner.h"
 #include "posekit/datasets/subjects.h"
@@ -123,7 +123,7 @@ std::string measurements_json(const Measurements& m, const BodyStats& st) {
 }  // namespace
 
 DatasetSummary make_dataset(const std::string& out_dir, const DatasetOptions& o) {
-  const auto t0 = std::chrono::steady_clock::now();
+  const Stopwatch t0;
   const fs::path out = fs::absolute(out_dir).lexically_normal();
   std::error_code ec;
   if (fs::exists(out, ec) && !o.force) throw IoError(out.string() + ": already exists (choose another --out or pass --force)");
@@ -290,7 +290,7 @@ DatasetSummary make_dataset(const std::string& out_dir, const DatasetOptions& o)
     write_file_atomically((tmp / "manifest.json").string(), [&](std::ostream& os) { os << text; }, false);
     if (fs::exists(out)) fs::remove_all(out);
     fs::rename(tmp, out);
-    summary.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+    summary.seconds = t0.seconds();
     return summary;
   } catch (...) {
     fs::remove_all(tmp, ec);

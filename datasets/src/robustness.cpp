@@ -4,7 +4,6 @@
 
 #include <Eigen/Geometry>
 #include <algorithm>
-#include <chrono>
 #include <cmath>
 #include <filesystem>
 #include <nlohmann/json.hpp>
@@ -20,6 +19,7 @@
 #include "posekit/core/mesh_geometry.h"
 #include "posekit/core/mesh_slice.h"
 #include "posekit/core/mesh_topology.h"
+#include "posekit/core/timer.h"
 #include "posekit/datasets/remesh.h"
 #include "posekit/datasets/scanner.h"
 #include "posekit/datasets/subjects.h"
@@ -378,7 +378,7 @@ std::vector<BodySpec> robustness_shapes(unsigned seed, int count) { return make_
 const std::vector<RobustnessVariation>& robustness_variations() { return kVariations; }
 
 RobustnessSummary make_robustness_set(const std::string& out_dir, const RobustnessOptions& o) {
-  const auto t0 = std::chrono::steady_clock::now();
+  const Stopwatch t0;
   std::vector<RobustnessVariation> chosen;
   for (const auto& name : o.only) {
     auto it = std::find_if(kVariations.begin(), kVariations.end(), [&](const RobustnessVariation& v) { return v.name == name; });
@@ -650,7 +650,7 @@ RobustnessSummary make_robustness_set(const std::string& out_dir, const Robustne
     r.bodies = total;
     r.shapes = shapes;
     r.variations = static_cast<int>(chosen.size());
-    r.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+    r.seconds = t0.seconds();
     return r;
   } catch (...) {
     fs::remove_all(tmp, ec);

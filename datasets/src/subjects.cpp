@@ -8,7 +8,7 @@
 #include <random>
 
 #include "posekit/body/parts.h"
-#include "posekit/core/closest_point.h"
+#include "posekit/core/parallel.h"
 #include "posekit/core/error.h"
 #include "posekit/core/mesh_geometry.h"
 #include "posekit/core/mesh_slice.h"

@@ -6,7 +6,6 @@
 #include <string>
 #include <vector>
 
-#include "posekit/core/closest_point.h"
 #include "posekit/core/error.h"
 #include "testing/test_meshes.h"
 
@@ -64,14 +63,3 @@ TEST(MeshGeometry, BoundingBoxOfEmptySetThrows) {
   EXPECT_TRUE(b.center().isApprox(Eigen::Vector3d(0.5, 0.5, 0.5)));
 }
 
-TEST(ParallelFor, CoversEveryItemOnceAndRethrowsAWorkersException) {
-  std::vector<int> hits(10000, 0);
-  parallel_for_ranges(10000, 4, [&](long begin, long end) {
-    for (long i = begin; i < end; ++i) ++hits[static_cast<size_t>(i)];
-  }, 100);
-  EXPECT_EQ(std::count(hits.begin(), hits.end(), 1), 10000);
-  // A throw in the last chunk (another thread) reaches the caller instead of terminating.
-  EXPECT_THROW(parallel_for_ranges(10000, 4, [](long begin, long) {
-    if (begin >= 7500) throw InvalidInput("chunk " + std::to_string(begin));
-  }, 100), InvalidInput);
-}

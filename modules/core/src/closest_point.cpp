@@ -2,12 +2,11 @@
 
 #include <algorithm>
 #include <cstdint>
-#include <exception>
 #include <numeric>
-#include <thread>
 #include <vector>
 
 #include "posekit/core/error.h"
+#include "posekit/core/parallel.h"
 
 namespace posekit {
 
@@ -45,34 +44,6 @@ Eigen::Vector3d closest_point_on_triangle(const Eigen::Vector3d& p, const Eigen:
   if (!(std::abs(denom) > 0)) return done(1, 0, 0);  // degenerate: its first corner
   const double v = vb / denom, w = vc / denom;
   return done(1 - v - w, v, w);
-}
-
-void parallel_for_ranges(long n, int threads, const std::function<void(long, long)>& body, long min_items_per_thread) {
-  if (threads <= 0) threads = static_cast<int>(std::max(1u, std::thread::hardware_concurrency()));
-  threads = static_cast<int>(std::min<long>(threads, std::max<long>(1, n / std::max<long>(1, min_items_per_thread))));
-  if (threads <= 1) {
-    body(0, n);
-    return;
-  }
-  // An exception in any range is rethrown here after every thread has joined (never std::terminate).
-  std::vector<std::thread> pool;
-  std::vector<std::exception_ptr> errors(static_cast<size_t>(threads));
-  auto guarded = [&](int t, long begin, long end) {
-    try {
-      body(begin, end);
-    } catch (...) {
-      errors[static_cast<size_t>(t)] = std::current_exception();
-    }
-  };
-  const long chunk = (n + threads - 1) / threads;
-  for (int t = 1; t < threads; ++t) {
-    const long begin = t * chunk, end = std::min(n, begin + chunk);
-    if (begin < end) pool.emplace_back(guarded, t, begin, end);
-  }
-  guarded(0, 0, std::min(n, chunk));
-  for (auto& th : pool) th.join();
-  for (const auto& e : errors)
-    if (e) std::rethrow_exception(e);
 }
 
 namespace {

@@ -12,7 +12,7 @@
 #include <thread>
 
 #include "edge_key.h"
-#include "posekit/core/closest_point.h"  // parallel_for_ranges
+#include "posekit/core/parallel.h"
 #include "posekit/core/error.h"
 #include "posekit/core/mesh_geometry.h"
 
@@ -143,7 +143,7 @@ std::vector<std::vector<SectionLoop>> slice_stack(const Eigen::MatrixXd& V, cons
   // within a plane range after range of faces.
   constexpr long kFacesPerRange = 16384;
   const long faces = static_cast<long>(F.rows());
-  if (threads <= 0) threads = static_cast<int>(std::max(1u, std::thread::hardware_concurrency()));
+  threads = resolve_threads(threads);
   const int ranges = static_cast<int>(std::clamp<long>(faces / kFacesPerRange, 1, threads));
   const long range_size = (faces + ranges - 1) / ranges;
   const auto for_each_range = [&](const std::function<void(long, long, int)>& body) {

@@ -3,22 +3,20 @@
 #include <Eigen/Geometry>
 #include <algorithm>
 #include <atomic>
-#include <chrono>
 #include <cmath>
 #include <fstream>
 #include <map>
-#include <mutex>
 #include <nlohmann/json.hpp>
 #include <opencv2/core.hpp>
 #include <opencv2/imgproc.hpp>
 #include <opencv2/ml.hpp>
 #include <random>
 #include <sstream>
-#include <thread>
 
 #include "posekit/body/makehuman_model.h"
-#include "posekit/core/closest_point.h"
+#include "posekit/core/parallel.h"
 #include "posekit/core/error.h"
+#include "posekit/core/timer.h"
 #include "posekit/customization/photo_customization.h"
 #include "posekit/datasets/subjects.h"
 #include "posekit/io/atomic_file.h"
@@ -226,24 +224,6 @@ Silhouette decode(const std::vector<std::uint8_t>& png) {
   return s;
 }
 
-void parallel(int n, int threads, const std::function<void(int)>& f) {
-  std::atomic<int> next{0};
-  std::vector<std::thread> pool;
-  std::exception_ptr error;
-  std::mutex m;
-  for (int t = 0; t < std::max(1, threads); ++t)
-    pool.emplace_back([&] {
-      for (int i; (i = next++) < n;) try {
-          f(i);
-        } catch (...) {
-          std::lock_guard<std::mutex> lock(m);
-          if (!error) error = std::current_exception();
-        }
-    });
-  for (auto& t : pool) t.join();
-  if (error) std::rethrow_exception(error);
-}
-
 }  // namespace
 
 BodyFeatures predict_body_features(const CustomizationModel& model, const PhotoLandmarks& L) {
@@ -346,7 +326,7 @@ CustomizedBody customize_from_silhouettes(const Silhouette& front, const Silhoue
 }
 
 CustomizationModel train_customization_model(const CustomizationTrainingOptions& o) {
-  const auto t0 = std::chrono::steady_clock::now();
+  const Stopwatch t0;
   if (o.bodies < 20) throw InvalidInput("customize train: at least 20 bodies");
   const auto mh = load_makehuman_model(o.data_root);
   CustomizationModel model;
@@ -362,7 +342,7 @@ CustomizationModel train_customization_model(const CustomizationTrainingOptions&
     if (o.progress) o.progress(d, 2 * n, what);
   };
   // Pass 1: bodies, their features, rendered silhouettes, 2-D features.
-  parallel(n, o.threads, [&](int i) {
+  parallel_for_each(n, o.threads, [&](long i) {
     Sample& s = samples[static_cast<size_t>(i)];
     try {
       const Body body = build_body(*mh, specs[static_cast<size_t>(i)]);
@@ -452,7 +432,7 @@ CustomizationModel train_customization_model(const CustomizationTrainingOptions&
   // Pass 2: each body's representation at the predicted features; per layer, silhouette extents
   // against the true section.
   std::atomic<int> layer_count{0};
-  parallel(static_cast<int>(kept.size()), o.threads, [&](int j) {
+  parallel_for_each(static_cast<long>(kept.size()), o.threads, [&](long j) {
     Sample& s = samples[static_cast<size_t>(kept[static_cast<size_t>(j)])];
     try {
       const BodyFeatures f = torso_levels_in_proportion(predict_body_features(model, s.landmarks), template_features);
@@ -483,7 +463,7 @@ CustomizationModel train_customization_model(const CustomizationTrainingOptions&
   const int layers = layer_count;
   model.layers.resize(static_cast<size_t>(layers));
   const int n_out = 2 * model.points_per_layer + 2;
-  parallel(layers, o.threads, [&](int i) {
+  parallel_for_each(layers, o.threads, [&](long i) {
     CustomizationModel::Layer& L = model.layers[static_cast<size_t>(i)];
     auto gather = [&](const std::vector<int>& ids, Eigen::MatrixXd* X, Eigen::MatrixXd* Y) {
       X->resize(static_cast<Eigen::Index>(ids.size()), kLayerInputs);
@@ -559,7 +539,7 @@ CustomizationModel train_customization_model(const CustomizationTrainingOptions&
   }
   model.population = pop.str();
   prepare_customization_model(&model);
-  model.training_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  model.training_seconds = t0.seconds();
   return model;
 }
 

@@ -1,7 +1,6 @@
 #include "posekit/customization/photo_evaluation.h"
 
 #include <Eigen/Geometry>
-#include <chrono>
 #include <cmath>
 #include <filesystem>
 #include <fstream>
@@ -11,6 +10,7 @@
 
 #include "posekit/core/closest_point.h"
 #include "posekit/core/error.h"
+#include "posekit/core/timer.h"
 #include "posekit/datasets/dataset.h"
 #include "posekit/io/image_io.h"
 #include "posekit/shape/measurements.h"
@@ -110,7 +110,7 @@ PhotoEvaluation evaluate_photo_customization(const std::string& dataset_dir, con
       const double true_stature = meas.at("stature").get<double>();
       PhotoCameras cams = read_photo_cameras((root / ph.at("camera").get<std::string>()).string());
       double stated = 0;
-      const auto t0 = std::chrono::steady_clock::now();
+      const Stopwatch t0;
       Silhouette front, side;
       TriangleMesh subject = load_subject_mesh((root / s.at("rest").get<std::string>()).string());
       switch (variation) {
@@ -149,7 +149,7 @@ PhotoEvaluation evaluate_photo_customization(const std::string& dataset_dir, con
         cams = cameras_from_stature(front, side, stated, d);
       }
       const CustomizedBody body = customize_from_silhouettes(front, side, cams, model, stated);
-      const double elapsed = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+      const double elapsed = t0.seconds();
       if (variation != PhotoVariation::kTurned5deg) {
         for (const auto& [mine, key] : {std::pair<const Silhouette*, const char*>{&front, "front_mask"}, {&side, "side_mask"}}) {
           const Silhouette truth = read_silhouette_mask((root / ph.at(key).get<std::string>()).string(), key);

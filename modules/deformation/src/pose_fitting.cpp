@@ -4,15 +4,15 @@
 #include <Eigen/Geometry>
 #include <algorithm>
 #include <array>
-#include <chrono>
 #include <cmath>
 #include <limits>
 #include <sstream>
 
-#include "posekit/core/closest_point.h"
+#include "posekit/core/parallel.h"
 #include "posekit/core/error.h"
 #include "posekit/core/mesh_geometry.h"
 #include "posekit/core/point_grid.h"
+#include "posekit/core/timer.h"
 #include "posekit/deformation/rigid_pose.h"
 
 namespace posekit {
@@ -77,7 +77,7 @@ PoseFitResult fit_pose(const PoseSynthesizer& synth, const Eigen::MatrixXd& T, c
 }
 
 PoseFitResult fit_pose(const PosableBody& subject, const Eigen::MatrixXd& T, const PoseFitOptions& o) {
-  const auto t0 = std::chrono::steady_clock::now();
+  const Stopwatch t0;
   if (T.rows() < 100 || T.cols() != 3 || !T.allFinite())
     throw InvalidInput("fit: the target has " + std::to_string(T.rows()) + " points (at least 100 finite ones needed)");
   const Eigen::MatrixXd& V0 = subject.rest_vertices();
@@ -526,7 +526,7 @@ PoseFitResult fit_pose(const PosableBody& subject, const Eigen::MatrixXd& T, con
   for (int j = 0; j < kNumJoints; ++j)
     if (pose.joint_rotation[static_cast<size_t>(j)].norm() * 180 / M_PI > joint_limit_degrees(j) + 5)
       out.warnings.push_back("joint '" + joint_name(j) + "' ends beyond its range of motion: the fit is probably wrong there");
-  out.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  out.seconds = t0.seconds();
   return out;
 }
 

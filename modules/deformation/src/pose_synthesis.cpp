@@ -1,7 +1,7 @@
+#include "posekit/core/timer.h"
 #include "posekit/deformation/pose_synthesis.h"
 
 #include <algorithm>
-#include <chrono>
 #include <cmath>
 #include <string>
 
@@ -86,9 +86,6 @@ struct PoseSynthesizer::Impl {
 };
 
 namespace {
-double seconds_since(std::chrono::steady_clock::time_point t0) {
-  return std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
-}
 }  // namespace
 
 PoseSynthesizer::PoseSynthesizer(std::shared_ptr<const PoseModel> model, const TriangleMesh& subject,
@@ -101,7 +98,7 @@ PoseSynthesizer::PoseSynthesizer(std::shared_ptr<const PoseModel> model, const T
   s.V = subject.V;
   s.F = subject.F;
   const PoseModel& M = *model;
-  auto t0 = std::chrono::steady_clock::now();
+  Stopwatch t0;
   if (options.is_template) {
     if (subject.V.rows() != M.template_V.rows() || subject.F != M.template_F)
       throw InvalidInput("the mesh is not the model's template (" + std::to_string(subject.V.rows()) + " vertices, " +
@@ -115,8 +112,8 @@ PoseSynthesizer::PoseSynthesizer(std::shared_ptr<const PoseModel> model, const T
     const LayeredRepresentation template_rep = build_layered_representation(M.template_V, M.template_F, template_features);
     const BodyFeatures features = find_body_features(s.V, s.F);
     const LayeredRepresentation rep = build_layered_representation(s.V, s.F, features);
-    s.info.seconds_representation = seconds_since(t0);
-    t0 = std::chrono::steady_clock::now();
+    s.info.seconds_representation = t0.seconds();
+    t0.restart();
     SegmentationPrior template_alone;  // a model without a prior: the template's own labelling
     if (M.segmentation_prior.bodies.empty())
       template_alone.bodies.push_back(
@@ -126,15 +123,15 @@ PoseSynthesizer::PoseSynthesizer(std::shared_ptr<const PoseModel> model, const T
     s.info.triangle_part = std::move(result.segmentation.triangle_part);
     s.info.joint_centres = std::move(result.joints);
     s.info.skeleton_problems = std::move(result.check.problems);
-    s.info.seconds_segmentation = seconds_since(t0);
-    t0 = std::chrono::steady_clock::now();
+    s.info.seconds_segmentation = t0.seconds();
+    t0.restart();
     // ct-FFD's target layers sit at the template's torso proportions (segmentation keeps the features').
     const LayeredRepresentation rep_in_proportion =
         build_layered_representation(s.V, s.F, torso_levels_in_proportion(features, template_features));
     const Eigen::MatrixXd deformed = ctffd_evaluate(ctffd_parametrize(M.template_V, template_rep), rep_in_proportion);
     s.info.template_triangle =
         nearest_centroid_correspondence(deformed, M.template_F, s.V, s.F, &s.info.normal_failures);
-    s.info.seconds_correspondence = seconds_since(t0);
+    s.info.seconds_correspondence = t0.seconds();
   }
   if (options.triangle_part.size()) {
     if (options.triangle_part.size() != s.F.rows() || options.triangle_part.minCoeff() < 0 ||
@@ -172,7 +169,7 @@ PoseSynthesizer::PoseSynthesizer(std::shared_ptr<const PoseModel> model, const T
   Eigen::VectorXd edge_length(edges.rows());
   for (Eigen::Index e = 0; e < edges.rows(); ++e) edge_length[e] = (s.V.row(edges(e, 0)) - s.V.row(edges(e, 1))).norm();
 
-  t0 = std::chrono::steady_clock::now();
+  t0.restart();
   Eigen::VectorXd position_weight;
   if (options.anchor_strength > 0) {
     // Sensitivity of each triangle's T^Q to the pose: the norm of its twist coefficients.
@@ -196,7 +193,7 @@ PoseSynthesizer::PoseSynthesizer(std::shared_ptr<const PoseModel> model, const T
     if (!(position_weight.sum() > 0)) position_weight.resize(0);
   }
   s.solver = std::make_unique<PoissonSolver>(s.V, s.F, position_weight);
-  s.info.seconds_factorisation = seconds_since(t0);
+  s.info.seconds_factorisation = t0.seconds();
   const PoissonSolver::EdgeMatrix& rest_edges = s.solver->weighted_rest_edges();
   s.edge_coefficients.clear();
   s.edge_coefficients.reserve(static_cast<size_t>(s.F.rows()) * 9 * kPoseFeatures);

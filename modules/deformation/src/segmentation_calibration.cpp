@@ -1,14 +1,14 @@
 #include "posekit/deformation/segmentation_calibration.h"
 
-#include <chrono>
 #include <mutex>
 #include <optional>
 
 #include "posekit/body/makehuman_model.h"
 #include "posekit/body/parts.h"
-#include "posekit/core/closest_point.h"
+#include "posekit/core/parallel.h"
 #include "posekit/core/data_root.h"
 #include "posekit/core/error.h"
+#include "posekit/core/timer.h"
 #include "posekit/datasets/subjects.h"
 #include "posekit/deformation/pose_model.h"
 #include "posekit/shape/body_features.h"
@@ -63,9 +63,9 @@ PriorReport add_segmentation_prior(PoseModel* model, const std::string& data_roo
     report.not_made = "the template is not the MakeHuman base mesh";
     return report;
   }
-  const auto t0 = std::chrono::steady_clock::now();
+  const Stopwatch t0;
   model->segmentation_prior = calibrate_segmentation(*mh, options, &report.skipped);
-  report.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  report.seconds = t0.seconds();
   report.bodies = static_cast<int>(model->segmentation_prior.bodies.size());
   return report;
 }

@@ -2,7 +2,6 @@
 
 #include <Eigen/Geometry>
 #include <algorithm>
-#include <chrono>
 #include <cstdio>
 #include <cmath>
 #include <filesystem>
@@ -14,6 +13,7 @@
 #include "posekit/core/error.h"
 #include "posekit/core/mesh_geometry.h"
 #include "posekit/core/mesh_validation.h"
+#include "posekit/core/timer.h"
 #include "posekit/core/units.h"
 #include "posekit/deformation/pose_model.h"
 #include "posekit/deformation/rigid_pose.h"
@@ -119,7 +119,7 @@ void record_girths(const BodyMeasurements& m, const nlohmann::json& truth, BodyR
 
 BodyResult evaluate_body(const fs::path& dir, const nlohmann::json& entry, const SegmentationPrior* prior,
                          const BodyModel* body_model) {
-  const auto t0 = std::chrono::steady_clock::now();
+  const Stopwatch t0;
   BodyResult r;
   r.name = entry.at("name").get<std::string>();
   r.variation = entry.at("variation").get<std::string>();
@@ -180,7 +180,7 @@ BodyResult evaluate_body(const fs::path& dir, const nlohmann::json& entry, const
       evaluate_fit(*fit, truth, scan ? nullptr : &mesh, expected.rotation, &r);
     }
     flag_silent_nonsense(true, &r);
-    r.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+    r.seconds = t0.seconds();
     return r;
   }
   BodyOrientation orientation;
@@ -190,7 +190,7 @@ BodyResult evaluate_body(const fs::path& dir, const nlohmann::json& entry, const
     r.measure_error = std::string("orientation: ") + e.what();
     r.segment_error = r.measure_error;
     flag_silent_nonsense(false, &r);
-    r.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+    r.seconds = t0.seconds();
     return r;
   }
   r.orientation = orientation.describe();
@@ -262,7 +262,7 @@ BodyResult evaluate_body(const fs::path& dir, const nlohmann::json& entry, const
   }
 
   flag_silent_nonsense(orientation.warnings.empty(), &r);
-  r.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  r.seconds = t0.seconds();
   return r;
 }
 
@@ -275,7 +275,7 @@ double iso_allowable_girth_error(const std::string& girth) {
 }
 
 BodyEvaluation evaluate_bodies(const std::string& dir, const BodyEvaluationOptions& o) {
-  const auto t0 = std::chrono::steady_clock::now();
+  const Stopwatch t0;
   const fs::path root(dir);
   const fs::path manifest_path = root / "manifest.json";
   if (!fs::is_regular_file(manifest_path))
@@ -306,7 +306,7 @@ BodyEvaluation evaluate_bodies(const std::string& dir, const BodyEvaluationOptio
     }
     if (o.progress) o.progress(static_cast<int>(k + 1), static_cast<int>(entries.size()), ev.bodies.back().name);
   }
-  ev.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  ev.seconds = t0.seconds();
   return ev;
 }
 

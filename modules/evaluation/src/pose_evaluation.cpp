@@ -1,7 +1,6 @@
 #include "posekit/evaluation/pose_evaluation.h"
 
 #include <algorithm>
-#include <chrono>
 #include <cmath>
 #include <filesystem>
 #include <nlohmann/json.hpp>
@@ -18,6 +17,7 @@
 #include "posekit/segmentation/skeleton_embedding.h"
 #include "posekit/shape/body_features.h"
 #include "posekit/shape/body_orientation.h"
+#include "posekit/core/timer.h"
 #include "posekit/core/units.h"
 #include "posekit/shape/layered_representation.h"
 
@@ -355,9 +355,9 @@ PoseEvaluation evaluate_poses(const std::string& dir, std::shared_ptr<const Pose
           }
         }
       }
-      const auto t0 = std::chrono::steady_clock::now();
+      const Stopwatch t0;
       const PoseSynthesizer synth(model, subject);
-      report.setup_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+      report.setup_seconds = t0.seconds();
       if (truth_triangles.size())
         report.segmentation_agreement = label_agreement(subject.V, subject.F, truth_triangles, synth.info().triangle_part);
       if (s.contains("joints") && fs::is_regular_file(fs::path(dir) / s["joints"].get<std::string>())) {
@@ -374,10 +374,10 @@ PoseEvaluation evaluate_poses(const std::string& dir, std::shared_ptr<const Pose
           throw InvalidInput(p.at("mesh").get<std::string>() + ": " + std::to_string(truth.V.rows()) +
                              " vertices, the subject has " + std::to_string(subject.V.rows()));
         for (size_t m = 0; m < options.methods.size(); ++m) {
-          const auto t1 = std::chrono::steady_clock::now();
+          const Stopwatch t1;
           const Eigen::MatrixXd X = synth.pose(pose, options.methods[m]);
           if (options.methods[m] == PoseMethod::kLearned)
-            pose_ms.push_back(1000 * std::chrono::duration<double>(std::chrono::steady_clock::now() - t1).count());
+            pose_ms.push_back(1000 * t1.seconds());
           acc[m].add(X, truth.V, vertex_part);
           pooled[m].add(X, truth.V, vertex_part);
           add_type(p.value("pose", ""), m, X, truth.V, true);

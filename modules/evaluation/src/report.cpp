@@ -1,7 +1,6 @@
 #include "posekit/evaluation/report.h"
 
 #include <algorithm>
-#include <chrono>
 #include <cmath>
 #include <filesystem>
 #include <iomanip>
@@ -14,6 +13,7 @@
 #include "manifest.h"
 #include "posekit/core/data_root.h"
 #include "posekit/core/error.h"
+#include "posekit/core/timer.h"
 #include "posekit/customization/photo_evaluation.h"
 #include "posekit/datasets/dataset.h"
 #include "posekit/deformation/part_pose_estimation.h"
@@ -190,7 +190,7 @@ PartPose novel_pose() {
 }  // namespace
 
 ReportSummary write_report(const std::string& dir, const std::string& out_dir, const ReportOptions& o) {
-  const auto t_start = std::chrono::steady_clock::now();
+  const Stopwatch t_start;
   const nlohmann::json manifest = read_dataset_manifest(dir);
   std::error_code ec;
   fs::create_directories(out_dir, ec);
@@ -698,7 +698,7 @@ ReportSummary write_report(const std::string& dir, const std::string& out_dir, c
   }
   tick("pose accuracy");
 
-  summary.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t_start).count();
+  summary.seconds = t_start.seconds();
   doc.data["warnings"] = doc.warnings;
   doc.data["seconds"] = summary.seconds;
   const std::string title = "posekit report: " + dir;

@@ -9,6 +9,7 @@
 #include <unordered_map>
 
 #include "posekit/core/closest_point.h"
+#include "posekit/core/parallel.h"
 #include "posekit/core/point_grid.h"
 #include "posekit/core/error.h"
 #include "posekit/core/mesh_geometry.h"

@@ -6,7 +6,6 @@
 #include <array>
 #include <memory>
 #include <set>
-#include <chrono>
 #include <cmath>
 #include <cstdint>
 #include <limits>
@@ -14,9 +13,11 @@
 #include <unordered_map>
 
 #include "posekit/core/closest_point.h"
+#include "posekit/core/parallel.h"
 #include "posekit/core/error.h"
 #include "posekit/core/mesh_geometry.h"
 #include "posekit/core/point_grid.h"
+#include "posekit/core/timer.h"
 #include "posekit/deformation/rigid_pose.h"
 #include "posekit/shape/body_features.h"
 
@@ -562,19 +563,6 @@ struct UpFrame {
 };
 
 /// Seconds per named stage: lap(stage) adds the time since the last lap to the stage's.
-struct StageTimer {
-  std::vector<std::pair<std::string, double>> stages;
-  std::chrono::steady_clock::time_point last = std::chrono::steady_clock::now();
-  void lap(const std::string& stage) {
-    const auto now = std::chrono::steady_clock::now();
-    const double s = std::chrono::duration<double>(now - last).count();
-    last = now;
-    for (auto& [name, seconds] : stages)
-      if (name == stage) return void(seconds += s);
-    stages.emplace_back(stage, s);
-  }
-};
-
 /// The working cloud W seen with each of the up directions `ups` (about its centre).
 std::vector<UpFrame> up_frames(const Eigen::MatrixXd& W, const Eigen::RowVector3d& centre, const std::vector<Eigen::Vector3d>& ups) {
   std::vector<UpFrame> frames(ups.size());
@@ -1030,7 +1018,7 @@ PoseFitResult fit_shape_and_pose(const BodyModel& model, const UpFrame& frame, c
 }  // namespace
 
 BodyFit fit_body_model(const BodyModel& model, const Eigen::MatrixXd& T, const BodyFitOptions& o) {
-  const auto t0 = std::chrono::steady_clock::now();
+  const Stopwatch t0;
   StageTimer timer;
   auto lap = [&](const std::string& stage) { timer.lap(stage); };
   if (T.rows() < 100 || T.cols() != 3 || !T.allFinite())
@@ -1218,8 +1206,8 @@ BodyFit fit_body_model(const BodyModel& model, const Eigen::MatrixXd& T, const B
   BodyFit& fit = out.fit;
   label_target(model, T, o.threads, &fit);
   lap("read-off");
-  fit.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
-  fit.stage_seconds = std::move(timer.stages);
+  fit.seconds = t0.seconds();
+  fit.stage_seconds = timer.stages();
   return std::move(fit);
 }
 

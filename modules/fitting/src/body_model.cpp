@@ -6,7 +6,7 @@
 
 #include "posekit/body/makehuman_model.h"
 #include "posekit/body/parts.h"
-#include "posekit/core/closest_point.h"
+#include "posekit/core/parallel.h"
 #include "posekit/core/error.h"
 
 namespace posekit {

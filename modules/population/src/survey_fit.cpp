@@ -7,10 +7,10 @@
 #include <atomic>
 #include <cmath>
 #include <mutex>
-#include <thread>
 
 #include "posekit/body/parts.h"
 #include "posekit/core/error.h"
+#include "posekit/core/parallel.h"
 
 namespace posekit {
 namespace {
@@ -221,32 +221,16 @@ SurveyFit SurveyBodyFitter::fit(const SurveySubject& subject) const {
 std::vector<SurveyFit> fit_survey(const SurveyBodyFitter& fitter, const std::vector<SurveySubject>& subjects, int threads,
                                   const std::function<void(int, int)>& progress) {
   std::vector<SurveyFit> fits(subjects.size());
-  if (threads <= 0) threads = static_cast<int>(std::max(1u, std::thread::hardware_concurrency()));
-  std::atomic<size_t> next{0};
   std::atomic<int> done{0};
   std::mutex progress_mutex;
-  std::exception_ptr error;
-  auto worker = [&] {
-    try {
-      for (size_t i = next++; i < subjects.size(); i = next++) {
-        fits[i] = fitter.fit(subjects[i]);
-        const int d = ++done;
-        if (progress) {
-          std::lock_guard<std::mutex> lock(progress_mutex);
-          progress(d, static_cast<int>(subjects.size()));
-        }
-      }
-    } catch (...) {
+  parallel_for_each(static_cast<long>(subjects.size()), threads, [&](long i) {
+    fits[static_cast<size_t>(i)] = fitter.fit(subjects[static_cast<size_t>(i)]);
+    const int d = ++done;
+    if (progress) {
       std::lock_guard<std::mutex> lock(progress_mutex);
-      if (!error) error = std::current_exception();
-      next = subjects.size();
+      progress(d, static_cast<int>(subjects.size()));
     }
-  };
-  std::vector<std::thread> pool;
-  for (int t = 1; t < threads; ++t) pool.emplace_back(worker);
-  worker();
-  for (auto& t : pool) t.join();
-  if (error) std::rethrow_exception(error);
+  });
   return fits;
 }
 

@@ -6,7 +6,7 @@
 #include <memory>
 #include <numeric>
 
-#include "posekit/core/closest_point.h"
+#include "posekit/core/parallel.h"
 #include "posekit/core/error.h"
 #include "posekit/core/mesh_geometry.h"
 

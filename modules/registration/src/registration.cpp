@@ -5,18 +5,17 @@
 #include <pcl/registration/icp.h>
 
 #include <algorithm>
-#include <chrono>
 #include <cmath>
 #include <cstdio>
-#include <exception>
 #include <memory>
 #include <string>
-#include <thread>
 
 #include "posekit/core/closest_point.h"
 #include "posekit/core/error.h"
 #include "posekit/core/mesh_geometry.h"
 #include "posekit/core/mesh_validation.h"
+#include "posekit/core/parallel.h"
+#include "posekit/core/timer.h"
 #include "posekit/registration/correspondence.h"
 #include "posekit/registration/ctffd.h"
 #include "posekit/registration/nicp.h"
@@ -181,7 +180,7 @@ struct CtffdSource::Impl {
 CtffdSource::CtffdSource(const TriangleMesh& source, int points_per_layer) {
   require_usable_mesh(source, "registration source");
   require_comparable_bodies(source, source);  // standing along +Y
-  const auto t0 = std::chrono::steady_clock::now();
+  const Stopwatch t0;
   auto impl = std::make_shared<Impl>();
   impl->mesh = source;
   TriangleMesh surface;
@@ -189,7 +188,7 @@ CtffdSource::CtffdSource(const TriangleMesh& source, int points_per_layer) {
   impl->representation = build_layered_representation_on_surface(surface, impl->features, points_per_layer);
   impl->parametrization = ctffd_parametrize(source.V, impl->representation);
   impl->points_per_layer = points_per_layer;
-  impl->seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  impl->seconds = t0.seconds();
   impl_ = std::move(impl);
 }
 
@@ -208,11 +207,6 @@ void check_inputs(const TriangleMesh& source, const TriangleMesh& target) {
   require_comparable_bodies(source, target);
 }
 
-/// RegistrationOptions::threads, 0 resolved to the hardware's.
-int thread_count(const RegistrationOptions& o) {
-  return o.threads > 0 ? o.threads : static_cast<int>(std::max(1u, std::thread::hardware_concurrency()));
-}
-
 /// A body's features and the surface they were found on (body_surface), which its representation is cut from.
 struct FoundFeatures {
   BodyFeatures features;
@@ -229,42 +223,31 @@ FoundFeatures found_features(const TriangleMesh& body, int threads) {
 /// source's side).
 RegistrationResult register_with(const TriangleMesh& source, const CtffdSource::Impl* prepared, const TriangleMesh& target,
                                  const RegistrationOptions& o, const FoundFeatures* target_features = nullptr) {
-  const auto t0 = std::chrono::steady_clock::now();
+  const Stopwatch t0;
   RegistrationResult r;
   if (o.method == RegistrationMethod::kCtffd) {
     if (o.points_per_layer != prepared->points_per_layer)
       throw InvalidInput("registration: the source was prepared with " + std::to_string(prepared->points_per_layer) +
                          " points per layer, the options ask for " + std::to_string(o.points_per_layer));
     const CtffdSource::Impl& s = *prepared;
-    const int threads = thread_count(o);
-    // With a second thread the fit's view of the target is made beside the features.
+    const int threads = resolve_threads(o.threads);
+    // ct-FFD (Eq. 1): the target's features and layers, the source deformed onto them.
+    auto ctffd = [&] {
+      const FoundFeatures found = target_features ? FoundFeatures{} : found_features(target, threads);
+      const FoundFeatures& t = target_features ? *target_features : found;
+      const BodyFeatures& ft = t.features;
+      for (const std::string& w : s.features.warnings) r.warnings.push_back("source: " + w);
+      for (const std::string& w : ft.warnings) r.warnings.push_back("target: " + w);
+      for (std::string& w : implausible_limbs(s.features, ft)) r.warnings.push_back(std::move(w));
+      const LayeredRepresentation rt = build_layered_representation_on_surface(
+          t.surface, torso_levels_in_proportion(ft, s.features), o.points_per_layer, threads);
+      r.deformed_source = ctffd_evaluate(s.parametrization, rt);
+      r.ctffd_seconds = t0.seconds();
+    };
+    // With a second thread the shape fit's view of the target is made beside it.
     std::unique_ptr<ShapeFitTarget> fit_target;
-    std::exception_ptr fit_target_error;
-    std::thread preparing;
-    if (o.shape_space && threads > 1)
-      preparing = std::thread([&] {
-        try {
-          fit_target = std::make_unique<ShapeFitTarget>(target);
-        } catch (...) {
-          fit_target_error = std::current_exception();
-        }
-      });
-    struct JoinOnExit {
-      std::thread& t;
-      ~JoinOnExit() {
-        if (t.joinable()) t.join();
-      }
-    } join_on_exit{preparing};
-    const FoundFeatures found = target_features ? FoundFeatures{} : found_features(target, threads);
-    const FoundFeatures& t = target_features ? *target_features : found;
-    const BodyFeatures& ft = t.features;
-    for (const std::string& w : s.features.warnings) r.warnings.push_back("source: " + w);
-    for (const std::string& w : ft.warnings) r.warnings.push_back("target: " + w);
-    for (std::string& w : implausible_limbs(s.features, ft)) r.warnings.push_back(std::move(w));
-    const LayeredRepresentation rt = build_layered_representation_on_surface(
-        t.surface, torso_levels_in_proportion(ft, s.features), o.points_per_layer, threads);
-    r.deformed_source = ctffd_evaluate(s.parametrization, rt);
-    r.ctffd_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+    if (o.shape_space && threads > 1) run_beside(threads, [&] { fit_target = std::make_unique<ShapeFitTarget>(target); }, ctffd);
+    else ctffd();
     if (o.shape_space) {
       if (o.shape_space->vertices() != source.V.rows())
         throw InvalidInput("registration: the shape space has " + std::to_string(o.shape_space->vertices()) +
@@ -272,14 +255,12 @@ RegistrationResult register_with(const TriangleMesh& source, const CtffdSource::
       if (o.shape_space->faces.size() > 0 && o.shape_space->faces != source.F)
         throw InvalidInput("registration: the shape space's triangles are not the source's (same " + std::to_string(source.V.rows()) +
                            " vertices, other connectivity): it must be of the source's topology");
-      const auto t1 = std::chrono::steady_clock::now();
-      if (preparing.joinable()) preparing.join();
-      if (fit_target_error) std::rethrow_exception(fit_target_error);
+      const Stopwatch t1;
       if (!fit_target) fit_target = std::make_unique<ShapeFitTarget>(target);
       ShapeFitOptions fit_options = o.shape_fit;
       fit_options.threads = threads;
       r.shape_fit = fit_shape_space(*o.shape_space, source.F, r.deformed_source, *fit_target, fit_options);
-      r.shape_fit_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t1).count();
+      r.shape_fit_seconds = t1.seconds();
       if (r.shape_fit.plausible) {
         r.deformed_source = r.shape_fit.V;
       } else {
@@ -328,7 +309,7 @@ RegistrationResult register_with(const TriangleMesh& source, const CtffdSource::
   }
   r.correspondence = nearest_centroid_correspondence(r.deformed_source, source.F, target.V, target.F, &r.normal_failures,
                                                      o.method == RegistrationMethod::kCtffd ? o.threads : 1);
-  r.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  r.seconds = t0.seconds();
   return r;
 }
 
@@ -337,7 +318,7 @@ RegistrationResult register_with(const TriangleMesh& source, const CtffdSource::
 RegistrationResult register_bodies(const TriangleMesh& source, const TriangleMesh& target, const RegistrationOptions& o) {
   check_inputs(source, target);
   if (o.method != RegistrationMethod::kCtffd) return register_with(source, nullptr, target, o);
-  if (thread_count(o) < 2) {
+  if (resolve_threads(o.threads) < 2) {
     const CtffdSource prepared(source, o.points_per_layer);  // timed with the rest
     RegistrationResult r = register_with(source, &prepared.impl(), target, o);
     r.seconds += prepared.seconds();
@@ -345,26 +326,12 @@ RegistrationResult register_bodies(const TriangleMesh& source, const TriangleMes
     return r;
   }
   // The source's side on a second thread while the target's features are found; timed as a whole.
-  const auto t0 = std::chrono::steady_clock::now();
+  const Stopwatch t0;
   std::unique_ptr<CtffdSource> prepared;
-  std::exception_ptr source_error;
-  std::thread source_side([&] {
-    try {
-      prepared = std::make_unique<CtffdSource>(source, o.points_per_layer);
-    } catch (...) {
-      source_error = std::current_exception();
-    }
-  });
   FoundFeatures target_features;
-  try {
-    target_features = found_features(target, 1);
-  } catch (...) {
-    source_side.join();
-    throw;
-  }
-  source_side.join();
-  if (source_error) std::rethrow_exception(source_error);
-  const double before = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  run_beside(2, [&] { prepared = std::make_unique<CtffdSource>(source, o.points_per_layer); },
+             [&] { target_features = found_features(target, 1); });
+  const double before = t0.seconds();
   RegistrationResult r = register_with(source, &prepared->impl(), target, o, &target_features);
   r.seconds += before;
   r.ctffd_seconds += before;

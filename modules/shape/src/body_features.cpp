@@ -11,7 +11,7 @@
 #include <utility>
 
 #include "bust_band.h"
-#include "posekit/core/closest_point.h"  // parallel_for_ranges
+#include "posekit/core/parallel.h"
 #include "posekit/core/error.h"
 #include "posekit/core/mesh_geometry.h"
 #include "posekit/core/mesh_slice.h"

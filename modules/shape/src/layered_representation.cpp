@@ -8,7 +8,7 @@
 #include <map>
 
 #include "posekit/body/parts.h"
-#include "posekit/core/closest_point.h"  // parallel_for_ranges
+#include "posekit/core/parallel.h"
 #include "posekit/core/error.h"
 #include "posekit/core/mesh_slice.h"
 #include "posekit/core/triangle_mesh.h"

@@ -2,7 +2,6 @@
 // Exact closest points on a triangle mesh: point-to-triangle distance through an AABB tree.
 #include <Eigen/Core>
 #include <cstdint>
-#include <functional>
 #include <limits>
 #include <memory>
 #include <vector>
@@ -49,10 +48,5 @@ class TriangleTree {
 /// points near each other in space come near each other in the order, so queries made in it start
 /// from a tight bound and touch warm memory. `sorted_codes` (optional) receives their codes, ascending.
 std::vector<int> morton_order(const Eigen::MatrixXd& P, std::vector<std::uint32_t>* sorted_codes = nullptr);
-
-/// Runs body(begin, end) over [0, n) split into contiguous chunks on `threads` threads (0: the
-/// hardware's), each with at least `min_items_per_thread` items; the calling thread takes a chunk too.
-/// An exception thrown by body is rethrown once every thread has finished.
-void parallel_for_ranges(long n, int threads, const std::function<void(long, long)>& body, long min_items_per_thread = 1024);
 
 }  // namespace posekit
