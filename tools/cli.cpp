@@ -41,6 +41,10 @@ ArgParser& ArgParser::flag(const std::string& name, const std::string& help) {
   options_.push_back({name, "", help, "", true});
   return *this;
 }
+ArgParser& ArgParser::data_option(const std::string& purpose) {
+  return option("data", "DIR", "MakeHuman data root" + (purpose.empty() ? "" : " " + purpose) +
+                                   " (default: $POSEKIT_DATA, else ../shared/datasets/makehuman)");
+}
 ArgParser& ArgParser::example(const std::string& line) {
   examples_.push_back(line);
   return *this;

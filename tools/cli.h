@@ -29,6 +29,9 @@ class ArgParser {
   ArgParser& option(const std::string& name, const std::string& value_name, const std::string& help,
                     const std::string& default_value = "");
   ArgParser& flag(const std::string& name, const std::string& help);
+  /// --data DIR, the MakeHuman data root (find_data_root: else $POSEKIT_DATA, else
+  /// ../shared/datasets/makehuman); `purpose` says what the command reads there ("for the BVH skeleton").
+  ArgParser& data_option(const std::string& purpose = "");
   ArgParser& example(const std::string& line);
   /// An option naming a file the command writes: its folder must exist, or --mkdir (added with the
   /// first output) creates it; a typo in a path is an error, not a new folder tree.

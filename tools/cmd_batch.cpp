@@ -607,7 +607,7 @@ int run_batch_pose(int argc, char** argv) {
       .option("method", "M", "learned (the paper's), rigid (parts only) or lbs (16-part skinning)", "learned")
       .option("frames", "A:B", "BVH frames A to B-1 (default: all)")
       .option("format", "EXT", "posed mesh format: ply, obj or off", "ply")
-      .option("data", "DIR", "MakeHuman data root, for the BVH skeleton (default: POSEKIT_DATA or ../shared/...)")
+      .data_option("for the BVH skeleton")
       .option("joint-map", "FILE", "JSON {\"left_shoulder\": \"<BVH joint>\", ...} for BVH joints the names do not tell")
       .option("root-motion", "M", "a retargeted BVH's root translation: none, vertical (feet stay down) or all", "vertical");
   add_batch_options(&args);
@@ -711,7 +711,7 @@ int run_batch_register(int argc, char** argv) {
       .option("inputs", "DIR|LIST", "a folder of target meshes (recursively, in sorted order) or a text file of paths")
       .option("method", "M", "ctffd, icp or nicp", "ctffd")
       .option("shape-space", "N|FILE", "ctffd: refine by a shape space of N MakeHuman bodies or a .pks file (0: not)", "0")
-      .option("data", "DIR", "MakeHuman data root for --shape-space N (default: $POSEKIT_DATA or ../shared/datasets/makehuman)")
+      .data_option("for --shape-space N")
       .flag("refine", "ctffd: refine by soft non-rigid ICP steps")
       .flag("deformed", "also write the source deformed onto each target");
   add_batch_options(&args);

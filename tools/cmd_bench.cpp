@@ -154,7 +154,7 @@ void print_ms_table(const nlohmann::json& rows, int precision) {
 int bench_body(int argc, char** argv) {
   ArgParser args("bench body", "Times building a MakeHuman body from a spec and posing it (13,380 vertices): the model is\n"
                                "loaded once, then each run shapes a body and skins it into a 16-part pose, single thread.");
-  args.option("data", "DIR", "MakeHuman data root").option("runs", "R", "timed runs (median reported)", "50")
+  args.data_option().option("runs", "R", "timed runs (median reported)", "50")
       .flag("json", "machine-readable results on stdout");
   if (!args.parse(argc, argv)) return 0;
   const int runs = static_cast<int>(args.get_int("runs"));
@@ -283,7 +283,7 @@ int bench_registration(int argc, char** argv) {
               "shape-space) (0: not)", "300")
       .option("shape-space-leave-out", "WHAT", "none, men (gender over 0.5), obese (BMI 30 and over) or local (the subjects' "
               "measure modifiers): what the shape space's population lacks", "none")
-      .option("data", "DIR", "MakeHuman data root for the shape space (default: $POSEKIT_DATA or ../shared/datasets/makehuman)")
+      .data_option("for the shape space")
       .option("threads", "T", "also the ct-FFD rows (whole, prepared, + shape space) on T threads (1: not)", "1")
       .flag("json", "results as JSON on stdout");
   if (!args.parse(argc, argv)) return 0;
@@ -676,7 +676,7 @@ int bench_measure(int argc, char** argv) {
   args.option("vertices", "N", "vertices of the mesh", "300000")
       .option("points", "N", "points of the scan", "300000")
       .option("runs", "R", "runs", "5")
-      .option("data", "DIR", "MakeHuman data root (default: POSEKIT_DATA or ../shared/...)")
+      .data_option()
       .flag("json", "results as JSON on stdout");
   if (!args.parse(argc, argv)) return 0;
   const int runs = static_cast<int>(args.get_int("runs"));
@@ -759,7 +759,7 @@ int bench_fit(int argc, char** argv) {
   args.option("body-model", "FILE", "the body model (.pks from posekit shape-space --ansur)")
       .option("points", "LIST", "the scans' sizes, comma-separated", "1000000,10000000")
       .option("runs", "R", "runs per input", "3")
-      .option("data", "DIR", "MakeHuman data root (default: POSEKIT_DATA or ../shared/...)")
+      .data_option()
       .flag("json", "results as JSON on stdout")
       .example("posekit shape-space --ansur --out ansur.pks && posekit bench fit --body-model ansur.pks");
   if (!args.parse(argc, argv)) return 0;
@@ -876,7 +876,7 @@ int bench_compare(int argc, char** argv) {
                  "With --peers, the same model and scan go through CloudCompare (-c2m_dist) and Open3D\n"
                  "(RaycastingScene) when they are installed, and the ratio of the times is printed. Those\n"
                  "compute one direction, unsigned; posekit computes both, signed.");
-  args.option("data", "DIR", "MakeHuman data root")
+  args.data_option()
       .option("points", "N", "scan points", "1000000")
       .option("threads", "T", "threads (0: all cores)", "0")
       .option("runs", "R", "timed runs (median reported)", "5")

@@ -49,7 +49,7 @@ int run_body(int argc, char** argv) {
                  "Builds a MakeHuman body (skin only, 13,380 vertices, metres) from slider values or a body spec,\n"
                  "optionally poses it (16-part pose JSON or a BVH of the MakeHuman skeleton) with linear blend or\n"
                  "dual quaternion skinning, and writes it. Prints stature, volume, mass at 1.01 kg/L and BMI.");
-  args.option("data", "DIR", "MakeHuman data root (default: POSEKIT_DATA or ../shared/datasets/makehuman)")
+  args.data_option()
       .option("spec", "FILE", "body spec JSON (sliders and modifiers); flags below override it")
       .option("gender", "G", "0 female .. 1 male")
       .option("muscle", "M", "0 .. 1")

@@ -43,7 +43,7 @@ int customize_train(int argc, char** argv) {
       .option("threads", "N", "threads", "2")
       .option("leave-out", "WHAT", "none, obese (BMI 30 and over) or men (gender over 0.5): bodies outside the population", "none")
       .flag("linear-only", "train the linear models only (no MLPs)")
-      .option("data", "DIR", "MakeHuman data root (default: POSEKIT_DATA or ../shared/datasets/makehuman)", "")
+      .data_option()
       .example("posekit customize train --out customization.pkc");
   if (!args.parse(argc, argv)) return 0;
   CustomizationTrainingOptions o;

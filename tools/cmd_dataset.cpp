@@ -81,7 +81,7 @@ int dataset_make(int argc, char** argv) {
                  "With --robustness, the robustness set instead: --shapes bodies (women, men, mixed; BMI about 15\n"
                  "to 40) each in every variation, with the rig's joints, girths and part labels as truth:" + variations);
   args.output_folder("out", "DIR", "output folder (must not exist unless --force; its parent must, unless --mkdir)")
-      .option("data", "DIR", "MakeHuman data root")
+      .data_option()
       .option("seed", "N", "random seed (same seed, same bytes)", "1")
       .option("subjects", "N", "number of subjects (half female)", "16")
       .option("noise-mm", "S", "scan noise sigma along the ray (mm)", "1.5")

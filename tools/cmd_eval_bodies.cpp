@@ -125,7 +125,7 @@ int run_eval_bodies(int argc, char** argv) {
   args.option("dataset", "DIR", "a robustness set folder")
       .option("model", "FILE", "trained model (.pkm) whose segmentation prior labels the bodies (as posekit segment --model)")
       .option("body-model", "FILE", "fit this body model to every body, meshes and scans (as posekit segment --body-model)")
-      .option("data", "DIR", "MakeHuman data root for --body-model (default: $POSEKIT_DATA or ../shared/datasets/makehuman)")
+      .data_option("for --body-model")
       .option("variations", "LIST", "only these variations (comma-separated)")
       .output("report", "FILE", "also write the full results as JSON")
       .flag("json", "results as JSON on stdout")

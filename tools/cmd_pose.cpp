@@ -262,7 +262,7 @@ int run_train(int argc, char** argv) {
               "makehuman")
       .option("survey", "DIR|FILE", "--calibration-population ansur: ANSUR II's folder or a survey CSV (default: $POSEKIT_ANSUR, "
               "else ansur2 beside the data root)")
-      .option("data", "DIR", "MakeHuman data root, for the prior (default: POSEKIT_DATA or ../shared/...)")
+      .data_option("for the prior")
       .flag("json", "summary as JSON on stdout")
       .example("posekit train --dataset out/dataset --out model.pkm")
       .example("posekit train --dataset scape_meshes/ --rest mesh000 --fit-report fits.json");
@@ -355,7 +355,7 @@ int run_pose(int argc, char** argv) {
       .option("method", "M", "learned (the paper's), rigid (parts only) or lbs (16-part skinning)", "learned")
       .option("unit", "U", "unit of the subject mesh: m, dm, cm, mm, or auto (its largest extent tells)", "auto")
       .option("frames", "A:B", "BVH frames A to B-1 (default: all)")
-      .option("data", "DIR", "MakeHuman data root, for the BVH skeleton (default: POSEKIT_DATA or ../shared/...)")
+      .data_option("for the BVH skeleton")
       .option("joint-map", "FILE", "JSON {\"left_shoulder\": \"<BVH joint>\", ...} for BVH joints the names do not tell")
       .option("root-motion", "M", "a retargeted BVH's root translation: none, vertical (feet stay down) or all", "vertical")
       .flag("json", "summary as JSON on stdout")
@@ -433,7 +433,7 @@ int run_retarget(int argc, char** argv) {
       .option("every", "N", "every N-th frame", "1")
       .option("joint-map", "FILE", "JSON {\"left_shoulder\": \"<BVH joint>\", ...} for joints the names do not tell")
       .option("root-motion", "M", "root translation: none, vertical (feet stay down) or all", "vertical")
-      .option("data", "DIR", "MakeHuman data root, for the default body's joints (default: POSEKIT_DATA or ../shared/...)")
+      .data_option("for the default body's joints")
       .flag("json", "summary as JSON on stdout")
       .example("posekit retarget ../shared/datasets/motions/cmu/01_01.bvh --out poses --every 10");
   if (!args.parse(argc, argv)) return 0;

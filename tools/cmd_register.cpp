@@ -127,7 +127,7 @@ int run_register(int argc, char** argv) {
               "(posekit shape-space) in the source's topology; 0: not", "0")
       .option("shape-space-leave-out", "WHAT", "none, men, obese or local (the measure modifiers): what the shape space's "
               "population lacks", "none")
-      .option("data", "DIR", "MakeHuman data root for --shape-space and --body-model (default: $POSEKIT_DATA or ../shared/datasets/makehuman)")
+      .data_option("for --shape-space and --body-model")
       .option("unit", "U", "unit of both meshes: m, dm, cm, mm, or auto (each one's largest extent tells)", "auto")
       .output("out", "FILE", "correspondence JSON: for each target triangle its source triangle")
       .output("deformed", "FILE", "write the source deformed onto the target (mesh)")
@@ -328,7 +328,7 @@ int run_shape_space(int argc, char** argv) {
   args.output("out", "FILE", "the shape space file to write (.pks)")
       .option("bodies", "N", "MakeHuman bodies in the population", "300")
       .option("leave-out", "WHAT", "none, men, obese or local (the measure modifiers): what the MakeHuman population lacks", "none")
-      .option("data", "DIR", "MakeHuman data root (default: $POSEKIT_DATA or ../shared/datasets/makehuman)")
+      .data_option()
       .option("meshes", "DIR", "learn from this folder of registered meshes (OBJ/PLY/OFF, one topology) instead of MakeHuman bodies")
       .option("unit", "U", "--meshes: their unit, m, dm, cm, mm, or auto (the first mesh's largest extent tells)", "auto")
       .flag("no-align", "--meshes: keep them where they stand (no rigid alignment onto their mean)")

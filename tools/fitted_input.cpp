@@ -16,7 +16,7 @@ void add_body_model_options(ArgParser* args, bool data_option) {
   args->option("body-model", "FILE", "fit this body model (a shape space with joints: posekit shape-space --ansur)")
       .flag("accept-poor", "with --body-model: give the result of a poor fit too (marked poor; exit status 0)");
   if (data_option)
-    args->option("data", "DIR", "MakeHuman data root for --body-model (default: $POSEKIT_DATA or ../shared/datasets/makehuman)");
+    args->data_option("for --body-model");
 }
 
 std::unique_ptr<BodyModel> load_body_model(const ArgParser& args) {
