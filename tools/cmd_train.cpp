@@ -1,0 +1,237 @@
+// posekit train: the pose model of section 3.3 (Eq. 3-4) learned from a registered pose dataset.
+#include <Eigen/Geometry>
+#include <algorithm>
+#include <filesystem>
+#include <sstream>
+#include <iomanip>
+#include <iostream>
+#include <map>
+#include <memory>
+#include <numeric>
+#include <nlohmann/json.hpp>
+
+#include "cli.h"
+#include "commands.h"
+#include "posing_inputs.h"
+#include "fitted_input.h"
+#include "posekit/body/makehuman_model.h"
+#include "posekit/body/parts.h"
+#include "posekit/core/data_root.h"
+#include "posekit/core/error.h"
+#include "posekit/core/timer.h"
+#include "posekit/datasets/dataset.h"
+#include "posekit/fitting/body_fit.h"
+#include "posekit/fitting/body_model.h"
+#include "posekit/deformation/part_pose_estimation.h"
+#include "posekit/deformation/pose_fitting.h"
+#include "posekit/deformation/pose_model.h"
+#include "posekit/deformation/pose_synthesis.h"
+#include "posekit/deformation/rigid_pose.h"
+#include "posekit/deformation/segmentation_calibration.h"
+#include "posekit/population/survey_fit.h"
+#include "posekit/registration/shape_space.h"
+#include "posekit/evaluation/pose_evaluation.h"
+#include "posekit/io/bvh.h"
+#include "posekit/io/atomic_file.h"
+#include "posekit/io/mesh_io.h"
+#include "posekit/io/point_cloud_io.h"
+#include "posekit/core/mesh_geometry.h"
+#include "posekit/core/mesh_validation.h"
+#include "posekit/core/point_grid.h"
+#include "posekit/segmentation/body_segmentation.h"
+#include "posekit/segmentation/segmentation.h"
+#include "posekit/segmentation/segmentation_prior.h"
+#include "posekit/segmentation/skeleton_checks.h"
+#include "posekit/segmentation/skeleton_embedding.h"
+#include "posekit/shape/body_features.h"
+#include "posekit/shape/body_orientation.h"
+#include "posekit/shape/layered_representation.h"
+
+namespace fs = std::filesystem;
+
+namespace posekit::cli {
+namespace {
+
+nlohmann::ordered_json fit_report_json(const DatasetTrainingReport& r) {
+  nlohmann::ordered_json examples = nlohmann::ordered_json::array();
+  for (const auto& e : r.examples) {
+    nlohmann::ordered_json x = {{"name", e.name}, {"split", e.test ? "test" : e.left_out ? "left out" : "train"}, {"rms_mm", e.rms_mm},
+                                {"worst_part", e.worst_part}, {"worst_part_rms_mm", e.worst_core_rms_mm}};
+    if (e.joint_error_mean_deg >= 0)
+      x["against_json"] = {{"joint_error_mean_deg", e.joint_error_mean_deg}, {"joint_error_max_deg", e.joint_error_max_deg},
+                           {"worst_joint", e.worst_joint}};
+    x["problems"] = e.problems;
+    examples.push_back(x);
+  }
+  return {{"rest", r.rest_name}, {"rest_reason", r.rest_reason}, {"unit", r.unit}, {"orientation", r.orientation},
+          {"labels", r.labels_from_dataset ? "template/parts.json, template/joints.json"
+                                           : r.labels_from_body_model ? "the body model's fit" : "segmented (Eq. 2)"},
+          {"poses", r.poses_estimated ? "estimated from the meshes" : "pose JSONs"},
+          {"examples", examples}, {"warnings", r.warnings}};
+}
+
+/// What a user needs to hear about the template and the estimated poses, on stderr.
+void report_pose_estimation(const DatasetTrainingReport& r, std::ostream& err) {
+  err << "posekit train: template '" << r.rest_name << "' (" << r.rest_reason << "), unit " << r.unit << ", "
+      << r.orientation << "; labels " << (r.labels_from_dataset ? "from the dataset" : r.labels_from_body_model ? "from the body model's fit" : "from its own segmentation (Eq. 2)")
+      << "\n";
+  if (!r.poses_estimated) return;
+  std::vector<double> rms, joint;
+  const ExamplePoseFit* worst = nullptr;
+  for (const auto& e : r.examples) {
+    rms.push_back(e.rms_mm);
+    if (e.joint_error_mean_deg >= 0) joint.push_back(e.joint_error_mean_deg);
+    if (!worst || e.worst_core_rms_mm > worst->worst_core_rms_mm) worst = &e;
+  }
+  const Stats s = stats_of(rms);
+  err << std::fixed << std::setprecision(1) << "posekit train: poses of " << r.examples.size()
+      << " examples estimated from their meshes: rigid-part residual median " << s.median << " mm, max " << s.max << " mm";
+  if (worst) err << "; worst part " << worst->worst_part << " of '" << worst->name << "' " << worst->worst_core_rms_mm << " mm";
+  if (!joint.empty()) {
+    const Stats j = stats_of(joint);
+    err << "; against the " << joint.size() << " given pose JSONs: joint error median " << j.median << ", max " << j.max << " degrees";
+  }
+  err << "\n";
+  const size_t shown = std::min<size_t>(r.warnings.size(), 10);
+  for (size_t i = 0; i < shown; ++i) err << "warning: " << r.warnings[i] << "\n";
+  if (r.warnings.size() > shown) err << "warning: ... and " << r.warnings.size() - shown << " more (see --fit-report)\n";
+}
+
+/// The joints whose learned offsets training kept.
+std::vector<std::string> offsets_kept(const PoseModel& model) {
+  std::vector<std::string> kept;
+  for (Eigen::Index j = 0; j < model.joint_offsets.rows(); ++j)
+    if (!model.joint_offsets.row(j).isZero(0)) kept.push_back(joint_name(static_cast<int>(j)));
+  return kept;
+}
+
+/// --calibration-population: empty for random MakeHuman bodies, else `count` bodies fitted to subjects
+/// of the survey drawn with `seed` (both: and `count` random MakeHuman bodies besides).
+std::vector<BodySpec> calibration_population_specs(const ArgParser& args, int count, unsigned seed) {
+  const std::string population = args.get("calibration-population");
+  if (population == "makehuman") return {};
+  if (population != "ansur" && population != "both")
+    throw UsageError("--calibration-population is makehuman, ansur or both, not '" + population + "'");
+  const std::string data_root = find_data_root(args.has("data") ? args.get("data") : "");
+  const std::string survey = find_ansur_root(args.has("survey") ? args.get("survey") : "", data_root);
+  const SurveyBodyFitter fitter(load_makehuman_model(data_root));
+  std::vector<BodySpec> specs;
+  for (const SurveySubject& subject : sample_survey(read_survey(survey), count, seed)) specs.push_back(fitter.fit(subject).spec);
+  if (population == "both")
+    for (BodySpec& random : make_calibration_specs(seed, count)) specs.push_back(std::move(random));
+  return specs;
+}
+
+}  // namespace
+
+int run_train(int argc, char** argv) {
+  ArgParser args("train",
+                 "Learns the non-rigid pose deformation T^Q (Eq. 3-5): for every template triangle a 9 x 7 linear\n"
+                 "model on the twists of the two joints next to its part, from the training split of a registered\n"
+                 "pose dataset. Template labels and joints come from the dataset (template/parts.json, joints.json)\n"
+                 "or, when absent, from the template's own segmentation (Eq. 2). When the template is the MakeHuman\n"
+                 "base mesh, the model also keeps a segmentation prior: random MakeHuman bodies labelled by the rig,\n"
+                 "from which a customized body takes the part labels and joints of the bodies shaped most like it.\n"
+                 "A folder of registered meshes alone (SCAPE, FAUST, your own 4D captures: one topology, no joint\n"
+                 "angles) is learned from too: each example's part rotations T^R(i) are estimated from its vertices\n"
+                 "(weighted Procrustes per part, joint zones down-weighted, robust to sliding skin) and the joint\n"
+                 "twists follow; pose JSONs, where present, then only check the estimates. With --body-model, the rest\n"
+                 "example's parts and joints come from the body model fitted to it (a natural stance, arms close).");
+  args.option("dataset", "DIR", "a posekit dataset, or a folder of registered meshes (OBJ/PLY/OFF), with or without .json poses")
+      .output("out", "FILE", "model file to write (.pkm)", "model.pkm")
+      .option("poses", "auto|json|estimate",
+              "training poses: the JSONs, estimated from the meshes, or auto (JSONs when every example has one)", "auto")
+      .option("rest", "NAME", "the rest-pose example (default: the manifest's, a zero pose, a name with rest/template, else the first)")
+      .option("unit", "UNIT", "unit of the meshes: m, dm, cm, mm or auto (from the rest mesh's extent)", "auto")
+      .output("fit-report", "FILE", "per-example fit of the estimated poses (JSON: residuals, joint errors against given JSONs)")
+      .flag("joint-offsets",
+            "extension beyond the paper: learn where each joint sits as a function of its twist (a shoulder girdle\n"
+            "                          that rises with the arm), kept per joint where it lowers the training error")
+      .option("smooth", "N", "extension beyond the paper, for noisy meshes: smooth each example's non-rigid deformation over N rounds of neighbouring triangles before Eq. 5", "0")
+      .option("calibration-bodies", "N", "random MakeHuman bodies in the segmentation prior; 0: the template alone (default: 128)")
+      .option("calibration-population", "P", "the segmentation prior's bodies: makehuman (random sliders) or ansur (MakeHuman\n"
+              "                          fitted to ANSUR II subjects drawn at random, women and men alternately: real proportions)\n"
+              "                          or both (N of each)",
+              "makehuman")
+      .option("survey", "DIR|FILE", "--calibration-population ansur: ANSUR II's folder or a survey CSV (default: $POSEKIT_ANSUR, "
+              "else ansur2 beside the data root)")
+      .data_option("for the prior")
+      .flag("json", "summary as JSON on stdout")
+      .example("posekit train --dataset out/dataset --out model.pkm")
+      .example("posekit train --dataset scape_meshes/ --rest mesh000 --fit-report fits.json");
+  add_body_model_options(&args, false);
+  add_orientation_options(&args, "", "the meshes' body");
+  if (!args.parse(argc, argv)) return 0;
+  if (!args.has("dataset")) throw UsageError("--dataset DIR is required");
+  DatasetTrainingOptions dto;
+  try {
+    dto.poses = parse_training_poses(args.get("poses"));
+  } catch (const InvalidInput&) {
+    throw UsageError("--poses expects auto, json or estimate, got '" + args.get("poses") + "'");
+  }
+  if (args.has("rest")) dto.rest_name = args.get("rest");
+  dto.unit = args.get("unit");
+  if (dto.unit != "auto") parse_unit(dto.unit);
+  dto.up = args.get("up");
+  dto.forward = args.get("forward");
+  std::unique_ptr<BodyModel> body_model;
+  if (args.has("body-model")) body_model = load_body_model(args), dto.body_model = body_model.get();
+  dto.accept_poor_fit = args.flag_set("accept-poor");
+  Progress progress("train", 100);
+  TrainingOptions o;
+  o.progress = [&](int done, int total) { progress.update(100L * done / std::max(total, 1)); };
+  o.learn_joint_offsets = args.flag_set("joint-offsets");
+  const long smoothing = args.get_int("smooth");
+  if (smoothing < 0 || smoothing > 1000) throw UsageError("--smooth expects 0 to 1000 iterations, got " + args.get("smooth"));
+  o.smoothing_iterations = static_cast<int>(smoothing);
+  const Stopwatch t0;
+  DatasetTrainingReport fits;
+  PoseModel model = train_on_dataset(args.get("dataset"), o, dto, &fits);
+  const double seconds = t0.seconds();
+  progress.finish();
+  const nlohmann::ordered_json fit_json = fit_report_json(fits);
+  report_pose_estimation(fits, std::cerr);
+  if (args.has("fit-report")) write_file_atomically(args.get("fit-report"), [&](std::ostream& f) { f << fit_json.dump(2) << "\n"; }, false);
+  const long calibration_bodies = args.has("calibration-bodies") ? args.get_int("calibration-bodies") : 128;
+  if (calibration_bodies < 0) throw UsageError("--calibration-bodies must not be negative");
+  PriorReport prior;
+  if (calibration_bodies > 0) {
+    Progress calibration("segmentation prior", calibration_bodies + 1);
+    CalibrationOptions co;
+    co.bodies = static_cast<int>(calibration_bodies);
+    co.progress = [&](int done, int) { calibration.update(done); };
+    co.specs = calibration_population_specs(args, static_cast<int>(calibration_bodies), co.seed);
+    prior = add_segmentation_prior(&model, args.has("data") ? args.get("data") : "", co);
+    calibration.finish();
+    if (!prior.not_made.empty()) std::cerr << "posekit train: segmentation prior is the template alone: " << prior.not_made << "\n";
+  }
+  write_pose_model(args.get("out"), model);
+  nlohmann::ordered_json s = {{"model", args.get("out")}, {"training_poses", model.training_poses},
+                              {"template_vertices", model.template_V.rows()}, {"template_triangles", model.template_F.rows()},
+                              {"fit_rms", model.fit_rms}, {"seconds", seconds},
+                              {"calibration_bodies", prior.bodies}, {"calibration_skipped", prior.skipped},
+                              {"calibration_seconds", prior.seconds},
+                              {"rest", fits.rest_name}, {"poses", fit_json["poses"]}, {"labels", fit_json["labels"]},
+                              {"joint_offsets_kept", offsets_kept(model)},
+                              {"warnings", fits.warnings},
+                              {"peak_rss_mib", peak_rss_mib()}};
+  if (args.flag_set("json")) {
+    print_json(s);
+    return 0;
+  }
+  std::cout << "trained on " << model.training_poses << " poses of a " << model.template_V.rows() << "-vertex template in "
+            << std::fixed << std::setprecision(2) << seconds << " s (RMS residual of Eq. 5: " << std::setprecision(4)
+            << model.fit_rms << ")";
+  if (prior.bodies > 0)
+    std::cout << "; segmentation prior of " << prior.bodies << " bodies in " << std::setprecision(2) << prior.seconds << " s"
+              << (prior.skipped ? " (" + std::to_string(prior.skipped) + " left out: features not found)" : "");
+  if (o.learn_joint_offsets) {
+    const auto kept = offsets_kept(model);
+    std::cout << "; joint offsets kept for " << kept.size() << " of 15 joints";
+    for (size_t k = 0; k < kept.size(); ++k) std::cout << (k ? ", " : " (") << kept[k] << (k + 1 == kept.size() ? ")" : "");
+  }
+  std::cout << "; peak RSS " << std::setprecision(0) << peak_rss_mib() << " MiB; wrote " << args.get("out") << "\n";
+  return 0;
+}
+
+}  // namespace posekit::cli

@@ -1,0 +1,162 @@
+// What the posing commands read: the subject (pose, fit), the poses (pose, retarget, batch, register) and the subject's set-up.
+#include <Eigen/Geometry>
+#include <algorithm>
+#include <filesystem>
+#include <sstream>
+#include <iomanip>
+#include <iostream>
+#include <map>
+#include <memory>
+#include <numeric>
+#include <nlohmann/json.hpp>
+
+#include "posing_inputs.h"
+
+#include "cli.h"
+#include "commands.h"
+#include "fitted_input.h"
+#include "posekit/body/makehuman_model.h"
+#include "posekit/body/parts.h"
+#include "posekit/core/data_root.h"
+#include "posekit/core/error.h"
+#include "posekit/core/timer.h"
+#include "posekit/datasets/dataset.h"
+#include "posekit/fitting/body_fit.h"
+#include "posekit/fitting/body_model.h"
+#include "posekit/deformation/part_pose_estimation.h"
+#include "posekit/deformation/pose_fitting.h"
+#include "posekit/deformation/pose_model.h"
+#include "posekit/deformation/pose_synthesis.h"
+#include "posekit/deformation/rigid_pose.h"
+#include "posekit/deformation/segmentation_calibration.h"
+#include "posekit/population/survey_fit.h"
+#include "posekit/registration/shape_space.h"
+#include "posekit/evaluation/pose_evaluation.h"
+#include "posekit/io/bvh.h"
+#include "posekit/io/atomic_file.h"
+#include "posekit/io/mesh_io.h"
+#include "posekit/io/point_cloud_io.h"
+#include "posekit/core/mesh_geometry.h"
+#include "posekit/core/mesh_validation.h"
+#include "posekit/core/point_grid.h"
+#include "posekit/segmentation/body_segmentation.h"
+#include "posekit/segmentation/segmentation.h"
+#include "posekit/segmentation/segmentation_prior.h"
+#include "posekit/segmentation/skeleton_checks.h"
+#include "posekit/segmentation/skeleton_embedding.h"
+#include "posekit/shape/body_features.h"
+#include "posekit/shape/body_orientation.h"
+#include "posekit/shape/layered_representation.h"
+
+namespace fs = std::filesystem;
+
+namespace posekit::cli {
+namespace {
+
+/// Subject meshes for posing must be closed bodies in one piece: say so before any work.
+void check_subject(const TriangleMesh& mesh, const std::string& path) {
+  const MeshReport r = validate_mesh(mesh);
+  if (r.components != 1)
+    throw InvalidInput(path + ": the subject mesh has " + std::to_string(r.components) +
+                       " connected components; posing needs one connected body");
+  if (r.boundary_loops > 0)
+    std::cerr << "posekit: warning: " << path << " has " << r.boundary_loops
+              << " holes; segmentation and posing proceed, features near the holes may be off\n";
+}
+
+}  // namespace
+
+/// The subject of pose or fit (--subject, --unit, --up, --forward): read, turned into posekit's
+/// frame, and checked to be one body.
+TriangleMesh read_posing_subject(const ArgParser& args, const std::string& command, BodyOrientation* orientation, BodyUnit* unit) {
+  BodyInput input = read_body_input(args.get("subject"), args.get("unit"), command, unit);
+  if (input.is_cloud) throw InvalidInput(args.get("subject") + ": the subject must be a mesh (triangles); this file has only points");
+  *orientation = orient_body_input(&input, args.get("up"), args.get("forward"), args.get("subject"), command);
+  check_subject(input.mesh, args.get("subject"));
+  return std::move(input.mesh);
+}
+
+LoadedPoses load_poses(const std::string& path, const std::string& frames, const std::string& data_root,
+                       const Eigen::MatrixXd& rest_joints, const std::string& joint_map, const std::string& root_motion,
+                       const BvhMotion* parsed) {
+  LoadedPoses out;
+  std::string ext = fs::path(path).extension().string();
+  std::transform(ext.begin(), ext.end(), ext.begin(), [](unsigned char c) { return static_cast<char>(std::tolower(c)); });
+  const std::string stem = fs::path(path).stem().string();
+  if (ext != ".bvh") {
+    out.names.push_back(stem);
+    out.poses.push_back(read_part_pose(path));
+    return out;
+  }
+  BvhMotion read;
+  if (!parsed) read = read_bvh(path, Unit::kMetre, io_warnings());
+  const BvhMotion& motion = parsed ? *parsed : read;
+  if (motion.num_frames() == 0) throw InvalidInput(path + ": the motion has no frames");
+  long first = 0, last = motion.num_frames();
+  if (!frames.empty()) {
+    const auto [a, b] = parse_number_pair(frames, ':', "--frames");
+    first = static_cast<long>(a), last = static_cast<long>(b);
+    if (first < 0 || last > motion.num_frames() || first >= last)
+      throw UsageError("--frames " + frames + " is outside the " + std::to_string(motion.num_frames()) + " frames of " + path);
+  }
+  for (long i = first; i < last; ++i) {
+    std::ostringstream name;
+    name << stem << "_" << std::setw(4) << std::setfill('0') << i;
+    out.names.push_back(last - first > 1 ? name.str() : stem);
+  }
+  if (motion.find_joint("upperarm01.L") >= 0) {  // MakeHuman's own skeleton: through its rig, bone by bone
+    const auto mh = load_makehuman_model(find_data_root(data_root));
+    for (long i = first; i < last; ++i)
+      out.poses.push_back(part_pose_from_bone_pose(mh->rig, bone_pose_from_bvh(mh->rig, motion, static_cast<int>(i))));
+    return out;
+  }
+  std::map<std::string, std::string> overrides;
+  if (!joint_map.empty()) {
+    nlohmann::json j;
+    try {
+      j = nlohmann::json::parse(read_file_bytes(joint_map));
+    } catch (const nlohmann::json::exception& e) {
+      throw InvalidInput(joint_map + ": not JSON (" + e.what() + ")");
+    }
+    if (!j.is_object()) throw InvalidInput(joint_map + ": expected an object {\"left_shoulder\": \"<BVH joint>\", ...}");
+    for (const auto& [key, value] : j.items()) {
+      if (!value.is_string()) throw InvalidInput(joint_map + ": the value of '" + key + "' must be a BVH joint name");
+      overrides[key] = value.get<std::string>();
+    }
+  }
+  const BvhPartMap map = map_bvh_skeleton(motion, overrides);
+  RetargetOptions o;
+  o.first = static_cast<int>(first);
+  o.last = static_cast<int>(last);
+  if (root_motion == "none") o.root_motion = RetargetOptions::RootMotion::kNone;
+  else if (root_motion == "all") o.root_motion = RetargetOptions::RootMotion::kAll;
+  else if (root_motion != "vertical") throw UsageError("--root-motion expects none, vertical or all, got '" + root_motion + "'");
+  out.poses = retarget_bvh(motion, map, rest_joints, o);
+  std::string mapped;
+  for (int p = 0; p < kNumParts; ++p)
+    if (map.joint[p] >= 0) mapped += (mapped.empty() ? "" : ", ") + part_name(p) + "=" + motion.joints[static_cast<size_t>(map.joint[p])].name;
+  out.notes.push_back(path + ": retargeted from its own skeleton (" + mapped + ")");
+  out.notes.insert(out.notes.end(), map.notes.begin(), map.notes.end());
+  return out;
+}
+
+PoseSynthesizer set_up_subject(std::shared_ptr<const PoseModel> model, const TriangleMesh& subject, const std::string& path,
+                               const SubjectSetupOptions& options) {
+  try {
+    return PoseSynthesizer(std::move(model), subject, options);
+  } catch (const InvalidInput& e) {
+    throw InvalidInput(path + ": cannot be set up for posing: " + e.what() +
+                       (options.joint_centres.size() ? std::string() : "; a subject must stand upright in the standard pose, arms away from the body (or give --body-model)"));
+  }
+}
+
+/// With --body-model, the subject's parts and joints from the body model's fit; else computed by set-up.
+SubjectSetupOptions subject_setup(const ArgParser& args, const TriangleMesh& subject) {
+  SubjectSetupOptions o;
+  if (!args.has("body-model")) return o;
+  const std::unique_ptr<BodyModel> body_model = load_body_model(args);
+  segment_subject_by_body_model(*body_model, subject, args.get("subject"), args, &o.triangle_part, &o.joint_centres);
+  return o;
+}
+
+}  // namespace posekit::cli
