@@ -80,14 +80,14 @@ PartPose part_pose_of(const py::object& pose) {
         for (int k = 0; k < kNumJoints; ++k) known += (k ? ", " : "") + joint_name(k);
         throw InvalidInput("unknown joint '" + name + "' (the joints: " + known + ")");
       }
-      p.joint_rotation[static_cast<size_t>(j)] = value.cast<Eigen::Vector3d>();
+      p.joint(j) = value.cast<Eigen::Vector3d>();
     }
   } else {
     const Eigen::MatrixXd R = pose.cast<Eigen::MatrixXd>();
     if (R.rows() != kNumJoints || R.cols() != 3)
       throw InvalidInput("a pose is " + std::to_string(kNumJoints) + " x 3 joint rotations (axis-angle, radians), got " +
                          std::to_string(R.rows()) + " x " + std::to_string(R.cols()));
-    for (int j = 0; j < kNumJoints; ++j) p.joint_rotation[static_cast<size_t>(j)] = R.row(j).transpose();
+    for (int j = 0; j < kNumJoints; ++j) p.joint(j) = R.row(j).transpose();
   }
   for (const auto& r : p.joint_rotation)
     if (!r.allFinite()) throw InvalidInput("a pose holds a NaN or infinite rotation");
@@ -341,8 +341,8 @@ PYBIND11_MODULE(posekit, m) {
              auto r = poses.unchecked<3>();
              for (py::ssize_t i = 0; i < poses.shape(0); ++i)
                for (int j = 0; j < kNumJoints; ++j) {
-                 list[static_cast<size_t>(i)].joint_rotation[static_cast<size_t>(j)] = Eigen::Vector3d(r(i, j, 0), r(i, j, 1), r(i, j, 2));
-                 if (!list[static_cast<size_t>(i)].joint_rotation[static_cast<size_t>(j)].allFinite())
+                 list[static_cast<size_t>(i)].joint(j) = Eigen::Vector3d(r(i, j, 0), r(i, j, 1), r(i, j, 2));
+                 if (!list[static_cast<size_t>(i)].joint(j).allFinite())
                    throw InvalidInput("pose " + std::to_string(i) + " holds a NaN or infinite rotation");
                }
              const PoseMethod how = parse_pose_method(method);

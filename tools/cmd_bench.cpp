@@ -439,8 +439,8 @@ int bench_pose(int argc, char** argv) {
     const double w = at - std::floor(at);
     PartPose& p = motion[static_cast<size_t>(f)];
     for (int j = 0; j < kNumJoints; ++j)
-      p.joint_rotation[static_cast<size_t>(j)] = (1 - w) * data.poses[i].joint_rotation[static_cast<size_t>(j)] +
-                                                 w * data.poses[next].joint_rotation[static_cast<size_t>(j)];
+      p.joint(j) = (1 - w) * data.poses[i].joint(j) +
+                                                 w * data.poses[next].joint(j);
     p.root_rotation = (1 - w) * data.poses[i].root_rotation + w * data.poses[next].root_rotation;
   }
   Progress subjects_progress("bench pose subjects", static_cast<long>(manifest["subjects"].size()));

@@ -62,7 +62,7 @@ nlohmann::ordered_json fit_summary_json(const PoseFitResult& r) {
 std::vector<double> joint_angle_errors(const PartPose& a, const PartPose& b) {
   std::vector<double> out{rotation_difference(a.root_rotation, b.root_rotation) * 180 / M_PI};
   for (int j = 0; j < kNumJoints; ++j)
-    out.push_back(rotation_difference(a.joint_rotation[static_cast<size_t>(j)], b.joint_rotation[static_cast<size_t>(j)]) * 180 / M_PI);
+    out.push_back(rotation_difference(a.joint(j), b.joint(j)) * 180 / M_PI);
   return out;
 }
 
@@ -152,7 +152,7 @@ int run_fit(int argc, char** argv) {
             << r.seconds << " s: target to body mean " << std::setprecision(1) << 1000 * r.target_mean << " mm, 95th percentile "
             << 1000 * r.target_p95 << " mm; " << 100 * r.coverage << "% of the body within 1 cm of the target\n";
   for (int j = 0; j < kNumJoints; ++j) {
-    const Eigen::Vector3d& v = r.pose.joint_rotation[static_cast<size_t>(j)];
+    const Eigen::Vector3d& v = r.pose.joint(j);
     if (v.norm() > 5 * M_PI / 180)
       std::cout << "  " << joint_name(j) << ": " << std::setprecision(0) << v.norm() * 180 / M_PI << " degrees\n";
   }

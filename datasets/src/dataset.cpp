@@ -303,7 +303,7 @@ int find_rest_example(const PoseDataset& data) {
     if (!data.rest_name.empty() && data.names[i] == data.rest_name) return static_cast<int>(i);
   for (size_t i = 0; i < data.names.size(); ++i) {
     bool zero = data.has_pose[i] && data.poses[i].root_rotation.norm() < 1e-12;
-    for (int j = 0; j < kNumJoints && zero; ++j) zero = data.poses[i].joint_rotation[static_cast<size_t>(j)].norm() < 1e-12;
+    for (int j = 0; j < kNumJoints && zero; ++j) zero = data.poses[i].joint(j).norm() < 1e-12;
     if (zero) return static_cast<int>(i);
   }
   return -1;

@@ -163,14 +163,14 @@ std::optional<PartPose> pose_kind(const std::string& v, const Eigen::MatrixXd& J
   auto deg = [&](double lo, double hi) { return (lo + (hi - lo) * u(rng)) * kDeg; };
   const Eigen::Vector3d X = Eigen::Vector3d::UnitX(), Z = Eigen::Vector3d::UnitZ();
   PartPose p;
-  auto set = [&](const char* joint, const Eigen::Vector3d& r) { p.joint_rotation[static_cast<size_t>(find_joint_index(joint))] = r; };
+  auto set = [&](const char* joint, const Eigen::Vector3d& r) { p.joint(find_joint_index(joint)) = r; };
   if (v == "arms_touching") {
     set_arm_abduction(J, deg(2, 8), &p);
   } else if (v == "hands_on_hips") {
     set_arm_abduction(J, deg(35, 45), &p);
     const Eigen::Matrix3d back = rotation_from_axis_angle(deg(10, 20) * X);
     for (const char* side : {"left_shoulder", "right_shoulder"})
-      set(side, axis_angle_from_rotation(back * rotation_from_axis_angle(p.joint_rotation[static_cast<size_t>(find_joint_index(side))])));
+      set(side, axis_angle_from_rotation(back * rotation_from_axis_angle(p.joint(find_joint_index(side)))));
     set_elbow_flexion(J, deg(90, 110), &p);
   } else if (v == "arms_crossed") {
     const double fwd = deg(40, 50), in = deg(10, 20);

@@ -26,7 +26,7 @@ Eigen::MatrixXd posed_joints(const PartPose& pose, const Eigen::MatrixXd& rest) 
   R[kPelvis] = rotation_from_axis_angle(pose.root_rotation);
   for (int p = 1; p < kNumParts; ++p) {
     const int parent = part_parent(p);
-    R[p] = R[parent] * rotation_from_axis_angle(pose.joint_rotation[static_cast<size_t>(p - 1)]);
+    R[p] = R[parent] * rotation_from_axis_angle(pose.joint(p - 1));
     const Eigen::Vector3d x = rest.row(p - 1).transpose();
     if (parent == kPelvis) {
       out.row(p - 1) = (centre + R[kPelvis] * (x - centre) + pose.root_translation).transpose();

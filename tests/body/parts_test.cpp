@@ -105,12 +105,12 @@ TEST(AnatomicalDriving, SpreadsEachJointOverItsChainAndEndsWhereThePoseSays) {
   const Rig& rig = model.rig;
   PartPose pose;
   pose.root_rotation = Eigen::Vector3d(0, 0.3, 0);
-  pose.joint_rotation[static_cast<size_t>(find_joint_index("left_shoulder"))] = 120 * M_PI / 180 * Eigen::Vector3d::UnitZ();
-  pose.joint_rotation[static_cast<size_t>(find_joint_index("lower_back"))] = Eigen::Vector3d(0.5, 0.2, 0.1);
-  pose.joint_rotation[static_cast<size_t>(find_joint_index("upper_back"))] = Eigen::Vector3d(0.1, 0.4, 0);
-  pose.joint_rotation[static_cast<size_t>(find_joint_index("neck"))] = Eigen::Vector3d(0.2, 0.6, 0.1);
-  pose.joint_rotation[static_cast<size_t>(find_joint_index("right_wrist"))] = Eigen::Vector3d(0.3, 0.9, 0.2);
-  pose.joint_rotation[static_cast<size_t>(find_joint_index("right_hip"))] = Eigen::Vector3d(-1.0, 0.4, 0);
+  pose.joint(find_joint_index("left_shoulder")) = 120 * M_PI / 180 * Eigen::Vector3d::UnitZ();
+  pose.joint(find_joint_index("lower_back")) = Eigen::Vector3d(0.5, 0.2, 0.1);
+  pose.joint(find_joint_index("upper_back")) = Eigen::Vector3d(0.1, 0.4, 0);
+  pose.joint(find_joint_index("neck")) = Eigen::Vector3d(0.2, 0.6, 0.1);
+  pose.joint(find_joint_index("right_wrist")) = Eigen::Vector3d(0.3, 0.9, 0.2);
+  pose.joint(find_joint_index("right_hip")) = Eigen::Vector3d(-1.0, 0.4, 0);
   for (const AnatomicalDriving& d : {AnatomicalDriving{}, AnatomicalDriving::alternative()}) {
     const BonePose bones = anatomical_bone_pose(rig, body, pose, d);
     std::vector<Eigen::Matrix3d> world(static_cast<size_t>(rig.num_bones()));

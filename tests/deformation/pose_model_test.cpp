@@ -290,10 +290,10 @@ TEST(PartPoseEstimation, RecoversARigidlyPosedBodyExactlyAndANoisyOneClosely) {
   PartPose pose;
   pose.root_rotation = Eigen::Vector3d(0.1, 0.7, -0.05);
   pose.root_translation = Eigen::Vector3d(0.2, -0.1, 0.3);
-  pose.joint_rotation[static_cast<size_t>(find_joint_index("left_elbow"))] = Eigen::Vector3d(0.3, 1.1, 0.2);
-  pose.joint_rotation[static_cast<size_t>(find_joint_index("right_knee"))] = Eigen::Vector3d(1.6, 0, 0);
-  pose.joint_rotation[static_cast<size_t>(find_joint_index("lower_back"))] = Eigen::Vector3d(0.4, 0.2, 0.1);
-  pose.joint_rotation[static_cast<size_t>(find_joint_index("neck"))] = Eigen::Vector3d(-0.2, 0.5, 0);
+  pose.joint(find_joint_index("left_elbow")) = Eigen::Vector3d(0.3, 1.1, 0.2);
+  pose.joint(find_joint_index("right_knee")) = Eigen::Vector3d(1.6, 0, 0);
+  pose.joint(find_joint_index("lower_back")) = Eigen::Vector3d(0.4, 0.2, 0.1);
+  pose.joint(find_joint_index("neck")) = Eigen::Vector3d(-0.2, 0.5, 0);
   // Every vertex moved with its own part: a piecewise rigid body.
   const PartTransforms T = part_transforms(pose, ann.joint_centres);
   const PartPoseEstimator estimator(V, data.F, ann.triangle_part, ann.joint_centres);
@@ -307,7 +307,7 @@ TEST(PartPoseEstimation, RecoversARigidlyPosedBodyExactlyAndANoisyOneClosely) {
   // the neighbour part, which the robust weights ignore.
   const PartPoseEstimate e = estimator.estimate(X);
   for (int j = 0; j < kNumJoints; ++j)
-    EXPECT_LT(rotation_difference(e.pose.joint_rotation[static_cast<size_t>(j)], pose.joint_rotation[static_cast<size_t>(j)]), 1e-3)
+    EXPECT_LT(rotation_difference(e.pose.joint(j), pose.joint(j)), 1e-3)
         << joint_name(j);
   EXPECT_LT(rotation_difference(e.pose.root_rotation, pose.root_rotation), 1e-3);
   EXPECT_LT((e.pose.root_translation - pose.root_translation).norm(), 1e-3);
@@ -319,7 +319,7 @@ TEST(PartPoseEstimation, RecoversARigidlyPosedBodyExactlyAndANoisyOneClosely) {
     for (int c = 0; c < 3; ++c) X(v, c) += noise(rng);
   const PartPoseEstimate noisy = estimator.estimate(X);
   for (int j = 0; j < kNumJoints; ++j)
-    EXPECT_LT(rotation_difference(noisy.pose.joint_rotation[static_cast<size_t>(j)], pose.joint_rotation[static_cast<size_t>(j)]) * 180 / M_PI, 1.0)
+    EXPECT_LT(rotation_difference(noisy.pose.joint(j), pose.joint(j)) * 180 / M_PI, 1.0)
         << joint_name(j);
   // An arm swapped for the other one's vertices is no rigid motion: named, not hidden.
   const Eigen::MatrixXd swapped = [&] {

@@ -97,7 +97,7 @@ TEST(PoseSynthesis, FastKernelsAgreeWithEq4AndEq6EvaluatedInDouble) {
       Eigen::Matrix<double, kPoseFeatures, 1> x = Eigen::Matrix<double, kPoseFeatures, 1>::Zero();
       for (int slot = 0; slot < 2; ++slot)
         if (model.triangle_joints(source, slot) >= 0)
-          x.segment<3>(3 * slot) = pose.joint_rotation[static_cast<size_t>(model.triangle_joints(source, slot))];
+          x.segment<3>(3 * slot) = pose.joint(model.triangle_joints(source, slot));
       x[6] = 1;
       Eigen::Matrix3d Q;
       for (int m = 0; m < 9; ++m) Q(m / 3, m % 3) = model.coefficients.row(source).segment<kPoseFeatures>(m * kPoseFeatures).dot(x);
@@ -195,7 +195,7 @@ TEST(PoseFitting, FindsThePoseOfAScanWithoutMarkersAndAtAnyHeading) {
   auto angle_error = [&](const PartPose& p) {
     double sum = 0;
     for (int j = 0; j < kNumJoints; ++j)
-      sum += rotation_difference(p.joint_rotation[static_cast<size_t>(j)], truth.joint_rotation[static_cast<size_t>(j)]);
+      sum += rotation_difference(p.joint(j), truth.joint(j));
     return sum / kNumJoints * 180 / M_PI;
   };
   const PoseFitResult fit = fit_pose(synth, scan.P);
@@ -254,7 +254,7 @@ TEST(PoseFitting, GivesTheSamePoseOnAnyNumberOfThreads) {
   const PartPose two = fit_pose(f.synth, f.scan.P, o).pose;
   EXPECT_EQ(one.root_translation, two.root_translation);
   EXPECT_EQ(one.root_rotation, two.root_rotation);
-  for (int j = 0; j < kNumJoints; ++j) EXPECT_EQ(one.joint_rotation[static_cast<size_t>(j)], two.joint_rotation[static_cast<size_t>(j)]) << joint_name(j);
+  for (int j = 0; j < kNumJoints; ++j) EXPECT_EQ(one.joint(j), two.joint(j)) << joint_name(j);
 }
 
 TEST(PoseFitting, EndsARefinementThatCrawlsAtNearlyThePoseItWouldReach) {
@@ -264,7 +264,7 @@ TEST(PoseFitting, EndsARefinementThatCrawlsAtNearlyThePoseItWouldReach) {
   const F01InPose f("walk_phase_1");
   PartPose start = f.truth;
   for (const char* name : {"left_shoulder", "right_knee", "lower_back"})
-    start.joint_rotation[static_cast<size_t>(find_joint_index(name))] += 3 * M_PI / 180 * Eigen::Vector3d::UnitX();
+    start.joint(find_joint_index(name)) += 3 * M_PI / 180 * Eigen::Vector3d::UnitX();
   PoseFitOptions o;
   o.start = start;
   const PoseFitResult full = fit_pose(f.synth, f.scan.P, o);
@@ -274,7 +274,7 @@ TEST(PoseFitting, EndsARefinementThatCrawlsAtNearlyThePoseItWouldReach) {
   auto mean_error = [&](const PartPose& p) {
     double sum = 0;
     for (int j = 0; j < kNumJoints; ++j)
-      sum += rotation_difference(p.joint_rotation[static_cast<size_t>(j)], f.truth.joint_rotation[static_cast<size_t>(j)]);
+      sum += rotation_difference(p.joint(j), f.truth.joint(j));
     return sum / kNumJoints * 180 / M_PI;
   };
   EXPECT_LT(mean_error(full.pose), 4.0);
@@ -320,7 +320,7 @@ TEST(PoseFitting, WarnsWhenTheTargetDoesNotShowAPart) {
   for (const auto& w : fit.warnings) wrists += w.find("wrist' is held at its rest rotation") != std::string::npos;
   EXPECT_EQ(wrists, 2);
   for (const char* name : {"left_wrist", "right_wrist"})
-    EXPECT_LT(fit.pose.joint_rotation[static_cast<size_t>(find_joint_index(name))].norm() * 180 / M_PI, 1.0) << name;
+    EXPECT_LT(fit.pose.joint(find_joint_index(name)).norm() * 180 / M_PI, 1.0) << name;
   EXPECT_TRUE(fit_pose(synth, truth_mesh.V).warnings.empty());
 }
 
@@ -333,7 +333,7 @@ TEST(PoseFitting, StaysAtADeepSquatThatItPosesExactly) {
   const F01InPose f("squat_half");
   PartPose deep;
   auto set = [&](const char* name, double degrees) {
-    deep.joint_rotation[static_cast<size_t>(find_joint_index(name))] = degrees * M_PI / 180 * Eigen::Vector3d::UnitX();
+    deep.joint(find_joint_index(name)) = degrees * M_PI / 180 * Eigen::Vector3d::UnitX();
   };
   set("left_hip", -110), set("right_hip", -110), set("left_knee", 135), set("right_knee", 135);
   set("lower_back", 20), set("left_shoulder", -60), set("right_shoulder", -60);
@@ -357,7 +357,7 @@ TEST(PoseFitting, KeepsTheKneesOfASquatOnTheirHinge) {
       const int knee = find_joint_index(name), ankle = knee + 1;
       const Eigen::Vector3d shank = (joints.row(ankle) - joints.row(knee)).transpose().normalized();
       const Eigen::Vector3d hinge = Eigen::Vector3d::UnitX();
-      const Eigen::Vector3d moved = rotation_from_axis_angle(p.joint_rotation[static_cast<size_t>(knee)]) * shank;
+      const Eigen::Vector3d moved = rotation_from_axis_angle(p.joint(knee)) * shank;
       worst = std::max(worst, std::abs(std::asin(moved.dot(hinge)) - std::asin(shank.dot(hinge))) * 180 / M_PI);
     }
     return worst;

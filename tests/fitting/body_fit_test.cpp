@@ -61,7 +61,7 @@ Truth posed_body(const BodySpec& spec, const PartPose& pose) {
 
 PartPose pose_of(const std::vector<std::pair<const char*, Eigen::Vector3d>>& joints_deg) {
   PartPose p;
-  for (const auto& [name, v] : joints_deg) p.joint_rotation[static_cast<size_t>(find_joint_index(name))] = v * M_PI / 180;
+  for (const auto& [name, v] : joints_deg) p.joint(find_joint_index(name)) = v * M_PI / 180;
   return p;
 }
 
@@ -127,7 +127,7 @@ TEST(BodyFit, KneelingSittingAndArmsCloseInAnyFrame) {
       const Eigen::Vector3d arm = J.row(find_joint_index(std::string(side) + "_elbow")) - J.row(find_joint_index(std::string(side) + "_shoulder"));
       const double from_vertical = std::atan2(std::abs(arm.x()), -arm.y());
       const double sign = side[0] == 'l' ? -1 : 1;
-      touching.joint_rotation[static_cast<size_t>(find_joint_index(std::string(side) + "_shoulder"))] =
+      touching.joint(find_joint_index(std::string(side) + "_shoulder")) =
           sign * (from_vertical - 5 * M_PI / 180) * Z;
     }
   }
@@ -281,7 +281,7 @@ TEST(BodyFit, PosesTheSpacesBodyAboutItsOwnJointsAndRefusesANonBody) {
   for (size_t i = 0; i < library.size(); ++i) {
     for (size_t k = 0; k < i; ++k) EXPECT_NE(library[i].name, library[k].name);
     for (int j = 0; j < kNumJoints; ++j)
-      EXPECT_LE(library[i].pose.joint_rotation[static_cast<size_t>(j)].norm() * 180 / M_PI, joint_limit_degrees(j)) << library[i].name;
+      EXPECT_LE(library[i].pose.joint(j).norm() * 180 / M_PI, joint_limit_degrees(j)) << library[i].name;
   }
   // Motion frames join the library by how far they are from it and from each other, heading aside:
   // the A-pose turned about the vertical is no new pose, a frame with a raised knee is, once.

@@ -51,7 +51,7 @@ PartPose standing_variation(int which) {
   auto set = [&](const char* joint, const Eigen::Vector3d& r) {
     const int j = find_joint_index(joint);
     if (j < 0) throw InvalidInput(std::string("no joint ") + joint);
-    p.joint_rotation[static_cast<size_t>(j)] = r;
+    p.joint(j) = r;
   };
   switch (which) {
     case 0:  // arms close to the torso, elbows bent forward 40 degrees

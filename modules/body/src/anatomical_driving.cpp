@@ -74,7 +74,7 @@ BonePose anatomical_bone_pose(const Rig& rig, const Body& body, const PartPose& 
   BonePose out = BonePose::identity(rig.num_bones());
   out.local[static_cast<size_t>(roots[kPelvis])] = rotation_from_axis_angle(pose.root_rotation);
   out.root_translation = pose.root_translation;
-  auto R = [&](const char* joint) { return rotation_from_axis_angle(pose.joint_rotation[static_cast<size_t>(find_joint_index(joint))]); };
+  auto R = [&](const char* joint) { return rotation_from_axis_angle(pose.joint(find_joint_index(joint))); };
 
   // Spine and neck.
   const int s5 = bone(rig, "spine05"), s4 = bone(rig, "spine04"), s3 = bone(rig, "spine03"), s2 = bone(rig, "spine02"),

@@ -276,7 +276,7 @@ std::vector<PartPose> retarget_bvh(const BvhMotion& m, const BvhPartMap& map, co
     pose.root_rotation = Eigen::AngleAxisd(D[kPelvis]).angle() * Eigen::AngleAxisd(D[kPelvis]).axis();
     for (int p = 1; p < kNumParts; ++p) {
       const Eigen::AngleAxisd r(Eigen::Matrix3d(D[part_parent(p)].transpose() * D[p]));
-      pose.joint_rotation[static_cast<size_t>(p - 1)] = r.angle() * r.axis();
+      pose.joint(p - 1) = r.angle() * r.axis();
     }
     // Our joints in this pose with the pelvis in place (forward kinematics, pelvis about its centre).
     Eigen::MatrixXd X(kNumJoints, 3);

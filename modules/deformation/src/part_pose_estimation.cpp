@@ -166,7 +166,7 @@ PartPoseEstimate PartPoseEstimator::estimate(const Eigen::MatrixXd& posed_V) con
   const Eigen::Vector3d pivot = (joints_.row(kAbdomen - 1) + joints_.row(kLeftThigh - 1) + joints_.row(kRightThigh - 1)).transpose() / 3;
   out.pose.root_translation = out.t[kPelvis] - pivot + out.R[kPelvis] * pivot;
   for (int p = 1; p < kNumParts; ++p)
-    out.pose.joint_rotation[static_cast<size_t>(p - 1)] =
+    out.pose.joint(p - 1) =
         axis_angle_from_rotation(out.R[static_cast<size_t>(part_parent(p))].transpose() * out.R[static_cast<size_t>(p)]);
   return out;
 }
@@ -296,7 +296,7 @@ std::vector<std::string> pose_estimate_problems(const PartPoseEstimate& e, doubl
     }
   }
   for (int j = 0; j < kNumJoints; ++j) {
-    const double deg = e.pose.joint_rotation[static_cast<size_t>(j)].norm() * 180 / M_PI;
+    const double deg = e.pose.joint(j).norm() * 180 / M_PI;
     if (deg > 175) {
       std::ostringstream msg;
       msg.precision(0);

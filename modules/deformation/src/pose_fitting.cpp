@@ -182,7 +182,7 @@ PoseFitResult fit_pose(const PosableBody& subject, const Eigen::MatrixXd& T, con
   // Where the joint priors pull: the rest, or the pose the caller recognised (PoseFitOptions::prior_pose).
   std::array<Eigen::Vector3d, kNumJoints> prior_centre;
   for (int j = 0; j < kNumJoints; ++j)
-    prior_centre[static_cast<size_t>(j)] = o.prior_pose ? o.prior_pose->joint_rotation[static_cast<size_t>(j)] : Eigen::Vector3d::Zero();
+    prior_centre[static_cast<size_t>(j)] = o.prior_pose ? o.prior_pose->joint(j) : Eigen::Vector3d::Zero();
   std::array<bool, kNumJoints> held{};  // joints of parts the target does not show: held at rest
   Eigen::MatrixXd X;
 
@@ -317,7 +317,7 @@ PoseFitResult fit_pose(const PosableBody& subject, const Eigen::MatrixXd& T, con
     // Priors on the joint rotations, in the data term's scale.
     const auto R = part_rotations(pose);
     for (int j = 0; j < kNumJoints; ++j) {
-      const Eigen::Vector3d& r = pose.joint_rotation[static_cast<size_t>(j)];
+      const Eigen::Vector3d& r = pose.joint(j);
       const Eigen::Matrix3d to_parent = R[static_cast<size_t>(part_parent(j + 1))].transpose();
       auto prior = [&](double weight, const Eigen::Vector3d& residual, const Eigen::Matrix3d& Jr) {
         L.N.block<3, 3>(6 + 3 * j, 6 + 3 * j) += weight * Jr.transpose() * Jr;
@@ -415,7 +415,7 @@ PoseFitResult fit_pose(const PosableBody& subject, const Eigen::MatrixXd& T, con
   const double deg = M_PI / 180;
   auto hypothesis = [&](const std::vector<std::pair<const char*, Eigen::Vector3d>>& joints_deg) {
     PartPose h = standing_start;
-    for (const auto& [name, v] : joints_deg) h.joint_rotation[static_cast<size_t>(find_joint_index(name))] = v * deg;
+    for (const auto& [name, v] : joints_deg) h.joint(find_joint_index(name)) = v * deg;
     subject.pose(h, &X);
     std::vector<double> ty(static_cast<size_t>(T.rows())), xy(static_cast<size_t>(X.rows()));
     for (Eigen::Index i = 0; i < T.rows(); ++i) ty[static_cast<size_t>(i)] = T(i, 1);
@@ -486,7 +486,7 @@ PoseFitResult fit_pose(const PosableBody& subject, const Eigen::MatrixXd& T, con
   }
   if (std::find(held.begin(), held.end(), true) != held.end()) {
     for (int j = 0; j < kNumJoints; ++j)
-      if (held[static_cast<size_t>(j)]) pose.joint_rotation[static_cast<size_t>(j)].setZero();
+      if (held[static_cast<size_t>(j)]) pose.joint(j).setZero();
     out.iterations += icp(pose, std::max(1, o.iterations / 4), o.refinement_model_samples, o.model_samples, o.max_distance_end,
                           o.max_distance_end);
     residuals();
@@ -524,7 +524,7 @@ PoseFitResult fit_pose(const PosableBody& subject, const Eigen::MatrixXd& T, con
           out.warnings.push_back(msg.str()), msg.str("");
   }
   for (int j = 0; j < kNumJoints; ++j)
-    if (pose.joint_rotation[static_cast<size_t>(j)].norm() * 180 / M_PI > joint_limit_degrees(j) + 5)
+    if (pose.joint(j).norm() * 180 / M_PI > joint_limit_degrees(j) + 5)
       out.warnings.push_back("joint '" + joint_name(j) + "' ends beyond its range of motion: the fit is probably wrong there");
   out.seconds = t0.seconds();
   return out;

@@ -65,8 +65,8 @@ std::vector<Eigen::Matrix3d> inverse_frames(const Eigen::MatrixXd& V, const Eige
 
 Eigen::Matrix<double, kPoseFeatures, 1> features(const PartPose& pose, int a, int b) {
   Eigen::Matrix<double, kPoseFeatures, 1> x = Eigen::Matrix<double, kPoseFeatures, 1>::Zero();
-  if (a >= 0) x.segment<3>(0) = pose.joint_rotation[static_cast<size_t>(a)];
-  if (b >= 0) x.segment<3>(3) = pose.joint_rotation[static_cast<size_t>(b)];
+  if (a >= 0) x.segment<3>(0) = pose.joint(a);
+  if (b >= 0) x.segment<3>(3) = pose.joint(b);
   x[6] = 1;
   return x;
 }

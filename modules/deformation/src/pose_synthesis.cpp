@@ -400,8 +400,8 @@ void PoseSynthesizer::pose_with(const PartPose& pose, PoseMethod method, const E
       if (!(anchor[k] > 0)) continue;
       Eigen::Matrix<double, kPoseFeatures, 1> x = Eigen::Matrix<double, kPoseFeatures, 1>::Zero();
       const int a = s.triangle_joints(k, 0), b = s.triangle_joints(k, 1);
-      if (a >= 0) x.segment<3>(0) = pose.joint_rotation[static_cast<size_t>(a)];
-      if (b >= 0) x.segment<3>(3) = pose.joint_rotation[static_cast<size_t>(b)];
+      if (a >= 0) x.segment<3>(0) = pose.joint(a);
+      if (b >= 0) x.segment<3>(3) = pose.joint(b);
       x[6] = 1;
       const Eigen::Map<const Eigen::Matrix<double, 9, kPoseFeatures, Eigen::RowMajor>> B(s.coefficients.row(k).data());
       const Eigen::Matrix<double, 9, 1> q = B * x;

@@ -13,8 +13,8 @@ void validate_part_pose(const PartPose& pose, const std::string& context) {
     if (!r.allFinite()) throw InvalidInput(context + ": " + what + " is not a finite number");
   };
   for (int j = 0; j < kNumJoints; ++j) {
-    check(pose.joint_rotation[static_cast<size_t>(j)], "rotation of joint '" + joint_name(j) + "'");
-    if (pose.joint_rotation[static_cast<size_t>(j)].norm() > 2 * M_PI + 1e-9)
+    check(pose.joint(j), "rotation of joint '" + joint_name(j) + "'");
+    if (pose.joint(j).norm() > 2 * M_PI + 1e-9)
       throw InvalidInput(context + ": rotation of joint '" + joint_name(j) + "' exceeds 2 pi radians (degrees given?)");
   }
   check(pose.root_rotation, "root_rotation");
@@ -26,7 +26,7 @@ std::array<Eigen::Matrix3d, kNumParts> part_rotations(const PartPose& pose) {
   R[kPelvis] = rotation_from_axis_angle(pose.root_rotation);
   for (int p = 1; p < kNumParts; ++p)  // parents precede children in the Part order
     R[static_cast<size_t>(p)] =
-        R[static_cast<size_t>(part_parent(p))] * rotation_from_axis_angle(pose.joint_rotation[static_cast<size_t>(p - 1)]);
+        R[static_cast<size_t>(part_parent(p))] * rotation_from_axis_angle(pose.joint(p - 1));
   return R;
 }
 
@@ -51,12 +51,12 @@ void apply_pose_increment(PartPose* pose, const Eigen::Ref<const Eigen::VectorXd
   pose->root_rotation = axis_angle_from_rotation(W[kPelvis]);
   pose->root_translation += step.head<3>();
   for (int c = 1; c < kNumParts; ++c)
-    pose->joint_rotation[static_cast<size_t>(c - 1)] =
+    pose->joint(c - 1) =
         axis_angle_from_rotation(W[static_cast<size_t>(part_parent(c))].transpose() * W[static_cast<size_t>(c)]);
 }
 
 Eigen::Matrix<double, kOffsetFeatures, 1> joint_offset_features(const PartPose& pose, int joint) {
-  const Eigen::Vector3d& r = pose.joint_rotation[static_cast<size_t>(joint)];
+  const Eigen::Vector3d& r = pose.joint(joint);
   Eigen::Matrix<double, kOffsetFeatures, 1> f;
   f << r.x(), r.y(), r.z(), r.x() * r.x(), r.y() * r.y(), r.z() * r.z(), r.x() * r.y(), r.y() * r.z(), r.z() * r.x();
   return f;
@@ -134,7 +134,7 @@ PartPose part_pose_from_bone_pose(const Rig& rig, const BonePose& pose) {
   for (int p = 1; p < kNumParts; ++p) {
     const Eigen::Matrix3d& child = world[static_cast<size_t>(roots[static_cast<size_t>(p)])];
     const Eigen::Matrix3d& parent = world[static_cast<size_t>(roots[static_cast<size_t>(part_parent(p))])];
-    out.joint_rotation[static_cast<size_t>(p - 1)] = axis_angle(parent.transpose() * child);
+    out.joint(p - 1) = axis_angle(parent.transpose() * child);
   }
   return out;
 }

@@ -97,8 +97,8 @@ void evaluate_fit(const BodyFit& fit, const nlohmann::json& truth, const Triangl
     const PartPose want = part_pose_from_json(truth.at("done").at("pose").dump(), "truth");
     double sum = 0;
     for (int j = 0; j < kNumJoints; ++j) {
-      const double e = Eigen::AngleAxisd(rotation_from_axis_angle(fit.pose.joint_rotation[static_cast<size_t>(j)]).transpose() *
-                                         rotation_from_axis_angle(want.joint_rotation[static_cast<size_t>(j)]))
+      const double e = Eigen::AngleAxisd(rotation_from_axis_angle(fit.pose.joint(j)).transpose() *
+                                         rotation_from_axis_angle(want.joint(j)))
                            .angle();
       r->joint_angle_error[joint_name(j)] = e;
       sum += e;

@@ -191,7 +191,7 @@ PoseModel train_on_dataset(const std::string& dir, const TrainingOptions& base, 
         double sum = rotation_difference(given.root_rotation, e.pose.root_rotation), worst = sum;
         fit.worst_joint = "root";
         for (int j = 0; j < kNumJoints; ++j) {
-          const double d = rotation_difference(given.joint_rotation[static_cast<size_t>(j)], e.pose.joint_rotation[static_cast<size_t>(j)]);
+          const double d = rotation_difference(given.joint(j), e.pose.joint(j));
           sum += d;
           if (d > worst) worst = d, fit.worst_joint = joint_name(j);
         }

@@ -179,11 +179,11 @@ CameraPreset view_showing_motion(const Eigen::MatrixXd& rest, const Eigen::Matri
 
 PartPose novel_pose() {
   PartPose p;
-  p.joint_rotation[static_cast<size_t>(find_joint_index("right_shoulder"))] = Eigen::Vector3d(0, 0, -1.6);
-  p.joint_rotation[static_cast<size_t>(find_joint_index("right_elbow"))] = Eigen::Vector3d(0, -1.2, 0);
-  p.joint_rotation[static_cast<size_t>(find_joint_index("left_hip"))] = Eigen::Vector3d(-0.6, 0, 0);
-  p.joint_rotation[static_cast<size_t>(find_joint_index("left_knee"))] = Eigen::Vector3d(0.7, 0, 0);
-  p.joint_rotation[static_cast<size_t>(find_joint_index("neck"))] = Eigen::Vector3d(0, 0.4, 0);
+  p.joint(find_joint_index("right_shoulder")) = Eigen::Vector3d(0, 0, -1.6);
+  p.joint(find_joint_index("right_elbow")) = Eigen::Vector3d(0, -1.2, 0);
+  p.joint(find_joint_index("left_hip")) = Eigen::Vector3d(-0.6, 0, 0);
+  p.joint(find_joint_index("left_knee")) = Eigen::Vector3d(0.7, 0, 0);
+  p.joint(find_joint_index("neck")) = Eigen::Vector3d(0, 0.4, 0);
   return p;
 }
 
@@ -574,7 +574,7 @@ ReportSummary write_report(const std::string& dir, const std::string& out_dir, c
               truth.rows() == V.rows() ? fixed(1000 * (V - truth).rowwise().norm().mean(), 2) : std::string("");
           double angle = rotation_difference(used.root_rotation, part_pose.root_rotation);
           for (int j = 0; j < kNumJoints; ++j)
-            angle += rotation_difference(used.joint_rotation[static_cast<size_t>(j)], part_pose.joint_rotation[static_cast<size_t>(j)]);
+            angle += rotation_difference(used.joint(j), part_pose.joint(j));
           posed_table.rows.push_back({id, pose, from, pose_method_name(m), fixed(r.scan_stats.mean_mm, 2),
                                       fixed(r.scan_stats.rms_mm, 2), fixed(r.scan_stats.p95_mm, 2),
                                       std::to_string(r.scan_stats.outliers), vertex_error,

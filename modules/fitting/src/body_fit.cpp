@@ -205,7 +205,7 @@ class Anatomy {
 
  private:
   static void set(PartPose& p, const std::string& joint, const Eigen::Vector3d& r) {
-    p.joint_rotation[static_cast<size_t>(find_joint_index(joint))] = r;
+    p.joint(find_joint_index(joint)) = r;
   }
   Eigen::Vector3d at(const std::string& name) const { return J_.row(find_joint_index(name)).transpose(); }
   const Eigen::MatrixXd& J_;
@@ -308,7 +308,7 @@ double pose_distance(const PartPose& a, const PartPose& b) {
 Eigen::RowVectorXd pose_row(const PartPose& pose) {
   Eigen::RowVectorXd row(3 * (1 + kNumJoints));
   row.head<3>() = pose.root_rotation.transpose();
-  for (int j = 0; j < kNumJoints; ++j) row.segment<3>(3 + 3 * j) = pose.joint_rotation[static_cast<size_t>(j)].transpose();
+  for (int j = 0; j < kNumJoints; ++j) row.segment<3>(3 + 3 * j) = pose.joint(j).transpose();
   return row;
 }
 
@@ -317,7 +317,7 @@ PartPose pose_from_row(const Eigen::RowVectorXd& row) {
     throw InvalidInput("a stored pose has " + std::to_string(row.size()) + " values, " + std::to_string(3 * (1 + kNumJoints)) + " expected");
   PartPose pose;
   pose.root_rotation = row.head<3>().transpose();
-  for (int j = 0; j < kNumJoints; ++j) pose.joint_rotation[static_cast<size_t>(j)] = row.segment<3>(3 + 3 * j).transpose();
+  for (int j = 0; j < kNumJoints; ++j) pose.joint(j) = row.segment<3>(3 + 3 * j).transpose();
   return pose;
 }
 
@@ -728,7 +728,7 @@ class StartSearch {
       for (const char* joint : {"shoulder", "elbow", "wrist"}) arm_joints.push_back(find_joint_index(std::string(side) + joint));
     auto arms_of = [&](const PartPose& p) {
       std::vector<Eigen::Vector3d> a;
-      for (int j : arm_joints) a.push_back(p.joint_rotation[static_cast<size_t>(j)]);
+      for (int j : arm_joints) a.push_back(p.joint(j));
       return a;
     };
     std::vector<Start> mixed;  // unplaced first, then placed on the threads
@@ -739,7 +739,7 @@ class StartSearch {
         if (std::find(seen.begin(), seen.end(), arms) != seen.end()) continue;
         seen.push_back(arms);
         Start m = starts[k];
-        for (size_t i = 0; i < arm_joints.size(); ++i) m.pose.joint_rotation[static_cast<size_t>(arm_joints[i])] = arms[i];
+        for (size_t i = 0; i < arm_joints.size(); ++i) m.pose.joint(arm_joints[i]) = arms[i];
         m.name += ", arms as " + lib.name, m.kind += "+" + lib.kind;
         mixed.push_back(std::move(m));
       }

@@ -57,13 +57,13 @@ constexpr double kStanceDeg = 2;
 bool girth_posture(const PartPose& fitted, PartPose* posture) {
   *posture = PartPose();
   for (int part : {kAbdomen, kChest, kLeftThigh, kLeftShank, kRightThigh, kRightShank})
-    if (fitted.joint_rotation[static_cast<size_t>(part - 1)].norm() > kStandingJointDeg * M_PI / 180) return false;
+    if (fitted.joint(part - 1).norm() > kStandingJointDeg * M_PI / 180) return false;
   bool own_stance = false;
   for (int thigh : {kLeftThigh, kRightThigh})
-    own_stance = own_stance || std::abs(fitted.joint_rotation[static_cast<size_t>(thigh - 1)].z()) > kStanceDeg * M_PI / 180;
+    own_stance = own_stance || std::abs(fitted.joint(thigh - 1).z()) > kStanceDeg * M_PI / 180;
   if (own_stance)
     for (int thigh : {kLeftThigh, kRightThigh})
-      posture->joint_rotation[static_cast<size_t>(thigh - 1)].z() = fitted.joint_rotation[static_cast<size_t>(thigh - 1)].z();
+      posture->joint(thigh - 1).z() = fitted.joint(thigh - 1).z();
   return true;
 }
 

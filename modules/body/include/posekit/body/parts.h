@@ -52,6 +52,9 @@ struct PartPose {
   Eigen::Vector3d root_rotation = Eigen::Vector3d::Zero();     ///< axis-angle of the pelvis
   Eigen::Vector3d root_translation = Eigen::Vector3d::Zero();  ///< m
   PartPose() { joint_rotation.fill(Eigen::Vector3d::Zero()); }
+  /// Joint j's rotation (axis-angle, radians), j in [0, kNumJoints): joint_rotation[j].
+  Eigen::Vector3d& joint(int j) { return joint_rotation[static_cast<size_t>(j)]; }
+  const Eigen::Vector3d& joint(int j) const { return joint_rotation[static_cast<size_t>(j)]; }
 };
 
 /// Rotation matrix of an axis-angle vector (angle = norm).
