@@ -421,17 +421,18 @@ TEST(PoseModel, TrainsFromAFolderOfMeshesAloneInAnyUnitAxesAndFormat) {
   EXPECT_NE(r_foreign.orientation.find("up +Z"), std::string::npos) << r_foreign.orientation;
   EXPECT_LT(e_alone, 1.1 * e_json);
   EXPECT_NEAR(e_foreign, e_alone, 0.02 * e_alone);  // the same bodies, read back into posekit's frame
-  // Noisy examples spoil what Eq. 5 learns whatever the poses' source.
-  // With 22 examples (the small dataset) the noise is over-fitted differently: 14.7 against 8.9 mm;
-  // with the full dataset's 74, 9.46 against 9.41 mm. The estimated joints stay within degrees.
-  EXPECT_LT(e_noisy, 2.0 * e_noisy_json);
-  // Part 5's smoothness prior (10 rounds over neighbouring triangles) takes much of the noise out:
-  // measured 8.95 -> 3.89 mm here (clean meshes: 3.63 mm).
+  // Noise inflates what Eq. 5 learns everywhere; placed by the parts' rigid cores the body still
+  // sits where the skeleton puts it: measured 3.63 mm with the JSONs and 3.76 with estimated poses,
+  // against 3.62 clean (placed from the pelvis, as until 2026-11-28: 8.95 and 14.7 mm).
+  EXPECT_LT(e_noisy_json, 1.2 * e_json);
+  EXPECT_LT(e_noisy, 1.2 * e_noisy_json);
+  // Part 5's smoothness prior (10 rounds over neighbouring triangles) no longer has noise to take
+  // out of the placement (3.67 mm; 3.89 from 8.95 before); it must not cost.
   TrainingOptions smooth;
   smooth.smoothing_iterations = 10;
   DatasetTrainingReport r_smoothed;
   const double e_noisy_smoothed = held_out_error(noisy_json.path(), o, &r_smoothed, smooth);
-  EXPECT_LT(e_noisy_smoothed, 0.75 * e_noisy_json);
+  EXPECT_LT(e_noisy_smoothed, 1.1 * e_noisy_json);
   DatasetTrainingOptions check = o;
   check.poses = TrainingPoses::kEstimate;
   DatasetTrainingReport r_check;

@@ -1,7 +1,8 @@
-#include "posekit/core/timer.h"
 #include "posekit/deformation/pose_synthesis.h"
 
+#include <Eigen/LU>
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <string>
 
@@ -9,6 +10,7 @@
 #include "posekit/core/mesh_geometry.h"
 #include "posekit/core/mesh_topology.h"
 #include "posekit/core/mesh_validation.h"
+#include "posekit/core/timer.h"
 #include "posekit/deformation/poisson_solver.h"
 #include "posekit/deformation/rigid_pose.h"
 #include "posekit/registration/correspondence.h"
@@ -72,6 +74,19 @@ struct PoseSynthesizer::Impl {
   Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor> coefficients;  // #F x 63, from the template
   Eigen::Matrix<int, Eigen::Dynamic, 2, Eigen::RowMajor> triangle_joints;  // #F x 2
   Eigen::VectorXd pelvis_area;        // #F: the area of pelvis triangles, 0 elsewhere
+  // PosePlacement::kParts (set_up_part_placement): each vertex's core weight; per part its core's
+  // total weight and rest mean; per vertex its non-zero blend weights (blend_start[v] ..
+  // blend_start[v + 1] in blend_part, blend_weight); the LU of the core means of the blend weights.
+  bool parts_placed = false;
+  Eigen::VectorXd core_weight;
+  Eigen::Matrix<double, kNumParts, 1> part_core_total;
+  std::array<Eigen::Vector3d, kNumParts> part_core_rest;
+  std::vector<int> blend_start, blend_part;
+  std::vector<double> blend_weight;
+  Eigen::FullPivLU<Eigen::Matrix<double, kNumParts, kNumParts>> placement_system;
+  void set_up_part_placement(const Eigen::VectorXd& face_area);
+  /// Moves each part of X (posed by Eq. 6) so that its core's mean meets T^R's placement of it.
+  void place_parts(const PartTransforms& T, Eigen::MatrixXd* X) const;
   Eigen::VectorXi vertex_part;        // #V
   double offset_scale = 1;            // the subject's height over the template's, for joint offsets
   Eigen::MatrixXd lbs_weights;        // #V x 16
@@ -170,29 +185,7 @@ PoseSynthesizer::PoseSynthesizer(std::shared_ptr<const PoseModel> model, const T
   for (Eigen::Index e = 0; e < edges.rows(); ++e) edge_length[e] = (s.V.row(edges(e, 0)) - s.V.row(edges(e, 1))).norm();
 
   t0.restart();
-  Eigen::VectorXd position_weight;
-  if (options.anchor_strength > 0) {
-    // Sensitivity of each triangle's T^Q to the pose: the norm of its twist coefficients.
-    Eigen::VectorXd sensitivity = Eigen::VectorXd::Zero(s.V.rows()), vertex_area = Eigen::VectorXd::Zero(s.V.rows());
-    for (Eigen::Index k = 0; k < s.F.rows(); ++k) {
-      double sq = 0;
-      for (int entry = 0; entry < 9; ++entry)
-        sq += s.coefficients.row(k).segment<6>(entry * kPoseFeatures).squaredNorm();
-      for (int c = 0; c < 3; ++c) {
-        sensitivity[s.F(k, c)] = std::max(sensitivity[s.F(k, c)], std::sqrt(sq));
-        vertex_area[s.F(k, c)] += face_area[k] / 3;
-      }
-    }
-    // The mesh's stiffness per vertex is about area / edge^2 (times the valence): scale to it.
-    const double mean_sq_edge = edge_length.squaredNorm() / static_cast<double>(std::max<Eigen::Index>(edges.rows(), 1));
-    position_weight.resize(s.V.rows());
-    for (Eigen::Index v = 0; v < s.V.rows(); ++v) {
-      const double r = sensitivity[v] / options.rigid_sensitivity;
-      position_weight[v] = options.anchor_strength * vertex_area[v] / mean_sq_edge * std::exp(-r * r);
-    }
-    if (!(position_weight.sum() > 0)) position_weight.resize(0);
-  }
-  s.solver = std::make_unique<PoissonSolver>(s.V, s.F, position_weight);
+  s.solver = std::make_unique<PoissonSolver>(s.V, s.F);
   s.info.seconds_factorisation = t0.seconds();
   const PoissonSolver::EdgeMatrix& rest_edges = s.solver->weighted_rest_edges();
   s.edge_coefficients.clear();
@@ -222,6 +215,66 @@ PoseSynthesizer::PoseSynthesizer(std::shared_ptr<const PoseModel> model, const T
     iterations = static_cast<int>(std::clamp(2 * rings * rings, 4.0, 400.0));
   }
   s.lbs_weights = diffuse_part_weights(s.F, s.vertex_part, static_cast<int>(s.V.rows()), iterations);
+  if (options.placement == PosePlacement::kParts) s.set_up_part_placement(face_area);
+}
+
+void PoseSynthesizer::Impl::set_up_part_placement(const Eigen::VectorXd& face_area) {
+  // Each vertex's sensitivity to the pose (its triangles' largest twist-coefficient norm) and area.
+  Eigen::VectorXd sensitivity = Eigen::VectorXd::Zero(V.rows()), weight = Eigen::VectorXd::Zero(V.rows());
+  for (Eigen::Index k = 0; k < F.rows(); ++k) {
+    double sq = 0;
+    for (int entry = 0; entry < 9; ++entry) sq += coefficients.row(k).segment<6>(entry * kPoseFeatures).squaredNorm();
+    for (int c = 0; c < 3; ++c) {
+      sensitivity[F(k, c)] = std::max(sensitivity[F(k, c)], std::sqrt(sq));
+      weight[F(k, c)] += face_area[k] / 3;
+    }
+  }
+  std::array<std::vector<double>, kNumParts> part_sensitivity;
+  for (Eigen::Index v = 0; v < V.rows(); ++v) part_sensitivity[static_cast<size_t>(vertex_part[v])].push_back(sensitivity[v]);
+  std::array<double, kNumParts> median{};
+  for (size_t p = 0; p < part_sensitivity.size(); ++p) {
+    std::vector<double>& values = part_sensitivity[p];
+    if (values.empty()) continue;
+    std::nth_element(values.begin(), values.begin() + static_cast<long>(values.size() / 2), values.end());
+    median[p] = values[values.size() / 2];
+  }
+  core_weight.resize(V.rows());
+  for (Eigen::Index v = 0; v < V.rows(); ++v) {
+    const double m = median[static_cast<size_t>(vertex_part[v])];
+    const double r = m > 0 ? sensitivity[v] / m : 0;
+    core_weight[v] = weight[v] * std::exp(-r * r);
+  }
+  // Per part its core's rest mean; the blend's non-zero weights per vertex; the system that maps the
+  // parts' moves to their cores' mean moves (core means of the blend weights).
+  part_core_total.setZero();
+  part_core_rest.fill(Eigen::Vector3d::Zero());
+  for (Eigen::Index v = 0; v < V.rows(); ++v) {
+    const auto p = static_cast<size_t>(vertex_part[v]);
+    part_core_rest[p] += core_weight[v] * V.row(v).transpose();
+    part_core_total[static_cast<Eigen::Index>(p)] += core_weight[v];
+  }
+  blend_start.assign(static_cast<size_t>(V.rows()) + 1, 0);
+  blend_part.clear(), blend_weight.clear();
+  Eigen::Matrix<double, kNumParts, kNumParts> system = Eigen::Matrix<double, kNumParts, kNumParts>::Zero();
+  for (Eigen::Index v = 0; v < V.rows(); ++v) {
+    for (int q = 0; q < kNumParts; ++q)
+      if (lbs_weights(v, q) > 0) {
+        blend_part.push_back(q), blend_weight.push_back(lbs_weights(v, q));
+        system(vertex_part[v], q) += core_weight[v] * lbs_weights(v, q);
+      }
+    blend_start[static_cast<size_t>(v) + 1] = static_cast<int>(blend_part.size());
+  }
+  for (int p = 0; p < kNumParts; ++p) {
+    if (part_core_total[p] > 0) {
+      part_core_rest[static_cast<size_t>(p)] /= part_core_total[p];
+      system.row(p) /= part_core_total[p];
+    } else {
+      system.row(p).setZero(), system(p, p) = 1;  // a part without vertices: no move
+    }
+  }
+  placement_system = system.fullPivLu();
+  if (!placement_system.isInvertible()) throw InvalidInput("subject mesh: its parts cannot be placed (a part without a core)");
+  parts_placed = true;
 }
 
 PoseSynthesizer::~PoseSynthesizer() = default;
@@ -235,7 +288,6 @@ const SubjectSetupInfo& PoseSynthesizer::info() const { return impl_->info; }
 namespace {
 /// Per-thread buffers of pose(), so that posing a motion does not allocate per frame.
 struct PoseScratch {
-  PoissonSolver::RowMatrixX3d targets;
   Eigen::Matrix<double, Eigen::Dynamic, 12, Eigen::RowMajor> blend;
 };
 PoseScratch& pose_scratch() {
@@ -323,6 +375,19 @@ double* PoseSynthesizer::Impl::right_hand_side(const PartPose& pose, const PartT
   return rhs;
 }
 
+void PoseSynthesizer::Impl::place_parts(const PartTransforms& T, Eigen::MatrixXd* X) const {
+  Eigen::Matrix<double, kNumParts, 3> miss = Eigen::Matrix<double, kNumParts, 3>::Zero();
+  for (Eigen::Index v = 0; v < V.rows(); ++v) miss.row(vertex_part[v]) -= core_weight[v] * X->row(v);
+  for (int p = 0; p < kNumParts; ++p) {
+    const auto q = static_cast<size_t>(p);
+    if (part_core_total[p] > 0) miss.row(p) = (T.R[q] * part_core_rest[q] + T.t[q]).transpose() + miss.row(p) / part_core_total[p];
+  }
+  const Eigen::Matrix<double, kNumParts, 3> move = placement_system.solve(miss);
+  for (Eigen::Index v = 0; v < V.rows(); ++v)
+    for (int k = blend_start[static_cast<size_t>(v)]; k < blend_start[static_cast<size_t>(v) + 1]; ++k)
+      X->row(v) += blend_weight[static_cast<size_t>(k)] * move.row(blend_part[static_cast<size_t>(k)]);
+}
+
 Eigen::MatrixXd PoseSynthesizer::pose(const PartPose& pose, PoseMethod method) const {
   Eigen::MatrixXd X;
   this->pose(pose, method, &X);
@@ -366,6 +431,14 @@ void PoseSynthesizer::pose_with(const PartPose& pose, PoseMethod method, const E
   validate_part_pose(pose, "pose");
   const PartTransforms T = part_transforms(pose, s.info.joint_centres, joint_offsets, s.offset_scale);
   PoseScratch& scratch = pose_scratch();
+  if (method == PoseMethod::kRigid) {
+    X->resize(s.V.rows(), 3);
+    for (Eigen::Index v = 0; v < s.V.rows(); ++v) {
+      const size_t p = static_cast<size_t>(s.vertex_part[v]);
+      X->row(v) = (T.R[p] * s.V.row(v).transpose() + T.t[p]).transpose();
+    }
+    return;
+  }
   if (method == PoseMethod::kLbs) {
     // Per vertex the weighted sum of the 16 part motions [R_p | t_p], as one dense product.
     Eigen::Matrix<double, kNumParts, 12, Eigen::RowMajor> motions;
@@ -383,13 +456,9 @@ void PoseSynthesizer::pose_with(const PartPose& pose, PoseMethod method, const E
     return;
   }
   double* rhs = s.right_hand_side(pose, T, method);
-  if (s.solver->has_position_weights()) {
-    scratch.targets.resize(s.V.rows(), 3);
-    for (Eigen::Index v = 0; v < s.V.rows(); ++v) {
-      const size_t p = static_cast<size_t>(s.vertex_part[v]);
-      scratch.targets.row(v) = (T.R[p] * s.V.row(v).transpose() + T.t[p]).transpose();
-    }
-    s.solver->finish(rhs, scratch.targets, X);
+  if (s.parts_placed) {
+    s.solver->finish(rhs, s.pelvis_area, T.R[kPelvis], T.t[kPelvis], X);
+    s.place_parts(T, X);
     return;
   }
   // Anchor: the pelvis where it stays rigid (T^Q near the identity), so that skin moving at the hips

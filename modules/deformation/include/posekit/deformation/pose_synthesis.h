@@ -17,22 +17,25 @@ namespace posekit {
 
 enum class PoseMethod {
   kLearned,  ///< T^R T^Q (Eq. 1), the paper's method
-  kRigid,    ///< T^R only: rigid parts stitched by the same solve ("puppet")
+  kRigid,    ///< T^R only: each vertex moved rigidly with its part (exactly rigid: open seams at the joints)
   kLbs       ///< linear blend skinning, 16-part weights diffused from the segmentation
 };
 PoseMethod parse_pose_method(const std::string& name);  ///< "learned", "rigid" or "lbs"
 const char* pose_method_name(PoseMethod method);
 
+enum class PosePlacement { kParts, kPelvis };
+
 struct SubjectSetupOptions {
   bool is_template = false;       ///< the subject is the model's own template: identity correspondence
-  /// Soft skeleton anchoring: vertices whose learned T^Q barely depends on the pose (their
-  /// twist-coefficient norm well below `rigid_sensitivity`) are held near their part's rigid motion
-  /// with weight `anchor_strength` (relative to the mesh's own stiffness). 0 disables it; the pelvis
-  /// then fixes the translation alone. At 0.05 the trunk, whose T^Q depends on the pose, followed
-  /// the limbs' T^R (estimated joints' errors included); 0.15 lowered the subjects' error on three
-  /// ground truths (docs/pose-model.md, "The anchors' threshold").
-  double anchor_strength = 0.1;
-  double rigid_sensitivity = 0.15;
+  /// Where the learned method puts the parts: Eq. 6 gives the surface up to a translation, and a
+  /// surface integrated from the pelvis carries every error of the learned T^Q out to the hands and
+  /// feet. kParts (default): each part is then moved so that the mean of its rigid core goes where
+  /// its rigid motion T^R takes it, the moves blended across the joints by the LBS weights. A
+  /// vertex's core weight is its area times exp(-(s / m)^2), s the largest twist-coefficient norm of
+  /// its triangles (how much the pose changes its T^Q) and m its part's median s: relative to the
+  /// model itself, so that scaling the learned coefficients (noisy training meshes) changes nothing.
+  /// kPelvis: the paper's setting, Eq. 6 alone, placed by the pelvis.
+  PosePlacement placement = PosePlacement::kParts;
   int lbs_smoothing_iterations = 0;  ///< 0: chosen from the mean edge length (about 3 cm of blending)
   /// A segmentation (#F) and joint centres (#joints x 3) the user already has; empty: computed.
   Eigen::VectorXi triangle_part;
