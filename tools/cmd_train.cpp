@@ -144,6 +144,8 @@ int run_train(int argc, char** argv) {
       .option("rest", "NAME", "the rest-pose example (default: the manifest's, a zero pose, a name with rest/template, else the first)")
       .option("unit", "UNIT", "unit of the meshes: m, dm, cm, mm or auto (from the rest mesh's extent)", "auto")
       .output("fit-report", "FILE", "per-example fit of the estimated poses (JSON: residuals, joint errors against given JSONs)")
+      .output_folder("poses-out", "DIR", "each example's estimated pose as DIR/<name>.json (posekit's pose JSON, its frame;\n"
+                     "                          poses estimated from the meshes: a folder of meshes alone, or --poses estimate)")
       .flag("joint-offsets",
             "extension beyond the paper: learn where each joint sits as a function of its twist (a shoulder girdle\n"
             "                          that rises with the arm), kept per joint where it lowers the training error")
@@ -189,9 +191,18 @@ int run_train(int argc, char** argv) {
   PoseModel model = train_on_dataset(args.get("dataset"), o, dto, &fits);
   const double seconds = t0.seconds();
   progress.finish();
+  if (args.has("poses-out") && !fits.poses_estimated)
+    throw UsageError("--poses-out: the training poses were the dataset's pose JSONs, nothing was estimated (add --poses estimate)");
   const nlohmann::ordered_json fit_json = fit_report_json(fits);
   report_pose_estimation(fits, std::cerr);
   if (args.has("fit-report")) write_file_atomically(args.get("fit-report"), [&](std::ostream& f) { f << fit_json.dump(2) << "\n"; }, false);
+  if (args.has("poses-out")) {
+    const fs::path dir = args.get("poses-out");
+    std::error_code ec;
+    fs::create_directories(dir, ec);
+    if (ec) throw IoError(dir.string() + ": cannot create the folder for --poses-out: " + ec.message());
+    for (const ExamplePoseFit& e : fits.examples) write_part_pose((dir / (e.name + ".json")).string(), e.pose);
+  }
   const long calibration_bodies = args.has("calibration-bodies") ? args.get_int("calibration-bodies") : 128;
   if (calibration_bodies < 0) throw UsageError("--calibration-bodies must not be negative");
   PriorReport prior;

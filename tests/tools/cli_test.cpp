@@ -1,7 +1,9 @@
 // The posekit executable as a user runs it: exit codes, --help, --json, one-line errors.
 #include <gtest/gtest.h>
 
+#include <Eigen/Geometry>
 #include <algorithm>
+#include <cmath>
 #include <array>
 #include <cstdio>
 #include <filesystem>
@@ -313,8 +315,23 @@ TEST(Cli, TrainsOnAFolderOfMeshesAloneAndNamesWhatIsWrongWithAFolder) {
                            "right_hip_abduct_40"})
     std::filesystem::copy_file(ds.root + "/pose_dataset/" + name + ".ply", dir.file(std::string("meshes/") + name + ".ply"));
   CommandResult r = run("train --dataset " + dir.file("meshes") + " --calibration-bodies 0 --out " + dir.file("m.pkm") +
-                        " --fit-report " + dir.file("fits.json"), true);
+                        " --fit-report " + dir.file("fits.json") + " --poses-out " + dir.file("poses"), true);
   ASSERT_EQ(r.code, 0) << r.out;
+  // The estimated poses, written out: each within a few degrees of the pose the example was made in.
+  for (const char* name : {"rest", "left_elbow_flex_105", "right_knee_flex_65", "torso_twist_left_30", "left_shoulder_raise_30",
+                           "right_hip_abduct_40"}) {
+    const std::string path = dir.file(std::string("poses/") + name + ".json");
+    ASSERT_TRUE(std::filesystem::exists(path)) << path;
+    const PartPose estimated = part_pose_from_json(read_file_bytes(path), path);
+    const std::string truth_path = ds.root + "/pose_dataset/" + name + ".json";
+    const PartPose truth = part_pose_from_json(read_file_bytes(truth_path), truth_path);
+    double worst = 0;
+    for (int j = 0; j < kNumJoints; ++j) {
+      const Eigen::Matrix3d d = rotation_from_axis_angle(estimated.joint(j)).transpose() * rotation_from_axis_angle(truth.joint(j));
+      worst = std::max(worst, Eigen::AngleAxisd(d).angle() * 180 / M_PI);
+    }
+    EXPECT_LT(worst, 5.0) << name;
+  }
   EXPECT_NE(r.out.find("template 'rest'"), std::string::npos) << r.out;
   EXPECT_NE(r.out.find("poses of 6 examples estimated from their meshes"), std::string::npos) << r.out;
   const auto fits = nlohmann::json::parse(read_file_bytes(dir.file("fits.json")));
@@ -323,6 +340,11 @@ TEST(Cli, TrainsOnAFolderOfMeshesAloneAndNamesWhatIsWrongWithAFolder) {
     EXPECT_LT(e["rms_mm"].get<double>(), 10.0) << e.dump();
     EXPECT_FALSE(e.contains("against_json"));  // nothing to check against
   }
+  // Poses read from JSONs were not estimated: nothing to write, and said so before anything is written.
+  r = run("train --dataset " + ds.root + " --calibration-bodies 0 --out " + dir.file("d.pkm") + " --poses-out " + dir.file("none"), true);
+  EXPECT_EQ(r.code, 2);
+  EXPECT_NE(r.out.find("nothing was estimated"), std::string::npos) << r.out;
+  EXPECT_FALSE(std::filesystem::exists(dir.file("d.pkm")));
   // --poses json wants a JSON per example, named.
   r = run("train --dataset " + dir.file("meshes") + " --poses json --calibration-bodies 0 --out " + dir.file("j.pkm"), true);
   EXPECT_EQ(r.code, 1);

@@ -199,9 +199,10 @@ PoseModel train_on_dataset(const std::string& dir, const TrainingOptions& base, 
         fit.joint_error_max_deg = worst * 180 / M_PI;
       }
       for (const auto& p : fit.problems) rep.warnings.push_back("example '" + fit.name + "': " + p);
+      if (static_cast<int>(i) == rest) e.pose = PartPose{};  // the template is the rest pose by definition
+      fit.pose = e.pose;
       rep.examples.push_back(fit);
       core_rms.push_back(e.core_rms);
-      if (static_cast<int>(i) == rest) e.pose = PartPose{};  // the template is the rest pose by definition
       data.poses[i] = e.pose;
       data.has_pose[i] = true;
     }

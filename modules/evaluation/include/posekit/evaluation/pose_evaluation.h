@@ -107,6 +107,7 @@ struct ExamplePoseFit {
   std::string worst_joint;
   std::vector<std::string> problems;  ///< pose_estimate_problems, and the dataset-level check
   bool left_out = false;              ///< not the rest body posed: not trained on
+  PartPose pose;                      ///< the estimated pose, in posekit's frame (the rest example's: zero)
 };
 
 struct DatasetTrainingReport {
