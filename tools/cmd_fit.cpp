@@ -66,6 +66,61 @@ std::vector<double> joint_angle_errors(const PartPose& a, const PartPose& b) {
   return out;
 }
 
+/// fit --registered: the pose of the subject's own mesh in another pose, from its vertices.
+int fit_registered(const ArgParser& args, const PoseSynthesizer& synth, const TriangleMesh& subject,
+                   const BodyOrientation& orientation, const BodyUnit& unit) {
+  const Stopwatch clock;
+  const std::string path = args.get("target");
+  TriangleMesh target = read_mesh(path);
+  if (target.V.rows() != subject.V.rows() || target.F.rows() != subject.F.rows() || target.F != subject.F)
+    throw InvalidInput(path + ": --registered needs the subject's topology (" + std::to_string(subject.V.rows()) + " vertices, " +
+                       std::to_string(subject.F.rows()) + " triangles, in the same order); it has " +
+                       std::to_string(target.V.rows()) + " vertices and " + std::to_string(target.F.rows()) +
+                       " triangles" + (target.V.rows() == subject.V.rows() ? " in another order" : ""));
+  // The subject's file axes and unit apply to its registered copy too.
+  target.V *= metres_per_unit(unit.unit);
+  if (!orientation.is_identity()) target.V = (target.V * orientation.rotation.transpose()).eval();
+  const PartPoseEstimator estimator(synth.rest_vertices(), synth.faces(), synth.info().triangle_part,
+                                    synth.info().joint_centres);
+  const PartPoseEstimate e = estimator.estimate(target.V);
+  const PoseMethod method = parse_pose_method(args.get("method"));
+  const Eigen::MatrixXd X = synth.pose(e.pose, method);
+  const Eigen::VectorXd error = (X - target.V).rowwise().norm();
+  const double seconds = clock.seconds();
+  const std::vector<std::string> problems = pose_estimate_problems(e);
+  for (const auto& p : problems) std::cerr << "warning: " << path << ": " << p << "\n";
+  if (args.has("pose-out")) write_part_pose(args.get("pose-out"), e.pose);
+  if (args.has("out")) {
+    TriangleMesh fitted = subject;
+    fitted.V = X * orientation.rotation / metres_per_unit(unit.unit);  // the subject's file axes and unit
+    fitted.N.resize(0, 3);
+    fitted.vertex_scalars["residual_mm"] = 1000 * error;
+    fitted.vertex_scalars["part"] = synth.vertex_parts().cast<double>();
+    write_mesh(args.get("out"), fitted);
+  }
+  std::vector<double> errors(error.data(), error.data() + error.size());
+  const ErrorStats stats = error_stats(errors);
+  nlohmann::ordered_json parts = nlohmann::ordered_json::object();
+  for (int p = 0; p < kNumParts; ++p) parts[part_name(p)] = 1000 * e.core_rms[static_cast<size_t>(p)];
+  if (args.flag_set("json")) {
+    print_json({{"registered", true}, {"seconds", seconds}, {"method", pose_method_name(method)},
+                {"rigid_parts_rms_mm", 1000 * e.rms}, {"part_core_rms_mm", parts}, {"worst_part", part_name(e.worst_part)},
+                {"posed_to_target_mm", {{"mean", stats.mean_mm}, {"p95", stats.p95_mm}, {"max", stats.max_mm}}},
+                {"warnings", problems}, {"pose", nlohmann::json::parse(part_pose_to_json(e.pose))}});
+    return 0;
+  }
+  std::cout << std::fixed << std::setprecision(1) << "pose from the registered vertices in " << std::setprecision(3) << seconds
+            << " s: rigid parts explain the target to " << std::setprecision(1) << 1000 * e.rms << " mm RMS (worst part "
+            << part_name(e.worst_part) << ", " << 1000 * e.core_rms[static_cast<size_t>(e.worst_part)] << " mm away from its joints); posed by "
+            << pose_method_name(method) << ": " << stats.mean_mm << " mm mean, " << stats.p95_mm << " mm 95th percentile from the target\n";
+  for (int j = 0; j < kNumJoints; ++j) {
+    const Eigen::Vector3d& v = e.pose.joint(j);
+    if (v.norm() > 5 * M_PI / 180)
+      std::cout << "  " << joint_name(j) << ": " << std::setprecision(0) << v.norm() * 180 / M_PI << " degrees\n";
+  }
+  return 0;
+}
+
 }  // namespace
 
 int run_fit(int argc, char** argv) {
@@ -96,6 +151,9 @@ int run_fit(int argc, char** argv) {
       .example("posekit fit --model model.pkm --subject ds/subjects/f01/rest.ply --target ds/scans/f01/squat_half.pcd "
                "--out fitted.ply --pose-out pose.json");
   args.option("target-up", "AXIS", "the axis the target stands along (+X, -Y, ...) or auto (detected); its heading is fitted", "auto");
+  args.flag("registered", "the target is the subject's own mesh posed (same vertices and triangles, same axes and unit):\n"
+                          "its pose comes from the known correspondences (each part's weighted Procrustes fit, then\n"
+                          "the parts refined together so that parent and child meet at every joint), no search");
   add_body_model_options(&args);
   add_orientation_options(&args, "", "the subject");
   if (!args.parse(argc, argv)) return 0;
@@ -105,6 +163,9 @@ int run_fit(int argc, char** argv) {
   BodyOrientation orientation;
   BodyUnit unit;
   const TriangleMesh subject = read_posing_subject(args, "fit", &orientation, &unit);
+  if (args.flag_set("registered"))
+    return fit_registered(args, set_up_subject(model, subject, args.get("subject"), subject_setup(args, subject)), subject,
+                          orientation, unit);
   BodyUnit target_unit;
   BodyInput target_input = read_body_input(args.get("target"), args.get("target-unit"), "fit", &target_unit);
   Eigen::MatrixXd T = target_input.is_cloud ? target_input.cloud.P : target_input.mesh.V;

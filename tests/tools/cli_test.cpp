@@ -296,6 +296,39 @@ TEST(Cli, FitWritesThePoseTheFittedBodyAndItsResiduals) {
   const TriangleMesh fitted_z = read_mesh(dir.file("fitted_z.ply"));
   ASSERT_EQ(fitted_z.V.rows(), z_up.rows());
   EXPECT_LT((fitted_z.V - z_up).rowwise().norm().mean(), 0.01);  // measured 4.5 mm
+  // --registered (issue 45 part 2): the subject's own mesh, rigidly posed, in Z-up millimetres like
+  // the subject: the pose comes back exactly from the correspondences, the body onto the target.
+  r = run("pose --model " + dir.file("m.pkm") + " --subject " + ds.root + "/subjects/m01/rest.ply --pose " + ds.root +
+          "/subjects/m01/posed/squat_half.json --method rigid --out " + dir.file("rigid.ply"));
+  ASSERT_EQ(r.code, 0) << r.out;
+  for (const auto& [from, to] : {std::pair<std::string, std::string>{ds.root + "/subjects/m01/rest.ply", "rest_z.ply"},
+                                 {dir.file("rigid.ply"), "rigid_z.ply"}}) {
+    TriangleMesh m = read_mesh(from);
+    m.V = 1000 * m.V * file_from_posekit.transpose();
+    m.N.resize(0, 3);
+    write_mesh(dir.file(to), m);
+  }
+  r = run("fit --registered --method rigid --model " + dir.file("m.pkm") + " --subject " + dir.file("rest_z.ply") + " --target " +
+          dir.file("rigid_z.ply") + " --pose-out " + dir.file("registered.json") + " --out " + dir.file("registered.ply") + " --json");
+  ASSERT_EQ(r.code, 0) << r.out;
+  const auto reg = nlohmann::json::parse(r.out);
+  EXPECT_LT(reg["posed_to_target_mm"]["max"].get<double>(), 0.01) << r.out;
+  const PartPose registered = read_part_pose(dir.file("registered.json"));
+  for (int j = 0; j < kNumJoints; ++j)
+    EXPECT_LT(Eigen::AngleAxisd(rotation_from_axis_angle(registered.joint(j)).transpose() * rotation_from_axis_angle(truth.joint(j)))
+                      .angle() * 180 / M_PI, 0.01) << joint_name(j);
+  const TriangleMesh registered_body = read_mesh(dir.file("registered.ply"));  // in the subject's file axes and unit
+  EXPECT_LT((registered_body.V - read_mesh(dir.file("rigid_z.ply")).V).rowwise().norm().maxCoeff(), 0.01);
+  // The rig-driven truth mesh is no rigid posing: learned explains it to a few millimetres.
+  r = run("fit --registered --model " + dir.file("m.pkm") + " --subject " + ds.root + "/subjects/m01/rest.ply --target " + ds.root +
+          "/subjects/m01/posed/squat_half.ply --json");
+  ASSERT_EQ(r.code, 0) << r.out;
+  EXPECT_LT(nlohmann::json::parse(r.out)["posed_to_target_mm"]["mean"].get<double>(), 10.0) << r.out;
+  // Another topology is refused, named, with what --registered needs.
+  r = run("fit --registered --model " + dir.file("m.pkm") + " --subject " + ds.root + "/subjects/m01/rest.ply --target " + ds.root +
+          "/subjects/f01/rest.ply", true);
+  EXPECT_EQ(r.code, 1);
+  EXPECT_NE(r.out.find("f01/rest.ply: --registered needs the subject's topology"), std::string::npos) << r.out;
   // A target that is no body: refused, named.
   dir.write("few.xyz", "0 0 0\n1 0 0\n0 1 0\n");
   r = run("fit --model " + dir.file("m.pkm") + " --subject " + ds.root + "/subjects/m01/rest.ply --target " + dir.file("few.xyz") +
