@@ -1,5 +1,7 @@
 #include "posekit/deformation/part_pose_estimation.h"
 
+#include "posekit/deformation/rigid_pose.h"
+
 #include <Eigen/Cholesky>
 #include <Eigen/Geometry>
 #include <Eigen/SVD>
@@ -168,7 +170,75 @@ PartPoseEstimate PartPoseEstimator::estimate(const Eigen::MatrixXd& posed_V) con
   for (int p = 1; p < kNumParts; ++p)
     out.pose.joint(p - 1) =
         axis_angle_from_rotation(out.R[static_cast<size_t>(part_parent(p))].transpose() * out.R[static_cast<size_t>(p)]);
+  if (options_.chain_iterations > 0) refine_along_chain(posed_V, weights, &out.pose);
   return out;
+}
+
+void PartPoseEstimator::refine_along_chain(const Eigen::MatrixXd& Y, const std::array<std::vector<double>, kNumParts>& weights,
+                                           PartPose* pose) const {
+  // Gauss-Newton on the pose itself: every vertex placed by forward kinematics about the rest joint
+  // centres (T^R), so the parts' places follow from the joint rotations as posing puts them.
+  // Unknowns as apply_pose_increment's; a part's twist (shift d, rotation w) is B times them.
+  const Eigen::Vector3d pelvis_pivot =
+      (joints_.row(kAbdomen - 1) + joints_.row(kLeftThigh - 1) + joints_.row(kRightThigh - 1)).transpose() / 3;
+  double previous = std::numeric_limits<double>::infinity();
+  PartPose before = *pose;
+  for (int iteration = 0; iteration < options_.chain_iterations; ++iteration) {
+    const PartTransforms T = part_transforms(*pose, joints_);
+    Eigen::Matrix<double, kPoseIncrementSize, kPoseIncrementSize> N = Eigen::Matrix<double, kPoseIncrementSize, kPoseIncrementSize>::Zero();
+    Eigen::Matrix<double, kPoseIncrementSize, 1> g = Eigen::Matrix<double, kPoseIncrementSize, 1>::Zero();
+    double cost = 0;
+    for (int q = 0; q < kNumParts; ++q) {
+      const size_t s = static_cast<size_t>(q);
+      Eigen::Matrix<double, 6, 6> H = Eigen::Matrix<double, 6, 6>::Zero();
+      Eigen::Matrix<double, 6, 1> b = Eigen::Matrix<double, 6, 1>::Zero();
+      const auto& verts = part_vertices_[s];
+      for (size_t i = 0; i < verts.size(); ++i) {
+        const Eigen::Vector3d y = T.R[s] * rest_V_.row(verts[i]).transpose() + T.t[s];
+        const Eigen::Vector3d r = y - Y.row(verts[i]).transpose();
+        Eigen::Matrix<double, 3, 6> J;
+        J << Eigen::Matrix3d::Identity(), -cross_product_matrix(y);
+        const double w = weights[s][i];
+        H += w * J.transpose() * J;
+        b += w * J.transpose() * r;
+        cost += w * r.squaredNorm();
+      }
+      // The pose unknowns that move part q: root shift, root turn about the posed pelvis pivot, and
+      // each joint on its chain about its posed centre (carried by the joint's parent part).
+      std::vector<std::pair<int, Eigen::Vector3d>> turns = {{3, T.R[kPelvis] * pelvis_pivot + T.t[kPelvis]}};
+      for (int c = q; c != kPelvis; c = part_parent(c)) {
+        const size_t parent = static_cast<size_t>(part_parent(c));
+        turns.emplace_back(6 + 3 * (c - 1), T.R[parent] * joints_.row(c - 1).transpose() + T.t[parent]);
+      }
+      std::vector<int> column = {0, 1, 2};
+      Eigen::Matrix<double, 6, Eigen::Dynamic> B = Eigen::Matrix<double, 6, Eigen::Dynamic>::Zero(6, 3 + 3 * static_cast<Eigen::Index>(turns.size()));
+      B.topLeftCorner<3, 3>().setIdentity();
+      for (size_t k = 0; k < turns.size(); ++k) {
+        const Eigen::Index c = 3 + 3 * static_cast<Eigen::Index>(k);
+        B.block<3, 3>(0, c) = cross_product_matrix(turns[k].second);
+        B.block<3, 3>(3, c).setIdentity();
+        for (int a = 0; a < 3; ++a) column.push_back(turns[k].first + a);
+      }
+      const Eigen::MatrixXd BtHB = B.transpose() * H * B;
+      const Eigen::VectorXd Btb = B.transpose() * b;
+      for (Eigen::Index a = 0; a < B.cols(); ++a) {
+        g[column[static_cast<size_t>(a)]] += Btb[a];
+        for (Eigen::Index k = 0; k < B.cols(); ++k) N(column[static_cast<size_t>(a)], column[static_cast<size_t>(k)]) += BtHB(a, k);
+      }
+    }
+    if (cost >= previous) {  // the last step did not help: back to the pose before it
+      *pose = before;
+      return;
+    }
+    if (cost > previous * (1 - 1e-6)) return;
+    previous = cost;
+    before = *pose;
+    // A light Levenberg damping keeps a joint whose parts barely constrain it (a hand seen edge-on) still.
+    N.diagonal() += 1e-9 * N.diagonal().cwiseAbs().maxCoeff() * Eigen::Matrix<double, kPoseIncrementSize, 1>::Ones();
+    const Eigen::Matrix<double, kPoseIncrementSize, 1> step = N.ldlt().solve(-g);
+    if (!step.allFinite()) return;
+    apply_pose_increment(pose, step);
+  }
 }
 
 void PartPoseEstimator::couple_at_joints(const Eigen::MatrixXd& Y, const std::array<std::vector<double>, kNumParts>& weights,

@@ -22,11 +22,15 @@ struct PartFitOptions {
   /// each joint centre carried by parent and child to one place, weighted like this fraction of
   /// the lighter part's vertices (0: independent parts).
   double joint_coupling = 1.0;
+  /// Finally the pose itself is fitted, each vertex placed through the joint chain as posing places
+  /// it (T^R about the rest joint centres): Gauss-Newton rounds at most (0: the parts' rotations as
+  /// fitted, their places left to the chain).
+  int chain_iterations = 5;
 };
 
 /// One example's estimated pose and how well rigid parts explain it.
 struct PartPoseEstimate {
-  PartPose pose;  ///< joint rotations = relative part rotations; root from the pelvis fit
+  PartPose pose;  ///< refined along the chain (PartFitOptions::chain_iterations); else R_parent^T R_child
   std::array<Eigen::Matrix3d, kNumParts> R;   ///< world rotation of each part
   std::array<Eigen::Vector3d, kNumParts> t;   ///< x_posed = R x_rest + t
   /// Per part, the RMS residual (m) of its rigid fit over the vertices away from the joints (weight
@@ -39,7 +43,9 @@ struct PartPoseEstimate {
 
 /// Fits each of the 16 parts of a rest mesh (per-triangle labels, joints in the rest pose) to a
 /// posed copy of the same topology by weighted Procrustes (Kabsch) with the joint zones down-weighted
-/// and Cauchy reweighting of the residuals; joint rotations follow as R_parent^T R_child.
+/// and Cauchy reweighting of the residuals; joint rotations start as R_parent^T R_child, then the
+/// pose is refined along the joint chain so that T^R itself places every part (a rest joint centre
+/// a little off would otherwise carry its subtree away: 20 mm at a hand in a reach).
 class PartPoseEstimator {
  public:
   /// Throws InvalidInput when labels or joints do not fit the mesh or a part has fewer than 3 vertices.
@@ -55,6 +61,8 @@ class PartPoseEstimator {
   Eigen::VectorXd learn_rigid_cores(const std::vector<const Eigen::MatrixXd*>& examples);
 
  private:
+  void refine_along_chain(const Eigen::MatrixXd& posed_V, const std::array<std::vector<double>, kNumParts>& weights,
+                          PartPose* pose) const;
   void couple_at_joints(const Eigen::MatrixXd& posed_V, const std::array<std::vector<double>, kNumParts>& weights,
                         PartPoseEstimate* estimate) const;
 
