@@ -8,11 +8,13 @@
 #include <map>
 #include <memory>
 #include <numeric>
+#include <tuple>
 #include <nlohmann/json.hpp>
 
 #include "cli.h"
 #include "commands.h"
 #include "fitted_input.h"
+#include "posing_inputs.h"
 #include "posekit/body/makehuman_model.h"
 #include "posekit/body/parts.h"
 #include "posekit/core/data_root.h"
@@ -55,16 +57,180 @@ nlohmann::ordered_json stats_json(const ErrorStats& s) {
   return {{"mean_mm", s.mean_mm}, {"p95_mm", s.p95_mm}, {"max_mm", s.max_mm}, {"vertices", s.count}};
 }
 
+std::vector<std::string> split_names(const std::string& list) {
+  std::vector<std::string> out;
+  std::stringstream in(list);
+  std::string name;
+  while (std::getline(in, name, ','))
+    if (!name.empty()) out.push_back(name);
+  if (out.empty()) throw UsageError("--held-out expects names separated by commas, got '" + list + "'");
+  return out;
+}
+
+nlohmann::ordered_json parts_json(const std::array<ErrorStats, kNumParts>& a) {
+  nlohmann::ordered_json j;
+  for (int p = 0; p < kNumParts; ++p) j[part_name(p)] = stats_json(a[static_cast<size_t>(p)]);
+  return j;
+}
+
+nlohmann::ordered_json per_method_json(const std::vector<FolderMethodErrors>& methods, const std::vector<double>& v) {
+  nlohmann::ordered_json j;
+  for (size_t m = 0; m < methods.size(); ++m) j[pose_method_name(methods[m].method)] = v[m];
+  return j;
+}
+
+/// Methods (with per part), meshes and kinds of pose of a folder evaluation, as JSON fields.
+void add_folder_json(const std::vector<FolderMethodErrors>& methods, const std::vector<FolderTypeErrors>& by_type,
+                     const std::vector<FolderMeshErrors>* meshes, nlohmann::ordered_json* out) {
+  nlohmann::ordered_json m = nlohmann::ordered_json::array(), t = nlohmann::ordered_json::array();
+  for (const auto& e : methods)
+    m.push_back({{"method", pose_method_name(e.method)}, {"raw", stats_json(e.raw)}, {"shape", stats_json(e.shape)},
+                 {"raw_per_part", parts_json(e.raw_per_part)}, {"shape_per_part", parts_json(e.shape_per_part)}});
+  for (const auto& e : by_type)
+    t.push_back({{"type", e.type}, {"meshes", e.meshes}, {"raw_mean_mm", per_method_json(methods, e.raw_mean_mm)},
+                 {"shape_mean_mm", per_method_json(methods, e.shape_mean_mm)}});
+  (*out)["methods"] = m;
+  (*out)["by_pose_type"] = t;
+  if (!meshes) return;
+  nlohmann::ordered_json rows = nlohmann::ordered_json::array();
+  for (const auto& e : *meshes)
+    rows.push_back({{"name", e.name}, {"type", e.type}, {"pose_fit_rms_mm", e.pose_fit_rms_mm},
+                    {"raw_mean_mm", per_method_json(methods, e.raw_mean_mm)},
+                    {"shape_mean_mm", per_method_json(methods, e.shape_mean_mm)}, {"problems", e.problems}});
+  (*out)["meshes"] = rows;
+}
+
+/// The tables of a folder evaluation: methods, parts, kinds of pose, then one row per `rows` entry.
+void print_folder_tables(const std::vector<FolderMethodErrors>& methods, const std::vector<FolderTypeErrors>& by_type,
+                         const std::string& row_head,
+                         const std::vector<std::tuple<std::string, const std::vector<double>*, const std::vector<double>*>>& rows) {
+  std::cout << std::fixed << std::setprecision(2)
+            << "raw: per-vertex error; shape: after each part is rigidly aligned onto the held-out mesh (raw - shape: placement)\n\n"
+               "| method | raw mean mm | raw 95th pct | shape mean mm | shape 95th pct |\n|---|---|---|---|---|\n";
+  for (const auto& m : methods)
+    std::cout << "| " << pose_method_name(m.method) << " | " << m.raw.mean_mm << " | " << m.raw.p95_mm << " | " << m.shape.mean_mm
+              << " | " << m.shape.p95_mm << " |\n";
+  auto head = [&](const std::string& first) {
+    std::cout << "\n| " << first << " |";
+    for (const auto& m : methods) std::cout << " " << pose_method_name(m.method) << " raw / shape |";
+    std::cout << "\n|---|";
+    for (size_t m = 0; m < methods.size(); ++m) std::cout << "---|";
+    std::cout << "\n";
+  };
+  head("part (mean mm)");
+  for (int p = 0; p < kNumParts; ++p) {
+    std::cout << "| " << part_name(p) << " |";
+    for (const auto& m : methods)
+      std::cout << " " << m.raw_per_part[static_cast<size_t>(p)].mean_mm << " / " << m.shape_per_part[static_cast<size_t>(p)].mean_mm << " |";
+    std::cout << "\n";
+  }
+  head("kind of pose (meshes)");
+  for (const auto& t : by_type) {
+    std::cout << "| " << t.type << " (" << t.meshes << ") |";
+    for (size_t m = 0; m < methods.size(); ++m) std::cout << " " << t.raw_mean_mm[m] << " / " << t.shape_mean_mm[m] << " |";
+    std::cout << "\n";
+  }
+  head(row_head);
+  for (const auto& [name, raw, shape] : rows) {
+    std::cout << "| " << name << " |";
+    for (size_t m = 0; m < methods.size(); ++m) std::cout << " " << (*raw)[m] << " / " << (*shape)[m] << " |";
+    std::cout << "\n";
+  }
+}
+
+/// eval pose --held-out / --every: a folder of registered meshes of one person; --people: a folder
+/// of such folders, one per person (issue 45 part 3).
+int eval_registered_folder(const ArgParser& args) {
+  if (args.has("model")) throw UsageError("--held-out, --every and --people train on the folder; --model cannot be given with them");
+  const std::string dir = args.get("dataset");
+  std::unique_ptr<BodyModel> body_model;
+  DatasetTrainingOptions dto = dataset_training_options(args, &body_model);
+  if (args.has("held-out")) dto.held_out = split_names(args.get("held-out"));
+  if (args.has("every")) {
+    const long every = args.get_int("every");
+    if (every < 2) throw UsageError("--every expects N >= 2 (every N-th example held out), got " + args.get("every"));
+    dto.hold_out_every = static_cast<int>(every);
+  }
+  const bool people = args.flag_set("people");
+  if (int(!dto.held_out.empty()) + int(dto.hold_out_every > 0) + int(people) > 1)
+    throw UsageError("--held-out, --every and --people each choose the split: give one");
+  TrainingOptions o = training_options(args);
+  nlohmann::ordered_json out = {{"dataset", dir}, {"units", "mm"}};
+  if (people) {
+    std::unique_ptr<Progress> progress;
+    const PeoplePoseEvaluation ev = evaluate_registered_people(dir, o, dto, {PoseMethod::kLearned, PoseMethod::kRigid, PoseMethod::kLbs},
+                                                               [&](int done, int total, const std::string&) {
+                                                                 if (!progress) progress = std::make_unique<Progress>("eval pose", total);
+                                                                 progress->update(done);
+                                                               });
+    if (progress) progress->finish();
+    for (size_t p = 0; p < ev.people.size(); ++p) report_pose_estimation(ev.reports[p], std::cerr, "eval pose: " + ev.people[p]);
+    out["people"] = ev.people.size();
+    add_folder_json(ev.methods, ev.by_pose_type, nullptr, &out);
+    nlohmann::ordered_json persons = nlohmann::ordered_json::array();
+    for (size_t p = 0; p < ev.people.size(); ++p) {
+      const FolderPoseEvaluation& e = ev.per_person[p];
+      nlohmann::ordered_json j = {{"person", ev.people[p]}, {"rest", ev.reports[p].rest_name},
+                                  {"trained_on_others_poses", e.training_poses}, {"train_seconds", e.train_seconds}};
+      add_folder_json(e.methods, e.by_pose_type, &e.meshes, &j);
+      persons.push_back(j);
+    }
+    out["per_person"] = persons;
+    out["peak_rss_mib"] = peak_rss_mib();
+    if (args.flag_set("json")) {
+      print_json(out);
+      return 0;
+    }
+    std::cout << ev.people.size() << " people of one topology; each person's rest mesh posed, by a model trained on the others,\n"
+                 "at each of their other meshes' poses estimated from its vertices\n";
+    std::vector<std::vector<double>> raw(ev.people.size()), shape(ev.people.size());
+    std::vector<std::tuple<std::string, const std::vector<double>*, const std::vector<double>*>> rows;
+    for (size_t p = 0; p < ev.people.size(); ++p) {
+      for (const auto& m : ev.per_person[p].methods) raw[p].push_back(m.raw.mean_mm), shape[p].push_back(m.shape.mean_mm);
+      rows.emplace_back(ev.people[p] + " (" + std::to_string(ev.per_person[p].meshes.size()) + ")", &raw[p], &shape[p]);
+    }
+    print_folder_tables(ev.methods, ev.by_pose_type, "person (meshes)", rows);
+    return 0;
+  }
+  Progress progress("eval pose: train", 100);
+  o.progress = [&](int done, int total) { progress.update(100L * done / std::max(total, 1)); };
+  const FolderPoseEvaluation ev = evaluate_registered_folder(dir, o, dto);
+  progress.finish();
+  report_pose_estimation(ev.training, std::cerr, "eval pose");
+  for (const auto& m : ev.meshes)
+    for (const auto& problem : m.problems) std::cerr << "warning: held-out '" << m.name << "': " << problem << "\n";
+  out["rest"] = ev.training.rest_name;
+  out["training_poses"] = ev.training_poses;
+  out["held_out"] = ev.meshes.size();
+  out["train_seconds"] = ev.train_seconds;
+  out["poses_estimated_for_training"] = ev.training.poses_estimated;
+  add_folder_json(ev.methods, ev.by_pose_type, &ev.meshes, &out);
+  out["warnings"] = ev.training.warnings;
+  out["peak_rss_mib"] = peak_rss_mib();
+  if (args.flag_set("json")) {
+    print_json(out);
+    return 0;
+  }
+  std::cout << std::fixed << std::setprecision(2) << "rest '" << ev.training.rest_name << "', trained on " << ev.training_poses
+            << " poses in " << ev.train_seconds << " s; " << ev.meshes.size()
+            << (ev.meshes.size() == 1 ? " held-out mesh" : " held-out meshes") << ", each posed at its pose estimated from its vertices\n";
+  std::vector<std::tuple<std::string, const std::vector<double>*, const std::vector<double>*>> rows;
+  for (const auto& m : ev.meshes) rows.emplace_back(m.name, &m.raw_mean_mm, &m.shape_mean_mm);
+  print_folder_tables(ev.methods, ev.by_pose_type, "held-out mesh", rows);
+  return 0;
+}
+
 }  // namespace
 
 int run_eval(int argc, char** argv) {
   if (argc >= 1 && std::string(argv[0]) == "bodies") return run_eval_bodies(argc - 1, argv + 1);
   if (argc >= 1 && std::string(argv[0]) == "fit") return run_eval_fit(argc - 1, argv + 1);
   if (argc < 1 || std::string(argv[0]) != "pose") {
-    std::cout << "usage: posekit eval pose --dataset DIR [--model FILE] [--json]\n"
+    std::cout << "usage: posekit eval pose --dataset DIR [--model FILE | --held-out A,B | --every N | --people] [--json]\n"
                  "       posekit eval bodies --dataset DIR [--model FILE] [--json]\n"
                  "       posekit eval fit --dataset DIR --model FILE [--subjects N] [--json]\n\n"
-                 "  pose     pose accuracy on a posekit dataset's held-out poses and subjects\n"
+                 "  pose     pose accuracy on a posekit dataset's held-out poses and subjects, or on any folder of\n"
+                 "           registered meshes (one person, or --people: one folder per person)\n"
                  "  bodies   body understanding on a robustness set (posekit dataset make --robustness)\n"
                  "  fit      posekit fit on the dataset's scans of posed subjects, against their true poses\n";
     return argc >= 1 && (std::string(argv[0]) == "--help" || std::string(argv[0]) == "-h") ? 0 : 2;
@@ -73,12 +239,25 @@ int run_eval(int argc, char** argv) {
                  "Pose accuracy against ground truth: (a) the template in the held-out poses of the pose dataset,\n"
                  "(b) each customized subject in its ground-truth posed meshes; per method (learned = the paper's\n"
                  "T^R T^Q, rigid = parts only, lbs = 16-part skinning) mean, 95th percentile and max per-vertex\n"
-                 "error in mm, overall and per part. Also segmentation agreement and joint error per subject.");
-  args.option("dataset", "DIR", "a posekit dataset")
+                 "error in mm, overall and per part. Also segmentation agreement and joint error per subject.\n"
+                 "With --held-out or --every: any folder of registered meshes of one person (SCAPE-style: one topology,\n"
+                 "no joint angles needed). Trains on the rest of the folder, estimates each held-out mesh's pose from\n"
+                 "its vertices, poses the rest mesh at it with each method and reports the raw error and the shape\n"
+                 "error (each part rigidly aligned first), per method, part, kind of pose and mesh.");
+  args.option("dataset", "DIR", "a posekit dataset, or with --held-out/--every any folder of registered meshes")
       .option("model", "FILE", "trained model (default: train on the dataset's training split first)")
-      .flag("json", "results as JSON on stdout");
+      .option("held-out", "A,B,...", "these examples are held out (by file name without extension); the rest is trained on")
+      .option("every", "N", "every N-th example in name order (the rest example skipped) is held out")
+      .flag("people", "the folder holds one folder of registered meshes per person, one topology: each person's rest mesh\n"
+                      "                          posed into their other meshes by a model trained on the other people")
+      .flag("json", "results as JSON on stdout")
+      .example("posekit eval pose --dataset out/dataset")
+      .example("posekit eval pose --dataset scape_meshes/ --rest mesh000 --every 6");
+  add_dataset_training_options(&args);
+  add_body_model_options(&args);
   if (!args.parse(argc - 1, argv + 1)) return 0;
   if (!args.has("dataset")) throw UsageError("--dataset DIR is required");
+  if (args.has("held-out") || args.has("every") || args.flag_set("people")) return eval_registered_folder(args);
   const std::string dir = args.get("dataset");
   Stopwatch t0;
   std::shared_ptr<const PoseModel> model;

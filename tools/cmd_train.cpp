@@ -70,33 +70,6 @@ nlohmann::ordered_json fit_report_json(const DatasetTrainingReport& r) {
           {"examples", examples}, {"warnings", r.warnings}};
 }
 
-/// What a user needs to hear about the template and the estimated poses, on stderr.
-void report_pose_estimation(const DatasetTrainingReport& r, std::ostream& err) {
-  err << "posekit train: template '" << r.rest_name << "' (" << r.rest_reason << "), unit " << r.unit << ", "
-      << r.orientation << "; labels " << (r.labels_from_dataset ? "from the dataset" : r.labels_from_body_model ? "from the body model's fit" : "from its own segmentation (Eq. 2)")
-      << "\n";
-  if (!r.poses_estimated) return;
-  std::vector<double> rms, joint;
-  const ExamplePoseFit* worst = nullptr;
-  for (const auto& e : r.examples) {
-    rms.push_back(e.rms_mm);
-    if (e.joint_error_mean_deg >= 0) joint.push_back(e.joint_error_mean_deg);
-    if (!worst || e.worst_core_rms_mm > worst->worst_core_rms_mm) worst = &e;
-  }
-  const Stats s = stats_of(rms);
-  err << std::fixed << std::setprecision(1) << "posekit train: poses of " << r.examples.size()
-      << " examples estimated from their meshes: rigid-part residual median " << s.median << " mm, max " << s.max << " mm";
-  if (worst) err << "; worst part " << worst->worst_part << " of '" << worst->name << "' " << worst->worst_core_rms_mm << " mm";
-  if (!joint.empty()) {
-    const Stats j = stats_of(joint);
-    err << "; against the " << joint.size() << " given pose JSONs: joint error median " << j.median << ", max " << j.max << " degrees";
-  }
-  err << "\n";
-  const size_t shown = std::min<size_t>(r.warnings.size(), 10);
-  for (size_t i = 0; i < shown; ++i) err << "warning: " << r.warnings[i] << "\n";
-  if (r.warnings.size() > shown) err << "warning: ... and " << r.warnings.size() - shown << " more (see --fit-report)\n";
-}
-
 /// The joints whose learned offsets training kept.
 std::vector<std::string> offsets_kept(const PoseModel& model) {
   std::vector<std::string> kept;
@@ -139,17 +112,9 @@ int run_train(int argc, char** argv) {
                  "example's parts and joints come from the body model fitted to it (a natural stance, arms close).");
   args.option("dataset", "DIR", "a posekit dataset, or a folder of registered meshes (OBJ/PLY/OFF), with or without .json poses")
       .output("out", "FILE", "model file to write (.pkm)", "model.pkm")
-      .option("poses", "auto|json|estimate",
-              "training poses: the JSONs, estimated from the meshes, or auto (JSONs when every example has one)", "auto")
-      .option("rest", "NAME", "the rest-pose example (default: the manifest's, a zero pose, a name with rest/template, else the first)")
-      .option("unit", "UNIT", "unit of the meshes: m, dm, cm, mm or auto (from the rest mesh's extent)", "auto")
       .output("fit-report", "FILE", "per-example fit of the estimated poses (JSON: residuals, joint errors against given JSONs)")
       .output_folder("poses-out", "DIR", "each example's estimated pose as DIR/<name>.json (posekit's pose JSON, its frame;\n"
                      "                          poses estimated from the meshes: a folder of meshes alone, or --poses estimate)")
-      .flag("joint-offsets",
-            "extension beyond the paper: learn where each joint sits as a function of its twist (a shoulder girdle\n"
-            "                          that rises with the arm), kept per joint where it lowers the training error")
-      .option("smooth", "N", "extension beyond the paper, for noisy meshes: smooth each example's non-rigid deformation over N rounds of neighbouring triangles before Eq. 5", "0")
       .option("calibration-bodies", "N", "random MakeHuman bodies in the segmentation prior; 0: the template alone (default: 128)")
       .option("calibration-population", "P", "the segmentation prior's bodies: makehuman (random sliders) or ansur (MakeHuman\n"
               "                          fitted to ANSUR II subjects drawn at random, women and men alternately: real proportions)\n"
@@ -161,31 +126,15 @@ int run_train(int argc, char** argv) {
       .flag("json", "summary as JSON on stdout")
       .example("posekit train --dataset out/dataset --out model.pkm")
       .example("posekit train --dataset scape_meshes/ --rest mesh000 --fit-report fits.json");
+  add_dataset_training_options(&args);
   add_body_model_options(&args, false);
-  add_orientation_options(&args, "", "the meshes' body");
   if (!args.parse(argc, argv)) return 0;
   if (!args.has("dataset")) throw UsageError("--dataset DIR is required");
-  DatasetTrainingOptions dto;
-  try {
-    dto.poses = parse_training_poses(args.get("poses"));
-  } catch (const InvalidInput&) {
-    throw UsageError("--poses expects auto, json or estimate, got '" + args.get("poses") + "'");
-  }
-  if (args.has("rest")) dto.rest_name = args.get("rest");
-  dto.unit = args.get("unit");
-  if (dto.unit != "auto") parse_unit(dto.unit);
-  dto.up = args.get("up");
-  dto.forward = args.get("forward");
   std::unique_ptr<BodyModel> body_model;
-  if (args.has("body-model")) body_model = load_body_model(args), dto.body_model = body_model.get();
-  dto.accept_poor_fit = args.flag_set("accept-poor");
+  const DatasetTrainingOptions dto = dataset_training_options(args, &body_model);
   Progress progress("train", 100);
-  TrainingOptions o;
+  TrainingOptions o = training_options(args);
   o.progress = [&](int done, int total) { progress.update(100L * done / std::max(total, 1)); };
-  o.learn_joint_offsets = args.flag_set("joint-offsets");
-  const long smoothing = args.get_int("smooth");
-  if (smoothing < 0 || smoothing > 1000) throw UsageError("--smooth expects 0 to 1000 iterations, got " + args.get("smooth"));
-  o.smoothing_iterations = static_cast<int>(smoothing);
   const Stopwatch t0;
   DatasetTrainingReport fits;
   PoseModel model = train_on_dataset(args.get("dataset"), o, dto, &fits);
@@ -194,7 +143,7 @@ int run_train(int argc, char** argv) {
   if (args.has("poses-out") && !fits.poses_estimated)
     throw UsageError("--poses-out: the training poses were the dataset's pose JSONs, nothing was estimated (add --poses estimate)");
   const nlohmann::ordered_json fit_json = fit_report_json(fits);
-  report_pose_estimation(fits, std::cerr);
+  report_pose_estimation(fits, std::cerr, "train");
   if (args.has("fit-report")) write_file_atomically(args.get("fit-report"), [&](std::ostream& f) { f << fit_json.dump(2) << "\n"; }, false);
   if (args.has("poses-out")) {
     const fs::path dir = args.get("poses-out");

@@ -159,4 +159,69 @@ SubjectSetupOptions subject_setup(const ArgParser& args, const TriangleMesh& sub
   return o;
 }
 
+/// What a user needs to hear about the template and the estimated poses, on stderr.
+void report_pose_estimation(const DatasetTrainingReport& r, std::ostream& err, const std::string& command) {
+  err << "posekit " << command << ": template '" << r.rest_name << "' (" << r.rest_reason << "), unit " << r.unit << ", "
+      << r.orientation << "; labels " << (r.labels_from_dataset ? "from the dataset" : r.labels_from_body_model ? "from the body model's fit" : "from its own segmentation (Eq. 2)")
+      << "\n";
+  if (!r.poses_estimated) return;
+  std::vector<double> rms, joint;
+  const ExamplePoseFit* worst = nullptr;
+  for (const auto& e : r.examples) {
+    rms.push_back(e.rms_mm);
+    if (e.joint_error_mean_deg >= 0) joint.push_back(e.joint_error_mean_deg);
+    if (!worst || e.worst_core_rms_mm > worst->worst_core_rms_mm) worst = &e;
+  }
+  const Stats s = stats_of(rms);
+  err << std::fixed << std::setprecision(1) << "posekit " << command << ": poses of " << r.examples.size()
+      << " examples estimated from their meshes: rigid-part residual median " << s.median << " mm, max " << s.max << " mm";
+  if (worst) err << "; worst part " << worst->worst_part << " of '" << worst->name << "' " << worst->worst_core_rms_mm << " mm";
+  if (!joint.empty()) {
+    const Stats j = stats_of(joint);
+    err << "; against the " << joint.size() << " given pose JSONs: joint error median " << j.median << ", max " << j.max << " degrees";
+  }
+  err << "\n";
+  const size_t shown = std::min<size_t>(r.warnings.size(), 10);
+  for (size_t i = 0; i < shown; ++i) err << "warning: " << r.warnings[i] << "\n";
+  if (r.warnings.size() > shown) err << "warning: ... and " << r.warnings.size() - shown << " more (see --fit-report)\n";
+}
+
+void add_dataset_training_options(ArgParser* args) {
+  args->option("poses", "auto|json|estimate",
+               "training poses: the JSONs, estimated from the meshes, or auto (JSONs when every example has one)", "auto")
+      .option("rest", "NAME", "the rest-pose example (default: the manifest's, a zero pose, a name with rest/template, else the first)")
+      .option("unit", "UNIT", "unit of the meshes: m, dm, cm, mm or auto (from the rest mesh's extent)", "auto")
+      .flag("joint-offsets",
+            "extension beyond the paper: learn where each joint sits as a function of its twist (a shoulder girdle\n"
+            "                          that rises with the arm), kept per joint where it lowers the training error")
+      .option("smooth", "N", "extension beyond the paper, for noisy meshes: smooth each example's non-rigid deformation over N rounds of neighbouring triangles before Eq. 5", "0");
+  add_orientation_options(args, "", "the meshes' body");
+}
+
+DatasetTrainingOptions dataset_training_options(const ArgParser& args, std::unique_ptr<BodyModel>* body_model) {
+  DatasetTrainingOptions dto;
+  try {
+    dto.poses = parse_training_poses(args.get("poses"));
+  } catch (const InvalidInput&) {
+    throw UsageError("--poses expects auto, json or estimate, got '" + args.get("poses") + "'");
+  }
+  if (args.has("rest")) dto.rest_name = args.get("rest");
+  dto.unit = args.get("unit");
+  if (dto.unit != "auto") parse_unit(dto.unit);
+  dto.up = args.get("up");
+  dto.forward = args.get("forward");
+  if (args.has("body-model")) *body_model = load_body_model(args), dto.body_model = body_model->get();
+  dto.accept_poor_fit = args.flag_set("accept-poor");
+  return dto;
+}
+
+TrainingOptions training_options(const ArgParser& args) {
+  TrainingOptions o;
+  o.learn_joint_offsets = args.flag_set("joint-offsets");
+  const long smoothing = args.get_int("smooth");
+  if (smoothing < 0 || smoothing > 1000) throw UsageError("--smooth expects 0 to 1000 iterations, got " + args.get("smooth"));
+  o.smoothing_iterations = static_cast<int>(smoothing);
+  return o;
+}
+
 }  // namespace posekit::cli

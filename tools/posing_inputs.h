@@ -1,10 +1,15 @@
 #pragma once
 // What the posing commands read (pose, fit, batch pose): the subject, and how it is set up.
+#include <iosfwd>
+#include <memory>
 #include <string>
 
 #include "cli.h"
 #include "posekit/core/triangle_mesh.h"
+#include "posekit/deformation/pose_model.h"
 #include "posekit/deformation/pose_synthesis.h"
+#include "posekit/evaluation/pose_evaluation.h"
+#include "posekit/fitting/body_model.h"
 #include "posekit/shape/body_orientation.h"
 
 namespace posekit::cli {
@@ -15,5 +20,15 @@ TriangleMesh read_posing_subject(const ArgParser& args, const std::string& comma
 
 /// With --body-model, the subject's parts and joints from the body model's fit; else computed by set-up.
 SubjectSetupOptions subject_setup(const ArgParser& args, const TriangleMesh& subject);
+
+/// The options of training on a registered dataset or folder, shared by train and eval pose:
+/// --poses, --rest, --unit, --joint-offsets, --smooth, --up/--forward, --body-model/--accept-poor.
+void add_dataset_training_options(ArgParser* args);
+/// Their values; a --body-model is loaded into `body_model`, which must outlive the options.
+DatasetTrainingOptions dataset_training_options(const ArgParser& args, std::unique_ptr<BodyModel>* body_model);
+/// What a user needs to hear about the template and the estimated poses, on stderr.
+void report_pose_estimation(const DatasetTrainingReport& r, std::ostream& err, const std::string& command);
+/// --joint-offsets and --smooth.
+TrainingOptions training_options(const ArgParser& args);
 
 }  // namespace posekit::cli

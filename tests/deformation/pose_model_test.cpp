@@ -9,6 +9,8 @@
 #include <iostream>
 #include <random>
 
+#include "posekit/body/makehuman_model.h"
+#include "posekit/body/skinning.h"
 #include "posekit/core/error.h"
 #include "posekit/deformation/segmentation_calibration.h"
 #include "posekit/evaluation/pose_evaluation.h"
@@ -509,4 +511,146 @@ TEST(PoseModel, JointOffsetsAreDroppedOnARigWhoseJointsDoNotMove) {
   TrainingOptions extended;
   extended.learn_joint_offsets = true;
   EXPECT_EQ(train_on_dataset(test::small_dataset().root, extended).joint_offsets.size(), 0);
+}
+
+TEST(PoseModel, EvaluatesAFolderOfRegisteredMeshesOnHeldOutMeshesByTheirEstimatedPoses) {
+  // Issue 45 part 3: a folder of one person's registered meshes alone; posekit chooses the split,
+  // trains on the rest, estimates each held-out pose from its vertices and poses the rest mesh at it.
+  const auto& ds = test::small_dataset();
+  test::TempDir folder;
+  const PoseDataset data = load_pose_dataset(ds.root);
+  for (size_t i = 0; i < data.names.size(); ++i) {
+    TriangleMesh m;
+    m.V = data.V[i];
+    m.F = data.F;
+    write_mesh(folder.file(data.names[i] + ".ply"), m);
+  }
+  // A probe the rigid method makes exactly, at a pose of no example: its estimated pose must give
+  // it back to rounding, whatever segmentation and joints the folder's rest mesh gets.
+  DatasetTrainingOptions alone;
+  const auto model = std::make_shared<const PoseModel>(train_on_dataset(folder.path(), {}, alone));
+  PartPose probe_pose;
+  probe_pose.joint(find_joint_index("left_shoulder")) = Eigen::Vector3d(0.3, 0.2, -0.6);
+  probe_pose.joint(find_joint_index("right_knee")) = Eigen::Vector3d(-0.9, 0, 0);
+  probe_pose.joint(find_joint_index("upper_back")) = Eigen::Vector3d(0.1, 0.3, 0);
+  probe_pose.root_rotation = Eigen::Vector3d(0, 0.4, 0);
+  probe_pose.root_translation = Eigen::Vector3d(0.1, 0, 0.2);
+  {
+    TriangleMesh rest;
+    rest.V = model->template_V;
+    rest.F = model->template_F;
+    SubjectSetupOptions so;
+    so.is_template = true;
+    TriangleMesh probe = rest;
+    probe.V = PoseSynthesizer(model, rest, so).pose(probe_pose, PoseMethod::kRigid);
+    write_mesh(folder.file("probe_rigid.ply"), probe);
+  }
+  DatasetTrainingOptions o;
+  o.held_out = {"probe_rigid"};
+  for (size_t i = 0; i < data.names.size(); ++i)
+    if (data.test[i]) o.held_out.push_back(data.names[i]);
+  const FolderPoseEvaluation ev = evaluate_registered_folder(folder.path(), {}, o);
+  ASSERT_EQ(ev.methods.size(), 3u);
+  ASSERT_EQ(ev.meshes.size(), o.held_out.size());
+  EXPECT_TRUE(ev.training.poses_estimated);
+  EXPECT_EQ(ev.training.rest_name, "rest");
+  const auto probe = std::find_if(ev.meshes.begin(), ev.meshes.end(), [](const FolderMeshErrors& m) { return m.name == "probe_rigid"; });
+  ASSERT_NE(probe, ev.meshes.end());
+  EXPECT_LT(probe->raw_mean_mm[1], 0.01);  // rigid, exactly
+  for (const FolderMethodErrors* m : {&ev.methods[0], &ev.methods[1], &ev.methods[2]}) {
+    EXPECT_LE(m->shape.mean_mm, m->raw.mean_mm) << pose_method_name(m->method);  // aligned parts can only be closer
+    EXPECT_GT(m->raw.count, 0);
+  }
+  // On the dataset's own held-out meshes (the probe, rigid by construction, aside) the learned
+  // deformation beats both, raw and in shape.
+  std::array<double, 3> raw{}, shape{};
+  for (const auto& m : ev.meshes)
+    for (size_t k = 0; k < 3 && m.name != "probe_rigid"; ++k) raw[k] += m.raw_mean_mm[k], shape[k] += m.shape_mean_mm[k];
+  EXPECT_LT(raw[0], 0.85 * std::min(raw[1], raw[2]));
+  EXPECT_LT(shape[0], 0.7 * std::min(shape[1], shape[2]));
+  const double n = static_cast<double>(ev.meshes.size() - 1);
+  std::cout << "folder of " << data.names.size() + 1 << " meshes, " << ev.meshes.size() - 1
+            << " held out (and the probe): raw / shape mean mm learned " << raw[0] / n << " / " << shape[0] / n << ", rigid "
+            << raw[1] / n << " / " << shape[1] / n << ", lbs " << raw[2] / n << " / " << shape[2] / n << "\n";
+  // Every N-th: the rest example is never held out.
+  DatasetTrainingOptions every;
+  every.hold_out_every = 4;
+  const FolderPoseEvaluation ev4 = evaluate_registered_folder(folder.path(), {}, every);
+  EXPECT_EQ(ev4.meshes.size(), data.names.size() / 4);  // the folder holds the probe besides, the rest skipped
+  for (const auto& m : ev4.meshes) EXPECT_NE(m.name, "rest");
+  // Names that are not there, the rest example, or nothing held out: refused, named.
+  DatasetTrainingOptions unknown;
+  unknown.held_out = {"mesh042"};
+  try {
+    evaluate_registered_folder(folder.path(), {}, unknown);
+    ADD_FAILURE() << "an unknown held-out name was accepted";
+  } catch (const InvalidInput& e) {
+    EXPECT_NE(std::string(e.what()).find("no example named 'mesh042'"), std::string::npos) << e.what();
+  }
+  DatasetTrainingOptions rest_out;
+  rest_out.held_out = {"rest"};
+  EXPECT_THROW(evaluate_registered_folder(folder.path(), {}, rest_out), InvalidInput);
+  EXPECT_THROW(evaluate_registered_folder(folder.path(), {}, alone), InvalidInput);
+}
+
+TEST(PoseModel, EvaluatesSeveralPeopleOfOneTopologyEachPosedByAModelOfTheOthers) {
+  // Issue 45 part 3, several people: MakeHuman bodies of three shapes (one topology), each at rest
+  // and in six poses skinned by the rig; every person's rest mesh posed into their own meshes by a
+  // model trained on the other two.
+  POSEKIT_REQUIRE_MAKEHUMAN();
+  test::TempDir dir;
+  auto deg = [](double x, double y, double z) -> Eigen::Vector3d { return Eigen::Vector3d(x, y, z) * M_PI / 180; };
+  std::vector<std::pair<std::string, PartPose>> poses(6);
+  poses[0].first = "left_elbow_flex_90", poses[0].second.joint(find_joint_index("left_elbow")) = deg(-90, 0, 0);
+  poses[1].first = "right_shoulder_raise_60", poses[1].second.joint(find_joint_index("right_shoulder")) = deg(0, 0, 60);
+  poses[2].first = "left_knee_flex_80", poses[2].second.joint(find_joint_index("left_knee")) = deg(80, 0, 0);
+  poses[3].first = "right_hip_flex_60", poses[3].second.joint(find_joint_index("right_hip")) = deg(-60, 0, 0);
+  poses[4].first = "torso_bend_left_20", poses[4].second.joint(find_joint_index("upper_back")) = deg(0, 0, 20);
+  poses[5].first = "reach_forward";
+  poses[5].second.joint(find_joint_index("left_shoulder")) = deg(-70, 0, -30);
+  poses[5].second.joint(find_joint_index("left_elbow")) = deg(-30, 0, 0);
+  poses[5].second.joint(find_joint_index("lower_back")) = deg(15, 0, 0);
+  const std::vector<BodySpec> people = [] {
+    std::vector<BodySpec> s(3);
+    s[0].gender = 0.1, s[0].weight = 0.3, s[0].height = 0.4;
+    s[1].gender = 0.9, s[1].weight = 0.8, s[1].muscle = 0.7;
+    s[2].gender = 0.5, s[2].weight = 0.5, s[2].height = 0.7;
+    return s;
+  }();
+  for (size_t p = 0; p < people.size(); ++p) {
+    const std::string folder = dir.file("person" + std::to_string(p));
+    std::filesystem::create_directories(folder);
+    const Body rest = build_body(model, people[p]);
+    write_mesh(folder + "/rest.ply", rest.mesh);
+    for (const auto& [name, pose] : poses) {
+      const Body posed = skin_body(model, rest, bone_pose_from_part_pose(model.rig, pose));
+      write_mesh(folder + "/" + name + ".ply", posed.mesh);
+    }
+  }
+  const PeoplePoseEvaluation ev = evaluate_registered_people(dir.path(), {}, {});
+  ASSERT_EQ(ev.people.size(), 3u);
+  ASSERT_EQ(ev.per_person.size(), 3u);
+  for (const auto& person : ev.per_person) {
+    EXPECT_EQ(person.meshes.size(), poses.size());
+    EXPECT_EQ(person.training_poses, 2 * static_cast<int>(poses.size() + 1));  // the other two, rest included
+  }
+  ASSERT_EQ(ev.methods.size(), 3u);
+  const FolderMethodErrors &learned = ev.methods[0], &lbs = ev.methods[2];
+  EXPECT_LT(learned.raw.mean_mm, 0.9 * lbs.raw.mean_mm);
+  EXPECT_LT(learned.shape.mean_mm, 0.7 * lbs.shape.mean_mm);
+  std::cout << "3 people, each by the others' model: raw / shape mean mm learned " << learned.raw.mean_mm << " / "
+            << learned.shape.mean_mm << ", rigid " << ev.methods[1].raw.mean_mm << " / " << ev.methods[1].shape.mean_mm << ", lbs "
+            << lbs.raw.mean_mm << " / " << lbs.shape.mean_mm << "\n";
+  // A person of another topology is named; one person is not several.
+  const auto& ds = test::small_dataset();
+  std::filesystem::create_directories(dir.file("zz_other"));
+  std::filesystem::copy_file(ds.root + "/subjects/f01/rest.ply", dir.file("zz_other/rest.ply"));
+  std::filesystem::copy_file(ds.root + "/subjects/f01/posed/squat_half.ply", dir.file("zz_other/squat_half.ply"));
+  try {
+    evaluate_registered_people(dir.path(), {}, {});
+    ADD_FAILURE() << "another topology was accepted";
+  } catch (const InvalidInput& e) {
+    EXPECT_NE(std::string(e.what()).find("zz_other: another topology"), std::string::npos) << e.what();
+  }
+  EXPECT_THROW(evaluate_registered_people(dir.file("person0"), {}, {}), InvalidInput);
 }

@@ -376,6 +376,30 @@ TEST(Cli, TrainsOnAFolderOfMeshesAloneAndNamesWhatIsWrongWithAFolder) {
     EXPECT_LT(e["rms_mm"].get<double>(), 10.0) << e.dump();
     EXPECT_FALSE(e.contains("against_json"));  // nothing to check against
   }
+  // eval pose on the folder alone (issue 45 part 3): the held-out mesh's pose estimated, the rest
+  // mesh posed at it by each method, raw and part-aligned errors per part and per mesh.
+  r = run("eval pose --dataset " + dir.file("meshes") + " --held-out right_knee_flex_65,torso_twist_left_30 --json");
+  ASSERT_EQ(r.code, 0) << r.out;
+  const auto ev = nlohmann::json::parse(r.out);
+  EXPECT_EQ(ev["held_out"].get<int>(), 2);
+  EXPECT_EQ(ev["training_poses"].get<int>(), 4);  // the rest example and the three others
+  ASSERT_EQ(ev["methods"].size(), 3u);
+  for (const auto& m : ev["methods"]) {
+    EXPECT_LE(m["shape"]["mean_mm"].get<double>(), m["raw"]["mean_mm"].get<double>()) << m.dump();
+    EXPECT_EQ(m["raw_per_part"].size(), 16u);
+    EXPECT_LT(m["raw"]["mean_mm"].get<double>(), 5.0) << m.dump();
+  }
+  ASSERT_EQ(ev["meshes"].size(), 2u);
+  EXPECT_EQ(ev["meshes"][1]["type"].get<std::string>(), "torso");
+  EXPECT_EQ(run("eval pose --dataset " + dir.file("meshes") + " --every 1").code, 2);
+  EXPECT_EQ(run("eval pose --dataset " + dir.file("meshes") + " --every 3 --held-out rest").code, 2);
+  EXPECT_EQ(run("eval pose --dataset " + dir.file("meshes") + " --every 3 --people").code, 2);
+  r = run("eval pose --dataset " + dir.file("meshes") + " --people", true);  // one folder of meshes is one person
+  EXPECT_EQ(r.code, 1);
+  EXPECT_NE(r.out.find("0 person folders"), std::string::npos) << r.out;
+  r = run("eval pose --dataset " + dir.file("meshes") + " --held-out rest", true);
+  EXPECT_EQ(r.code, 1);
+  EXPECT_NE(r.out.find("'rest' is the rest example"), std::string::npos) << r.out;
   // Poses read from JSONs were not estimated: nothing to write, and said so before anything is written.
   r = run("train --dataset " + ds.root + " --calibration-bodies 0 --out " + dir.file("d.pkm") + " --poses-out " + dir.file("none"), true);
   EXPECT_EQ(r.code, 2);

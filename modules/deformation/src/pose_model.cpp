@@ -143,6 +143,7 @@ Eigen::MatrixXd fit_joint_offsets(const PoseDataset& data, const std::vector<int
 Eigen::MatrixXd fit_joint_offsets_that_help(const PoseDataset& data, const std::vector<int>& examples, const PoseModel& model) {
   PartFitOptions fit;
   fit.joint_coupling = 0;  // each part where its own vertices put it
+  fit.chain_iterations = 0;  // R and t are used, not the pose
   const PartPoseEstimator estimator(model.template_V, model.template_F, model.triangle_part, model.joint_centres, fit);
   std::vector<PartPoseEstimate> placed(examples.size());
   for (size_t e = 0; e < examples.size(); ++e) placed[e] = estimator.estimate(data.V[static_cast<size_t>(examples[e])]);
@@ -305,9 +306,23 @@ PoseModel train_pose_model(const PoseDataset& data, const TrainingOptions& optio
   std::vector<Eigen::MatrixXd> reduced(static_cast<size_t>(F.rows()));
   for (Eigen::Index k = 0; k < F.rows(); ++k)
     reduced[static_cast<size_t>(k)] = Eigen::MatrixXd::Zero(group_of[static_cast<size_t>(k)]->H.rows(), 9);
-  const auto inv0 = inverse_frames(V0, F);
+  // Each example's deformation from its own person's rest (one person: the template).
+  if (!data.rest_of.empty() && data.rest_of.size() != data.names.size())
+    throw InvalidInput("train_pose_model: " + std::to_string(data.rest_of.size()) + " rest indices for " +
+                       std::to_string(data.names.size()) + " examples");
+  std::map<int, std::vector<Eigen::Matrix3d>> inverse_rest_frames;
+  for (int ex : examples) {
+    const int r = data.rest_of.empty() ? rest : data.rest_of[static_cast<size_t>(ex)];
+    if (r < 0 || r >= static_cast<int>(data.names.size()))
+      throw InvalidInput("train_pose_model: example '" + data.names[static_cast<size_t>(ex)] + "' has no rest example");
+    if (!inverse_rest_frames.count(r)) inverse_rest_frames[r] = inverse_frames(data.V[static_cast<size_t>(r)], F);
+  }
+  if (options.learn_joint_offsets && inverse_rest_frames.size() > 1)
+    throw InvalidInput("train_pose_model: joint offsets are learned on one person's examples, these come from " +
+                       std::to_string(inverse_rest_frames.size()));
   const Eigen::MatrixXi adjacency = options.smoothing_iterations > 0 ? face_adjacency(F) : Eigen::MatrixXi();
   auto nonrigid = [&](int example, Eigen::Index k, const std::array<Eigen::Matrix3d, kNumParts>& R) {
+    const auto& inv0 = inverse_rest_frames.at(data.rest_of.empty() ? rest : data.rest_of[static_cast<size_t>(example)]);
     const Eigen::Matrix3d D = triangle_frame(data.V[static_cast<size_t>(example)], F, k) * inv0[static_cast<size_t>(k)];
     return Eigen::Matrix3d(R[static_cast<size_t>(model.triangle_part[k])].transpose() * D);
   };

@@ -1,8 +1,10 @@
 #include "posekit/evaluation/pose_evaluation.h"
 
+#include <Eigen/Geometry>
 #include <algorithm>
 #include <cmath>
 #include <filesystem>
+#include <map>
 #include <nlohmann/json.hpp>
 
 #include "posekit/core/error.h"
@@ -74,12 +76,36 @@ int choose_rest_example(const PoseDataset& data, std::string* reason) {
   return 0;
 }
 
-}  // namespace
+/// A dataset read for training: examples in posekit's frame and unit with their poses (given or
+/// estimated), the split applied, and the template's labels and joints.
+struct PreparedTraining {
+  PoseDataset data;
+  TrainingOptions options;
+  int rest = 0;
+};
 
-PoseModel train_on_dataset(const std::string& dir, const TrainingOptions& base, const DatasetTrainingOptions& options,
-                           DatasetTrainingReport* report) {
-  DatasetTrainingReport local;
-  DatasetTrainingReport& rep = report ? *report : local;
+/// Overrides the manifest's split with `held_out` names or every N-th example (the rest never).
+void apply_split(const std::string& dir, const DatasetTrainingOptions& options, int rest, PoseDataset* data) {
+  if (options.held_out.empty() && options.hold_out_every <= 0) return;
+  if (!options.held_out.empty() && options.hold_out_every > 0)
+    throw InvalidInput("give the held-out examples by name or every N-th, not both");
+  std::fill(data->test.begin(), data->test.end(), false);
+  for (const std::string& name : options.held_out) {
+    const auto it = std::find(data->names.begin(), data->names.end(), name);
+    if (it == data->names.end())
+      throw InvalidInput(dir + ": no example named '" + name + "' to hold out (" + std::to_string(data->names.size()) +
+                         " examples, e.g. '" + data->names.front() + "')");
+    if (it - data->names.begin() == rest) throw InvalidInput(dir + ": '" + name + "' is the rest example; it cannot be held out");
+    data->test[static_cast<size_t>(it - data->names.begin())] = true;
+  }
+  int k = 0;
+  if (options.hold_out_every > 0)
+    for (size_t i = 0; i < data->names.size(); ++i)
+      if (static_cast<int>(i) != rest && ++k % options.hold_out_every == 0) data->test[i] = true;
+}
+
+PreparedTraining prepare_training(const std::string& dir, const TrainingOptions& base, const DatasetTrainingOptions& options,
+                                  DatasetTrainingReport& rep) {
   rep = {};
   const bool auto_unit = options.unit == "auto";
   PoseDataset data = load_pose_dataset(dir, auto_unit ? Unit::kMetre : parse_unit(options.unit));
@@ -93,6 +119,7 @@ PoseModel train_on_dataset(const std::string& dir, const TrainingOptions& base, 
   }
   data.rest_name = data.names[static_cast<size_t>(rest)];
   rep.rest_name = data.rest_name;
+  apply_split(dir, options, rest, &data);
 
   // Unit and axes, from the rest mesh; every example is read the same way.
   Unit unit = auto_unit ? Unit::kMetre : parse_unit(options.unit);
@@ -227,7 +254,16 @@ PoseModel train_on_dataset(const std::string& dir, const TrainingOptions& base, 
       data.has_pose[i] = false;
     }
   }
-  return train_pose_model(data, o);
+  return {std::move(data), std::move(o), rest};
+}
+
+}  // namespace
+
+PoseModel train_on_dataset(const std::string& dir, const TrainingOptions& base, const DatasetTrainingOptions& options,
+                           DatasetTrainingReport* report) {
+  DatasetTrainingReport local;
+  const PreparedTraining prepared = prepare_training(dir, base, options, report ? *report : local);
+  return train_pose_model(prepared.data, prepared.options);
 }
 
 PoseModel train_on_dataset(const std::string& dir, const TrainingOptions& base) {
@@ -401,6 +437,251 @@ PoseEvaluation evaluate_poses(const std::string& dir, std::shared_ptr<const Pose
       e.template_mean_mm[m] = template_vertices[t] ? 1000 * e.template_mean_mm[m] / static_cast<double>(template_vertices[t]) : 0;
       e.subject_mean_mm[m] = subject_vertices[t] ? 1000 * e.subject_mean_mm[m] / static_cast<double>(subject_vertices[t]) : 0;
     }
+  return out;
+}
+
+namespace {
+
+/// Per vertex, its distance from `truth` after each part of X is aligned rigidly onto it.
+Eigen::VectorXd part_aligned_errors(const Eigen::MatrixXd& X, const Eigen::MatrixXd& truth,
+                                    const std::array<std::vector<int>, kNumParts>& part_vertices) {
+  Eigen::VectorXd e(X.rows());
+  for (const auto& idx : part_vertices) {
+    if (idx.size() < 3) continue;
+    Eigen::Matrix3Xd A(3, static_cast<Eigen::Index>(idx.size())), B(3, static_cast<Eigen::Index>(idx.size()));
+    for (size_t k = 0; k < idx.size(); ++k) {
+      A.col(static_cast<Eigen::Index>(k)) = X.row(idx[k]).transpose();
+      B.col(static_cast<Eigen::Index>(k)) = truth.row(idx[k]).transpose();
+    }
+    const Eigen::Matrix4d T = Eigen::umeyama(A, B, false);
+    const Eigen::Matrix3Xd aligned = (T.topLeftCorner<3, 3>() * A).colwise() + T.topRightCorner<3, 1>();
+    for (size_t k = 0; k < idx.size(); ++k) e[idx[k]] = (aligned.col(static_cast<Eigen::Index>(k)) - B.col(static_cast<Eigen::Index>(k))).norm();
+  }
+  return e;
+}
+
+/// Scores posed bodies against held-out meshes, per method: raw and part-aligned errors per vertex,
+/// per part, per mesh and per kind of pose.
+class HeldOutScorer {
+ public:
+  explicit HeldOutScorer(std::vector<PoseMethod> methods) : methods_(std::move(methods)), samples_(methods_.size()) {}
+
+  /// Poses `synth` at `pose` with every method and scores it against `truth`; returns the mesh's row.
+  FolderMeshErrors add(const std::string& name, const PoseSynthesizer& synth, const PartPose& pose, const Eigen::MatrixXd& truth,
+                       const Eigen::VectorXi& vertex_part, const std::array<std::vector<int>, kNumParts>& part_vertices) {
+    FolderMeshErrors mesh;
+    mesh.name = name;
+    mesh.type = pose_type(name);
+    FolderTypeErrors& type = types_[mesh.type];
+    type.type = mesh.type;
+    type.raw_mean_mm.resize(methods_.size(), 0.0);
+    type.shape_mean_mm.resize(methods_.size(), 0.0);
+    ++type.meshes;
+    for (size_t m = 0; m < methods_.size(); ++m) {
+      const Eigen::MatrixXd X = synth.pose(pose, methods_[m]);
+      const Eigen::VectorXd raw = (X - truth).rowwise().norm();
+      const Eigen::VectorXd shape = part_aligned_errors(X, truth, part_vertices);
+      mesh.raw_mean_mm.push_back(1000 * raw.mean());
+      mesh.shape_mean_mm.push_back(1000 * shape.mean());
+      type.raw_mean_mm[m] += 1000 * raw.mean();
+      type.shape_mean_mm[m] += 1000 * shape.mean();
+      Sample& s = samples_[m];
+      for (Eigen::Index v = 0; v < raw.size(); ++v) {
+        s.raw.push_back(raw[v]);
+        s.shape.push_back(shape[v]);
+        s.raw_part[static_cast<size_t>(vertex_part[v])].push_back(raw[v]);
+        s.shape_part[static_cast<size_t>(vertex_part[v])].push_back(shape[v]);
+      }
+    }
+    return mesh;
+  }
+
+  void finish(std::vector<FolderMethodErrors>* methods, std::vector<FolderTypeErrors>* by_pose_type) const {
+    for (size_t m = 0; m < methods_.size(); ++m) {
+      FolderMethodErrors r;
+      r.method = methods_[m];
+      r.raw = error_stats(samples_[m].raw);
+      r.shape = error_stats(samples_[m].shape);
+      for (int p = 0; p < kNumParts; ++p) {
+        r.raw_per_part[static_cast<size_t>(p)] = error_stats(samples_[m].raw_part[static_cast<size_t>(p)]);
+        r.shape_per_part[static_cast<size_t>(p)] = error_stats(samples_[m].shape_part[static_cast<size_t>(p)]);
+      }
+      methods->push_back(r);
+    }
+    for (auto [name, t] : types_) {
+      for (size_t m = 0; m < methods_.size(); ++m) {
+        t.raw_mean_mm[m] /= t.meshes;
+        t.shape_mean_mm[m] /= t.meshes;
+      }
+      by_pose_type->push_back(t);
+    }
+  }
+
+ private:
+  struct Sample {
+    std::vector<double> raw, shape;
+    std::array<std::vector<double>, kNumParts> raw_part, shape_part;
+  };
+  std::vector<PoseMethod> methods_;
+  std::vector<Sample> samples_;
+  std::map<std::string, FolderTypeErrors> types_;
+};
+
+/// The vertices of each part, and each vertex's part, from per-triangle labels.
+std::array<std::vector<int>, kNumParts> vertices_of_parts(const Eigen::MatrixXd& V, const Eigen::MatrixXi& F,
+                                                         const Eigen::VectorXi& triangle_part, Eigen::VectorXi* vertex_part) {
+  *vertex_part = vertex_labels_from_triangles(V, F, triangle_part);
+  std::array<std::vector<int>, kNumParts> out;
+  for (Eigen::Index v = 0; v < vertex_part->size(); ++v) out[static_cast<size_t>((*vertex_part)[v])].push_back(static_cast<int>(v));
+  return out;
+}
+
+}  // namespace
+
+FolderPoseEvaluation evaluate_registered_folder(const std::string& dir, const TrainingOptions& base,
+                                                const DatasetTrainingOptions& options, const std::vector<PoseMethod>& methods) {
+  FolderPoseEvaluation out;
+  const Stopwatch clock;
+  PreparedTraining prepared = prepare_training(dir, base, options, out.training);
+  PoseDataset& data = prepared.data;
+  std::vector<size_t> held_out;
+  int training = 0;
+  for (size_t i = 0; i < data.names.size(); ++i) {
+    if (data.test[i]) held_out.push_back(i);
+    else if (static_cast<int>(i) != prepared.rest && data.has_pose[i]) ++training;
+  }
+  if (held_out.empty())
+    throw InvalidInput(dir + ": no held-out example to evaluate on (name them, or hold out every N-th)");
+  if (training == 0) throw InvalidInput(dir + ": nothing left to train on besides the rest example and the held-out ones");
+  const auto model = std::make_shared<const PoseModel>(train_pose_model(data, prepared.options));
+  out.training_poses = model->training_poses;
+  out.train_seconds = clock.seconds();
+
+  // The held-out poses from their vertices, always (a given JSON need not be the pose its mesh shows).
+  const Eigen::MatrixXd& V0 = data.V[static_cast<size_t>(prepared.rest)];
+  PartPoseEstimator estimator(V0, data.F, prepared.options.triangle_part, prepared.options.joint_centres, options.fit);
+  std::vector<const Eigen::MatrixXd*> training_meshes;
+  for (size_t i = 0; i < data.names.size(); ++i)
+    if (!data.test[i]) training_meshes.push_back(&data.V[i]);
+  estimator.learn_rigid_cores(training_meshes);
+
+  TriangleMesh rest;
+  rest.V = V0;
+  rest.F = data.F;
+  SubjectSetupOptions so;
+  so.is_template = true;
+  const PoseSynthesizer synth(model, rest, so);
+  Eigen::VectorXi vertex_part;
+  const auto part_vertices = vertices_of_parts(V0, data.F, prepared.options.triangle_part, &vertex_part);
+  HeldOutScorer scorer(methods);
+  for (size_t i : held_out) {
+    const PartPoseEstimate e = estimator.estimate(data.V[i]);
+    FolderMeshErrors row = scorer.add(data.names[i], synth, e.pose, data.V[i], vertex_part, part_vertices);
+    row.pose_fit_rms_mm = 1000 * e.rms;
+    row.problems = pose_estimate_problems(e);
+    out.meshes.push_back(std::move(row));
+  }
+  scorer.finish(&out.methods, &out.by_pose_type);
+  return out;
+}
+
+PeoplePoseEvaluation evaluate_registered_people(const std::string& dir, const TrainingOptions& base,
+                                                const DatasetTrainingOptions& options, const std::vector<PoseMethod>& methods,
+                                                const std::function<void(int, int, const std::string&)>& progress) {
+  if (!options.held_out.empty() || options.hold_out_every > 0)
+    throw InvalidInput("several people: each person is held out in turn; no other split can be given");
+  if (base.learn_joint_offsets) throw InvalidInput("several people: joint offsets are learned on one person; train without them");
+  PeoplePoseEvaluation out;
+  std::vector<fs::path> folders;
+  std::error_code ec;
+  for (const auto& e : fs::directory_iterator(dir, ec))
+    if (e.is_directory()) folders.push_back(e.path());
+  if (ec) throw IoError(dir + ": " + ec.message());
+  std::sort(folders.begin(), folders.end());
+  if (folders.size() < 2)
+    throw InvalidInput(dir + ": " + std::to_string(folders.size()) +
+                       " person folders; several people need one folder of registered meshes each, at least two");
+  // Each person read on their own: unit, axes, rest example, segmentation, joints and poses.
+  const int steps = 2 * static_cast<int>(folders.size());
+  std::vector<PreparedTraining> person;
+  for (const fs::path& f : folders) {
+    DatasetTrainingReport report;
+    person.push_back(prepare_training(f.string(), base, options, report));
+    out.people.push_back(f.filename().string());
+    out.reports.push_back(std::move(report));
+    if (progress) progress(static_cast<int>(person.size()), steps, "read " + out.people.back());
+    if (person.back().data.F != person.front().data.F)
+      throw InvalidInput(f.string() + ": another topology than " + folders.front().string() +
+                         " (several people must share one: registered meshes)");
+  }
+  const Eigen::MatrixXi& F = person.front().data.F;
+  const Eigen::Index nf = F.rows();
+  Eigen::VectorXi identity(nf);
+  for (Eigen::Index k = 0; k < nf; ++k) identity[k] = static_cast<int>(k);
+  HeldOutScorer pooled(methods);
+  for (size_t p = 0; p < person.size(); ++p) {
+    // The others' examples in one dataset, each measured from its own person's rest; the first
+    // other person's rest, labels and joints are the template's.
+    PoseDataset others;
+    others.F = F;
+    const size_t template_person = p == 0 ? 1 : 0;
+    for (size_t q = 0; q < person.size(); ++q) {
+      if (q == p) continue;
+      const PoseDataset& d = person[q].data;
+      const int rest_index = static_cast<int>(others.names.size());
+      auto push = [&](size_t i) {
+        const bool rest = static_cast<int>(i) == person[q].rest;
+        others.names.push_back(out.people[q] + "/" + d.names[i]);
+        others.V.push_back(d.V[i]);
+        others.has_pose.push_back(true);
+        others.poses.push_back(rest ? PartPose{} : d.poses[i]);
+        others.test.push_back(false);
+        others.rest_of.push_back(rest_index);
+      };
+      push(static_cast<size_t>(person[q].rest));
+      if (q == template_person) others.rest_name = others.names.back();
+      for (size_t i = 0; i < d.names.size(); ++i)
+        if (static_cast<int>(i) != person[q].rest && d.has_pose[i]) push(i);
+    }
+    const Stopwatch clock;
+    const auto model = std::make_shared<const PoseModel>(train_pose_model(others, person[template_person].options));
+    FolderPoseEvaluation result;
+    result.training_poses = model->training_poses;
+    result.train_seconds = clock.seconds();
+    result.training = out.reports[p];
+    // This person's rest mesh, posed by the others' model through the known correspondence (one
+    // topology), at each of this person's poses estimated from their meshes.
+    const PreparedTraining& me = person[p];
+    const Eigen::MatrixXd& V0 = me.data.V[static_cast<size_t>(me.rest)];
+    TriangleMesh rest;
+    rest.V = V0;
+    rest.F = F;
+    SubjectSetupOptions so;
+    so.triangle_part = me.options.triangle_part;
+    so.joint_centres = me.options.joint_centres;
+    so.template_triangle = identity;
+    const PoseSynthesizer synth(model, rest, so);
+    PartPoseEstimator estimator(V0, F, me.options.triangle_part, me.options.joint_centres, options.fit);
+    std::vector<const Eigen::MatrixXd*> meshes;
+    for (const auto& V : me.data.V) meshes.push_back(&V);
+    estimator.learn_rigid_cores(meshes);
+    Eigen::VectorXi vertex_part;
+    const auto part_vertices = vertices_of_parts(V0, F, me.options.triangle_part, &vertex_part);
+    HeldOutScorer scorer(methods);
+    for (size_t i = 0; i < me.data.names.size(); ++i) {
+      if (static_cast<int>(i) == me.rest) continue;
+      const PartPoseEstimate e = estimator.estimate(me.data.V[i]);
+      FolderMeshErrors row = scorer.add(me.data.names[i], synth, e.pose, me.data.V[i], vertex_part, part_vertices);
+      pooled.add(me.data.names[i], synth, e.pose, me.data.V[i], vertex_part, part_vertices);
+      row.pose_fit_rms_mm = 1000 * e.rms;
+      row.problems = pose_estimate_problems(e);
+      result.meshes.push_back(std::move(row));
+    }
+    scorer.finish(&result.methods, &result.by_pose_type);
+    out.per_person.push_back(std::move(result));
+    if (progress) progress(static_cast<int>(person.size() + p + 1), steps, "evaluated " + out.people[p]);
+  }
+  pooled.finish(&out.methods, &out.by_pose_type);
   return out;
 }
 

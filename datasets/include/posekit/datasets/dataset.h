@@ -51,6 +51,9 @@ struct PoseDataset {
   std::vector<PartPose> poses;
   std::vector<bool> test;              ///< held out (from the manifest; all false without one)
   std::string rest_name;               ///< the rest-pose example (template), if known
+  /// Several people of one topology: per example, the index of its own person's rest example, from
+  /// which its deformation is measured (empty: every example is the template's person).
+  std::vector<int> rest_of;
 };
 
 /// The template of a pose dataset: the example named rest_name, else the first one whose 16-part

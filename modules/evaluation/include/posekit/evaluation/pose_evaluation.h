@@ -92,6 +92,10 @@ struct DatasetTrainingOptions {
   /// throws BelowConfidence unless `accept_poor_fit` (then it is a warning of the report).
   const BodyModel* body_model = nullptr;
   bool accept_poor_fit = false;
+  /// The held-out split, instead of the manifest's: these examples by name, or every N-th example in
+  /// name order with the rest example skipped (0: the manifest's split).
+  std::vector<std::string> held_out;
+  int hold_out_every = 0;
 };
 
 /// How one example's estimated pose fits (millimetres, degrees).
@@ -128,5 +132,66 @@ struct DatasetTrainingReport {
 PoseModel train_on_dataset(const std::string& dataset_dir, const TrainingOptions& base,
                            const DatasetTrainingOptions& options, DatasetTrainingReport* report = nullptr);
 PoseModel train_on_dataset(const std::string& dataset_dir, const TrainingOptions& base = {});
+
+/// One posing method on the held-out meshes of a folder: the raw per-vertex error, and the "shape"
+/// error left after each part of the posed body is rigidly aligned (Umeyama, no scale) onto the
+/// same part of the held-out mesh: raw minus shape is where the part was placed.
+struct FolderMethodErrors {
+  PoseMethod method;
+  ErrorStats raw, shape;
+  std::array<ErrorStats, kNumParts> raw_per_part, shape_per_part;
+};
+
+struct FolderMeshErrors {
+  std::string name, type;               ///< type: pose_type(name)
+  double pose_fit_rms_mm = 0;           ///< the held-out mesh against its parts' rigid motions
+  std::vector<std::string> problems;    ///< pose_estimate_problems of its estimated pose
+  std::vector<double> raw_mean_mm, shape_mean_mm;  ///< per method
+};
+
+struct FolderTypeErrors {
+  std::string type;
+  int meshes = 0;
+  std::vector<double> raw_mean_mm, shape_mean_mm;  ///< per method
+};
+
+struct FolderPoseEvaluation {
+  DatasetTrainingReport training;
+  int training_poses = 0;
+  double train_seconds = 0;
+  std::vector<FolderMethodErrors> methods;
+  std::vector<FolderMeshErrors> meshes;
+  std::vector<FolderTypeErrors> by_pose_type;
+};
+
+/// Evaluation on a folder of registered meshes of one person (issue 45 part 3): trains on every
+/// example but the held-out ones (options.held_out or hold_out_every; else the manifest's split),
+/// estimates each held-out mesh's pose from its vertices (PartPoseEstimator, rigid cores learned on
+/// the training examples), poses the rest example at it with each method and compares vertex by
+/// vertex. Throws InvalidInput when nothing is held out or nothing is left to train on.
+FolderPoseEvaluation evaluate_registered_folder(const std::string& dir, const TrainingOptions& base,
+                                                const DatasetTrainingOptions& options,
+                                                const std::vector<PoseMethod>& methods = {PoseMethod::kLearned, PoseMethod::kRigid,
+                                                                                          PoseMethod::kLbs});
+
+struct PeoplePoseEvaluation {
+  std::vector<std::string> people;                ///< the person folders, in name order
+  std::vector<DatasetTrainingReport> reports;     ///< how each person's folder was read
+  std::vector<FolderPoseEvaluation> per_person;   ///< each person's meshes, the model trained on the others
+  std::vector<FolderMethodErrors> methods;        ///< every person's meshes pooled
+  std::vector<FolderTypeErrors> by_pose_type;
+};
+
+/// The same for several people of one topology (issue 45 part 3): `dir` holds one folder of
+/// registered meshes per person. Each person in turn: a model trained on the other people's examples
+/// (each example's deformation measured from its own person's rest, Eq. 5 pooled), this person's
+/// rest mesh posed by it (the correspondence is the shared topology; this person's own parts and
+/// joints) at each of this person's other meshes' poses estimated from their vertices. Throws
+/// InvalidInput with fewer than two person folders or another topology in one of them.
+PeoplePoseEvaluation evaluate_registered_people(const std::string& dir, const TrainingOptions& base,
+                                                const DatasetTrainingOptions& options,
+                                                const std::vector<PoseMethod>& methods = {PoseMethod::kLearned, PoseMethod::kRigid,
+                                                                                          PoseMethod::kLbs},
+                                                const std::function<void(int, int, const std::string&)>& progress = {});
 
 }  // namespace posekit
