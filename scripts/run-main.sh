@@ -41,6 +41,7 @@ echo "== meshes alone, anatomical ground truth: train without pose JSONs; the cr
 mkdir -p "$out/meshes_only"
 cp "$out"/dataset/pose_dataset/*.ply "$out/meshes_only/"
 "$posekit" train --dataset "$out/meshes_only" --calibration-bodies 0 --out "$out/meshes_only.pkm" --fit-report "$out/meshes_only_fits.json"
+"$posekit" eval pose --dataset "$out/meshes_only" --every 5
 "$posekit" dataset make --driving anatomical --out "$out/anatomical" --force
 "$posekit" dataset make --driving anatomical-alternative --out "$out/anatomical_alt" --force
 "$posekit" train --dataset "$out/anatomical" --joint-offsets --out "$out/anatomical.pkm"
