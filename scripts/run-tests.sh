@@ -1,6 +1,6 @@
 #!/usr/bin/env bash
 # Set-up command 2: install what is missing, build, run every test in a release build and the
-# Python module's tests, install it and build and run examples/ against the installed package, fuzz every
+# Python module's tests (installed by pip into a venv; and the wheel route), install it and build and run examples/ against the installed package, fuzz every
 # file reader and the measuring briefly (POSEKIT_FUZZ_SECONDS per target, default 10; 0 skips; scripts/fuzz.sh runs
 # them for longer), then run every test again under AddressSanitizer + UndefinedBehaviorSanitizer.
 set -euo pipefail
@@ -11,8 +11,8 @@ jobs=$(nproc 2>/dev/null || echo 2)
 bash scripts/build.sh release
 echo "== tests (release)"
 (cd build/release && ctest --output-on-failure -j"$jobs")
-echo "== Python module (pytest)"
-PYTHONPATH=build/release/python POSEKIT_CLI=$PWD/build/release/bin/posekit /usr/bin/python3 -m pytest -q python/tests
+echo "== Python module: pip install . into a venv (its tests run against it), and the wheel route"
+bash scripts/check-python-install.sh
 echo "== install, and examples/ built against the installed package"
 bash scripts/check-install.sh
 fuzz_seconds=${POSEKIT_FUZZ_SECONDS:-10}
