@@ -71,6 +71,15 @@ py::dict measurements_dict(const BodyMeasurements& m) {
 
 PartPose part_pose_of(const py::object& pose) {
   PartPose p;
+  // A pose file's path (str or pathlib), or its JSON as loaded (with "joints" and the root's
+  // rotation and translation): read as posekit reads pose files.
+  const py::object path_like = py::module_::import("os").attr("PathLike");
+  if (py::isinstance<py::str>(pose) || py::isinstance(pose, path_like))
+    return read_part_pose(py::str(py::module_::import("os").attr("fspath")(pose)).cast<std::string>());
+  if (py::isinstance<py::dict>(pose) && pose.cast<py::dict>().contains("joints")) {
+    const std::string text = py::module_::import("json").attr("dumps")(pose).cast<std::string>();
+    return part_pose_from_json(text, "the pose");
+  }
   if (py::isinstance<py::dict>(pose)) {
     for (const auto& [key, value] : pose.cast<py::dict>()) {
       const std::string name = key.cast<std::string>();
@@ -332,8 +341,9 @@ PYBIND11_MODULE(posekit, m) {
              return s.pose(p, how);
            }, py::arg("pose"), py::arg("method") = "learned",
            "The posed vertices (#V x 3) for joint rotations (axis-angle, radians, relative to the parent part, "
-           "as posekit's pose JSON): a 15 x 3 array in joint_names order, or a dict {joint name: rotation}. "
-           "method: learned, rigid or lbs.")
+           "as posekit's pose JSON): a 15 x 3 array in joint_names order, a dict {joint name: rotation}, a pose "
+           "file's path (str or pathlib.Path) or its JSON as loaded (with 'joints' and the root's rotation and "
+           "translation). method: learned, rigid or lbs.")
       .def("pose_batch", [](const Subject& s, const py::array_t<double>& poses, const std::string& method, int threads) {
              if (poses.ndim() != 3 || poses.shape(1) != kNumJoints || poses.shape(2) != 3)
                throw InvalidInput("pose_batch expects a k x 15 x 3 array of joint rotations");

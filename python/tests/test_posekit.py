@@ -159,6 +159,17 @@ def test_pose_a_subject(dataset, f01, model):
     for t in threads:
         t.join()
     assert np.abs(results[1] - posed).max() < 1e-9
+    # Posekit's own pose files, as they are written: a path (str or pathlib), or the loaded JSON with
+    # its format, units and root; the same body as the joints alone (the root is zero here).
+    pose_file = dataset / "subjects" / "f01" / "posed" / "squat_half.json"
+    assert np.abs(subject.pose(pose_file) - posed).max() < 1e-12
+    assert np.abs(subject.pose(str(pose_file)) - posed).max() < 1e-12
+    assert np.abs(subject.pose(json.loads(pose_file.read_text())) - posed).max() < 1e-12
+    moved = json.loads(pose_file.read_text())
+    moved["root_translation"] = [0.1, 0.0, 0.0]
+    assert np.abs(subject.pose(moved) - posed - [0.1, 0.0, 0.0]).max() < 1e-9
+    with pytest.raises(posekit.IoError, match="nowhere.json"):
+        subject.pose(dataset / "nowhere.json")
     with pytest.raises(posekit.InvalidInput, match="left_elbw"):
         subject.pose({"left_elbw": [0, 0, 1]})
     with pytest.raises(posekit.InvalidInput, match="NaN"):
