@@ -26,6 +26,7 @@
 #include "posekit/segmentation/body_segmentation.h"
 #include "posekit/segmentation/segmentation_prior.h"
 #include "posekit/shape/body_features.h"
+#include "posekit/shape/body_orientation.h"
 #include "posekit/shape/layered_representation.h"
 #include "posekit/shape/measurements.h"
 #include "posekit/version.h"
@@ -49,6 +50,21 @@ TriangleMesh mesh_of(const Eigen::Ref<const Vertices>& V, const Eigen::Ref<const
 }
 
 Vertices rows(const Eigen::MatrixXd& M) { return M; }
+
+/// Points in the caller's unit and axes from posekit's frame (metres, Y up, facing +Z).
+Vertices in_callers_frame(const BodyFrame& frame, const Eigen::MatrixXd& P) {
+  return P * frame.orientation.rotation / frame.metres_per_unit;
+}
+
+py::dict frame_dict(const BodyFrame& frame) {
+  py::dict out;
+  out["unit"] = frame.unit;
+  out["unit_detected"] = frame.unit_detected;
+  out["up"] = axis_name(frame.orientation.up());
+  out["forward"] = axis_name(frame.orientation.forward());
+  out["description"] = frame.describe();
+  return out;
+}
 
 py::dict measurements_dict(const BodyMeasurements& m) {
   py::dict girths;
@@ -198,19 +214,29 @@ PYBIND11_MODULE(posekit, m) {
         write_point_cloud(path, c);
       }, py::arg("path"), py::arg("P"), "Writes a point cloud (format from the extension), atomically.");
 
-  m.def("measure", [](const Eigen::Ref<const Vertices>& V, const py::object& F) {
+  m.def("measure", [](const Eigen::Ref<const Vertices>& V, const py::object& F, const std::string& unit, const std::string& up,
+                      const std::string& forward) {
         BodyMeasurements result;
+        BodyFrame frame;
         const bool is_mesh = !F.is_none();
-        const TriangleMesh mesh = is_mesh ? mesh_of(V, F.cast<Faces>()) : TriangleMesh{};
-        const Eigen::MatrixXd points = is_mesh ? Eigen::MatrixXd() : Eigen::MatrixXd(V);
+        TriangleMesh mesh = is_mesh ? mesh_of(V, F.cast<Faces>()) : TriangleMesh{};
+        Eigen::MatrixXd points = is_mesh ? Eigen::MatrixXd() : Eigen::MatrixXd(V);
         {
           py::gil_scoped_release release;
+          frame = bring_to_posekit_frame(is_mesh ? &mesh.V : &points, is_mesh ? &mesh.F : nullptr, nullptr, unit, up, forward);
           result = is_mesh ? measure_body(mesh.V, mesh.F) : measure_point_cloud(points);
         }
-        return measurements_dict(result);
-      }, py::arg("V"), py::arg("F") = py::none(),
-      "Stature and girths (m) of a standing body: a mesh (V, F) or, without F, a scan's points. Returns "
-      "{'stature', 'stature_measured', 'stature_note', 'girths': {name: {'value', 'measured', 'note', 'point'}}, 'warnings'}.");
+        for (Girth& g : result.girths) g.point = in_callers_frame(frame, g.point.transpose()).transpose();
+        py::dict out = measurements_dict(result);
+        for (const auto& w : frame.orientation.warnings) out["warnings"].cast<py::list>().append(w);
+        out["frame"] = frame_dict(frame);
+        return out;
+      }, py::arg("V"), py::arg("F") = py::none(), py::arg("unit") = "auto", py::arg("up") = "auto", py::arg("forward") = "auto",
+      "Stature and girths of a standing body: a mesh (V, F) or, without F, a scan's points, in any unit and axes as "
+      "the CLI reads them: unit m, dm, cm, mm or 'auto' (the largest extent tells), up and forward axes ('+Z', '-y', "
+      "...) or 'auto' (detected). Values in metres; each girth's 'point' in the caller's unit and axes. Returns "
+      "{'stature', 'stature_measured', 'stature_note', 'girths': {name: {'value', 'measured', 'note', 'point'}}, "
+      "'warnings', 'frame': {'unit', 'unit_detected', 'up', 'forward', 'description'}}.");
 
   py::class_<PoseModel, std::shared_ptr<PoseModel>>(m, "PoseModel", "A trained pose model (Eq. 3-5; posekit train)")
       .def_static("load", [](const std::string& path) { return std::make_shared<PoseModel>(read_pose_model(path)); }, py::arg("path"))
@@ -235,12 +261,15 @@ PYBIND11_MODULE(posekit, m) {
       "prior of `calibration_bodies` MakeHuman bodies (0: the template alone).");
 
   m.def("segment", [](const Eigen::Ref<const Vertices>& V, const Eigen::Ref<const Faces>& F,
-                      const std::shared_ptr<PoseModel>& model, bool checked) {
+                      const std::shared_ptr<PoseModel>& model, bool checked, const std::string& unit, const std::string& up,
+                      const std::string& forward) {
         BodySegmentation result;
         TriangleMesh surface;
+        BodyFrame frame;
         {
           py::gil_scoped_release release;
-          const TriangleMesh mesh = mesh_of(V, F);
+          TriangleMesh mesh = mesh_of(V, F);
+          frame = bring_to_posekit_frame(&mesh.V, &mesh.F, nullptr, unit, up, forward);
           std::string left_out;
           surface = body_surface(mesh.V, mesh.F, &left_out);
           if (surface.F.rows() != mesh.F.rows())
@@ -256,14 +285,17 @@ PYBIND11_MODULE(posekit, m) {
         }
         py::dict out;
         out["triangle_part"] = Eigen::VectorXi(result.segmentation.triangle_part);
-        out["joints"] = rows(result.joints);
+        out["joints"] = in_callers_frame(frame, result.joints);
         out["problems"] = result.check.problems;
         out["notes"] = result.notes;
+        out["frame"] = frame_dict(frame);
         return out;
-      }, py::arg("V"), py::arg("F"), py::arg("model") = nullptr, py::arg("checked") = true,
+      }, py::arg("V"), py::arg("F"), py::arg("model") = nullptr, py::arg("checked") = true, py::arg("unit") = "auto",
+      py::arg("up") = "auto", py::arg("forward") = "auto",
       "Segments a standing body mesh into 16 parts (Eq. 2) and embeds the 15 joints; with a model, from its "
-      "segmentation prior. Returns {'triangle_part' (#F, see part_names), 'joints' (15 x 3, see joint_names), "
-      "'problems', 'notes'}; raises InvalidInput when the result fails the sanity checks (unless checked=False).");
+      "segmentation prior. Any unit and axes, as measure() reads them. Returns {'triangle_part' (#F, see part_names), "
+      "'joints' (15 x 3, see joint_names, in the caller's unit and axes), 'problems', 'notes', 'frame'}; raises "
+      "InvalidInput when the result fails the sanity checks (unless checked=False).");
 
   m.def("register", [](const Eigen::Ref<const Vertices>& source_V, const Eigen::Ref<const Faces>& source_F,
                        const Eigen::Ref<const Vertices>& target_V, const Eigen::Ref<const Faces>& target_F,

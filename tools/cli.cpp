@@ -314,15 +314,15 @@ BodyInput read_body_input(const std::string& path, const std::string& unit_optio
   BodyInput in = read_body_input(path, u.unit);
   Eigen::MatrixXd& points = in.is_cloud ? in.cloud.P : in.mesh.V;
   if (automatic) {
-    u.extent = robust_largest_extent(points);
-    if (!guess_body_unit(u.extent, &u.unit)) {
-      std::ostringstream msg;
-      msg << path << ": cannot tell its unit: its largest extent (stray points aside), " << std::setprecision(4) << u.extent
-          << ", is no standing body or torso (0.5 to 3 m) in m, dm, cm or mm; give the unit (e.g. --unit mm)";
-      throw InvalidInput(msg.str());
+    BodyFrame frame;
+    try {
+      frame = scale_body_to_metres(&points, "auto");
+    } catch (const InvalidInput& e) {
+      throw InvalidInput(path + ": " + e.what() + " (e.g. --unit mm)");
     }
+    u.unit = parse_unit(frame.unit);
+    u.extent = frame.extent;
     u.detected = true;
-    points *= metres_per_unit(u.unit);
     std::cerr << "posekit " << command << ": " << path << ": unit " << u.describe() << "\n";
   }
   if (chosen) *chosen = u;
@@ -336,29 +336,15 @@ void add_orientation_options(ArgParser* args, const std::string& prefix, const s
 
 BodyOrientation orient_body_input(BodyInput* in, const std::string& up_option, const std::string& forward_option,
                                   const std::string& path, const std::string& command) {
-  OrientationOptions o;
-  if (up_option != "auto") o.up = parse_axis(up_option);
-  if (forward_option != "auto") o.forward = parse_axis(forward_option);
+  if (up_option != "auto") parse_axis(up_option);  // a bad axis is a usage error, not the file's
+  if (forward_option != "auto") parse_axis(forward_option);
   BodyOrientation orientation;
   try {
-    if (in->is_cloud) {
-      orientation = detect_body_orientation(in->cloud.P, {}, o);
-    } else {
-      if (in->mesh.F.rows() == 0) throw InvalidInput("the mesh has no faces");
-      orientation = detect_mesh_orientation(in->mesh.V, in->mesh.F, o);
-    }
+    const Eigen::MatrixXd& points = in->is_cloud ? in->cloud.P : in->mesh.V;  // read before any is turned
+    orientation = turn_body_to_posekit_frame({&in->cloud.P, &in->cloud.N, &in->mesh.V, &in->mesh.N}, points,
+                                             in->is_cloud ? nullptr : &in->mesh.F, up_option, forward_option);
   } catch (const InvalidInput& e) {
     throw InvalidInput(path + ": " + e.what());
-  }
-  const Eigen::Matrix3d Rt = orientation.rotation.transpose();
-  auto turn = [&](Eigen::MatrixXd* M) {
-    if (M->rows() > 0) *M = (*M * Rt).eval();
-  };
-  if (!orientation.is_identity()) {
-    turn(&in->cloud.P);
-    turn(&in->cloud.N);
-    turn(&in->mesh.V);
-    turn(&in->mesh.N);
   }
   std::cerr << "posekit " << command << ": " << path << ": " << orientation.describe()
             << (orientation.is_identity() ? ", posekit's own frame" : ": turned into posekit's frame (Y up, facing +Z)")

@@ -66,8 +66,24 @@ def test_measure_a_mesh_and_its_scan(dataset, f01):
     scan = posekit.read_point_cloud(str(dataset / "scans" / "f01" / "rest.pcd")) / 1000.0  # mm
     s = posekit.measure(scan)
     assert s["girths"]["hip"]["value"] == pytest.approx(m["girths"]["hip"]["value"], abs=0.012)
+    assert m["frame"]["unit"] == "m" and m["frame"]["up"] == "+Y" and m["frame"]["forward"] == "+Z"
+    # Any unit and axes, as the CLI reads them: the same body in millimetres, Z up, facing -Y.
+    to_file = np.array([[1, 0, 0], [0, 0, -1], [0, 1, 0]], dtype=float)  # posekit -> file axes
+    z_up = posekit.measure(1000.0 * V @ to_file.T, F)
+    assert z_up["frame"]["unit"] == "mm" and z_up["frame"]["unit_detected"]
+    assert z_up["frame"]["up"] == "+Z" and z_up["frame"]["forward"] == "-Y", z_up["frame"]
+    for name in ("bust", "waist", "hip"):
+        assert z_up["girths"][name]["value"] == pytest.approx(m["girths"][name]["value"], abs=1e-6), name
+        # the girth's point comes back in the caller's unit and axes
+        assert np.abs(np.array(z_up["girths"][name]["point"]) - 1000.0 * to_file @ np.array(m["girths"][name]["point"])).max() < 1e-3
+    given = posekit.measure(1000.0 * V @ to_file.T, F, unit="mm", up="+Z", forward="-Y")
+    assert given["girths"]["hip"]["value"] == pytest.approx(m["girths"]["hip"]["value"], abs=1e-6)
+    assert not given["frame"]["unit_detected"]
     with pytest.raises(posekit.InvalidInput, match="tall"):
-        posekit.measure(V * 1000.0, F)  # millimetres read as metres
+        posekit.measure(V * 1000.0, F, unit="m")  # millimetres said to be metres
+    with pytest.raises(posekit.InvalidInput, match="cannot tell its unit") as error:
+        posekit.measure(V * 20.0, F)  # 35 m tall in metres, 3.5 in dm: no unit explains it
+    assert "--unit" not in str(error.value)
     with pytest.raises(ValueError):  # InvalidInput is a ValueError
         posekit.measure(np.random.default_rng(0).random((100, 3)))
 
@@ -96,8 +112,14 @@ def test_segment(f01, model):
     assert joints[left, 0] > joints[right, 0]  # left is +X
     assert s["problems"] == []
     assert posekit.segment(V, F)["joints"].shape == (15, 3)  # without a model
+    # Lying on its side (a turn about Z): found upright as the CLI finds it, joints back in its axes.
+    turn = np.array([[0, -1, 0], [1, 0, 0], [0, 0, 1]], dtype=float)
+    side = posekit.segment(V @ turn.T, F, model)
+    assert side["frame"]["up"] == "-X", side["frame"]
+    assert np.abs(side["joints"] - joints @ turn.T).max() < 1e-9
+    assert (side["triangle_part"] == s["triangle_part"]).all()
     with pytest.raises(posekit.InvalidInput):
-        posekit.segment(V[:, [1, 0, 2]], F)  # lying on its side
+        posekit.segment(V @ turn.T, F, up="+Y")  # said to stand along +Y: it does not
 
 
 def test_register_template_to_subject(f01, model):

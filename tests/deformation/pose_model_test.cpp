@@ -654,3 +654,33 @@ TEST(PoseModel, EvaluatesSeveralPeopleOfOneTopologyEachPosedByAModelOfTheOthers)
   }
   EXPECT_THROW(evaluate_registered_people(dir.file("person0"), {}, {}), InvalidInput);
 }
+
+TEST(PoseModel, ExamplesFromSeveralRestsPoolIntoOneRegression) {
+  // PoseDataset::rest_of: each example's deformation from its own person's rest. The same person
+  // entered twice, as two people, learns the same coefficients as once (the regression sees each
+  // example twice); a rest index list of the wrong length is named.
+  const auto& ds = test::small_dataset();
+  const PoseDataset data = load_pose_dataset(ds.root);
+  const TemplateAnnotations ann = load_template_annotations(ds.root);
+  TrainingOptions o;
+  o.triangle_part = ann.triangle_part;
+  o.joint_centres = ann.joint_centres;
+  const PoseModel once = train_pose_model(data, o);
+  PoseDataset twice = data;
+  const int n = static_cast<int>(data.names.size()), rest = find_rest_example(data);
+  twice.rest_of.assign(static_cast<size_t>(n), rest);
+  for (int i = 0; i < n; ++i) {
+    twice.names.push_back("again_" + data.names[static_cast<size_t>(i)]);
+    twice.V.push_back(data.V[static_cast<size_t>(i)]);
+    twice.has_pose.push_back(data.has_pose[static_cast<size_t>(i)]);
+    twice.poses.push_back(data.poses[static_cast<size_t>(i)]);
+    twice.test.push_back(data.test[static_cast<size_t>(i)]);
+    twice.rest_of.push_back(n + rest);  // the second copy's own rest
+  }
+  const PoseModel pooled = train_pose_model(twice, o);
+  EXPECT_EQ(pooled.training_poses, 2 * once.training_poses);
+  // The ridge term weighs the same relative to twice the examples: equal to rounding.
+  EXPECT_LT((pooled.coefficients - once.coefficients).cwiseAbs().maxCoeff(), 1e-9);
+  twice.rest_of.pop_back();
+  EXPECT_THROW(train_pose_model(twice, o), InvalidInput);
+}

@@ -4,10 +4,12 @@
 #include <Eigen/Geometry>
 #include <algorithm>
 #include <cmath>
+#include <iomanip>
 #include <numeric>
 #include <sstream>
 
 #include "posekit/core/error.h"
+#include "posekit/core/units.h"
 #include "posekit/core/mesh_geometry.h"
 #include "posekit/core/mesh_validation.h"
 
@@ -292,6 +294,59 @@ BodyOrientation detect_mesh_orientation(const Eigen::MatrixXd& V, const Eigen::M
   for (Eigen::Index f = 0; f < F.rows(); ++f)
     if (!bits.keep_face[static_cast<size_t>(f)]) area[f] = 0;
   return detect_body_orientation(face_centroids(V, F), area, options);
+}
+
+std::string BodyFrame::describe() const {
+  std::ostringstream text;
+  text << "unit " << unit;
+  if (unit_detected) text << " (detected from the body's largest extent, " << std::setprecision(4) << extent << ")";
+  else text << " (given)";
+  text << "; " << orientation.describe();
+  return text.str();
+}
+
+BodyFrame scale_body_to_metres(Eigen::MatrixXd* points, const std::string& unit) {
+  BodyFrame frame;
+  Unit u = Unit::kMetre;
+  if (unit == "auto") {
+    frame.extent = robust_largest_extent(*points);
+    if (!guess_body_unit(frame.extent, &u)) {
+      std::ostringstream msg;
+      msg << "cannot tell its unit: its largest extent (stray points aside), " << std::setprecision(4) << frame.extent
+          << ", is no standing body or torso (0.5 to 3 m) in m, dm, cm or mm; give the unit";
+      throw InvalidInput(msg.str());
+    }
+    frame.unit_detected = true;
+  } else {
+    u = parse_unit(unit);
+  }
+  frame.unit = unit_name(u);
+  frame.metres_per_unit = metres_per_unit(u);
+  if (frame.metres_per_unit != 1) *points *= frame.metres_per_unit;
+  return frame;
+}
+
+BodyOrientation turn_body_to_posekit_frame(std::vector<Eigen::MatrixXd*> turned, const Eigen::MatrixXd& points,
+                                           const Eigen::MatrixXi* faces, const std::string& up, const std::string& forward) {
+  OrientationOptions o;
+  if (up != "auto") o.up = parse_axis(up);
+  if (forward != "auto") o.forward = parse_axis(forward);
+  const BodyOrientation orientation =
+      faces ? (faces->rows() > 0 ? detect_mesh_orientation(points, *faces, o) : throw InvalidInput("the mesh has no faces"))
+            : detect_body_orientation(points, {}, o);
+  if (!orientation.is_identity()) {
+    const Eigen::Matrix3d Rt = orientation.rotation.transpose();
+    for (Eigen::MatrixXd* M : turned)
+      if (M && M->rows() > 0) *M = (*M * Rt).eval();
+  }
+  return orientation;
+}
+
+BodyFrame bring_to_posekit_frame(Eigen::MatrixXd* points, const Eigen::MatrixXi* faces, Eigen::MatrixXd* normals,
+                                 const std::string& unit, const std::string& up, const std::string& forward) {
+  BodyFrame frame = scale_body_to_metres(points, unit);
+  frame.orientation = turn_body_to_posekit_frame({points, normals}, *points, faces, up, forward);
+  return frame;
 }
 
 }  // namespace posekit
