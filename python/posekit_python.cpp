@@ -122,9 +122,10 @@ PartPose part_pose_of(const py::object& pose) {
 /// A customized body ready for posing (PoseSynthesizer): set-up once, then pose() per pose.
 class Subject {
  public:
-  Subject(std::shared_ptr<const PoseModel> model, const TriangleMesh& mesh)
-      : faces_(mesh.F), synth_(std::make_unique<PoseSynthesizer>(std::move(model), mesh)) {}
-  Vertices pose(const PartPose& p, PoseMethod method) const { return synth_->pose(p, method); }
+  /// `mesh` in posekit's frame; `frame` how the caller's copy was brought there (posed bodies go back).
+  Subject(std::shared_ptr<const PoseModel> model, const TriangleMesh& mesh, const BodyFrame& frame)
+      : faces_(mesh.F), frame_(frame), synth_(std::make_unique<PoseSynthesizer>(std::move(model), mesh)) {}
+  Vertices pose(const PartPose& p, PoseMethod method) const { return in_callers_frame(frame_, synth_->pose(p, method)); }
   std::vector<Vertices> pose_batch(const std::vector<PartPose>& poses, PoseMethod method, int threads) const {
     std::vector<Vertices> out(poses.size());
     const int n = std::max(1, std::min<int>(threads > 0 ? threads : static_cast<int>(std::thread::hardware_concurrency()),
@@ -137,7 +138,7 @@ class Subject {
           Eigen::MatrixXd X;
           for (size_t i = static_cast<size_t>(t); i < poses.size(); i += static_cast<size_t>(n)) {
             synth_->pose(poses[i], method, &X);
-            out[i] = X;
+            out[i] = in_callers_frame(frame_, X);
           }
         } catch (...) {
           error[static_cast<size_t>(t)] = std::current_exception();
@@ -150,9 +151,11 @@ class Subject {
   }
   const SubjectSetupInfo& info() const { return synth_->info(); }
   const Eigen::MatrixXi& faces() const { return faces_; }
+  const BodyFrame& frame() const { return frame_; }
 
  private:
   Eigen::MatrixXi faces_;
+  BodyFrame frame_;
   std::unique_ptr<PoseSynthesizer> synth_;
 };
 
@@ -361,11 +364,16 @@ PYBIND11_MODULE(posekit, m) {
 
   py::class_<Subject>(m, "Subject", "A customized body prepared for posing with a model (segmentation, skeleton, "
                                     "correspondence, factorisation once; then each pose is one solve)")
-      .def(py::init([](std::shared_ptr<PoseModel> model, const Eigen::Ref<const Vertices>& V, const Eigen::Ref<const Faces>& F) {
-             const TriangleMesh mesh = mesh_of(V, F);
+      .def(py::init([](std::shared_ptr<PoseModel> model, const Eigen::Ref<const Vertices>& V, const Eigen::Ref<const Faces>& F,
+                       const std::string& unit, const std::string& up, const std::string& forward) {
+             TriangleMesh mesh = mesh_of(V, F);
              py::gil_scoped_release release;
-             return std::make_unique<Subject>(std::move(model), mesh);
-           }), py::arg("model"), py::arg("V"), py::arg("F"))
+             const BodyFrame frame = bring_to_posekit_frame(&mesh.V, &mesh.F, nullptr, unit, up, forward);
+             return std::make_unique<Subject>(std::move(model), mesh, frame);
+           }), py::arg("model"), py::arg("V"), py::arg("F"), py::arg("unit") = "auto", py::arg("up") = "auto",
+           py::arg("forward") = "auto",
+           "The body at rest in any unit and axes (read as measure() reads them); posed bodies and joints come back "
+           "in the same unit and axes. Pose rotations are about posekit's axes (the body's left, up and forward).")
       .def("pose", [](const Subject& s, const py::object& pose, const std::string& method) {
              const PartPose p = part_pose_of(pose);
              const PoseMethod how = parse_pose_method(method);
@@ -403,7 +411,8 @@ PYBIND11_MODULE(posekit, m) {
            }, py::arg("poses"), py::arg("method") = "learned", py::arg("threads") = 0,
            "Poses a k x 15 x 3 array of poses on `threads` threads (0: all cores): k x #V x 3.")
       .def_property_readonly("triangle_part", [](const Subject& s) { return Eigen::VectorXi(s.info().triangle_part); })
-      .def_property_readonly("joints", [](const Subject& s) { return rows(s.info().joint_centres); })
+      .def_property_readonly("joints", [](const Subject& s) { return in_callers_frame(s.frame(), s.info().joint_centres); })
+      .def_property_readonly("frame", [](const Subject& s) { return frame_dict(s.frame()); })
       .def_property_readonly("faces", [](const Subject& s) { return Faces(s.faces()); })
       .def_property_readonly("skeleton_problems", [](const Subject& s) { return s.info().skeleton_problems; });
 }

@@ -190,6 +190,12 @@ def test_pose_a_subject(dataset, f01, model):
     moved = json.loads(pose_file.read_text())
     moved["root_translation"] = [0.1, 0.0, 0.0]
     assert np.abs(subject.pose(moved) - posed - [0.1, 0.0, 0.0]).max() < 1e-9
+    # The same body in millimetres, Z up: posed in posekit's axes of the body, given back in the file's.
+    to_file = np.array([[1, 0, 0], [0, 0, -1], [0, 1, 0]], dtype=float)
+    z_up = posekit.Subject(model, 1000.0 * V @ to_file.T, F)
+    assert z_up.frame["unit"] == "mm" and z_up.frame["up"] == "+Z"
+    assert np.abs(z_up.pose(pose_file) - 1000.0 * posed @ to_file.T).max() < 1e-6
+    assert np.abs(z_up.joints - 1000.0 * subject.joints @ to_file.T).max() < 1e-6
     with pytest.raises(posekit.IoError, match="nowhere.json"):
         subject.pose(dataset / "nowhere.json")
     with pytest.raises(posekit.InvalidInput, match="left_elbw"):
