@@ -124,7 +124,7 @@ class Subject {
  public:
   /// `mesh` in posekit's frame; `frame` how the caller's copy was brought there (posed bodies go back).
   Subject(std::shared_ptr<const PoseModel> model, const TriangleMesh& mesh, const BodyFrame& frame)
-      : faces_(mesh.F), frame_(frame), synth_(std::make_unique<PoseSynthesizer>(std::move(model), mesh)) {}
+      : faces_(mesh.F), frame_(frame), model_(model), rest_(mesh.V), synth_(std::make_unique<PoseSynthesizer>(std::move(model), mesh)) {}
   Vertices pose(const PartPose& p, PoseMethod method) const { return in_callers_frame(frame_, synth_->pose(p, method)); }
   std::vector<Vertices> pose_batch(const std::vector<PartPose>& poses, PoseMethod method, int threads) const {
     std::vector<Vertices> out(poses.size());
@@ -152,10 +152,14 @@ class Subject {
   const SubjectSetupInfo& info() const { return synth_->info(); }
   const Eigen::MatrixXi& faces() const { return faces_; }
   const BodyFrame& frame() const { return frame_; }
+  const std::shared_ptr<const PoseModel>& model() const { return model_; }
+  const Eigen::MatrixXd& rest() const { return rest_; }  ///< in posekit's frame
 
  private:
   Eigen::MatrixXi faces_;
   BodyFrame frame_;
+  std::shared_ptr<const PoseModel> model_;
+  Eigen::MatrixXd rest_;
   std::unique_ptr<PoseSynthesizer> synth_;
 };
 
@@ -244,6 +248,10 @@ PYBIND11_MODULE(posekit, m) {
   py::class_<PoseModel, std::shared_ptr<PoseModel>>(m, "PoseModel", "A trained pose model (Eq. 3-5; posekit train)")
       .def_static("load", [](const std::string& path) { return std::make_shared<PoseModel>(read_pose_model(path)); }, py::arg("path"))
       .def("save", [](const PoseModel& model, const std::string& path) { write_pose_model(path, model); }, py::arg("path"))
+      .def(py::pickle([](const PoseModel& model) { return py::bytes(pose_model_bytes(model)); },
+                      [](const py::bytes& state) {
+                        return std::make_shared<PoseModel>(pose_model_from_bytes(std::string(state), "a pickled PoseModel"));
+                      }))
       .def_readonly("training_poses", &PoseModel::training_poses)
       .def_readonly("fit_rms", &PoseModel::fit_rms)
       .def_property_readonly("template", [](const PoseModel& model) { return py::make_tuple(rows(model.template_V), Faces(model.template_F)); })
@@ -413,6 +421,32 @@ PYBIND11_MODULE(posekit, m) {
       .def_property_readonly("triangle_part", [](const Subject& s) { return Eigen::VectorXi(s.info().triangle_part); })
       .def_property_readonly("joints", [](const Subject& s) { return in_callers_frame(s.frame(), s.info().joint_centres); })
       .def_property_readonly("frame", [](const Subject& s) { return frame_dict(s.frame()); })
+      // Pickled as the model and the body in posekit's frame with how it got there; set-up runs again
+      // where it is unpickled (a worker process), giving the same subject.
+      .def(py::pickle(
+          [](const Subject& s) {
+            const BodyFrame& f = s.frame();
+            return py::make_tuple(py::bytes(pose_model_bytes(*s.model())), rows(s.rest()), Faces(s.faces()),
+                                  Eigen::Matrix3d(f.orientation.rotation), f.metres_per_unit, f.unit, f.unit_detected, f.extent,
+                                  f.orientation.up_detected, f.orientation.forward_detected);
+          },
+          [](const py::tuple& t) {
+            if (t.size() != 10) throw InvalidInput("a pickled Subject has 10 fields, this one " + std::to_string(t.size()));
+            auto model = std::make_shared<const PoseModel>(pose_model_from_bytes(t[0].cast<std::string>(), "a pickled Subject"));
+            TriangleMesh mesh;
+            mesh.V = t[1].cast<Eigen::MatrixXd>();
+            mesh.F = t[2].cast<Eigen::MatrixXi>();
+            BodyFrame f;
+            f.orientation.rotation = t[3].cast<Eigen::Matrix3d>();
+            f.metres_per_unit = t[4].cast<double>();
+            f.unit = t[5].cast<std::string>();
+            f.unit_detected = t[6].cast<bool>();
+            f.extent = t[7].cast<double>();
+            f.orientation.up_detected = t[8].cast<bool>();
+            f.orientation.forward_detected = t[9].cast<bool>();
+            py::gil_scoped_release release;
+            return std::make_unique<Subject>(std::move(model), mesh, f);
+          }))
       .def_property_readonly("faces", [](const Subject& s) { return Faces(s.faces()); })
       .def_property_readonly("skeleton_problems", [](const Subject& s) { return s.info().skeleton_problems; });
 }

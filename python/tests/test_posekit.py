@@ -1,6 +1,7 @@
 """The Python module on real data: the small posekit dataset (made once per session by the CLI),
 every bound function, and its error path."""
 import json
+import pickle
 import os
 import shutil
 import subprocess
@@ -94,6 +95,11 @@ def test_train_save_load(tmp_path, dataset, model):
     loaded = posekit.PoseModel.load(str(tmp_path / "m.pkm"))
     assert loaded.training_poses == model.training_poses
     assert np.array_equal(loaded.template[1], model.template[1])
+    copy = pickle.loads(pickle.dumps(model))  # the .pkm bytes, checksum and all
+    assert copy.training_poses == model.training_poses and np.array_equal(copy.template[0], model.template[0])
+    broken = posekit.PoseModel.__new__(posekit.PoseModel)
+    with pytest.raises(posekit.IoError, match="a pickled PoseModel"):
+        broken.__setstate__(b"not a model")
     with pytest.raises(posekit.Error):
         posekit.train(str(tmp_path / "no_dataset"), calibration_bodies=0)
     (tmp_path / "junk.pkm").write_bytes(b"not a model")
@@ -196,6 +202,10 @@ def test_pose_a_subject(dataset, f01, model):
     assert z_up.frame["unit"] == "mm" and z_up.frame["up"] == "+Z"
     assert np.abs(z_up.pose(pose_file) - 1000.0 * posed @ to_file.T).max() < 1e-6
     assert np.abs(z_up.joints - 1000.0 * subject.joints @ to_file.T).max() < 1e-6
+    # Picklable, to go to worker processes: the model as its file's bytes, the subject set up again.
+    again = pickle.loads(pickle.dumps(z_up))
+    assert np.abs(again.pose(pose_file) - z_up.pose(pose_file)).max() < 1e-12
+    assert again.frame == z_up.frame
     with pytest.raises(posekit.IoError, match="nowhere.json"):
         subject.pose(dataset / "nowhere.json")
     with pytest.raises(posekit.InvalidInput, match="left_elbw"):

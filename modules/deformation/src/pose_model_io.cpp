@@ -112,6 +112,12 @@ SegmentationPrior read_segmentation_prior(Reader& in, const std::string& path) {
 }  // namespace
 
 void write_pose_model(const std::string& path, const PoseModel& model) {
+  std::string bytes = pose_model_bytes(model);
+  bytes.resize(bytes.size() - 4);  // write_file_with_crc32 appends the same trailer
+  write_file_with_crc32(path, bytes);
+}
+
+std::string pose_model_bytes(const PoseModel& model) {
   std::ostringstream os(std::ios::binary);
   {
     os.write(kMagic, sizeof(kMagic));
@@ -148,11 +154,15 @@ void write_pose_model(const std::string& path, const PoseModel& model) {
     put(os, static_cast<std::uint32_t>(model.joint_offsets.rows()));
     put_matrix(os, model.joint_offsets);
   }
-  write_file_with_crc32(path, os.str());
+  std::string bytes = os.str();
+  const std::uint32_t crc = crc32(bytes.data(), bytes.size());
+  bytes.append(reinterpret_cast<const char*>(&crc), sizeof crc);
+  return bytes;
 }
 
-PoseModel read_pose_model(const std::string& path) {
-  std::string bytes = read_file_bytes(path);
+PoseModel read_pose_model(const std::string& path) { return pose_model_from_bytes(read_file_bytes(path), path); }
+
+PoseModel pose_model_from_bytes(std::string bytes, const std::string& path) {
   std::uint32_t version = 0;
   if (bytes.size() >= sizeof(kMagic) + 4) std::memcpy(&version, bytes.data() + sizeof(kMagic), 4);
   if (bytes.size() < sizeof(kMagic) + 4 || std::memcmp(bytes.data(), kMagic, sizeof(kMagic)) != 0)

@@ -83,5 +83,8 @@ Eigen::MatrixXd deformation_gradients(const Eigen::MatrixXd& V0, const Eigen::Ma
 /// labels and finiteness and throws IoError naming the file.
 void write_pose_model(const std::string& path, const PoseModel& model);
 PoseModel read_pose_model(const std::string& path);
+/// The .pkm file's bytes (checksum trailer included), and back; `context` names the source in errors.
+std::string pose_model_bytes(const PoseModel& model);
+PoseModel pose_model_from_bytes(std::string bytes, const std::string& context);
 
 }  // namespace posekit
