@@ -5,8 +5,10 @@
 #include <pybind11/numpy.h>
 #include <pybind11/pybind11.h>
 #include <pybind11/stl.h>
+#include <pybind11/stl/filesystem.h>
 
 #include <algorithm>
+#include <filesystem>
 #include <memory>
 #include <thread>
 
@@ -206,20 +208,69 @@ PYBIND11_MODULE(posekit, m) {
     return names;
   }();
 
-  m.def("read_mesh", [](const std::string& path) {
-        const TriangleMesh mesh = read_mesh(path);
-        return py::make_tuple(rows(mesh.V), Faces(mesh.F));
-      }, py::arg("path"), "Reads a PLY, OBJ, OFF or STL mesh: (V #V x 3, F #F x 3), in the file's unit.");
-  m.def("write_mesh", [](const std::string& path, const Eigen::Ref<const Vertices>& V, const Eigen::Ref<const Faces>& F) {
-        write_mesh(path, mesh_of(V, F));
-      }, py::arg("path"), py::arg("V"), py::arg("F"), "Writes a mesh (format from the extension), atomically.");
-  m.def("read_point_cloud", [](const std::string& path) { return rows(read_point_cloud(path).P); }, py::arg("path"),
-        "Reads a point cloud (PLY, PCD, XYZ): #P x 3, in the file's unit.");
-  m.def("write_point_cloud", [](const std::string& path, const Eigen::Ref<const Vertices>& P) {
+  // Paths are str or pathlib.Path. With fields=True the readers also give what else the file holds.
+  m.def("read_mesh", [](const std::filesystem::path& path, bool fields) -> py::object {
+        const TriangleMesh mesh = read_mesh(path.string());
+        if (!fields) return py::make_tuple(rows(mesh.V), Faces(mesh.F));
+        py::dict extra;
+        extra["normals"] = rows(mesh.has_normals() ? mesh.N : Eigen::MatrixXd(0, 3));
+        extra["colors"] = Eigen::Matrix<std::uint8_t, Eigen::Dynamic, 3, Eigen::RowMajor>(mesh.has_colors() ? mesh.C : RowMatrixX3u8(0, 3));
+        extra["uv"] = Eigen::MatrixXd(mesh.has_uv() ? mesh.UV : Eigen::MatrixXd(0, 2));
+        extra["vertex_scalars"] = mesh.vertex_scalars;
+        extra["face_scalars"] = mesh.face_scalars;
+        return py::make_tuple(rows(mesh.V), Faces(mesh.F), extra);
+      }, py::arg("path"), py::arg("fields") = false,
+      "Reads a PLY, OBJ, OFF or STL mesh: (V #V x 3, F #F x 3), in the file's unit; with fields=True (V, F, "
+      "{'normals', 'colors' (uint8 RGB), 'uv', 'vertex_scalars': {name: #V}, 'face_scalars': {name: #F}}), empty "
+      "where the file has none.");
+  m.def("write_mesh", [](const std::filesystem::path& path, const Eigen::Ref<const Vertices>& V, const Eigen::Ref<const Faces>& F,
+                         const py::object& normals, const py::object& colors, const std::map<std::string, Eigen::VectorXd>& scalars) {
+        TriangleMesh mesh = mesh_of(V, F);
+        if (!normals.is_none()) mesh.N = normals.cast<Eigen::MatrixXd>();
+        if (!colors.is_none()) mesh.C = colors.cast<Eigen::Matrix<std::uint8_t, Eigen::Dynamic, 3, Eigen::RowMajor>>();
+        if (mesh.N.size() && (mesh.N.rows() != mesh.V.rows() || mesh.N.cols() != 3))
+          throw InvalidInput("write_mesh: normals are #V x 3 (" + std::to_string(mesh.V.rows()) + " x 3)");
+        if (mesh.C.size() && mesh.C.rows() != mesh.V.rows())
+          throw InvalidInput("write_mesh: colors are #V x 3 uint8 (" + std::to_string(mesh.V.rows()) + " x 3)");
+        for (const auto& [name, values] : scalars) {
+          if (values.size() != mesh.V.rows())
+            throw InvalidInput("write_mesh: scalar field '" + name + "' has " + std::to_string(values.size()) + " values for " +
+                               std::to_string(mesh.V.rows()) + " vertices");
+          mesh.vertex_scalars[name] = values;
+        }
+        write_mesh(path.string(), mesh);
+      }, py::arg("path"), py::arg("V"), py::arg("F"), py::arg("normals") = py::none(), py::arg("colors") = py::none(),
+      py::arg("scalars") = std::map<std::string, Eigen::VectorXd>{},
+      "Writes a mesh (format from the extension), atomically, with per-vertex normals, uint8 RGB colors and named "
+      "scalar fields where the format holds them (PLY all of them).");
+  m.def("read_point_cloud", [](const std::filesystem::path& path, bool fields) -> py::object {
+        const PointCloud cloud = read_point_cloud(path.string());
+        if (!fields) return py::cast(rows(cloud.P));
+        py::dict extra;
+        extra["normals"] = rows(cloud.has_normals() ? cloud.N : Eigen::MatrixXd(0, 3));
+        extra["colors"] = Eigen::Matrix<std::uint8_t, Eigen::Dynamic, 3, Eigen::RowMajor>(cloud.has_colors() ? cloud.C : RowMatrixX3u8(0, 3));
+        extra["scalars"] = cloud.point_scalars;
+        return py::make_tuple(rows(cloud.P), extra);
+      }, py::arg("path"), py::arg("fields") = false,
+      "Reads a point cloud (PLY, PCD, XYZ): #P x 3, in the file's unit; with fields=True (P, {'normals', 'colors', "
+      "'scalars': {name: #P}}).");
+  m.def("write_point_cloud", [](const std::filesystem::path& path, const Eigen::Ref<const Vertices>& P, const py::object& normals,
+                                const std::map<std::string, Eigen::VectorXd>& scalars) {
         PointCloud c;
         c.P = P;
-        write_point_cloud(path, c);
-      }, py::arg("path"), py::arg("P"), "Writes a point cloud (format from the extension), atomically.");
+        if (!normals.is_none()) c.N = normals.cast<Eigen::MatrixXd>();
+        if (c.N.size() && (c.N.rows() != c.P.rows() || c.N.cols() != 3))
+          throw InvalidInput("write_point_cloud: normals are #P x 3 (" + std::to_string(c.P.rows()) + " x 3)");
+        for (const auto& [name, values] : scalars) {
+          if (values.size() != c.P.rows())
+            throw InvalidInput("write_point_cloud: scalar field '" + name + "' has " + std::to_string(values.size()) +
+                               " values for " + std::to_string(c.P.rows()) + " points");
+          c.point_scalars[name] = values;
+        }
+        write_point_cloud(path.string(), c);
+      }, py::arg("path"), py::arg("P"), py::arg("normals") = py::none(), py::arg("scalars") = std::map<std::string, Eigen::VectorXd>{},
+      "Writes a point cloud (format from the extension), atomically, with normals and named scalar fields where the "
+      "format holds them.");
 
   m.def("measure", [](const Eigen::Ref<const Vertices>& V, const py::object& F, const std::string& unit, const std::string& up,
                       const std::string& forward) {
@@ -246,8 +297,8 @@ PYBIND11_MODULE(posekit, m) {
       "'warnings', 'frame': {'unit', 'unit_detected', 'up', 'forward', 'description'}}.");
 
   py::class_<PoseModel, std::shared_ptr<PoseModel>>(m, "PoseModel", "A trained pose model (Eq. 3-5; posekit train)")
-      .def_static("load", [](const std::string& path) { return std::make_shared<PoseModel>(read_pose_model(path)); }, py::arg("path"))
-      .def("save", [](const PoseModel& model, const std::string& path) { write_pose_model(path, model); }, py::arg("path"))
+      .def_static("load", [](const std::filesystem::path& path) { return std::make_shared<PoseModel>(read_pose_model(path.string())); }, py::arg("path"))
+      .def("save", [](const PoseModel& model, const std::filesystem::path& path) { write_pose_model(path.string(), model); }, py::arg("path"))
       .def(py::pickle([](const PoseModel& model) { return py::bytes(pose_model_bytes(model)); },
                       [](const py::bytes& state) {
                         return std::make_shared<PoseModel>(pose_model_from_bytes(std::string(state), "a pickled PoseModel"));

@@ -53,6 +53,23 @@ def test_meshes_and_clouds_round_trip(tmp_path, f01):
     with pytest.raises(posekit.InvalidInput, match="outside the"):
         posekit.write_mesh(str(tmp_path / "bad.ply"), V[:10], F)
     assert not (tmp_path / "bad.ply").exists()
+    # pathlib paths, and the fields a PLY holds besides the geometry, kept both ways.
+    rng = np.random.default_rng(1)
+    normals = rng.normal(size=V.shape)
+    colors = rng.integers(0, 256, size=V.shape).astype(np.uint8)
+    error = rng.random(V.shape[0])
+    posekit.write_mesh(tmp_path / "f.ply", V, F, normals=normals, colors=colors, scalars={"error_mm": error})
+    V3, F3, extra = posekit.read_mesh(tmp_path / "f.ply", fields=True)
+    assert np.array_equal(F3, F) and np.abs(V3 - V).max() < 1e-6
+    assert np.abs(extra["normals"] - normals).max() < 1e-5 and np.array_equal(extra["colors"], colors)
+    assert np.abs(extra["vertex_scalars"]["error_mm"] - error).max() < 1e-5
+    assert extra["uv"].shape == (0, 2) and extra["face_scalars"] == {}
+    posekit.write_point_cloud(tmp_path / "q.ply", V, normals=normals, scalars={"intensity": error})
+    P, cloud_extra = posekit.read_point_cloud(tmp_path / "q.ply", fields=True)
+    assert np.abs(P - V).max() < 1e-6 and np.abs(cloud_extra["scalars"]["intensity"] - error).max() < 1e-5
+    assert np.abs(cloud_extra["normals"] - normals).max() < 1e-5
+    with pytest.raises(posekit.InvalidInput, match="'error_mm' has 3 values"):
+        posekit.write_mesh(tmp_path / "g.ply", V, F, scalars={"error_mm": np.zeros(3)})
 
 
 def test_measure_a_mesh_and_its_scan(dataset, f01):
