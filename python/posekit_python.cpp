@@ -410,25 +410,34 @@ PYBIND11_MODULE(posekit, m) {
           return d;
         };
         py::dict out;
-        out["scan_to_model"] = Eigen::VectorXd(c.scan_to_model);
-        out["model_to_scan"] = Eigen::VectorXd(c.model_to_scan);
+        out["scan_to_model_mm"] = Eigen::VectorXd(1000 * c.scan_to_model);
+        out["model_to_scan_mm"] = Eigen::VectorXd(1000 * c.model_to_scan);
         out["scan_stats"] = stats(c.scan_stats);
         out["model_stats"] = stats(c.model_stats);
         out["hausdorff_mm"] = c.hausdorff_mm;
         out["coverage"] = c.coverage;
         return out;
       }, py::arg("V"), py::arg("F"), py::arg("scan"), py::arg("outlier_threshold") = 0.02,
-      "Distances between a body mesh and a scan (both m): signed scan-to-model and model-to-scan distances (m; "
-      "NaN where uncovered) and their statistics (mm), coverage, Hausdorff distance.");
+      "Distances between a body mesh and a scan (both m; outlier_threshold m): every distance out is in mm, its key "
+      "says so: signed 'scan_to_model_mm' per scan point and 'model_to_scan_mm' per vertex (NaN where uncovered), "
+      "their statistics, 'hausdorff_mm', and 'coverage' (a fraction).");
 
   py::class_<Subject>(m, "Subject", "A customized body prepared for posing with a model (segmentation, skeleton, "
                                     "correspondence, factorisation once; then each pose is one solve)")
       .def(py::init([](std::shared_ptr<PoseModel> model, const Eigen::Ref<const Vertices>& V, const Eigen::Ref<const Faces>& F,
                        const std::string& unit, const std::string& up, const std::string& forward) {
              TriangleMesh mesh = mesh_of(V, F);
-             py::gil_scoped_release release;
-             const BodyFrame frame = bring_to_posekit_frame(&mesh.V, &mesh.F, nullptr, unit, up, forward);
-             return std::make_unique<Subject>(std::move(model), mesh, frame);
+             std::unique_ptr<Subject> subject;
+             {
+               py::gil_scoped_release release;
+               const BodyFrame frame = bring_to_posekit_frame(&mesh.V, &mesh.F, nullptr, unit, up, forward);
+               subject = std::make_unique<Subject>(std::move(model), mesh, frame);
+             }
+             // What the CLI prints as warnings: the skeleton's problems and weak orientation cues.
+             const py::object warn = py::module_::import("warnings").attr("warn");
+             for (const auto& w : subject->frame().orientation.warnings) warn("posekit.Subject: " + w);
+             for (const auto& p : subject->info().skeleton_problems) warn("posekit.Subject: the skeleton: " + p);
+             return subject;
            }), py::arg("model"), py::arg("V"), py::arg("F"), py::arg("unit") = "auto", py::arg("up") = "auto",
            py::arg("forward") = "auto",
            "The body at rest in any unit and axes (read as measure() reads them); posed bodies and joints come back "

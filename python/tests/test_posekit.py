@@ -166,7 +166,10 @@ def test_compare_a_mesh_with_its_scan(dataset, f01):
     V, F = f01
     scan = posekit.read_point_cloud(str(dataset / "scans" / "f01" / "rest.pcd")) / 1000.0
     c = posekit.compare(V, F, scan)
-    assert c["scan_to_model"].shape == (scan.shape[0],)
+    assert c["scan_to_model_mm"].shape == (scan.shape[0],) and c["model_to_scan_mm"].shape == (V.shape[0],)
+    # one unit out: the per-point distances and their statistics agree
+    covered = c["scan_to_model_mm"][~np.isnan(c["scan_to_model_mm"])]
+    assert np.abs(covered).max() == pytest.approx(c["scan_stats"]["max_mm"], rel=1e-6, abs=0.05)
     assert c["scan_stats"]["mean_mm"] < 3 and c["coverage"] > 0.9
     with pytest.raises(posekit.InvalidInput):
         posekit.compare(V, F, scan * 1000.0)  # a scan in mm against a mesh in m
