@@ -445,7 +445,7 @@ namespace {
 /// Per vertex, its distance from `truth` after each part of X is aligned rigidly onto it.
 Eigen::VectorXd part_aligned_errors(const Eigen::MatrixXd& X, const Eigen::MatrixXd& truth,
                                     const std::array<std::vector<int>, kNumParts>& part_vertices) {
-  Eigen::VectorXd e(X.rows());
+  Eigen::VectorXd e = (X - truth).rowwise().norm();  // a part of under 3 vertices keeps its raw error
   for (const auto& idx : part_vertices) {
     if (idx.size() < 3) continue;
     Eigen::Matrix3Xd A(3, static_cast<Eigen::Index>(idx.size())), B(3, static_cast<Eigen::Index>(idx.size()));
