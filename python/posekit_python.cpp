@@ -297,16 +297,20 @@ PYBIND11_MODULE(posekit, m) {
       "'warnings', 'frame': {'unit', 'unit_detected', 'up', 'forward', 'description'}}.");
 
   py::class_<PoseModel, std::shared_ptr<PoseModel>>(m, "PoseModel", "A trained pose model (Eq. 3-5; posekit train)")
-      .def_static("load", [](const std::filesystem::path& path) { return std::make_shared<PoseModel>(read_pose_model(path.string())); }, py::arg("path"))
-      .def("save", [](const PoseModel& model, const std::filesystem::path& path) { write_pose_model(path.string(), model); }, py::arg("path"))
+      .def_static("load", [](const std::filesystem::path& path) { return std::make_shared<PoseModel>(read_pose_model(path.string())); },
+                  py::arg("path"), "Reads a .pkm model file (posekit train), checksum checked.")
+      .def("save", [](const PoseModel& model, const std::filesystem::path& path) { write_pose_model(path.string(), model); },
+           py::arg("path"), "Writes the model as a .pkm file, atomically.")
       .def(py::pickle([](const PoseModel& model) { return py::bytes(pose_model_bytes(model)); },
                       [](const py::bytes& state) {
                         return std::make_shared<PoseModel>(pose_model_from_bytes(std::string(state), "a pickled PoseModel"));
                       }))
-      .def_readonly("training_poses", &PoseModel::training_poses)
-      .def_readonly("fit_rms", &PoseModel::fit_rms)
-      .def_property_readonly("template", [](const PoseModel& model) { return py::make_tuple(rows(model.template_V), Faces(model.template_F)); })
-      .def_property_readonly("calibration_bodies", [](const PoseModel& model) { return model.segmentation_prior.bodies.size(); });
+      .def_readonly("training_poses", &PoseModel::training_poses, "How many posed examples Eq. 5 was fitted to.")
+      .def_readonly("fit_rms", &PoseModel::fit_rms, "RMS residual of Eq. 5 over the training examples' T^Q entries.")
+      .def_property_readonly("template", [](const PoseModel& model) { return py::make_tuple(rows(model.template_V), Faces(model.template_F)); },
+                             "The training template at rest: (V #V x 3 in metres, F #F x 3).")
+      .def_property_readonly("calibration_bodies", [](const PoseModel& model) { return model.segmentation_prior.bodies.size(); },
+                             "Bodies in the segmentation prior (0: the template alone).");
 
   m.def("train", [](const std::string& dataset, int calibration_bodies, const std::string& data_root) {
         py::gil_scoped_release release;
@@ -478,9 +482,12 @@ PYBIND11_MODULE(posekit, m) {
              return out;
            }, py::arg("poses"), py::arg("method") = "learned", py::arg("threads") = 0,
            "Poses a k x 15 x 3 array of poses on `threads` threads (0: all cores): k x #V x 3.")
-      .def_property_readonly("triangle_part", [](const Subject& s) { return Eigen::VectorXi(s.info().triangle_part); })
-      .def_property_readonly("joints", [](const Subject& s) { return in_callers_frame(s.frame(), s.info().joint_centres); })
-      .def_property_readonly("frame", [](const Subject& s) { return frame_dict(s.frame()); })
+      .def_property_readonly("triangle_part", [](const Subject& s) { return Eigen::VectorXi(s.info().triangle_part); },
+                             "The part of each triangle (#F, indices into part_names).")
+      .def_property_readonly("joints", [](const Subject& s) { return in_callers_frame(s.frame(), s.info().joint_centres); },
+                             "The 15 joint centres at rest (15 x 3, joint_names order), in the body's own unit and axes.")
+      .def_property_readonly("frame", [](const Subject& s) { return frame_dict(s.frame()); },
+                             "How the body was read: {'unit', 'unit_detected', 'up', 'forward', 'description'}.")
       // Pickled as the model and the body in posekit's frame with how it got there; set-up runs again
       // where it is unpickled (a worker process), giving the same subject.
       .def(py::pickle(
@@ -507,6 +514,7 @@ PYBIND11_MODULE(posekit, m) {
             py::gil_scoped_release release;
             return std::make_unique<Subject>(std::move(model), mesh, f);
           }))
-      .def_property_readonly("faces", [](const Subject& s) { return Faces(s.faces()); })
-      .def_property_readonly("skeleton_problems", [](const Subject& s) { return s.info().skeleton_problems; });
+      .def_property_readonly("faces", [](const Subject& s) { return Faces(s.faces()); }, "The body's triangles (#F x 3).")
+      .def_property_readonly("skeleton_problems", [](const Subject& s) { return s.info().skeleton_problems; },
+                             "What the skeleton checks found wrong (empty: nothing); also given as warnings.");
 }

@@ -18,4 +18,6 @@ POSEKIT_CLI=$PWD/build/release/bin/posekit "$work/pip/bin/python" -m pytest -q p
 import posekit
 assert posekit.__file__.startswith('$work/wheel'), posekit.__file__
 assert len(posekit.joint_names) == 15 and len(posekit.part_names) == 16
+import pathlib
+assert (pathlib.Path(posekit.__file__).parent / 'posekit.pyi').is_file(), 'no type stubs beside the module'
 print('wheel route:', posekit.__version__, posekit.__file__)")

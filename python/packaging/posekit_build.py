@@ -2,7 +2,7 @@
 
 `pip install --no-build-isolation .` and `python -m build --no-isolation` call these hooks. Nothing
 is fetched: the build needs the Debian packages scripts/install-deps.sh installs (pybind11, Eigen,
-PCL, VTK, OpenCV). The wheel holds the extension module only (the posekit libraries are linked in
+PCL, VTK, OpenCV). The wheel holds the extension module and its type stubs (the posekit libraries are linked in
 statically; PCL, VTK and OpenCV stay the system's), so it is for this platform and Python version.
 
 The module is built in build/release when that build was configured for this interpreter (as
@@ -153,7 +153,8 @@ def prepare_metadata_for_build_wheel(metadata_directory, config_settings=None):
 
 def build_wheel(wheel_directory, config_settings=None, metadata_directory=None):
     module = _build_module()
-    return _wheel(wheel_directory, {module.name: module.read_bytes()})
+    stubs = ROOT / "python" / "posekit.pyi"  # type stubs beside the module, for editors and checkers
+    return _wheel(wheel_directory, {module.name: module.read_bytes(), stubs.name: stubs.read_bytes()})
 
 
 def build_sdist(sdist_directory, config_settings=None):
