@@ -122,15 +122,20 @@ PreparedTraining prepare_training(const std::string& dir, const TrainingOptions&
   apply_split(dir, options, rest, &data);
 
   // Unit and axes, from the rest mesh; every example is read the same way.
-  Unit unit = auto_unit ? Unit::kMetre : parse_unit(options.unit);
+  std::string unit = options.unit;
   if (auto_unit) {
-    const double extent = robust_largest_extent(data.V[static_cast<size_t>(rest)]);
-    if (!guess_body_unit(extent, &unit))
-      throw InvalidInput(dir + ": cannot tell the unit of '" + data.rest_name + "' from its extent " + std::to_string(extent) +
-                         "; give the unit");
-    for (auto& V : data.V) V *= metres_per_unit(unit);
+    // The rule every body is read by (the CLI's, Python's), on the rest mesh; the others follow it.
+    BodyFrame frame;
+    try {
+      frame = scale_body_to_metres(&data.V[static_cast<size_t>(rest)], "auto");
+    } catch (const InvalidInput& e) {
+      throw InvalidInput(dir + ": the rest example '" + data.rest_name + "': " + e.what());
+    }
+    for (size_t i = 0; i < data.V.size(); ++i)
+      if (static_cast<int>(i) != rest) data.V[i] *= frame.metres_per_unit;
+    unit = frame.unit;
   }
-  rep.unit = unit_name(unit) + (auto_unit ? " (detected)" : "");
+  rep.unit = unit_name(parse_unit(unit)) + (auto_unit ? " (detected)" : "");
   OrientationOptions orient;
   if (options.up != "auto") orient.up = parse_axis(options.up);
   if (options.forward != "auto") orient.forward = parse_axis(options.forward);
