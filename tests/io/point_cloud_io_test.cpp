@@ -67,6 +67,22 @@ TEST(PointCloudIo, PclReadsOurPcdAndWeReadPclCompressedPcd) {
   EXPECT_LE((r.N - c.N).cwiseAbs().maxCoeff(), 1e-6);
 }
 
+TEST(PointCloudIo, ReadsPclCompressedPcdWithLongRepeats) {
+  // Runs of equal records compress into LZF back-references of every length, overlapping the output.
+  test::TempDir dir;
+  pcl::PointCloud<pcl::PointXYZ> pc;
+  for (int i = 0; i < 5000; ++i)
+    pc.push_back(pcl::PointXYZ(static_cast<float>(i / 1000), 0.5f, static_cast<float>(i % 7) * 0.25f));
+  pcl::io::savePCDFileBinaryCompressed(dir.file("repeats.pcd"), pc);
+  const PointCloud r = read_point_cloud(dir.file("repeats.pcd"), {Unit::kMetre});
+  ASSERT_EQ(r.size(), 5000);
+  for (int i = 0; i < 5000; ++i) {
+    ASSERT_EQ(r.P(i, 0), i / 1000) << "point " << i;
+    ASSERT_EQ(r.P(i, 1), 0.5) << "point " << i;
+    ASSERT_EQ(r.P(i, 2), (i % 7) * 0.25) << "point " << i;
+  }
+}
+
 TEST(PointCloudIo, OrganisedCloudDropsNanPoints) {
   test::TempDir dir;
   const std::string path = dir.write("org.pcd",

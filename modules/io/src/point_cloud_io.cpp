@@ -1,6 +1,5 @@
 #include "posekit/io/point_cloud_io.h"
 
-#include <pcl/io/lzf.h>
 
 #include <algorithm>
 #include <cctype>
@@ -18,6 +17,40 @@ namespace posekit {
 using namespace io_detail;
 
 namespace {
+
+/// LZF decompression (PCD's binary_compressed): a control byte below 32 starts a run of ctrl + 1
+/// literal bytes; otherwise its top 3 bits (7: plus the next byte) give length - 2 and its low 5 bits
+/// with the next byte the distance - 1 back into the output. Returns the bytes written, or 0 when
+/// the input is corrupt or does not fit into `out_size`.
+size_t lzf_decompress(const char* in, size_t in_size, char* out, size_t out_size) {
+  const auto* ip = reinterpret_cast<const unsigned char*>(in);
+  const unsigned char* const in_end = ip + in_size;
+  auto* op = reinterpret_cast<unsigned char*>(out);
+  const unsigned char* const out_begin = op;
+  const unsigned char* const out_end = op + out_size;
+  while (ip < in_end) {
+    const unsigned ctrl = *ip++;
+    if (ctrl < 32) {
+      const size_t run = ctrl + 1;
+      if (static_cast<size_t>(in_end - ip) < run || static_cast<size_t>(out_end - op) < run) return 0;
+      std::memcpy(op, ip, run);
+      ip += run, op += run;
+      continue;
+    }
+    size_t length = ctrl >> 5;
+    if (length == 7) {
+      if (ip >= in_end) return 0;
+      length += *ip++;
+    }
+    length += 2;
+    if (ip >= in_end) return 0;
+    const size_t distance = ((static_cast<size_t>(ctrl & 0x1f) << 8) | *ip++) + 1;
+    if (distance > static_cast<size_t>(op - out_begin) || static_cast<size_t>(out_end - op) < length) return 0;
+    const unsigned char* ref = op - distance;
+    for (size_t k = 0; k < length; ++k) *op++ = *ref++;  // the reference may overlap the output
+  }
+  return static_cast<size_t>(op - out_begin);
+}
 
 struct PcdField {
   std::string name;
@@ -205,7 +238,7 @@ PointCloud read_pcd(const std::string& path, double scale) {
                     " points of " + std::to_string(record) + " bytes (truncated or corrupt)");
     std::vector<char> raw(uncompressed);
     if (uncompressed > 0 &&
-        pcl::lzfDecompress(bytes.data() + data_start + 8, compressed, raw.data(), uncompressed) != uncompressed)
+        lzf_decompress(bytes.data() + data_start + 8, compressed, raw.data(), uncompressed) != uncompressed)
       throw IoError(path + ": binary_compressed data does not decompress (corrupt)");
     allocate();
     size_t off = 0;
