@@ -28,10 +28,36 @@ function(posekit_add_test module)
   set(target posekit_${module}_tests)
   add_executable(${target} ${ARG_SOURCES})
   target_link_libraries(${target} PRIVATE posekit_${module} posekit_testing ${ARG_LIBS} GTest::gtest_main)
+  add_dependencies(${target} posekit_plugins)
   set(shared "")
   if(ARG_SHARED_DATASET)
     set(shared ${POSEKIT_SHARED_DATASET_PROPERTIES})
   endif()
   gtest_discover_tests(${target} DISCOVERY_TIMEOUT 60
                        PROPERTIES ENVIRONMENT "POSEKIT_DATA=${POSEKIT_DEFAULT_DATA_ROOT}" ${shared})
+endfunction()
+
+# posekit_add_plugin(<name> SOURCES ... DEPS <posekit modules> LIBS <third-party targets>): the shared
+# object libposekit_<name>_plugin.so that posekit loads on first use (posekit/core/plugin.h), built
+# into <build>/lib/posekit and installed into <libdir>/posekit. It holds its own copy of the posekit
+# code it calls, all hidden: only its POSEKIT_PLUGIN_EXPORT entry points are visible.
+function(posekit_add_plugin name)
+  cmake_parse_arguments(ARG "" "" "SOURCES;DEPS;LIBS" ${ARGN})
+  set(target posekit_${name}_plugin)
+  add_library(${target} MODULE ${ARG_SOURCES} ${PROJECT_SOURCE_DIR}/modules/core/src/plugin_stamp.cpp)
+  set(deps "")
+  foreach(dep IN LISTS ARG_DEPS)
+    list(APPEND deps posekit_${dep})
+  endforeach()
+  target_link_libraries(${target} PRIVATE ${deps} ${ARG_LIBS})
+  target_compile_definitions(${target} PRIVATE POSEKIT_PLUGIN_STAMP="${POSEKIT_PLUGIN_STAMP}")
+  set_target_properties(${target} PROPERTIES OUTPUT_NAME posekit_${name}_plugin
+                        LIBRARY_OUTPUT_DIRECTORY ${POSEKIT_BUILD_PLUGIN_DIR}
+                        CXX_VISIBILITY_PRESET hidden VISIBILITY_INLINES_HIDDEN ON UNITY_BUILD OFF)
+  target_link_options(${target} PRIVATE -Wl,--exclude-libs,ALL -Wl,-Bsymbolic)
+  if(NOT POSEKIT_SANITIZE)
+    target_link_options(${target} PRIVATE -Wl,--no-undefined)
+  endif()
+  add_dependencies(posekit_plugins ${target})
+  install(TARGETS ${target} LIBRARY DESTINATION ${POSEKIT_INSTALL_PLUGIN_DIR})
 endfunction()

@@ -1,3 +1,5 @@
+// The VTK half of remeshing (the "remesh" plugin, see posekit/core/plugin.h): closest points by a
+// cell locator, Loop subdivision and quadric decimation.
 #include "posekit/datasets/remesh.h"
 
 #include <vtkCellArray.h>
@@ -17,6 +19,7 @@
 #include "posekit/core/mesh_geometry.h"
 #include "posekit/core/mesh_topology.h"
 #include "posekit/core/mesh_validation.h"
+#include "posekit/core/plugin.h"
 
 namespace posekit {
 namespace {
@@ -60,7 +63,7 @@ TriangleMesh from_vtk(vtkPolyData* poly) {
 
 }  // namespace
 
-SurfacePoints closest_surface_points(const TriangleMesh& mesh, const Eigen::MatrixXd& P) {
+SurfacePoints closest_surface_points_vtk(const TriangleMesh& mesh, const Eigen::MatrixXd& P) {
   require_usable_mesh(mesh, "closest_surface_points");
   auto poly = to_vtk(mesh.V, mesh.F);
   vtkNew<vtkCellLocator> locator;  // built serially: ties resolve the same way in every run
@@ -87,23 +90,6 @@ SurfacePoints closest_surface_points(const TriangleMesh& mesh, const Eigen::Matr
   return s;
 }
 
-Eigen::MatrixXd evaluate_surface_points(const Eigen::MatrixXd& V, const Eigen::MatrixXi& F, const SurfacePoints& s) {
-  Eigen::MatrixXd out(s.face.size(), 3);
-  for (Eigen::Index i = 0; i < s.face.size(); ++i) {
-    const int f = s.face[i];
-    out.row(i) = s.bary(i, 0) * V.row(F(f, 0)) + s.bary(i, 1) * V.row(F(f, 1)) + s.bary(i, 2) * V.row(F(f, 2));
-  }
-  return out;
-}
-
-Eigen::MatrixXd evaluate_smooth_surface_points(const Eigen::MatrixXd& V, const Eigen::MatrixXi& F, const Eigen::MatrixXd& N,
-                                               const SurfacePoints& s) {
-  Eigen::MatrixXd out(s.face.size(), 3);
-  for (Eigen::Index i = 0; i < s.face.size(); ++i)
-    out.row(i) = phong_surface_point(V, N, F.row(s.face[i]).transpose(), s.bary.row(i).transpose()).transpose();
-  return out;
-}
-
 namespace {
 
 /// One decimation and snap; `report` tells whether the result is a closed, non-degenerate manifold.
@@ -117,7 +103,7 @@ TriangleMesh decimate_and_snap(const TriangleMesh& mesh, vtkPolyData* fine, int 
   TriangleMesh out = from_vtk(decimate->GetOutput());
   out = extract_faces(out, std::vector<bool>(out.num_faces(), true));  // drop unused points
   const Eigen::MatrixXd decimated = out.V;
-  SurfacePoints snap = closest_surface_points(mesh, out.V);
+  SurfacePoints snap = closest_surface_points_vtk(mesh, out.V);
   out.V = evaluate_smooth_surface_points(mesh.V, mesh.F, vertex_normals(mesh.V, mesh.F), snap);
   // Two vertices snapped onto one point (at a crease) flatten their triangles: those vertices keep
   // their decimated positions, a fraction of a millimetre off the surface.
@@ -148,7 +134,7 @@ TriangleMesh decimate_and_snap(const TriangleMesh& mesh, vtkPolyData* fine, int 
       }
       revert.insert(revert.end(), still_flat.begin(), still_flat.end());
     }
-    const SurfacePoints again = closest_surface_points(mesh, out.V);
+    const SurfacePoints again = closest_surface_points_vtk(mesh, out.V);
     for (int v : revert) {
       snap.face[v] = again.face[v];
       snap.bary.row(v) = again.bary.row(v);
@@ -162,7 +148,7 @@ TriangleMesh decimate_and_snap(const TriangleMesh& mesh, vtkPolyData* fine, int 
 
 }  // namespace
 
-TriangleMesh remesh_body(const TriangleMesh& mesh, int target_vertices, SurfacePoints* correspondence) {
+TriangleMesh remesh_body_vtk(const TriangleMesh& mesh, int target_vertices, SurfacePoints* correspondence) {
   require_usable_mesh(mesh, "remesh_body");
   if (target_vertices < 100) throw InvalidInput("remesh_body: target_vertices must be at least 100");
   // Loop subdivision moves every vertex, so decimation cannot fall back onto the original vertices
@@ -184,3 +170,13 @@ TriangleMesh remesh_body(const TriangleMesh& mesh, int target_vertices, SurfaceP
 }
 
 }  // namespace posekit
+
+POSEKIT_PLUGIN_EXPORT void posekit_closest_surface_points(const posekit::TriangleMesh& mesh, const Eigen::MatrixXd& P,
+                                                          posekit::SurfacePoints* out) {
+  *out = posekit::closest_surface_points_vtk(mesh, P);
+}
+
+POSEKIT_PLUGIN_EXPORT void posekit_remesh_body(const posekit::TriangleMesh& mesh, int target_vertices,
+                                               posekit::SurfacePoints* correspondence, posekit::TriangleMesh* out) {
+  *out = posekit::remesh_body_vtk(mesh, target_vertices, correspondence);
+}

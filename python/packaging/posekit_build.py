@@ -78,7 +78,8 @@ def _build_module():
                         f"-DPython3_EXECUTABLE={_interpreter()}"], check=True, env=env, stdout=subprocess.DEVNULL)
     jobs = str(os.cpu_count() or 2)
     print(f"posekit: building the Python module in {build_dir}", file=sys.stderr)
-    subprocess.run(["cmake", "--build", str(build_dir), "--parallel", jobs, "--target", "posekit_python"], check=True, env=env)
+    subprocess.run(["cmake", "--build", str(build_dir), "--parallel", jobs, "--target", "posekit_python", "posekit_plugins"],
+                   check=True, env=env)
     suffix = sysconfig.get_config_var("EXT_SUFFIX")
     module = build_dir / "python" / f"{NAME}{suffix}"
     if not module.is_file():
@@ -154,7 +155,14 @@ def prepare_metadata_for_build_wheel(metadata_directory, config_settings=None):
 def build_wheel(wheel_directory, config_settings=None, metadata_directory=None):
     module = _build_module()
     stubs = ROOT / "python" / "posekit.pyi"  # type stubs beside the module, for editors and checkers
-    return _wheel(wheel_directory, {module.name: module.read_bytes(), stubs.name: stubs.read_bytes()})
+    files = {module.name: module.read_bytes(), stubs.name: stubs.read_bytes()}
+    # The plugins (the code that uses VTK, PCL and OpenCV), where the module looks first: posekit_plugins/.
+    plugins = sorted((module.parent.parent / "lib" / "posekit").glob("libposekit_*_plugin.so"))
+    if not plugins:
+        raise RuntimeError(f"{module.parent.parent / 'lib' / 'posekit'}: no plugins built")
+    for plugin in plugins:
+        files[f"posekit_plugins/{plugin.name}"] = plugin.read_bytes()
+    return _wheel(wheel_directory, files)
 
 
 def build_sdist(sdist_directory, config_settings=None):

@@ -2,6 +2,8 @@
 
 #include <gtest/gtest.h>
 
+#include <Eigen/Geometry>
+
 #include "posekit/body/parts.h"
 #include "posekit/body/skinning.h"
 #include "posekit/core/error.h"

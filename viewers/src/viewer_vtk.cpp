@@ -1,3 +1,5 @@
+// The VTK half of the viewers (the "render" plugin, see posekit/core/plugin.h): off-screen figures and
+// interactive windows.
 #include "posekit/viewers/viewer.h"
 
 #include <fcntl.h>
@@ -46,6 +48,7 @@
 #include <string>
 
 #include "posekit/core/error.h"
+#include "posekit/core/plugin.h"
 #include "posekit/io/atomic_file.h"
 
 #ifdef __SANITIZE_ADDRESS__
@@ -65,39 +68,6 @@ struct RenderingLeakScope {
 };
 
 }  // namespace
-
-CameraPreset parse_camera_preset(const std::string& name) {
-  if (name == "front") return CameraPreset::kFront;
-  if (name == "side") return CameraPreset::kSide;
-  if (name == "back") return CameraPreset::kBack;
-  throw InvalidInput("unknown camera '" + name + "': expected front, side or back");
-}
-
-std::pair<double, double> colour_range(const ColourMap& map, const std::vector<const Eigen::VectorXd*>& values) {
-  if (map.kind == ColourMapKind::kCategorical) {
-    if (map.categories.empty()) throw InvalidInput("colour map: categorical colours need the categories' names");
-    return {0.0, static_cast<double>(map.categories.size() - 1)};
-  }
-  if (!map.automatic) {
-    if (!(map.max > map.min)) throw InvalidInput("colour range: the maximum must exceed the minimum");
-    return {map.min, map.max};
-  }
-  std::vector<double> finite;
-  for (const auto* v : values)
-    for (Eigen::Index i = 0; i < v->size(); ++i)
-      if (std::isfinite((*v)[i])) finite.push_back((*v)[i]);
-  if (finite.empty()) return {0.0, 1.0};
-  // Robust: the 1st and 99th percentiles, so that a few outliers do not wash the map out.
-  std::sort(finite.begin(), finite.end());
-  const double lo = finite[static_cast<size_t>(0.01 * static_cast<double>(finite.size() - 1))];
-  const double hi = finite[static_cast<size_t>(0.99 * static_cast<double>(finite.size() - 1))];
-  if (map.kind == ColourMapKind::kDiverging) {
-    const double m = std::max({std::abs(lo), std::abs(hi), 1e-9});
-    return {-m, m};
-  }
-  const double low = std::min(lo, 0.0);
-  return {low, std::max(hi, low + 1e-9)};
-}
 
 namespace {
 
@@ -472,7 +442,7 @@ vtkStandardNewMacro(PickingStyle);
 
 }  // namespace
 
-void render_panels_png(const std::vector<ViewPanel>& panels, const ViewOptions& options, const std::string& png_path) {
+void render_panels_png_vtk(const std::vector<ViewPanel>& panels, const ViewOptions& options, const std::string& png_path) {
   [[maybe_unused]] const RenderingLeakScope leak_scope;
   Display::require(true);
   Scene scene = build_scene(panels, options);
@@ -494,7 +464,7 @@ void render_panels_png(const std::vector<ViewPanel>& panels, const ViewOptions& 
   write_file_atomically(png_path, [&](std::ostream& out) { out.write(data, static_cast<std::streamsize>(size)); });
 }
 
-ViewerState show_panels(const std::vector<ViewPanel>& panels, const ViewOptions& options, const std::vector<ViewerEvent>* script) {
+ViewerState show_panels_vtk(const std::vector<ViewPanel>& panels, const ViewOptions& options, const std::vector<ViewerEvent>* script) {
   [[maybe_unused]] const RenderingLeakScope leak_scope;
   Display::require(script != nullptr);
   Scene scene = build_scene(panels, options);
@@ -536,3 +506,13 @@ ViewerState show_panels(const std::vector<ViewPanel>& panels, const ViewOptions&
 }
 
 }  // namespace posekit
+
+POSEKIT_PLUGIN_EXPORT void posekit_render_panels_png(const std::vector<posekit::ViewPanel>& panels,
+                                                     const posekit::ViewOptions& options, const std::string& png_path) {
+  posekit::render_panels_png_vtk(panels, options, png_path);
+}
+
+POSEKIT_PLUGIN_EXPORT void posekit_show_panels(const std::vector<posekit::ViewPanel>& panels, const posekit::ViewOptions& options,
+                                               const std::vector<posekit::ViewerEvent>* script, posekit::ViewerState* state) {
+  *state = posekit::show_panels_vtk(panels, options, script);
+}

@@ -7,17 +7,16 @@
 #include <fstream>
 #include <map>
 #include <nlohmann/json.hpp>
-#include <opencv2/core.hpp>
-#include <opencv2/imgproc.hpp>
-#include <opencv2/ml.hpp>
 #include <random>
 #include <sstream>
 
 #include "posekit/body/makehuman_model.h"
 #include "posekit/core/parallel.h"
+#include "posekit/core/plugin.h"
 #include "posekit/core/error.h"
 #include "posekit/core/timer.h"
 #include "posekit/customization/photo_customization.h"
+#include "opencv_calls.h"
 #include "posekit/datasets/subjects.h"
 #include "posekit/io/atomic_file.h"
 #include "posekit/io/image_io.h"
@@ -30,7 +29,7 @@ struct CustomizationModel::Runtime {
   BodyFeatures template_features;
   LayeredRepresentation template_rep;
   CtffdParametrization param;
-  std::vector<cv::Ptr<cv::ml::ANN_MLP>> mlps;
+  std::vector<opencv_calls::Mlp> mlps;
 };
 
 namespace {
@@ -167,33 +166,11 @@ double point_error_mm(const Eigen::VectorXd& a, const Eigen::VectorXd& b, double
   return 1000 * sum / n;
 }
 
-std::string mlp_to_string(const cv::Ptr<cv::ml::ANN_MLP>& mlp) {
-  cv::FileStorage fs(".yml", cv::FileStorage::WRITE | cv::FileStorage::MEMORY);
-  fs << "opencv_ml_ann_mlp" << "{";
-  mlp->write(fs);
-  fs << "}";
-  return fs.releaseAndGetString();
-}
-
-cv::Ptr<cv::ml::ANN_MLP> mlp_from_string(const std::string& s) {
-  return cv::Algorithm::loadFromString<cv::ml::ANN_MLP>(s);
-}
-
-cv::Mat to_mat(const Eigen::MatrixXd& M) {
-  cv::Mat m(static_cast<int>(M.rows()), static_cast<int>(M.cols()), CV_32F);
-  for (int r = 0; r < m.rows; ++r)
-    for (int c = 0; c < m.cols; ++c) m.at<float>(r, c) = static_cast<float>(M(r, c));
-  return m;
-}
-
 Eigen::VectorXd predict_layer(const CustomizationModel& model, size_t i, const Eigen::VectorXd& x) {
   const CustomizationModel::Layer& L = model.layers[i];
   const Eigen::VectorXd z = (x - L.in_mean).cwiseQuotient(L.in_scale);
   if (L.use_mlp && model.runtime && i < model.runtime->mlps.size() && model.runtime->mlps[i]) {
-    cv::Mat out;
-    model.runtime->mlps[i]->predict(to_mat(z.transpose()), out);
-    Eigen::VectorXd y(out.cols);
-    for (int c = 0; c < out.cols; ++c) y[c] = out.at<float>(0, c);
+    const Eigen::VectorXd y = opencv_calls::predict_mlp(model.runtime->mlps[i], z);
     return L.out_mean + y.cwiseProduct(L.out_scale);
   }
   const Eigen::VectorXd y = L.linear.transpose() * with_bias(z);
@@ -268,8 +245,8 @@ void prepare_customization_model(CustomizationModel* model) {
   rt->mlps.resize(model->layers.size());
   for (size_t i = 0; i < model->layers.size(); ++i)
     if (model->layers[i].use_mlp) {
-      rt->mlps[i] = mlp_from_string(model->layers[i].mlp);
-      if (!rt->mlps[i] || !rt->mlps[i]->isTrained()) throw InvalidInput("customization model: layer " + std::to_string(i) + "'s MLP does not load");
+      rt->mlps[i] = opencv_calls::load_mlp(model->layers[i].mlp);
+      if (!rt->mlps[i]) throw InvalidInput("customization model: layer " + std::to_string(i) + "'s MLP does not load");
     }
   model->runtime = rt;
 }
@@ -496,29 +473,19 @@ CustomizationModel train_customization_model(const CustomizationTrainingOptions&
     L.linear_error_mm = linear_sum / Xv.rows();
     L.mlp_error_mm = -1;
     if (o.mlp) {
-      auto mlp = cv::ml::ANN_MLP::create();
-      cv::Mat sizes = (cv::Mat_<int>(3, 1) << kLayerInputs, o.mlp_hidden, n_out);
-      mlp->setLayerSizes(sizes);
-      mlp->setActivationFunction(cv::ml::ANN_MLP::SIGMOID_SYM, 1, 1);
-      mlp->setTrainMethod(cv::ml::ANN_MLP::RPROP);
-      mlp->setTermCriteria(cv::TermCriteria(cv::TermCriteria::MAX_ITER + cv::TermCriteria::EPS, o.mlp_iterations, 1e-7));
-      cv::setRNGSeed(static_cast<int>(o.seed) + i);
-      mlp->train(cv::ml::TrainData::create(to_mat(Z), cv::ml::ROW_SAMPLE, to_mat(T)));
+      const opencv_calls::Mlp mlp = opencv_calls::train_mlp(Z, T, o.mlp_hidden, o.mlp_iterations, static_cast<int>(o.seed) + i);
       double mlp_sum = 0;
       for (Eigen::Index r = 0; r < Xv.rows(); ++r) {
         const size_t id = static_cast<size_t>(valid[static_cast<size_t>(r)]);
         const Eigen::VectorXd z = (Xv.row(r).transpose() - L.in_mean).cwiseQuotient(L.in_scale);
-        cv::Mat out;
-        mlp->predict(to_mat(z.transpose()), out);
-        Eigen::VectorXd y(out.cols);
-        for (int c = 0; c < out.cols; ++c) y[c] = L.out_mean[c] + out.at<float>(0, c) * L.out_scale[c];
+        const Eigen::VectorXd y = L.out_mean + opencv_calls::predict_mlp(mlp, z).cwiseProduct(L.out_scale);
         mlp_sum += point_error_mm(y, Yv.row(r).transpose(), samples[id].w[static_cast<size_t>(i)], samples[id].d[static_cast<size_t>(i)],
                                   model.points_per_layer);
       }
       L.mlp_error_mm = mlp_sum / Xv.rows();
       if (L.mlp_error_mm < L.linear_error_mm) {
         L.use_mlp = true;
-        L.mlp = mlp_to_string(mlp);
+        L.mlp = opencv_calls::mlp_text(mlp);
       }
     }
   });
@@ -544,33 +511,8 @@ CustomizationModel train_customization_model(const CustomizationTrainingOptions&
 }
 
 void write_photo_features_png(const std::string& path, const Silhouette& sil, const PinholeCamera& cam, const CustomizedBody& body) {
-  cv::Mat gray(sil.height, sil.width, CV_8U, const_cast<std::uint8_t*>(sil.mask.data()));
-  cv::Mat img;
-  cv::cvtColor(gray / 2 + 64, img, cv::COLOR_GRAY2BGR);
-  const PhotoLandmarks& L = body.landmarks;
-  const double s = body.scale;
-  auto unscaled = [&](const Eigen::Vector3d& p) {  // the result back in the photos' world
-    const Eigen::Vector3d o(body.features.axis_x, L.floor_y, L.axis_z);
-    return Eigen::Vector3d(o + (p - o) / s);
-  };
-  const std::pair<double, cv::Scalar> levels[] = {
-      {L.floor_y, {0, 0, 255}},   {L.crotch_y, {0, 128, 255}}, {L.hip_y, {0, 200, 0}},     {L.waist_y, {255, 128, 0}},
-      {L.bust_y, {255, 0, 255}},  {L.armpit_y[0], {0, 255, 255}}, {L.armpit_y[1], {0, 255, 255}}, {L.neck_y, {255, 255, 0}},
-      {L.crown_y, {0, 0, 255}}};
-  for (const auto& [y, colour] : levels) {
-    const Eigen::Vector2d a = project(cam, Eigen::Vector3d(L.axis_x, y, L.axis_z));
-    cv::line(img, cv::Point(0, static_cast<int>(a.y())), cv::Point(img.cols - 1, static_cast<int>(a.y())), colour, 1);
-  }
-  const cv::Scalar chain_colours[] = {{60, 60, 255}, {255, 200, 0}, {0, 200, 0}, {0, 140, 0}, {255, 0, 200}, {180, 0, 140}};
-  const int n = body.representation.points_per_layer;
-  for (size_t i = 0; i < body.representation.layers.size(); ++i)
-    for (int k = 0; k < n; ++k) {
-      const Eigen::Vector2d p = project(cam, unscaled(body.representation.mesh.V.row(static_cast<Eigen::Index>(i) * n + k).transpose()));
-      cv::circle(img, cv::Point(static_cast<int>(p.x()), static_cast<int>(p.y())), 1,
-                 chain_colours[std::clamp(body.representation.layers[i].chain, 0, 5)], cv::FILLED);
-    }
-  CV_Assert(img.type() == CV_8UC3 && img.isContinuous());
-  write_png(path, Image8{img.cols, img.rows, 3, std::vector<std::uint8_t>(img.data, img.data + img.total() * 3)});
+  using Write = void(const std::string&, const Silhouette&, const PinholeCamera&, const CustomizedBody&);
+  plugin_function<Write>("photo", "posekit_write_photo_features_png")(path, sil, cam, body);
 }
 
 void save_customization_model(const std::string& path, const CustomizationModel& m) {

@@ -5,8 +5,6 @@
 #include <filesystem>
 #include <fstream>
 #include <nlohmann/json.hpp>
-#include <opencv2/core.hpp>
-#include <opencv2/imgproc.hpp>
 
 #include "posekit/core/closest_point.h"
 #include "posekit/core/error.h"
@@ -14,6 +12,7 @@
 #include "posekit/datasets/dataset.h"
 #include "posekit/io/image_io.h"
 #include "posekit/shape/measurements.h"
+#include "opencv_calls.h"
 
 namespace posekit {
 namespace fs = std::filesystem;
@@ -38,26 +37,11 @@ nlohmann::json read_json(const fs::path& p) {
   }
 }
 
-Silhouette morph(Silhouette s, bool erode, int px) {
-  cv::Mat m(s.height, s.width, CV_8U, s.mask.data());
-  const cv::Mat k = cv::getStructuringElement(cv::MORPH_ELLIPSE, {2 * px + 1, 2 * px + 1});
-  cv::Mat out;
-  if (erode) cv::erode(m, out, k);
-  else cv::dilate(m, out, k);
-  s.mask.assign(out.data, out.data + out.total());
-  return s;
-}
+Silhouette morph(const Silhouette& s, bool erode, int px) { return opencv_calls::morph_silhouette(s, erode, px); }
 
 Silhouette degraded_photo(const std::string& path, const std::string& what, unsigned seed) {
   Image8 photo = read_image(path, ImageColor::kBgr);
-  cv::Mat img(photo.height, photo.width, CV_8UC3, photo.pixels.data());
-  cv::Mat noise(img.size(), CV_32FC3);
-  cv::RNG rng(seed);
-  rng.fill(noise, cv::RNG::NORMAL, 0, 4);
-  cv::Mat f;
-  img.convertTo(f, CV_32FC3);
-  f += noise;
-  f.convertTo(img, CV_8UC3);
+  opencv_calls::add_gaussian_noise(&photo, seed, 4.0);
   const std::vector<std::uint8_t> jpg = encode_jpeg(photo, 60);
   Image8 back = decode_image(std::string(jpg.begin(), jpg.end()), ImageColor::kBgr, what);
   return silhouette_from_pixels(back.width, back.height, 3, back.pixels.data(), what);

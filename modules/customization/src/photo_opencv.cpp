@@ -1,0 +1,315 @@
+// The OpenCV half of photo customization (the "photo" plugin, see posekit/core/plugin.h): silhouettes
+// from photos, the layer MLPs of section 3.2, the photo evaluation's degradations and the features
+// figure. posekit loads OpenCV only through these entry points.
+#include <Eigen/Geometry>
+#include <algorithm>
+#include <cmath>
+#include <opencv2/core.hpp>
+#include <opencv2/imgproc.hpp>
+#include <opencv2/ml.hpp>
+
+#include "posekit/core/error.h"
+#include "posekit/core/plugin.h"
+#include "posekit/customization/photo_customization.h"
+#include "posekit/customization/silhouette.h"
+#include "posekit/io/image_io.h"
+#include "opencv_calls.h"
+
+namespace posekit {
+namespace {
+
+constexpr int kBorder = 12;  // pixels of the frame that model the background
+
+Silhouette from_mat(const cv::Mat& m) {
+  Silhouette s;
+  s.width = m.cols;
+  s.height = m.rows;
+  s.mask.assign(m.data, m.data + static_cast<size_t>(m.total()));
+  return s;
+}
+
+/// The largest 8-connected component with its small holes filled (under 0.5% of its area: noise,
+/// or a patch of skin as bright as the background); a larger enclosed patch of background (the gap
+/// between a forearm and the waist) stays. `second` receives the area of the next largest component.
+cv::Mat largest_component_filled(const cv::Mat& binary, int* second) {
+  cv::Mat labels, stats, centroids;
+  const int n = cv::connectedComponentsWithStats(binary, labels, stats, centroids, 8, CV_32S);
+  int best = -1, best_area = 0, next_area = 0;
+  for (int i = 1; i < n; ++i) {
+    const int a = stats.at<int>(i, cv::CC_STAT_AREA);
+    if (a > best_area) next_area = best_area, best_area = a, best = i;
+    else next_area = std::max(next_area, a);
+  }
+  if (second) *second = next_area;
+  cv::Mat out = cv::Mat::zeros(binary.size(), CV_8U);
+  if (best < 0) return out;
+  out.setTo(255, labels == best);
+  // Holes: 4-connected background components that do not touch the frame.
+  cv::Mat background = out == 0, hole_labels, hole_stats, hole_centroids;
+  const int holes = cv::connectedComponentsWithStats(background, hole_labels, hole_stats, hole_centroids, 4, CV_32S);
+  for (int i = 1; i < holes; ++i) {
+    const int x = hole_stats.at<int>(i, cv::CC_STAT_LEFT), y = hole_stats.at<int>(i, cv::CC_STAT_TOP);
+    const int w = hole_stats.at<int>(i, cv::CC_STAT_WIDTH), h = hole_stats.at<int>(i, cv::CC_STAT_HEIGHT);
+    const bool touches_frame = x == 0 || y == 0 || x + w == out.cols || y + h == out.rows;
+    if (!touches_frame && hole_stats.at<int>(i, cv::CC_STAT_AREA) < 0.005 * best_area) out.setTo(255, hole_labels == i);
+  }
+  return out;
+}
+
+void check_mask(const cv::Mat& m, int second_area, const std::string& what, double min_area_fraction) {
+  const double total = static_cast<double>(m.total());
+  const int area = cv::countNonZero(m);
+  if (area < min_area_fraction * total)
+    throw InvalidInput(what + ": no person found (the figure covers " + std::to_string(area) + " of " +
+                       std::to_string(static_cast<long>(total)) + " pixels)");
+  if (area > 0.6 * total)
+    throw InvalidInput(what + ": the silhouette covers " + std::to_string(static_cast<int>(100.0 * area / total)) +
+                       "% of the frame: no plain background around a standing person");
+  if (second_area > 0.3 * area)
+    throw InvalidInput(what + ": two figures (" + std::to_string(area) + " and " + std::to_string(second_area) +
+                       " pixels): one person per photo, against a plain background");
+  const cv::Rect box = cv::boundingRect(m);
+  if (box.y == 0 || box.y + box.height >= m.rows)
+    throw InvalidInput(what + ": the person touches the " + std::string(box.y == 0 ? "top" : "bottom") +
+                       " of the frame: the whole body, head to feet, must be in the photo");
+}
+
+cv::Mat to_mat(const Eigen::MatrixXd& M) {
+  cv::Mat m(static_cast<int>(M.rows()), static_cast<int>(M.cols()), CV_32F);
+  for (int r = 0; r < m.rows; ++r)
+    for (int c = 0; c < m.cols; ++c) m.at<float>(r, c) = static_cast<float>(M(r, c));
+  return m;
+}
+
+cv::ml::ANN_MLP& as_mlp(const opencv_calls::Mlp& mlp) {
+  if (!mlp) throw InvalidInput("customization model: a layer's MLP is missing");
+  return *static_cast<cv::ml::ANN_MLP*>(mlp.get());
+}
+
+/// Holds the cv::Ptr so that the opaque handle keeps the MLP alive.
+opencv_calls::Mlp opaque(cv::Ptr<cv::ml::ANN_MLP> mlp) {
+  cv::ml::ANN_MLP* raw = mlp.get();
+  return opencv_calls::Mlp(raw, [keep = std::move(mlp)](void*) mutable { keep.reset(); });
+}
+
+void check_silhouette_cv(const Silhouette& s, const std::string& what, double min_area_fraction) {
+  if (s.width <= 0 || s.height <= 0 || s.mask.size() != static_cast<size_t>(s.width) * s.height)
+    throw InvalidInput(what + ": empty image");
+  cv::Mat m(s.height, s.width, CV_8U, const_cast<std::uint8_t*>(s.mask.data()));
+  int second = 0;
+  cv::Mat filled = largest_component_filled(m > 127, &second);
+  check_mask(filled, second, what, min_area_fraction);
+}
+
+Silhouette silhouette_from_pixels_cv(int width, int height, int channels, const std::uint8_t* pixels, const std::string& what,
+                                  const SilhouetteOptions& o) {
+  if (width < 4 * kBorder || height < 4 * kBorder) throw InvalidInput(what + ": image too small (" + std::to_string(width) + "x" + std::to_string(height) + ")");
+  if (channels != 1 && channels != 3) throw InvalidInput(what + ": need a gray or colour image");
+  cv::Mat img(height, width, channels == 1 ? CV_8UC1 : CV_8UC3, const_cast<std::uint8_t*>(pixels));
+  cv::Mat bgr;
+  if (channels == 1) cv::cvtColor(img, bgr, cv::COLOR_GRAY2BGR);
+  else bgr = img.clone();
+  // Background model on a median-filtered copy (5x5: sensor noise falls about four-fold, outlines
+  // and gaps of 3 px and more stay where they are): median and robust spread (1.4826 MAD) of each
+  // channel over the frame.
+  cv::Mat smooth_bgr;
+  cv::medianBlur(bgr, smooth_bgr, 5);
+  std::vector<std::vector<int>> border(3);
+  for (int v = 0; v < height; ++v)
+    for (int u = 0; u < width; ++u) {
+      if (v >= kBorder && v < height - kBorder && u >= kBorder && u < width - kBorder) continue;
+      const cv::Vec3b p = smooth_bgr.at<cv::Vec3b>(v, u);
+      for (int c = 0; c < 3; ++c) border[c].push_back(p[c]);
+    }
+  double median[3], sigma[3];
+  for (int c = 0; c < 3; ++c) {
+    auto& b = border[c];
+    std::nth_element(b.begin(), b.begin() + b.size() / 2, b.end());
+    median[c] = b[b.size() / 2];
+    for (int& x : b) x = std::abs(x - static_cast<int>(median[c]));
+    std::nth_element(b.begin(), b.begin() + b.size() / 2, b.end());
+    sigma[c] = std::max(1.0, 1.4826 * b[b.size() / 2]);
+  }
+  // The person: pixels over 4 spreads (and 4 grey levels) from the background on the filtered copy
+  // give the interior (eroded 1 px); the outline comes from the sharp image (3x3 median of the
+  // distance, over 4 spreads of its own and 6 grey levels).
+  std::vector<std::vector<int>> sharp_border(3);
+  for (int v = 0; v < height; ++v)
+    for (int u = 0; u < width; ++u) {
+      if (v >= kBorder && v < height - kBorder && u >= kBorder && u < width - kBorder) continue;
+      const cv::Vec3b p = bgr.at<cv::Vec3b>(v, u);
+      for (int c = 0; c < 3; ++c) sharp_border[c].push_back(std::abs(p[c] - static_cast<int>(median[c])));
+    }
+  double sharp_sigma[3];
+  for (int c = 0; c < 3; ++c) {
+    auto& b = sharp_border[c];
+    std::nth_element(b.begin(), b.begin() + b.size() / 2, b.end());
+    sharp_sigma[c] = std::max(1.5, 1.4826 * b[b.size() / 2]);
+  }
+  cv::Mat coarse(height, width, CV_8U), sharp_dist(height, width, CV_32F);
+  for (int v = 0; v < height; ++v)
+    for (int u = 0; u < width; ++u) {
+      const cv::Vec3b p = smooth_bgr.at<cv::Vec3b>(v, u), q = bgr.at<cv::Vec3b>(v, u);
+      bool differs = false;
+      float d = 0;
+      for (int c = 0; c < 3; ++c) {
+        differs |= std::abs(p[c] - median[c]) > std::max(4.0 * sigma[c], 4.0);
+        d = std::max(d, static_cast<float>(std::abs(q[c] - median[c]) / std::max(sharp_sigma[c], 1.5)));
+      }
+      coarse.at<std::uint8_t>(v, u) = differs ? 255 : 0;
+      sharp_dist.at<float>(v, u) = d;
+    }
+  cv::Mat sharp_median;
+  cv::medianBlur(sharp_dist, sharp_median, 3);
+  const double sharp_level = std::max(4.0, 6.0 / *std::max_element(sharp_sigma, sharp_sigma + 3));
+  cv::Mat sharp = sharp_median > sharp_level, interior;
+  cv::erode(coarse, interior, cv::getStructuringElement(cv::MORPH_ELLIPSE, {3, 3}));
+  cv::Mat fg = sharp | interior;
+  cv::morphologyEx(fg, fg, cv::MORPH_OPEN, cv::getStructuringElement(cv::MORPH_ELLIPSE, {3, 3}));
+  int second = 0;
+  cv::Mat person = largest_component_filled(fg, &second);
+  if (cv::countNonZero(person) >= o.min_area_fraction * width * height && o.graph_cut) {
+    // GrabCut on the person's box: certain 4 px inside what the sharp image shows (the filtered one
+    // may bridge a narrow gap: between the thighs, under the arms), certain background 12 px out.
+    cv::Rect box = cv::boundingRect(person);
+    box.x = std::max(0, box.x - 16), box.y = std::max(0, box.y - 16);
+    box.width = std::min(width - box.x, box.width + 32), box.height = std::min(height - box.y, box.height + 32);
+    cv::Mat inner, outer;
+    cv::erode(largest_component_filled(sharp, nullptr)(box), inner, cv::getStructuringElement(cv::MORPH_ELLIPSE, {9, 9}));
+    cv::dilate(person(box), outer, cv::getStructuringElement(cv::MORPH_ELLIPSE, {25, 25}));
+    cv::Mat gc(box.size(), CV_8U, cv::Scalar(cv::GC_BGD));
+    gc.setTo(cv::GC_PR_BGD, outer);
+    gc.setTo(cv::GC_PR_FGD, person(box));
+    gc.setTo(cv::GC_FGD, inner);
+    cv::Mat bgd, fgd;
+    cv::Mat roi = bgr(box).clone();
+    cv::grabCut(roi, gc, cv::Rect(), bgd, fgd, 1, cv::GC_INIT_WITH_MASK);
+    cv::Mat refined = cv::Mat::zeros(height, width, CV_8U);
+    refined(box).setTo(255, (gc == cv::GC_FGD) | (gc == cv::GC_PR_FGD));
+    person = largest_component_filled(refined, &second);
+    // A second figure is judged on the background model, where GrabCut's box does not reach.
+    int second_raw = 0;
+    largest_component_filled(fg, &second_raw);
+    second = std::max(second, second_raw);
+  }
+  check_mask(person, second, what, o.min_area_fraction);
+  return from_mat(person);
+}
+
+Silhouette read_silhouette_mask_cv(const std::string& path, const std::string& what) {
+  Image8 gray = read_image(path, ImageColor::kGray);
+  const cv::Mat img(gray.height, gray.width, CV_8UC1, gray.pixels.data());
+  int second = 0;
+  cv::Mat m = largest_component_filled(img > 127, &second);
+  check_mask(m, second, what + " '" + path + "'", 0.005);
+  return from_mat(m);
+}
+
+
+void write_photo_features_png_cv(const std::string& path, const Silhouette& sil, const PinholeCamera& cam, const CustomizedBody& body) {
+  cv::Mat gray(sil.height, sil.width, CV_8U, const_cast<std::uint8_t*>(sil.mask.data()));
+  cv::Mat img;
+  cv::cvtColor(gray / 2 + 64, img, cv::COLOR_GRAY2BGR);
+  const PhotoLandmarks& L = body.landmarks;
+  const double s = body.scale;
+  auto unscaled = [&](const Eigen::Vector3d& p) {  // the result back in the photos' world
+    const Eigen::Vector3d o(body.features.axis_x, L.floor_y, L.axis_z);
+    return Eigen::Vector3d(o + (p - o) / s);
+  };
+  const std::pair<double, cv::Scalar> levels[] = {
+      {L.floor_y, {0, 0, 255}},   {L.crotch_y, {0, 128, 255}}, {L.hip_y, {0, 200, 0}},     {L.waist_y, {255, 128, 0}},
+      {L.bust_y, {255, 0, 255}},  {L.armpit_y[0], {0, 255, 255}}, {L.armpit_y[1], {0, 255, 255}}, {L.neck_y, {255, 255, 0}},
+      {L.crown_y, {0, 0, 255}}};
+  for (const auto& [y, colour] : levels) {
+    const Eigen::Vector2d a = project(cam, Eigen::Vector3d(L.axis_x, y, L.axis_z));
+    cv::line(img, cv::Point(0, static_cast<int>(a.y())), cv::Point(img.cols - 1, static_cast<int>(a.y())), colour, 1);
+  }
+  const cv::Scalar chain_colours[] = {{60, 60, 255}, {255, 200, 0}, {0, 200, 0}, {0, 140, 0}, {255, 0, 200}, {180, 0, 140}};
+  const int n = body.representation.points_per_layer;
+  for (size_t i = 0; i < body.representation.layers.size(); ++i)
+    for (int k = 0; k < n; ++k) {
+      const Eigen::Vector2d p = project(cam, unscaled(body.representation.mesh.V.row(static_cast<Eigen::Index>(i) * n + k).transpose()));
+      cv::circle(img, cv::Point(static_cast<int>(p.x()), static_cast<int>(p.y())), 1,
+                 chain_colours[std::clamp(body.representation.layers[i].chain, 0, 5)], cv::FILLED);
+    }
+  CV_Assert(img.type() == CV_8UC3 && img.isContinuous());
+  write_png(path, Image8{img.cols, img.rows, 3, std::vector<std::uint8_t>(img.data, img.data + img.total() * 3)});
+}
+
+}  // namespace
+}  // namespace posekit
+
+using posekit::opencv_calls::Mlp;
+
+POSEKIT_PLUGIN_EXPORT void posekit_check_silhouette(const posekit::Silhouette& s, const std::string& what, double min_area_fraction) {
+  posekit::check_silhouette_cv(s, what, min_area_fraction);
+}
+
+POSEKIT_PLUGIN_EXPORT void posekit_silhouette_from_pixels(int width, int height, int channels, const std::uint8_t* pixels,
+                                                          const std::string& what, const posekit::SilhouetteOptions& o,
+                                                          posekit::Silhouette* out) {
+  *out = posekit::silhouette_from_pixels_cv(width, height, channels, pixels, what, o);
+}
+
+POSEKIT_PLUGIN_EXPORT void posekit_read_silhouette_mask(const std::string& path, const std::string& what, posekit::Silhouette* out) {
+  *out = posekit::read_silhouette_mask_cv(path, what);
+}
+
+POSEKIT_PLUGIN_EXPORT void posekit_write_photo_features_png(const std::string& path, const posekit::Silhouette& sil,
+                                                            const posekit::PinholeCamera& cam, const posekit::CustomizedBody& body) {
+  posekit::write_photo_features_png_cv(path, sil, cam, body);
+}
+
+POSEKIT_PLUGIN_EXPORT void posekit_load_mlp(const std::string& text, Mlp* out) {
+  cv::Ptr<cv::ml::ANN_MLP> mlp = cv::Algorithm::loadFromString<cv::ml::ANN_MLP>(text);
+  *out = mlp && mlp->isTrained() ? posekit::opaque(std::move(mlp)) : Mlp();
+}
+
+POSEKIT_PLUGIN_EXPORT void posekit_predict_mlp(const Mlp& mlp, const Eigen::VectorXd& input, Eigen::VectorXd* out) {
+  cv::Mat y;
+  posekit::as_mlp(mlp).predict(posekit::to_mat(input.transpose()), y);
+  out->resize(y.cols);
+  for (int c = 0; c < y.cols; ++c) (*out)[c] = y.at<float>(0, c);
+}
+
+POSEKIT_PLUGIN_EXPORT void posekit_train_mlp(const Eigen::MatrixXd& inputs, const Eigen::MatrixXd& targets, int hidden,
+                                             int iterations, int seed, Mlp* out) {
+  auto mlp = cv::ml::ANN_MLP::create();
+  cv::Mat sizes = (cv::Mat_<int>(3, 1) << static_cast<int>(inputs.cols()), hidden, static_cast<int>(targets.cols()));
+  mlp->setLayerSizes(sizes);
+  mlp->setActivationFunction(cv::ml::ANN_MLP::SIGMOID_SYM, 1, 1);
+  mlp->setTrainMethod(cv::ml::ANN_MLP::RPROP);
+  mlp->setTermCriteria(cv::TermCriteria(cv::TermCriteria::MAX_ITER + cv::TermCriteria::EPS, iterations, 1e-7));
+  cv::setRNGSeed(seed);
+  mlp->train(cv::ml::TrainData::create(posekit::to_mat(inputs), cv::ml::ROW_SAMPLE, posekit::to_mat(targets)));
+  *out = posekit::opaque(std::move(mlp));
+}
+
+POSEKIT_PLUGIN_EXPORT void posekit_mlp_text(const Mlp& mlp, std::string* out) {
+  cv::FileStorage fs(".yml", cv::FileStorage::WRITE | cv::FileStorage::MEMORY);
+  fs << "opencv_ml_ann_mlp" << "{";
+  posekit::as_mlp(mlp).write(fs);
+  fs << "}";
+  *out = fs.releaseAndGetString();
+}
+
+POSEKIT_PLUGIN_EXPORT void posekit_morph_silhouette(const posekit::Silhouette& s, bool erode, int px, posekit::Silhouette* out) {
+  *out = s;
+  cv::Mat m(s.height, s.width, CV_8U, out->mask.data());
+  const cv::Mat k = cv::getStructuringElement(cv::MORPH_ELLIPSE, {2 * px + 1, 2 * px + 1});
+  cv::Mat result;
+  if (erode) cv::erode(m, result, k);
+  else cv::dilate(m, result, k);
+  out->mask.assign(result.data, result.data + result.total());
+}
+
+POSEKIT_PLUGIN_EXPORT void posekit_add_gaussian_noise(posekit::Image8* photo, unsigned seed, double sigma) {
+  cv::Mat img(photo->height, photo->width, CV_8UC(photo->channels), photo->pixels.data());
+  cv::Mat noise(img.size(), CV_32FC(photo->channels));
+  cv::RNG rng(seed);
+  rng.fill(noise, cv::RNG::NORMAL, 0, sigma);
+  cv::Mat f;
+  img.convertTo(f, CV_32FC(photo->channels));
+  f += noise;
+  f.convertTo(img, CV_8UC(photo->channels));
+}
