@@ -272,10 +272,14 @@ bool ply_header_has_no_faces(const std::string& path) {
 
 }  // namespace
 
+bool is_point_cloud_file(const std::string& path) {
+  const CloudFormat cf = cloud_format_from_path(path);
+  return cf == CloudFormat::kPcd || cf == CloudFormat::kXyz || (cf == CloudFormat::kPly && ply_header_has_no_faces(path));
+}
+
 BodyInput read_body_input(const std::string& path, Unit unit, std::vector<std::string>* warnings) {
   BodyInput in;
-  const CloudFormat cf = cloud_format_from_path(path);
-  in.is_cloud = cf == CloudFormat::kPcd || cf == CloudFormat::kXyz || (cf == CloudFormat::kPly && ply_header_has_no_faces(path));
+  in.is_cloud = is_point_cloud_file(path);
   if (!in.is_cloud) {
     const size_t before = warnings->size();
     try {
@@ -312,21 +316,24 @@ BodyInput read_body_input(const std::string& path, const std::string& unit_optio
   BodyUnit u;
   u.unit = automatic ? Unit::kMetre : parse_unit(unit_option);
   BodyInput in = read_body_input(path, u.unit);
-  Eigen::MatrixXd& points = in.is_cloud ? in.cloud.P : in.mesh.V;
-  if (automatic) {
-    BodyFrame frame;
-    try {
-      frame = scale_body_to_metres(&points, "auto");
-    } catch (const InvalidInput& e) {
-      throw InvalidInput(path + ": " + e.what() + " (e.g. --unit mm)");
-    }
-    u.unit = parse_unit(frame.unit);
-    u.extent = frame.extent;
-    u.detected = true;
-    std::cerr << "posekit " << command << ": " << path << ": unit " << u.describe() << "\n";
-  }
+  if (automatic) u = detect_body_unit(in.is_cloud ? &in.cloud.P : &in.mesh.V, path, command);
   if (chosen) *chosen = u;
   return in;
+}
+
+BodyUnit detect_body_unit(Eigen::MatrixXd* points, const std::string& path, const std::string& command) {
+  BodyFrame frame;
+  try {
+    frame = scale_body_to_metres(points, "auto");
+  } catch (const InvalidInput& e) {
+    throw InvalidInput(path + ": " + e.what() + " (e.g. --unit mm)");
+  }
+  BodyUnit u;
+  u.unit = parse_unit(frame.unit);
+  u.extent = frame.extent;
+  u.detected = true;
+  std::cerr << "posekit " << command << ": " << path << ": unit " << u.describe() << "\n";
+  return u;
 }
 
 void add_orientation_options(ArgParser* args, const std::string& prefix, const std::string& what) {

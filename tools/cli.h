@@ -103,6 +103,8 @@ struct BodyInput {
   PointCloud cloud;
 };
 BodyInput read_body_input(const std::string& path, Unit unit);
+/// Whether read_body_input reads `path` as a point cloud (PCD, XYZ, a PLY whose header has no faces).
+bool is_point_cloud_file(const std::string& path);
 /// The same, quiet: the readers' warnings go to `warnings` (for work on several threads).
 BodyInput read_body_input(const std::string& path, Unit unit, std::vector<std::string>* warnings);
 
@@ -120,6 +122,9 @@ struct BodyUnit {
 /// file and asking for the unit.
 BodyInput read_body_input(const std::string& path, const std::string& unit_option, const std::string& command,
                           BodyUnit* chosen);
+/// The unit of `points` read in metres, detected from their largest extent as read_body_input does
+/// (the same message on stderr); scales them to metres.
+BodyUnit detect_body_unit(Eigen::MatrixXd* points, const std::string& path, const std::string& command);
 
 /// Adds --<prefix>up and --<prefix>forward (an axis such as +X or -Z, or auto) for `what`.
 void add_orientation_options(ArgParser* args, const std::string& prefix = "", const std::string& what = "the body");

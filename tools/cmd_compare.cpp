@@ -13,6 +13,7 @@
 #include "posekit/evaluation/scan_comparison.h"
 #include "posekit/io/mesh_io.h"
 #include "posekit/io/point_cloud_io.h"
+#include "posekit/io/point_stream.h"
 #include "posekit/viewers/viewer.h"
 
 namespace posekit::cli {
@@ -76,23 +77,67 @@ int run_compare(int argc, char** argv) {
   const BodyOrientation model_orientation =
       orient_body_input(&model_input, args.get("model-up"), args.get("model-forward"), args.positionals()[0], "compare");
   const TriangleMesh model = std::move(model_input.mesh);
-  BodyInput scan_input = read_body_input(args.positionals()[1], args.get("scan-unit"), "compare", &scan_unit);
-  const BodyOrientation scan_orientation =
-      orient_body_input(&scan_input, args.get("scan-up"), args.get("scan-forward"), args.positionals()[1], "compare");
-  PointCloud scan = scan_input.cloud;
-  if (!scan_input.is_cloud) scan.P = scan_input.mesh.V;
-  if (scan.P.rows() == 0) throw InvalidInput(args.positionals()[1] + ": the scan has no points");
+  const std::string& scan_path = args.positionals()[1];
   ScanComparisonOptions o;
   o.outlier_threshold = args.get_double("threshold") / 1000;
   o.coverage_radius = args.get_double("coverage") / 1000;
   o.threads = static_cast<int>(args.get_int("threads"));
   if (!(o.outlier_threshold > 0)) throw UsageError("--threshold must be positive");
+  // A large binary scan is compared as it is read, never whole in memory (unless its points are written out).
+  constexpr Eigen::Index kStreamFrom = 3'000'000;
+  std::unique_ptr<PointStream> stream;
+  if (!args.has("scan-out") && !args.flag_set("measure") && is_point_cloud_file(scan_path)) {
+    const Unit read_unit = args.get("scan-unit") == "auto" ? Unit::kMetre : parse_unit(args.get("scan-unit"));
+    stream = PointStream::open(scan_path, metres_per_unit(read_unit), io_warnings());
+    flush_warnings();
+    if (stream && stream->size() < kStreamFrom) stream.reset();
+    if (stream) scan_unit.unit = read_unit;
+  }
+  PointCloud scan;
+  BodyOrientation scan_orientation;
   ScanComparison r;
+  Eigen::Index scan_points = 0;
   try {
-    r = compare_with_scan(model, scan, o);
+    if (stream) {
+      // Unit and orientation from the same evenly spread sample the whole-cloud detection takes.
+      constexpr Eigen::Index kSample = 200000;
+      const Eigen::Index n = stream->size(), stride = (n + kSample - 1) / kSample, m = (n + stride - 1) / stride;
+      BodyInput sample;
+      sample.is_cloud = true;
+      sample.cloud.P.resize(m, 3);
+      Eigen::MatrixXd one;
+      for (Eigen::Index i = 0; i < m; ++i) {
+        stream->read(i * stride, 1, &one);
+        sample.cloud.P.row(i) = one.row(0);
+      }
+      stream->release(n);  // the sample touched every page of the file
+      if (args.get("scan-unit") == "auto") scan_unit = detect_body_unit(&sample.cloud.P, scan_path, "compare");
+      scan_orientation = orient_body_input(&sample, args.get("scan-up"), args.get("scan-forward"), scan_path, "compare");
+      const double factor = scan_unit.detected ? metres_per_unit(scan_unit.unit) : 1.0;
+      const Eigen::Matrix3d Rt = scan_orientation.rotation.transpose();
+      ScanPieces pieces;
+      pieces.size = n;
+      pieces.read = [&](Eigen::Index first, Eigen::Index count, Eigen::MatrixXd* P) {
+        stream->read(first, count, P);
+        if (factor != 1) *P *= factor;
+        if (!scan_orientation.is_identity()) *P = (*P * Rt).eval();
+      };
+      pieces.release = [&](Eigen::Index end) { stream->release(end); };
+      scan_points = n;
+      r = compare_with_scan(model, pieces, o);
+    } else {
+      BodyInput scan_input = read_body_input(scan_path, args.get("scan-unit"), "compare", &scan_unit);
+      scan_orientation = orient_body_input(&scan_input, args.get("scan-up"), args.get("scan-forward"), scan_path, "compare");
+      scan = std::move(scan_input.cloud);
+      if (!scan_input.is_cloud) scan.P = std::move(scan_input.mesh.V);
+      if (scan.P.rows() == 0) throw InvalidInput(scan_path + ": the scan has no points");
+      scan_points = scan.P.rows();
+      r = compare_with_scan(model, scan, o);
+    }
   } catch (const InvalidInput& e) {
-    throw InvalidInput(args.positionals()[1] + " against " + args.positionals()[0] + ": " + e.what() +
-                       " (set --scan-unit / --model-unit)");
+    const std::string what = e.what();
+    if (what.rfind(scan_path, 0) == 0) throw;  // the scan file's own problem, already named
+    throw InvalidInput(scan_path + " against " + args.positionals()[0] + ": " + what + " (set --scan-unit / --model-unit)");
   }
   // The girths are an optional extra: when they cannot be taken, the distances still stand.
   std::vector<GirthDiscrepancy> girths;
@@ -147,7 +192,7 @@ int run_compare(int argc, char** argv) {
                  {"measured", d.measured}, {"iso20685_tolerance_mm", d.tolerance_mm},
                  {"within_tolerance", d.measured && std::abs(d.difference_cm) * 10 <= d.tolerance_mm}, {"note", d.note}});
   nlohmann::ordered_json out = {{"model", args.positionals()[0]}, {"scan", args.positionals()[1]}, {"units", "mm"},
-                                {"scan_points", scan.P.rows()}, {"model_vertices", model.V.rows()},
+                                {"scan_points", scan_points}, {"model_vertices", model.V.rows()},
                                 {"scan_to_model", stats_json(r.scan_stats)}, {"model_to_scan", stats_json(r.model_stats)},
                                 {"hausdorff_mm", r.hausdorff_mm}, {"coverage", r.coverage},
                                 {"uncovered_vertices", r.uncovered_vertices}, {"coverage_radius_mm", 1000 * r.coverage_radius},
@@ -163,7 +208,7 @@ int run_compare(int argc, char** argv) {
     return 0;
   }
   std::cout << std::fixed << std::setprecision(2) << "compared " << args.positionals()[0] << " (" << model.V.rows()
-            << " vertices) with " << args.positionals()[1] << " (" << scan.P.rows() << " points) in " << r.seconds
+            << " vertices) with " << args.positionals()[1] << " (" << scan_points << " points) in " << r.seconds
             << " s\n\n| direction | mean mm | RMS mm | 95th pct mm | max mm | signed mean mm | outliers (> "
             << 1000 * o.outlier_threshold << " mm) |\n|---|---|---|---|---|---|---|\n";
   for (auto [name, s] : {std::pair{"scan to model", &r.scan_stats}, std::pair{"model to scan", &r.model_stats}})

@@ -2,6 +2,7 @@
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <random>
 
 #include "posekit/body/makehuman_model.h"
@@ -193,6 +194,66 @@ TEST(ScanComparison, RejectsEmptyScansNaNMeshesAndUnitMixUps) {
   PointCloud ok;
   ok.P = body.V;
   EXPECT_THROW(compare_with_scan(nan, ok), InvalidInput);
+}
+
+TEST(ScanComparison, ReadInPiecesGivesTheWholeScansResultsToTheBit) {
+  // A scan with a hole, noise and outliers, shuffled so that a piece's points lie all over the body:
+  // read 700 points at a time, every distance, statistic and the coverage equal the whole scan's.
+  const TriangleMesh body = test::icosphere(4, 0.3);
+  Eigen::MatrixXd P, N;
+  sample_surface(body, 3, &P, &N);
+  std::mt19937 rng(11);
+  std::normal_distribution<double> noise(0, 0.002);
+  std::vector<Eigen::Index> order;
+  for (Eigen::Index i = 0; i < P.rows(); ++i)
+    if (P(i, 1) < 0.22) order.push_back(i);
+  std::shuffle(order.begin(), order.end(), rng);
+  PointCloud scan;
+  scan.P.resize(static_cast<Eigen::Index>(order.size()) + 2, 3);
+  for (size_t k = 0; k < order.size(); ++k)
+    scan.P.row(static_cast<Eigen::Index>(k)) = P.row(order[k]) + noise(rng) * N.row(order[k]);
+  scan.P.bottomRows(2) << 0, -0.5, 0, 0.4, 0, 0;
+  for (double radius : {0.0, 0.012}) {
+    ScanComparisonOptions o;
+    o.coverage_radius = radius;
+    const ScanComparison whole = compare_with_scan(body, scan, o);
+    ScanPieces pieces;
+    pieces.size = scan.P.rows();
+    pieces.piece = 700;
+    int passes = 0;
+    pieces.read = [&](Eigen::Index first, Eigen::Index count, Eigen::MatrixXd* points) {
+      *points = scan.P.middleRows(first, count);
+      passes += first == 0 && count == 700;
+    };
+    const ScanComparison r = compare_with_scan(body, pieces, o);
+    EXPECT_EQ(passes, 2) << "passes over the points";
+    EXPECT_EQ(r.coverage_radius, whole.coverage_radius);
+    EXPECT_GT(whole.uncovered_vertices, 50);
+    EXPECT_EQ(r.uncovered_vertices, whole.uncovered_vertices);
+    ASSERT_EQ(r.scan_to_model.size(), whole.scan_to_model.size());
+    EXPECT_TRUE((r.scan_to_model.array() == whole.scan_to_model.array()).all());
+    for (Eigen::Index v = 0; v < body.V.rows(); ++v)
+      ASSERT_TRUE(r.model_to_scan[v] == whole.model_to_scan[v] ||
+                  (std::isnan(r.model_to_scan[v]) && std::isnan(whole.model_to_scan[v]))) << v;
+    for (auto [a, b] : {std::pair{&r.scan_stats, &whole.scan_stats}, std::pair{&r.model_stats, &whole.model_stats}}) {
+      EXPECT_EQ(a->mean_mm, b->mean_mm);
+      EXPECT_EQ(a->rms_mm, b->rms_mm);
+      EXPECT_EQ(a->p95_mm, b->p95_mm);
+      EXPECT_EQ(a->max_mm, b->max_mm);
+      EXPECT_EQ(a->outliers, b->outliers);
+    }
+    EXPECT_EQ(r.hausdorff_mm, whole.hausdorff_mm);
+  }
+  // The same checks as the whole scan's: the unit mix-up is named.
+  ScanPieces mm;
+  mm.size = scan.P.rows();
+  mm.read = [&](Eigen::Index first, Eigen::Index count, Eigen::MatrixXd* points) { *points = 1000 * scan.P.middleRows(first, count); };
+  try {
+    compare_with_scan(body, mm);
+    FAIL();
+  } catch (const InvalidInput& e) {
+    EXPECT_NE(std::string(e.what()).find("did you mean mm"), std::string::npos) << e.what();
+  }
 }
 
 TEST(ScanComparison, GirthsOfABodyAgreeWithThoseOfItsSimulatedScan) {

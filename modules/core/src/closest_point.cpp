@@ -262,38 +262,45 @@ int TriangleTree::closest(const Eigen::Vector3d& p, Eigen::Vector3d* point, doub
 }
 
 ClosestPoints TriangleTree::closest(const Eigen::MatrixXd& P, int threads, const Eigen::VectorXi* start_faces) const {
-  const Impl& s = *impl_;
-  if (start_faces && start_faces->size() != P.rows())
-    throw InvalidInput("TriangleTree::closest: " + std::to_string(start_faces->size()) + " start faces for " +
-                       std::to_string(P.rows()) + " points");
   ClosestPoints out;
   out.face.resize(P.rows());
   out.point.resize(P.rows(), 3);
   out.bary.resize(P.rows(), 3);
   out.distance.resize(P.rows());
-  const std::vector<int> visit = morton_order(P);
+  for_each_closest(P, threads, [&](Eigen::Index i, const ClosestHit& h) {
+    out.face[i] = h.face;
+    out.point.row(i) = h.point.transpose();
+    out.distance[i] = h.distance;
+    out.bary.row(i) = h.bary.transpose();
+  }, start_faces);
+  return out;
+}
+
+void TriangleTree::for_each_closest(const Eigen::MatrixXd& P, int threads,
+                                    const std::function<void(Eigen::Index, const ClosestHit&)>& visit,
+                                    const Eigen::VectorXi* start_faces) const {
+  const Impl& s = *impl_;
+  if (start_faces && start_faces->size() != P.rows())
+    throw InvalidInput("TriangleTree::closest: " + std::to_string(start_faces->size()) + " start faces for " +
+                       std::to_string(P.rows()) + " points");
+  const std::vector<int> order = morton_order(P);
   parallel_for_ranges(P.rows(), threads, [&](long begin, long end) {
     // Queries go in blocks: the block's points are gathered into a contiguous copy and the results
-    // scattered back afterwards, so that the search loop itself never waits on a far-away row.
+    // handed out afterwards, so that the search loop itself never waits on a far-away row.
     constexpr long kBlock = 2048;
-    struct Result {
-      Eigen::Vector3d point, bary;
-      double distance;
-      int face;
-    };
     std::vector<Eigen::Vector3d> points(static_cast<size_t>(kBlock));
-    std::vector<Result> results(static_cast<size_t>(kBlock));
+    std::vector<ClosestHit> results(static_cast<size_t>(kBlock));
     int previous = -1;
     for (long block = begin; block < end; block += kBlock) {
       const long count = std::min(kBlock, end - block);
-      for (long k = 0; k < count; ++k) points[static_cast<size_t>(k)] = P.row(visit[static_cast<size_t>(block + k)]).transpose();
+      for (long k = 0; k < count; ++k) points[static_cast<size_t>(k)] = P.row(order[static_cast<size_t>(block + k)]).transpose();
       for (long k = 0; k < count; ++k) {
         const Eigen::Vector3d& p = points[static_cast<size_t>(k)];
         // The previous (nearby) query's triangle bounds the search from the start, or the given
         // face's when that is nearer.
         Impl::Hit best = s.hit_of(p, previous);
         if (start_faces) {
-          const int f = (*start_faces)[visit[static_cast<size_t>(block + k)]];
+          const int f = (*start_faces)[order[static_cast<size_t>(block + k)]];
           if (f >= 0 && f < static_cast<int>(s.slot_of.size()) && s.slot_of[static_cast<size_t>(f)] != previous) {
             const Impl::Hit hint = s.hit_of(p, s.slot_of[static_cast<size_t>(f)]);
             if (hint.sq_distance < best.sq_distance) best = hint;
@@ -301,20 +308,12 @@ ClosestPoints TriangleTree::closest(const Eigen::MatrixXd& P, int threads, const
         }
         s.search(p, best);
         previous = best.slot;
-        results[static_cast<size_t>(k)] = {best.point, best.bary, std::sqrt(best.sq_distance),
-                                           s.order[static_cast<size_t>(best.slot)]};
+        results[static_cast<size_t>(k)] = {s.order[static_cast<size_t>(best.slot)], best.point, best.bary,
+                                           std::sqrt(best.sq_distance)};
       }
-      for (long k = 0; k < count; ++k) {
-        const int i = visit[static_cast<size_t>(block + k)];
-        const Result& r = results[static_cast<size_t>(k)];
-        out.face[i] = r.face;
-        out.point.row(i) = r.point.transpose();
-        out.distance[i] = r.distance;
-        out.bary.row(i) = r.bary.transpose();
-      }
+      for (long k = 0; k < count; ++k) visit(order[static_cast<size_t>(block + k)], results[static_cast<size_t>(k)]);
     }
   });
-  return out;
 }
 
 }  // namespace posekit

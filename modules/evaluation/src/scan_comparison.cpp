@@ -51,10 +51,10 @@ DistanceStats stats_of(const Eigen::VectorXd& d, double outlier_threshold) {
 
 }  // namespace
 
-std::string unit_mismatch(const TriangleMesh& model, const PointCloud& scan) {
-  if (model.V.rows() == 0 || scan.P.rows() == 0) return "";
-  const BoundingBox mb = bounding_box(model.V), sb = bounding_box(scan.P);
-  const double m = (mb.max - mb.min).maxCoeff(), s = (sb.max - sb.min).maxCoeff();
+namespace {
+
+/// unit_mismatch on the two largest extents (m, as read).
+std::string unit_mismatch_of_extents(double m, double s) {
   if (!(m > 0) || !(s > 0)) return "";
   const double ratio = s / m;
   if (ratio > 0.2 && ratio < 5) return "";
@@ -68,6 +68,24 @@ std::string unit_mismatch(const TriangleMesh& model, const PointCloud& scan) {
   else if (ratio < 0.002 && ratio > 0.0005) msg << ": is the model in mm and the scan in m?";
   else msg << ": are they the same body and unit?";
   return msg.str();
+}
+
+/// Four times the median spacing of the scan (at least 10 mm): the automatic coverage radius.
+double coverage_radius_of(std::vector<double> spacing) {
+  double median = 0;
+  if (!spacing.empty()) {
+    std::nth_element(spacing.begin(), spacing.begin() + static_cast<long>(spacing.size() / 2), spacing.end());
+    median = spacing[spacing.size() / 2];
+  }
+  return std::max(0.010, 4 * median);
+}
+
+}  // namespace
+
+std::string unit_mismatch(const TriangleMesh& model, const PointCloud& scan) {
+  if (model.V.rows() == 0 || scan.P.rows() == 0) return "";
+  const BoundingBox mb = bounding_box(model.V), sb = bounding_box(scan.P);
+  return unit_mismatch_of_extents((mb.max - mb.min).maxCoeff(), (sb.max - sb.min).maxCoeff());
 }
 
 ScanComparison compare_with_scan(const TriangleMesh& model, const PointCloud& scan, const ScanComparisonOptions& o) {
@@ -84,18 +102,15 @@ ScanComparison compare_with_scan(const TriangleMesh& model, const PointCloud& sc
   const TriangleTree tree(model.V, model.F);
   r.build_seconds = since(t0);
   auto t = Clock::now();
-  const ClosestPoints cp = tree.closest(scan.P, o.threads);
   const Eigen::MatrixXd vn = vertex_normals(model.V, model.F);
-  r.scan_closest_face = cp.face;
+  r.scan_closest_face.resize(scan.P.rows());
   r.scan_to_model.resize(scan.P.rows());
-  parallel_for_ranges(scan.P.rows(), o.threads, [&](long begin, long end) {
-    for (long i = begin; i < end; ++i) {
-      const int f = cp.face[i];
-      const Eigen::RowVector3d n = cp.bary(i, 0) * vn.row(model.F(f, 0)) + cp.bary(i, 1) * vn.row(model.F(f, 1)) +
-                                   cp.bary(i, 2) * vn.row(model.F(f, 2));
-      const double side = (scan.P.row(i) - cp.point.row(i)).dot(n);
-      r.scan_to_model[i] = side < 0 ? -cp.distance[i] : cp.distance[i];
-    }
+  tree.for_each_closest(scan.P, o.threads, [&](Eigen::Index i, const ClosestHit& h) {
+    const Eigen::RowVector3d n = h.bary[0] * vn.row(model.F(h.face, 0)) + h.bary[1] * vn.row(model.F(h.face, 1)) +
+                                 h.bary[2] * vn.row(model.F(h.face, 2));
+    const double side = (scan.P.row(i) - h.point.transpose()).dot(n);
+    r.scan_to_model[i] = side < 0 ? -h.distance : h.distance;
+    r.scan_closest_face[i] = h.face;
   });
 
   // Model to scan: nearest scan point of every vertex. A grid over the scan is built in linear
@@ -115,12 +130,7 @@ ScanComparison compare_with_scan(const TriangleMesh& model, const PointCloud& sc
       if (grid.nearest(scan.P.row(i).transpose(), &sq, std::numeric_limits<double>::infinity(), static_cast<int>(i)) >= 0)
         spacing.push_back(std::sqrt(sq));
     }
-    double median = 0;
-    if (!spacing.empty()) {
-      std::nth_element(spacing.begin(), spacing.begin() + static_cast<long>(spacing.size() / 2), spacing.end());
-      median = spacing[spacing.size() / 2];
-    }
-    r.coverage_radius = std::max(0.010, 4 * median);
+    r.coverage_radius = coverage_radius_of(std::move(spacing));
   }
   r.model_to_scan.resize(model.V.rows());
   std::vector<char> uncovered(static_cast<size_t>(model.V.rows()), 0);
@@ -144,6 +154,127 @@ ScanComparison compare_with_scan(const TriangleMesh& model, const PointCloud& sc
   r.model_to_scan_seconds = since(t);
   t = Clock::now();
   r.coverage = 1.0 - static_cast<double>(r.uncovered_vertices) / static_cast<double>(model.V.rows());
+  r.scan_stats = stats_of(r.scan_to_model, o.outlier_threshold);
+  r.model_stats = stats_of(r.model_to_scan, o.outlier_threshold);
+  r.hausdorff_mm = std::max(r.scan_stats.max_mm, r.model_stats.max_mm);
+  r.stats_seconds = since(t);
+  r.seconds = since(t0);
+  return r;
+}
+
+ScanComparison compare_with_scan(const TriangleMesh& model, const ScanPieces& scan, const ScanComparisonOptions& o) {
+  require_usable_mesh(model, "model mesh");
+  const Eigen::Index n = scan.size;
+  if (n <= 0) throw InvalidInput("the scan has no points");
+  using Clock = std::chrono::steady_clock;
+  const auto t0 = Clock::now();
+  auto since = [](Clock::time_point t) { return std::chrono::duration<double>(Clock::now() - t).count(); };
+  const Eigen::Index piece = std::max<Eigen::Index>(1, scan.piece);
+  auto each_piece = [&](const std::function<void(Eigen::Index first, const Eigen::MatrixXd& P)>& work) {
+    Eigen::MatrixXd P;
+    for (Eigen::Index first = 0; first < n; first += piece) {
+      const Eigen::Index count = std::min(piece, n - first);
+      scan.read(first, count, &P);
+      work(first, P);
+      if (scan.release) scan.release(first + count);
+    }
+  };
+  ScanComparison r;
+
+  // Pass 1: finite points, the box (the unit check) and, for the automatic coverage radius, the
+  // nearest other point of the same 2000 samples as compare_with_scan's, over every piece.
+  const bool automatic_radius = o.coverage_radius <= 0;
+  const Eigen::Index step = std::max<Eigen::Index>(1, n / 2000);
+  std::vector<Eigen::Index> samples;
+  for (Eigen::Index i = 0; i < n && automatic_radius; i += step) samples.push_back(i);
+  Eigen::MatrixXd sample_points(static_cast<Eigen::Index>(samples.size()), 3), one;
+  for (size_t k = 0; k < samples.size(); ++k) {
+    scan.read(samples[k], 1, &one);
+    sample_points.row(static_cast<Eigen::Index>(k)) = one.row(0);
+  }
+  std::vector<double> sample_sq(samples.size(), std::numeric_limits<double>::infinity());
+  Eigen::RowVector3d lo = Eigen::RowVector3d::Constant(std::numeric_limits<double>::infinity()), hi = -lo;
+  each_piece([&](Eigen::Index first, const Eigen::MatrixXd& P) {
+    if (!P.allFinite()) throw InvalidInput("the scan has a non-finite point");
+    lo = lo.cwiseMin(P.colwise().minCoeff());
+    hi = hi.cwiseMax(P.colwise().maxCoeff());
+    if (!automatic_radius) return;
+    const PointGrid grid(P);
+    parallel_for_ranges(static_cast<long>(samples.size()), o.threads, [&](long begin, long end) {
+      for (long k = begin; k < end; ++k) {
+        const Eigen::Index own = samples[static_cast<size_t>(k)] - first;
+        const double bound = std::isfinite(sample_sq[static_cast<size_t>(k)])
+                                 ? std::nextafter(std::sqrt(sample_sq[static_cast<size_t>(k)]), INFINITY)
+                                 : std::numeric_limits<double>::infinity();
+        double sq;
+        if (grid.nearest(sample_points.row(k).transpose(), &sq, bound, own >= 0 && own < P.rows() ? static_cast<int>(own) : -1) >= 0 &&
+            sq < sample_sq[static_cast<size_t>(k)])
+          sample_sq[static_cast<size_t>(k)] = sq;
+      }
+    }, 64);
+  });
+  const BoundingBox mb = bounding_box(model.V);
+  if (const std::string m = unit_mismatch_of_extents((mb.max - mb.min).maxCoeff(), (hi - lo).maxCoeff()); !m.empty())
+    throw InvalidInput(m);
+  if (automatic_radius) {
+    std::vector<double> spacing;
+    for (double sq : sample_sq)
+      if (std::isfinite(sq)) spacing.push_back(std::sqrt(sq));
+    r.coverage_radius = coverage_radius_of(std::move(spacing));
+  } else {
+    r.coverage_radius = o.coverage_radius;
+  }
+
+  // Pass 2: scan to model as compare_with_scan; model to scan as the nearest point over the pieces.
+  auto t = Clock::now();
+  const TriangleTree tree(model.V, model.F);
+  const Eigen::MatrixXd vn = vertex_normals(model.V, model.F);
+  r.build_seconds = since(t);
+  r.scan_to_model.resize(n);
+  const Eigen::Index nv = model.V.rows();
+  std::vector<double> best_sq(static_cast<size_t>(nv), std::numeric_limits<double>::infinity());
+  Eigen::MatrixXd best_point(nv, 3);
+  const double reach = std::nextafter(r.coverage_radius, INFINITY);  // a vertex exactly at the radius is covered
+  each_piece([&](Eigen::Index first, const Eigen::MatrixXd& P) {
+    auto ts = Clock::now();
+    tree.for_each_closest(P, o.threads, [&](Eigen::Index i, const ClosestHit& h) {
+      const Eigen::RowVector3d nrm = h.bary[0] * vn.row(model.F(h.face, 0)) + h.bary[1] * vn.row(model.F(h.face, 1)) +
+                                     h.bary[2] * vn.row(model.F(h.face, 2));
+      const double side = (P.row(i) - h.point.transpose()).dot(nrm);
+      r.scan_to_model[first + i] = side < 0 ? -h.distance : h.distance;
+    });
+    r.scan_to_model_seconds += since(ts);
+    ts = Clock::now();
+    const PointGrid grid(P);
+    r.build_seconds += since(ts);
+    ts = Clock::now();
+    parallel_for_ranges(nv, o.threads, [&](long begin, long end) {
+      for (long v = begin; v < end; ++v) {
+        const double known = best_sq[static_cast<size_t>(v)];
+        const double bound = std::isfinite(known) ? std::min(reach, std::nextafter(std::sqrt(known), INFINITY)) : reach;
+        double sq;
+        const int nearest = grid.nearest(model.V.row(v).transpose(), &sq, bound);
+        if (nearest >= 0 && sq < known) {
+          best_sq[static_cast<size_t>(v)] = sq;
+          best_point.row(v) = P.row(nearest);
+        }
+      }
+    }, 256);
+    r.model_to_scan_seconds += since(ts);
+  });
+  t = Clock::now();
+  r.model_to_scan.resize(nv);
+  for (Eigen::Index v = 0; v < nv; ++v) {
+    if (!std::isfinite(best_sq[static_cast<size_t>(v)])) {
+      r.model_to_scan[v] = std::numeric_limits<double>::quiet_NaN();
+      ++r.uncovered_vertices;
+      continue;
+    }
+    const double d = std::sqrt(best_sq[static_cast<size_t>(v)]);
+    const double side = (best_point.row(v) - model.V.row(v)).dot(vn.row(v));
+    r.model_to_scan[v] = side < 0 ? -d : d;
+  }
+  r.coverage = 1.0 - static_cast<double>(r.uncovered_vertices) / static_cast<double>(nv);
   r.scan_stats = stats_of(r.scan_to_model, o.outlier_threshold);
   r.model_stats = stats_of(r.model_to_scan, o.outlier_threshold);
   r.hausdorff_mm = std::max(r.scan_stats.max_mm, r.model_stats.max_mm);

@@ -2,6 +2,7 @@
 // Exact closest points on a triangle mesh: point-to-triangle distance through an AABB tree.
 #include <Eigen/Core>
 #include <cstdint>
+#include <functional>
 #include <limits>
 #include <memory>
 #include <vector>
@@ -22,6 +23,14 @@ struct ClosestPoints {
   Eigen::VectorXd distance;   ///< #P, unsigned (m)
 };
 
+/// One query's closest point, as TriangleTree::for_each_closest reports it.
+struct ClosestHit {
+  int face = -1;          ///< the triangle holding the closest point
+  Eigen::Vector3d point;  ///< the closest point
+  Eigen::Vector3d bary;   ///< its barycentric coordinates in that triangle
+  double distance = 0;    ///< unsigned (m)
+};
+
 /// An axis-aligned bounding-box tree over the triangles of a mesh, built once.
 class TriangleTree {
  public:
@@ -38,6 +47,12 @@ class TriangleTree {
   /// (optional, #P; -1 for none) names a face near each point, e.g. the last iteration's: its
   /// distance bounds the search from the start. The result is exact either way.
   ClosestPoints closest(const Eigen::MatrixXd& P, int threads = 0, const Eigen::VectorXi* start_faces = nullptr) const;
+
+  /// The same search as closest(P, ...), without its #P x 3 arrays: `visit(i, hit)` is called once
+  /// for every row i, from the worker threads (rows in no particular order, each by one thread).
+  void for_each_closest(const Eigen::MatrixXd& P, int threads,
+                        const std::function<void(Eigen::Index, const ClosestHit&)>& visit,
+                        const Eigen::VectorXi* start_faces = nullptr) const;
 
  private:
   struct Impl;

@@ -3,6 +3,7 @@
 // point-to-triangle distances, model-to-scan distances where the scan has data, and girth
 // discrepancies with the ISO 20685-1 tolerances.
 #include <Eigen/Core>
+#include <functional>
 #include <string>
 #include <vector>
 
@@ -41,6 +42,23 @@ struct ScanComparison {
 /// Throws InvalidInput for an empty scan, a mesh with non-finite vertices, or a scan whose size
 /// says it is in other units than the model (the message suggests the unit).
 ScanComparison compare_with_scan(const TriangleMesh& model, const PointCloud& scan, const ScanComparisonOptions& options = {});
+
+/// A scan read by ranges of its points (metres, posekit's frame), for scans too large to hold whole.
+struct ScanPieces {
+  Eigen::Index size = 0;  ///< points
+  /// Points [first, first + count) into `points` (count x 3).
+  std::function<void(Eigen::Index first, Eigen::Index count, Eigen::MatrixXd* points)> read;
+  /// Optional: the points before `end` are done with for now (their memory may go).
+  std::function<void(Eigen::Index end)> release;
+  Eigen::Index piece = Eigen::Index(1) << 20;  ///< points read at a time
+};
+
+/// compare_with_scan on a scan read piece by piece: the same distances, statistics and coverage
+/// (scan_closest_face left empty) while holding one piece and the per-point distances, so that a
+/// 10M-point scan needs a fraction of its size. The points are read twice: first to check them and
+/// their scale against the model (and for the automatic coverage radius, the scan's spacing), then
+/// for the distances.
+ScanComparison compare_with_scan(const TriangleMesh& model, const ScanPieces& scan, const ScanComparisonOptions& options = {});
 
 /// Girth discrepancy of a model against a scan, with the ISO 20685-1 maximum allowable error.
 struct GirthDiscrepancy {
