@@ -1,4 +1,6 @@
 // posekit bench <what>: timings reported as median/min/max over several runs (never timed tests).
+#include <sys/resource.h>
+#include <sys/wait.h>
 #include <unistd.h>
 
 #include <chrono>
@@ -545,6 +547,93 @@ double timed_command(const std::string& command, const std::string& log) {
   return status == 0 ? seconds : -1;
 }
 
+/// One process run to completion: its wall seconds (-1 when it fails) and peak resident memory.
+struct ProcessRun {
+  double seconds = -1, peak_mib = -1;
+};
+
+/// Runs `command` through /bin/sh (output to `log`); the peak is the largest of the shell and the
+/// processes it waited for (wait4's rusage).
+ProcessRun run_process(const std::string& command, const std::string& log) {
+  const std::string line = command + " >" + log + " 2>&1";
+  const auto t0 = Clock::now();
+  const pid_t pid = fork();
+  if (pid == 0) {
+    execl("/bin/sh", "sh", "-c", line.c_str(), static_cast<char*>(nullptr));
+    _exit(127);
+  }
+  ProcessRun r;
+  if (pid < 0) return r;
+  int status = 0;
+  struct rusage usage {};
+  if (wait4(pid, &status, 0, &usage) != pid) return r;
+  const double seconds = std::chrono::duration<double>(Clock::now() - t0).count();
+  if (WIFEXITED(status) && WEXITSTATUS(status) == 0) r.seconds = seconds;
+  r.peak_mib = static_cast<double>(usage.ru_maxrss) / 1024.0;
+  return r;
+}
+
+/// A whole command as a user times it: process start, reading, work, output.
+struct WholeCommand {
+  std::string name, command, note;
+  std::vector<double> seconds;
+  double peak_mib = 0;
+  bool ok = true;
+};
+
+/// The python with Debian's open3d, or empty (python3-open3d is for the system interpreter, which
+/// another python3 first on PATH may hide).
+std::string open3d_python() {
+  for (const char* candidate : {"python3", "/usr/bin/python3"})
+    if (std::system((std::string(candidate) + " -c 'import open3d' >/dev/null 2>&1").c_str()) == 0) return candidate;
+  return {};
+}
+
+/// posekit compare, CloudCompare (load + -c2m_dist) and Open3D (interpreter, import, read, BVH,
+/// distance) as whole processes on the same files, interleaved run by run so that they share the
+/// machine's noise.
+std::vector<WholeCommand> time_whole_comparisons(const std::string& dir, int runs, int threads) {
+  std::error_code ec;
+  const std::string self = std::filesystem::read_symlink("/proc/self/exe", ec).string();
+  std::vector<WholeCommand> tools;
+  tools.push_back({"posekit", self + " compare " + dir + "/model.ply " + dir + "/scan.ply --json --threads " +
+                                  std::to_string(threads), "", {}, 0, true});
+  if (std::system("command -v CloudCompare >/dev/null 2>&1") == 0)
+    tools.push_back({"CloudCompare", "QT_QPA_PLATFORM=offscreen CloudCompare -SILENT -NO_TIMESTAMP -AUTO_SAVE OFF -O " + dir +
+                                         "/scan.ply -O " + dir + "/model.ply -c2m_dist", "", {}, 0, true});
+  else
+    tools.push_back({"CloudCompare", "", "not installed (Debian: cloudcompare)", {}, 0, false});
+  const std::string python = open3d_python();
+  if (!python.empty()) {
+    const std::string script = dir + "/open3d_whole.py";
+    write_file_atomically(script, [&](std::ostream& out) {
+      out << "import sys\nimport numpy as np\nimport open3d as o3d\n"
+             "mesh = o3d.t.geometry.TriangleMesh.from_legacy(o3d.io.read_triangle_mesh(sys.argv[1]))\n"
+             "pts = o3d.core.Tensor(np.asarray(o3d.io.read_point_cloud(sys.argv[2]).points, dtype=np.float32))\n"
+             "scene = o3d.t.geometry.RaycastingScene()\n"
+             "scene.add_triangles(mesh)\n"
+             "d = scene.compute_distance(pts).numpy()\n"
+             "print(float(d.mean()))\n";
+    }, false);
+    tools.push_back({"Open3D", python + " " + script + " " + dir + "/model.ply " + dir + "/scan.ply", "", {}, 0, true});
+  } else {
+    tools.push_back({"Open3D", "", "not installed (Debian: python3-open3d)", {}, 0, false});
+  }
+  for (int k = 0; k < runs; ++k)
+    for (WholeCommand& t : tools) {
+      if (!t.ok) continue;
+      const ProcessRun r = run_process(t.command, dir + "/whole_" + t.name + ".log");
+      if (r.seconds < 0) {
+        t.ok = false;
+        t.note = "failed (see " + dir + "/whole_" + t.name + ".log)";
+        continue;
+      }
+      t.seconds.push_back(r.seconds);
+      t.peak_mib = std::max(t.peak_mib, r.peak_mib);
+    }
+  return tools;
+}
+
 /// The same comparison run by the tools users would pick instead, on the same files.
 struct PeerResult {
   std::string name, what;
@@ -554,13 +643,7 @@ struct PeerResult {
 
 PeerResult run_open3d(const std::string& dir, int runs) {
   PeerResult r{"Open3D", "RaycastingScene BVH build + compute_distance (unsigned, scan to model)", -1, -1, ""};
-  // Debian's python3-open3d is for the system interpreter, which another python3 on PATH may hide.
-  std::string python;
-  for (const char* candidate : {"python3", "/usr/bin/python3"})
-    if (std::system((std::string(candidate) + " -c 'import open3d' >/dev/null 2>&1").c_str()) == 0) {
-      python = candidate;
-      break;
-    }
+  const std::string python = open3d_python();
   if (python.empty()) {
     r.note = "not installed (Debian: python3-open3d)";
     return r;
@@ -927,6 +1010,19 @@ int bench_compare(int argc, char** argv) {
     peers.push_back(run_cloudcompare(dir, runs));
     peers.push_back(run_open3d(dir, runs));
   }
+  std::vector<WholeCommand> whole;
+  if (args.flag_set("peers")) {
+    std::cerr << "bench compare: timing whole processes (start, read, compare, output)\n";
+    whole = time_whole_comparisons(dir, runs, o.threads);
+  }
+  double best_whole = -1, posekit_whole = -1;
+  std::string best_whole_name;
+  for (const WholeCommand& w : whole) {
+    if (!w.ok || w.seconds.empty()) continue;
+    const double m = stats_of(w.seconds).median;
+    if (w.name == "posekit") posekit_whole = m;
+    else if (best_whole < 0 || m < best_whole) best_whole = m, best_whole_name = w.name;
+  }
   double best_peer = -1;
   std::string best_name;
   for (const PeerResult& p : peers)
@@ -948,6 +1044,16 @@ int bench_compare(int argc, char** argv) {
                     {"note", p.note}});
     out["peers"] = jp;
     out["ratio_to_best_peer"] = best_peer > 0 ? nlohmann::ordered_json(t.median / best_peer) : nlohmann::ordered_json();
+    nlohmann::ordered_json jw = nlohmann::ordered_json::array();
+    for (const WholeCommand& w : whole) {
+      nlohmann::ordered_json e = {{"name", w.name}, {"command", w.command}};
+      if (w.ok && !w.seconds.empty()) e["wall_s"] = stats_json(w.seconds), e["peak_rss_mib"] = w.peak_mib;
+      if (!w.note.empty()) e["note"] = w.note;
+      jw.push_back(e);
+    }
+    out["whole_process"] = jw;
+    out["whole_ratio_to_best_peer"] =
+        best_whole > 0 && posekit_whole > 0 ? nlohmann::ordered_json(posekit_whole / best_whole) : nlohmann::ordered_json();
   }
   if (args.flag_set("json")) {
     print_json(out);
@@ -969,6 +1075,16 @@ int bench_compare(int argc, char** argv) {
   }
   if (best_peer > 0)
     std::cout << "  posekit / best peer (" << best_name << "): " << std::setprecision(2) << t.median / best_peer << "\n";
+  if (!whole.empty()) {
+    std::cout << "whole processes (start, read, compare, output), median over " << runs << " runs:\n";
+    for (const WholeCommand& w : whole) {
+      std::cout << "  " << std::left << std::setw(13) << w.name << std::right;
+      if (!w.ok || w.seconds.empty()) std::cout << w.note << "\n";
+      else std::cout << std::setprecision(3) << stats_cell(w.seconds, 3) << " s, peak " << std::setprecision(0) << w.peak_mib << " MiB\n";
+    }
+    if (best_whole > 0 && posekit_whole > 0)
+      std::cout << "  posekit / best peer (" << best_whole_name << "): " << std::setprecision(2) << posekit_whole / best_whole << "\n";
+  }
   return 0;
 }
 
