@@ -16,6 +16,7 @@
 #include <map>
 #include <nlohmann/json.hpp>
 
+#include "bench_tools.h"
 #include "cli.h"
 #include "posekit/body/bvh_retarget.h"
 #include "posekit/io/bvh.h"
@@ -547,32 +548,6 @@ double timed_command(const std::string& command, const std::string& log) {
   return status == 0 ? seconds : -1;
 }
 
-/// One process run to completion: its wall seconds (-1 when it fails) and peak resident memory.
-struct ProcessRun {
-  double seconds = -1, peak_mib = -1;
-};
-
-/// Runs `command` through /bin/sh (output to `log`); the peak is the largest of the shell and the
-/// processes it waited for (wait4's rusage).
-ProcessRun run_process(const std::string& command, const std::string& log) {
-  const std::string line = command + " >" + log + " 2>&1";
-  const auto t0 = Clock::now();
-  const pid_t pid = fork();
-  if (pid == 0) {
-    execl("/bin/sh", "sh", "-c", line.c_str(), static_cast<char*>(nullptr));
-    _exit(127);
-  }
-  ProcessRun r;
-  if (pid < 0) return r;
-  int status = 0;
-  struct rusage usage {};
-  if (wait4(pid, &status, 0, &usage) != pid) return r;
-  const double seconds = std::chrono::duration<double>(Clock::now() - t0).count();
-  if (WIFEXITED(status) && WEXITSTATUS(status) == 0) r.seconds = seconds;
-  r.peak_mib = static_cast<double>(usage.ru_maxrss) / 1024.0;
-  return r;
-}
-
 /// A whole command as a user times it: process start, reading, work, output.
 struct WholeCommand {
   std::string name, command, note;
@@ -580,14 +555,6 @@ struct WholeCommand {
   double peak_mib = 0;
   bool ok = true;
 };
-
-/// The python with Debian's open3d, or empty (python3-open3d is for the system interpreter, which
-/// another python3 first on PATH may hide).
-std::string open3d_python() {
-  for (const char* candidate : {"python3", "/usr/bin/python3"})
-    if (std::system((std::string(candidate) + " -c 'import open3d' >/dev/null 2>&1").c_str()) == 0) return candidate;
-  return {};
-}
 
 /// posekit compare, CloudCompare (load + -c2m_dist) and Open3D (interpreter, import, read, BVH,
 /// distance) as whole processes on the same files, interleaved run by run so that they share the
@@ -598,7 +565,7 @@ std::vector<WholeCommand> time_whole_comparisons(const std::string& dir, int run
   std::vector<WholeCommand> tools;
   tools.push_back({"posekit", self + " compare " + dir + "/model.ply " + dir + "/scan.ply --json --threads " +
                                   std::to_string(threads), "", {}, 0, true});
-  if (std::system("command -v CloudCompare >/dev/null 2>&1") == 0)
+  if (have_program("CloudCompare"))
     tools.push_back({"CloudCompare", "QT_QPA_PLATFORM=offscreen CloudCompare -SILENT -NO_TIMESTAMP -AUTO_SAVE OFF -O " + dir +
                                          "/scan.ply -O " + dir + "/model.ply -c2m_dist", "", {}, 0, true});
   else
@@ -680,7 +647,7 @@ PeerResult run_open3d(const std::string& dir, int runs) {
 
 PeerResult run_cloudcompare(const std::string& dir, int runs) {
   PeerResult r{"CloudCompare", "-c2m_dist (scan to model), computation = wall(load + c2m) - wall(load)", -1, -1, ""};
-  if (std::system("command -v CloudCompare >/dev/null 2>&1") != 0) {
+  if (!have_program("CloudCompare")) {
     r.note = "not installed (Debian: cloudcompare)";
     return r;
   }
@@ -700,30 +667,6 @@ PeerResult run_cloudcompare(const std::string& dir, int runs) {
   return r;
 }
 
-/// n points uniform by area on a mesh, with Gaussian noise of `sigma` (m) along the face normal: a
-/// stand-in for a scanner's cloud.
-PointCloud sample_surface(const TriangleMesh& mesh, long n, double sigma, unsigned seed) {
-  const Eigen::VectorXd area = face_areas(mesh.V, mesh.F);
-  const Eigen::MatrixXd normals = face_normals(mesh.V, mesh.F);
-  std::vector<double> cdf(static_cast<size_t>(area.size()));
-  double acc = 0;
-  for (Eigen::Index f = 0; f < area.size(); ++f) cdf[static_cast<size_t>(f)] = acc += area[f];
-  std::mt19937_64 rng(seed);
-  std::uniform_real_distribution<double> u(0, 1);
-  std::normal_distribution<double> noise(0, sigma);
-  PointCloud scan;
-  scan.P.resize(n, 3);
-  for (long i = 0; i < n; ++i) {
-    const size_t f = std::min(cdf.size() - 1, static_cast<size_t>(std::lower_bound(cdf.begin(), cdf.end(), u(rng) * acc) - cdf.begin()));
-    double a = u(rng), b = u(rng);
-    if (a + b > 1) a = 1 - a, b = 1 - b;
-    const auto F = mesh.F.row(static_cast<Eigen::Index>(f));
-    scan.P.row(i) = (1 - a - b) * mesh.V.row(F[0]) + a * mesh.V.row(F[1]) + b * mesh.V.row(F[2]) +
-                    noise(rng) * normals.row(static_cast<Eigen::Index>(f));
-  }
-  return scan;
-}
-
 /// Median, min and max of timings as JSON.
 nlohmann::ordered_json stats_json(const std::vector<double>& v) {
   const Stats st = stats_of(v);
@@ -737,18 +680,6 @@ std::string stats_cell(const std::vector<double>& v, int digits) {
   c << std::fixed << std::setprecision(digits) << st.median << " (" << st.min << "-" << st.max << ")";
   return c.str();
 }
-
-/// A temporary folder removed on scope exit.
-struct ScratchDir {
-  std::string path;
-  ScratchDir() : path((std::filesystem::temp_directory_path() / ("posekit-bench-" + std::to_string(::getpid()))).string()) {
-    create_folders(path);
-  }
-  ~ScratchDir() {
-    std::error_code ec;
-    std::filesystem::remove_all(path, ec);
-  }
-};
 
 int bench_measure(int argc, char** argv) {
   ArgParser args("bench measure",
@@ -1100,6 +1031,7 @@ int run_bench(int argc, char** argv) {
       "  compare  a 1M-point scan against a 25k-triangle model\n"
       "  measure  measuring a 300k-vertex mesh and a 300k-point scan\n"
       "  fit   the body model fitted and measuring by it: a mesh, 1M- and 10M-point scans\n"
+      "  commands  whole commands (read, measure, compare, convert) at 1M and 10M points, beside CloudCompare and Open3D\n"
       "  all   every benchmark above, one table with the date and machine (benchmarks.json, benchmarks.md)\n";
   if (argc < 1 || std::string(argv[0]) == "--help" || std::string(argv[0]) == "-h") {
     std::cout << usage;
@@ -1114,6 +1046,7 @@ int run_bench(int argc, char** argv) {
   if (what == "compare") return bench_compare(argc - 1, argv + 1);
   if (what == "measure") return bench_measure(argc - 1, argv + 1);
   if (what == "fit") return bench_fit(argc - 1, argv + 1);
+  if (what == "commands") return bench_commands(argc - 1, argv + 1);
   if (what == "all") return bench_all(argc - 1, argv + 1);
   throw UsageError("unknown benchmark '" + what + "'\n" + usage);
 }

@@ -73,6 +73,7 @@ void collect_rows(const std::string& bench, const std::string& path, const nlohm
     nlohmann::ordered_json row = {{"benchmark", bench}, {"case", label}, {"unit", u}, {"median", j["median" + suffix]}};
     row["min"] = j.contains("min" + suffix) ? j["min" + suffix] : nlohmann::ordered_json();
     row["max"] = j.contains("max" + suffix) ? j["max" + suffix] : nlohmann::ordered_json();
+    if (j.contains("peak_rss_mib") && j["peak_rss_mib"].is_number()) row["peak_rss_mib"] = j["peak_rss_mib"];
     rows->push_back(row);
   }
   if (j.contains("compute_median_s") && j["compute_median_s"].is_number() && j["compute_median_s"].get<double>() >= 0)
@@ -111,9 +112,14 @@ std::string markdown(const nlohmann::ordered_json& report) {
     }
     for (const auto& r : b["rows"])
       md << "| " << b["name"].get<std::string>() << " | " << r["case"].get<std::string>() << " | " << cell(r["median"]) << " | "
-         << cell(r["min"]) << " | " << cell(r["max"]) << " | " << r["unit"].get<std::string>() << " | " << cell(b["peak_rss_mib"])
-         << " |\n";
+         << cell(r["min"]) << " | " << cell(r["max"]) << " | " << r["unit"].get<std::string>() << " | "
+         << cell(r.contains("peak_rss_mib") ? r["peak_rss_mib"] : b["peak_rss_mib"]) << " |\n";
   }
+  // Whole commands beside the peers, as `posekit bench commands` prints them.
+  for (const auto& b : report["benchmarks"])
+    if (b["ok"].get<bool>() && b.contains("result") && b["result"].contains("table"))
+      md << "\nWhole commands (process start to exit), median seconds (peak MiB) of `posekit bench commands`:\n\n"
+         << b["result"]["table"].get<std::string>();
   md << "\nEach benchmark runs in its own process (`posekit bench <name> --json`, its options in `benchmarks.json`); "
         "medians over its runs. Shared machines are noisy: compare figures of one run.\n";
   return md.str();
@@ -123,14 +129,14 @@ std::string markdown(const nlohmann::ordered_json& report) {
 
 int bench_all(int argc, char** argv) {
   ArgParser args("bench all",
-                 "Runs every benchmark (io, body, measure, compare, and with --dataset pose, registration and a\n"
+                 "Runs every benchmark (io, body, measure, compare, commands, and with --dataset pose, registration and a\n"
                  "batch measure of its rest subjects and scans), each in its own process, and writes one table with the date and the machine: OUT/benchmarks.json (every\n"
                  "benchmark's full output) and OUT/benchmarks.md (the table, for docs/). --quick runs each once on\n"
                  "smaller inputs (a smoke test, not figures to report).");
   args.option("dataset", "DIR", "a posekit dataset, for the pose and registration benchmarks (left out without it)")
       .output_folder("out", "DIR", "folder for benchmarks.json and benchmarks.md", "bench")
       .option("only", "LIST", "benchmarks to run, comma-separated (default: all)")
-      .flag("peers", "also time CloudCompare and Open3D in the compare benchmark")
+      .flag("peers", "also time CloudCompare and Open3D in the compare and commands benchmarks")
       .flag("quick", "one run each, small inputs")
       .flag("json", "the report as JSON on stdout")
       .example("posekit bench all --dataset out/dataset --peers --out docs/bench");
@@ -149,6 +155,7 @@ int bench_all(int argc, char** argv) {
       {"body", quick ? "--runs 3" : "--runs 50", false},
       {"measure", quick ? "--runs 1 --vertices 30000 --points 100000" : "--runs 5", false},
       {"compare", std::string(quick ? "--runs 1 --points 100000" : "--runs 5") + (args.flag_set("peers") ? " --peers" : ""), false},
+      {"commands", std::string(quick ? "--runs 1 --points 100000" : "--runs 5") + (args.flag_set("peers") ? " --peers" : ""), false},
       {"pose", "--dataset " + ds + (quick ? " --runs 1 --poses 5 --subjects 2 --frames 20" : " --runs 5"), true},
       {"registration", "--dataset " + ds + (quick ? " --runs 1 --subjects 2 --nicp-runs 1" : " --runs 5 --nicp-runs 1"), true}};
   std::vector<std::string> only;
@@ -158,7 +165,7 @@ int bench_all(int argc, char** argv) {
       bool known = false;
       for (const auto& s : specs) known = known || s.name == name;
       if (!known && name != "batch")
-        throw UsageError("--only: unknown benchmark '" + name + "' (io, body, measure, compare, pose, registration, batch)");
+        throw UsageError("--only: unknown benchmark '" + name + "' (io, body, measure, compare, commands, pose, registration, batch)");
       only.push_back(name);
     }
   }

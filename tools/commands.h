@@ -14,6 +14,7 @@ int run_info(int argc, char** argv);
 int run_convert(int argc, char** argv);
 int run_bench(int argc, char** argv);
 int bench_all(int argc, char** argv);  ///< posekit bench all
+int bench_commands(int argc, char** argv);  ///< posekit bench commands
 int run_body(int argc, char** argv);
 int run_dataset(int argc, char** argv);
 int run_measure(int argc, char** argv);

@@ -58,16 +58,29 @@ TEST(Cli, EveryCommandHasHelp) {
 
 TEST(Cli, BenchAllWritesOneTableWithTheDateAndMachine) {
   test::TempDir dir;
-  CommandResult r = run("bench all --quick --only io,pose --out " + dir.file("b"));
+  CommandResult r = run("bench all --quick --only io,pose,commands --out " + dir.file("b"));
   ASSERT_EQ(r.code, 0) << r.out;
   const std::string md = read_file_bytes(dir.file("b/benchmarks.md"));
   EXPECT_NE(md.find("Machine: "), std::string::npos) << md;
   EXPECT_NE(md.find("| io | read ply_binary | "), std::string::npos) << md;
   EXPECT_NE(md.find("| pose | not run: no --dataset |"), std::string::npos) << md;
+  // Whole commands: every posekit command ran to exit 0; without --peers the peers are not run.
+  EXPECT_NE(md.find("Whole commands (process start to exit)"), std::string::npos) << md;
+  EXPECT_NE(md.find("| compare | 100k | "), std::string::npos) << md;
+  EXPECT_NE(md.find("not asked (--peers)"), std::string::npos) << md;
   const auto j = nlohmann::json::parse(read_file_bytes(dir.file("b/benchmarks.json")));
-  ASSERT_EQ(j["benchmarks"].size(), 2u);
+  ASSERT_EQ(j["benchmarks"].size(), 3u);
   EXPECT_EQ(j["benchmarks"][0]["rows"].size(), 4u);  // PLY, OBJ, STL, PCD
   for (const auto& row : j["benchmarks"][0]["rows"]) EXPECT_GT(row["median"].get<double>(), 0) << row;
+  int timed = 0;
+  ASSERT_EQ(j["benchmarks"][1]["name"], "commands");
+  for (const auto& row : j["benchmarks"][1]["result"]["commands"])
+    if (row["tool"] == "posekit") {
+      EXPECT_GT(row["median_s"].get<double>(), 0) << row;
+      EXPECT_GT(row["peak_rss_mib"].get<double>(), 0) << row;
+      ++timed;
+    }
+  EXPECT_EQ(timed, 4);  // read, measure, compare, convert
   EXPECT_EQ(run("bench all --only nothing --out " + dir.file("c")).code, 2);
 }
 
