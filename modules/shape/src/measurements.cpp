@@ -387,28 +387,39 @@ BodyMeasurements measure_body(const Eigen::MatrixXd& V_in, const Eigen::MatrixXi
 
 namespace {
 
+/// A 2 cm grid cell's integer coordinates, hashed for unordered maps.
+using GridCell = std::array<long, 3>;
+struct GridCellHash {
+  size_t operator()(const GridCell& c) const {
+    return static_cast<size_t>(c[0] * 73856093LL) ^ static_cast<size_t>(c[1] * 19349663LL) ^ static_cast<size_t>(c[2] * 83492791LL);
+  }
+};
+
+GridCell grid_cell(const Eigen::MatrixXd& P, Eigen::Index i, double cell) {
+  return {std::lround(std::floor(P(i, 0) / cell)), std::lround(std::floor(P(i, 1) / cell)), std::lround(std::floor(P(i, 2) / cell))};
+}
+
 /// Drops isolated points (outliers): those with fewer than 4 others in their 2 cm cell and its 26
-/// neighbours.
+/// neighbours. The neighbourhood's count is the same for every point of a cell: made once per cell.
 Eigen::MatrixXd drop_isolated_points(const Eigen::MatrixXd& P) {
   constexpr double kCell = 0.02;
-  std::map<std::array<long, 3>, int> count;
-  auto cell = [&](Eigen::Index i) {
-    return std::array<long, 3>{std::lround(std::floor(P(i, 0) / kCell)), std::lround(std::floor(P(i, 1) / kCell)),
-                               std::lround(std::floor(P(i, 2) / kCell))};
-  };
-  for (Eigen::Index i = 0; i < P.rows(); ++i) ++count[cell(i)];
-  std::vector<Eigen::Index> keep;
-  for (Eigen::Index i = 0; i < P.rows(); ++i) {
-    const auto c = cell(i);
-    int n = -1;
+  std::unordered_map<GridCell, int, GridCellHash> count;
+  for (Eigen::Index i = 0; i < P.rows(); ++i) ++count[grid_cell(P, i, kCell)];
+  std::unordered_map<GridCell, int, GridCellHash> around;
+  around.reserve(count.size());
+  for (const auto& [c, own] : count) {
+    int n = 0;
     for (long dx = -1; dx <= 1; ++dx)
       for (long dy = -1; dy <= 1; ++dy)
         for (long dz = -1; dz <= 1; ++dz) {
           const auto it = count.find({c[0] + dx, c[1] + dy, c[2] + dz});
           if (it != count.end()) n += it->second;
         }
-    if (n >= 4) keep.push_back(i);
+    around[c] = n;
   }
+  std::vector<Eigen::Index> keep;
+  for (Eigen::Index i = 0; i < P.rows(); ++i)
+    if (around.at(grid_cell(P, i, kCell)) - 1 >= 4) keep.push_back(i);
   Eigen::MatrixXd out(static_cast<Eigen::Index>(keep.size()), 3);
   for (size_t k = 0; k < keep.size(); ++k) out.row(static_cast<Eigen::Index>(k)) = P.row(keep[k]);
   return out;
@@ -418,21 +429,26 @@ Eigen::MatrixXd drop_isolated_points(const Eigen::MatrixXd& P) {
 /// from the count within 2 cm of a sample of points (in 3-D; the surface is nearly flat at that scale).
 double surface_spacing(const Eigen::MatrixXd& P) {
   constexpr double kRadius = 0.02;
-  std::unordered_map<long long, std::vector<Eigen::Index>> grid;
-  auto key = [](long x, long y, long z) { return (x * 73856093LL) ^ (y * 19349663LL) ^ (z * 83492791LL); };
-  auto cell_of = [&](Eigen::Index i, int k) { return std::lround(std::floor(P(i, k) / kRadius)); };
-  for (Eigen::Index i = 0; i < P.rows(); ++i) grid[key(cell_of(i, 0), cell_of(i, 1), cell_of(i, 2))].push_back(i);
   const Eigen::Index stride = std::max<Eigen::Index>(1, P.rows() / 2000);
+  // Only the cells around the samples are gathered.
+  std::unordered_map<GridCell, std::vector<Eigen::Index>, GridCellHash> grid;
+  for (Eigen::Index i = 0; i < P.rows(); i += stride) {
+    const GridCell c = grid_cell(P, i, kRadius);
+    for (long dx = -1; dx <= 1; ++dx)
+      for (long dy = -1; dy <= 1; ++dy)
+        for (long dz = -1; dz <= 1; ++dz) grid.try_emplace({c[0] + dx, c[1] + dy, c[2] + dz});
+  }
+  for (Eigen::Index i = 0; i < P.rows(); ++i)
+    if (const auto it = grid.find(grid_cell(P, i, kRadius)); it != grid.end()) it->second.push_back(i);
   std::vector<double> density;
   for (Eigen::Index i = 0; i < P.rows(); i += stride) {
+    const GridCell c = grid_cell(P, i, kRadius);
     long count = 0;
     for (long dx = -1; dx <= 1; ++dx)
       for (long dy = -1; dy <= 1; ++dy)
-        for (long dz = -1; dz <= 1; ++dz) {
-          const auto it = grid.find(key(cell_of(i, 0) + dx, cell_of(i, 1) + dy, cell_of(i, 2) + dz));
-          if (it == grid.end()) continue;
-          for (Eigen::Index j : it->second) count += (P.row(j) - P.row(i)).squaredNorm() < kRadius * kRadius;
-        }
+        for (long dz = -1; dz <= 1; ++dz)
+          for (Eigen::Index j : grid.at({c[0] + dx, c[1] + dy, c[2] + dz}))
+            count += (P.row(j) - P.row(i)).squaredNorm() < kRadius * kRadius;
     density.push_back(static_cast<double>(count) / (M_PI * kRadius * kRadius));
   }
   // Sampling points favours the densely sampled regions (a scanner's near side, a remesher's hands
