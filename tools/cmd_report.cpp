@@ -1,5 +1,7 @@
 // posekit report: the paper's figures and tables regenerated from a dataset into an HTML page.
+#include <iomanip>
 #include <iostream>
+#include <limits>
 #include <memory>
 
 #include "cli.h"
@@ -25,14 +27,20 @@ int run_report(int argc, char** argv) {
       .option("customization-bodies", "N", "population of a customization model trained here", "2000")
       .option("shape-space", "N|FILE", "Table 1's ct-FFD + shape space row: MakeHuman bodies in the space, or a .pks file "
               "(posekit shape-space) (0: no row)", "300")
-      .example("posekit report --dataset out/dataset --out report");
+      .option("cache", "DIR", "folder of reusable results: the trained models and Table 1, reused while their inputs "
+              "(dataset, data root, options, this posekit) are unchanged (default: OUT/.cache)")
+      .flag("no-cache", "make everything afresh and keep nothing")
+      .flag("full-table", "Table 1 in full: the slow non-rigid ICP baseline on every subject (as --nicp-subjects all)")
+      .example("posekit report --dataset out/dataset --out report")
+      .example("posekit report --dataset out/dataset --out report --full-table --no-cache");
   if (!args.parse(argc, argv)) return 0;
   if (!args.has("dataset")) throw UsageError("--dataset DIR is required");
   ReportOptions o;
   o.model_path = args.has("model") ? args.get("model") : "";
   o.threads = static_cast<int>(args.get_int("threads"));
   o.registration_runs = static_cast<int>(args.get_int("runs"));
-  o.nicp_subjects = static_cast<int>(args.get_int("nicp-subjects"));
+  o.nicp_subjects = args.flag_set("full-table") ? std::numeric_limits<int>::max() : static_cast<int>(args.get_int("nicp-subjects"));
+  if (!args.flag_set("no-cache")) o.cache_dir = args.has("cache") ? args.get("cache") : args.get("out") + "/.cache";
   o.customization_path = args.has("customization") ? args.get("customization") : "";
   o.customization_bodies = static_cast<int>(args.get_int("customization-bodies"));
   if (is_shape_space_file(args.get("shape-space"))) {
@@ -52,6 +60,10 @@ int run_report(int argc, char** argv) {
   const ReportSummary s = write_report(args.get("dataset"), args.get("out"), o);
   if (progress) progress->finish();
   for (const auto& w : s.warnings) std::cerr << "posekit report: warning: " << w << "\n";
+  std::cerr << "posekit report: stages (s):";
+  for (const auto& [what, seconds] : s.stage_seconds) std::cerr << " " << what << " " << std::fixed << std::setprecision(1) << seconds << ";";
+  std::cerr << "\n";
+  for (const auto& r : s.reused) std::cerr << "posekit report: reused " << r << "\n";
   std::cout << "wrote " << args.get("out") << "/index.html (" << s.files.size() << " files, " << s.warnings.size()
             << " warnings) in " << static_cast<int>(s.seconds + 0.5) << " s, peak RSS " << static_cast<int>(peak_rss_mib() + 0.5)
             << " MiB\n";

@@ -871,10 +871,24 @@ TEST(Cli, Report) {
   ASSERT_FALSE(test::test_data_root().empty());
   test::TempDir dir;
   const std::string ds = test::small_dataset().root;
-  const CommandResult r = run("report --dataset " + ds + " --out " + dir.file("report") + " --runs 1 --nicp-subjects 0 --customization-bodies 30");
+  const std::string command = "report --dataset " + ds + " --out " + dir.file("report") + " --runs 1 --nicp-subjects 0 --customization-bodies 30";
+  const CommandResult r = run(command, true);
   ASSERT_EQ(r.code, 0) << r.out;
   EXPECT_TRUE(std::filesystem::is_regular_file(dir.file("report/index.html")));
   EXPECT_NE(r.out.find("peak RSS"), std::string::npos) << r.out;
+  EXPECT_NE(r.out.find("posekit report: stages (s): model "), std::string::npos) << r.out;
+  EXPECT_EQ(r.out.find("posekit report: reused"), std::string::npos) << r.out;
+  const auto first = nlohmann::json::parse(read_file_bytes(dir.file("report/report.json")));
+  // Again with nothing changed: the trained models and Table 1 come from the cache, the same numbers.
+  const CommandResult again = run(command, true);
+  ASSERT_EQ(again.code, 0) << again.out;
+  for (const char* what : {"reused pose model", "reused customization model", "reused pose fits", "reused shape space", "reused Table 1"})
+    EXPECT_NE(again.out.find(std::string("posekit report: ") + what), std::string::npos) << what << "\n" << again.out;
+  const auto second = nlohmann::json::parse(read_file_bytes(dir.file("report/report.json")));
+  EXPECT_EQ(second["table1"], first["table1"]);
+  EXPECT_EQ(second["pose_errors"], first["pose_errors"]);
+  EXPECT_EQ(second["reused_from_cache"].size(), 5u);
+  EXPECT_LT(second["seconds"].get<double>(), first["seconds"].get<double>());
 }
 
 TEST(Cli, RegisterRefinesByAShapeSpaceOnlyFromTheTemplatesTopology) {

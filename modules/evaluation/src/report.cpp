@@ -1,7 +1,9 @@
 #include "posekit/evaluation/report.h"
 
 #include <algorithm>
+#include <atomic>
 #include <cmath>
+#include <ctime>
 #include <filesystem>
 #include <iomanip>
 #include <map>
@@ -11,8 +13,10 @@
 #include <sstream>
 
 #include "manifest.h"
+#include "report_cache.h"
 #include "posekit/core/data_root.h"
 #include "posekit/core/error.h"
+#include "posekit/core/parallel.h"
 #include "posekit/core/timer.h"
 #include "posekit/customization/photo_evaluation.h"
 #include "posekit/datasets/dataset.h"
@@ -202,8 +206,26 @@ ReportSummary write_report(const std::string& dir, const std::string& out_dir, c
   const auto subjects = manifest.at("subjects");
   const int total_steps = 11;
   int step = 0;
+  Stopwatch stage_clock;
   auto tick = [&](const std::string& what) {
+    summary.stage_seconds.emplace_back(what, stage_clock.seconds());
+    stage_clock = Stopwatch();
     if (o.progress) o.progress(++step, total_steps, what);
+  };
+  const report_detail::ResultCache cache(o.cache_dir);
+  // What every cached result depends on besides its own options: this build, and its inputs' files.
+  std::string dataset_print, data_print;
+  if (cache.enabled()) {
+    const std::string binary = report_detail::binary_fingerprint();
+    dataset_print = binary + "\n" + report_detail::folder_fingerprint(dir);
+    data_print = binary + "\n" + report_detail::folder_fingerprint(find_data_root(""));
+  }
+  auto cached = [&](const std::string& file) {
+    std::error_code exists_ec;
+    return !file.empty() && fs::is_regular_file(file, exists_ec);
+  };
+  auto reuse = [&](const std::string& what, const std::string& file) {
+    summary.reused.push_back(what + " (" + fs::path(file).filename().string() + ")");
   };
   auto path_in = [&](const std::string& rel) { return (fs::path(dir) / rel).string(); };
   auto render = [&](const std::vector<ViewPanel>& panels, const ViewOptions& v, const std::string& file, Figure f) {
@@ -222,12 +244,25 @@ ReportSummary write_report(const std::string& dir, const std::string& out_dir, c
   if (!o.model_path.empty()) {
     model = std::make_shared<const PoseModel>(read_pose_model(o.model_path));
   } else {
-    PoseModel trained = train_on_dataset(dir);
-    CalibrationOptions calibration;
-    calibration.bodies = o.calibration_bodies;
-    const PriorReport prior = add_segmentation_prior(&trained, "", calibration);
-    if (!prior.not_made.empty()) doc.warnings.push_back("segmentation prior: the template alone (" + prior.not_made + ")");
-    model = std::make_shared<const PoseModel>(std::move(trained));
+    const std::string file = cache.path("pose model", dataset_print + "\ncalibration bodies " + std::to_string(o.calibration_bodies), ".pkm");
+    const std::string note_file = file.empty() ? "" : file + ".warning";
+    if (cached(file)) {
+      model = std::make_shared<const PoseModel>(read_pose_model(file));
+      reuse("pose model", file);
+      if (cached(note_file)) doc.warnings.push_back(read_file_bytes(note_file));
+    } else {
+      PoseModel trained = train_on_dataset(dir);
+      CalibrationOptions calibration;
+      calibration.bodies = o.calibration_bodies;
+      const PriorReport prior = add_segmentation_prior(&trained, "", calibration);
+      const std::string note = prior.not_made.empty() ? "" : "segmentation prior: the template alone (" + prior.not_made + ")";
+      if (!note.empty()) doc.warnings.push_back(note);
+      if (!file.empty()) {
+        if (!note.empty()) write_file_atomically(note_file, [&](std::ostream& out) { out << note; }, false);
+        write_pose_model(file, trained);
+      }
+      model = std::make_shared<const PoseModel>(std::move(trained));
+    }
   }
   tick("model");
   TriangleMesh templ;
@@ -323,7 +358,15 @@ ReportSummary write_report(const std::string& dir, const std::string& out_dir, c
         t.data_root = find_data_root("");
         t.bodies = o.customization_bodies;
         t.threads = o.threads > 0 ? o.threads : 2;
-        photo_model = train_customization_model(t);
+        const std::string file = cache.path("customization model", data_print + "\nbodies " + std::to_string(t.bodies) +
+                                                                       " threads " + std::to_string(t.threads), ".pkc");
+        if (cached(file)) {
+          photo_model = load_customization_model(file);
+          reuse("customization model", file);
+        } else {
+          photo_model = train_customization_model(t);
+          if (!file.empty()) save_customization_model(file, *photo_model);
+        }
       }
     } catch (const Error& e) {
       doc.warnings.push_back(std::string("customization from photos: no model (") + e.what() + ")");
@@ -553,6 +596,56 @@ ReportSummary write_report(const std::string& dir, const std::string& out_dir, c
                     "the dataset's pose."};
   std::vector<ViewPanel> fig9;
   int fig9_subjects = 0;
+  // The fits first, two at a time (each is single-threaded and its own; the same results as one by
+  // one), each reused from the cache while the model, the subject and the scan are unchanged.
+  struct FitTask {
+    std::string id, pose, scan_path, rest_path;
+    PoseMethod method;
+    PoseFitResult result;
+    std::string error;
+  };
+  std::vector<FitTask> fits;
+  for (const auto& s : subjects) {
+    const std::string id = s.value("id", "");
+    if (!synths.count(id)) continue;
+    for (const auto& p : s.value("posed", nlohmann::json::array()))
+      for (const auto& sc : s.value("scans", nlohmann::json::array()))
+        if (sc.value("pose", "") == p.value("pose", ""))
+          for (PoseMethod m : {PoseMethod::kLearned, PoseMethod::kLbs})
+            fits.push_back({id, p.value("pose", ""), path_in(sc.at("cloud").get<std::string>()),
+                            path_in(s.at("rest").get<std::string>()), m, {}, ""});
+  }
+  const std::string model_print =
+      !cache.enabled() ? "" : o.model_path.empty() ? dataset_print + "\ncalibration bodies " + std::to_string(o.calibration_bodies)
+                                                   : report_detail::binary_fingerprint() + "\n" + report_detail::file_fingerprint(o.model_path);
+  std::atomic<int> fits_reused{0};
+  parallel_for_ranges(static_cast<long>(fits.size()), o.threads > 0 ? std::min(o.threads, 2) : 2, [&](long begin, long end) {
+    for (long k = begin; k < end; ++k) {
+      FitTask& t = fits[static_cast<size_t>(k)];
+      try {
+        const std::string file =
+            cache.path("pose fit", model_print + "\nsubject " + report_detail::file_fingerprint(t.rest_path) +
+                                       "\nscan " + report_detail::file_fingerprint(t.scan_path) + "\nmethod " + pose_method_name(t.method),
+                       ".fit");
+        if (cached(file) && report_detail::read_pose_fit(file, &t.result)) {
+          ++fits_reused;
+          continue;
+        }
+        PoseFitOptions fo;
+        fo.method = t.method;
+        t.result = fit_pose(*synths.at(t.id), load_scan_m(t.scan_path).P, fo);
+        if (!file.empty()) report_detail::write_pose_fit(file, t.result);
+      } catch (const Error& e) {
+        t.error = e.what();
+      }
+    }
+  }, 1);
+  if (fits_reused > 0) summary.reused.push_back("pose fits (" + std::to_string(fits_reused) + " of " + std::to_string(fits.size()) + ")");
+  auto fit_of = [&](const std::string& id, const std::string& pose, PoseMethod m) -> const FitTask& {
+    for (const FitTask& t : fits)
+      if (t.id == id && t.pose == pose && t.method == m) return t;
+    throw InvalidInput("no fit of " + id + " " + pose);
+  };
   for (const auto& s : subjects) {
     const std::string id = s.value("id", "");
     if (!synths.count(id)) continue;
@@ -596,11 +689,10 @@ ReportSummary write_report(const std::string& dir, const std::string& out_dir, c
           }
         };
         for (PoseMethod m : {PoseMethod::kLearned, PoseMethod::kLbs}) {
-          PoseFitOptions fo;
-          fo.method = m;
-          const PoseFitResult fit = fit_pose(*synths[id], scan.P, fo);
-          add_row("fit", m, fit.pose, fit.V);
-          for (const auto& w : fit.warnings) doc.warnings.push_back("subject " + id + " pose " + pose + ": fit: " + w);
+          const FitTask& fit = fit_of(id, pose, m);
+          if (!fit.error.empty()) throw InvalidInput(fit.error);
+          add_row("fit", m, fit.result.pose, fit.result.V);
+          for (const auto& w : fit.result.warnings) doc.warnings.push_back("subject " + id + " pose " + pose + ": fit: " + w);
         }
         for (PoseMethod m : {PoseMethod::kLearned, PoseMethod::kRigid, PoseMethod::kLbs})
           add_row("dataset", m, part_pose, synths[id]->pose(part_pose, m));
@@ -631,14 +723,45 @@ ReportSummary write_report(const std::string& dir, const std::string& out_dir, c
     ro.nicp_runs = o.nicp_subjects > 0 ? 1 : 0;
     ro.nicp_subjects = o.nicp_subjects;
     ro.model = model;
+    // Table 1 depends on the dataset, the model, the shape space and the runs asked for.
+    std::string table_inputs = dataset_print + "\nruns " + std::to_string(ro.runs) + " nicp subjects " +
+                               std::to_string(ro.nicp_subjects) + " calibration bodies " + std::to_string(o.calibration_bodies);
+    if (cache.enabled() && !o.model_path.empty()) table_inputs += "\nmodel " + report_detail::file_fingerprint(o.model_path);
+    std::string space_file;
     if (!o.shape_space_path.empty()) {
       ro.shape_space = std::make_shared<const ShapeSpace>(read_shape_space(o.shape_space_path));
+      if (cache.enabled()) table_inputs += "\nshape space " + report_detail::file_fingerprint(o.shape_space_path);
     } else if (o.shape_space_bodies > 1) {
-      PopulationOptions po;
-      po.count = o.shape_space_bodies;
-      ro.shape_space = std::make_shared<const ShapeSpace>(makehuman_shape_space(*load_makehuman_model(find_data_root("")), po));
+      space_file = cache.path("shape space", data_print + "\nbodies " + std::to_string(o.shape_space_bodies), ".pks");
+      table_inputs += "\nshape space of " + std::to_string(o.shape_space_bodies) + " bodies";
+      if (cached(space_file)) {
+        ro.shape_space = std::make_shared<const ShapeSpace>(read_shape_space(space_file));
+        reuse("shape space", space_file);
+      } else {
+        PopulationOptions po;
+        po.count = o.shape_space_bodies;
+        ro.shape_space = std::make_shared<const ShapeSpace>(makehuman_shape_space(*load_makehuman_model(find_data_root("")), po));
+        if (!space_file.empty()) write_shape_space(space_file, *ro.shape_space);
+      }
     }
-    const RegistrationTable t = measure_registration_table(dir, ro);
+    const std::string table_file = cache.path("table 1", table_inputs + "\n" + data_print, ".json");
+    RegistrationTable t;
+    std::string measured_when;
+    if (cached(table_file)) {
+      const nlohmann::json j = nlohmann::json::parse(read_file_bytes(table_file));
+      t = report_detail::registration_table_from_json(j.at("table"));
+      measured_when = j.at("measured").get<std::string>();
+      reuse("Table 1", table_file);
+    } else {
+      t = measure_registration_table(dir, ro);
+      if (!table_file.empty()) {
+        const std::time_t now = std::time(nullptr);
+        char when[32];
+        std::strftime(when, sizeof when, "%Y-%m-%d %H:%M UTC", std::gmtime(&now));
+        const nlohmann::json j = {{"measured", when}, {"table", report_detail::registration_table_to_json(t)}};
+        write_file_atomically(table_file, [&](std::ostream& out) { out << j.dump(1); }, false);
+      }
+    }
     Table table{"Table 1: registration time and correspondence accuracy",
                 {"method", "median s", "min s", "max s", "point error mean mm", "p95 mm", "max mm", "triangle match mean mm",
                  "p95 mm", "pose transfer mm", "subjects"},
@@ -654,7 +777,10 @@ ReportSummary write_report(const std::string& dir, const std::string& out_dir, c
                     "that correspondence against their posed ground truth (with the true correspondence: " +
                     (t.pose_transfer_true_mm >= 0 ? fixed(t.pose_transfer_true_mm, 2) + " mm" : std::string("not measured")) +
                     "). The paper (Matlab, Core i7, 12,428 vertices): ICP 24 s for 1 iteration, 229 s "
-                    "for 6, ct-FFD 5.1 s. Made by: posekit bench registration --dataset " + dir};
+                    "for 6, ct-FFD 5.1 s. Made by: posekit bench registration --dataset " + dir +
+                    (measured_when.empty() ? std::string()
+                                           : ". Timed on " + measured_when + " and reused from the cache (its inputs are "
+                                             "unchanged; posekit report --no-cache times it again)")};
     nlohmann::ordered_json rows = nlohmann::ordered_json::array();
     for (const auto& r : t.rows) {
       if (r.seconds.empty()) continue;
@@ -699,6 +825,10 @@ ReportSummary write_report(const std::string& dir, const std::string& out_dir, c
   tick("pose accuracy");
 
   summary.seconds = t_start.seconds();
+  nlohmann::ordered_json stages = nlohmann::ordered_json::object();
+  for (const auto& [what, seconds] : summary.stage_seconds) stages[what] = seconds;
+  doc.data["stage_seconds"] = stages;
+  doc.data["reused_from_cache"] = summary.reused;
   doc.data["warnings"] = doc.warnings;
   doc.data["seconds"] = summary.seconds;
   const std::string title = "posekit report: " + dir;

@@ -3,6 +3,7 @@
 // HTML page and Markdown with PNG figures (VTK, off-screen).
 #include <functional>
 #include <string>
+#include <utility>
 #include <vector>
 
 namespace posekit {
@@ -17,6 +18,10 @@ struct ReportOptions {
   std::string shape_space_path;  ///< that row's space from a .pks file (posekit shape-space) instead
   std::string customization_path;  ///< photo customization model (.pkc); empty: train one here
   int customization_bodies = 2000;  ///< population of a customization model trained here
+  /// Folder of reusable results (the trained models, Table 1), each kept under a hash of all it was
+  /// made from (the dataset's and data root's files by size and time, the options, the posekit
+  /// binary) and reused when that is unchanged; empty: everything made afresh, nothing kept.
+  std::string cache_dir;
   std::string command_line;      ///< how the report was asked for, quoted in it
   std::function<void(int, int, const std::string&)> progress;
 };
@@ -25,6 +30,8 @@ struct ReportSummary {
   std::vector<std::string> files;      ///< everything written, relative to the output folder
   std::vector<std::string> warnings;   ///< also listed in the report
   double seconds = 0;
+  std::vector<std::pair<std::string, double>> stage_seconds;  ///< wall seconds of each stage, in order
+  std::vector<std::string> reused;     ///< the results taken from the cache
 };
 
 /// Writes index.html, report.md, report.json and the figures into `out_dir` (created; existing
