@@ -59,6 +59,7 @@ int bench_commands(int argc, char** argv) {
   args.data_option()
       .option("points", "LIST", "scan sizes, comma-separated", "1000000,10000000")
       .option("runs", "R", "runs of every command (median reported)", "5")
+      .option("only", "LIST", "commands to time, comma-separated: read, measure, compare, convert", "read,measure,compare,convert")
       .flag("peers", "also time CloudCompare, Open3D and the MeshLab server")
       .flag("json", "machine-readable results on stdout");
   if (!args.parse(argc, argv)) return 0;
@@ -102,7 +103,13 @@ int bench_commands(int argc, char** argv) {
            "print(float(scene.compute_distance(pts).numpy().mean()))\n";
     });
   }
-  const char* operations[] = {"read", "measure", "compare", "convert"};
+  std::vector<std::string> operations;
+  std::stringstream only(args.get("only"));
+  for (std::string op; std::getline(only, op, ',');) {
+    if (op != "read" && op != "measure" && op != "compare" && op != "convert")
+      throw UsageError("--only: unknown command '" + op + "' (read, measure, compare, convert)");
+    operations.push_back(op);
+  }
   nlohmann::ordered_json rows = nlohmann::ordered_json::array(), ratios = nlohmann::ordered_json::array();
   std::ostringstream table;
   table << "| command | points | posekit s (MiB) | CloudCompare s (MiB) | Open3D s (MiB) | MeshLab s (MiB) | posekit / best peer |\n"
@@ -111,8 +118,8 @@ int bench_commands(int argc, char** argv) {
     const std::string label = points_label(n), scan = dir + "/scan.ply", model_ply = dir + "/model.ply";
     std::cerr << "bench commands: writing a " << label << "-point scan\n";
     write_float_ply(scan, sample_surface(body.mesh, n, 0.0015, 7).P);
-    for (const char* op : operations) {
-      const std::string o(op), out = dir + "/out.xyz";
+    for (const std::string& o : operations) {
+      const std::string out = dir + "/out.xyz";
       std::vector<Tool> tools(4);
       tools[0].name = "posekit", tools[1].name = "CloudCompare", tools[2].name = "Open3D", tools[3].name = "MeshLab";
       if (o == "read") tools[0].command = self + " info " + scan;
