@@ -42,6 +42,18 @@ std::string open3d_python() {
   return {};
 }
 
+std::string write_open3d_compare_script(const std::string& dir) {
+  const std::string path = dir + "/o3d_compare.py";
+  write_file_atomically(path, [](std::ostream& out) {
+    out << "import sys\nimport numpy as np\nimport open3d as o3d\n"
+           "mesh = o3d.t.geometry.TriangleMesh.from_legacy(o3d.io.read_triangle_mesh(sys.argv[1]))\n"
+           "pts = o3d.core.Tensor(np.asarray(o3d.io.read_point_cloud(sys.argv[2]).points, dtype=np.float32))\n"
+           "scene = o3d.t.geometry.RaycastingScene()\nscene.add_triangles(mesh)\n"
+           "print(float(scene.compute_distance(pts).numpy().mean()))\n";
+  });
+  return path;
+}
+
 bool have_program(const std::string& program) {
   return std::system(("command -v " + program + " >/dev/null 2>&1").c_str()) == 0;
 }

@@ -21,6 +21,10 @@ ProcessRun run_process(const std::string& command, const std::string& log);
 /// another python3 first on PATH may hide).
 std::string open3d_python();
 
+/// Writes DIR/o3d_compare.py: Open3D's distance of every scan point (argv 2) to the mesh (argv 1)
+/// by RaycastingScene, as a user would script it; prints the mean. Returns its path.
+std::string write_open3d_compare_script(const std::string& dir);
+
 /// Whether `program` is on PATH.
 bool have_program(const std::string& program);
 

@@ -572,16 +572,7 @@ std::vector<WholeCommand> time_whole_comparisons(const std::string& dir, int run
     tools.push_back({"CloudCompare", "", "not installed (Debian: cloudcompare)", {}, 0, false});
   const std::string python = open3d_python();
   if (!python.empty()) {
-    const std::string script = dir + "/open3d_whole.py";
-    write_file_atomically(script, [&](std::ostream& out) {
-      out << "import sys\nimport numpy as np\nimport open3d as o3d\n"
-             "mesh = o3d.t.geometry.TriangleMesh.from_legacy(o3d.io.read_triangle_mesh(sys.argv[1]))\n"
-             "pts = o3d.core.Tensor(np.asarray(o3d.io.read_point_cloud(sys.argv[2]).points, dtype=np.float32))\n"
-             "scene = o3d.t.geometry.RaycastingScene()\n"
-             "scene.add_triangles(mesh)\n"
-             "d = scene.compute_distance(pts).numpy()\n"
-             "print(float(d.mean()))\n";
-    }, false);
+    const std::string script = write_open3d_compare_script(dir);
     tools.push_back({"Open3D", python + " " + script + " " + dir + "/model.ply " + dir + "/scan.ply", "", {}, 0, true});
   } else {
     tools.push_back({"Open3D", "", "not installed (Debian: python3-open3d)", {}, 0, false});

@@ -95,13 +95,7 @@ int bench_commands(int argc, char** argv) {
     write_file_atomically(dir + "/o3d_convert.py", [](std::ostream& o) {
       o << "import sys\nimport open3d as o3d\nassert o3d.io.write_point_cloud(sys.argv[2], o3d.io.read_point_cloud(sys.argv[1]))\n";
     });
-    write_file_atomically(dir + "/o3d_compare.py", [](std::ostream& o) {
-      o << "import sys\nimport numpy as np\nimport open3d as o3d\n"
-           "mesh = o3d.t.geometry.TriangleMesh.from_legacy(o3d.io.read_triangle_mesh(sys.argv[1]))\n"
-           "pts = o3d.core.Tensor(np.asarray(o3d.io.read_point_cloud(sys.argv[2]).points, dtype=np.float32))\n"
-           "scene = o3d.t.geometry.RaycastingScene()\nscene.add_triangles(mesh)\n"
-           "print(float(scene.compute_distance(pts).numpy().mean()))\n";
-    });
+    write_open3d_compare_script(dir);
   }
   std::vector<std::string> operations;
   std::stringstream only(args.get("only"));

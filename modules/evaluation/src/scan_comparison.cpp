@@ -70,6 +70,14 @@ std::string unit_mismatch_of_extents(double m, double s) {
   return msg.str();
 }
 
+/// Coverage, both directions' statistics and the Hausdorff distance, from the distances.
+void finish_statistics(ScanComparison* r, Eigen::Index vertices, double outlier_threshold) {
+  r->coverage = 1.0 - static_cast<double>(r->uncovered_vertices) / static_cast<double>(vertices);
+  r->scan_stats = stats_of(r->scan_to_model, outlier_threshold);
+  r->model_stats = stats_of(r->model_to_scan, outlier_threshold);
+  r->hausdorff_mm = std::max(r->scan_stats.max_mm, r->model_stats.max_mm);
+}
+
 /// Four times the median spacing of the scan (at least 10 mm): the automatic coverage radius.
 double coverage_radius_of(std::vector<double> spacing) {
   double median = 0;
@@ -153,10 +161,7 @@ ScanComparison compare_with_scan(const TriangleMesh& model, const PointCloud& sc
   r.uncovered_vertices = std::count(uncovered.begin(), uncovered.end(), 1);
   r.model_to_scan_seconds = since(t);
   t = Clock::now();
-  r.coverage = 1.0 - static_cast<double>(r.uncovered_vertices) / static_cast<double>(model.V.rows());
-  r.scan_stats = stats_of(r.scan_to_model, o.outlier_threshold);
-  r.model_stats = stats_of(r.model_to_scan, o.outlier_threshold);
-  r.hausdorff_mm = std::max(r.scan_stats.max_mm, r.model_stats.max_mm);
+  finish_statistics(&r, model.V.rows(), o.outlier_threshold);
   r.stats_seconds = since(t);
   r.seconds = since(t0);
   return r;
@@ -274,10 +279,7 @@ ScanComparison compare_with_scan(const TriangleMesh& model, const ScanPieces& sc
     const double side = (best_point.row(v) - model.V.row(v)).dot(vn.row(v));
     r.model_to_scan[v] = side < 0 ? -d : d;
   }
-  r.coverage = 1.0 - static_cast<double>(r.uncovered_vertices) / static_cast<double>(nv);
-  r.scan_stats = stats_of(r.scan_to_model, o.outlier_threshold);
-  r.model_stats = stats_of(r.model_to_scan, o.outlier_threshold);
-  r.hausdorff_mm = std::max(r.scan_stats.max_mm, r.model_stats.max_mm);
+  finish_statistics(&r, nv, o.outlier_threshold);
   r.stats_seconds = since(t);
   r.seconds = since(t0);
   return r;
