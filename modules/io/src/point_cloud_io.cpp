@@ -7,6 +7,7 @@
 #include <cstring>
 #include <iomanip>
 
+#include "mapped_file.h"
 #include "parse_util.h"
 #include "ply_format.h"
 #include "text_mesh_formats.h"
@@ -92,7 +93,8 @@ std::uint32_t packed_color_bits(const char* p) {
 }
 
 PointCloud read_pcd(const std::string& path, double scale) {
-  const std::string bytes = read_file_bytes(path);
+  const io_detail::MappedFile file(path);  // binary data is decoded straight from the map into the columns
+  const std::string_view bytes = file.bytes();
   LineScanner lines(bytes, path);
   std::string_view line;
   std::vector<std::string_view> tok;
@@ -187,14 +189,17 @@ PointCloud read_pcd(const std::string& path, double scale) {
     throw IoError(path + ": the header declares " + std::to_string(points) + " points of " + std::to_string(record) +
                   " bytes, more than the " + std::to_string(bytes.size() - data_start) +
                   " bytes of data can hold (truncated file)");
-  // Raw values per point, field-major: values[field][point]; packed colours keep their 32 bits.
+  // Each value read where it lies: the ascii values parsed into values[field][point], binary records
+  // and binary_compressed columns decoded in place. Packed colours keep their 32 bits.
   std::vector<std::vector<double>> values;
-  auto allocate = [&] { values.assign(fields.size(), std::vector<double>(static_cast<size_t>(points))); };
+  const char* records = nullptr;  // binary: point p's field f at records + p * record + offset
+  std::vector<char> raw;          // binary_compressed: field f's column at raw + column[f]
+  std::vector<size_t> column(fields.size(), 0);
   auto decode = [&](const char* p, size_t f) {
     return is_packed_color(fields[f]) ? static_cast<double>(packed_color_bits(p)) : pcd_value(p, fields[f]);
   };
   if (data == "ascii") {
-    allocate();
+    values.assign(fields.size(), std::vector<double>(static_cast<size_t>(points)));
     for (long long p = 0; p < points; ++p) {
       do {
         if (!lines.next(line))
@@ -220,10 +225,7 @@ PointCloud read_pcd(const std::string& path, double scale) {
         }
     }
   } else if (data == "binary") {
-    allocate();
-    const char* base = bytes.data() + data_start;
-    for (long long p = 0; p < points; ++p)
-      for (size_t f = 0; f < fields.size(); ++f) values[f][p] = decode(base + p * record + fields[f].offset, f);
+    records = bytes.data() + data_start;
   } else if (data == "binary_compressed") {
     if (bytes.size() - data_start < 8) throw IoError(path + ": binary_compressed data is truncated");
     std::uint32_t compressed = 0, uncompressed = 0;
@@ -236,20 +238,23 @@ PointCloud read_pcd(const std::string& path, double scale) {
       throw IoError(path + ": binary_compressed sizes (" + std::to_string(compressed) + " -> " +
                     std::to_string(uncompressed) + " bytes) do not match the header's " + std::to_string(points) +
                     " points of " + std::to_string(record) + " bytes (truncated or corrupt)");
-    std::vector<char> raw(uncompressed);
+    raw.resize(uncompressed);
     if (uncompressed > 0 &&
         lzf_decompress(bytes.data() + data_start + 8, compressed, raw.data(), uncompressed) != uncompressed)
       throw IoError(path + ": binary_compressed data does not decompress (corrupt)");
-    allocate();
     size_t off = 0;
     for (size_t f = 0; f < fields.size(); ++f) {
-      const size_t stride = static_cast<size_t>(fields[f].size) * fields[f].count;
-      for (long long p = 0; p < points; ++p) values[f][p] = decode(raw.data() + off + p * stride, f);
-      off += stride * static_cast<size_t>(points);
+      column[f] = off;
+      off += static_cast<size_t>(fields[f].size) * fields[f].count * static_cast<size_t>(points);
     }
   } else {
     throw IoError(path + ": unknown DATA '" + data + "': expected ascii, binary or binary_compressed");
   }
+  auto value = [&](size_t f, Eigen::Index p) {
+    if (records) return decode(records + static_cast<size_t>(p) * record + fields[f].offset, f);
+    if (!values.empty()) return values[f][static_cast<size_t>(p)];
+    return decode(raw.data() + column[f] + static_cast<size_t>(p) * static_cast<size_t>(fields[f].size) * fields[f].count, f);
+  };
   PointCloud cloud;
   const auto n = static_cast<Eigen::Index>(points);
   cloud.P.resize(n, 3);
@@ -263,10 +268,10 @@ PointCloud read_pcd(const std::string& path, double scale) {
     cloud.point_scalars[fields[f].name].resize(n);
   }
   for (Eigen::Index i = 0; i < n; ++i) {
-    cloud.P.row(i) << values[ix][i] * scale, values[iy][i] * scale, values[iz][i] * scale;
-    if (normals) cloud.N.row(i) << values[inx][i], values[iny][i], values[inz][i];
+    cloud.P.row(i) << value(ix, i) * scale, value(iy, i) * scale, value(iz, i) * scale;
+    if (normals) cloud.N.row(i) << value(inx, i), value(iny, i), value(inz, i);
     if (icolor >= 0) {
-      const double packed = values[icolor][i];
+      const double packed = value(icolor, i);
       if (!(packed >= 0 && packed < 4294967296.0))  // not a packed 0x00RRGGBB: casting it would be undefined
         throw IoError(path + ": point " + std::to_string(i) + ": colour field '" + fields[static_cast<size_t>(icolor)].name +
                       "' is " + std::to_string(packed) + ", not a packed 24-bit RGB value");
@@ -277,7 +282,8 @@ PointCloud read_pcd(const std::string& path, double scale) {
   }
   for (size_t f = 0; f < fields.size(); ++f) {
     auto it = cloud.point_scalars.find(fields[f].name);
-    if (it != cloud.point_scalars.end()) it->second = Eigen::Map<const Eigen::VectorXd>(values[f].data(), n);
+    if (it != cloud.point_scalars.end())
+      for (Eigen::Index i = 0; i < n; ++i) it->second[i] = value(f, i);
   }
   return cloud;
 }
