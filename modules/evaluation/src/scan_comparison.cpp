@@ -167,27 +167,25 @@ ScanComparison compare_with_scan(const TriangleMesh& model, const PointCloud& sc
   return r;
 }
 
-ScanComparison compare_with_scan(const TriangleMesh& model, const ScanPieces& scan, const ScanComparisonOptions& o) {
-  require_usable_mesh(model, "model mesh");
-  const Eigen::Index n = scan.size;
-  if (n <= 0) throw InvalidInput("the scan has no points");
-  using Clock = std::chrono::steady_clock;
-  const auto t0 = Clock::now();
-  auto since = [](Clock::time_point t) { return std::chrono::duration<double>(Clock::now() - t).count(); };
-  const Eigen::Index piece = std::max<Eigen::Index>(1, scan.piece);
-  auto each_piece = [&](const std::function<void(Eigen::Index first, const Eigen::MatrixXd& P)>& work) {
-    Eigen::MatrixXd P;
-    for (Eigen::Index first = 0; first < n; first += piece) {
-      const Eigen::Index count = std::min(piece, n - first);
-      scan.read(first, count, &P);
-      work(first, P);
-      if (scan.release) scan.release(first + count);
-    }
-  };
-  ScanComparison r;
+namespace {
 
-  // Pass 1: finite points, the box (the unit check) and, for the automatic coverage radius, the
-  // nearest other point of the same 2000 samples as compare_with_scan's, over every piece.
+/// `work(first, points)` on every piece of the scan in turn, releasing each after it.
+void for_each_piece(const ScanPieces& scan, const std::function<void(Eigen::Index first, const Eigen::MatrixXd& P)>& work) {
+  const Eigen::Index piece = std::max<Eigen::Index>(1, scan.piece);
+  Eigen::MatrixXd P;
+  for (Eigen::Index first = 0; first < scan.size; first += piece) {
+    const Eigen::Index count = std::min(piece, scan.size - first);
+    scan.read(first, count, &P);
+    work(first, P);
+    if (scan.release) scan.release(first + count);
+  }
+}
+
+/// The first pass over the pieces: finite points, the box against the model's (the unit check) and
+/// the coverage radius, automatic from the nearest other point of the same 2000 samples as the
+/// whole-scan comparison's, found over every piece.
+double checked_coverage_radius(const TriangleMesh& model, const ScanPieces& scan, const ScanComparisonOptions& o) {
+  const Eigen::Index n = scan.size;
   const bool automatic_radius = o.coverage_radius <= 0;
   const Eigen::Index step = std::max<Eigen::Index>(1, n / 2000);
   std::vector<Eigen::Index> samples;
@@ -199,7 +197,7 @@ ScanComparison compare_with_scan(const TriangleMesh& model, const ScanPieces& sc
   }
   std::vector<double> sample_sq(samples.size(), std::numeric_limits<double>::infinity());
   Eigen::RowVector3d lo = Eigen::RowVector3d::Constant(std::numeric_limits<double>::infinity()), hi = -lo;
-  each_piece([&](Eigen::Index first, const Eigen::MatrixXd& P) {
+  for_each_piece(scan, [&](Eigen::Index first, const Eigen::MatrixXd& P) {
     if (!P.allFinite()) throw InvalidInput("the scan has a non-finite point");
     lo = lo.cwiseMin(P.colwise().minCoeff());
     hi = hi.cwiseMax(P.colwise().maxCoeff());
@@ -221,16 +219,27 @@ ScanComparison compare_with_scan(const TriangleMesh& model, const ScanPieces& sc
   const BoundingBox mb = bounding_box(model.V);
   if (const std::string m = unit_mismatch_of_extents((mb.max - mb.min).maxCoeff(), (hi - lo).maxCoeff()); !m.empty())
     throw InvalidInput(m);
-  if (automatic_radius) {
-    std::vector<double> spacing;
-    for (double sq : sample_sq)
-      if (std::isfinite(sq)) spacing.push_back(std::sqrt(sq));
-    r.coverage_radius = coverage_radius_of(std::move(spacing));
-  } else {
-    r.coverage_radius = o.coverage_radius;
-  }
+  if (!automatic_radius) return o.coverage_radius;
+  std::vector<double> spacing;
+  for (double sq : sample_sq)
+    if (std::isfinite(sq)) spacing.push_back(std::sqrt(sq));
+  return coverage_radius_of(std::move(spacing));
+}
 
-  // Pass 2: scan to model as compare_with_scan; model to scan as the nearest point over the pieces.
+}  // namespace
+
+ScanComparison compare_with_scan(const TriangleMesh& model, const ScanPieces& scan, const ScanComparisonOptions& o) {
+  require_usable_mesh(model, "model mesh");
+  const Eigen::Index n = scan.size;
+  if (n <= 0) throw InvalidInput("the scan has no points");
+  using Clock = std::chrono::steady_clock;
+  const auto t0 = Clock::now();
+  auto since = [](Clock::time_point t) { return std::chrono::duration<double>(Clock::now() - t).count(); };
+  ScanComparison r;
+  r.coverage_radius = checked_coverage_radius(model, scan, o);
+
+  // Then the distances: scan to model as the whole-scan comparison's; model to scan as the nearest
+  // point over the pieces.
   auto t = Clock::now();
   const TriangleTree tree(model.V, model.F);
   const Eigen::MatrixXd vn = vertex_normals(model.V, model.F);
@@ -240,7 +249,7 @@ ScanComparison compare_with_scan(const TriangleMesh& model, const ScanPieces& sc
   std::vector<double> best_sq(static_cast<size_t>(nv), std::numeric_limits<double>::infinity());
   Eigen::MatrixXd best_point(nv, 3);
   const double reach = std::nextafter(r.coverage_radius, INFINITY);  // a vertex exactly at the radius is covered
-  each_piece([&](Eigen::Index first, const Eigen::MatrixXd& P) {
+  for_each_piece(scan, [&](Eigen::Index first, const Eigen::MatrixXd& P) {
     auto ts = Clock::now();
     tree.for_each_closest(P, o.threads, [&](Eigen::Index i, const ClosestHit& h) {
       const Eigen::RowVector3d nrm = h.bary[0] * vn.row(model.F(h.face, 0)) + h.bary[1] * vn.row(model.F(h.face, 1)) +
