@@ -968,8 +968,11 @@ int bench_compare(int argc, char** argv) {
     out["ratio_to_best_peer"] = best_peer > 0 ? nlohmann::ordered_json(t.median / best_peer) : nlohmann::ordered_json();
     nlohmann::ordered_json jw = nlohmann::ordered_json::array();
     for (const WholeCommand& w : whole) {
-      nlohmann::ordered_json e = {{"name", w.name}, {"command", w.command}};
-      if (w.ok && !w.seconds.empty()) e["wall_s"] = stats_json(w.seconds), e["peak_rss_mib"] = w.peak_mib;
+      nlohmann::ordered_json e = {{"case", "whole process: " + w.name}, {"name", w.name}, {"command", w.command}};
+      if (w.ok && !w.seconds.empty()) {
+        const Stats st = stats_of(w.seconds);
+        e["median_s"] = st.median, e["min_s"] = st.min, e["max_s"] = st.max, e["peak_rss_mib"] = w.peak_mib;
+      }
       if (!w.note.empty()) e["note"] = w.note;
       jw.push_back(e);
     }
