@@ -41,6 +41,7 @@ int customize_train(int argc, char** argv) {
       .option("bodies", "N", "population size", "2000")
       .option("seed", "S", "population seed", "20261124")
       .option("threads", "N", "threads", "2")
+      .option("max-turn", "DEG", "each body turned about the vertical by up to this angle before rendering", "0")
       .option("leave-out", "WHAT", "none, obese (BMI 30 and over) or men (gender over 0.5): bodies outside the population", "none")
       .flag("linear-only", "train the linear models only (no MLPs)")
       .data_option()
@@ -52,6 +53,8 @@ int customize_train(int argc, char** argv) {
   o.seed = static_cast<unsigned>(args.get_int("seed"));
   o.threads = static_cast<int>(args.get_int("threads"));
   o.mlp = !args.flag_set("linear-only");
+  o.max_turn_degrees = args.get_double("max-turn");
+  if (!(o.max_turn_degrees >= 0 && o.max_turn_degrees <= 20)) throw UsageError("--max-turn: 0 to 20 degrees");
   const std::string leave = args.get("leave-out");
   if (leave == "obese") {
     o.keep = [](int, double bmi, double) { return bmi < 30.0; };
@@ -141,9 +144,10 @@ int customize_eval(int argc, char** argv) {
                  "body turned 5 degrees, JPEG and sensor noise).");
   args.option("dataset", "DIR", "dataset folder (posekit dataset make)")
       .option("model", "FILE", "customization model (posekit customize train)", "customization.pkc")
-      .option("variation", "V", "photos, masks, erode2, dilate2, height+1cm, nearer20cm, farther20cm, turned5, jpeg-noise, or all", "photos")
+      .option("variation", "V", "photos, masks, erode2, dilate2, height+1cm, nearer20cm, farther20cm, turned5, jpeg-noise, camera1.30, camera1.30-aimed, camera1.00, or all", "photos")
       .option("subjects", "A,B", "only these subjects")
       .output("json", "FILE", "write the tables as JSON")
+      .output_folder("inputs-out", "DIR", "write each subject's silhouettes and camera file as customized (DIR/VARIATION/ID/)")
       .example("posekit customize eval --dataset ds --model customization.pkc --variation all");
   if (!args.parse(argc, argv)) return 0;
   if (!args.has("dataset")) throw UsageError("customize eval needs --dataset DIR");
@@ -154,7 +158,7 @@ int customize_eval(int argc, char** argv) {
   const std::vector<std::string> ids = args.has("subjects") ? split_list(args.get("subjects")) : std::vector<std::string>{};
   nlohmann::json all = nlohmann::json::array();
   for (PhotoVariation v : variations) {
-    const PhotoEvaluation ev = evaluate_photo_customization(args.get("dataset"), model, v, ids);
+    const PhotoEvaluation ev = evaluate_photo_customization(args.get("dataset"), model, v, ids, args.has("inputs-out") ? args.get("inputs-out") : "");
     print_evaluation(ev, std::cout);
     std::cout.flush();
     all.push_back(evaluation_json(ev));

@@ -136,6 +136,28 @@ TEST(PhotoLandmarks, LevelsAndStatureAgreeWithTheBodysOwnFeatures) {
   EXPECT_GT(L.front_to_side_ratio, 1.2);
 }
 
+// A phone at chest height aimed down at the body: the hands, held in front of the body, show lower
+// and farther out than they are when read at the torso's depth; read at the arms' own depth they
+// stay where the level camera puts them.
+TEST(PhotoLandmarks, ArmsReadAtTheirOwnDepthDoNotMoveWithTheCameraHeight) {
+  const Scene level = photograph(default_body());
+  const BodyFeatures f = find_body_features(level.body.V, level.body.F);
+  const ArmChains arms = arm_chains(f);
+  ASSERT_EQ(arms.chain[kLeft].size(), 4u);
+  PhotoCameras high = level.cameras;
+  for (PinholeCamera* c : {&high.front, &high.side})
+    *c = PinholeCamera::look_at({c->centre().x(), f.floor_y + 1.3, c->centre().z()}, {0, 0.5 * (f.floor_y + f.crown_y), 0},
+                                Eigen::Vector3d::UnitY(), 800, 1200, 1100);
+  const Silhouette front = mask_of(render_mesh(level.body, high.front)), side = mask_of(render_mesh(level.body, high.side));
+  const PhotoLandmarks at_level = find_photo_landmarks(mask_of(level.front), mask_of(level.side), level.cameras, &arms);
+  const PhotoLandmarks torso_depth = find_photo_landmarks(front, side, high);
+  const PhotoLandmarks own_depth = find_photo_landmarks(front, side, high, &arms);
+  for (int k : {kLeft, kRight}) {
+    EXPECT_LT((own_depth.hand_tip[k] - at_level.hand_tip[k]).norm(), 0.006) << k;
+    EXPECT_GT((torso_depth.hand_tip[k] - at_level.hand_tip[k]).norm(), 0.015) << k;
+  }
+}
+
 // The standard pose's forearms cross in front of the waist in the side photo: the levels where they
 // hide the torso's outline are found, and there the measured depth is the torso's, not the arm's.
 TEST(PhotoLandmarks, ForearmsInFrontOfTheWaistAreSeenAndLeftOutOfTheDepth) {

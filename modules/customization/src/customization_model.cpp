@@ -42,6 +42,7 @@ constexpr double kRangeMargin = 0.02;  // beyond the population's range by 2% of
 constexpr int kRangeAxes = 4;
 constexpr int kFeatureScalars = 9, kFeaturePoints = 19;
 constexpr int kFeatureTargets = kFeatureScalars + 3 * kFeaturePoints;
+constexpr int kFirstArmPoint = 3, kLastArmPoint = 12;  // feature_points: armpits, shoulders, elbows, wrists, hand tips
 
 std::vector<Eigen::Vector3d*> feature_points(BodyFeatures& f) {
   return {&f.crotch, &f.neck_base, &f.neck_top, &f.armpit[0], &f.armpit[1], &f.shoulder[0], &f.shoulder[1],
@@ -184,10 +185,20 @@ struct Sample {
   PhotoLandmarks landmarks;
   Eigen::VectorXd targets;
   PhotoCameras cameras;
+  double turn = 0;  // radians about the vertical
   std::vector<std::uint8_t> front_png, side_png;
   std::vector<Eigen::VectorXd> inputs, outputs;  // per layer
   std::vector<double> w, d;                      // per layer half extents (m), for errors
 };
+
+/// The mesh turned by `angle` (radians) about the vertical through its centroid.
+TriangleMesh turned_about_vertical(TriangleMesh mesh, double angle) {
+  if (angle == 0) return mesh;
+  const Eigen::RowVector3d c = mesh.V.colwise().mean();
+  const Eigen::Matrix3d R = Eigen::AngleAxisd(angle, Eigen::Vector3d::UnitY()).toRotationMatrix();
+  mesh.V = ((mesh.V.rowwise() - c) * R.transpose()).rowwise() + c;
+  return mesh;
+}
 
 std::vector<std::uint8_t> encode(const std::vector<std::uint8_t>& mask, int w, int h) {
   return encode_png(Image8{w, h, 1, mask});
@@ -255,8 +266,25 @@ CustomizedBody customize_from_silhouettes(const Silhouette& front, const Silhoue
                                           const CustomizationModel& model, double stated_stature) {
   if (!model.runtime) throw InvalidInput("customize: the model is not prepared (prepare_customization_model)");
   CustomizedBody out;
+  // The arms read at the torso's depth first, then at the depth of the arms predicted from them,
+  // until the predicted arms move less than a millimetre (a fixed point; 4-8 rounds).
   out.landmarks = find_photo_landmarks(front, side, cams);
+  ArmChains arms;
+  double moved = 1;
+  for (int round = 0; round < 12 && moved >= 1e-3; ++round) {
+    const ArmChains next = arm_chains(predict_body_features(model, out.landmarks));
+    moved = round == 0 ? 1 : 0;
+    for (int k : {kLeft, kRight})
+      for (size_t p = 0; round > 0 && p < next.chain[k].size(); ++p)
+        moved = std::max(moved, p < arms.chain[k].size() ? (next.chain[k][p] - arms.chain[k][p]).norm() : 1.0);
+    if (moved < 1e-3) break;
+    arms = next;
+    out.landmarks = find_photo_landmarks(front, side, cams, &arms);
+  }
   out.warnings = out.landmarks.warnings;
+  if (moved > 0.005)
+    out.warnings.push_back("photos: the arms' distance from the camera did not settle (the predicted arms still move " +
+                           std::to_string(static_cast<int>(1000 * moved)) + " mm): the arms' outline may be read at the wrong depth");
   out.population_distance = population_distance(model, out.landmarks);
   int axis = -1;
   out.population_range_excess = population_range_excess(model, out.landmarks, &axis);
@@ -330,16 +358,23 @@ CustomizationModel train_customization_model(const CustomizationTrainingOptions&
         report("body " + std::to_string(i));
         return;
       }
-      const BodyFeatures f = find_body_features(body.mesh.V, body.mesh.F);
       std::mt19937 rng(o.seed * 31u + static_cast<unsigned>(i));
       std::uniform_real_distribution<double> u(0, 1);
       const double distance = 2.6 + 0.8 * u(rng);
       const double mid = 0.5 * (body.mesh.V.col(1).maxCoeff() + body.mesh.V.col(1).minCoeff()) + 0.1 * (u(rng) - 0.5);
+      // A person never stands exactly square to the camera: each body turned by up to the population's
+      // turn about the vertical, so that the left and right arms' readings are not always equal (the
+      // regression then learns each side from its own arm, not from their mean).
+      const double turn = o.max_turn_degrees * (2 * u(rng) - 1) * M_PI / 180;
+      const TriangleMesh mesh = turned_about_vertical(body.mesh, turn);
+      const BodyFeatures f = find_body_features(mesh.V, mesh.F);
       s.cameras.front = PinholeCamera::look_at(Eigen::Vector3d(0, mid, distance), Eigen::Vector3d(0, mid, 0), Eigen::Vector3d::UnitY(), 800, 1200, 1400);
       s.cameras.side = PinholeCamera::look_at(Eigen::Vector3d(distance, mid, 0), Eigen::Vector3d(0, mid, 0), Eigen::Vector3d::UnitY(), 800, 1200, 1400);
-      const Silhouette sil[2] = {silhouette_from_render(render_mesh(body.mesh, s.cameras.front)),
-                                 silhouette_from_render(render_mesh(body.mesh, s.cameras.side))};
-      s.landmarks = find_photo_landmarks(sil[0], sil[1], s.cameras);
+      const Silhouette sil[2] = {silhouette_from_render(render_mesh(mesh, s.cameras.front)),
+                                 silhouette_from_render(render_mesh(mesh, s.cameras.side))};
+      s.turn = turn;
+      const ArmChains arms = arm_chains(f);
+      s.landmarks = find_photo_landmarks(sil[0], sil[1], s.cameras, &arms);
       s.targets = feature_targets(f, s.landmarks);
       s.front_png = encode(sil[0].mask, sil[0].width, sil[0].height);
       s.side_png = encode(sil[1].mask, sil[1].width, sil[1].height);
@@ -373,6 +408,22 @@ CustomizationModel train_customization_model(const CustomizationTrainingOptions&
       Y.row(static_cast<Eigen::Index>(r)) = samples[static_cast<size_t>(train[r])].targets.transpose();
     }
     model.feature_weights = ridge(X, Y, 1e-4);
+    // Each arm's joints from its own arm's readings and the rest of the body, not the other arm's:
+    // a population of symmetric bodies makes the two arms' readings collinear, and a joint fit would
+    // predict each arm from their mean (wrong for a person turned a little, or with uneven arms).
+    for (int side : {kLeft, kRight}) {
+      std::vector<bool> other(static_cast<size_t>(descriptor_size), false);
+      for (int c : descriptor_arm_entries(side == kLeft ? kRight : kLeft)) other[static_cast<size_t>(c)] = true;
+      std::vector<Eigen::Index> kept_columns, targets;
+      for (int c = 0; c < descriptor_size; ++c)
+        if (!other[static_cast<size_t>(c)]) kept_columns.push_back(c);
+      for (int point = kFirstArmPoint + side; point <= kLastArmPoint; point += 2)
+        for (int a = 0; a < 3; ++a) targets.push_back(kFeatureScalars + 3 * point + a);
+      const Eigen::MatrixXd W = ridge(X(Eigen::all, kept_columns), Y(Eigen::all, targets), 1e-4);
+      model.feature_weights(Eigen::all, targets).setZero();
+      for (size_t r = 0; r < kept_columns.size(); ++r) model.feature_weights(kept_columns[r], targets) = W.row(static_cast<Eigen::Index>(r));
+      model.feature_weights(descriptor_size, targets) = W.row(W.rows() - 1);
+    }
     double sum = 0;
     long count = 0;
     for (int i : valid) {
@@ -416,8 +467,8 @@ CustomizationModel train_customization_model(const CustomizationTrainingOptions&
       const LayeredRepresentation planned = plan_layered_representation(f, model.points_per_layer);
       const Silhouette front = decode(s.front_png), side = decode(s.side_png);
       const std::vector<LayerExtent> e = measure_layers(planned, front, side, s.cameras, f.axis_x, s.landmarks.side_arm_occlusion);
-      const Body body = build_body(*mh, specs[static_cast<size_t>(kept[static_cast<size_t>(j)])]);
-      const LayeredRepresentation truth = build_layered_representation(body.mesh.V, body.mesh.F, f, model.points_per_layer);
+      const TriangleMesh mesh = turned_about_vertical(build_body(*mh, specs[static_cast<size_t>(kept[static_cast<size_t>(j)])]).mesh, s.turn);
+      const LayeredRepresentation truth = build_layered_representation(mesh.V, mesh.F, f, model.points_per_layer);
       for (size_t i = 0; i < truth.layers.size(); ++i) {
         s.inputs.push_back(layer_inputs(planned, e, i, s.landmarks.stature));
         s.outputs.push_back(layer_outputs(truth, i, e[i]));
@@ -493,7 +544,7 @@ CustomizationModel train_customization_model(const CustomizationTrainingOptions&
   model.validation_bodies = static_cast<int>(valid.size());
   std::ostringstream pop;
   pop << "make_calibration_specs(" << o.seed << ", " << o.bodies << "): " << train.size() << " training and " << valid.size()
-      << " validation bodies";
+      << " validation bodies, turned up to " << o.max_turn_degrees << " degrees";
   int failed = 0, left_out = 0;
   for (const Sample& s : samples) (s.why == "left out" ? left_out : failed) += !s.ok;
   if (left_out) pop << ", " << left_out << " left out (" << (o.population_note.empty() ? "keep" : o.population_note) << ")";

@@ -10,6 +10,7 @@
 #include "posekit/core/error.h"
 #include "posekit/core/timer.h"
 #include "posekit/datasets/dataset.h"
+#include "posekit/io/atomic_file.h"
 #include "posekit/io/image_io.h"
 #include "posekit/shape/measurements.h"
 #include "opencv_calls.h"
@@ -23,7 +24,23 @@ const std::pair<PhotoVariation, const char*> kNames[] = {
     {PhotoVariation::kErode2, "erode2"},          {PhotoVariation::kDilate2, "dilate2"},
     {PhotoVariation::kHeightPlus1cm, "height+1cm"}, {PhotoVariation::kNearer20cm, "nearer20cm"},
     {PhotoVariation::kFarther20cm, "farther20cm"}, {PhotoVariation::kTurned5deg, "turned5"},
-    {PhotoVariation::kJpegNoise, "jpeg-noise"}};
+    {PhotoVariation::kJpegNoise, "jpeg-noise"},   {PhotoVariation::kCamera130Level, "camera1.30"},
+    {PhotoVariation::kCamera130Aimed, "camera1.30-aimed"}, {PhotoVariation::kCamera100Level, "camera1.00"}};
+
+/// The dataset's cameras moved to `height` above the subject's soles, at the same distance from the
+/// body's axis; level, or aimed at the body's mid-height. The focal length is a phone's wider one
+/// (1100 px for 1200 rows), so that a level camera at chest height still sees the feet.
+PhotoCameras cameras_at_height(const PhotoCameras& dataset, const TriangleMesh& subject, double height, bool aimed) {
+  const double floor = subject.V.col(1).minCoeff(), mid = 0.5 * (floor + subject.V.col(1).maxCoeff());
+  PhotoCameras out = dataset;
+  for (PinholeCamera* c : {&out.front, &out.side}) {
+    Eigen::Vector3d eye = c->centre();
+    const Eigen::Vector3d target(0, aimed ? mid : floor + height, 0);
+    eye.y() = floor + height;
+    *c = PinholeCamera::look_at(eye, target, Eigen::Vector3d::UnitY(), c->width, c->height, 1100);
+  }
+  return out;
+}
 
 nlohmann::json read_json(const fs::path& p) {
   std::ifstream in(p);
@@ -74,7 +91,7 @@ PhotoVariation parse_photo_variation(const std::string& name) {
 }
 
 PhotoEvaluation evaluate_photo_customization(const std::string& dataset_dir, const CustomizationModel& model, PhotoVariation variation,
-                                             const std::vector<std::string>& ids) {
+                                             const std::vector<std::string>& ids, const std::string& inputs_out) {
   const fs::path root(dataset_dir);
   const nlohmann::json manifest = read_json(root / "manifest.json");
   PhotoEvaluation ev;
@@ -116,6 +133,15 @@ PhotoEvaluation evaluate_photo_customization(const std::string& dataset_dir, con
           side = silhouette_from_render(render_mesh(turned, cams.side));
           break;
         }
+        case PhotoVariation::kCamera130Level:
+        case PhotoVariation::kCamera130Aimed:
+        case PhotoVariation::kCamera100Level: {
+          const double h = variation == PhotoVariation::kCamera100Level ? 1.0 : 1.3;
+          cams = cameras_at_height(cams, subject, h, variation == PhotoVariation::kCamera130Aimed);
+          front = silhouette_from_render(render_mesh(subject, cams.front));
+          side = silhouette_from_render(render_mesh(subject, cams.side));
+          break;
+        }
         default:
           front = read_silhouette_mask((root / ph.at("front_mask").get<std::string>()).string(), "front mask of " + id);
           side = read_silhouette_mask((root / ph.at("side_mask").get<std::string>()).string(), "side mask of " + id);
@@ -132,9 +158,17 @@ PhotoEvaluation evaluate_photo_customization(const std::string& dataset_dir, con
         stated = true_stature + (variation == PhotoVariation::kHeightPlus1cm ? 0.01 : 0);
         cams = cameras_from_stature(front, side, stated, d);
       }
+      if (!inputs_out.empty()) {
+        const fs::path dir = fs::path(inputs_out) / photo_variation_name(variation) / id;
+        create_folders(dir.string());
+        write_silhouette_png((dir / "front_mask.png").string(), front);
+        write_silhouette_png((dir / "side_mask.png").string(), side);
+        const std::string text = "{\n\"front\": " + camera_to_json(cams.front) + ",\n\"side\": " + camera_to_json(cams.side) + "}\n";
+        write_file_atomically((dir / "camera.json").string(), [&](std::ostream& os) { os << text; }, false);
+      }
       const CustomizedBody body = customize_from_silhouettes(front, side, cams, model, stated);
       const double elapsed = t0.seconds();
-      if (variation != PhotoVariation::kTurned5deg) {
+      if (variation < PhotoVariation::kTurned5deg || variation == PhotoVariation::kJpegNoise) {
         for (const auto& [mine, key] : {std::pair<const Silhouette*, const char*>{&front, "front_mask"}, {&side, "side_mask"}}) {
           const Silhouette truth = read_silhouette_mask((root / ph.at(key).get<std::string>()).string(), key);
           long inter = 0, uni = 0;

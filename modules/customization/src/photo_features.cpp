@@ -61,7 +61,8 @@ double ramanujan(double a, double b) {
 
 class Finder {
  public:
-  Finder(const Silhouette& front, const Silhouette& side, const PhotoCameras& cams) : fs_(front), ss_(side), fc_(cams.front), sc_(cams.side) {
+  Finder(const Silhouette& front, const Silhouette& side, const PhotoCameras& cams, const ArmChains* arms)
+      : fs_(front), ss_(side), fc_(cams.front), sc_(cams.side), arms_(arms) {
     p0_ = meeting_point(fc_, sc_);
     x_dir_ = project(fc_, p0_ + Eigen::Vector3d::UnitX()).x() > project(fc_, p0_).x() ? 1 : -1;
   }
@@ -188,8 +189,9 @@ class Finder {
       throw InvalidInput("photos: a stature of " + std::to_string(L.stature) + " m: check the camera file or the stated height");
     // Hand tips and the arm profile.
     const double body_depth = depth_of(fc_, Eigen::Vector3d(L.axis_x, mid_y, L.axis_z));
-    auto world_xy = [&](const Eigen::Vector2d& uv) {
-      const Eigen::Vector3d p = point_at_depth(fc_, uv.x(), uv.y(), body_depth);
+    auto world_xy = [&](const Eigen::Vector2d& uv, int side) {
+      const Eigen::Vector3d p = arms_ && arms_->chain[side].size() >= 2 ? nearest_on_ray(fc_, uv, arms_->chain[side])
+                                                                        : point_at_depth(fc_, uv.x(), uv.y(), body_depth);
       return Eigen::Vector2d(p.x() - L.axis_x, p.y() - L.floor_y);
     };
     std::vector<double> d;
@@ -204,10 +206,10 @@ class Finder {
     push(y_of_row(head_v) - L.floor_y);
     for (int side : {kLeft, kRight}) {
       const auto& track = arm_track[side];
-      const Eigen::Vector2d tip = world_xy(track.back());
+      const Eigen::Vector2d tip = world_xy(track.back(), side);
       L.hand_tip[side] = Eigen::Vector2d(tip.x() + L.axis_x, tip.y() + L.floor_y);
       for (double f : {0.0, 0.2, 0.4, 0.6, 0.8, 1.0}) {
-        const Eigen::Vector2d p = world_xy(track[static_cast<size_t>(f * (track.size() - 1))]);
+        const Eigen::Vector2d p = world_xy(track[static_cast<size_t>(f * (track.size() - 1))], side);
         push(p.x());
         push(p.y());
       }
@@ -260,6 +262,25 @@ class Finder {
     L.descriptor = Eigen::Map<Eigen::VectorXd>(d.data(), static_cast<Eigen::Index>(d.size()));
     L.side_arm_occlusion = side_arm_occlusion(L);
     return L;
+  }
+
+  /// The point of the ray through pixel uv nearest the polyline `chain`.
+  static Eigen::Vector3d nearest_on_ray(const PinholeCamera& c, const Eigen::Vector2d& uv, const std::vector<Eigen::Vector3d>& chain) {
+    const Eigen::Vector3d o = c.centre(), d = c.ray(uv.x(), uv.y());
+    double best = std::numeric_limits<double>::max();
+    Eigen::Vector3d out = o + depth_of(c, chain.front()) / d.dot(c.R.row(2).transpose()) * d;
+    for (size_t k = 0; k + 1 < chain.size(); ++k) {
+      // Closest points of the line o + t d and the segment a + s (b - a), s in [0, 1].
+      const Eigen::Vector3d a = chain[k], e = chain[k + 1] - a, w = o - a;
+      const double ee = e.dot(e), de = d.dot(e), dw = d.dot(w), ew = e.dot(w), den = ee - de * de;
+      double s = den > 1e-12 ? std::clamp((ew - de * dw) / den, 0.0, 1.0) : 0.0;
+      const double t = std::max(0.0, de * s - dw);
+      s = ee > 1e-12 ? std::clamp((t * de + ew) / ee, 0.0, 1.0) : 0.0;
+      const Eigen::Vector3d on_ray = o + t * d;
+      const double dist = (on_ray - (a + s * e)).squaredNorm();
+      if (dist < best) best = dist, out = on_ray;
+    }
+    return out;
   }
 
   struct Section {
@@ -426,6 +447,7 @@ class Finder {
 
   const Silhouette &fs_, &ss_;
   const PinholeCamera &fc_, &sc_;
+  const ArmChains* arms_;
   Eigen::Vector3d p0_;
   int x_dir_ = 1;
   double axis_u_ = 0;
@@ -460,7 +482,23 @@ bool walk(const Silhouette& s, const PinholeCamera& cam, const Eigen::Vector3d& 
 
 }  // namespace
 
-PhotoLandmarks find_photo_landmarks(const Silhouette& front, const Silhouette& side, const PhotoCameras& cameras) {
+std::vector<int> descriptor_arm_entries(int side) {
+  // The order of Finder::find's pushes: stature, crotch, the armpits (left, right), neck level, neck
+  // and head width, head level, then each arm's 12 profile numbers (left, right).
+  std::vector<int> out = {side == kLeft ? 2 : 3};
+  for (int k = 0; k < 12; ++k) out.push_back((side == kLeft ? 8 : 20) + k);
+  return out;
+}
+
+ArmChains arm_chains(const BodyFeatures& f) {
+  ArmChains out;
+  for (int side : {kLeft, kRight})
+    for (const Eigen::Vector3d& p : {f.shoulder[side], f.elbow[side], f.wrist[side], f.hand_tip[side]})
+      if (p.allFinite()) out.chain[side].push_back(p);
+  return out;
+}
+
+PhotoLandmarks find_photo_landmarks(const Silhouette& front, const Silhouette& side, const PhotoCameras& cameras, const ArmChains* arms) {
   check_silhouette(front, "front photo");
   check_silhouette(side, "side photo");
   for (const auto& [s, c, what] : {std::tuple<const Silhouette&, const PinholeCamera&, const char*>{front, cameras.front, "front"},
@@ -468,7 +506,7 @@ PhotoLandmarks find_photo_landmarks(const Silhouette& front, const Silhouette& s
     if (s.width != c.width || s.height != c.height)
       throw InvalidInput(std::string(what) + " photo is " + std::to_string(s.width) + "x" + std::to_string(s.height) + " but its camera " +
                          std::to_string(c.width) + "x" + std::to_string(c.height));
-  return Finder(front, side, cameras).find();
+  return Finder(front, side, cameras, arms).find();
 }
 
 std::vector<LayerExtent> measure_layers(const LayeredRepresentation& rep, const Silhouette& front, const Silhouette& side,

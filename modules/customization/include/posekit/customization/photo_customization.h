@@ -35,9 +35,23 @@ struct PhotoLandmarks {
   std::vector<std::string> warnings;
 };
 
-/// Finds the 2-D features. Throws InvalidInput naming the photo and the feature that cannot be found
-/// (no gap between the legs, arms touching the torso, a side view given as front).
-PhotoLandmarks find_photo_landmarks(const Silhouette& front, const Silhouette& side, const PhotoCameras& cameras);
+/// Where each arm lies in space (shoulder, elbow, wrist, hand tip; world), so that the arm's outline
+/// in the front photo is read at the arm's own distance from the camera: the standard pose holds the
+/// hands in front of the body, and a camera above or below them sees them displaced in height by
+/// (camera height - arm height) x (depth difference / distance).
+struct ArmChains {
+  std::vector<Eigen::Vector3d> chain[2];  ///< kLeft, kRight
+};
+ArmChains arm_chains(const BodyFeatures& features);
+
+/// Finds the 2-D features. `arms`: read the arms at these depths (else at the torso's depth).
+/// Throws InvalidInput naming the photo and the feature that cannot be found (no gap between the
+/// legs, arms touching the torso, a side view given as front).
+PhotoLandmarks find_photo_landmarks(const Silhouette& front, const Silhouette& side, const PhotoCameras& cameras,
+                                    const ArmChains* arms = nullptr);
+/// The entries of PhotoLandmarks::descriptor read off one arm (kLeft or kRight): its armpit level
+/// and its profile.
+std::vector<int> descriptor_arm_entries(int side);
 
 /// Half extents of a layer's section seen in the photos: along the layer's side axis in the front
 /// photo, along its front axis in the side photo (arms: not seen, -1), and the box centre.
@@ -98,6 +112,10 @@ struct CustomizationTrainingOptions {
   bool mlp = true;                ///< also train the MLPs (else linear only)
   int mlp_hidden = 20, mlp_iterations = 300;
   int threads = 2;
+  /// Each body is turned about the vertical by a uniform angle within +-max_turn_degrees before it
+  /// is rendered (people do not stand exactly square to the camera; symmetric bodies only would tie
+  /// each arm's prediction to the mean of both arms' readings).
+  double max_turn_degrees = 0;
   /// Leaves bodies out of the population: return false to leave one out (e.g. the heaviest).
   std::function<bool(int index, double bmi, double gender)> keep;
   std::string population_note;    ///< recorded in the model (what `keep` does)

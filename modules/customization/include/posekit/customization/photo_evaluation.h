@@ -19,11 +19,14 @@ enum class PhotoVariation {
   kFarther20cm,   ///< ... 20 cm farther
   kTurned5deg,    ///< the body turned 5 degrees about the vertical (re-rendered), camera file
   kJpegNoise,     ///< photos with sensor noise (sigma 4 grey levels) and JPEG quality 60
+  kCamera130Level,  ///< masks re-rendered with both cameras 1.30 m above the soles, level, f = 1100 px (a phone at chest height)
+  kCamera130Aimed,  ///< ... 1.30 m above the soles, aimed at the body's mid-height (pitched down)
+  kCamera100Level,  ///< ... 1.00 m above the soles, level
 };
 const std::vector<PhotoVariation>& all_photo_variations();
 const char* photo_variation_name(PhotoVariation v);
 /// Parses a name (photos, masks, erode2, dilate2, height+1cm, nearer20cm, farther20cm, turned5,
-/// jpeg-noise); throws InvalidInput listing them.
+/// jpeg-noise, camera1.30, camera1.30-aimed, camera1.00); throws InvalidInput listing them.
 PhotoVariation parse_photo_variation(const std::string& name);
 
 struct PhotoSubjectResult {
@@ -50,8 +53,10 @@ struct PhotoEvaluation {
 };
 
 /// Customizes every subject of a dataset (its manifest) from its photos under `variation`.
-/// `ids`: only these subjects (empty: all).
+/// `ids`: only these subjects (empty: all). `inputs_out` (non-empty): each subject's silhouettes and
+/// camera file as customized are written to inputs_out/<variation>/<id>/ (front_mask.png,
+/// side_mask.png, camera.json), so that a failure can be rerun with `posekit customize --debug`.
 PhotoEvaluation evaluate_photo_customization(const std::string& dataset_dir, const CustomizationModel& model, PhotoVariation variation,
-                                             const std::vector<std::string>& ids = {});
+                                             const std::vector<std::string>& ids = {}, const std::string& inputs_out = "");
 
 }  // namespace posekit
