@@ -144,7 +144,7 @@ int customize_eval(int argc, char** argv) {
                  "body turned 5 degrees, JPEG and sensor noise).");
   args.option("dataset", "DIR", "dataset folder (posekit dataset make)")
       .option("model", "FILE", "customization model (posekit customize train)", "customization.pkc")
-      .option("variation", "V", "photos, masks, erode2, dilate2, height+1cm, nearer20cm, farther20cm, turned5, jpeg-noise, camera1.30, camera1.30-aimed, camera1.00, or all", "photos")
+      .option("variation", "V", "photos, masks, erode2, dilate2, height+1cm, nearer20cm, farther20cm, turned5, jpeg-noise, camera1.30, camera1.30-aimed, camera1.00, room, or all", "photos")
       .option("subjects", "A,B", "only these subjects")
       .output("json", "FILE", "write the tables as JSON")
       .output_folder("inputs-out", "DIR", "write each subject's silhouettes and camera file as customized (DIR/VARIATION/ID/)")
@@ -178,7 +178,8 @@ int run_customize(int argc, char** argv) {
   ArgParser args("customize",
                  "Customizes the template body to a person from two orthogonal photos (section 3.2): a front photo\n"
                  "(facing the camera, standard pose, arms away from the body, feet apart) and a side photo (the\n"
-                 "left side towards the camera), plain background, tight clothing; or their silhouettes. 2-D\n"
+                 "left side towards the camera), tight clothing; or their silhouettes. The background may show\n"
+                 "the floor and a wall lit unevenly; for a textured wall give photos of the empty scene. 2-D\n"
                  "features on both silhouettes place the layered representation, each layer's section is\n"
                  "predicted from the photos' widths and depths by the learned model, and the template is deformed\n"
                  "to it by ct-FFD. The scale comes from the camera file, or from the stated height.\n"
@@ -186,6 +187,8 @@ int run_customize(int argc, char** argv) {
   args.option("front", "IMG", "front photo").option("side", "IMG", "side photo")
       .option("front-mask", "IMG", "front silhouette (person white) instead of the photo")
       .option("side-mask", "IMG", "side silhouette instead of the photo")
+      .option("front-background", "IMG", "photo of the empty scene from the front camera's place (a textured wall or a room)")
+      .option("side-background", "IMG", "photo of the empty scene from the side camera's place")
       .option("camera", "FILE", "camera file (the dataset's camera.json: K, R, t of both views)")
       .option("height", "M", "the person's stature (m): scales the body; without --camera, sets the scale")
       .option("distance", "M", "without --camera: camera distance to the person", "3.0")
@@ -201,13 +204,20 @@ int run_customize(int argc, char** argv) {
   if (!args.has("front") && !args.has("front-mask")) throw UsageError("customize needs --front IMG (or --front-mask IMG)");
   if (!args.has("side") && !args.has("side-mask")) throw UsageError("customize needs --side IMG (or --side-mask IMG)");
   if (!args.has("camera") && !args.has("height")) throw UsageError("customize needs --camera FILE or --height M (the scale)");
+  if ((args.has("front-background") && !args.has("front")) || (args.has("side-background") && !args.has("side")))
+    throw UsageError("customize: --front-background / --side-background go with the photos (--front / --side), not masks");
   const auto t_load = std::chrono::steady_clock::now();
   const CustomizationModel model = load_customization_model(args.get("model"));
   const auto t0 = std::chrono::steady_clock::now();
+  auto extraction = [&](const char* view) {
+    SilhouetteOptions o;
+    if (args.has(std::string(view) + "-background")) o.background_photo = args.get(std::string(view) + "-background");
+    return o;
+  };
   const Silhouette front = args.has("front-mask") ? read_silhouette_mask(args.get("front-mask"), "front mask")
-                                                  : silhouette_from_photo(args.get("front"), "front photo");
+                                                  : silhouette_from_photo(args.get("front"), "front photo", extraction("front"));
   const Silhouette side = args.has("side-mask") ? read_silhouette_mask(args.get("side-mask"), "side mask")
-                                                : silhouette_from_photo(args.get("side"), "side photo");
+                                                : silhouette_from_photo(args.get("side"), "side photo", extraction("side"));
   const double height = args.has("height") ? args.get_double("height") : 0;
   const PhotoCameras cams = args.has("camera") ? read_photo_cameras(args.get("camera"))
                                                : cameras_from_stature(front, side, height, args.get_double("distance"),

@@ -11,6 +11,7 @@
 #include "posekit/core/error.h"
 #include "posekit/customization/photo_evaluation.h"
 #include "posekit/datasets/rasterizer.h"
+#include "posekit/io/image_io.h"
 #include "posekit/shape/body_features.h"
 #include "posekit/shape/measurements.h"
 #include "testing/small_dataset.h"
@@ -84,6 +85,56 @@ TEST(Silhouette, ThePersonIsSeparatedFromAPlainBackgroundEvenThroughNoiseAndJpeg
   const cv::Mat back = cv::imdecode(jpg, cv::IMREAD_GRAYSCALE);
   const Silhouette degraded = silhouette_from_pixels(back.cols, back.rows, 1, back.data, "front photo");
   EXPECT_GT(iou(degraded, truth), 0.975);
+}
+
+// A photo taken in a room: the floor in view under the feet, a wall lit from one side and darker
+// upwards, optionally papered (a 40 px check of +-25 grey levels). `with_person` false: the empty scene.
+std::vector<std::uint8_t> photo_in_room(const Scene& s, bool papered, bool with_person = true) {
+  const PinholeCamera& c = s.cameras.front;
+  const double floor_y = s.body.V.col(1).minCoeff(), wall_z = -1.2;
+  std::vector<std::uint8_t> out(s.front.gray.size());
+  for (int v = 0; v < s.front.height; ++v)
+    for (int u = 0; u < s.front.width; ++u) {
+      const size_t k = static_cast<size_t>(v) * s.front.width + u;
+      double g = s.front.gray[k];
+      if (!with_person || s.front.face[k] < 0) {
+        const Eigen::Vector3d o = c.centre(), d = c.ray(u + 0.5, v + 0.5);
+        const double t_wall = (wall_z - o.z()) / d.z(), t_floor = d.y() < 0 ? (floor_y - o.y()) / d.y() : 1e9;
+        if (t_floor < t_wall) {
+          g = 150;
+        } else {
+          const double y = o.y() + t_wall * d.y() - floor_y;
+          g = 205 * (0.9 + 0.2 * u / (s.front.width - 1.0)) * (1 - 0.05 * y);
+          if (papered) g += ((u / 40 + v / 40) % 2 ? 25 : -25);
+        }
+      }
+      out[k] = static_cast<std::uint8_t>(std::clamp(std::lround(g), 0L, 255L));
+    }
+  return out;
+}
+
+TEST(Silhouette, AFloorInViewAndAnUnevenlyLitWallAreBackground) {
+  const Scene s = photograph(default_body());
+  const Silhouette truth = mask_of(s.front);
+  const std::vector<std::uint8_t> room = photo_in_room(s, false);
+  EXPECT_GT(iou(silhouette_from_pixels(s.front.width, s.front.height, 1, room.data(), "front photo"), truth), 0.98);
+  // A papered wall is not modelled by the frame; a photo of the empty scene is.
+  const std::vector<std::uint8_t> papered = photo_in_room(s, true), empty = photo_in_room(s, true, false);
+  double without = 0;
+  try {
+    without = iou(silhouette_from_pixels(s.front.width, s.front.height, 1, papered.data(), "front photo"), truth);
+  } catch (const InvalidInput&) {
+  }
+  EXPECT_LT(without, 0.9);
+  test::TempDir dir;
+  write_png(dir.file("empty.png"), Image8{s.front.width, s.front.height, 1, empty});
+  SilhouetteOptions o;
+  o.background_photo = dir.file("empty.png");
+  EXPECT_GT(iou(silhouette_from_pixels(s.front.width, s.front.height, 1, papered.data(), "front photo", o), truth), 0.98);
+  write_png(dir.file("small.png"), Image8{10, 10, 1, std::vector<std::uint8_t>(100, 200)});
+  o.background_photo = dir.file("small.png");
+  EXPECT_NE(error_of([&] { silhouette_from_pixels(s.front.width, s.front.height, 1, papered.data(), "front photo", o); }).find("10x10"),
+            std::string::npos);
 }
 
 TEST(Silhouette, PhotosWithoutOnePersonAreRefusedWithTheReason) {

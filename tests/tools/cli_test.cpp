@@ -864,6 +864,9 @@ TEST(Cli, CustomizeNamesWhatIsMissing) {
   EXPECT_NE(r.out.find("not a posekit customization model"), std::string::npos) << r.out;
   r = run("customize eval --dataset " + dir.path() + " --model " + dir.file("bad.pkc"));
   EXPECT_EQ(r.code, 1) << r.out;
+  r = run("customize --front-mask x.png --side y.png --front-background e.png --height 1.7", true);
+  EXPECT_EQ(r.code, 2) << r.out;
+  EXPECT_NE(r.out.find("go with the photos"), std::string::npos) << r.out;
 }
 
 // The report through the CLI (the sanitizer pass leaves it out: Report.* runs the same report in process).

@@ -1,7 +1,9 @@
 #include "posekit/customization/photo_evaluation.h"
 
 #include <Eigen/Geometry>
+#include <algorithm>
 #include <cmath>
+#include <tuple>
 #include <filesystem>
 #include <fstream>
 #include <nlohmann/json.hpp>
@@ -25,7 +27,36 @@ const std::pair<PhotoVariation, const char*> kNames[] = {
     {PhotoVariation::kHeightPlus1cm, "height+1cm"}, {PhotoVariation::kNearer20cm, "nearer20cm"},
     {PhotoVariation::kFarther20cm, "farther20cm"}, {PhotoVariation::kTurned5deg, "turned5"},
     {PhotoVariation::kJpegNoise, "jpeg-noise"},   {PhotoVariation::kCamera130Level, "camera1.30"},
-    {PhotoVariation::kCamera130Aimed, "camera1.30-aimed"}, {PhotoVariation::kCamera100Level, "camera1.00"}};
+    {PhotoVariation::kCamera130Aimed, "camera1.30-aimed"}, {PhotoVariation::kCamera100Level, "camera1.00"},
+    {PhotoVariation::kRoom, "room"}};
+
+/// A rendered body photographed in a room: where no triangle covers a pixel, its ray meets the
+/// floor (y = floor_y; grey 150, lighter towards the camera) or a wall `wall_behind` metres behind
+/// the body's axis, square to the camera (grey 205, +-10% from one side of the frame to the other,
+/// 5% darker per metre upwards). Gray, as 3 channels.
+Image8 photo_in_room(const RenderBuffers& r, const PinholeCamera& cam, double floor_y, double wall_behind) {
+  Image8 out{r.width, r.height, 3, std::vector<std::uint8_t>(static_cast<size_t>(r.width) * r.height * 3)};
+  const Eigen::Vector3d o = cam.centre(), forward = cam.R.row(2).transpose();
+  const double wall_depth = depth_of(cam, Eigen::Vector3d(0, floor_y, 0)) + wall_behind;
+  for (int v = 0; v < r.height; ++v)
+    for (int u = 0; u < r.width; ++u) {
+      const size_t k = static_cast<size_t>(v) * r.width + u;
+      double g = r.gray[k];
+      if (r.face[k] < 0) {
+        const Eigen::Vector3d d = cam.ray(u + 0.5, v + 0.5);
+        const double t_wall = wall_depth / d.dot(forward), t_floor = d.y() < 0 ? (floor_y - o.y()) / d.y() : 1e9;
+        if (t_floor < t_wall) {
+          g = 150 + 10 * std::exp(-0.5 * t_floor);
+        } else {
+          const Eigen::Vector3d p = o + t_wall * d;
+          g = 205 * (0.9 + 0.2 * u / std::max(1, r.width - 1)) * (1 - 0.05 * (p.y() - floor_y));
+        }
+      }
+      const auto b = static_cast<std::uint8_t>(std::clamp(std::lround(g), 0L, 255L));
+      for (int c = 0; c < 3; ++c) out.pixels[3 * k + c] = b;
+    }
+  return out;
+}
 
 /// The dataset's cameras moved to `height` above the subject's soles, at the same distance from the
 /// body's axis; level, or aimed at the body's mid-height. The focal length is a phone's wider one
@@ -142,6 +173,15 @@ PhotoEvaluation evaluate_photo_customization(const std::string& dataset_dir, con
           side = silhouette_from_render(render_mesh(subject, cams.side));
           break;
         }
+        case PhotoVariation::kRoom: {
+          const double floor_y = subject.V.col(1).minCoeff();
+          for (const auto& [view, cam, sil] : {std::tuple<const char*, const PinholeCamera&, Silhouette&>{"front", cams.front, front},
+                                               {"side", cams.side, side}}) {
+            const Image8 photo = photo_in_room(render_mesh(subject, cam), cam, floor_y, 1.2);
+            sil = silhouette_from_pixels(photo.width, photo.height, 3, photo.pixels.data(), std::string(view) + " photo of " + id + " in a room");
+          }
+          break;
+        }
         default:
           front = read_silhouette_mask((root / ph.at("front_mask").get<std::string>()).string(), "front mask of " + id);
           side = read_silhouette_mask((root / ph.at("side_mask").get<std::string>()).string(), "side mask of " + id);
@@ -168,7 +208,7 @@ PhotoEvaluation evaluate_photo_customization(const std::string& dataset_dir, con
       }
       const CustomizedBody body = customize_from_silhouettes(front, side, cams, model, stated);
       const double elapsed = t0.seconds();
-      if (variation < PhotoVariation::kTurned5deg || variation == PhotoVariation::kJpegNoise) {
+      if (variation < PhotoVariation::kTurned5deg || variation == PhotoVariation::kJpegNoise || variation == PhotoVariation::kRoom) {
         for (const auto& [mine, key] : {std::pair<const Silhouette*, const char*>{&front, "front_mask"}, {&side, "side_mask"}}) {
           const Silhouette truth = read_silhouette_mask((root / ph.at(key).get<std::string>()).string(), key);
           long inter = 0, uni = 0;

@@ -3,6 +3,7 @@
 // figure. posekit loads OpenCV only through these entry points.
 #include <Eigen/Geometry>
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <opencv2/core.hpp>
 #include <opencv2/imgproc.hpp>
@@ -110,58 +111,97 @@ Silhouette silhouette_from_pixels_cv(int width, int height, int channels, const 
   if (channels == 1) cv::cvtColor(img, bgr, cv::COLOR_GRAY2BGR);
   else bgr = img.clone();
   // Background model on a median-filtered copy (5x5: sensor noise falls about four-fold, outlines
-  // and gaps of 3 px and more stay where they are): median and robust spread (1.4826 MAD) of each
-  // channel over the frame.
+  // and gaps of 3 px and more stay where they are): per row, the median of each channel over the
+  // left and over the right margin, linearly interpolated across the row (a floor, a wall darker
+  // towards the ceiling or lit from one side); or the empty scene's photo. Its robust spread
+  // (1.4826 MAD of the frame's residuals) scales the thresholds.
   cv::Mat smooth_bgr;
   cv::medianBlur(bgr, smooth_bgr, 5);
-  std::vector<std::vector<int>> border(3);
-  for (int v = 0; v < height; ++v)
-    for (int u = 0; u < width; ++u) {
-      if (v >= kBorder && v < height - kBorder && u >= kBorder && u < width - kBorder) continue;
-      const cv::Vec3b p = smooth_bgr.at<cv::Vec3b>(v, u);
-      for (int c = 0; c < 3; ++c) border[c].push_back(p[c]);
+  cv::Mat model(height, width, CV_32FC3);
+  if (!o.background_photo.empty()) {
+    const Image8 empty = read_image(o.background_photo, ImageColor::kBgr);
+    if (empty.width != width || empty.height != height)
+      throw InvalidInput(what + ": the empty scene's photo '" + o.background_photo + "' is " + std::to_string(empty.width) + "x" +
+                         std::to_string(empty.height) + ", the photo " + std::to_string(width) + "x" + std::to_string(height));
+    cv::Mat e(height, width, CV_8UC3, const_cast<std::uint8_t*>(empty.pixels.data())), smooth_e;
+    cv::medianBlur(e, smooth_e, 5);
+    smooth_e.convertTo(model, CV_32FC3);
+  } else {
+    // Each row's margin medians, then a running median down the rows (61 rows each way, shrunk
+    // symmetrically at the ends so that a floor's edge stays sharp): a hand or a second person
+    // crossing a margin for fewer rows than that does not enter the model.
+    std::vector<float> left[3], right[3];
+    for (int c = 0; c < 3; ++c) left[c].resize(static_cast<size_t>(height)), right[c].resize(static_cast<size_t>(height));
+    std::vector<int> a[3], b[3];
+    for (int v = 0; v < height; ++v) {
+      for (int c = 0; c < 3; ++c) a[c].clear(), b[c].clear();
+      for (int k = 0; k < kBorder; ++k) {
+        const cv::Vec3b l = smooth_bgr.at<cv::Vec3b>(v, k), r = smooth_bgr.at<cv::Vec3b>(v, width - 1 - k);
+        for (int c = 0; c < 3; ++c) a[c].push_back(l[c]), b[c].push_back(r[c]);
+      }
+      for (int c = 0; c < 3; ++c) {
+        std::nth_element(a[c].begin(), a[c].begin() + kBorder / 2, a[c].end());
+        std::nth_element(b[c].begin(), b[c].begin() + kBorder / 2, b[c].end());
+        left[c][static_cast<size_t>(v)] = static_cast<float>(a[c][kBorder / 2]);
+        right[c][static_cast<size_t>(v)] = static_cast<float>(b[c][kBorder / 2]);
+      }
     }
-  double median[3], sigma[3];
-  for (int c = 0; c < 3; ++c) {
-    auto& b = border[c];
-    std::nth_element(b.begin(), b.begin() + b.size() / 2, b.end());
-    median[c] = b[b.size() / 2];
-    for (int& x : b) x = std::abs(x - static_cast<int>(median[c]));
-    std::nth_element(b.begin(), b.begin() + b.size() / 2, b.end());
-    sigma[c] = std::max(1.0, 1.4826 * b[b.size() / 2]);
+    auto running_median = [&](const std::vector<float>& x) {
+      std::vector<float> out(x.size()), window;
+      for (int v = 0; v < height; ++v) {
+        const int w = std::min({60, v, height - 1 - v});
+        window.assign(x.begin() + (v - w), x.begin() + (v + w + 1));
+        std::nth_element(window.begin(), window.begin() + w, window.end());
+        out[static_cast<size_t>(v)] = window[static_cast<size_t>(w)];
+      }
+      return out;
+    };
+    for (int c = 0; c < 3; ++c) left[c] = running_median(left[c]), right[c] = running_median(right[c]);
+    const double u_left = 0.5 * (kBorder - 1), u_right = width - 0.5 * (kBorder + 1);
+    for (int v = 0; v < height; ++v)
+      for (int u = 0; u < width; ++u) {
+        const float t = static_cast<float>(std::clamp((u - u_left) / (u_right - u_left), 0.0, 1.0));
+        cv::Vec3f& m = model.at<cv::Vec3f>(v, u);
+        for (int c = 0; c < 3; ++c) m[c] = left[c][static_cast<size_t>(v)] + t * (right[c][static_cast<size_t>(v)] - left[c][static_cast<size_t>(v)]);
+      }
   }
+  auto frame_spread = [&](const cv::Mat& img, double floor_value) {
+    std::vector<float> r[3];
+    for (int v = 0; v < height; ++v)
+      for (int u = 0; u < width; ++u) {
+        if (v >= kBorder && v < height - kBorder && u >= kBorder && u < width - kBorder) continue;
+        const cv::Vec3b p = img.at<cv::Vec3b>(v, u);
+        const cv::Vec3f m = model.at<cv::Vec3f>(v, u);
+        for (int c = 0; c < 3; ++c) r[c].push_back(std::abs(p[c] - m[c]));
+      }
+    std::array<double, 3> out{};
+    for (int c = 0; c < 3; ++c) {
+      std::nth_element(r[c].begin(), r[c].begin() + r[c].size() / 2, r[c].end());
+      out[static_cast<size_t>(c)] = std::max(floor_value, 1.4826 * r[c][r[c].size() / 2]);
+    }
+    return out;
+  };
+  const std::array<double, 3> sigma = frame_spread(smooth_bgr, 1.0), sharp_sigma = frame_spread(bgr, 1.5);
   // The person: pixels over 4 spreads (and 4 grey levels) from the background on the filtered copy
   // give the interior (eroded 1 px); the outline comes from the sharp image (3x3 median of the
   // distance, over 4 spreads of its own and 6 grey levels).
-  std::vector<std::vector<int>> sharp_border(3);
-  for (int v = 0; v < height; ++v)
-    for (int u = 0; u < width; ++u) {
-      if (v >= kBorder && v < height - kBorder && u >= kBorder && u < width - kBorder) continue;
-      const cv::Vec3b p = bgr.at<cv::Vec3b>(v, u);
-      for (int c = 0; c < 3; ++c) sharp_border[c].push_back(std::abs(p[c] - static_cast<int>(median[c])));
-    }
-  double sharp_sigma[3];
-  for (int c = 0; c < 3; ++c) {
-    auto& b = sharp_border[c];
-    std::nth_element(b.begin(), b.begin() + b.size() / 2, b.end());
-    sharp_sigma[c] = std::max(1.5, 1.4826 * b[b.size() / 2]);
-  }
   cv::Mat coarse(height, width, CV_8U), sharp_dist(height, width, CV_32F);
   for (int v = 0; v < height; ++v)
     for (int u = 0; u < width; ++u) {
       const cv::Vec3b p = smooth_bgr.at<cv::Vec3b>(v, u), q = bgr.at<cv::Vec3b>(v, u);
+      const cv::Vec3f m = model.at<cv::Vec3f>(v, u);
       bool differs = false;
       float d = 0;
       for (int c = 0; c < 3; ++c) {
-        differs |= std::abs(p[c] - median[c]) > std::max(4.0 * sigma[c], 4.0);
-        d = std::max(d, static_cast<float>(std::abs(q[c] - median[c]) / std::max(sharp_sigma[c], 1.5)));
+        differs |= std::abs(p[c] - m[c]) > std::max(4.0 * sigma[static_cast<size_t>(c)], 4.0);
+        d = std::max(d, static_cast<float>(std::abs(q[c] - m[c]) / std::max(sharp_sigma[static_cast<size_t>(c)], 1.5)));
       }
       coarse.at<std::uint8_t>(v, u) = differs ? 255 : 0;
       sharp_dist.at<float>(v, u) = d;
     }
   cv::Mat sharp_median;
   cv::medianBlur(sharp_dist, sharp_median, 3);
-  const double sharp_level = std::max(4.0, 6.0 / *std::max_element(sharp_sigma, sharp_sigma + 3));
+  const double sharp_level = std::max(4.0, 6.0 / *std::max_element(sharp_sigma.begin(), sharp_sigma.end()));
   cv::Mat sharp = sharp_median > sharp_level, interior;
   cv::erode(coarse, interior, cv::getStructuringElement(cv::MORPH_ELLIPSE, {3, 3}));
   cv::Mat fg = sharp | interior;
@@ -183,6 +223,7 @@ Silhouette silhouette_from_pixels_cv(int width, int height, int channels, const 
     gc.setTo(cv::GC_FGD, inner);
     cv::Mat bgd, fgd;
     cv::Mat roi = bgr(box).clone();
+    cv::setRNGSeed(1);  // GrabCut's colour models start from k-means on OpenCV's generator: the same photo, the same silhouette
     cv::grabCut(roi, gc, cv::Rect(), bgd, fgd, 1, cv::GC_INIT_WITH_MASK);
     cv::Mat refined = cv::Mat::zeros(height, width, CV_8U);
     refined(box).setTo(255, (gc == cv::GC_FGD) | (gc == cv::GC_PR_FGD));

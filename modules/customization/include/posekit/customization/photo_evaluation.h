@@ -22,11 +22,13 @@ enum class PhotoVariation {
   kCamera130Level,  ///< masks re-rendered with both cameras 1.30 m above the soles, level, f = 1100 px (a phone at chest height)
   kCamera130Aimed,  ///< ... 1.30 m above the soles, aimed at the body's mid-height (pitched down)
   kCamera100Level,  ///< ... 1.00 m above the soles, level
+  kRoom,            ///< photos re-rendered in a room: the floor in view (the feet on it), a wall 1.2 m
+                    ///< behind lit from one side (+-10% across the frame) and darker upwards; silhouettes extracted
 };
 const std::vector<PhotoVariation>& all_photo_variations();
 const char* photo_variation_name(PhotoVariation v);
 /// Parses a name (photos, masks, erode2, dilate2, height+1cm, nearer20cm, farther20cm, turned5,
-/// jpeg-noise, camera1.30, camera1.30-aimed, camera1.00); throws InvalidInput listing them.
+/// jpeg-noise, camera1.30, camera1.30-aimed, camera1.00, room); throws InvalidInput listing them.
 PhotoVariation parse_photo_variation(const std::string& name);
 
 struct PhotoSubjectResult {

@@ -23,13 +23,18 @@ struct Silhouette {
 struct SilhouetteOptions {
   bool graph_cut = true;         ///< refine the background model's mask with GrabCut
   double min_area_fraction = 0.005;  ///< below: "no person"
+  /// A photo of the empty scene from the same place (same size): the background model is that
+  /// photo, for a textured wall or a cluttered room. Empty: modelled from the photo's own frame.
+  std::string background_photo;
 };
 
-/// The person in a photo (any format OpenCV reads): pixels unlike the border's colour (median and
-/// robust spread of a 12-pixel frame), refined by GrabCut near the outline, the largest component
-/// with its holes filled. Throws InvalidInput naming `what` (e.g. "front photo") when there is no
-/// person, the person fills the frame or touches its top or bottom, or a second figure nearly as
-/// large stands beside the first.
+/// The person in a photo (PNG or JPEG): pixels unlike the background, refined by GrabCut near the
+/// outline, the largest component with its holes filled. The background is modelled row by row
+/// from the photo's left and right 12-pixel margins, linearly across the row: a floor in view, a
+/// wall lit from one side or darker towards the ceiling are background (or, with
+/// options.background_photo, the empty scene itself). Throws InvalidInput naming `what` (e.g.
+/// "front photo") when there is no person, the person fills the frame or touches its top or bottom,
+/// or a second figure nearly as large stands beside the first.
 Silhouette silhouette_from_photo(const std::string& path, const std::string& what, const SilhouetteOptions& options = {});
 /// The same from an 8-bit image in memory (1 or 3 channels, row-major, BGR).
 Silhouette silhouette_from_pixels(int width, int height, int channels, const std::uint8_t* pixels, const std::string& what,
