@@ -187,6 +187,26 @@ TEST(PhotoLandmarks, LevelsAndStatureAgreeWithTheBodysOwnFeatures) {
   EXPECT_GT(L.front_to_side_ratio, 1.2);
 }
 
+// What the photos show bounds what the regression predicts: a crown above the photos' crown comes
+// down to it, a hand tip below the lowest point of its arm is drawn back along the hand.
+TEST(PhotoLandmarks, PredictedFeaturesStayWithinWhatThePhotosShow) {
+  const Scene s = photograph(default_body());
+  BodyFeatures f = find_body_features(s.body.V, s.body.F);
+  const ArmChains arms = arm_chains(f);
+  const PhotoLandmarks L = find_photo_landmarks(mask_of(s.front), mask_of(s.side), s.cameras, &arms);
+  f.top_y = f.crown_y = L.crown_y + 0.05;
+  const Eigen::Vector3d wrist = f.wrist[kLeft], tip = f.hand_tip[kLeft];
+  f.hand_tip[kLeft] = wrist + 1.5 * (tip - wrist);
+  std::vector<std::string> notes;
+  const BodyFeatures g = within_photos(f, L, &notes);
+  EXPECT_DOUBLE_EQ(g.top_y, L.crown_y);
+  EXPECT_NEAR(g.hand_tip[kLeft].y(), L.hand_tip[kLeft].y(), 1e-9);
+  EXPECT_LT(((g.hand_tip[kLeft] - wrist).normalized() - (tip - wrist).normalized()).norm(), 1e-9) << "along the hand";
+  EXPECT_LT((g.hand_tip[kRight] - f.hand_tip[kRight]).norm(), 0.005) << "the true tip is where the photo shows it";
+  ASSERT_EQ(notes.size(), 2u);
+  EXPECT_NE(notes[0].find("crown predicted 50 mm above"), std::string::npos) << notes[0];
+}
+
 // A phone at chest height aimed down at the body: the hands, held in front of the body, show lower
 // and farther out than they are when read at the torso's depth; read at the arms' own depth they
 // stay where the level camera puts them.

@@ -221,6 +221,30 @@ BodyFeatures predict_body_features(const CustomizationModel& model, const PhotoL
   return features_from_targets(model.feature_weights.transpose() * with_bias(L.descriptor), L);
 }
 
+BodyFeatures within_photos(BodyFeatures f, const PhotoLandmarks& L, std::vector<std::string>* notes) {
+  auto mm = [](double m) { return std::to_string(static_cast<int>(std::lround(1000 * m))); };
+  // Said only past a centimetre: the representation's end layers sit 1 cm inside the crown and the
+  // hand tips, so a smaller correction changes nothing the photos can show.
+  constexpr double kSaid = 0.01;
+  if (f.top_y > L.crown_y) {
+    if (notes && f.top_y - L.crown_y > kSaid) notes->push_back("photos: the crown predicted " + mm(f.top_y - L.crown_y) + " mm above the photos' crown: taken from the photos");
+    f.top_y = f.crown_y = L.crown_y;
+    f.stature = f.crown_y - f.floor_y;
+  }
+  for (int side : {kLeft, kRight}) {
+    Eigen::Vector3d& tip = f.hand_tip[side];
+    const Eigen::Vector3d& wrist = f.wrist[side];
+    const double seen = L.hand_tip[side].y();
+    if (tip.allFinite() && wrist.allFinite() && tip.y() < seen && wrist.y() > seen) {
+      if (notes && seen - tip.y() > kSaid)
+        notes->push_back(std::string("photos: the ") + (side == kLeft ? "left" : "right") + " hand tip predicted " + mm(seen - tip.y()) +
+                         " mm below the lowest point of the arm seen: drawn back along the hand");
+      tip = wrist + (tip - wrist) * ((wrist.y() - seen) / (wrist.y() - tip.y()));
+    }
+  }
+  return f;
+}
+
 double population_distance(const CustomizationModel& model, const PhotoLandmarks& landmarks) {
   if (model.descriptor_precision.rows() == 0 || model.descriptor_mean.size() != landmarks.descriptor.size()) return 0;
   const Eigen::VectorXd z = (landmarks.descriptor - model.descriptor_mean).cwiseQuotient(model.descriptor_scale);
@@ -303,7 +327,7 @@ CustomizedBody customize_from_silhouettes(const Silhouette& front, const Silhoue
     out.warnings.push_back(w.str());
   }
   const BodyFeatures predicted = predict_body_features(model, out.landmarks);
-  out.features = torso_levels_in_proportion(predicted, model.runtime->template_features);
+  out.features = torso_levels_in_proportion(within_photos(predicted, out.landmarks, &out.warnings), model.runtime->template_features);
   LayeredRepresentation rep = plan_layered_representation(out.features, model.points_per_layer);
   if (rep.layers.size() != model.layers.size()) throw InvalidInput("customize: the model's layers do not match the representation");
   const std::vector<LayerExtent> extents = measure_layers(rep, front, side, cams, out.features.axis_x, out.landmarks.side_arm_occlusion);
@@ -463,7 +487,8 @@ CustomizationModel train_customization_model(const CustomizationTrainingOptions&
   parallel_for_each(static_cast<long>(kept.size()), o.threads, [&](long j) {
     Sample& s = samples[static_cast<size_t>(kept[static_cast<size_t>(j)])];
     try {
-      const BodyFeatures f = torso_levels_in_proportion(predict_body_features(model, s.landmarks), template_features);
+      const BodyFeatures f = torso_levels_in_proportion(within_photos(predict_body_features(model, s.landmarks), s.landmarks, nullptr),
+                                                        template_features);
       const LayeredRepresentation planned = plan_layered_representation(f, model.points_per_layer);
       const Silhouette front = decode(s.front_png), side = decode(s.side_png);
       const std::vector<LayerExtent> e = measure_layers(planned, front, side, s.cameras, f.axis_x, s.landmarks.side_arm_occlusion);

@@ -125,6 +125,12 @@ struct CustomizationTrainingOptions {
 /// The body features (joints and levels) the model predicts from the photos' 2-D features.
 BodyFeatures predict_body_features(const CustomizationModel& model, const PhotoLandmarks& landmarks);
 
+/// The predicted features kept within what the photos show (section 3.2's levels are read off the
+/// photos where they speak): a crown above the photos' crown is moved down to it, a hand tip below
+/// the lowest point of its arm seen in the front photo is drawn back along the hand to that level.
+/// Each change over 1 cm is noted in `notes` (may be null).
+BodyFeatures within_photos(BodyFeatures features, const PhotoLandmarks& landmarks, std::vector<std::string>* notes);
+
 /// Renders the population's front and side silhouettes with the dataset's camera model (distance
 /// 2.6-3.4 m, level, f = 1400 px, 800 x 1200) and fits the models.
 CustomizationModel train_customization_model(const CustomizationTrainingOptions& options);
