@@ -125,6 +125,7 @@ nlohmann::json evaluation_json(const PhotoEvaluation& ev) {
     j["subjects"].push_back({{"id", r.id}, {"ok", r.ok}, {"error", r.error}, {"girths_measured", r.girths_measured}, {"stature", r.stature_mm}, {"bust", r.bust_mm},
                              {"waist", r.waist_mm}, {"hip", r.hip_mm}, {"surface", r.surface_mm}, {"seconds", r.seconds},
                              {"silhouette_iou", r.silhouette_iou},
+                             {"photo_agreement", r.photo_agreement},
                              {"warnings", r.warnings}});
   j["mean_abs"] = {{"stature", ev.mean_abs_stature_mm}, {"bust", ev.mean_abs_bust_mm}, {"waist", ev.mean_abs_waist_mm},
                    {"hip", ev.mean_abs_hip_mm}, {"surface", ev.mean_surface_mm}};
@@ -144,7 +145,7 @@ int customize_eval(int argc, char** argv) {
                  "body turned 5 degrees, JPEG and sensor noise).");
   args.option("dataset", "DIR", "dataset folder (posekit dataset make)")
       .option("model", "FILE", "customization model (posekit customize train)", "customization.pkc")
-      .option("variation", "V", "photos, masks, erode2, dilate2, height+1cm, nearer20cm, farther20cm, turned5, jpeg-noise, camera1.30, camera1.30-aimed, camera1.00, room, or all", "photos")
+      .option("variation", "V", "photos, masks, erode2, dilate2, height+1cm, nearer20cm, farther20cm, turned5, jpeg-noise, camera1.30, camera1.30-aimed, camera1.00, room, phone, or all", "photos")
       .option("subjects", "A,B", "only these subjects")
       .output("json", "FILE", "write the tables as JSON")
       .output_folder("inputs-out", "DIR", "write each subject's silhouettes and camera file as customized (DIR/VARIATION/ID/)")
@@ -197,6 +198,7 @@ int run_customize(int argc, char** argv) {
       .output("out", "FILE", "customized body mesh (PLY/OBJ/OFF/STL)")
       .output_folder("debug", "DIR", "write the silhouettes and the features drawn on them")
       .flag("measure", "print girths of the result beside those of the photos' representation")
+      .flag("accept-poor", "write a result that does not look like the photos too (marked poor; exit status 0)")
       .flag("json", "summary as JSON on stdout")
       .example("posekit customize --front f.png --side s.png --camera camera.json --out body.ply --measure")
       .example("posekit customize --front f.jpg --side s.jpg --height 1.68 --out body.ply");
@@ -228,7 +230,7 @@ int run_customize(int argc, char** argv) {
     write_silhouette_png((std::filesystem::path(args.get("debug")) / "front_mask.png").string(), front);
     write_silhouette_png((std::filesystem::path(args.get("debug")) / "side_mask.png").string(), side);
   }
-  const CustomizedBody body = customize_from_silhouettes(front, side, cams, model, height);
+  const CustomizedBody body = customize_from_silhouettes(front, side, cams, model, height, args.flag_set("accept-poor"));
   const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   for (const auto& w : body.warnings) std::cerr << "posekit customize: warning: " << w << "\n";
   if (args.has("debug")) {
@@ -243,6 +245,8 @@ int run_customize(int argc, char** argv) {
   j["population_distance"] = body.population_distance;
   j["population_limit"] = model.descriptor_limit;
   j["population_range_excess"] = body.population_range_excess;
+  j["photo_agreement"] = body.photo_agreement;
+  j["poor"] = body.photo_agreement < kMinPhotoAgreement;
   j["levels_y"] = {{"floor", L.floor_y}, {"crotch", L.crotch_y}, {"hip", L.hip_y}, {"waist", L.waist_y}, {"bust", L.bust_y},
                    {"armpit_left", L.armpit_y[0]}, {"armpit_right", L.armpit_y[1]}, {"neck", L.neck_y}, {"crown", L.crown_y}};
   for (const auto& [lo, hi] : L.side_arm_occlusion) j["side_arm_occlusion_y"].push_back({lo, hi});

@@ -187,6 +187,20 @@ TEST(PhotoLandmarks, LevelsAndStatureAgreeWithTheBodysOwnFeatures) {
   EXPECT_GT(L.front_to_side_ratio, 1.2);
 }
 
+// The check on every customized body: the mesh seen by the photos' cameras against the silhouettes.
+TEST(PhotoLandmarks, PhotoAgreementTellsABodyThatLooksLikeThePhotosFromOneThatDoesNot) {
+  const Scene s = photograph(default_body());
+  const Silhouette front = mask_of(s.front);
+  EXPECT_GT(photo_agreement(s.body, front, s.cameras.front), 0.95);
+  TriangleMesh tall = s.body;
+  tall.V.col(1) *= 1.3;
+  EXPECT_LT(photo_agreement(tall, front, s.cameras.front), kMinPhotoAgreement);
+  PinholeCamera big = s.cameras.front;  // a 12-megapixel camera: rendered at 600 rows, the same answer
+  big.width *= 4, big.height *= 4, big.fx *= 4, big.fy *= 4, big.cx *= 4, big.cy *= 4;
+  const Silhouette big_front = mask_of(render_mesh(s.body, big));
+  EXPECT_NEAR(photo_agreement(s.body, big_front, big), photo_agreement(s.body, front, s.cameras.front), 0.03);
+}
+
 // What the photos show bounds what the regression predicts: a crown above the photos' crown comes
 // down to it, a hand tip below the lowest point of its arm is drawn back along the hand.
 TEST(PhotoLandmarks, PredictedFeaturesStayWithinWhatThePhotosShow) {

@@ -221,6 +221,21 @@ BodyFeatures predict_body_features(const CustomizationModel& model, const PhotoL
   return features_from_targets(model.feature_weights.transpose() * with_bias(L.descriptor), L);
 }
 
+double photo_agreement(const TriangleMesh& mesh, const Silhouette& silhouette, const PinholeCamera& camera) {
+  const int k = std::max(1, (camera.height + 599) / 600);
+  PinholeCamera small = camera;
+  small.width = camera.width / k, small.height = camera.height / k;
+  small.fx /= k, small.fy /= k, small.cx /= k, small.cy /= k;
+  const RenderBuffers r = render_mesh(mesh, small);
+  long both = 0, either = 0;
+  for (int v = 0; v < small.height; ++v)
+    for (int u = 0; u < small.width; ++u) {
+      const bool seen = silhouette.inside(u * k + k / 2, v * k + k / 2), made = r.face[static_cast<size_t>(v) * small.width + u] >= 0;
+      both += seen && made, either += seen || made;
+    }
+  return either ? static_cast<double>(both) / either : 0;
+}
+
 BodyFeatures within_photos(BodyFeatures f, const PhotoLandmarks& L, std::vector<std::string>* notes) {
   auto mm = [](double m) { return std::to_string(static_cast<int>(std::lround(1000 * m))); };
   // Said only past a centimetre: the representation's end layers sit 1 cm inside the crown and the
@@ -287,7 +302,7 @@ void prepare_customization_model(CustomizationModel* model) {
 }
 
 CustomizedBody customize_from_silhouettes(const Silhouette& front, const Silhouette& side, const PhotoCameras& cams,
-                                          const CustomizationModel& model, double stated_stature) {
+                                          const CustomizationModel& model, double stated_stature, bool accept_poor) {
   if (!model.runtime) throw InvalidInput("customize: the model is not prepared (prepare_customization_model)");
   CustomizedBody out;
   // The arms read at the torso's depth first, then at the depth of the arms predicted from them,
@@ -335,6 +350,15 @@ CustomizedBody customize_from_silhouettes(const Silhouette& front, const Silhoue
     apply_layer_outputs(&rep, i, extents[i], predict_layer(model, i, layer_inputs(rep, extents, i, out.landmarks.stature)));
   out.mesh.V = ctffd_evaluate(model.runtime->param, rep);
   out.mesh.F = model.template_mesh.F;
+  out.photo_agreement = std::min(photo_agreement(out.mesh, front, cams.front), photo_agreement(out.mesh, side, cams.side));
+  if (out.photo_agreement < kMinPhotoAgreement) {
+    std::ostringstream why;
+    why.precision(2);
+    why << "the customized body does not look like the photos: seen by their cameras it overlaps the silhouettes by " << out.photo_agreement
+        << " (intersection over union; " << kMinPhotoAgreement << " at least)";
+    if (!accept_poor) throw BelowConfidence("customize: " + why.str() + "; nothing written (--accept-poor gives it anyway, marked as poor)");
+    out.warnings.push_back("poor result: " + why.str());
+  }
   if (stated_stature > 0) {
     const double photos = out.landmarks.stature;
     if (cams.assumed.empty() && std::abs(photos - stated_stature) > 0.02) {

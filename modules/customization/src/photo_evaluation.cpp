@@ -28,7 +28,46 @@ const std::pair<PhotoVariation, const char*> kNames[] = {
     {PhotoVariation::kFarther20cm, "farther20cm"}, {PhotoVariation::kTurned5deg, "turned5"},
     {PhotoVariation::kJpegNoise, "jpeg-noise"},   {PhotoVariation::kCamera130Level, "camera1.30"},
     {PhotoVariation::kCamera130Aimed, "camera1.30-aimed"}, {PhotoVariation::kCamera100Level, "camera1.00"},
-    {PhotoVariation::kRoom, "room"}};
+    {PhotoVariation::kRoom, "room"},                 {PhotoVariation::kPhone, "phone"}};
+
+/// A separable Gaussian blur of a gray image (stored as 3 equal channels), sigma in pixels.
+void blur_gray3(Image8* img, double sigma) {
+  const int radius = static_cast<int>(std::ceil(3 * sigma));
+  std::vector<double> kernel(static_cast<size_t>(2 * radius + 1));
+  double sum = 0;
+  for (int k = -radius; k <= radius; ++k) sum += kernel[static_cast<size_t>(k + radius)] = std::exp(-0.5 * k * k / (sigma * sigma));
+  for (double& k : kernel) k /= sum;
+  const int w = img->width, h = img->height;
+  std::vector<float> a(static_cast<size_t>(w) * h), b(a.size());
+  for (size_t i = 0; i < a.size(); ++i) a[i] = img->pixels[3 * i];
+  for (int v = 0; v < h; ++v)
+    for (int u = 0; u < w; ++u) {
+      double x = 0;
+      for (int k = -radius; k <= radius; ++k) x += kernel[static_cast<size_t>(k + radius)] * a[static_cast<size_t>(v) * w + std::clamp(u + k, 0, w - 1)];
+      b[static_cast<size_t>(v) * w + u] = static_cast<float>(x);
+    }
+  for (int v = 0; v < h; ++v)
+    for (int u = 0; u < w; ++u) {
+      double x = 0;
+      for (int k = -radius; k <= radius; ++k) x += kernel[static_cast<size_t>(k + radius)] * b[static_cast<size_t>(std::clamp(v + k, 0, h - 1)) * w + u];
+      const auto g = static_cast<std::uint8_t>(std::clamp(std::lround(x), 0L, 255L));
+      for (int c = 0; c < 3; ++c) img->pixels[3 * (static_cast<size_t>(v) * w + u) + c] = g;
+    }
+}
+
+/// The phone's cameras (kPhone): the dataset's directions, 2.3 m from the body's axis, 1.30 m above
+/// the soles, aimed at the body's mid-height, 3000 x 4000 px, f = 3000 px.
+PhotoCameras phone_cameras(const PhotoCameras& dataset, const TriangleMesh& subject) {
+  const double floor = subject.V.col(1).minCoeff(), mid = 0.5 * (floor + subject.V.col(1).maxCoeff());
+  PhotoCameras out = dataset;
+  for (PinholeCamera* c : {&out.front, &out.side}) {
+    Eigen::Vector3d away = c->centre();
+    away.y() = 0;
+    const Eigen::Vector3d eye = 2.3 * away.normalized() + Eigen::Vector3d(0, floor + 1.3, 0);
+    *c = PinholeCamera::look_at(eye, Eigen::Vector3d(0, mid, 0), Eigen::Vector3d::UnitY(), 3000, 4000, 3000);
+  }
+  return out;
+}
 
 /// A rendered body photographed in a room: where no triangle covers a pixel, its ray meets the
 /// floor (y = floor_y; grey 150, lighter towards the camera) or a wall `wall_behind` metres behind
@@ -143,6 +182,8 @@ PhotoEvaluation evaluate_photo_customization(const std::string& dataset_dir, con
       PhotoCameras cams = read_photo_cameras((root / ph.at("camera").get<std::string>()).string());
       double stated = 0;
       const Stopwatch t0;
+      double rendering_seconds = 0;     // of photos made here (not timed)
+      Silhouette rendered_truth[2];     // their true silhouettes
       Silhouette front, side;
       TriangleMesh subject = load_subject_mesh((root / s.at("rest").get<std::string>()).string());
       switch (variation) {
@@ -182,6 +223,27 @@ PhotoEvaluation evaluate_photo_customization(const std::string& dataset_dir, con
           }
           break;
         }
+        case PhotoVariation::kPhone: {
+          const double floor_y = subject.V.col(1).minCoeff();
+          cams = phone_cameras(cams, subject);
+          unsigned seed = 41;
+          for (const auto& [view, cam, sil, truth] : {std::tuple<const char*, const PinholeCamera&, Silhouette&, Silhouette&>{
+                                                          "front", cams.front, front, rendered_truth[0]},
+                                                      {"side", cams.side, side, rendered_truth[1]}}) {
+            const Stopwatch untimed;
+            const RenderBuffers render = render_mesh(subject, cam);
+            truth = silhouette_from_render(render);
+            Image8 photo = photo_in_room(render, cam, floor_y, 1.2);
+            blur_gray3(&photo, 0.6);
+            opencv_calls::add_gaussian_noise(&photo, seed++, 2.0);
+            const std::vector<std::uint8_t> jpg = encode_jpeg(photo, 70);
+            const std::string what = std::string(view) + " phone photo of " + id;
+            photo = decode_image(std::string(jpg.begin(), jpg.end()), ImageColor::kBgr, what);
+            rendering_seconds += untimed.seconds();
+            sil = silhouette_from_pixels(photo.width, photo.height, 3, photo.pixels.data(), what);
+          }
+          break;
+        }
         default:
           front = read_silhouette_mask((root / ph.at("front_mask").get<std::string>()).string(), "front mask of " + id);
           side = read_silhouette_mask((root / ph.at("side_mask").get<std::string>()).string(), "side mask of " + id);
@@ -207,7 +269,16 @@ PhotoEvaluation evaluate_photo_customization(const std::string& dataset_dir, con
         write_file_atomically((dir / "camera.json").string(), [&](std::ostream& os) { os << text; }, false);
       }
       const CustomizedBody body = customize_from_silhouettes(front, side, cams, model, stated);
-      const double elapsed = t0.seconds();
+      const double elapsed = t0.seconds() - rendering_seconds;
+      if (variation == PhotoVariation::kPhone) {
+        for (int k = 0; k < 2; ++k) {
+          const Silhouette& mine = k == 0 ? front : side;
+          long inter = 0, uni = 0;
+          for (size_t i = 0; i < rendered_truth[k].mask.size() && i < mine.mask.size(); ++i)
+            inter += rendered_truth[k].mask[i] && mine.mask[i], uni += rendered_truth[k].mask[i] || mine.mask[i];
+          r.silhouette_iou = std::min(r.silhouette_iou, static_cast<double>(inter) / std::max(1L, uni));
+        }
+      }
       if (variation < PhotoVariation::kTurned5deg || variation == PhotoVariation::kJpegNoise || variation == PhotoVariation::kRoom) {
         for (const auto& [mine, key] : {std::pair<const Silhouette*, const char*>{&front, "front_mask"}, {&side, "side_mask"}}) {
           const Silhouette truth = read_silhouette_mask((root / ph.at(key).get<std::string>()).string(), key);
@@ -219,6 +290,7 @@ PhotoEvaluation evaluate_photo_customization(const std::string& dataset_dir, con
       }
       r.seconds = elapsed;
       r.warnings = body.warnings;
+      r.photo_agreement = body.photo_agreement;
       const BodyMeasurements m = measure_body(body.mesh.V, body.mesh.F);
       r.stature_mm = 1000 * (m.stature - true_stature);
       const auto& g = meas.at("girths");

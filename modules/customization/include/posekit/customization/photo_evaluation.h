@@ -24,11 +24,14 @@ enum class PhotoVariation {
   kCamera100Level,  ///< ... 1.00 m above the soles, level
   kRoom,            ///< photos re-rendered in a room: the floor in view (the feet on it), a wall 1.2 m
                     ///< behind lit from one side (+-10% across the frame) and darker upwards; silhouettes extracted
+  kPhone,           ///< a phone's photos: 3000 x 4000 px, f = 3000 px, 2.3 m away, 1.30 m high aimed at mid-height,
+                    ///< in the room of kRoom, lens blur (sigma 0.6 px), noise (sigma 2) and JPEG quality 70;
+                    ///< `seconds` is the silhouettes' extraction and the customization (not the rendering)
 };
 const std::vector<PhotoVariation>& all_photo_variations();
 const char* photo_variation_name(PhotoVariation v);
 /// Parses a name (photos, masks, erode2, dilate2, height+1cm, nearer20cm, farther20cm, turned5,
-/// jpeg-noise, camera1.30, camera1.30-aimed, camera1.00, room); throws InvalidInput listing them.
+/// jpeg-noise, camera1.30, camera1.30-aimed, camera1.00, room, phone); throws InvalidInput listing them.
 PhotoVariation parse_photo_variation(const std::string& name);
 
 struct PhotoSubjectResult {
@@ -40,6 +43,7 @@ struct PhotoSubjectResult {
   double surface_mm = 0;                    ///< mean distance of the subject's vertices to the result
   double seconds = 0;                       ///< silhouettes to mesh
   double silhouette_iou = 1;                ///< of the silhouettes used against the true masks (the lower view)
+  double photo_agreement = 0;               ///< of the result against the silhouettes used (CustomizedBody)
   std::vector<std::string> warnings;
 };
 
