@@ -145,7 +145,7 @@ int customize_eval(int argc, char** argv) {
                  "body turned 5 degrees, JPEG and sensor noise).");
   args.option("dataset", "DIR", "dataset folder (posekit dataset make)")
       .option("model", "FILE", "customization model (posekit customize train)", "customization.pkc")
-      .option("variation", "V", "photos, masks, erode2, dilate2, height+1cm, nearer20cm, farther20cm, turned5, jpeg-noise, camera1.30, camera1.30-aimed, camera1.00, room, phone, or all", "photos")
+      .option("variation", "V", "photos, masks, erode2, dilate2, height+1cm, nearer20cm, farther20cm, turned5, jpeg-noise, camera1.30, camera1.30-aimed, camera1.00, room, phone, phone-masks, or all", "photos")
       .option("subjects", "A,B", "only these subjects")
       .output("json", "FILE", "write the tables as JSON")
       .output_folder("inputs-out", "DIR", "write each subject's silhouettes and camera file as customized (DIR/VARIATION/ID/)")

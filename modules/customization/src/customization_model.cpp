@@ -40,7 +40,7 @@ constexpr double kRangeMargin = 0.02;  // beyond the population's range by 2% of
 // the minor ones 1600 bodies do not fill the range (f03 lies 19% beyond axis 8 and is customized
 // within 16 mm).
 constexpr int kRangeAxes = 4;
-constexpr int kFeatureScalars = 9, kFeaturePoints = 19;
+constexpr int kFeatureScalars = 10, kFeaturePoints = 19;
 constexpr int kFeatureTargets = kFeatureScalars + 3 * kFeaturePoints;
 constexpr int kFirstArmPoint = 3, kLastArmPoint = 12;  // feature_points: armpits, shoulders, elbows, wrists, hand tips
 
@@ -57,6 +57,7 @@ Eigen::VectorXd feature_targets(BodyFeatures f, const PhotoLandmarks& L) {
   for (double y : {f.top_y, f.crotch_y, f.hip_y, f.waist_y, f.underbust_y, f.bust_y, f.arms_separate_y}) t[k++] = y - L.floor_y;
   t[k++] = f.axis_x - L.axis_x;
   t[k++] = f.crotch_axis_z - L.axis_z;
+  t[k++] = f.floor_y - L.floor_y;  // the soles below the photos' lowest rows (a toe tip's height, for one)
   const auto pts = feature_points(f);
   for (Eigen::Vector3d* p : pts) {
     t[k++] = p->x() - L.axis_x;
@@ -72,13 +73,13 @@ BodyFeatures features_from_targets(const Eigen::VectorXd& t, const PhotoLandmark
   for (double* y : {&f.top_y, &f.crotch_y, &f.hip_y, &f.waist_y, &f.underbust_y, &f.bust_y, &f.arms_separate_y}) *y = t[k++] + L.floor_y;
   f.axis_x = t[k++] + L.axis_x;
   f.crotch_axis_z = t[k++] + L.axis_z;
+  f.floor_y = t[k++] + L.floor_y;
   const auto pts = feature_points(f);
   for (Eigen::Vector3d* p : pts) {
     p->x() = t[k++] + L.axis_x;
     p->y() = t[k++] + L.floor_y;
     p->z() = t[k++] + L.axis_z;
   }
-  f.floor_y = L.floor_y;
   f.crown_y = f.top_y;
   f.stature = f.crown_y - f.floor_y;
   f.neck_joint = f.neck_base;
@@ -360,7 +361,8 @@ CustomizedBody customize_from_silhouettes(const Silhouette& front, const Silhoue
     out.warnings.push_back("poor result: " + why.str());
   }
   if (stated_stature > 0) {
-    const double photos = out.landmarks.stature;
+    // The customized body's own height (the photos' lowest rows lie a toe tip's height above the soles).
+    const double soles = out.mesh.V.col(1).minCoeff(), photos = out.mesh.V.col(1).maxCoeff() - soles;
     if (cams.assumed.empty() && std::abs(photos - stated_stature) > 0.02) {
       std::ostringstream w;
       w.precision(3);
@@ -369,7 +371,8 @@ CustomizedBody customize_from_silhouettes(const Silhouette& front, const Silhoue
       out.warnings.push_back(w.str());
     }
     out.scale = stated_stature / photos;
-    const Eigen::RowVector3d origin(out.features.axis_x, out.landmarks.floor_y, out.landmarks.axis_z);
+    out.scale_origin = Eigen::Vector3d(out.features.axis_x, soles, out.landmarks.axis_z);
+    const Eigen::RowVector3d origin = out.scale_origin.transpose();
     out.mesh.V = ((out.mesh.V.rowwise() - origin) * out.scale).rowwise() + origin;
     rep.mesh.V = ((rep.mesh.V.rowwise() - origin) * out.scale).rowwise() + origin;
     for (auto& L : rep.layers) L.centre = (L.centre.transpose() - origin).transpose() * out.scale + origin.transpose();
@@ -723,7 +726,9 @@ CustomizationModel load_customization_model(const std::string& path) {
   } catch (const nlohmann::json::exception& e) {
     throw InvalidInput("customization model '" + path + "': " + e.what());
   }
-  if (m.feature_weights.cols() != kFeatureTargets) throw InvalidInput("customization model '" + path + "': feature model of the wrong size");
+  if (m.feature_weights.cols() != kFeatureTargets)
+    throw InvalidInput("customization model '" + path + "': its feature model predicts " + std::to_string(m.feature_weights.cols()) +
+                       " numbers, this posekit " + std::to_string(kFeatureTargets) + " (made by another version: train it again with posekit customize train)");
   prepare_customization_model(&m);
   return m;
 }

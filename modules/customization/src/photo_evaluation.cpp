@@ -28,7 +28,8 @@ const std::pair<PhotoVariation, const char*> kNames[] = {
     {PhotoVariation::kFarther20cm, "farther20cm"}, {PhotoVariation::kTurned5deg, "turned5"},
     {PhotoVariation::kJpegNoise, "jpeg-noise"},   {PhotoVariation::kCamera130Level, "camera1.30"},
     {PhotoVariation::kCamera130Aimed, "camera1.30-aimed"}, {PhotoVariation::kCamera100Level, "camera1.00"},
-    {PhotoVariation::kRoom, "room"},                 {PhotoVariation::kPhone, "phone"}};
+    {PhotoVariation::kRoom, "room"},                 {PhotoVariation::kPhone, "phone"},
+    {PhotoVariation::kPhoneMasks, "phone-masks"}};
 
 /// A separable Gaussian blur of a gray image (stored as 3 equal channels), sigma in pixels.
 void blur_gray3(Image8* img, double sigma) {
@@ -223,7 +224,8 @@ PhotoEvaluation evaluate_photo_customization(const std::string& dataset_dir, con
           }
           break;
         }
-        case PhotoVariation::kPhone: {
+        case PhotoVariation::kPhone:
+        case PhotoVariation::kPhoneMasks: {
           const double floor_y = subject.V.col(1).minCoeff();
           cams = phone_cameras(cams, subject);
           unsigned seed = 41;
@@ -233,6 +235,11 @@ PhotoEvaluation evaluate_photo_customization(const std::string& dataset_dir, con
             const Stopwatch untimed;
             const RenderBuffers render = render_mesh(subject, cam);
             truth = silhouette_from_render(render);
+            if (variation == PhotoVariation::kPhoneMasks) {
+              rendering_seconds += untimed.seconds();
+              sil = truth;
+              continue;
+            }
             Image8 photo = photo_in_room(render, cam, floor_y, 1.2);
             blur_gray3(&photo, 0.6);
             opencv_calls::add_gaussian_noise(&photo, seed++, 2.0);
@@ -270,7 +277,7 @@ PhotoEvaluation evaluate_photo_customization(const std::string& dataset_dir, con
       }
       const CustomizedBody body = customize_from_silhouettes(front, side, cams, model, stated);
       const double elapsed = t0.seconds() - rendering_seconds;
-      if (variation == PhotoVariation::kPhone) {
+      if (variation == PhotoVariation::kPhone || variation == PhotoVariation::kPhoneMasks) {
         for (int k = 0; k < 2; ++k) {
           const Silhouette& mine = k == 0 ? front : side;
           long inter = 0, uni = 0;

@@ -411,16 +411,19 @@ class Finder {
   }
 
   /// The soles: the lowest row of each view taken at the depth of the feet's nearest extent seen in
-  /// the other view (the toes for the front camera, the outer foot for the side camera).
+  /// the other view (the toes for the front camera, the outer foot for the side camera). The extents
+  /// are read over the feet's rows (10 cm up from each view's lowest row): a camera above the feet
+  /// sees the toe tip well above the side view's lowest rows (60 px at 2.3 m and 1.3 m high).
   double floor_level(const PhotoLandmarks& L) const {
     const int fb = fs_.bottom(), sb = ss_.bottom();
     double toe = -1e9, outer = -1e9;
     const Eigen::Vector3d front_dir = -fc_.R.row(2).transpose(), side_dir = -sc_.R.row(2).transpose();  // towards each camera
     const double ref_depth_f = depth_of(fc_, p0_), ref_depth_s = depth_of(sc_, p0_);
-    for (int v = sb - 6; v <= sb; ++v)
+    const int band_s = static_cast<int>(std::ceil(0.1 * sc_.fy / ref_depth_s)), band_f = static_cast<int>(std::ceil(0.1 * fc_.fy / ref_depth_f));
+    for (int v = sb - band_s; v <= sb; ++v)
       for (const Run& r : runs_of(ss_, v))
         for (double u : {double(r.u0), r.u1 + 1.0}) toe = std::max(toe, point_at_depth(sc_, u, v, ref_depth_s).dot(front_dir));
-    for (int v = fb - 6; v <= fb; ++v)
+    for (int v = fb - band_f; v <= fb; ++v)
       for (const Run& r : runs_of(fs_, v))
         for (double u : {double(r.u0), r.u1 + 1.0}) outer = std::max(outer, point_at_depth(fc_, u, v, ref_depth_f).dot(side_dir));
     const double df = depth_of(fc_, p0_) - (toe - p0_.dot(front_dir)), ds = depth_of(sc_, p0_) - (outer - p0_.dot(side_dir));

@@ -254,8 +254,7 @@ void write_photo_features_png_cv(const std::string& path, const Silhouette& sil,
   const PhotoLandmarks& L = body.landmarks;
   const double s = body.scale;
   auto unscaled = [&](const Eigen::Vector3d& p) {  // the result back in the photos' world
-    const Eigen::Vector3d o(body.features.axis_x, L.floor_y, L.axis_z);
-    return Eigen::Vector3d(o + (p - o) / s);
+    return Eigen::Vector3d(body.scale_origin + (p - body.scale_origin) / s);
   };
   const std::pair<double, cv::Scalar> levels[] = {
       {L.floor_y, {0, 0, 255}},   {L.crotch_y, {0, 128, 255}}, {L.hip_y, {0, 200, 0}},     {L.waist_y, {255, 128, 0}},

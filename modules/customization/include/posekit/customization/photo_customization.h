@@ -155,7 +155,8 @@ struct CustomizedBody {
   LayeredRepresentation representation;    ///< predicted from the photos
   BodyFeatures features;                   ///< predicted from the 2-D features
   PhotoLandmarks landmarks;
-  double scale = 1;                        ///< applied to meet a stated stature
+  double scale = 1;                        ///< applied to meet a stated stature, about scale_origin
+  Eigen::Vector3d scale_origin = Eigen::Vector3d::Zero();  ///< on the soles, below the body's axis
   double population_distance = 0;          ///< of the photos' body from the training population
   double population_range_excess = 0;      ///< beyond the population's range (population_range_excess)
   /// The result seen by the two cameras against the silhouettes: intersection over union, the lower

@@ -27,11 +27,12 @@ enum class PhotoVariation {
   kPhone,           ///< a phone's photos: 3000 x 4000 px, f = 3000 px, 2.3 m away, 1.30 m high aimed at mid-height,
                     ///< in the room of kRoom, lens blur (sigma 0.6 px), noise (sigma 2) and JPEG quality 70;
                     ///< `seconds` is the silhouettes' extraction and the customization (not the rendering)
+  kPhoneMasks,      ///< kPhone's cameras with the true silhouettes (no extraction): the geometry alone
 };
 const std::vector<PhotoVariation>& all_photo_variations();
 const char* photo_variation_name(PhotoVariation v);
 /// Parses a name (photos, masks, erode2, dilate2, height+1cm, nearer20cm, farther20cm, turned5,
-/// jpeg-noise, camera1.30, camera1.30-aimed, camera1.00, room, phone); throws InvalidInput listing them.
+/// jpeg-noise, camera1.30, camera1.30-aimed, camera1.00, room, phone, phone-masks); throws InvalidInput listing them.
 PhotoVariation parse_photo_variation(const std::string& name);
 
 struct PhotoSubjectResult {
