@@ -137,6 +137,21 @@ TEST(Silhouette, AFloorInViewAndAnUnevenlyLitWallAreBackground) {
             std::string::npos);
 }
 
+// Skin shaded like the wall behind it leaves a hole in the chest: a torso has none, so it is filled;
+// the gaps beside the torso (under the arms) stay open.
+TEST(Silhouette, AHoleOnTheTorsoIsFilled) {
+  const Scene s = photograph(default_body());
+  const Silhouette truth = mask_of(s.front);
+  std::vector<std::uint8_t> photo = s.front.gray;
+  const int cu = static_cast<int>(std::lround(0.5 * (truth.left() + truth.right()))), cv = truth.top() + (truth.bottom() - truth.top()) / 3;
+  for (int v = cv - 25; v <= cv + 25; ++v)
+    for (int u = cu - 25; u <= cu + 25; ++u)
+      if ((u - cu) * (u - cu) + (v - cv) * (v - cv) <= 625) photo[static_cast<size_t>(v) * s.front.width + u] = 235;
+  const Silhouette found = silhouette_from_pixels(s.front.width, s.front.height, 1, photo.data(), "front photo");
+  EXPECT_TRUE(found.inside(cu, cv));
+  EXPECT_GT(iou(found, truth), 0.985);
+}
+
 TEST(Silhouette, PhotosWithoutOnePersonAreRefusedWithTheReason) {
   std::vector<std::uint8_t> plain(400 * 600, 200);
   EXPECT_NE(error_of([&] { silhouette_from_pixels(400, 600, 1, plain.data(), "front photo"); }).find("no person"), std::string::npos);

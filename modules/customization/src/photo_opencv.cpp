@@ -57,6 +57,28 @@ cv::Mat largest_component_filled(const cv::Mat& binary, int* second) {
   return out;
 }
 
+/// Fills the holes a standing person's torso cannot have: background enclosed by the person that
+/// crosses the figure's centre column between a fifth and 45% of its height from the top (the torso,
+/// in front and side views: the gaps under the arms and between the legs lie beside it or below).
+/// Skin shaded like the wall behind leaves such holes.
+void fill_holes_on_the_torso_line(cv::Mat* person) {
+  const cv::Rect box = cv::boundingRect(*person);
+  if (box.area() == 0) return;
+  const cv::Moments m = cv::moments(*person, true);
+  const int centre = static_cast<int>(std::lround(m.m10 / std::max(1.0, m.m00)));
+  cv::Mat background = *person == 0, labels;
+  const int n = cv::connectedComponents(background, labels, 4, CV_32S);
+  std::vector<bool> touches_frame(static_cast<size_t>(n), false), on_line(static_cast<size_t>(n), false);
+  for (int v = 0; v < labels.rows; ++v)
+    for (int u : {0, labels.cols - 1}) touches_frame[static_cast<size_t>(labels.at<int>(v, u))] = true;
+  for (int u = 0; u < labels.cols; ++u)
+    for (int v : {0, labels.rows - 1}) touches_frame[static_cast<size_t>(labels.at<int>(v, u))] = true;
+  for (int v = box.y + box.height / 5; v < box.y + static_cast<int>(0.45 * box.height); ++v)
+    if (const int l = labels.at<int>(v, centre); l > 0) on_line[static_cast<size_t>(l)] = true;
+  for (int l = 1; l < n; ++l)
+    if (on_line[static_cast<size_t>(l)] && !touches_frame[static_cast<size_t>(l)]) person->setTo(255, labels == l);
+}
+
 void check_mask(const cv::Mat& m, int second_area, const std::string& what, double min_area_fraction) {
   const double total = static_cast<double>(m.total());
   const int area = cv::countNonZero(m);
@@ -233,6 +255,7 @@ Silhouette silhouette_from_pixels_cv(int width, int height, int channels, const 
     largest_component_filled(fg, &second_raw);
     second = std::max(second, second_raw);
   }
+  fill_holes_on_the_torso_line(&person);
   check_mask(person, second, what, o.min_area_fraction);
   return from_mat(person);
 }
