@@ -302,25 +302,47 @@ void prepare_customization_model(CustomizationModel* model) {
   model->runtime = rt;
 }
 
+namespace {
+
+/// The photos' 2-D features with each arm read at its own depth (ArmChains): read at the torso's
+/// depth first, then at the arms predicted from the last reading, until the prediction moves less
+/// than a millimetre (a fixed point; 4-8 rounds). `moved`: the last round's move (m).
+PhotoLandmarks landmarks_at_arm_depth(const Silhouette& front, const Silhouette& side, const PhotoCameras& cams,
+                                      const CustomizationModel& model, double* moved) {
+  PhotoLandmarks L = find_photo_landmarks(front, side, cams);
+  ArmChains arms = arm_chains(predict_body_features(model, L));
+  *moved = 1;
+  for (int round = 0; round < 12 && *moved >= 1e-3; ++round) {
+    L = find_photo_landmarks(front, side, cams, &arms);
+    const ArmChains next = arm_chains(predict_body_features(model, L));
+    *moved = 0;
+    for (int k : {kLeft, kRight})
+      for (size_t p = 0; p < next.chain[k].size(); ++p)
+        *moved = std::max(*moved, p < arms.chain[k].size() ? (next.chain[k][p] - arms.chain[k][p]).norm() : 1.0);
+    arms = next;
+  }
+  return L;
+}
+
+/// A result that does not look like its photos: BelowConfidence, or with accept_poor a warning.
+void check_photo_agreement(CustomizedBody* body, bool accept_poor) {
+  if (body->photo_agreement >= kMinPhotoAgreement) return;
+  std::ostringstream why;
+  why.precision(2);
+  why << "the customized body does not look like the photos: seen by their cameras it overlaps the silhouettes by " << body->photo_agreement
+      << " (intersection over union; " << kMinPhotoAgreement << " at least)";
+  if (!accept_poor) throw BelowConfidence("customize: " + why.str() + "; nothing written (--accept-poor gives it anyway, marked as poor)");
+  body->warnings.push_back("poor result: " + why.str());
+}
+
+}  // namespace
+
 CustomizedBody customize_from_silhouettes(const Silhouette& front, const Silhouette& side, const PhotoCameras& cams,
                                           const CustomizationModel& model, double stated_stature, bool accept_poor) {
   if (!model.runtime) throw InvalidInput("customize: the model is not prepared (prepare_customization_model)");
   CustomizedBody out;
-  // The arms read at the torso's depth first, then at the depth of the arms predicted from them,
-  // until the predicted arms move less than a millimetre (a fixed point; 4-8 rounds).
-  out.landmarks = find_photo_landmarks(front, side, cams);
-  ArmChains arms;
-  double moved = 1;
-  for (int round = 0; round < 12 && moved >= 1e-3; ++round) {
-    const ArmChains next = arm_chains(predict_body_features(model, out.landmarks));
-    moved = round == 0 ? 1 : 0;
-    for (int k : {kLeft, kRight})
-      for (size_t p = 0; round > 0 && p < next.chain[k].size(); ++p)
-        moved = std::max(moved, p < arms.chain[k].size() ? (next.chain[k][p] - arms.chain[k][p]).norm() : 1.0);
-    if (moved < 1e-3) break;
-    arms = next;
-    out.landmarks = find_photo_landmarks(front, side, cams, &arms);
-  }
+  double moved = 0;
+  out.landmarks = landmarks_at_arm_depth(front, side, cams, model, &moved);
   out.warnings = out.landmarks.warnings;
   if (moved > 0.005)
     out.warnings.push_back("photos: the arms' distance from the camera did not settle (the predicted arms still move " +
@@ -352,14 +374,7 @@ CustomizedBody customize_from_silhouettes(const Silhouette& front, const Silhoue
   out.mesh.V = ctffd_evaluate(model.runtime->param, rep);
   out.mesh.F = model.template_mesh.F;
   out.photo_agreement = std::min(photo_agreement(out.mesh, front, cams.front), photo_agreement(out.mesh, side, cams.side));
-  if (out.photo_agreement < kMinPhotoAgreement) {
-    std::ostringstream why;
-    why.precision(2);
-    why << "the customized body does not look like the photos: seen by their cameras it overlaps the silhouettes by " << out.photo_agreement
-        << " (intersection over union; " << kMinPhotoAgreement << " at least)";
-    if (!accept_poor) throw BelowConfidence("customize: " + why.str() + "; nothing written (--accept-poor gives it anyway, marked as poor)");
-    out.warnings.push_back("poor result: " + why.str());
-  }
+  check_photo_agreement(&out, accept_poor);
   if (stated_stature > 0) {
     // The customized body's own height (the photos' lowest rows lie a toe tip's height above the soles).
     const double soles = out.mesh.V.col(1).minCoeff(), photos = out.mesh.V.col(1).maxCoeff() - soles;
