@@ -124,14 +124,11 @@ void check_silhouette_cv(const Silhouette& s, const std::string& what, double mi
   check_mask(filled, second, what, min_area_fraction);
 }
 
-Silhouette silhouette_from_pixels_cv(int width, int height, int channels, const std::uint8_t* pixels, const std::string& what,
-                                  const SilhouetteOptions& o) {
-  if (width < 4 * kBorder || height < 4 * kBorder) throw InvalidInput(what + ": image too small (" + std::to_string(width) + "x" + std::to_string(height) + ")");
-  if (channels != 1 && channels != 3) throw InvalidInput(what + ": need a gray or colour image");
-  cv::Mat img(height, width, channels == 1 ? CV_8UC1 : CV_8UC3, const_cast<std::uint8_t*>(pixels));
-  cv::Mat bgr;
-  if (channels == 1) cv::cvtColor(img, bgr, cv::COLOR_GRAY2BGR);
-  else bgr = img.clone();
+/// The person's mask in a BGR image (see silhouette_from_pixels): background model, thresholds,
+/// GrabCut, the largest component. `empty_bgr`: the empty scene (same size) or empty. `second`:
+/// the area of the next figure.
+cv::Mat person_mask(const cv::Mat& bgr, const cv::Mat& empty_bgr, const SilhouetteOptions& o, int* second_area) {
+  const int width = bgr.cols, height = bgr.rows;
   // Background model on a median-filtered copy (5x5: sensor noise falls about four-fold, outlines
   // and gaps of 3 px and more stay where they are): per row, the median of each channel over the
   // left and over the right margin, linearly interpolated across the row (a floor, a wall darker
@@ -140,13 +137,9 @@ Silhouette silhouette_from_pixels_cv(int width, int height, int channels, const 
   cv::Mat smooth_bgr;
   cv::medianBlur(bgr, smooth_bgr, 5);
   cv::Mat model(height, width, CV_32FC3);
-  if (!o.background_photo.empty()) {
-    const Image8 empty = read_image(o.background_photo, ImageColor::kBgr);
-    if (empty.width != width || empty.height != height)
-      throw InvalidInput(what + ": the empty scene's photo '" + o.background_photo + "' is " + std::to_string(empty.width) + "x" +
-                         std::to_string(empty.height) + ", the photo " + std::to_string(width) + "x" + std::to_string(height));
-    cv::Mat e(height, width, CV_8UC3, const_cast<std::uint8_t*>(empty.pixels.data())), smooth_e;
-    cv::medianBlur(e, smooth_e, 5);
+  if (!empty_bgr.empty()) {
+    cv::Mat smooth_e;
+    cv::medianBlur(empty_bgr, smooth_e, 5);
     smooth_e.convertTo(model, CV_32FC3);
   } else {
     // Each row's margin medians, then a running median down the rows (61 rows each way, shrunk
@@ -254,6 +247,45 @@ Silhouette silhouette_from_pixels_cv(int width, int height, int channels, const 
     int second_raw = 0;
     largest_component_filled(fg, &second_raw);
     second = std::max(second, second_raw);
+  }
+  *second_area = second;
+  return person;
+}
+
+Silhouette silhouette_from_pixels_cv(int width, int height, int channels, const std::uint8_t* pixels, const std::string& what,
+                                  const SilhouetteOptions& o) {
+  if (width < 4 * kBorder || height < 4 * kBorder) throw InvalidInput(what + ": image too small (" + std::to_string(width) + "x" + std::to_string(height) + ")");
+  if (channels != 1 && channels != 3) throw InvalidInput(what + ": need a gray or colour image");
+  cv::Mat img(height, width, channels == 1 ? CV_8UC1 : CV_8UC3, const_cast<std::uint8_t*>(pixels));
+  cv::Mat bgr, empty_bgr;
+  if (channels == 1) cv::cvtColor(img, bgr, cv::COLOR_GRAY2BGR);
+  else bgr = img;
+  Image8 empty;
+  if (!o.background_photo.empty()) {
+    empty = read_image(o.background_photo, ImageColor::kBgr);
+    if (empty.width != width || empty.height != height)
+      throw InvalidInput(what + ": the empty scene's photo '" + o.background_photo + "' is " + std::to_string(empty.width) + "x" +
+                         std::to_string(empty.height) + ", the photo " + std::to_string(width) + "x" + std::to_string(height));
+    empty_bgr = cv::Mat(height, width, CV_8UC3, empty.pixels.data());
+  }
+  // A photo over 1600 rows is worked on at about 1200 rows (area-averaged: a phone's 4000 rows in
+  // a ninth of the time, its sensor noise a third), the mask brought back to full size by bilinear
+  // interpolation of the 0/255 mask (the outline to about a third of the reduction).
+  int second = 0;
+  cv::Mat person;
+  if (height > 1600) {
+    const int k = (height + 1199) / 1200;
+    const cv::Size small(width / k, height / k);
+    cv::Mat small_bgr, small_empty, small_person, up;
+    cv::resize(bgr, small_bgr, small, 0, 0, cv::INTER_AREA);
+    if (!empty_bgr.empty()) cv::resize(empty_bgr, small_empty, small, 0, 0, cv::INTER_AREA);
+    small_person = person_mask(small_bgr, small_empty, o, &second);
+    cv::resize(small_person, up, bgr.size(), 0, 0, cv::INTER_LINEAR);
+    int second_full = 0;
+    person = largest_component_filled(up > 127, &second_full);
+    second *= k * k;
+  } else {
+    person = person_mask(bgr, empty_bgr, o, &second);
   }
   fill_holes_on_the_torso_line(&person);
   check_mask(person, second, what, o.min_area_fraction);
