@@ -137,6 +137,22 @@ TEST(Silhouette, AFloorInViewAndAnUnevenlyLitWallAreBackground) {
             std::string::npos);
 }
 
+// A phone-sized photo (here 2400 x 3600) is worked on at about 1200 rows and the mask brought back
+// to full size: the same person, to about a pixel of the reduced image.
+TEST(Silhouette, ALargePhotoIsReducedAndItsMaskBroughtBack) {
+  const TriangleMesh body = default_body();
+  const double mid = 0.5 * (body.V.col(1).maxCoeff() + body.V.col(1).minCoeff());
+  const PinholeCamera cam = PinholeCamera::look_at({0, mid, 3.0}, {0, mid, 0}, Eigen::Vector3d::UnitY(), 2400, 3600, 4200);
+  const RenderBuffers r = render_mesh(body, cam);
+  const Silhouette truth = mask_of(r);
+  const Silhouette found = silhouette_from_pixels(r.width, r.height, 1, r.gray.data(), "front photo");
+  ASSERT_EQ(found.width, 2400);
+  ASSERT_EQ(found.height, 3600);
+  EXPECT_GT(iou(found, truth), 0.97);
+  EXPECT_NEAR(found.bottom(), truth.bottom(), 3);
+  EXPECT_NEAR(found.top(), truth.top(), 3);
+}
+
 // Skin shaded like the wall behind it leaves a hole in the chest: a torso has none, so it is filled;
 // the gaps beside the torso (under the arms) stay open.
 TEST(Silhouette, AHoleOnTheTorsoIsFilled) {
