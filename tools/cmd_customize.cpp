@@ -11,8 +11,10 @@
 
 #include "cli.h"
 #include "commands.h"
+#include "fitted_input.h"
 #include "posekit/core/data_root.h"
 #include "posekit/core/error.h"
+#include "posekit/customization/model_silhouette_fit.h"
 #include "posekit/customization/photo_evaluation.h"
 #include "posekit/io/atomic_file.h"
 #include "posekit/io/mesh_io.h"
@@ -27,6 +29,16 @@ std::vector<std::string> split_list(const std::string& s) {
   for (std::string item; std::getline(ss, item, ',');)
     if (!item.empty()) out.push_back(item);
   return out;
+}
+
+/// --method: "paper" (section 3.2, the learned model) or "model" (the body model fitted to the
+/// silhouettes, which needs --body-model).
+bool body_model_method(const ArgParser& args) {
+  const std::string m = args.get("method");
+  if (m != "paper" && m != "model") throw UsageError("--method expects paper or model");
+  if (m == "model" && !args.has("body-model"))
+    throw UsageError("--method model needs --body-model FILE (build one with posekit shape-space --ansur --out FILE)");
+  return m == "model";
 }
 
 int customize_train(int argc, char** argv) {
@@ -147,19 +159,25 @@ int customize_eval(int argc, char** argv) {
       .option("model", "FILE", "customization model (posekit customize train)", "customization.pkc")
       .option("variation", "V", "photos, masks, erode2, dilate2, height+1cm, nearer20cm, farther20cm, turned5, jpeg-noise, camera1.30, camera1.30-aimed, camera1.00, room, phone, phone-masks, or all", "photos")
       .option("subjects", "A,B", "only these subjects")
+      .option("method", "NAME", "paper (section 3.2's rules and learned sections) or model (the body model fitted to the silhouettes)", "paper")
+      .option("body-model", "FILE", "--method model: the body model (.pks from posekit shape-space --ansur)")
+      .data_option()
       .output("json", "FILE", "write the tables as JSON")
       .output_folder("inputs-out", "DIR", "write each subject's silhouettes and camera file as customized (DIR/VARIATION/ID/)")
       .example("posekit customize eval --dataset ds --model customization.pkc --variation all");
   if (!args.parse(argc, argv)) return 0;
   if (!args.has("dataset")) throw UsageError("customize eval needs --dataset DIR");
-  const CustomizationModel model = load_customization_model(args.get("model"));
+  const bool by_body_model = body_model_method(args);
+  const std::unique_ptr<BodyModel> body_model = by_body_model ? load_body_model(args) : nullptr;
+  const CustomizationModel model = by_body_model ? CustomizationModel{} : load_customization_model(args.get("model"));
   std::vector<PhotoVariation> variations;
   if (args.get("variation") == "all") variations = all_photo_variations();
   else variations.push_back(parse_photo_variation(args.get("variation")));
   const std::vector<std::string> ids = args.has("subjects") ? split_list(args.get("subjects")) : std::vector<std::string>{};
   nlohmann::json all = nlohmann::json::array();
   for (PhotoVariation v : variations) {
-    const PhotoEvaluation ev = evaluate_photo_customization(args.get("dataset"), model, v, ids, args.has("inputs-out") ? args.get("inputs-out") : "");
+    const PhotoEvaluation ev = evaluate_photo_customization(args.get("dataset"), model, v, ids, args.has("inputs-out") ? args.get("inputs-out") : "",
+                                                              body_model.get());
     print_evaluation(ev, std::cout);
     std::cout.flush();
     all.push_back(evaluation_json(ev));
@@ -195,6 +213,9 @@ int run_customize(int argc, char** argv) {
       .option("distance", "M", "without --camera: camera distance to the person", "3.0")
       .option("focal", "PX", "without --camera: focal length in pixels (default: from the stated height)")
       .option("model", "FILE", "customization model (posekit customize train)", "customization.pkc")
+      .option("method", "NAME", "paper (section 3.2's rules and learned sections) or model (the body model's shape and pose fitted to both silhouettes)", "paper")
+      .option("body-model", "FILE", "--method model: the body model (.pks from posekit shape-space --ansur)")
+      .data_option()
       .output("out", "FILE", "customized body mesh (PLY/OBJ/OFF/STL)")
       .output_folder("debug", "DIR", "write the silhouettes and the features drawn on them")
       .flag("measure", "print girths of the result beside those of the photos' representation")
@@ -208,8 +229,10 @@ int run_customize(int argc, char** argv) {
   if (!args.has("camera") && !args.has("height")) throw UsageError("customize needs --camera FILE or --height M (the scale)");
   if ((args.has("front-background") && !args.has("front")) || (args.has("side-background") && !args.has("side")))
     throw UsageError("customize: --front-background / --side-background go with the photos (--front / --side), not masks");
+  const bool by_body_model = body_model_method(args);
   const auto t_load = std::chrono::steady_clock::now();
-  const CustomizationModel model = load_customization_model(args.get("model"));
+  const std::unique_ptr<BodyModel> body_model = by_body_model ? load_body_model(args) : nullptr;
+  const CustomizationModel model = by_body_model ? CustomizationModel{} : load_customization_model(args.get("model"));
   const auto t0 = std::chrono::steady_clock::now();
   auto extraction = [&](const char* view) {
     SilhouetteOptions o;
@@ -230,26 +253,39 @@ int run_customize(int argc, char** argv) {
     write_silhouette_png((std::filesystem::path(args.get("debug")) / "front_mask.png").string(), front);
     write_silhouette_png((std::filesystem::path(args.get("debug")) / "side_mask.png").string(), side);
   }
-  const CustomizedBody body = customize_from_silhouettes(front, side, cams, model, height, args.flag_set("accept-poor"));
+  const CustomizedBody body = by_body_model ? customize_by_body_model(*body_model, front, side, cams, height, args.flag_set("accept-poor"))
+                                            : customize_from_silhouettes(front, side, cams, model, height, args.flag_set("accept-poor"));
   const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   for (const auto& w : body.warnings) std::cerr << "posekit customize: warning: " << w << "\n";
-  if (args.has("debug")) {
+  if (args.has("debug") && by_body_model) {
+    const double k = body.scale;  // the fit as it stood in the photos' world
+    TriangleMesh seen = body.mesh;
+    seen.V = ((seen.V.rowwise() - body.scale_origin.transpose()) / k).rowwise() + body.scale_origin.transpose();
+    write_outline_png((std::filesystem::path(args.get("debug")) / "front_outline.png").string(), front, cams.front, seen);
+    write_outline_png((std::filesystem::path(args.get("debug")) / "side_outline.png").string(), side, cams.side, seen);
+  }
+  if (args.has("debug") && !by_body_model) {
     write_photo_features_png((std::filesystem::path(args.get("debug")) / "front_features.png").string(), front, cams.front, body);
     write_photo_features_png((std::filesystem::path(args.get("debug")) / "side_features.png").string(), side, cams.side, body);
   }
   if (args.has("out")) write_mesh(args.get("out"), body.mesh, {Unit::kMetre, MeshFormat::kAuto, true, io_warnings()});
   const PhotoLandmarks& L = body.landmarks;
   nlohmann::ordered_json j;
-  j["stature_photos"] = L.stature;
+  j["method"] = by_body_model ? "model" : "paper";
+  j["stature_photos"] = by_body_model ? body.features.stature : L.stature;
   j["scale"] = body.scale;
-  j["population_distance"] = body.population_distance;
-  j["population_limit"] = model.descriptor_limit;
-  j["population_range_excess"] = body.population_range_excess;
+  if (!by_body_model) {
+    j["population_distance"] = body.population_distance;
+    j["population_limit"] = model.descriptor_limit;
+    j["population_range_excess"] = body.population_range_excess;
+  }
   j["photo_agreement"] = body.photo_agreement;
   j["poor"] = body.photo_agreement < kMinPhotoAgreement;
-  j["levels_y"] = {{"floor", L.floor_y}, {"crotch", L.crotch_y}, {"hip", L.hip_y}, {"waist", L.waist_y}, {"bust", L.bust_y},
-                   {"armpit_left", L.armpit_y[0]}, {"armpit_right", L.armpit_y[1]}, {"neck", L.neck_y}, {"crown", L.crown_y}};
-  for (const auto& [lo, hi] : L.side_arm_occlusion) j["side_arm_occlusion_y"].push_back({lo, hi});
+  if (!by_body_model) {
+    j["levels_y"] = {{"floor", L.floor_y}, {"crotch", L.crotch_y}, {"hip", L.hip_y}, {"waist", L.waist_y}, {"bust", L.bust_y},
+                     {"armpit_left", L.armpit_y[0]}, {"armpit_right", L.armpit_y[1]}, {"neck", L.neck_y}, {"crown", L.crown_y}};
+    for (const auto& [lo, hi] : L.side_arm_occlusion) j["side_arm_occlusion_y"].push_back({lo, hi});
+  }
   j["assumed"] = cams.assumed;
   j["warnings"] = body.warnings;
   j["seconds"] = seconds;
@@ -260,26 +296,29 @@ int run_customize(int argc, char** argv) {
     for (const char* name : {"bust", "waist", "hip"}) {
       const Girth* g = m.find(name);
       const double level = std::string(name) == "bust" ? body.features.bust_y : std::string(name) == "waist" ? body.features.waist_y : body.features.hip_y;
-      j["girths"][name] = {{"mesh", g && g->measured ? nlohmann::json(g->value) : nlohmann::json()},
-                           {"representation", representation_torso_girth(body.representation, level)}};
+      j["girths"][name] = {{"mesh", g && g->measured ? nlohmann::json(g->value) : nlohmann::json()}};
+      if (!by_body_model) j["girths"][name]["representation"] = representation_torso_girth(body.representation, level);
     }
   }
   if (args.flag_set("json")) {
     std::cout << j.dump(2) << "\n";
     return 0;
   }
-  std::cout << std::fixed << std::setprecision(3) << "stature from the photos " << L.stature << " m";
+  std::cout << std::fixed << std::setprecision(3) << "stature from the photos " << j["stature_photos"].get<double>() << " m";
   if (height > 0) std::cout << " (scaled by " << std::setprecision(4) << body.scale << " to the stated " << height << " m)";
-  std::cout << "\n" << std::setprecision(3) << "levels (m): crotch " << L.crotch_y - L.floor_y << ", hip " << L.hip_y - L.floor_y << ", waist "
+  std::cout << "\n";
+  if (!by_body_model)
+    std::cout << std::setprecision(3) << "levels (m): crotch " << L.crotch_y - L.floor_y << ", hip " << L.hip_y - L.floor_y << ", waist "
             << L.waist_y - L.floor_y << ", bust " << L.bust_y - L.floor_y << ", armpits " << L.armpit_y[0] - L.floor_y << " / "
             << L.armpit_y[1] - L.floor_y << ", neck " << L.neck_y - L.floor_y << " above the soles\n";
   if (args.flag_set("measure")) {
-    std::cout << "girths (m)     mesh    representation\n";
+    std::cout << "girths (m)     mesh" << (by_body_model ? "" : "    representation") << "\n";
     for (const char* name : {"bust", "waist", "hip"}) {
       const auto& g = j["girths"][name];
       std::cout << std::left << std::setw(12) << name << std::right << std::setw(8)
-                << (g["mesh"].is_null() ? std::string("-") : std::to_string(g["mesh"].get<double>()).substr(0, 5)) << std::setw(12)
-                << std::to_string(g["representation"].get<double>()).substr(0, 5) << "\n";
+                << (g["mesh"].is_null() ? std::string("-") : std::to_string(g["mesh"].get<double>()).substr(0, 5));
+      if (!by_body_model) std::cout << std::setw(12) << std::to_string(g["representation"].get<double>()).substr(0, 5);
+      std::cout << "\n";
     }
   }
   std::cout << std::setprecision(2) << "photos to mesh in " << seconds << " s (model loaded in " << j["model_load_seconds"].get<double>()

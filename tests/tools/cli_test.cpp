@@ -867,6 +867,12 @@ TEST(Cli, CustomizeNamesWhatIsMissing) {
   r = run("customize --front-mask x.png --side y.png --front-background e.png --height 1.7", true);
   EXPECT_EQ(r.code, 2) << r.out;
   EXPECT_NE(r.out.find("go with the photos"), std::string::npos) << r.out;
+  r = run("customize --front x.png --side y.png --height 1.7 --method model", true);
+  EXPECT_EQ(r.code, 2) << r.out;
+  EXPECT_NE(r.out.find("--method model needs --body-model FILE"), std::string::npos) << r.out;
+  r = run("customize eval --dataset " + dir.path() + " --method fancy", true);
+  EXPECT_EQ(r.code, 2) << r.out;
+  EXPECT_NE(r.out.find("--method expects paper or model"), std::string::npos) << r.out;
 }
 
 // The report through the CLI (the sanitizer pass leaves it out: Report.* runs the same report in process).

@@ -324,7 +324,8 @@ PhotoLandmarks landmarks_at_arm_depth(const Silhouette& front, const Silhouette&
   return L;
 }
 
-/// A result that does not look like its photos: BelowConfidence, or with accept_poor a warning.
+}  // namespace
+
 void check_photo_agreement(CustomizedBody* body, bool accept_poor) {
   if (body->photo_agreement >= kMinPhotoAgreement) return;
   std::ostringstream why;
@@ -335,7 +336,26 @@ void check_photo_agreement(CustomizedBody* body, bool accept_poor) {
   body->warnings.push_back("poor result: " + why.str());
 }
 
-}  // namespace
+void scale_to_stated_stature(CustomizedBody* out, const PhotoCameras& cams, double stated, const Eigen::Vector2d& axis_xz) {
+  if (stated > 0) {
+    // The customized body's own height (the photos' lowest rows lie a toe tip's height above the soles).
+    const double soles = out->mesh.V.col(1).minCoeff(), photos = out->mesh.V.col(1).maxCoeff() - soles;
+    if (cams.assumed.empty() && std::abs(photos - stated) > 0.02) {
+      std::ostringstream w;
+      w.precision(3);
+      w << "the camera file gives a stature of " << photos << " m, the stated height is " << stated
+        << " m: the body is scaled to the stated height (check the camera file)";
+      out->warnings.push_back(w.str());
+    }
+    out->scale = stated / photos;
+    out->scale_origin = Eigen::Vector3d(axis_xz.x(), soles, axis_xz.y());
+    const Eigen::RowVector3d origin = out->scale_origin.transpose();
+    out->mesh.V = ((out->mesh.V.rowwise() - origin) * out->scale).rowwise() + origin;
+    if (out->representation.mesh.V.rows() > 0)
+      out->representation.mesh.V = ((out->representation.mesh.V.rowwise() - origin) * out->scale).rowwise() + origin;
+    for (auto& L : out->representation.layers) L.centre = (L.centre.transpose() - origin).transpose() * out->scale + origin.transpose();
+  }
+}
 
 CustomizedBody customize_from_silhouettes(const Silhouette& front, const Silhouette& side, const PhotoCameras& cams,
                                           const CustomizationModel& model, double stated_stature, bool accept_poor) {
@@ -375,24 +395,8 @@ CustomizedBody customize_from_silhouettes(const Silhouette& front, const Silhoue
   out.mesh.F = model.template_mesh.F;
   out.photo_agreement = std::min(photo_agreement(out.mesh, front, cams.front), photo_agreement(out.mesh, side, cams.side));
   check_photo_agreement(&out, accept_poor);
-  if (stated_stature > 0) {
-    // The customized body's own height (the photos' lowest rows lie a toe tip's height above the soles).
-    const double soles = out.mesh.V.col(1).minCoeff(), photos = out.mesh.V.col(1).maxCoeff() - soles;
-    if (cams.assumed.empty() && std::abs(photos - stated_stature) > 0.02) {
-      std::ostringstream w;
-      w.precision(3);
-      w << "the camera file gives a stature of " << photos << " m, the stated height is " << stated_stature
-        << " m: the body is scaled to the stated height (check the camera file)";
-      out.warnings.push_back(w.str());
-    }
-    out.scale = stated_stature / photos;
-    out.scale_origin = Eigen::Vector3d(out.features.axis_x, soles, out.landmarks.axis_z);
-    const Eigen::RowVector3d origin = out.scale_origin.transpose();
-    out.mesh.V = ((out.mesh.V.rowwise() - origin) * out.scale).rowwise() + origin;
-    rep.mesh.V = ((rep.mesh.V.rowwise() - origin) * out.scale).rowwise() + origin;
-    for (auto& L : rep.layers) L.centre = (L.centre.transpose() - origin).transpose() * out.scale + origin.transpose();
-  }
   out.representation = std::move(rep);
+  scale_to_stated_stature(&out, cams, stated_stature, Eigen::Vector2d(out.features.axis_x, out.landmarks.axis_z));
   return out;
 }
 

@@ -162,7 +162,8 @@ PhotoVariation parse_photo_variation(const std::string& name) {
 }
 
 PhotoEvaluation evaluate_photo_customization(const std::string& dataset_dir, const CustomizationModel& model, PhotoVariation variation,
-                                             const std::vector<std::string>& ids, const std::string& inputs_out) {
+                                             const std::vector<std::string>& ids, const std::string& inputs_out,
+                                             const BodyModel* body_model) {
   const fs::path root(dataset_dir);
   const nlohmann::json manifest = read_json(root / "manifest.json");
   PhotoEvaluation ev;
@@ -204,6 +205,7 @@ PhotoEvaluation evaluate_photo_customization(const std::string& dataset_dir, con
           turned.V = ((subject.V.rowwise() - c) * R.transpose()).rowwise() + c;
           front = silhouette_from_render(render_mesh(turned, cams.front));
           side = silhouette_from_render(render_mesh(turned, cams.side));
+          subject = std::move(turned);  // the surface is compared where the person stood
           break;
         }
         case PhotoVariation::kCamera130Level:
@@ -275,7 +277,8 @@ PhotoEvaluation evaluate_photo_customization(const std::string& dataset_dir, con
         const std::string text = "{\n\"front\": " + camera_to_json(cams.front) + ",\n\"side\": " + camera_to_json(cams.side) + "}\n";
         write_file_atomically((dir / "camera.json").string(), [&](std::ostream& os) { os << text; }, false);
       }
-      const CustomizedBody body = customize_from_silhouettes(front, side, cams, model, stated);
+      const CustomizedBody body = body_model ? customize_by_body_model(*body_model, front, side, cams, stated)
+                                             : customize_from_silhouettes(front, side, cams, model, stated);
       const double elapsed = t0.seconds() - rendering_seconds;
       if (variation == PhotoVariation::kPhone || variation == PhotoVariation::kPhoneMasks) {
         for (int k = 0; k < 2; ++k) {

@@ -174,6 +174,13 @@ double photo_agreement(const TriangleMesh& mesh, const Silhouette& silhouette, c
 /// the wrecks seen score under 0.1. 0.8 is an outline about 4% of the body's height off all round.
 constexpr double kMinPhotoAgreement = 0.8;
 
+/// A result whose photo_agreement is under kMinPhotoAgreement: BelowConfidence naming it, or with
+/// accept_poor a warning.
+void check_photo_agreement(CustomizedBody* body, bool accept_poor);
+/// stated > 0: scales the body (mesh and representation) to that stature about its soles below
+/// axis_xz (x, z), noting a camera file that disagrees by over 2 cm.
+void scale_to_stated_stature(CustomizedBody* body, const PhotoCameras& cameras, double stated, const Eigen::Vector2d& axis_xz);
+
 /// Customizes the template to the person in the two silhouettes. stated_stature > 0: the result is
 /// scaled about the soles to it, and a camera file that disagrees with it by over 2 cm is a warning.
 /// A result that does not look like the photos (photo_agreement under kMinPhotoAgreement) throws

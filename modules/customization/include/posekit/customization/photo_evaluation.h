@@ -4,6 +4,7 @@
 #include <string>
 #include <vector>
 
+#include "posekit/customization/model_silhouette_fit.h"
 #include "posekit/customization/photo_customization.h"
 
 namespace posekit {
@@ -63,7 +64,10 @@ struct PhotoEvaluation {
 /// `ids`: only these subjects (empty: all). `inputs_out` (non-empty): each subject's silhouettes and
 /// camera file as customized are written to inputs_out/<variation>/<id>/ (front_mask.png,
 /// side_mask.png, camera.json), so that a failure can be rerun with `posekit customize --debug`.
+/// `body_model` (non-null): customized by the body model's fit to the silhouettes (customize_by_body_model)
+/// instead of the paper's method; `model` is then unused.
 PhotoEvaluation evaluate_photo_customization(const std::string& dataset_dir, const CustomizationModel& model, PhotoVariation variation,
-                                             const std::vector<std::string>& ids = {}, const std::string& inputs_out = "");
+                                             const std::vector<std::string>& ids = {}, const std::string& inputs_out = "",
+                                             const BodyModel* body_model = nullptr);
 
 }  // namespace posekit
