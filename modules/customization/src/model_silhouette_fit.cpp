@@ -206,9 +206,12 @@ std::vector<View> make_views(const Silhouette* sil[2], const PinholeCamera* cams
 }
 
 /// The model's contour generators in a view (vertices whose normal is across the line of sight) that
-/// project onto the edge of the rendered body or lie hidden behind another part; and which are on the edge.
+/// project onto the edge of the rendered body or lie hidden behind another part; which are on the
+/// edge; and for those, the rendered body's signed distance (pixels) at their projection: a vertex of
+/// the band beside the rim projects up to a pixel inside the body's outline, and its residual must
+/// measure the outline, not the vertex (else the fit swells the body by that much).
 std::vector<int> contour_vertices(const TriangleMesh& posed, const Eigen::MatrixXd& normals, const PinholeCamera& cam,
-                                  std::vector<std::uint8_t>* on_outline, RenderBuffers* rendered) {
+                                  std::vector<std::uint8_t>* on_outline, std::vector<double>* outline_distance, RenderBuffers* rendered) {
   *rendered = render_mesh(posed, cam);
   const RenderBuffers& r = *rendered;
   auto covered = [&](int u, int v) { return u >= 0 && v >= 0 && u < r.width && v < r.height && r.face[static_cast<size_t>(v) * r.width + u] >= 0; };
@@ -229,8 +232,18 @@ std::vector<int> contour_vertices(const TriangleMesh& posed, const Eigen::Matrix
     const bool outline = in && out_n;
     const bool hidden = covered(u, v) && r.depth[static_cast<size_t>(v) * r.width + u] < depth_of(cam, x) - 0.02;
     if (!outline && !hidden) continue;
+    double distance = 0;
+    if (outline) {  // to the nearest pixel centre of the other kind, less half a pixel
+      const bool inside = covered(u, v);
+      double best = 9;
+      for (int dv = -2; dv <= 2; ++dv)
+        for (int du = -2; du <= 2; ++du)
+          if (covered(u + du, v + dv) != inside) best = std::min(best, (Eigen::Vector2d(u + du + 0.5, v + dv + 0.5) - p).norm());
+      distance = (inside ? -1 : 1) * (best - 0.5);
+    }
     out.push_back(i);
     on_outline->push_back(outline);
+    outline_distance->push_back(distance);
   }
   return out;
 }
@@ -242,19 +255,25 @@ class ProjectionGrid {
     for (size_t i = 0; i < points.size(); ++i) cells_[key(points[i])].push_back(static_cast<int>(i));
   }
   int nearest(const Eigen::Vector2d& q, double radius) const {
-    const int r = static_cast<int>(std::ceil(radius / cell_));
+    // Rings of cells outwards, until the ring's nearest possible point is farther than the best.
+    const int rings = static_cast<int>(std::ceil(radius / cell_));
     const auto [cx, cy] = cell_of(q);
     int best = -1;
     double best_d = radius * radius;
-    for (int dy = -r; dy <= r; ++dy)
-      for (int dx = -r; dx <= r; ++dx) {
-        const auto it = cells_.find(pack(cx + dx, cy + dy));
-        if (it == cells_.end()) continue;
-        for (int i : it->second) {
-          const double d = (points_[static_cast<size_t>(i)] - q).squaredNorm();
-          if (d < best_d) best_d = d, best = i;
+    for (int ring = 0; ring <= rings; ++ring) {
+      const double reach = (ring - 1) * cell_;
+      if (ring > 1 && reach * reach > best_d) break;
+      for (int dy = -ring; dy <= ring; ++dy)
+        for (int dx = -ring; dx <= ring; ++dx) {
+          if (std::max(std::abs(dx), std::abs(dy)) != ring) continue;
+          const auto it = cells_.find(pack(cx + dx, cy + dy));
+          if (it == cells_.end()) continue;
+          for (int i : it->second) {
+            const double d = (points_[static_cast<size_t>(i)] - q).squaredNorm();
+            if (d < best_d) best_d = d, best = i;
+          }
         }
-      }
+    }
     return best;
   }
 
@@ -285,6 +304,7 @@ struct OutlinePair {
 struct ViewOutline {
   std::vector<int> rim;                               ///< contour generators
   std::vector<std::uint8_t> on_outline;               ///< ... seen on the body's outline
+  std::vector<double> outline_distance;               ///< ... the rendered outline's signed distance there (px)
   std::vector<Eigen::Matrix<double, 2, 3>> dproj;     ///< their projection's derivative by position
   std::vector<OutlinePair> pairs;
 };
@@ -292,7 +312,7 @@ struct ViewOutline {
 ViewOutline outline_pairs(const View& w, const TriangleMesh& posed, const Eigen::MatrixXd& normals, const char* view) {
   ViewOutline out;
   RenderBuffers rendered;
-  out.rim = contour_vertices(posed, normals, w.camera, &out.on_outline, &rendered);
+  out.rim = contour_vertices(posed, normals, w.camera, &out.on_outline, &out.outline_distance, &rendered);
   if (std::count(out.on_outline.begin(), out.on_outline.end(), 1) < 50) throw InvalidInput(std::string("model fit to the photos: the body left the ") + view + " photo");
   const int R = static_cast<int>(out.rim.size());
   std::vector<Eigen::Vector2d> proj(static_cast<size_t>(R));
@@ -306,7 +326,7 @@ ViewOutline outline_pairs(const View& w, const TriangleMesh& posed, const Eigen:
     const Eigen::Vector2d& p = proj[static_cast<size_t>(r)];
     const Eigen::Vector2d grad = w.silhouette.gradient(p.x(), p.y());
     if (grad.norm() < 0.1) continue;
-    out.pairs.push_back({r, grad.normalized(), w.silhouette.value(p.x(), p.y()), 0.25 / seen});
+    out.pairs.push_back({r, grad.normalized(), w.silhouette.value(p.x(), p.y()) - out.outline_distance[static_cast<size_t>(r)], 0.25 / seen});
   }
   const ProjectionGrid grid(proj, 8);
   const double reach = 0.25 / w.metres_per_px;  // 25 cm at the body
@@ -315,7 +335,7 @@ ViewOutline outline_pairs(const View& w, const TriangleMesh& posed, const Eigen:
     const int r = grid.nearest(w.edge[e], reach);
     if (r < 0) continue;
     const Eigen::Vector2d& n = w.edge_normal[e];
-    out.pairs.push_back({r, n, n.dot(proj[static_cast<size_t>(r)] - w.edge[e]), 0.25 / E});
+    out.pairs.push_back({r, n, n.dot(proj[static_cast<size_t>(r)] - w.edge[e]) - out.outline_distance[static_cast<size_t>(r)], 0.25 / E});
   }
   // The silhouette's pixels the body leaves uncovered (a gap between arm and belly the person does
   // not have) draw the nearest contour generator in, each weighing as an edge pixel.
@@ -330,7 +350,7 @@ ViewOutline outline_pairs(const View& w, const TriangleMesh& posed, const Eigen:
       const Eigen::Vector2d to = proj[static_cast<size_t>(r)] - q;
       const double length = to.norm();
       if (length < 1e-9) continue;
-      out.pairs.push_back({r, to / length, length, 0.25 / E});
+      out.pairs.push_back({r, to / length, length + out.outline_distance[static_cast<size_t>(r)], 0.25 / E});
     }
   return out;
 }
@@ -455,13 +475,17 @@ SilhouetteFit fit_body_model_to_silhouettes(const BodyModel& model, const Silhou
         // Residuals in metres at the body: comparable across views and resolutions.
         const double m = w.metres_per_px, scale = o.robust_distance / m;
         double sum = 0;
-        for (const OutlinePair& pair : outline.pairs) {
-          const Eigen::RowVectorXd J = pair.direction.transpose() * jac[static_cast<size_t>(pair.rim)];
-          const double weight = pair.share * cauchy(pair.residual_px, scale) * m * m;
-          H.noalias() += weight * J.transpose() * J;
-          g.noalias() += weight * pair.residual_px * J.transpose();
+        Eigen::MatrixXd A(static_cast<Eigen::Index>(outline.pairs.size()), N);  // rows scaled by the root of their weight
+        Eigen::VectorXd b(A.rows());
+        for (size_t i = 0; i < outline.pairs.size(); ++i) {
+          const OutlinePair& pair = outline.pairs[i];
+          const double weight = pair.share * cauchy(pair.residual_px, scale) * m * m, root = std::sqrt(weight);
+          A.row(static_cast<Eigen::Index>(i)) = root * (pair.direction.transpose() * jac[static_cast<size_t>(pair.rim)]);
+          b(static_cast<Eigen::Index>(i)) = root * pair.residual_px;
           sum += weight * pair.residual_px * pair.residual_px;
         }
+        H.selfadjointView<Eigen::Lower>().rankUpdate(A.transpose());
+        g.noalias() += A.transpose() * b;
         fit.outline_rms_mm[k] = 1000 * std::sqrt(2 * sum);
       }
       // Priors: the shape's Gaussian, and the joints' rotations away from the rest (about the
@@ -476,6 +500,7 @@ SilhouetteFit fit_body_model_to_silhouettes(const BodyModel& model, const Silhou
         H.block(K + q, K + q, 3, 3) += lp * A.transpose() * A;
         g.segment(K + q, 3) += lp * A.transpose() * pose.joint(j);
       }
+      H.triangularView<Eigen::StrictlyUpper>() = H.transpose();  // the rank updates filled the lower half
       H.diagonal().array() += 1e-9 + 1e-4 * H.diagonal().array();  // Levenberg-Marquardt's damping
       Eigen::VectorXd step = -H.ldlt().solve(g);
       if (!step.allFinite()) throw InvalidInput("model fit to the photos: the normal equations are singular");

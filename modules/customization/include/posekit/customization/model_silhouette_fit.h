@@ -19,7 +19,7 @@ struct SilhouetteFitOptions {
   /// Rows of the working images: the silhouettes are reduced by a whole factor to about this many
   /// rows and first fitted at a quarter of it (coarse to fine).
   int working_rows = 1000;
-  int coarse_iterations = 15, fine_iterations = 15;
+  int coarse_iterations = 15, fine_iterations = 6;
   /// Outline pairs farther apart than this (m, at the body) weigh less (Cauchy scale).
   double robust_distance = 0.02;
   /// Shape prior: one standard deviation of a component costs as much as every outline pair
@@ -32,7 +32,7 @@ struct SilhouetteFitOptions {
   /// offsets smooth over the surface (`detail_smoothness`: weight of their uniform Laplacian's squared
   /// norm, summed over the vertices, in the data's units) and small (`detail_offset_prior`, m per m of
   /// offset). 0 iterations: the space's body as it is.
-  int detail_iterations = 4;
+  int detail_iterations = 3;
   double detail_smoothness = 0.01, detail_offset_prior = 0.001;
   /// The fit is poor (the silhouettes are not of a body the model can take, or the two views
   /// disagree) when the shape and pose leave the outline farther off than this (RMS, m, either
