@@ -332,7 +332,8 @@ TEST(BodyFit, FittedToTwoSilhouettesFromAPhoneAtChestHeight) {
   pose.joint(find_joint_index("left_shoulder")) = Eigen::Vector3d(0, 0, -0.14);
   pose.joint(find_joint_index("right_shoulder")) = Eigen::Vector3d(0, 0, 0.14);
   const Truth truth = posed_body(pop.held_out[1], pose);
-  TriangleMesh body{truth.V, truth.F};
+  TriangleMesh body;
+  body.V = truth.V, body.F = truth.F;
   const Eigen::RowVector3d centre = body.V.colwise().mean();
   const Eigen::Matrix3d turn = Eigen::AngleAxisd(4 * M_PI / 180, Eigen::Vector3d::UnitY()).toRotationMatrix();
   body.V = ((body.V.rowwise() - centre) * turn.transpose()).rowwise() + centre;
