@@ -9,6 +9,7 @@
 
 #include "posekit/body/makehuman_model.h"
 #include "posekit/core/error.h"
+#include "posekit/customization/phone_set.h"
 #include "posekit/customization/photo_evaluation.h"
 #include "posekit/datasets/rasterizer.h"
 #include "posekit/io/image_io.h"
@@ -135,6 +136,30 @@ TEST(Silhouette, AFloorInViewAndAnUnevenlyLitWallAreBackground) {
   o.background_photo = dir.file("small.png");
   EXPECT_NE(error_of([&] { silhouette_from_pixels(s.front.width, s.front.height, 1, papered.data(), "front photo", o); }).find("10x10"),
             std::string::npos);
+}
+
+// The robustness set's renderer (issue 46 part 7) is written apart from the dataset's: its edges are
+// anti-aliased (pixels partly covered), yet it sees the same body where the dataset's does (the
+// silhouettes of the two agree), its body is shaded in colour, and the person is found in its room.
+TEST(Silhouette, ThePhoneSetsRendererSeesTheBodyAsTheDatasetsDoesWithOtherEdges) {
+  const Scene s = photograph(default_body());
+  std::vector<float> coverage;
+  const double floor_y = s.body.V.col(1).minCoeff();
+  const Image8 photo = render_phone_photo(s.body, s.cameras.front, floor_y, 1.2, Eigen::Vector3d(80, 110, 160), &coverage);
+  Silhouette half = mask_of(s.front);
+  int partial = 0;
+  for (size_t k = 0; k < coverage.size(); ++k) {
+    half.mask[k] = coverage[k] >= 0.5f ? 255 : 0;
+    partial += coverage[k] > 0.05f && coverage[k] < 0.95f;
+  }
+  EXPECT_GT(partial, 1000);  // the outline's pixels, some thousands at 1200 rows
+  EXPECT_GT(iou(half, mask_of(s.front)), 0.98);
+  // Colour: the skin's blue, green and red differ where the wall's hardly do.
+  const int chest_row = half.top() + 3 * (half.bottom() - half.top()) / 10;
+  const size_t centre = 3 * (static_cast<size_t>(chest_row) * half.width + (half.left() + half.right()) / 2);
+  ASSERT_GT(coverage[centre / 3], 0.99f);
+  EXPECT_GT(photo.pixels[centre + 2] - photo.pixels[centre], 30);
+  EXPECT_GT(iou(silhouette_from_pixels(photo.width, photo.height, 3, photo.pixels.data(), "front photo"), half), 0.97);
 }
 
 // A phone-sized photo (here 2400 x 3600) is worked on at about 1200 rows and the mask brought back

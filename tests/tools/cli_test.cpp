@@ -42,7 +42,7 @@ TEST(Cli, EveryCommandHasHelp) {
     EXPECT_EQ(r.code, 0) << c;
     EXPECT_NE(r.out.find("usage: posekit"), std::string::npos) << c;
   }
-  for (const char* c : {"batch measure", "batch compare", "batch pose", "batch merge", "bench all", "customize train", "customize eval", "eval fit",
+  for (const char* c : {"batch measure", "batch compare", "batch pose", "batch merge", "bench all", "customize train", "customize eval", "customize robustness", "eval fit",
                         "bench customize"}) {
     const CommandResult r = run(std::string(c) + " --help");
     EXPECT_EQ(r.code, 0) << c;

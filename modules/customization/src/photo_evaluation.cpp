@@ -16,6 +16,7 @@
 #include "posekit/io/image_io.h"
 #include "posekit/shape/measurements.h"
 #include "opencv_calls.h"
+#include "photo_degradation.h"
 
 namespace posekit {
 namespace fs = std::filesystem;
@@ -31,30 +32,34 @@ const std::pair<PhotoVariation, const char*> kNames[] = {
     {PhotoVariation::kRoom, "room"},                 {PhotoVariation::kPhone, "phone"},
     {PhotoVariation::kPhoneMasks, "phone-masks"}};
 
-/// A separable Gaussian blur of a gray image (stored as 3 equal channels), sigma in pixels.
-void blur_gray3(Image8* img, double sigma) {
+}  // namespace
+
+void blur_image(Image8* img, double sigma) {
   const int radius = static_cast<int>(std::ceil(3 * sigma));
   std::vector<double> kernel(static_cast<size_t>(2 * radius + 1));
   double sum = 0;
   for (int k = -radius; k <= radius; ++k) sum += kernel[static_cast<size_t>(k + radius)] = std::exp(-0.5 * k * k / (sigma * sigma));
   for (double& k : kernel) k /= sum;
-  const int w = img->width, h = img->height;
+  const int w = img->width, h = img->height, n = img->channels;
   std::vector<float> a(static_cast<size_t>(w) * h), b(a.size());
-  for (size_t i = 0; i < a.size(); ++i) a[i] = img->pixels[3 * i];
-  for (int v = 0; v < h; ++v)
-    for (int u = 0; u < w; ++u) {
-      double x = 0;
-      for (int k = -radius; k <= radius; ++k) x += kernel[static_cast<size_t>(k + radius)] * a[static_cast<size_t>(v) * w + std::clamp(u + k, 0, w - 1)];
-      b[static_cast<size_t>(v) * w + u] = static_cast<float>(x);
-    }
-  for (int v = 0; v < h; ++v)
-    for (int u = 0; u < w; ++u) {
-      double x = 0;
-      for (int k = -radius; k <= radius; ++k) x += kernel[static_cast<size_t>(k + radius)] * b[static_cast<size_t>(std::clamp(v + k, 0, h - 1)) * w + u];
-      const auto g = static_cast<std::uint8_t>(std::clamp(std::lround(x), 0L, 255L));
-      for (int c = 0; c < 3; ++c) img->pixels[3 * (static_cast<size_t>(v) * w + u) + c] = g;
-    }
+  for (int c = 0; c < n; ++c) {
+    for (size_t i = 0; i < a.size(); ++i) a[i] = img->pixels[n * i + c];
+    for (int v = 0; v < h; ++v)
+      for (int u = 0; u < w; ++u) {
+        double x = 0;
+        for (int k = -radius; k <= radius; ++k) x += kernel[static_cast<size_t>(k + radius)] * a[static_cast<size_t>(v) * w + std::clamp(u + k, 0, w - 1)];
+        b[static_cast<size_t>(v) * w + u] = static_cast<float>(x);
+      }
+    for (int v = 0; v < h; ++v)
+      for (int u = 0; u < w; ++u) {
+        double x = 0;
+        for (int k = -radius; k <= radius; ++k) x += kernel[static_cast<size_t>(k + radius)] * b[static_cast<size_t>(std::clamp(v + k, 0, h - 1)) * w + u];
+        img->pixels[n * (static_cast<size_t>(v) * w + u) + c] = static_cast<std::uint8_t>(std::clamp(std::lround(x), 0L, 255L));
+      }
+  }
 }
+
+namespace {
 
 /// The phone's cameras (kPhone): the dataset's directions, 2.3 m from the body's axis, 1.30 m above
 /// the soles, aimed at the body's mid-height, 3000 x 4000 px, f = 3000 px.
@@ -161,6 +166,32 @@ PhotoVariation parse_photo_variation(const std::string& name) {
   throw InvalidInput("unknown photo variation '" + name + "' (one of: " + list + ")");
 }
 
+void summarise_photo_evaluation(PhotoEvaluation* ev) {
+  double sb = 0, sw = 0, sh = 0, ss = 0, sd = 0;
+  int ok = 0, girths_ok = 0;
+  ev->failed = ev->girths_not_measured = ev->within_2cm = 0;
+  ev->worst_girth_mm = 0;
+  for (const PhotoSubjectResult& r : ev->subjects) {
+    if (!r.ok) {
+      ++ev->failed;
+      continue;
+    }
+    ++ok;
+    ss += std::abs(r.stature_mm), sd += r.surface_mm;
+    if (!r.girths_measured) {
+      ++ev->girths_not_measured;
+      continue;
+    }
+    ++girths_ok;
+    sb += std::abs(r.bust_mm), sw += std::abs(r.waist_mm), sh += std::abs(r.hip_mm);
+    ev->worst_girth_mm = std::max({ev->worst_girth_mm, std::abs(r.bust_mm), std::abs(r.waist_mm), std::abs(r.hip_mm)});
+    ev->within_2cm += std::abs(r.bust_mm) <= 20 && std::abs(r.waist_mm) <= 20 && std::abs(r.hip_mm) <= 20;
+  }
+  ev->mean_abs_stature_mm = ok ? ss / ok : 0, ev->mean_surface_mm = ok ? sd / ok : 0;
+  ev->mean_abs_bust_mm = girths_ok ? sb / girths_ok : 0, ev->mean_abs_waist_mm = girths_ok ? sw / girths_ok : 0;
+  ev->mean_abs_hip_mm = girths_ok ? sh / girths_ok : 0;
+}
+
 PhotoEvaluation evaluate_photo_customization(const std::string& dataset_dir, const CustomizationModel& model, PhotoVariation variation,
                                              const std::vector<std::string>& ids, const std::string& inputs_out,
                                              const BodyModel* body_model) {
@@ -168,8 +199,6 @@ PhotoEvaluation evaluate_photo_customization(const std::string& dataset_dir, con
   const nlohmann::json manifest = read_json(root / "manifest.json");
   PhotoEvaluation ev;
   ev.variation = variation;
-  double sb = 0, sw = 0, sh = 0, ss = 0, sd = 0;
-  int ok = 0, girths_ok = 0;
   for (const auto& s : manifest.at("subjects")) {
     const std::string id = s.at("id").get<std::string>();
     if (!ids.empty() && std::find(ids.begin(), ids.end(), id) == ids.end()) continue;
@@ -243,7 +272,7 @@ PhotoEvaluation evaluate_photo_customization(const std::string& dataset_dir, con
               continue;
             }
             Image8 photo = photo_in_room(render, cam, floor_y, 1.2);
-            blur_gray3(&photo, 0.6);
+            blur_image(&photo, 0.6);
             opencv_calls::add_gaussian_noise(&photo, seed++, 2.0);
             const std::vector<std::uint8_t> jpg = encode_jpeg(photo, 70);
             const std::string what = std::string(view) + " phone photo of " + id;
@@ -332,24 +361,12 @@ PhotoEvaluation evaluate_photo_customization(const std::string& dataset_dir, con
       const TriangleTree tree(placed.V, placed.F);
       r.surface_mm = 1000 * tree.closest(subject.V, 2).distance.mean();
       r.ok = true;
-      ++ok;
-      ss += std::abs(r.stature_mm), sd += r.surface_mm;
-      if (r.girths_measured) {
-        ++girths_ok;
-        sb += std::abs(r.bust_mm), sw += std::abs(r.waist_mm), sh += std::abs(r.hip_mm);
-        ev.worst_girth_mm = std::max({ev.worst_girth_mm, std::abs(r.bust_mm), std::abs(r.waist_mm), std::abs(r.hip_mm)});
-        ev.within_2cm += std::abs(r.bust_mm) <= 20 && std::abs(r.waist_mm) <= 20 && std::abs(r.hip_mm) <= 20;
-      } else {
-        ++ev.girths_not_measured;
-      }
     } catch (const Error& e) {
       r.error = e.what();
-      ++ev.failed;
     }
     ev.subjects.push_back(std::move(r));
   }
-  if (ok) ev.mean_abs_stature_mm = ss / ok, ev.mean_surface_mm = sd / ok;
-  if (girths_ok) ev.mean_abs_bust_mm = sb / girths_ok, ev.mean_abs_waist_mm = sw / girths_ok, ev.mean_abs_hip_mm = sh / girths_ok;
+  summarise_photo_evaluation(&ev);
   return ev;
 }
 

@@ -51,6 +51,7 @@ struct PhotoSubjectResult {
 
 struct PhotoEvaluation {
   PhotoVariation variation = PhotoVariation::kPhotos;
+  std::string label;                        ///< what was evaluated when not a dataset variation (the phone set's condition)
   std::vector<PhotoSubjectResult> subjects;
   int failed = 0;                           ///< not customized (the reason in each subject's error)
   int girths_not_measured = 0;              ///< customized, but `measure` declined bust, waist or hip
@@ -59,6 +60,9 @@ struct PhotoEvaluation {
   double worst_girth_mm = 0;                ///< largest |bust|, |waist|, |hip| error
   int within_2cm = 0;                       ///< subjects with bust, waist and hip within 2 cm
 };
+
+/// Fills an evaluation's counts and means from its subjects' results.
+void summarise_photo_evaluation(PhotoEvaluation* evaluation);
 
 /// Customizes every subject of a dataset (its manifest) from its photos under `variation`.
 /// `ids`: only these subjects (empty: all). `inputs_out` (non-empty): each subject's silhouettes and

@@ -1,0 +1,332 @@
+#include "posekit/customization/phone_set.h"
+
+#include <Eigen/Geometry>
+#include <algorithm>
+#include <cmath>
+#include <filesystem>
+#include <fstream>
+#include <limits>
+#include <nlohmann/json.hpp>
+#include <random>
+
+#include "posekit/body/makehuman_model.h"
+#include "posekit/core/closest_point.h"
+#include "posekit/core/error.h"
+#include "posekit/core/mesh_geometry.h"
+#include "posekit/core/timer.h"
+#include "posekit/datasets/dataset.h"
+#include "posekit/io/atomic_file.h"
+#include "posekit/population/ansur.h"
+#include "posekit/population/survey_fit.h"
+#include "posekit/shape/measurements.h"
+#include "opencv_calls.h"
+#include "photo_degradation.h"
+
+namespace posekit {
+namespace fs = std::filesystem;
+namespace {
+
+const std::pair<PhoneCondition, const char*> kConditions[] = {
+    {PhoneCondition::kMasks, "masks"}, {PhoneCondition::kRoom, "room"}, {PhoneCondition::kPhone, "phone"}, {PhoneCondition::kTurned, "turned"}};
+
+double bmi_of(const SurveySubject& s) {
+  const double h = s.values[static_cast<size_t>(SurveyMeasure::kStature)];
+  return s.weight_kg > 0 && h > 0 ? s.weight_kg / (h * h) : 0;
+}
+
+PhoneSetBody fitted_body(const SurveyBodyFitter& fitter, const MakeHumanModel& mh, const SurveySubject& s, const std::string& id,
+                         const std::string& kind) {
+  PhoneSetBody b;
+  b.id = id, b.kind = kind, b.bmi = bmi_of(s), b.male = s.male;
+  b.mesh = build_body(mh, fitter.fit(s).spec).mesh;
+  return b;
+}
+
+/// The cameras a body is photographed with (the same for every condition): distance, height, focal
+/// length drawn for it; the front camera on +Z, the side camera on +X (the body's left), both aimed
+/// at the body's middle.
+PhotoCameras phone_set_cameras(const TriangleMesh& body, std::mt19937& rng) {
+  std::uniform_real_distribution<double> distance(2.2, 2.5), height(1.0, 1.5), focal(2800, 3200);
+  const Eigen::RowVector3d lo = body.V.colwise().minCoeff(), hi = body.V.colwise().maxCoeff();
+  const Eigen::Vector3d mid(0.5 * (lo.x() + hi.x()), 0.5 * (lo.y() + hi.y()), 0.5 * (lo.z() + hi.z()));
+  const double d = distance(rng), h = lo.y() + height(rng), f = focal(rng);
+  PhotoCameras cams;
+  cams.front = PinholeCamera::look_at(Eigen::Vector3d(mid.x(), h, mid.z() + d), mid, Eigen::Vector3d::UnitY(), 3000, 4000, f);
+  cams.side = PinholeCamera::look_at(Eigen::Vector3d(mid.x() + d, h, mid.z()), mid, Eigen::Vector3d::UnitY(), 3000, 4000, f);
+  return cams;
+}
+
+Silhouette coverage_silhouette(const std::vector<float>& coverage, int width, int height) {
+  Silhouette s;
+  s.width = width, s.height = height;
+  s.mask.resize(coverage.size());
+  for (size_t i = 0; i < coverage.size(); ++i) s.mask[i] = coverage[i] >= 0.5f ? 255 : 0;
+  return s;
+}
+
+/// Scores a result against the body it was made from (measured as any mesh).
+void score(const CustomizedBody& result, const TriangleMesh& truth, const BodyMeasurements& truth_measures, PhotoSubjectResult* r) {
+  const BodyMeasurements m = measure_body(result.mesh.V, result.mesh.F);
+  r->stature_mm = 1000 * (m.stature - truth_measures.stature);
+  const char* names[3] = {"bust", "waist", "hip"};
+  double* errors[3] = {&r->bust_mm, &r->waist_mm, &r->hip_mm};
+  r->girths_measured = true;
+  for (int k = 0; k < 3; ++k) {
+    const Girth *got = m.find(names[k]), *want = truth_measures.find(names[k]);
+    if (!want || !want->measured) {
+      r->girths_measured = false;
+      r->error = std::string("the truth's ") + names[k] + " not measured";
+    } else if (!got || !got->measured) {
+      r->girths_measured = false;
+      r->error = std::string("the result's ") + names[k] + " not measured" + (got ? ": " + got->note : "");
+    } else {
+      *errors[k] = 1000 * (got->value - want->value);
+    }
+  }
+  r->surface_mm = 1000 * TriangleTree(result.mesh.V, result.mesh.F).closest(truth.V, 1).distance.mean();
+  r->warnings = result.warnings;
+  r->photo_agreement = result.photo_agreement;
+}
+
+}  // namespace
+
+const std::vector<PhoneCondition>& all_phone_conditions() {
+  static const std::vector<PhoneCondition> v = {PhoneCondition::kMasks, PhoneCondition::kRoom, PhoneCondition::kPhone, PhoneCondition::kTurned};
+  return v;
+}
+
+const char* phone_condition_name(PhoneCondition c) {
+  for (const auto& [k, name] : kConditions)
+    if (k == c) return name;
+  return "?";
+}
+
+PhoneCondition parse_phone_condition(const std::string& name) {
+  std::string list;
+  for (const auto& [k, n] : kConditions) {
+    if (name == n) return k;
+    list += std::string(list.empty() ? "" : ", ") + n;
+  }
+  throw InvalidInput("unknown phone set condition '" + name + "' (one of: " + list + ")");
+}
+
+std::vector<PhoneSetBody> make_phone_set_bodies(const PhoneSetOptions& o) {
+  std::vector<PhoneSetBody> out;
+  if (o.ansur_bodies > 0 || o.extremes) {
+    const std::vector<SurveySubject> survey = read_survey(o.survey);
+    const auto mh = load_makehuman_model(o.data_root);
+    const SurveyBodyFitter fitter(mh);
+    if (o.ansur_bodies > 0)
+      for (const SurveySubject& s : sample_survey(survey, o.ansur_bodies, o.seed)) out.push_back(fitted_body(fitter, *mh, s, "ansur-" + s.id, "ansur"));
+    if (o.extremes) {
+      auto pick = [&](const char* what, bool male, auto better) {
+        const SurveySubject* best = nullptr;
+        for (const SurveySubject& s : survey)
+          if (s.male == male && (!best || better(s, *best))) best = &s;
+        if (best) out.push_back(fitted_body(fitter, *mh, *best, std::string("extreme-") + what + "-" + best->id, "extreme"));
+      };
+      const auto stature = [](const SurveySubject& s) { return s.values[static_cast<size_t>(SurveyMeasure::kStature)]; };
+      pick("bmi-woman", false, [](const SurveySubject& a, const SurveySubject& b) { return bmi_of(a) > bmi_of(b); });
+      pick("bmi-man", true, [](const SurveySubject& a, const SurveySubject& b) { return bmi_of(a) > bmi_of(b); });
+      pick("tallest-man", true, [&](const SurveySubject& a, const SurveySubject& b) { return stature(a) > stature(b); });
+      pick("shortest-woman", false, [&](const SurveySubject& a, const SurveySubject& b) { return stature(a) < stature(b); });
+    }
+  }
+  if (!o.dataset_dir.empty()) {
+    const fs::path root(o.dataset_dir);
+    std::ifstream in(root / "manifest.json");
+    if (!in) throw IoError("cannot open '" + (root / "manifest.json").string() + "'");
+    nlohmann::json manifest;
+    try {
+      in >> manifest;
+      for (const auto& s : manifest.at("subjects")) {
+        PhoneSetBody b;
+        b.id = s.at("id").get<std::string>(), b.kind = "dataset";
+        b.bmi = s.value("bmi", 0.0), b.male = s.value("gender", "") == "male";
+        b.mesh = load_subject_mesh((root / s.at("rest").get<std::string>()).string());
+        out.push_back(std::move(b));
+      }
+    } catch (const nlohmann::json::exception& e) {
+      throw InvalidInput("'" + (root / "manifest.json").string() + "': " + e.what());
+    }
+  }
+  return out;
+}
+
+Image8 render_phone_photo(const TriangleMesh& mesh, const PinholeCamera& cam, double floor_y, double wall_behind,
+                          const Eigen::Vector3d& skin_bgr, std::vector<float>* coverage) {
+  constexpr int kSub = 4, kBand = 32;
+  constexpr float kInf = std::numeric_limits<float>::infinity();
+  const int W = cam.width, H = cam.height;
+  const Eigen::MatrixXd N = vertex_normals(mesh.V, mesh.F);
+  const Eigen::Index nv = mesh.V.rows();
+  Eigen::MatrixXd screen(nv, 3);  // u, v, depth
+  for (Eigen::Index i = 0; i < nv; ++i) {
+    const Eigen::Vector3d p = cam.R * mesh.V.row(i).transpose() + cam.t;
+    screen.row(i) << cam.fx * p.x() / p.z() + cam.cx, cam.fy * p.y() / p.z() + cam.cy, p.z();
+  }
+  // Triangles by the bands of rows they touch.
+  const int bands = (H + kBand - 1) / kBand;
+  std::vector<std::vector<int>> in_band(static_cast<size_t>(bands));
+  for (int f = 0; f < mesh.F.rows(); ++f) {
+    double lo = 1e30, hi = -1e30, zmin = 1e30;
+    for (int a = 0; a < 3; ++a) lo = std::min(lo, screen(mesh.F(f, a), 1)), hi = std::max(hi, screen(mesh.F(f, a), 1)), zmin = std::min(zmin, screen(mesh.F(f, a), 2));
+    if (zmin < 0.01 || hi < 0 || lo >= H) continue;
+    for (int b = std::max(0, static_cast<int>(lo) / kBand); b <= std::min(bands - 1, static_cast<int>(hi) / kBand); ++b) in_band[static_cast<size_t>(b)].push_back(f);
+  }
+  // Directions towards the lights, said in the camera's frame (x right, y down, z ahead) and turned to
+  // the world: a key light from the upper left, a fill from the right.
+  const Eigen::Vector3d key = cam.R.transpose() * Eigen::Vector3d(-0.5, -0.7, -0.5).normalized();
+  const Eigen::Vector3d fill = cam.R.transpose() * Eigen::Vector3d(0.8, 0.1, -0.6).normalized();
+  const Eigen::Vector3d eye = cam.centre(), forward = cam.R.row(2).transpose();
+  Eigen::Vector3d axis_point = mesh.V.colwise().mean().transpose();
+  const double wall_depth = (axis_point - eye).dot(forward) + wall_behind;
+  auto background = [&](double u, double v) -> Eigen::Vector3d {
+    const Eigen::Vector3d d = cam.ray(u, v);
+    const double t_wall = wall_depth / d.dot(forward), t_floor = d.y() < 0 ? (floor_y - eye.y()) / d.y() : 1e9;
+    if (t_floor < t_wall) return Eigen::Vector3d(105, 120, 138) * (1.0 + 0.08 * std::exp(-0.4 * t_floor));  // a warm grey floor
+    const Eigen::Vector3d p = eye + t_wall * d;
+    return Eigen::Vector3d(196, 208, 214) * (0.88 + 0.24 * u / W) * (1 - 0.04 * (p.y() - floor_y));  // an off-white wall
+  };
+  Image8 out{W, H, 3, std::vector<std::uint8_t>(static_cast<size_t>(W) * H * 3)};
+  if (coverage) coverage->assign(static_cast<size_t>(W) * H, 0.0f);
+  const int S = kSub * kSub;
+  std::vector<float> depth(static_cast<size_t>(W) * kBand * S), shade_b(depth.size()), shade_g(depth.size()), shade_r(depth.size());
+  for (int b = 0; b < bands; ++b) {
+    const int v0 = b * kBand, v1 = std::min(H, v0 + kBand);
+    std::fill(depth.begin(), depth.end(), kInf);
+    for (int f : in_band[static_cast<size_t>(b)]) {
+      const int ia = mesh.F(f, 0), ib = mesh.F(f, 1), ic = mesh.F(f, 2);
+      const Eigen::Vector2d A = screen.row(ia).head<2>().transpose(), B = screen.row(ib).head<2>().transpose(), C = screen.row(ic).head<2>().transpose();
+      const double area = (B - A).x() * (C - A).y() - (B - A).y() * (C - A).x();
+      if (std::abs(area) < 1e-12) continue;
+      const int u_lo = std::max(0, static_cast<int>(std::floor(std::min({A.x(), B.x(), C.x()})))), u_hi = std::min(W - 1, static_cast<int>(std::floor(std::max({A.x(), B.x(), C.x()}))));
+      const int v_lo = std::max(v0, static_cast<int>(std::floor(std::min({A.y(), B.y(), C.y()})))), v_hi = std::min(v1 - 1, static_cast<int>(std::floor(std::max({A.y(), B.y(), C.y()}))));
+      const double iza = 1 / screen(ia, 2), izb = 1 / screen(ib, 2), izc = 1 / screen(ic, 2);
+      for (int v = v_lo; v <= v_hi; ++v)
+        for (int u = u_lo; u <= u_hi; ++u)
+          for (int sy = 0; sy < kSub; ++sy)
+            for (int sx = 0; sx < kSub; ++sx) {
+              const Eigen::Vector2d P(u + (sx + 0.5) / kSub, v + (sy + 0.5) / kSub);
+              const double wa = ((B - P).x() * (C - P).y() - (B - P).y() * (C - P).x()) / area;
+              const double wb = ((C - P).x() * (A - P).y() - (C - P).y() * (A - P).x()) / area;
+              const double wc = 1 - wa - wb;
+              if (wa < 0 || wb < 0 || wc < 0) continue;
+              const double iz = wa * iza + wb * izb + wc * izc;
+              const size_t k = (static_cast<size_t>(v - v0) * W + u) * S + sy * kSub + sx;
+              if (static_cast<float>(1 / iz) >= depth[k]) continue;
+              depth[k] = static_cast<float>(1 / iz);
+              Eigen::Vector3d n = (wa * iza * N.row(ia) + wb * izb * N.row(ib) + wc * izc * N.row(ic)).transpose();
+              n.normalize();
+              const double light = 0.22 + 0.62 * std::max(0.0, n.dot(key)) + 0.28 * std::max(0.0, n.dot(fill));
+              shade_b[k] = static_cast<float>(skin_bgr.x() * light), shade_g[k] = static_cast<float>(skin_bgr.y() * light),
+              shade_r[k] = static_cast<float>(skin_bgr.z() * light);
+            }
+    }
+    for (int v = v0; v < v1; ++v)
+      for (int u = 0; u < W; ++u) {
+        const size_t base = (static_cast<size_t>(v - v0) * W + u) * S;
+        Eigen::Vector3d sum = Eigen::Vector3d::Zero();
+        int covered = 0;
+        for (int k = 0; k < S; ++k)
+          if (depth[base + k] < kInf) sum += Eigen::Vector3d(shade_b[base + k], shade_g[base + k], shade_r[base + k]), ++covered;
+        if (covered < S) sum += (S - covered) * background(u + 0.5, v + 0.5);
+        sum /= S;
+        std::uint8_t* px = &out.pixels[3 * (static_cast<size_t>(v) * W + u)];
+        for (int c = 0; c < 3; ++c) px[c] = static_cast<std::uint8_t>(std::clamp(std::lround(sum(c)), 0L, 255L));
+        if (coverage) (*coverage)[static_cast<size_t>(v) * W + u] = static_cast<float>(covered) / S;
+      }
+  }
+  return out;
+}
+
+std::vector<PhotoEvaluation> evaluate_phone_set(const std::vector<PhoneSetBody>& bodies, PhoneCondition condition,
+                                                const std::vector<PhotoCustomizer>& methods, unsigned seed,
+                                                const std::function<void(int, int)>& progress, const std::string& inputs_out) {
+  // Skin tones from light to dark (BGR), taken in turn.
+  const Eigen::Vector3d tones[] = {{150, 175, 220}, {115, 145, 195}, {80, 110, 160}, {50, 68, 105}};
+  std::vector<PhotoEvaluation> out(methods.size());
+  for (auto& ev : out) ev.label = phone_condition_name(condition);
+  for (size_t i = 0; i < bodies.size(); ++i) {
+    const PhoneSetBody& body = bodies[i];
+    std::mt19937 rng(seed + 7919 * static_cast<unsigned>(i));
+    const PhotoCameras cams = phone_set_cameras(body.mesh, rng);
+    std::uniform_real_distribution<double> turn_draw(-5, 5), wall_draw(1.0, 1.6);
+    const double turn = turn_draw(rng), wall = wall_draw(rng);
+    TriangleMesh shown = body.mesh;
+    if (condition == PhoneCondition::kTurned) {
+      const Eigen::RowVector3d c = shown.V.colwise().mean();
+      const Eigen::Matrix3d R = Eigen::AngleAxisd(turn * M_PI / 180, Eigen::Vector3d::UnitY()).toRotationMatrix();
+      shown.V = ((shown.V.rowwise() - c) * R.transpose()).rowwise() + c;
+    }
+    const BodyMeasurements truth = measure_body(body.mesh.V, body.mesh.F);
+    const double floor_y = shown.V.col(1).minCoeff();
+    Silhouette sil[2];
+    std::string error;
+    double extraction_seconds = 0, iou = 1;
+    const fs::path dir = inputs_out.empty() ? fs::path() : fs::path(inputs_out) / phone_condition_name(condition) / body.id;
+    if (!inputs_out.empty()) create_folders(dir.string());
+    try {
+      for (int k = 0; k < 2; ++k) {
+        const PinholeCamera& cam = k == 0 ? cams.front : cams.side;
+        const char* view = k == 0 ? "front" : "side";
+        std::vector<float> coverage;
+        Image8 photo = render_phone_photo(shown, cam, floor_y, wall, tones[i % 4], &coverage);
+        const Silhouette truth_silhouette = coverage_silhouette(coverage, cam.width, cam.height);
+        if (condition == PhoneCondition::kMasks) {
+          sil[k] = truth_silhouette;
+          if (!inputs_out.empty()) write_silhouette_png((dir / (std::string(view) + "_mask.png")).string(), sil[k]);
+          continue;
+        }
+        const std::string what = std::string(k == 0 ? "front" : "side") + " photo of " + body.id;
+        if (condition != PhoneCondition::kRoom) {
+          blur_image(&photo, 0.6);
+          opencv_calls::add_gaussian_noise(&photo, seed + static_cast<unsigned>(2 * i + k), 2.0);
+          const std::vector<std::uint8_t> jpg = encode_jpeg(photo, 70);
+          photo = decode_image(std::string(jpg.begin(), jpg.end()), ImageColor::kBgr, what);
+        }
+        if (!inputs_out.empty()) {
+          const std::vector<std::uint8_t> jpg = encode_jpeg(photo, 92);
+          write_file_atomically((dir / (std::string(view) + ".jpg")).string(),
+                                [&](std::ostream& os) { os.write(reinterpret_cast<const char*>(jpg.data()), static_cast<std::streamsize>(jpg.size())); });
+        }
+        const Stopwatch t;
+        sil[k] = silhouette_from_pixels(photo.width, photo.height, 3, photo.pixels.data(), what);
+        extraction_seconds += t.seconds();
+        long both = 0, either = 0;
+        for (size_t p = 0; p < sil[k].mask.size(); ++p) both += sil[k].mask[p] && truth_silhouette.mask[p], either += sil[k].mask[p] || truth_silhouette.mask[p];
+        iou = std::min(iou, static_cast<double>(both) / std::max(1L, either));
+      }
+      if (!inputs_out.empty()) {
+        const std::string text = "{\n\"front\": " + camera_to_json(cams.front) + ",\n\"side\": " + camera_to_json(cams.side) + "}\n";
+        write_file_atomically((dir / "camera.json").string(), [&](std::ostream& os) { os << text; }, false);
+      }
+    } catch (const Error& e) {
+      error = e.what();
+    }
+    for (size_t m = 0; m < methods.size(); ++m) {
+      PhotoSubjectResult r;
+      r.id = body.id;
+      r.silhouette_iou = iou;
+      if (!error.empty()) {
+        r.error = error;
+      } else {
+        try {
+          const Stopwatch t;
+          const CustomizedBody result = methods[m](sil[0], sil[1], cams);
+          r.seconds = extraction_seconds + t.seconds();
+          score(result, shown, truth, &r);
+          r.ok = true;
+        } catch (const Error& e) {
+          r.error = e.what();
+        }
+      }
+      out[m].subjects.push_back(std::move(r));
+    }
+    if (progress) progress(static_cast<int>(i) + 1, static_cast<int>(bodies.size()));
+  }
+  for (auto& ev : out) summarise_photo_evaluation(&ev);
+  return out;
+}
+
+}  // namespace posekit
