@@ -220,6 +220,8 @@ int customize_robustness(int argc, char** argv) {
   std::vector<PhotoCustomizer> methods;
   std::unique_ptr<BodyModel> body_model;
   std::optional<CustomizationModel> model;
+  std::unique_ptr<SurveyDistribution> survey;
+  const std::string o_survey = find_ansur_root(args.has("survey") ? args.get("survey") : "", find_data_root(args.get("data")));
   for (const std::string& m : method_names) {
     if (m == "paper") {
       model = load_customization_model(args.get("model"));
@@ -227,7 +229,11 @@ int customize_robustness(int argc, char** argv) {
     } else if (m == "model") {
       if (!args.has("body-model")) throw UsageError("--methods model needs --body-model FILE (build one with posekit shape-space --ansur --out FILE)");
       body_model = load_body_model(args);
-      methods.push_back([&](const Silhouette& f, const Silhouette& s, const PhotoCameras& c) { return customize_by_body_model(*body_model, f, s, c); });
+      std::string no_survey;
+      survey = load_survey(o_survey, &no_survey);
+      methods.push_back([&](const Silhouette& f, const Silhouette& s, const PhotoCameras& c) {
+        return customize_by_body_model(*body_model, f, s, c, 0, false, {}, survey.get());
+      });
     } else {
       throw UsageError("--methods expects paper, model or paper,model");
     }
@@ -238,7 +244,7 @@ int customize_robustness(int argc, char** argv) {
     for (const std::string& c : split_list(args.get("conditions"))) conditions.push_back(parse_phone_condition(c));
   PhoneSetOptions o;
   o.data_root = find_data_root(args.get("data"));
-  o.survey = find_ansur_root(args.has("survey") ? args.get("survey") : "", o.data_root);
+  o.survey = o_survey;
   o.ansur_bodies = static_cast<int>(args.get_int("bodies"));
   o.extremes = !args.flag_set("no-extremes");
   if (args.has("dataset")) o.dataset_dir = args.get("dataset");
@@ -335,7 +341,9 @@ int run_customize(int argc, char** argv) {
     write_silhouette_png((std::filesystem::path(args.get("debug")) / "front_mask.png").string(), front);
     write_silhouette_png((std::filesystem::path(args.get("debug")) / "side_mask.png").string(), side);
   }
-  const CustomizedBody body = by_body_model ? customize_by_body_model(*body_model, front, side, cams, height, args.flag_set("accept-poor"))
+  std::string no_survey;
+  const std::unique_ptr<SurveyDistribution> survey = by_body_model ? load_survey("", &no_survey) : nullptr;
+  const CustomizedBody body = by_body_model ? customize_by_body_model(*body_model, front, side, cams, height, args.flag_set("accept-poor"), {}, survey.get())
                                             : customize_from_silhouettes(front, side, cams, model, height, args.flag_set("accept-poor"));
   const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   for (const auto& w : body.warnings) std::cerr << "posekit customize: warning: " << w << "\n";

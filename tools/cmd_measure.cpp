@@ -29,23 +29,6 @@ nlohmann::json vec(const Eigen::Vector3d& v) { return {v.x(), v.y(), v.z()}; }
 /// A point of the results in the frame asked for.
 nlohmann::json point_in(const BodyOrientation& frame, const Eigen::Vector3d& p) { return vec(in_file_frame(frame, p)); }
 
-/// The survey's distribution, or why there is none: measuring must not depend on ANSUR II being there.
-std::unique_ptr<SurveyDistribution> load_survey(const std::string& survey_arg, std::string* why_not) {
-  try {
-    std::string makehuman_root;
-    try {
-      makehuman_root = find_data_root("");
-    } catch (const IoError&) {
-    }
-    const std::string path = find_ansur_root(survey_arg, makehuman_root);
-    return std::make_unique<SurveyDistribution>(survey_distribution(read_survey(path), path));
-  } catch (const Error& e) {
-    if (!survey_arg.empty()) throw;  // the user named it: a bad survey is an error
-    *why_not = e.what();
-    return nullptr;
-  }
-}
-
 nlohmann::json plausibility_json(const Plausibility* p, const SurveyDistribution* survey, const std::string& no_survey) {
   if (!p) return {{"checked", false}, {"why", survey ? "fewer than 2 measures match the survey's" : no_survey}};
   return {{"survey", survey->source}, {"as", p->male ? "man" : "woman"}, {"measures", p->measures}, {"distance", p->distance},

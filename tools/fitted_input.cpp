@@ -7,10 +7,28 @@
 #include "posekit/body/parts.h"
 #include "posekit/core/data_root.h"
 #include "posekit/core/error.h"
+#include "posekit/population/ansur.h"
 #include "posekit/registration/shape_space.h"
 #include "posekit/shape/body_orientation.h"
 
 namespace posekit::cli {
+
+/// The survey's distribution, or why there is none: measuring must not depend on ANSUR II being there.
+std::unique_ptr<SurveyDistribution> load_survey(const std::string& survey_arg, std::string* why_not) {
+  try {
+    std::string makehuman_root;
+    try {
+      makehuman_root = find_data_root("");
+    } catch (const IoError&) {
+    }
+    const std::string path = find_ansur_root(survey_arg, makehuman_root);
+    return std::make_unique<SurveyDistribution>(survey_distribution(read_survey(path), path));
+  } catch (const Error& e) {
+    if (!survey_arg.empty()) throw;  // the user named it: a bad survey is an error
+    *why_not = e.what();
+    return nullptr;
+  }
+}
 
 void add_body_model_options(ArgParser* args, bool data_option) {
   args->option("body-model", "FILE", "fit this body model (a shape space with joints: posekit shape-space --ansur)")

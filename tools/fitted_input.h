@@ -5,12 +5,18 @@
 
 #include "cli.h"
 #include "posekit/fitting/body_fit.h"
+#include "posekit/population/survey_plausibility.h"
 
 namespace posekit::cli {
 
 /// The options every --body-model command takes: --body-model FILE, --accept-poor, and unless the
 /// command has it already (`data_option` false), --data DIR.
 void add_body_model_options(ArgParser* args, bool data_option = true);
+
+/// The survey's distribution (ANSUR II as find_ansur_root finds it, or `survey_arg`), or null with
+/// why there is none in `why_not`: measuring must not depend on ANSUR II being there. A survey the
+/// user named that cannot be read is an error.
+std::unique_ptr<SurveyDistribution> load_survey(const std::string& survey_arg, std::string* why_not);
 
 /// The body model of --body-model (its MakeHuman data from --data).
 std::unique_ptr<BodyModel> load_body_model(const ArgParser& args);

@@ -6,6 +6,7 @@
 #include <array>
 #include <cmath>
 #include <limits>
+#include <iomanip>
 #include <sstream>
 #include <cstdio>
 #include <cstdlib>
@@ -13,10 +14,13 @@
 
 #include "posekit/core/error.h"
 #include "posekit/core/mesh_geometry.h"
+#include "posekit/core/parallel.h"
 #include "posekit/core/timer.h"
 #include "posekit/deformation/rigid_pose.h"
 #include "posekit/fitting/body_model.h"
 #include "posekit/io/image_io.h"
+#include "posekit/population/survey_plausibility.h"
+#include "posekit/shape/measurements.h"
 
 namespace posekit {
 namespace {
@@ -435,9 +439,11 @@ SilhouetteFit fit_body_model_to_silhouettes(const BodyModel& model, const Silhou
       body.pose(pose, &posed.V);
       const PartTransforms T = body.part_motions(pose);
       const Eigen::MatrixXd normals = vertex_normals(posed.V, posed.F);
-      Eigen::MatrixXd H = Eigen::MatrixXd::Zero(N, N);
-      Eigen::VectorXd g = Eigen::VectorXd::Zero(N);
-      for (int k = 0; k < 2; ++k) {
+      Eigen::MatrixXd view_H[2] = {Eigen::MatrixXd::Zero(N, N), Eigen::MatrixXd::Zero(N, N)};
+      Eigen::VectorXd view_g[2] = {Eigen::VectorXd::Zero(N), Eigen::VectorXd::Zero(N)};
+      auto view_equations = [&](int k) {
+        Eigen::MatrixXd& H = view_H[k];
+        Eigen::VectorXd& g = view_g[k];
         const View& w = views[static_cast<size_t>(k)];
         const ViewOutline outline = outline_pairs(w, posed, normals, names[k]);
         // Each contour vertex's derivative by every unknown: shape through the vertex's skinning
@@ -487,7 +493,10 @@ SilhouetteFit fit_body_model_to_silhouettes(const BodyModel& model, const Silhou
         H.selfadjointView<Eigen::Lower>().rankUpdate(A.transpose());
         g.noalias() += A.transpose() * b;
         fit.outline_rms_mm[k] = 1000 * std::sqrt(2 * sum);
-      }
+      };
+      run_beside(o.threads, [&] { view_equations(1); }, [&] { view_equations(0); });  // the two views apart
+      Eigen::MatrixXd H = view_H[0] + view_H[1];
+      Eigen::VectorXd g = view_g[0] + view_g[1];
       // Priors: the shape's Gaussian, and the joints' rotations away from the rest (about the
       // parent's axes; a joint's world increment turns it by the parent's rotation transposed).
       const double ls = o.shape_prior * o.shape_prior, lp = o.pose_prior * o.pose_prior;
@@ -505,8 +514,8 @@ SilhouetteFit fit_body_model_to_silhouettes(const BodyModel& model, const Silhou
       Eigen::VectorXd step = -H.ldlt().solve(g);
       if (!step.allFinite()) throw InvalidInput("model fit to the photos: the normal equations are singular");
       if (trace)
-        std::fprintf(stderr, "level %d it %d rms %.2f %.2f mm |c| %.2f step c %.3f pose %.4f\n", level, it, fit.outline_rms_mm[0],
-                     fit.outline_rms_mm[1], c.norm(), step.head(K).cwiseAbs().maxCoeff(), step.tail(P).cwiseAbs().maxCoeff());
+        std::fprintf(stderr, "level %d it %d rms %.2f %.2f mm |c| %.2f first4 %.2f step c %.3f pose %.4f\n", level, it, fit.outline_rms_mm[0],
+                     fit.outline_rms_mm[1], c.norm(), c.head(std::min(4, K)).norm(), step.head(K).cwiseAbs().maxCoeff(), step.tail(P).cwiseAbs().maxCoeff());
       // A step of at most a standard deviation of shape, 0.2 rad or 10 cm.
       double limit = 1;
       limit = std::min(limit, 1.0 / std::max(1e-12, step.head(K).cwiseAbs().maxCoeff()));
@@ -558,9 +567,12 @@ SilhouetteFit fit_body_model_to_silhouettes(const BodyModel& model, const Silhou
       posed.V = base + (normals.array().colwise() * d.array()).matrix();
       const Eigen::MatrixXd now_normals = vertex_normals(posed.V, posed.F);
       Eigen::VectorXd diag = Eigen::VectorXd::Constant(n, o.detail_offset_prior * o.detail_offset_prior), g = Eigen::VectorXd::Zero(n);
+      ViewOutline outlines[2];
+      run_beside(o.threads, [&] { outlines[1] = outline_pairs(views[1], posed, now_normals, names[1]); },
+                 [&] { outlines[0] = outline_pairs(views[0], posed, now_normals, names[0]); });
       for (int k = 0; k < 2; ++k) {
         const View& w = views[static_cast<size_t>(k)];
-        const ViewOutline outline = outline_pairs(w, posed, now_normals, names[k]);
+        const ViewOutline& outline = outlines[k];
         const double m = w.metres_per_px, scale = o.robust_distance / m;
         double sum = 0;
         for (const OutlinePair& pair : outline.pairs) {
@@ -601,7 +613,8 @@ SilhouetteFit fit_body_model_to_silhouettes(const BodyModel& model, const Silhou
 }
 
 CustomizedBody customize_by_body_model(const BodyModel& model, const Silhouette& front, const Silhouette& side, const PhotoCameras& cameras,
-                                       double stated_stature, bool accept_poor, const SilhouetteFitOptions& options) {
+                                       double stated_stature, bool accept_poor, const SilhouetteFitOptions& options,
+                                       const SurveyDistribution* survey) {
   SilhouetteFit fit = fit_body_model_to_silhouettes(model, front, side, cameras, options);
   CustomizedBody out;
   out.mesh = std::move(fit.mesh);
@@ -618,6 +631,20 @@ CustomizedBody customize_by_body_model(const BodyModel& model, const Silhouette&
   check_photo_agreement(&out, accept_poor);
   const Eigen::RowVector3d mid = out.mesh.V.colwise().mean();
   scale_to_stated_stature(&out, cameras, stated_stature, Eigen::Vector2d(mid.x(), mid.z()));
+  if (survey) {
+    SurveyValues values{};
+    const SurveyMask given = survey_values_of(measure_body(out.mesh.V, out.mesh.F), &values);
+    if (std::count(given.begin(), given.end(), true) >= 2) {
+      const Plausibility p = judge_plausibility(*survey, values, given);
+      if (p.more_unusual_share < 0.005) {
+        std::ostringstream w;
+        w << std::fixed << std::setprecision(1) << "this body's measurements are more unusual than " << 100 * (1 - p.more_unusual_share) << "% of " << survey->source << "'s "
+          << (p.male ? "men" : "women") << " (Mahalanobis distance " << p.distance << "): at the edge of the body model's population, "
+          << "whose shapes there are few; check the result";
+        out.warnings.push_back(w.str());
+      }
+    }
+  }
   return out;
 }
 

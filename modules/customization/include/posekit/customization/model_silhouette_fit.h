@@ -14,6 +14,7 @@
 namespace posekit {
 
 class BodyModel;
+struct SurveyDistribution;
 
 struct SilhouetteFitOptions {
   /// Rows of the working images: the silhouettes are reduced by a whole factor to about this many
@@ -38,6 +39,9 @@ struct SilhouetteFitOptions {
   /// disagree) when the shape and pose leave the outline farther off than this (RMS, m, either
   /// view), or when the detail needs an offset over `max_offset` (m).
   double max_shape_outline = 0.010, max_offset = 0.05;
+  /// Threads: the two views' outlines and equations side by side (1: one after the other). The
+  /// result is the same either way.
+  int threads = 2;
   /// The fitted shape is outside the population beyond this many standard deviations of chi(K) from
   /// its mean (a warning: the silhouettes say a body the space cannot).
   double max_shape_sigma = 6;
@@ -73,10 +77,13 @@ SilhouetteFit fit_body_model_to_silhouettes(const BodyModel& model, const Silhou
 
 /// customize_from_silhouettes by the body model (`customize --method model`): the fit, checked against
 /// the photos as that is (BelowConfidence under kMinPhotoAgreement, or when the fit is poor, unless
-/// accept_poor: then a warning), scaled to a stated stature. The result has no representation or landmarks; its features hold the levels read
-/// off the fitted body (crown, soles, stature).
+/// accept_poor: then a warning), scaled to a stated stature. The result has no representation or
+/// landmarks; its features hold the levels read off the fitted body (crown, soles, stature).
+/// `survey` (may be null): the result's measurements more unusual than 99.5% of the survey's adults
+/// of its sex are a warning (the edge of the body model's population, where its shapes are few).
 CustomizedBody customize_by_body_model(const BodyModel& model, const Silhouette& front, const Silhouette& side, const PhotoCameras& cameras,
-                                       double stated_stature = 0, bool accept_poor = false, const SilhouetteFitOptions& options = {});
+                                       double stated_stature = 0, bool accept_poor = false, const SilhouetteFitOptions& options = {},
+                                       const SurveyDistribution* survey = nullptr);
 
 /// Debug image: the silhouette (light on dark) and the outline of `mesh` seen by `camera` (red), PNG.
 void write_outline_png(const std::string& path, const Silhouette& silhouette, const PinholeCamera& camera, const TriangleMesh& mesh);
