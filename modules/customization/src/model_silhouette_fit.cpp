@@ -383,230 +383,257 @@ Eigen::SparseMatrix<double> uniform_laplacian(const Eigen::MatrixXi& F, int n) {
   return L;
 }
 
-}  // namespace
+const char* const kViewNames[2] = {"front", "side"};
 
-SilhouetteFit fit_body_model_to_silhouettes(const BodyModel& model, const Silhouette& front, const Silhouette& side,
-                                            const PhotoCameras& cameras, const SilhouetteFitOptions& o) {
-  const Stopwatch clock;
-  const ShapeSpace& space = model.space();
-  const int K = space.components();
-  const std::vector<int> pose_unknowns = fitted_pose_unknowns();
-  const int P = static_cast<int>(pose_unknowns.size()), N = K + P;
-  const bool trace = std::getenv("POSEKIT_FIT_TRACE") != nullptr;
-
-  // Start: the mean body, its soles on the floor below the silhouettes' centre, scaled (through the
-  // shape's stature direction) to the front silhouette's height there.
-  const Silhouette* sil[2] = {&front, &side};
-  const PinholeCamera* cams[2] = {&cameras.front, &cameras.side};
-  auto centre_ray = [&](int k, double* top, double* bottom) {
-    const Silhouette& s = *sil[k];
-    *top = s.top(), *bottom = s.bottom() + 1.0;
-    return cams[k]->ray(0.5 * (s.left() + s.right() + 1), 0.5 * (*top + *bottom));
-  };
+/// Where the fit starts: the mean body, its soles on the floor below the silhouettes' centre (the two
+/// views' centre rays triangulated), scaled through the shape's stature direction to the front
+/// silhouette's height there. Returns that centre.
+Eigen::Vector3d start_on_the_floor(const ShapeSpace& space, const Silhouette* sil[2], const PinholeCamera* cams[2], Eigen::VectorXd* c,
+                                   PartPose* pose) {
   double top[2], bottom[2];
-  const Eigen::Vector3d ray_front = centre_ray(0, &top[0], &bottom[0]), ray_side = centre_ray(1, &top[1], &bottom[1]);
-  const Eigen::Vector3d centre = nearest_to_rays(cams[0]->centre(), ray_front, cams[1]->centre(), ray_side);
-  const double depth = depth_of(*cams[0], centre);
-  const double u_mid = 0.5 * (front.left() + front.right() + 1);
+  Eigen::Vector3d ray[2];
+  for (int k = 0; k < 2; ++k) {
+    top[k] = sil[k]->top(), bottom[k] = sil[k]->bottom() + 1.0;
+    ray[k] = cams[k]->ray(0.5 * (sil[k]->left() + sil[k]->right() + 1), 0.5 * (top[k] + bottom[k]));
+  }
+  const Eigen::Vector3d centre = nearest_to_rays(cams[0]->centre(), ray[0], cams[1]->centre(), ray[1]);
+  const double depth = depth_of(*cams[0], centre), u_mid = 0.5 * (sil[0]->left() + sil[0]->right() + 1);
   const double floor_y = point_at_depth(*cams[0], u_mid, bottom[0], depth).y(), crown_y = point_at_depth(*cams[0], u_mid, top[0], depth).y();
-  Eigen::VectorXd c = Eigen::VectorXd::Zero(K);
-  {
-    const Eigen::MatrixXd& M = space.mean;
-    Eigen::Index hi, lo;
-    M.col(1).maxCoeff(&hi), M.col(1).minCoeff(&lo);
-    Eigen::VectorXd s = space.basis.row(3 * hi + 1) - space.basis.row(3 * lo + 1);
-    const double gap = (crown_y - floor_y) - (M(hi, 1) - M(lo, 1));
-    if (s.squaredNorm() > 0) c = s * (gap / s.squaredNorm());
-  }
-  PartPose pose;
-  {
-    const Eigen::MatrixXd V = space.body(c);
-    const Eigen::RowVector3d lo = V.colwise().minCoeff(), hi = V.colwise().maxCoeff();
-    pose.root_translation = Eigen::Vector3d(centre.x() - 0.5 * (lo.x() + hi.x()), floor_y - lo.y(), centre.z() - 0.5 * (lo.z() + hi.z()));
-  }
+  const Eigen::MatrixXd& M = space.mean;
+  Eigen::Index hi, lo;
+  M.col(1).maxCoeff(&hi), M.col(1).minCoeff(&lo);
+  const Eigen::VectorXd stature = space.basis.row(3 * hi + 1) - space.basis.row(3 * lo + 1);
+  *c = Eigen::VectorXd::Zero(space.components());
+  if (stature.squaredNorm() > 0) *c = stature * (((crown_y - floor_y) - (M(hi, 1) - M(lo, 1))) / stature.squaredNorm());
+  const Eigen::MatrixXd V = space.body(*c);
+  const Eigen::RowVector3d low = V.colwise().minCoeff(), high = V.colwise().maxCoeff();
+  *pose = PartPose();
+  pose->root_translation = Eigen::Vector3d(centre.x() - 0.5 * (low.x() + high.x()), floor_y - low.y(), centre.z() - 0.5 * (low.z() + high.z()));
+  return centre;
+}
 
-  // Shape and pose, coarse to fine.
-  SilhouetteFit fit;
+/// One view's share of the Gauss-Newton normal equations over [shape K, pose P] (H: lower half),
+/// and its outline RMS (mm). Each contour vertex's derivative: shape through the vertex's skinning
+/// rotation (the skinning is affine in the rest vertex), pose by differences.
+void view_normal_equations(const BodyModel& model, const ShapedBody& body, const PartPose& pose, const std::vector<int>& pose_unknowns,
+                           const View& w, const TriangleMesh& posed, const Eigen::MatrixXd& normals, const char* name, double robust_distance,
+                           Eigen::MatrixXd* H, Eigen::VectorXd* g, double* rms_mm) {
+  const int K = model.components(), P = static_cast<int>(pose_unknowns.size()), N = K + P;
+  const ViewOutline outline = outline_pairs(w, posed, normals, name);
+  const std::vector<int>& rim = outline.rim;
+  const PartTransforms T = body.part_motions(pose);
+  Eigen::MatrixXd X0, Xu[3];
+  ShapedBody::skin(model, body.rest_vertices(), T, rim, &X0);
+  Eigen::MatrixXd shifted = body.rest_vertices();
+  for (int a = 0; a < 3; ++a) {
+    shifted.col(a).array() += 1.0;
+    ShapedBody::skin(model, shifted, T, rim, &Xu[a]);
+    shifted.col(a).array() -= 1.0;
+  }
+  std::vector<Eigen::MatrixXd> dpose(static_cast<size_t>(P));
+  constexpr double kStep = 1e-4;
+  for (int q = 0; q < P; ++q) {
+    Eigen::VectorXd inc = Eigen::VectorXd::Zero(kPoseIncrementSize);
+    inc(pose_unknowns[static_cast<size_t>(q)]) = kStep;
+    PartPose moved = pose;
+    apply_pose_increment(&moved, inc);
+    ShapedBody::skin(model, body.rest_vertices(), body.part_motions(moved), rim, &dpose[static_cast<size_t>(q)]);
+    dpose[static_cast<size_t>(q)] = (dpose[static_cast<size_t>(q)] - X0) / kStep;
+  }
+  std::vector<Eigen::MatrixXd> jac(rim.size());  // 2 x N: pixel by unknown
+  for (size_t r = 0; r < rim.size(); ++r) {
+    const auto row = static_cast<Eigen::Index>(r);
+    Eigen::Matrix3d rot;
+    for (int a = 0; a < 3; ++a) rot.col(a) = (Xu[a].row(row) - X0.row(row)).transpose();
+    const Eigen::Matrix<double, 2, 3>& dp = outline.dproj[r];
+    Eigen::MatrixXd J(2, N);
+    J.leftCols(K) = dp * rot * model.space().basis.middleRows(3 * rim[r], 3);
+    for (int q = 0; q < P; ++q) J.col(K + q) = dp * dpose[static_cast<size_t>(q)].row(row).transpose();
+    jac[r] = std::move(J);
+  }
+  // Residuals in metres at the body: comparable across views and resolutions.
+  const double m = w.metres_per_px, scale = robust_distance / m;
+  double sum = 0;
+  Eigen::MatrixXd A(static_cast<Eigen::Index>(outline.pairs.size()), N);  // rows scaled by the root of their weight
+  Eigen::VectorXd b(A.rows());
+  for (size_t i = 0; i < outline.pairs.size(); ++i) {
+    const OutlinePair& pair = outline.pairs[i];
+    const double weight = pair.share * cauchy(pair.residual_px, scale) * m * m, root = std::sqrt(weight);
+    A.row(static_cast<Eigen::Index>(i)) = root * (pair.direction.transpose() * jac[static_cast<size_t>(pair.rim)]);
+    b(static_cast<Eigen::Index>(i)) = root * pair.residual_px;
+    sum += weight * pair.residual_px * pair.residual_px;
+  }
+  *H = Eigen::MatrixXd::Zero(N, N);
+  H->selfadjointView<Eigen::Lower>().rankUpdate(A.transpose());
+  *g = A.transpose() * b;
+  *rms_mm = 1000 * std::sqrt(2 * sum);
+}
+
+/// The priors' terms: the shape's Gaussian, and the joints' rotations away from the rest (about the
+/// parent's axes; a joint's world increment turns it by the parent's rotation transposed).
+void add_priors(const Eigen::VectorXd& c, const PartPose& pose, const std::vector<int>& pose_unknowns, const SilhouetteFitOptions& o,
+                Eigen::MatrixXd* H, Eigen::VectorXd* g) {
+  const auto K = c.size();
+  const double ls = o.shape_prior * o.shape_prior, lp = o.pose_prior * o.pose_prior;
+  H->topLeftCorner(K, K).diagonal().array() += ls;
+  g->head(K) += ls * c;
+  const auto world = part_rotations(pose);
+  for (size_t q = 6; q < pose_unknowns.size(); q += 3) {
+    const int j = (pose_unknowns[q] - 6) / 3;
+    const Eigen::Matrix3d A = world[static_cast<size_t>(part_parent(j + 1))].transpose();
+    H->block(K + static_cast<Eigen::Index>(q), K + static_cast<Eigen::Index>(q), 3, 3) += lp * A.transpose() * A;
+    g->segment(K + static_cast<Eigen::Index>(q), 3) += lp * A.transpose() * pose.joint(j);
+  }
+}
+
+/// Shape and pose by Gauss-Newton, coarse to fine; returns the finest views.
+std::vector<View> fit_shape_and_pose(const BodyModel& model, const Silhouette* sil[2], const PinholeCamera* cams[2], const Eigen::Vector3d& centre,
+                                     const SilhouetteFitOptions& o, bool trace, Eigen::VectorXd* c, PartPose* pose, SilhouetteFit* fit) {
+  const int K = model.components();
+  const std::vector<int> pose_unknowns = fitted_pose_unknowns();
+  const int P = static_cast<int>(pose_unknowns.size());
   TriangleMesh posed;
   posed.F = model.faces();
   std::vector<View> views;
-  const char* names[2] = {"front", "side"};
   for (int level = 0; level < 2; ++level) {
     views = make_views(sil, cams, level == 0 ? o.working_rows / 4 : o.working_rows, centre);
     const int iterations = level == 0 ? o.coarse_iterations : o.fine_iterations;
-    for (int it = 0; it < iterations; ++it, ++fit.iterations) {
-      const ShapedBody body(model, c);
-      body.pose(pose, &posed.V);
-      const PartTransforms T = body.part_motions(pose);
+    for (int it = 0; it < iterations; ++it, ++fit->iterations) {
+      const ShapedBody body(model, *c);
+      body.pose(*pose, &posed.V);
       const Eigen::MatrixXd normals = vertex_normals(posed.V, posed.F);
-      Eigen::MatrixXd view_H[2] = {Eigen::MatrixXd::Zero(N, N), Eigen::MatrixXd::Zero(N, N)};
-      Eigen::VectorXd view_g[2] = {Eigen::VectorXd::Zero(N), Eigen::VectorXd::Zero(N)};
-      auto view_equations = [&](int k) {
-        Eigen::MatrixXd& H = view_H[k];
-        Eigen::VectorXd& g = view_g[k];
-        const View& w = views[static_cast<size_t>(k)];
-        const ViewOutline outline = outline_pairs(w, posed, normals, names[k]);
-        // Each contour vertex's derivative by every unknown: shape through the vertex's skinning
-        // rotation (the skinning is affine in the rest vertex), pose by differences.
-        const std::vector<int>& rim = outline.rim;
-        const int R = static_cast<int>(rim.size());
-        Eigen::MatrixXd X0, Xu[3];
-        ShapedBody::skin(model, body.rest_vertices(), T, rim, &X0);
-        Eigen::MatrixXd shifted = body.rest_vertices();
-        for (int a = 0; a < 3; ++a) {
-          shifted.col(a).array() += 1.0;
-          ShapedBody::skin(model, shifted, T, rim, &Xu[a]);
-          shifted.col(a).array() -= 1.0;
-        }
-        std::vector<Eigen::MatrixXd> dpose(static_cast<size_t>(P));
-        constexpr double kStep = 1e-4;
-        for (int q = 0; q < P; ++q) {
-          Eigen::VectorXd inc = Eigen::VectorXd::Zero(kPoseIncrementSize);
-          inc(pose_unknowns[static_cast<size_t>(q)]) = kStep;
-          PartPose moved = pose;
-          apply_pose_increment(&moved, inc);
-          ShapedBody::skin(model, body.rest_vertices(), body.part_motions(moved), rim, &dpose[static_cast<size_t>(q)]);
-          dpose[static_cast<size_t>(q)] = (dpose[static_cast<size_t>(q)] - X0) / kStep;
-        }
-        std::vector<Eigen::MatrixXd> jac(static_cast<size_t>(R));  // 2 x N: pixel by unknown
-        for (int r = 0; r < R; ++r) {
-          Eigen::Matrix3d rot;
-          for (int a = 0; a < 3; ++a) rot.col(a) = (Xu[a].row(r) - X0.row(r)).transpose();
-          const Eigen::Matrix<double, 2, 3>& dp = outline.dproj[static_cast<size_t>(r)];
-          Eigen::MatrixXd J(2, N);
-          J.leftCols(K) = dp * rot * space.basis.middleRows(3 * rim[static_cast<size_t>(r)], 3);
-          for (int q = 0; q < P; ++q) J.col(K + q) = dp * dpose[static_cast<size_t>(q)].row(r).transpose();
-          jac[static_cast<size_t>(r)] = std::move(J);
-        }
-        // Residuals in metres at the body: comparable across views and resolutions.
-        const double m = w.metres_per_px, scale = o.robust_distance / m;
-        double sum = 0;
-        Eigen::MatrixXd A(static_cast<Eigen::Index>(outline.pairs.size()), N);  // rows scaled by the root of their weight
-        Eigen::VectorXd b(A.rows());
-        for (size_t i = 0; i < outline.pairs.size(); ++i) {
-          const OutlinePair& pair = outline.pairs[i];
-          const double weight = pair.share * cauchy(pair.residual_px, scale) * m * m, root = std::sqrt(weight);
-          A.row(static_cast<Eigen::Index>(i)) = root * (pair.direction.transpose() * jac[static_cast<size_t>(pair.rim)]);
-          b(static_cast<Eigen::Index>(i)) = root * pair.residual_px;
-          sum += weight * pair.residual_px * pair.residual_px;
-        }
-        H.selfadjointView<Eigen::Lower>().rankUpdate(A.transpose());
-        g.noalias() += A.transpose() * b;
-        fit.outline_rms_mm[k] = 1000 * std::sqrt(2 * sum);
+      Eigen::MatrixXd view_H[2];
+      Eigen::VectorXd view_g[2];
+      auto view = [&](int k) {
+        view_normal_equations(model, body, *pose, pose_unknowns, views[static_cast<size_t>(k)], posed, normals, kViewNames[k], o.robust_distance,
+                              &view_H[k], &view_g[k], &fit->outline_rms_mm[k]);
       };
-      run_beside(o.threads, [&] { view_equations(1); }, [&] { view_equations(0); });  // the two views apart
+      run_beside(o.threads, [&] { view(1); }, [&] { view(0); });  // the two views apart
       Eigen::MatrixXd H = view_H[0] + view_H[1];
       Eigen::VectorXd g = view_g[0] + view_g[1];
-      // Priors: the shape's Gaussian, and the joints' rotations away from the rest (about the
-      // parent's axes; a joint's world increment turns it by the parent's rotation transposed).
-      const double ls = o.shape_prior * o.shape_prior, lp = o.pose_prior * o.pose_prior;
-      H.topLeftCorner(K, K).diagonal().array() += ls;
-      g.head(K) += ls * c;
-      const auto world = part_rotations(pose);
-      for (int q = 6; q < P; q += 3) {
-        const int j = (pose_unknowns[static_cast<size_t>(q)] - 6) / 3;
-        const Eigen::Matrix3d A = world[static_cast<size_t>(part_parent(j + 1))].transpose();
-        H.block(K + q, K + q, 3, 3) += lp * A.transpose() * A;
-        g.segment(K + q, 3) += lp * A.transpose() * pose.joint(j);
-      }
+      add_priors(*c, *pose, pose_unknowns, o, &H, &g);
       H.triangularView<Eigen::StrictlyUpper>() = H.transpose();  // the rank updates filled the lower half
       H.diagonal().array() += 1e-9 + 1e-4 * H.diagonal().array();  // Levenberg-Marquardt's damping
       Eigen::VectorXd step = -H.ldlt().solve(g);
       if (!step.allFinite()) throw InvalidInput("model fit to the photos: the normal equations are singular");
       if (trace)
-        std::fprintf(stderr, "level %d it %d rms %.2f %.2f mm |c| %.2f first4 %.2f step c %.3f pose %.4f\n", level, it, fit.outline_rms_mm[0],
-                     fit.outline_rms_mm[1], c.norm(), c.head(std::min(4, K)).norm(), step.head(K).cwiseAbs().maxCoeff(), step.tail(P).cwiseAbs().maxCoeff());
+        std::fprintf(stderr, "level %d it %d rms %.2f %.2f mm |c| %.2f step c %.3f pose %.4f\n", level, it, fit->outline_rms_mm[0],
+                     fit->outline_rms_mm[1], c->norm(), step.head(K).cwiseAbs().maxCoeff(), step.tail(P).cwiseAbs().maxCoeff());
       // A step of at most a standard deviation of shape, 0.2 rad or 10 cm.
       double limit = 1;
       limit = std::min(limit, 1.0 / std::max(1e-12, step.head(K).cwiseAbs().maxCoeff()));
       limit = std::min(limit, 0.1 / std::max(1e-12, step.segment(K, 3).cwiseAbs().maxCoeff()));
       limit = std::min(limit, 0.2 / std::max(1e-12, step.tail(P - 3).cwiseAbs().maxCoeff()));
       step *= limit;
-      c += step.head(K);
+      *c += step.head(K);
       Eigen::VectorXd inc = Eigen::VectorXd::Zero(kPoseIncrementSize);
       for (int q = 0; q < P; ++q) inc(pose_unknowns[static_cast<size_t>(q)]) = step(K + q);
-      apply_pose_increment(&pose, inc);
+      apply_pose_increment(pose, inc);
       if (level == 1 && step.head(K).cwiseAbs().maxCoeff() < 0.005 && step.tail(P).cwiseAbs().maxCoeff() < 1e-4) break;
     }
   }
-  const ShapedBody body(model, c);
-  body.pose(pose, &posed.V);
+  return views;
+}
+
+/// What the space cannot say (a local bulge, hips wider than its proportions): each vertex of
+/// `posed` moved along its normal by an offset, smooth over the surface (Laplacian), fitted to the
+/// same outlines. Returns the largest offset (m).
+double fit_detail_offsets(const std::vector<View>& views, const SilhouetteFitOptions& o, bool trace, TriangleMesh* posed, SilhouetteFit* fit) {
+  const int n = static_cast<int>(posed->V.rows());
+  const Eigen::SparseMatrix<double> L = uniform_laplacian(posed->F, n);
+  const Eigen::SparseMatrix<double> smooth = (o.detail_smoothness * L.transpose() * L).pruned();
+  const Eigen::MatrixXd base = posed->V, normals = vertex_normals(base, posed->F);
+  Eigen::VectorXd d = Eigen::VectorXd::Zero(n);
+  Eigen::SimplicialLDLT<Eigen::SparseMatrix<double>> solver;
+  for (int it = 0; it < o.detail_iterations; ++it, ++fit->iterations) {
+    posed->V = base + (normals.array().colwise() * d.array()).matrix();
+    const Eigen::MatrixXd now_normals = vertex_normals(posed->V, posed->F);
+    Eigen::VectorXd diag = Eigen::VectorXd::Constant(n, o.detail_offset_prior * o.detail_offset_prior), g = Eigen::VectorXd::Zero(n);
+    ViewOutline outlines[2];
+    run_beside(o.threads, [&] { outlines[1] = outline_pairs(views[1], *posed, now_normals, kViewNames[1]); },
+               [&] { outlines[0] = outline_pairs(views[0], *posed, now_normals, kViewNames[0]); });
+    for (int k = 0; k < 2; ++k) {
+      const View& w = views[static_cast<size_t>(k)];
+      const double m = w.metres_per_px, scale = o.robust_distance / m;
+      double sum = 0;
+      for (const OutlinePair& pair : outlines[k].pairs) {
+        const int v = outlines[k].rim[static_cast<size_t>(pair.rim)];
+        const double J = pair.direction.dot(outlines[k].dproj[static_cast<size_t>(pair.rim)] * normals.row(v).transpose());
+        const double weight = pair.share * cauchy(pair.residual_px, scale) * m * m;
+        diag(v) += weight * J * J;
+        g(v) += weight * pair.residual_px * J;
+        sum += weight * pair.residual_px * pair.residual_px;
+      }
+      fit->outline_rms_mm[k] = 1000 * std::sqrt(2 * sum);
+    }
+    g += o.detail_offset_prior * o.detail_offset_prior * d + smooth * d;
+    Eigen::SparseMatrix<double> A = smooth;
+    for (int i = 0; i < n; ++i) A.coeffRef(i, i) += diag(i);
+    if (it == 0) solver.analyzePattern(A);
+    solver.factorize(A);
+    const Eigen::VectorXd step = -solver.solve(g);
+    if (solver.info() != Eigen::Success || !step.allFinite()) throw InvalidInput("model fit to the photos: the detail offsets' system is singular");
+    if (trace) std::fprintf(stderr, "detail it %d rms %.2f %.2f mm max offset %.1f mm\n", it, fit->outline_rms_mm[0], fit->outline_rms_mm[1], 1000 * d.cwiseAbs().maxCoeff());
+    d += step;
+  }
+  posed->V = base + (normals.array().colwise() * d.array()).matrix();
+  return d.cwiseAbs().maxCoeff();
+}
+
+/// The body's turn about the vertical from facing the front camera (degrees, positive: to its left).
+double yaw_from_front_camera(const PartPose& pose, const Eigen::MatrixXd& V, const PinholeCamera& front) {
+  const Eigen::Vector3d facing = part_rotations(pose)[kPelvis] * Eigen::Vector3d::UnitZ();
+  const Eigen::Vector3d to_camera = front.centre() - V.colwise().mean().transpose();
+  return std::remainder(180 / M_PI * (std::atan2(facing.x(), facing.z()) - std::atan2(to_camera.x(), to_camera.z())), 360.0);
+}
+
+/// The fit's warnings (a turn, a shape outside the population) and reasons to call it poor.
+void judge_fit(const SilhouetteFitOptions& o, int components, SilhouetteFit* fit) {
+  if (std::abs(fit->yaw_degrees) >= 3) {
+    std::ostringstream w;
+    w.precision(2);
+    w << "model fit to the photos: the body is turned " << std::abs(fit->yaw_degrees) << " degrees " << (fit->yaw_degrees > 0 ? "to its left" : "to its right")
+      << " from the front camera (fitted; photos taken square to the body are more accurate)";
+    fit->warnings.push_back(w.str());
+  }
+  const double chi_mean = std::sqrt(std::max(1.0, components - 0.5)), chi_sd = std::sqrt(0.5);
+  if (fit->shape_mahalanobis > chi_mean + o.max_shape_sigma * chi_sd)
+    fit->warnings.push_back("model fit to the photos: the body is outside the body model's population (shape at " +
+                            std::to_string(static_cast<int>(std::lround(fit->shape_mahalanobis))) + " standard deviations)");
+  auto mm = [](double m) { return std::to_string(static_cast<int>(std::lround(1000 * m))); };
+  for (int k = 0; k < 2; ++k)
+    if (fit->shape_outline_rms_mm[k] > 1000 * o.max_shape_outline)
+      fit->reasons.push_back(std::string("the body model's outline stays ") + mm(fit->shape_outline_rms_mm[k] / 1000) + " mm (RMS) from the " +
+                             kViewNames[k] + " silhouette (" + mm(o.max_shape_outline) + " mm at most): not a body the model can take in this pose");
+  if (fit->max_offset_mm > 1000 * o.max_offset)
+    fit->reasons.push_back("the silhouettes need the body's surface moved " + mm(fit->max_offset_mm / 1000) + " mm off the model's shape (" +
+                           mm(o.max_offset) + " mm at most)");
+  fit->confident = fit->reasons.empty();
+}
+
+}  // namespace
+
+SilhouetteFit fit_body_model_to_silhouettes(const BodyModel& model, const Silhouette& front, const Silhouette& side,
+                                            const PhotoCameras& cameras, const SilhouetteFitOptions& o) {
+  const Stopwatch clock;
+  const bool trace = std::getenv("POSEKIT_FIT_TRACE") != nullptr;
+  const Silhouette* sil[2] = {&front, &side};
+  const PinholeCamera* cams[2] = {&cameras.front, &cameras.side};
+  SilhouetteFit fit;
+  Eigen::VectorXd c;
+  PartPose pose;
+  const Eigen::Vector3d centre = start_on_the_floor(model.space(), sil, cams, &c, &pose);
+  const std::vector<View> views = fit_shape_and_pose(model, sil, cams, centre, o, trace, &c, &pose, &fit);
+  TriangleMesh posed;
+  posed.F = model.faces();
+  ShapedBody(model, c).pose(pose, &posed.V);
   fit.shape_outline_rms_mm[0] = fit.outline_rms_mm[0], fit.shape_outline_rms_mm[1] = fit.outline_rms_mm[1];
   fit.coefficients = c;
   fit.pose = pose;
   fit.shape_mahalanobis = c.norm();
-  {
-    // The turn about the vertical between the body's front and the direction to the front camera.
-    const Eigen::Vector3d facing = part_rotations(pose)[kPelvis] * Eigen::Vector3d::UnitZ();
-    const Eigen::Vector3d to_camera = cameras.front.centre() - posed.V.colwise().mean().transpose();
-    fit.yaw_degrees = 180 / M_PI * (std::atan2(facing.x(), facing.z()) - std::atan2(to_camera.x(), to_camera.z()));
-    fit.yaw_degrees = std::remainder(fit.yaw_degrees, 360.0);
-    if (std::abs(fit.yaw_degrees) >= 3) {
-      std::ostringstream w;
-      w.precision(2);
-      w << "model fit to the photos: the body is turned " << std::abs(fit.yaw_degrees) << " degrees " << (fit.yaw_degrees > 0 ? "to its left" : "to its right")
-        << " from the front camera (fitted; photos taken square to the body are more accurate)";
-      fit.warnings.push_back(w.str());
-    }
-  }
-  const double chi_mean = std::sqrt(std::max(1.0, K - 0.5)), chi_sd = std::sqrt(0.5);
-  if (fit.shape_mahalanobis > chi_mean + o.max_shape_sigma * chi_sd)
-    fit.warnings.push_back("model fit to the photos: the body is outside the body model's population (shape at " +
-                           std::to_string(static_cast<int>(std::lround(fit.shape_mahalanobis))) + " standard deviations)");
-
-  // What the space cannot say (a local bulge, hips wider than its proportions): each vertex moved
-  // along its normal by an offset, smooth over the surface (Laplacian), fitted to the same outlines.
-  if (o.detail_iterations > 0) {
-    const int n = static_cast<int>(posed.V.rows());
-    const Eigen::SparseMatrix<double> L = uniform_laplacian(posed.F, n);
-    const Eigen::SparseMatrix<double> smooth = (o.detail_smoothness * L.transpose() * L).pruned();
-    const Eigen::MatrixXd base = posed.V, normals = vertex_normals(base, posed.F);
-    Eigen::VectorXd d = Eigen::VectorXd::Zero(n);
-    Eigen::SimplicialLDLT<Eigen::SparseMatrix<double>> solver;
-    for (int it = 0; it < o.detail_iterations; ++it, ++fit.iterations) {
-      posed.V = base + (normals.array().colwise() * d.array()).matrix();
-      const Eigen::MatrixXd now_normals = vertex_normals(posed.V, posed.F);
-      Eigen::VectorXd diag = Eigen::VectorXd::Constant(n, o.detail_offset_prior * o.detail_offset_prior), g = Eigen::VectorXd::Zero(n);
-      ViewOutline outlines[2];
-      run_beside(o.threads, [&] { outlines[1] = outline_pairs(views[1], posed, now_normals, names[1]); },
-                 [&] { outlines[0] = outline_pairs(views[0], posed, now_normals, names[0]); });
-      for (int k = 0; k < 2; ++k) {
-        const View& w = views[static_cast<size_t>(k)];
-        const ViewOutline& outline = outlines[k];
-        const double m = w.metres_per_px, scale = o.robust_distance / m;
-        double sum = 0;
-        for (const OutlinePair& pair : outline.pairs) {
-          const int v = outline.rim[static_cast<size_t>(pair.rim)];
-          const double J = pair.direction.dot(outline.dproj[static_cast<size_t>(pair.rim)] * normals.row(v).transpose());
-          const double weight = pair.share * cauchy(pair.residual_px, scale) * m * m;
-          diag(v) += weight * J * J;
-          g(v) += weight * pair.residual_px * J;
-          sum += weight * pair.residual_px * pair.residual_px;
-        }
-        fit.outline_rms_mm[k] = 1000 * std::sqrt(2 * sum);
-      }
-      g += o.detail_offset_prior * o.detail_offset_prior * d + smooth * d;
-      Eigen::SparseMatrix<double> A = smooth;
-      for (int i = 0; i < n; ++i) A.coeffRef(i, i) += diag(i);
-      if (it == 0) solver.analyzePattern(A);
-      solver.factorize(A);
-      const Eigen::VectorXd step = -solver.solve(g);
-      if (solver.info() != Eigen::Success || !step.allFinite()) throw InvalidInput("model fit to the photos: the detail offsets' system is singular");
-      if (trace) std::fprintf(stderr, "detail it %d rms %.2f %.2f mm max offset %.1f mm\n", it, fit.outline_rms_mm[0], fit.outline_rms_mm[1], 1000 * d.cwiseAbs().maxCoeff());
-      d += step;
-    }
-    posed.V = base + (normals.array().colwise() * d.array()).matrix();
-    fit.max_offset_mm = 1000 * d.cwiseAbs().maxCoeff();
-  }
-  auto mm = [](double m) { return std::to_string(static_cast<int>(std::lround(1000 * m))); };
-  for (int k = 0; k < 2; ++k)
-    if (fit.shape_outline_rms_mm[k] > 1000 * o.max_shape_outline)
-      fit.reasons.push_back(std::string("the body model's outline stays ") + mm(fit.shape_outline_rms_mm[k] / 1000) + " mm (RMS) from the " +
-                            names[k] + " silhouette (" + mm(o.max_shape_outline) + " mm at most): not a body the model can take in this pose");
-  if (fit.max_offset_mm > 1000 * o.max_offset)
-    fit.reasons.push_back("the silhouettes need the body's surface moved " + mm(fit.max_offset_mm / 1000) + " mm off the model's shape (" +
-                          mm(o.max_offset) + " mm at most)");
-  fit.confident = fit.reasons.empty();
+  fit.yaw_degrees = yaw_from_front_camera(pose, posed.V, cameras.front);
+  if (o.detail_iterations > 0) fit.max_offset_mm = 1000 * fit_detail_offsets(views, o, trace, &posed, &fit);
+  judge_fit(o, model.components(), &fit);
   fit.mesh = std::move(posed);
   fit.seconds = clock.seconds();
   return fit;
