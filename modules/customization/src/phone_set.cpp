@@ -19,6 +19,7 @@
 #include "posekit/population/ansur.h"
 #include "posekit/population/survey_fit.h"
 #include "posekit/shape/measurements.h"
+#include "named_values.h"
 #include "opencv_calls.h"
 #include "photo_degradation.h"
 
@@ -91,24 +92,13 @@ void score(const CustomizedBody& result, const TriangleMesh& truth, const BodyMe
 }  // namespace
 
 const std::vector<PhoneCondition>& all_phone_conditions() {
-  static const std::vector<PhoneCondition> v = {PhoneCondition::kMasks, PhoneCondition::kRoom, PhoneCondition::kPhone, PhoneCondition::kTurned};
+  static const std::vector<PhoneCondition> v = table_values(kConditions);
   return v;
 }
 
-const char* phone_condition_name(PhoneCondition c) {
-  for (const auto& [k, name] : kConditions)
-    if (k == c) return name;
-  return "?";
-}
+const char* phone_condition_name(PhoneCondition c) { return table_name(kConditions, c); }
 
-PhoneCondition parse_phone_condition(const std::string& name) {
-  std::string list;
-  for (const auto& [k, n] : kConditions) {
-    if (name == n) return k;
-    list += std::string(list.empty() ? "" : ", ") + n;
-  }
-  throw InvalidInput("unknown phone set condition '" + name + "' (one of: " + list + ")");
-}
+PhoneCondition parse_phone_condition(const std::string& name) { return parse_table_name(kConditions, name, "phone set condition"); }
 
 std::vector<PhoneSetBody> make_phone_set_bodies(const PhoneSetOptions& o) {
   std::vector<PhoneSetBody> out;

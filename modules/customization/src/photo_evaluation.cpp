@@ -15,6 +15,7 @@
 #include "posekit/io/atomic_file.h"
 #include "posekit/io/image_io.h"
 #include "posekit/shape/measurements.h"
+#include "named_values.h"
 #include "opencv_calls.h"
 #include "photo_degradation.h"
 
@@ -143,28 +144,13 @@ Silhouette degraded_photo(const std::string& path, const std::string& what, unsi
 }  // namespace
 
 const std::vector<PhotoVariation>& all_photo_variations() {
-  static const std::vector<PhotoVariation> v = [] {
-    std::vector<PhotoVariation> out;
-    for (const auto& [k, name] : kNames) out.push_back(k);
-    return out;
-  }();
+  static const std::vector<PhotoVariation> v = table_values(kNames);
   return v;
 }
 
-const char* photo_variation_name(PhotoVariation v) {
-  for (const auto& [k, name] : kNames)
-    if (k == v) return name;
-  return "?";
-}
+const char* photo_variation_name(PhotoVariation v) { return table_name(kNames, v); }
 
-PhotoVariation parse_photo_variation(const std::string& name) {
-  std::string list;
-  for (const auto& [k, n] : kNames) {
-    if (name == n) return k;
-    list += std::string(list.empty() ? "" : ", ") + n;
-  }
-  throw InvalidInput("unknown photo variation '" + name + "' (one of: " + list + ")");
-}
+PhotoVariation parse_photo_variation(const std::string& name) { return parse_table_name(kNames, name, "photo variation"); }
 
 void summarise_photo_evaluation(PhotoEvaluation* ev) {
   double sb = 0, sw = 0, sh = 0, ss = 0, sd = 0;
