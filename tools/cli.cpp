@@ -18,6 +18,14 @@
 #include "posekit/io/point_cloud_io.h"
 
 namespace posekit::cli {
+
+std::vector<std::string> split_commas(const std::string& list) {
+  std::vector<std::string> out;
+  std::stringstream ss(list);
+  for (std::string item; std::getline(ss, item, ',');)
+    if (!item.empty()) out.push_back(item);
+  return out;
+}
 namespace {
 
 /// Spaces between a name and its help in the 24-column layout; a name that does not fit gets the

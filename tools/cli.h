@@ -20,6 +20,9 @@ struct UsageError : std::runtime_error {
   using std::runtime_error::runtime_error;
 };
 
+/// The non-empty items of a comma-separated list ("a,b,,c": a, b, c).
+std::vector<std::string> split_commas(const std::string& list);
+
 /// Declarative options of one subcommand; builds its --help text.
 class ArgParser {
  public:

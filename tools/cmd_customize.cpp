@@ -25,14 +25,6 @@
 namespace posekit::cli {
 namespace {
 
-std::vector<std::string> split_list(const std::string& s) {
-  std::vector<std::string> out;
-  std::stringstream ss(s);
-  for (std::string item; std::getline(ss, item, ',');)
-    if (!item.empty()) out.push_back(item);
-  return out;
-}
-
 /// --method: "paper" (section 3.2, the learned model) or "model" (the body model fitted to the
 /// silhouettes, which needs --body-model).
 bool body_model_method(const ArgParser& args) {
@@ -175,7 +167,7 @@ int customize_eval(int argc, char** argv) {
   std::vector<PhotoVariation> variations;
   if (args.get("variation") == "all") variations = all_photo_variations();
   else variations.push_back(parse_photo_variation(args.get("variation")));
-  const std::vector<std::string> ids = args.has("subjects") ? split_list(args.get("subjects")) : std::vector<std::string>{};
+  const std::vector<std::string> ids = args.has("subjects") ? split_commas(args.get("subjects")) : std::vector<std::string>{};
   nlohmann::json all = nlohmann::json::array();
   for (PhotoVariation v : variations) {
     const PhotoEvaluation ev = evaluate_photo_customization(args.get("dataset"), model, v, ids, args.has("inputs-out") ? args.get("inputs-out") : "",
@@ -216,7 +208,7 @@ int customize_robustness(int argc, char** argv) {
       .output_folder("inputs-out", "DIR", "write each body's photos (or masks) and camera file (DIR/CONDITION/ID/)")
       .example("posekit customize robustness --model customization.pkc --body-model ansur.pks --json phone_set.json");
   if (!args.parse(argc, argv)) return 0;
-  const std::vector<std::string> method_names = split_list(args.get("methods"));
+  const std::vector<std::string> method_names = split_commas(args.get("methods"));
   std::vector<PhotoCustomizer> methods;
   std::unique_ptr<BodyModel> body_model;
   std::optional<CustomizationModel> model;
@@ -241,7 +233,7 @@ int customize_robustness(int argc, char** argv) {
   std::vector<PhoneCondition> conditions;
   if (args.get("conditions") == "all") conditions = all_phone_conditions();
   else
-    for (const std::string& c : split_list(args.get("conditions"))) conditions.push_back(parse_phone_condition(c));
+    for (const std::string& c : split_commas(args.get("conditions"))) conditions.push_back(parse_phone_condition(c));
   PhoneSetOptions o;
   o.data_root = find_data_root(args.get("data"));
   o.survey = o_survey;
@@ -250,7 +242,11 @@ int customize_robustness(int argc, char** argv) {
   if (args.has("dataset")) o.dataset_dir = args.get("dataset");
   o.seed = static_cast<unsigned>(args.get_int("seed"));
   const std::vector<PhoneSetBody> bodies = make_phone_set_bodies(o);
-  std::cerr << "posekit customize robustness: " << bodies.size() << " bodies\n";
+  std::string ids;
+  for (const PhoneSetBody& b : bodies)
+    if (!b.survey_id.empty()) ids += (ids.empty() ? "" : ",") + b.survey_id;
+  std::cerr << "posekit customize robustness: " << bodies.size() << " bodies"
+            << (ids.empty() ? "" : "; a body model that has not seen them: posekit shape-space --ansur --leave-out-ids " + ids + " --out FILE") << "\n";
   nlohmann::json all = nlohmann::json::array();
   for (PhoneCondition c : conditions) {
     Progress progress(std::string("condition ") + phone_condition_name(c), static_cast<int>(bodies.size()));

@@ -91,10 +91,16 @@ void print_residual_table(const nlohmann::ordered_json& summary) {
 }  // namespace
 
 ShapeSpace survey_shape_space(const std::string& survey_arg, const std::string& data_arg, long subjects_wanted, double max_rms_mm,
-                              int max_components, int threads, const std::string& residuals_path, bool quiet) {
+                              int max_components, int threads, const std::string& residuals_path, bool quiet,
+                              const std::vector<std::string>& leave_out_ids) {
   const std::string data_root = find_data_root(data_arg);
   const std::string survey_path = find_ansur_root(survey_arg, data_root);
   std::vector<SurveySubject> all = read_survey(survey_path);
+  for (const std::string& id : leave_out_ids) {  // held out, e.g. the bodies a test photographs
+    const auto it = std::find_if(all.begin(), all.end(), [&](const SurveySubject& s) { return s.id == id; });
+    if (it == all.end()) throw InvalidInput("--leave-out-ids: subject '" + id + "' is not in " + survey_path);
+    all.erase(it);
+  }
   std::vector<SurveySubject> subjects;
   const size_t wanted = subjects_wanted > 0 ? std::min<size_t>(subjects_wanted, all.size()) : all.size();
   for (size_t k = 0; k < wanted; ++k) subjects.push_back(all[k * all.size() / wanted]);  // evenly through the file(s)

@@ -336,6 +336,7 @@ int run_shape_space(int argc, char** argv) {
       .option("survey", "DIR|FILE", "--ansur: ANSUR II's folder or one survey CSV with its columns (default: $POSEKIT_ANSUR, "
               "else ansur2 beside the data root)")
       .option("subjects", "N", "--ansur: that many subjects spread through the survey (0: all)", "0")
+      .option("leave-out-ids", "A,B", "--ansur: leave these SubjectIds out (e.g. the bodies customize robustness photographs)")
       .option("max-rms-mm", "MM", "--ansur: keep the fewest components that reconstruct every fitted body within this RMS", "1")
       .output("residuals", "FILE", "--ansur: write the fit residuals and each subject's sliders (JSON)")
       .option("threads", "N", "--ansur: threads for the fits (0: all cores)", "0")
@@ -373,7 +374,8 @@ int run_shape_space(int argc, char** argv) {
         args.get("motions") == "none" || motion_poses == 0 ? std::vector<std::string>{} : motion_files(args.get("motions"), data_root);
     space = survey_shape_space(args.has("survey") ? args.get("survey") : "", args.get("data"), subjects, max_rms,
                                static_cast<int>(max_components), static_cast<int>(threads),
-                               args.has("residuals") ? args.get("residuals") : "", args.flag_set("json"));
+                               args.has("residuals") ? args.get("residuals") : "", args.flag_set("json"),
+                               args.has("leave-out-ids") ? split_commas(args.get("leave-out-ids")) : std::vector<std::string>{});
     if (!motions.empty()) add_motion_poses(motions, data_root, static_cast<int>(every), static_cast<int>(motion_poses), &space);
   } else if (args.has("meshes")) {
     const std::string dir = args.get("meshes");

@@ -72,5 +72,5 @@ std::shared_ptr<const ShapeSpace> shape_space_option(const std::string& value, c
 /// many spread through the survey (0: all). Prints the fit residuals unless `quiet`; writes them, with
 /// each subject's sliders, to `residuals_path` (JSON) when not empty.
 ShapeSpace survey_shape_space(const std::string& survey, const std::string& data_root, long subjects, double max_rms_mm,
-                              int max_components, int threads, const std::string& residuals_path, bool quiet);
+                              int max_components, int threads, const std::string& residuals_path, bool quiet, const std::vector<std::string>& leave_out_ids = {});
 }  // namespace posekit::cli

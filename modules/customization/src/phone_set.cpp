@@ -38,7 +38,7 @@ double bmi_of(const SurveySubject& s) {
 PhoneSetBody fitted_body(const SurveyBodyFitter& fitter, const MakeHumanModel& mh, const SurveySubject& s, const std::string& id,
                          const std::string& kind) {
   PhoneSetBody b;
-  b.id = id, b.kind = kind, b.bmi = bmi_of(s), b.male = s.male;
+  b.id = id, b.kind = kind, b.survey_id = s.id, b.bmi = bmi_of(s), b.male = s.male;
   b.mesh = build_body(mh, fitter.fit(s).spec).mesh;
   return b;
 }

@@ -16,6 +16,7 @@ namespace posekit {
 struct PhoneSetBody {
   std::string id;    ///< "ansur-<SubjectId>", "extreme-<what>-<SubjectId>" or the dataset's id
   std::string kind;  ///< "ansur", "extreme" or "dataset"
+  std::string survey_id;  ///< the survey's SubjectId (empty for a dataset's body)
   TriangleMesh mesh; ///< at rest (A-pose), metres, Y up, facing +Z
   double bmi = 0;    ///< from the survey's weight and stature (0: not known)
   bool male = false;
