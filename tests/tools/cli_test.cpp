@@ -951,6 +951,10 @@ TEST(Cli, ShapeSpaceOfBodiesFittedToAnsurII) {
   r = run("shape-space --ansur --motions " + dir.file("no_such_motions") + " --out " + dir.file("x.pks"), true);
   EXPECT_EQ(r.code, 2);
   EXPECT_NE(r.out.find("no_such_motions does not exist"), std::string::npos) << r.out;
+  // A subject to hold out that the survey does not have is named.
+  r = run("shape-space --ansur --subjects 60 --leave-out-ids 17973,no-such-id --out " + dir.file("x.pks"), true);
+  EXPECT_EQ(r.code, 1);
+  EXPECT_NE(r.out.find("subject 'no-such-id' is not in"), std::string::npos) << r.out;
   // The space registers the dataset's template (the MakeHuman topology) onto a subject.
   r = run("register " + ds + "/template/rest.ply " + ds + "/subjects/m01/rest.ply --shape-space " + space + " --json");
   ASSERT_EQ(r.code, 0) << r.out;
