@@ -101,6 +101,45 @@ TEST(ImageIo, AppliesTheExifOrientation) {
   EXPECT_LT(shown.pixels[static_cast<size_t>(4) * 16 + 8], 30);    // top: the stored left half
   EXPECT_GT(shown.pixels[static_cast<size_t>(28) * 16 + 8], 225);  // bottom: the stored right half
   expect_as_opencv(turned, ImageColor::kGray);
+  // Decoded at half size: the stored size turned as well.
+  const ReducedImage half = decode_image_reduced(turned, ImageColor::kGray, "turned", [](int w, int h) { return w < h ? 2 : 1; });
+  EXPECT_EQ(half.reduction, 2);
+  EXPECT_EQ(half.full_width, 16);
+  EXPECT_EQ(half.full_height, 32);
+  EXPECT_EQ(half.image.width, 8);
+  EXPECT_EQ(half.image.height, 16);
+}
+
+TEST(ImageIo, AJpegDecodedAtHalfSizeIsItsBlocksMeansAndAPngComesWhole) {
+  const Image8 card = test_card(96, 64);
+  const std::string jpg = as_string(encode_jpeg(card, 95));
+  const ReducedImage half = decode_image_reduced(jpg, ImageColor::kBgr, "card", [](int, int) { return 2; });
+  ASSERT_EQ(half.reduction, 2);
+  EXPECT_EQ(half.full_width, 96);
+  EXPECT_EQ(half.full_height, 64);
+  ASSERT_EQ(half.image.width, 48);
+  ASSERT_EQ(half.image.height, 32);
+  // Each pixel about the mean of its 2 x 2 block of the full decoding (away from the card's sharp
+  // quadrant edges, where the IDCT's filter and a box differ most).
+  const Image8 full = decode_image(jpg, ImageColor::kBgr, "card");
+  double sum = 0;
+  int n = 0;
+  for (int y = 0; y < 32; ++y)
+    for (int x = 0; x < 48; ++x)
+      for (int c = 0; c < 3; ++c) {
+        if (c == 2 && (std::abs(2 * x - 48) < 4 || std::abs(2 * y - 32) < 4)) continue;
+        double mean = 0;
+        for (int dy = 0; dy < 2; ++dy)
+          for (int dx = 0; dx < 2; ++dx) mean += full.pixels[(static_cast<size_t>(2 * y + dy) * 96 + 2 * x + dx) * 3 + c] / 4.0;
+        sum += std::abs(half.image.pixels[(static_cast<size_t>(y) * 48 + x) * 3 + c] - mean), ++n;
+      }
+  EXPECT_LT(sum / n, 2.0);
+  // A reduction the chooser cannot have (3) decodes at full size; a PNG is never reduced.
+  EXPECT_EQ(decode_image_reduced(jpg, ImageColor::kBgr, "card", [](int, int) { return 3; }).reduction, 1);
+  const ReducedImage png = decode_image_reduced(as_string(encode_png(card)), ImageColor::kBgr, "card", [](int, int) { return 2; });
+  EXPECT_EQ(png.reduction, 1);
+  EXPECT_EQ(png.image.pixels, card.pixels);
+  EXPECT_EQ(png.full_width, 96);
 }
 
 TEST(ImageIo, RefusesWhatItCannotRead) {

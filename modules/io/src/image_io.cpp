@@ -6,6 +6,7 @@
 #include <cstdio>
 #include <cstdlib>
 #include <cstring>
+#include <utility>
 
 // jpeglib.h needs size_t and FILE declared first.
 #include <jpeglib.h>
@@ -123,8 +124,8 @@ Image8 oriented(const Image8& in, int orientation) {
 }
 
 /// libjpeg's part of decode_jpeg: no C++ object with a destructor lives in this frame across setjmp.
-bool decode_jpeg_raw(const std::string& bytes, bool gray, Image8* out, std::vector<std::uint8_t>* cmyk_row, int* orientation,
-                     char* message) {
+bool decode_jpeg_raw(const std::string& bytes, bool gray, ReductionChooser choose, Image8* out, std::vector<std::uint8_t>* cmyk_row,
+                     int* orientation, int full_size[2], int* reduction, char* message) {
   jpeg_decompress_struct info;
   JpegError error;
   info.err = jpeg_std_error(&error.manager);
@@ -140,6 +141,11 @@ bool decode_jpeg_raw(const std::string& bytes, bool gray, Image8* out, std::vect
   jpeg_save_markers(&info, JPEG_APP0 + 1, 0xFFFF);
   jpeg_read_header(&info, TRUE);
   *orientation = exif_orientation(info);
+  full_size[0] = static_cast<int>(info.image_width), full_size[1] = static_cast<int>(info.image_height);
+  if (*orientation >= 5) std::swap(full_size[0], full_size[1]);
+  *reduction = choose ? choose(full_size[0], full_size[1]) : 1;
+  if (*reduction != 2 && *reduction != 4 && *reduction != 8) *reduction = 1;
+  info.scale_num = 1, info.scale_denom = static_cast<unsigned>(*reduction);  // the IDCT's own scaling
   const bool cmyk = info.jpeg_color_space == JCS_CMYK || info.jpeg_color_space == JCS_YCCK;
   info.out_color_space = cmyk ? JCS_CMYK : gray ? JCS_GRAYSCALE : JCS_EXT_BGR;
   jpeg_start_decompress(&info);
@@ -172,14 +178,16 @@ bool decode_jpeg_raw(const std::string& bytes, bool gray, Image8* out, std::vect
   return true;
 }
 
-Image8 decode_jpeg(const std::string& bytes, ImageColor color, const std::string& what) {
-  Image8 out;
+ReducedImage decode_jpeg(const std::string& bytes, ImageColor color, const std::string& what, ReductionChooser choose) {
+  ReducedImage out;
   std::vector<std::uint8_t> cmyk_row;
-  int orientation = 1;
+  int orientation = 1, size[2] = {0, 0};
   char message[JMSG_LENGTH_MAX] = {0};
-  if (!decode_jpeg_raw(bytes, color == ImageColor::kGray, &out, &cmyk_row, &orientation, message))
+  if (!decode_jpeg_raw(bytes, color == ImageColor::kGray, choose, &out.image, &cmyk_row, &orientation, size, &out.reduction, message))
     throw IoError(what + ": corrupt JPEG (" + message + ")");
-  return oriented(out, orientation);
+  out.image = oriented(out.image, orientation);
+  out.full_width = size[0], out.full_height = size[1];
+  return out;
 }
 
 void check_pixels(const Image8& image) {
@@ -226,11 +234,23 @@ bool encode_jpeg_raw(const Image8& image, int quality, std::vector<std::uint8_t>
 
 Image8 decode_image(const std::string& bytes, ImageColor color, const std::string& what) {
   if (is_png(bytes)) return decode_png(bytes, color, what);
-  if (is_jpeg(bytes)) return decode_jpeg(bytes, color, what);
+  if (is_jpeg(bytes)) return decode_jpeg(bytes, color, what, nullptr).image;
   throw IoError(what + ": not a PNG or JPEG image (posekit reads these two; convert other formats first)");
 }
 
 Image8 read_image(const std::string& path, ImageColor color) { return decode_image(read_file_bytes(path), color, path); }
+
+ReducedImage decode_image_reduced(const std::string& bytes, ImageColor color, const std::string& what, ReductionChooser choose) {
+  if (is_jpeg(bytes)) return decode_jpeg(bytes, color, what, choose);
+  ReducedImage out;
+  out.image = decode_image(bytes, color, what);
+  out.full_width = out.image.width, out.full_height = out.image.height;
+  return out;
+}
+
+ReducedImage read_image_reduced(const std::string& path, ImageColor color, ReductionChooser choose) {
+  return decode_image_reduced(read_file_bytes(path), color, path, choose);
+}
 
 std::vector<std::uint8_t> encode_png(const Image8& image) {
   check_pixels(image);

@@ -25,6 +25,24 @@ Image8 decode_image(const std::string& bytes, ImageColor color, const std::strin
 /// Reads and decodes an image file (decode_image); errors name the file.
 Image8 read_image(const std::string& path, ImageColor color);
 
+/// An image decoded smaller than it is stored: pixel (u, v) covers the stored pixels
+/// [u * reduction, (u + 1) * reduction) x [v * reduction, (v + 1) * reduction).
+struct ReducedImage {
+  Image8 image;
+  int reduction = 1;                  ///< 1: decoded at full size
+  int full_width = 0, full_height = 0;  ///< the stored size (EXIF orientation applied)
+};
+
+/// Picks the reduction (1, 2, 4 or 8) for an image of the given stored size (EXIF orientation applied).
+using ReductionChooser = int (*)(int width, int height);
+
+/// Decodes an image reduced where the format does so while decoding: a JPEG by its inverse DCT at
+/// 1/2, 1/4 or 1/8 scale as `choose` says (each pixel about its block's mean; a 12-MP photo at 1/4
+/// decodes in a fraction of the time and memory). Other formats come at full size (reduction 1).
+ReducedImage decode_image_reduced(const std::string& bytes, ImageColor color, const std::string& what, ReductionChooser choose);
+/// Reads and decodes an image file so (decode_image_reduced); errors name the file.
+ReducedImage read_image_reduced(const std::string& path, ImageColor color, ReductionChooser choose);
+
 /// PNG (lossless) and JPEG (`quality` 1-100) encodings of an image. Throws InvalidInput when the
 /// pixels do not match the size and channels.
 std::vector<std::uint8_t> encode_png(const Image8& image);
