@@ -16,30 +16,39 @@ namespace posekit {
 
 int Silhouette::area() const { return static_cast<int>(std::count_if(mask.begin(), mask.end(), [](std::uint8_t v) { return v != 0; })); }
 
-int Silhouette::top() const {
-  for (int v = 0; v < height; ++v)
-    for (int u = 0; u < width; ++u)
-      if (inside(u, v)) return v;
+namespace {
+
+/// The first row (from the top or the bottom) with a person pixel.
+int first_row(const Silhouette& s, bool from_top) {
+  for (int k = 0; k < s.height; ++k) {
+    const int v = from_top ? k : s.height - 1 - k;
+    const auto row = s.mask.begin() + static_cast<std::ptrdiff_t>(v) * s.width;
+    if (std::any_of(row, row + s.width, [](std::uint8_t x) { return x != 0; })) return v;
+  }
   return -1;
 }
-int Silhouette::bottom() const {
-  for (int v = height - 1; v >= 0; --v)
-    for (int u = 0; u < width; ++u)
-      if (inside(u, v)) return v;
-  return -1;
+
+/// The first column (from the left or the right) with a person pixel, read row by row (each row
+/// only as far as the best found so far).
+int first_column(const Silhouette& s, bool from_left) {
+  int best = s.width;  // columns from the side searched
+  for (int v = 0; v < s.height; ++v) {
+    const std::uint8_t* row = s.mask.data() + static_cast<size_t>(v) * s.width;
+    for (int k = 0; k < best; ++k)
+      if (row[from_left ? k : s.width - 1 - k]) {
+        best = k;
+        break;
+      }
+  }
+  return best == s.width ? -1 : from_left ? best : s.width - 1 - best;
 }
-int Silhouette::left() const {
-  for (int u = 0; u < width; ++u)
-    for (int v = 0; v < height; ++v)
-      if (inside(u, v)) return u;
-  return -1;
-}
-int Silhouette::right() const {
-  for (int u = width - 1; u >= 0; --u)
-    for (int v = 0; v < height; ++v)
-      if (inside(u, v)) return u;
-  return -1;
-}
+
+}  // namespace
+
+int Silhouette::top() const { return first_row(*this, true); }
+int Silhouette::bottom() const { return first_row(*this, false); }
+int Silhouette::left() const { return first_column(*this, true); }
+int Silhouette::right() const { return first_column(*this, false); }
 
 void check_silhouette(const Silhouette& s, const std::string& what, double min_area_fraction) {
   static auto* const check = plugin_function<void(const Silhouette&, const std::string&, double)>("photo", "posekit_check_silhouette");
@@ -64,8 +73,11 @@ Silhouette silhouette_from_render(const RenderBuffers& b) {
 }
 
 Silhouette silhouette_from_photo(const std::string& path, const std::string& what, const SilhouetteOptions& o) {
-  const Image8 img = read_image(path, ImageColor::kBgr);
-  return silhouette_from_pixels(img.width, img.height, 3, img.pixels.data(), what + " '" + path + "'", o);
+  using FromPhoto = void(const std::string&, const std::string&, const SilhouetteOptions&, Silhouette*);
+  static auto* const from_photo = plugin_function<FromPhoto>("photo", "posekit_silhouette_from_photo");
+  Silhouette s;
+  from_photo(path, what + " '" + path + "'", o, &s);
+  return s;
 }
 
 Silhouette read_silhouette_mask(const std::string& path, const std::string& what) {
