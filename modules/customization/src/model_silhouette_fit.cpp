@@ -125,13 +125,16 @@ Field make_field(std::vector<std::uint8_t> mask, int w, int h) {
 Field reduced_field(const Silhouette& s, int k) {
   const int w = s.width / k, h = s.height / k;
   std::vector<std::uint8_t> m(static_cast<size_t>(w) * h);
-  for (int v = 0; v < h; ++v)
-    for (int u = 0; u < w; ++u) {
-      int n = 0;
-      for (int dv = 0; dv < k; ++dv)
-        for (int du = 0; du < k; ++du) n += s.inside(u * k + du, v * k + dv);
-      m[static_cast<size_t>(v) * w + u] = 2 * n >= k * k;
+  std::vector<int> count(static_cast<size_t>(w));
+  for (int v = 0; v < h; ++v) {
+    std::fill(count.begin(), count.end(), 0);
+    for (int dv = 0; dv < k; ++dv) {
+      const std::uint8_t* row = s.mask.data() + static_cast<size_t>(v * k + dv) * s.width;
+      for (int u = 0; u < w; ++u)
+        for (int du = 0; du < k; ++du) count[static_cast<size_t>(u)] += row[u * k + du] != 0;
     }
+    for (int u = 0; u < w; ++u) m[static_cast<size_t>(v) * w + u] = 2 * count[static_cast<size_t>(u)] >= k * k;
+  }
   return make_field(std::move(m), w, h);
 }
 
@@ -183,9 +186,9 @@ struct View {
   double metres_per_px = 0;                         ///< at the body's distance
 };
 
-std::vector<View> make_views(const Silhouette* sil[2], const PinholeCamera* cams[2], int rows, const Eigen::Vector3d& body_centre) {
+std::vector<View> make_views(const Silhouette* sil[2], const PinholeCamera* cams[2], int rows, const Eigen::Vector3d& body_centre, int threads) {
   std::vector<View> views(2);
-  for (int k = 0; k < 2; ++k) {
+  auto make_view = [&](int k) {
     View& w = views[static_cast<size_t>(k)];
     const int factor = std::max(1, static_cast<int>(std::lround(static_cast<double>(sil[k]->height) / rows)));
     w.full = cams[k];
@@ -205,7 +208,8 @@ std::vector<View> make_views(const Silhouette* sil[2], const PinholeCamera* cams
         w.edge.push_back(p);
         w.edge_normal.push_back(g.normalized());
       }
-  }
+  };
+  run_beside(threads, [&] { make_view(1); }, [&] { make_view(0); });  // the views are independent
   return views;
 }
 
@@ -496,7 +500,7 @@ std::vector<View> fit_shape_and_pose(const BodyModel& model, const Silhouette* s
   posed.F = model.faces();
   std::vector<View> views;
   for (int level = 0; level < 2; ++level) {
-    views = make_views(sil, cams, level == 0 ? o.working_rows / 4 : o.working_rows, centre);
+    views = make_views(sil, cams, level == 0 ? o.working_rows / 4 : o.working_rows, centre, o.threads);
     const int iterations = level == 0 ? o.coarse_iterations : o.fine_iterations;
     for (int it = 0; it < iterations; ++it, ++fit->iterations) {
       const ShapedBody body(model, *c);
