@@ -400,221 +400,218 @@ CustomizedBody customize_from_silhouettes(const Silhouette& front, const Silhoue
   return out;
 }
 
-CustomizationModel train_customization_model(const CustomizationTrainingOptions& o) {
-  const Stopwatch t0;
-  if (o.bodies < 20) throw InvalidInput("customize train: at least 20 bodies");
-  const auto mh = load_makehuman_model(o.data_root);
-  CustomizationModel model;
-  model.seed = o.seed;
-  model.template_mesh = build_body(*mh, BodySpec{}).mesh;
-  const BodyFeatures template_features = find_body_features(model.template_mesh.V, model.template_mesh.F);
-  const std::vector<BodySpec> specs = make_calibration_specs(o.seed, o.bodies);
-  const int n = static_cast<int>(specs.size());
-  std::vector<Sample> samples(static_cast<size_t>(n));
+namespace {
+
+/// What the stages of train_customization_model share: the population and each body's sample.
+struct TrainingRun {
+  const CustomizationTrainingOptions& options;
+  std::shared_ptr<const MakeHumanModel> makehuman;
+  BodyFeatures template_features;
+  std::vector<BodySpec> specs;
+  std::vector<Sample> samples;
   std::atomic<int> done{0};
-  auto report = [&](const std::string& what) {
+
+  void report(const std::string& what) {
     const int d = ++done;
-    if (o.progress) o.progress(d, 2 * n, what);
-  };
-  // Pass 1: bodies, their features, rendered silhouettes, 2-D features.
-  parallel_for_each(n, o.threads, [&](long i) {
-    Sample& s = samples[static_cast<size_t>(i)];
-    try {
-      const Body body = build_body(*mh, specs[static_cast<size_t>(i)]);
-      s.bmi = body_stats(body.mesh).bmi;
-      s.gender = specs[static_cast<size_t>(i)].gender;
-      if (o.keep && !o.keep(i, s.bmi, s.gender)) {
-        s.why = "left out";
-        report("body " + std::to_string(i));
-        return;
-      }
-      std::mt19937 rng(o.seed * 31u + static_cast<unsigned>(i));
-      std::uniform_real_distribution<double> u(0, 1);
-      const double distance = 2.6 + 0.8 * u(rng);
-      const double mid = 0.5 * (body.mesh.V.col(1).maxCoeff() + body.mesh.V.col(1).minCoeff()) + 0.1 * (u(rng) - 0.5);
-      // A person never stands exactly square to the camera: each body turned by up to the population's
-      // turn about the vertical, so that the left and right arms' readings are not always equal (the
-      // regression then learns each side from its own arm, not from their mean).
-      const double turn = o.max_turn_degrees * (2 * u(rng) - 1) * M_PI / 180;
-      const TriangleMesh mesh = turned_about_vertical(body.mesh, turn);
-      const BodyFeatures f = find_body_features(mesh.V, mesh.F);
-      s.cameras.front = PinholeCamera::look_at(Eigen::Vector3d(0, mid, distance), Eigen::Vector3d(0, mid, 0), Eigen::Vector3d::UnitY(), 800, 1200, 1400);
-      s.cameras.side = PinholeCamera::look_at(Eigen::Vector3d(distance, mid, 0), Eigen::Vector3d(0, mid, 0), Eigen::Vector3d::UnitY(), 800, 1200, 1400);
-      const Silhouette sil[2] = {silhouette_from_render(render_mesh(mesh, s.cameras.front)),
-                                 silhouette_from_render(render_mesh(mesh, s.cameras.side))};
-      s.turn = turn;
-      const ArmChains arms = arm_chains(f);
-      s.landmarks = find_photo_landmarks(sil[0], sil[1], s.cameras, &arms);
-      s.targets = feature_targets(f, s.landmarks);
-      s.front_png = encode(sil[0].mask, sil[0].width, sil[0].height);
-      s.side_png = encode(sil[1].mask, sil[1].width, sil[1].height);
-      s.ok = true;
-    } catch (const Error& e) {
-      s.why = e.what();
-    }
-    report("body " + std::to_string(i));
-  });
+    if (options.progress) options.progress(d, 2 * static_cast<int>(samples.size()), what);
+  }
+  Sample& sample(int i) { return samples[static_cast<size_t>(i)]; }
+};
+
+/// Stage 1: one body of the population, turned a little, photographed by the training cameras; its
+/// 2-D landmarks and the 3-D features they are to predict.
+void photograph_training_body(TrainingRun& run, int i) {
+  const CustomizationTrainingOptions& o = run.options;
+  Sample& s = run.sample(i);
+  const Body body = build_body(*run.makehuman, run.specs[static_cast<size_t>(i)]);
+  s.bmi = body_stats(body.mesh).bmi;
+  s.gender = run.specs[static_cast<size_t>(i)].gender;
+  if (o.keep && !o.keep(i, s.bmi, s.gender)) {
+    s.why = "left out";
+    return;
+  }
+  std::mt19937 rng(o.seed * 31u + static_cast<unsigned>(i));
+  std::uniform_real_distribution<double> u(0, 1);
+  const double distance = 2.6 + 0.8 * u(rng);
+  const double mid = 0.5 * (body.mesh.V.col(1).maxCoeff() + body.mesh.V.col(1).minCoeff()) + 0.1 * (u(rng) - 0.5);
+  // A person never stands exactly square to the camera: each body turned by up to the population's
+  // turn about the vertical, so that the left and right arms' readings are not always equal (the
+  // regression then learns each side from its own arm, not from their mean).
+  const double turn = o.max_turn_degrees * (2 * u(rng) - 1) * M_PI / 180;
+  const TriangleMesh mesh = turned_about_vertical(body.mesh, turn);
+  const BodyFeatures f = find_body_features(mesh.V, mesh.F);
+  s.cameras.front = PinholeCamera::look_at(Eigen::Vector3d(0, mid, distance), Eigen::Vector3d(0, mid, 0), Eigen::Vector3d::UnitY(), 800, 1200, 1400);
+  s.cameras.side = PinholeCamera::look_at(Eigen::Vector3d(distance, mid, 0), Eigen::Vector3d(0, mid, 0), Eigen::Vector3d::UnitY(), 800, 1200, 1400);
+  const Silhouette sil[2] = {silhouette_from_render(render_mesh(mesh, s.cameras.front)), silhouette_from_render(render_mesh(mesh, s.cameras.side))};
+  s.turn = turn;
+  const ArmChains arms = arm_chains(f);
+  s.landmarks = find_photo_landmarks(sil[0], sil[1], s.cameras, &arms);
+  s.targets = feature_targets(f, s.landmarks);
+  s.front_png = encode(sil[0].mask, sil[0].width, sil[0].height);
+  s.side_png = encode(sil[1].mask, sil[1].width, sil[1].height);
+  s.ok = true;
+}
+
+/// The samples stage 1 could use; throws when under 20, with the first reason a body was not.
+std::vector<int> usable_samples(const std::vector<Sample>& samples) {
   std::vector<int> kept;
-  for (int i = 0; i < n; ++i)
-    if (samples[static_cast<size_t>(i)].ok) kept.push_back(i);
-  if (kept.size() < 20) {
-    std::string why;
-    for (const Sample& s : samples)
-      if (!s.ok && s.why != "left out") {
-        why = s.why;
-        break;
-      }
-    throw InvalidInput("customize train: only " + std::to_string(kept.size()) + " usable bodies (e.g.: " + why + ")");
+  for (size_t i = 0; i < samples.size(); ++i)
+    if (samples[i].ok) kept.push_back(static_cast<int>(i));
+  if (kept.size() >= 20) return kept;
+  std::string why;
+  for (const Sample& s : samples)
+    if (!s.ok && s.why != "left out") {
+      why = s.why;
+      break;
+    }
+  throw InvalidInput("customize train: only " + std::to_string(kept.size()) + " usable bodies (e.g.: " + why + ")");
+}
+
+/// Stage 2: the 3-D features by ridge regression on the 2-D landmarks; each arm's joints from its own
+/// arm's readings and the rest of the body, not the other arm's (a population of symmetric bodies
+/// makes the two arms' readings collinear, and a joint fit would predict each arm from their mean:
+/// wrong for a person turned a little, or with uneven arms).
+void fit_feature_regression(const Eigen::MatrixXd& X, const Eigen::MatrixXd& Y, CustomizationModel* model) {
+  const Eigen::Index descriptor_size = X.cols();
+  model->feature_weights = ridge(X, Y, 1e-4);
+  for (int side : {kLeft, kRight}) {
+    std::vector<bool> other(static_cast<size_t>(descriptor_size), false);
+    for (int c : descriptor_arm_entries(side == kLeft ? kRight : kLeft)) other[static_cast<size_t>(c)] = true;
+    std::vector<Eigen::Index> kept_columns, targets;
+    for (Eigen::Index c = 0; c < descriptor_size; ++c)
+      if (!other[static_cast<size_t>(c)]) kept_columns.push_back(c);
+    for (int point = kFirstArmPoint + side; point <= kLastArmPoint; point += 2)
+      for (int a = 0; a < 3; ++a) targets.push_back(kFeatureScalars + 3 * point + a);
+    const Eigen::MatrixXd W = ridge(X(Eigen::all, kept_columns), Y(Eigen::all, targets), 1e-4);
+    model->feature_weights(Eigen::all, targets).setZero();
+    for (size_t r = 0; r < kept_columns.size(); ++r) model->feature_weights(kept_columns[r], targets) = W.row(static_cast<Eigen::Index>(r));
+    model->feature_weights(descriptor_size, targets) = W.row(W.rows() - 1);
   }
-  // Validation: every fifth body (by index, so the split does not depend on threads).
-  const int stride = std::max(2, static_cast<int>(std::lround(1.0 / std::max(0.05, o.validation_fraction))));
-  std::vector<int> train, valid;
-  for (int i : kept) (i % stride == stride - 1 ? valid : train).push_back(i);
-  const int descriptor_size = static_cast<int>(samples[static_cast<size_t>(kept[0])].landmarks.descriptor.size());
-  {
-    Eigen::MatrixXd X(static_cast<Eigen::Index>(train.size()), descriptor_size), Y(static_cast<Eigen::Index>(train.size()), kFeatureTargets);
-    for (size_t r = 0; r < train.size(); ++r) {
-      X.row(static_cast<Eigen::Index>(r)) = samples[static_cast<size_t>(train[r])].landmarks.descriptor.transpose();
-      Y.row(static_cast<Eigen::Index>(r)) = samples[static_cast<size_t>(train[r])].targets.transpose();
-    }
-    model.feature_weights = ridge(X, Y, 1e-4);
-    // Each arm's joints from its own arm's readings and the rest of the body, not the other arm's:
-    // a population of symmetric bodies makes the two arms' readings collinear, and a joint fit would
-    // predict each arm from their mean (wrong for a person turned a little, or with uneven arms).
-    for (int side : {kLeft, kRight}) {
-      std::vector<bool> other(static_cast<size_t>(descriptor_size), false);
-      for (int c : descriptor_arm_entries(side == kLeft ? kRight : kLeft)) other[static_cast<size_t>(c)] = true;
-      std::vector<Eigen::Index> kept_columns, targets;
-      for (int c = 0; c < descriptor_size; ++c)
-        if (!other[static_cast<size_t>(c)]) kept_columns.push_back(c);
-      for (int point = kFirstArmPoint + side; point <= kLastArmPoint; point += 2)
-        for (int a = 0; a < 3; ++a) targets.push_back(kFeatureScalars + 3 * point + a);
-      const Eigen::MatrixXd W = ridge(X(Eigen::all, kept_columns), Y(Eigen::all, targets), 1e-4);
-      model.feature_weights(Eigen::all, targets).setZero();
-      for (size_t r = 0; r < kept_columns.size(); ++r) model.feature_weights(kept_columns[r], targets) = W.row(static_cast<Eigen::Index>(r));
-      model.feature_weights(descriptor_size, targets) = W.row(W.rows() - 1);
-    }
-    double sum = 0;
-    long count = 0;
-    for (int i : valid) {
-      const Eigen::VectorXd p = model.feature_weights.transpose() * with_bias(samples[static_cast<size_t>(i)].landmarks.descriptor);
-      const Eigen::VectorXd& t = samples[static_cast<size_t>(i)].targets;
-      for (int k = kFeatureScalars; k < kFeatureTargets; k += 3) sum += 1000 * (p.segment<3>(k) - t.segment<3>(k)).norm(), ++count;
-    }
-    model.feature_error_mm = count ? sum / count : 0;
-    // The population's spread of 2-D features, and the distance its validation bodies stay under.
-    model.descriptor_mean = X.colwise().mean().transpose();
-    model.descriptor_scale = ((X.rowwise() - model.descriptor_mean.transpose()).array().square().colwise().mean()).sqrt().transpose();
-    for (Eigen::Index c = 0; c < model.descriptor_scale.size(); ++c)
-      if (model.descriptor_scale[c] < 1e-9) model.descriptor_scale[c] = 1;
-    const Eigen::MatrixXd Z = (X.rowwise() - model.descriptor_mean.transpose()).array().rowwise() / model.descriptor_scale.transpose().array();
-    Eigen::MatrixXd correlation = Z.transpose() * Z / static_cast<double>(Z.rows());
-    correlation.diagonal().array() += 0.01;
-    model.descriptor_precision = correlation.ldlt().solve(Eigen::MatrixXd::Identity(correlation.rows(), correlation.cols()));
-    const Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> eig(correlation);
-    const int axes = std::min<int>(10, static_cast<int>(correlation.rows()));
-    model.descriptor_axes = eig.eigenvectors().rightCols(axes).rowwise().reverse();  // largest first
-    const Eigen::MatrixXd along = Z * model.descriptor_axes;
-    model.axis_low = along.colwise().minCoeff().transpose();
-    model.axis_high = along.colwise().maxCoeff().transpose();
-    std::vector<double> distances;
-    PhotoLandmarks probe;
-    for (int i : valid) {
-      probe.descriptor = samples[static_cast<size_t>(i)].landmarks.descriptor;
-      distances.push_back(population_distance(model, probe));
-    }
-    std::sort(distances.begin(), distances.end());
-    if (!distances.empty())
-      model.descriptor_limit = distances[std::min(distances.size() - 1, static_cast<size_t>(std::ceil(0.995 * distances.size())) - 1)];
+}
+
+/// Stage 3: the population's spread of 2-D landmarks (mean, scale, precision, principal axes and
+/// their ranges over the training bodies), and the distance 99.5% of the validation bodies stay under.
+void describe_population(const Eigen::MatrixXd& X, const std::vector<const Sample*>& validation, CustomizationModel* model) {
+  model->descriptor_mean = X.colwise().mean().transpose();
+  model->descriptor_scale = ((X.rowwise() - model->descriptor_mean.transpose()).array().square().colwise().mean()).sqrt().transpose();
+  for (Eigen::Index c = 0; c < model->descriptor_scale.size(); ++c)
+    if (model->descriptor_scale[c] < 1e-9) model->descriptor_scale[c] = 1;
+  const Eigen::MatrixXd Z = (X.rowwise() - model->descriptor_mean.transpose()).array().rowwise() / model->descriptor_scale.transpose().array();
+  Eigen::MatrixXd correlation = Z.transpose() * Z / static_cast<double>(Z.rows());
+  correlation.diagonal().array() += 0.01;
+  model->descriptor_precision = correlation.ldlt().solve(Eigen::MatrixXd::Identity(correlation.rows(), correlation.cols()));
+  const Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> eig(correlation);
+  const int axes = std::min<int>(10, static_cast<int>(correlation.rows()));
+  model->descriptor_axes = eig.eigenvectors().rightCols(axes).rowwise().reverse();  // largest first
+  const Eigen::MatrixXd along = Z * model->descriptor_axes;
+  model->axis_low = along.colwise().minCoeff().transpose();
+  model->axis_high = along.colwise().maxCoeff().transpose();
+  std::vector<double> distances;
+  PhotoLandmarks probe;
+  for (const Sample* s : validation) {
+    probe.descriptor = s->landmarks.descriptor;
+    distances.push_back(population_distance(*model, probe));
   }
-  // Pass 2: each body's representation at the predicted features; per layer, silhouette extents
-  // against the true section.
-  std::atomic<int> layer_count{0};
-  parallel_for_each(static_cast<long>(kept.size()), o.threads, [&](long j) {
-    Sample& s = samples[static_cast<size_t>(kept[static_cast<size_t>(j)])];
-    try {
-      const BodyFeatures f = torso_levels_in_proportion(within_photos(predict_body_features(model, s.landmarks), s.landmarks, nullptr),
-                                                        template_features);
-      const LayeredRepresentation planned = plan_layered_representation(f, model.points_per_layer);
-      const Silhouette front = decode(s.front_png), side = decode(s.side_png);
-      const std::vector<LayerExtent> e = measure_layers(planned, front, side, s.cameras, f.axis_x, s.landmarks.side_arm_occlusion);
-      const TriangleMesh mesh = turned_about_vertical(build_body(*mh, specs[static_cast<size_t>(kept[static_cast<size_t>(j)])]).mesh, s.turn);
-      const LayeredRepresentation truth = build_layered_representation(mesh.V, mesh.F, f, model.points_per_layer);
-      for (size_t i = 0; i < truth.layers.size(); ++i) {
-        s.inputs.push_back(layer_inputs(planned, e, i, s.landmarks.stature));
-        s.outputs.push_back(layer_outputs(truth, i, e[i]));
-        s.w.push_back(e[i].half_width);
-        s.d.push_back(e[i].half_depth > 0 ? e[i].half_depth : e[i].half_width);
-      }
-      layer_count = static_cast<int>(truth.layers.size());
-    } catch (const Error& e) {
-      s.ok = false;
-      s.why = e.what();
+  std::sort(distances.begin(), distances.end());
+  if (!distances.empty())
+    model->descriptor_limit = distances[std::min(distances.size() - 1, static_cast<size_t>(std::ceil(0.995 * distances.size())) - 1)];
+}
+
+/// Stages 2 and 3 on the training bodies, and the features' validation error (mm per point).
+void learn_features(const std::vector<Sample>& samples, const std::vector<int>& train, const std::vector<int>& valid, CustomizationModel* model) {
+  const Eigen::Index descriptor_size = samples[static_cast<size_t>(train[0])].landmarks.descriptor.size();
+  Eigen::MatrixXd X(static_cast<Eigen::Index>(train.size()), descriptor_size), Y(static_cast<Eigen::Index>(train.size()), kFeatureTargets);
+  for (size_t r = 0; r < train.size(); ++r) {
+    X.row(static_cast<Eigen::Index>(r)) = samples[static_cast<size_t>(train[r])].landmarks.descriptor.transpose();
+    Y.row(static_cast<Eigen::Index>(r)) = samples[static_cast<size_t>(train[r])].targets.transpose();
+  }
+  fit_feature_regression(X, Y, model);
+  double sum = 0;
+  long count = 0;
+  std::vector<const Sample*> validation;
+  for (int i : valid) {
+    const Sample& s = samples[static_cast<size_t>(i)];
+    const Eigen::VectorXd p = model->feature_weights.transpose() * with_bias(s.landmarks.descriptor);
+    for (int k = kFeatureScalars; k < kFeatureTargets; k += 3) sum += 1000 * (p.segment<3>(k) - s.targets.segment<3>(k)).norm(), ++count;
+    validation.push_back(&s);
+  }
+  model->feature_error_mm = count ? sum / count : 0;
+  describe_population(X, validation, model);
+}
+
+/// Stage 4: a body's representation planned at its predicted features; per layer, the inputs its
+/// silhouettes give and the true section's outputs.
+void measure_training_sections(TrainingRun& run, const CustomizationModel& model, int i) {
+  Sample& s = run.sample(i);
+  const BodyFeatures f =
+      torso_levels_in_proportion(within_photos(predict_body_features(model, s.landmarks), s.landmarks, nullptr), run.template_features);
+  const LayeredRepresentation planned = plan_layered_representation(f, model.points_per_layer);
+  const Silhouette front = decode(s.front_png), side = decode(s.side_png);
+  const std::vector<LayerExtent> e = measure_layers(planned, front, side, s.cameras, f.axis_x, s.landmarks.side_arm_occlusion);
+  const TriangleMesh mesh = turned_about_vertical(build_body(*run.makehuman, run.specs[static_cast<size_t>(i)]).mesh, s.turn);
+  const LayeredRepresentation truth = build_layered_representation(mesh.V, mesh.F, f, model.points_per_layer);
+  for (size_t k = 0; k < truth.layers.size(); ++k) {
+    s.inputs.push_back(layer_inputs(planned, e, k, s.landmarks.stature));
+    s.outputs.push_back(layer_outputs(truth, k, e[k]));
+    s.w.push_back(e[k].half_width);
+    s.d.push_back(e[k].half_depth > 0 ? e[k].half_depth : e[k].half_width);
+  }
+}
+
+/// Stage 5: layer i's regression, linear (ridge on standardised inputs) and, when asked and better on
+/// the validation bodies, an MLP.
+void fit_layer(const std::vector<Sample>& samples, const std::vector<int>& train, const std::vector<int>& valid, const CustomizationTrainingOptions& o,
+               size_t i, CustomizationModel* model) {
+  CustomizationModel::Layer& L = model->layers[i];
+  const int n_out = 2 * model->points_per_layer + 2;
+  auto gather = [&](const std::vector<int>& ids, Eigen::MatrixXd* X, Eigen::MatrixXd* Y) {
+    X->resize(static_cast<Eigen::Index>(ids.size()), kLayerInputs);
+    Y->resize(static_cast<Eigen::Index>(ids.size()), n_out);
+    for (size_t r = 0; r < ids.size(); ++r) {
+      X->row(static_cast<Eigen::Index>(r)) = samples[static_cast<size_t>(ids[r])].inputs[i].transpose();
+      Y->row(static_cast<Eigen::Index>(r)) = samples[static_cast<size_t>(ids[r])].outputs[i].transpose();
     }
-    report("sections " + std::to_string(j));
-  });
-  auto usable = [&](std::vector<int> v) {
-    v.erase(std::remove_if(v.begin(), v.end(), [&](int i) { return !samples[static_cast<size_t>(i)].ok; }), v.end());
-    return v;
   };
-  train = usable(train), valid = usable(valid);
-  if (train.size() < 15 || valid.empty()) throw InvalidInput("customize train: too few bodies gave sections");
-  const int layers = layer_count;
-  model.layers.resize(static_cast<size_t>(layers));
-  const int n_out = 2 * model.points_per_layer + 2;
-  parallel_for_each(layers, o.threads, [&](long i) {
-    CustomizationModel::Layer& L = model.layers[static_cast<size_t>(i)];
-    auto gather = [&](const std::vector<int>& ids, Eigen::MatrixXd* X, Eigen::MatrixXd* Y) {
-      X->resize(static_cast<Eigen::Index>(ids.size()), kLayerInputs);
-      Y->resize(static_cast<Eigen::Index>(ids.size()), n_out);
-      for (size_t r = 0; r < ids.size(); ++r) {
-        X->row(static_cast<Eigen::Index>(r)) = samples[static_cast<size_t>(ids[r])].inputs[static_cast<size_t>(i)].transpose();
-        Y->row(static_cast<Eigen::Index>(r)) = samples[static_cast<size_t>(ids[r])].outputs[static_cast<size_t>(i)].transpose();
-      }
-    };
-    Eigen::MatrixXd X, Y, Xv, Yv;
-    gather(train, &X, &Y);
-    gather(valid, &Xv, &Yv);
-    L.in_mean = X.colwise().mean().transpose();
-    L.in_scale = ((X.rowwise() - L.in_mean.transpose()).array().square().colwise().mean()).sqrt().transpose();
-    L.out_mean = Y.colwise().mean().transpose();
-    L.out_scale = ((Y.rowwise() - L.out_mean.transpose()).array().square().colwise().mean()).sqrt().transpose();
-    for (auto* s : {&L.in_scale, &L.out_scale})
-      for (Eigen::Index c = 0; c < s->size(); ++c) if ((*s)[c] < 1e-9) (*s)[c] = 1;
-    const Eigen::MatrixXd Z = (X.rowwise() - L.in_mean.transpose()).array().rowwise() / L.in_scale.transpose().array();
-    const Eigen::MatrixXd T = (Y.rowwise() - L.out_mean.transpose()).array().rowwise() / L.out_scale.transpose().array();
-    const Eigen::MatrixXd W = ridge(Z, T, 1e-4);  // Z is standardised already: W in its units
-    L.linear = W;
-    L.use_mlp = false;
-    double linear_sum = 0;
+  Eigen::MatrixXd X, Y, Xv, Yv;
+  gather(train, &X, &Y);
+  gather(valid, &Xv, &Yv);
+  L.in_mean = X.colwise().mean().transpose();
+  L.in_scale = ((X.rowwise() - L.in_mean.transpose()).array().square().colwise().mean()).sqrt().transpose();
+  L.out_mean = Y.colwise().mean().transpose();
+  L.out_scale = ((Y.rowwise() - L.out_mean.transpose()).array().square().colwise().mean()).sqrt().transpose();
+  for (auto* s : {&L.in_scale, &L.out_scale})
+    for (Eigen::Index c = 0; c < s->size(); ++c)
+      if ((*s)[c] < 1e-9) (*s)[c] = 1;
+  const Eigen::MatrixXd Z = (X.rowwise() - L.in_mean.transpose()).array().rowwise() / L.in_scale.transpose().array();
+  const Eigen::MatrixXd T = (Y.rowwise() - L.out_mean.transpose()).array().rowwise() / L.out_scale.transpose().array();
+  L.linear = ridge(Z, T, 1e-4);  // Z is standardised already: the weights in its units
+  L.use_mlp = false;
+  auto validation_error = [&](const std::function<Eigen::VectorXd(const Eigen::VectorXd&)>& predict) {
+    double sum = 0;
     for (Eigen::Index r = 0; r < Xv.rows(); ++r) {
-      const size_t id = static_cast<size_t>(valid[static_cast<size_t>(r)]);
-      linear_sum += point_error_mm(predict_layer(model, static_cast<size_t>(i), Xv.row(r).transpose()), Yv.row(r).transpose(),
-                                   samples[id].w[static_cast<size_t>(i)], samples[id].d[static_cast<size_t>(i)], model.points_per_layer);
+      const Sample& s = samples[static_cast<size_t>(valid[static_cast<size_t>(r)])];
+      sum += point_error_mm(predict(Xv.row(r).transpose()), Yv.row(r).transpose(), s.w[i], s.d[i], model->points_per_layer);
     }
-    L.linear_error_mm = linear_sum / Xv.rows();
-    L.mlp_error_mm = -1;
-    if (o.mlp) {
-      const opencv_calls::Mlp mlp = opencv_calls::train_mlp(Z, T, o.mlp_hidden, o.mlp_iterations, static_cast<int>(o.seed) + i);
-      double mlp_sum = 0;
-      for (Eigen::Index r = 0; r < Xv.rows(); ++r) {
-        const size_t id = static_cast<size_t>(valid[static_cast<size_t>(r)]);
-        const Eigen::VectorXd z = (Xv.row(r).transpose() - L.in_mean).cwiseQuotient(L.in_scale);
-        const Eigen::VectorXd y = L.out_mean + opencv_calls::predict_mlp(mlp, z).cwiseProduct(L.out_scale);
-        mlp_sum += point_error_mm(y, Yv.row(r).transpose(), samples[id].w[static_cast<size_t>(i)], samples[id].d[static_cast<size_t>(i)],
-                                  model.points_per_layer);
-      }
-      L.mlp_error_mm = mlp_sum / Xv.rows();
-      if (L.mlp_error_mm < L.linear_error_mm) {
-        L.use_mlp = true;
-        L.mlp = opencv_calls::mlp_text(mlp);
-      }
-    }
+    return sum / static_cast<double>(Xv.rows());
+  };
+  L.linear_error_mm = validation_error([&](const Eigen::VectorXd& x) { return predict_layer(*model, i, x); });
+  L.mlp_error_mm = -1;
+  if (!o.mlp) return;
+  const opencv_calls::Mlp mlp = opencv_calls::train_mlp(Z, T, o.mlp_hidden, o.mlp_iterations, static_cast<int>(o.seed + i));
+  L.mlp_error_mm = validation_error([&](const Eigen::VectorXd& x) {
+    const Eigen::VectorXd z = (x - L.in_mean).cwiseQuotient(L.in_scale);
+    return Eigen::VectorXd(L.out_mean + opencv_calls::predict_mlp(mlp, z).cwiseProduct(L.out_scale));
   });
-  model.bodies = static_cast<int>(train.size());
-  model.validation_bodies = static_cast<int>(valid.size());
+  if (L.mlp_error_mm < L.linear_error_mm) {
+    L.use_mlp = true;
+    L.mlp = opencv_calls::mlp_text(mlp);
+  }
+}
+
+/// The population a model was trained on, as its file records it.
+std::string describe_training_population(const CustomizationTrainingOptions& o, const std::vector<Sample>& samples, size_t train, size_t valid) {
   std::ostringstream pop;
-  pop << "make_calibration_specs(" << o.seed << ", " << o.bodies << "): " << train.size() << " training and " << valid.size()
+  pop << "make_calibration_specs(" << o.seed << ", " << o.bodies << "): " << train << " training and " << valid
       << " validation bodies, turned up to " << o.max_turn_degrees << " degrees";
   int failed = 0, left_out = 0;
   for (const Sample& s : samples) (s.why == "left out" ? left_out : failed) += !s.ok;
@@ -626,7 +623,55 @@ CustomizationModel train_customization_model(const CustomizationTrainingOptions&
     pop << ", " << failed << " unusable:";
     for (const auto& [why, count] : reasons) pop << " " << count << " x '" << why << "';";
   }
-  model.population = pop.str();
+  return pop.str();
+}
+
+}  // namespace
+
+CustomizationModel train_customization_model(const CustomizationTrainingOptions& o) {
+  const Stopwatch t0;
+  if (o.bodies < 20) throw InvalidInput("customize train: at least 20 bodies");
+  TrainingRun run{o, load_makehuman_model(o.data_root), {}, make_calibration_specs(o.seed, o.bodies), {}};
+  run.samples.resize(run.specs.size());
+  CustomizationModel model;
+  model.seed = o.seed;
+  model.template_mesh = build_body(*run.makehuman, BodySpec{}).mesh;
+  run.template_features = find_body_features(model.template_mesh.V, model.template_mesh.F);
+  const int n = static_cast<int>(run.specs.size());
+  auto each_sample = [&](long count, const std::function<int(long)>& index, const std::string& what,
+                         const std::function<void(int)>& stage) {
+    parallel_for_each(count, o.threads, [&](long j) {
+      const int i = index(j);
+      try {
+        stage(i);
+      } catch (const Error& e) {
+        run.sample(i).ok = false;
+        run.sample(i).why = e.what();
+      }
+      run.report(what + " " + std::to_string(j));
+    });
+  };
+  each_sample(n, [](long j) { return static_cast<int>(j); }, "body", [&](int i) { photograph_training_body(run, i); });
+  const std::vector<int> kept = usable_samples(run.samples);
+  // Validation: every fifth body (by index, so the split does not depend on threads).
+  const int stride = std::max(2, static_cast<int>(std::lround(1.0 / std::max(0.05, o.validation_fraction))));
+  std::vector<int> train, valid;
+  for (int i : kept) (i % stride == stride - 1 ? valid : train).push_back(i);
+  learn_features(run.samples, train, valid, &model);
+  each_sample(static_cast<long>(kept.size()), [&](long j) { return kept[static_cast<size_t>(j)]; }, "sections",
+              [&](int i) { measure_training_sections(run, model, i); });
+  auto usable = [&](std::vector<int> v) {
+    v.erase(std::remove_if(v.begin(), v.end(), [&](int i) { return !run.sample(i).ok; }), v.end());
+    return v;
+  };
+  train = usable(train), valid = usable(valid);
+  if (train.size() < 15 || valid.empty()) throw InvalidInput("customize train: too few bodies gave sections");
+  model.layers.resize(run.sample(train[0]).inputs.size());
+  parallel_for_each(static_cast<long>(model.layers.size()), o.threads,
+                    [&](long i) { fit_layer(run.samples, train, valid, o, static_cast<size_t>(i), &model); });
+  model.bodies = static_cast<int>(train.size());
+  model.validation_bodies = static_cast<int>(valid.size());
+  model.population = describe_training_population(o, run.samples, train.size(), valid.size());
   prepare_customization_model(&model);
   model.training_seconds = t0.seconds();
   return model;
