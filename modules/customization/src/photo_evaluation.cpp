@@ -178,6 +178,191 @@ void summarise_photo_evaluation(PhotoEvaluation* ev) {
   ev->mean_abs_hip_mm = girths_ok ? sh / girths_ok : 0;
 }
 
+namespace {
+
+/// A subject's two silhouettes under a variation, and the cameras and body they belong to.
+struct VariationInputs {
+  Silhouette front, side;
+  Silhouette rendered_truth[2];   ///< the true silhouettes of photos made here (phone variations)
+  double rendering_seconds = 0;   ///< making those photos (not timed)
+  PhotoCameras cameras;
+  TriangleMesh subject;           ///< where the person stood (turned for turned5)
+  double stated_stature = 0;      ///< 0: none stated
+};
+
+/// The subject's dataset photos, masks or a re-rendering of its mesh, as `variation` says.
+void photograph_subject(const fs::path& root, const nlohmann::json& photos, const std::string& id, PhotoVariation variation, VariationInputs* in) {
+  const std::string front_photo = (root / photos.at("front").get<std::string>()).string();
+  const std::string side_photo = (root / photos.at("side").get<std::string>()).string();
+  PhotoCameras& cams = in->cameras;
+  TriangleMesh& subject = in->subject;
+  switch (variation) {
+    case PhotoVariation::kPhotos:
+      in->front = silhouette_from_photo(front_photo, "front photo of " + id);
+      in->side = silhouette_from_photo(side_photo, "side photo of " + id);
+      break;
+    case PhotoVariation::kJpegNoise:
+      in->front = degraded_photo(front_photo, "front photo of " + id, 17);
+      in->side = degraded_photo(side_photo, "side photo of " + id, 29);
+      break;
+    case PhotoVariation::kTurned5deg: {
+      // The subject turned 5 degrees about the vertical through its centre.
+      const Eigen::RowVector3d c = subject.V.colwise().mean();
+      const Eigen::Matrix3d R = Eigen::AngleAxisd(5 * M_PI / 180, Eigen::Vector3d::UnitY()).toRotationMatrix();
+      subject.V = ((subject.V.rowwise() - c) * R.transpose()).rowwise() + c;  // the surface compared where the person stood
+      in->front = silhouette_from_render(render_mesh(subject, cams.front));
+      in->side = silhouette_from_render(render_mesh(subject, cams.side));
+      break;
+    }
+    case PhotoVariation::kCamera130Level:
+    case PhotoVariation::kCamera130Aimed:
+    case PhotoVariation::kCamera100Level: {
+      const double h = variation == PhotoVariation::kCamera100Level ? 1.0 : 1.3;
+      cams = cameras_at_height(cams, subject, h, variation == PhotoVariation::kCamera130Aimed);
+      in->front = silhouette_from_render(render_mesh(subject, cams.front));
+      in->side = silhouette_from_render(render_mesh(subject, cams.side));
+      break;
+    }
+    case PhotoVariation::kRoom: {
+      const double floor_y = subject.V.col(1).minCoeff();
+      for (const auto& [view, cam, sil] :
+           {std::tuple<const char*, const PinholeCamera&, Silhouette&>{"front", cams.front, in->front}, {"side", cams.side, in->side}}) {
+        const Image8 photo = photo_in_room(render_mesh(subject, cam), cam, floor_y, 1.2);
+        sil = silhouette_from_pixels(photo.width, photo.height, 3, photo.pixels.data(), std::string(view) + " photo of " + id + " in a room");
+      }
+      break;
+    }
+    case PhotoVariation::kPhone:
+    case PhotoVariation::kPhoneMasks: {
+      const double floor_y = subject.V.col(1).minCoeff();
+      cams = phone_cameras(cams, subject);
+      unsigned seed = 41;
+      for (const auto& [view, cam, sil, truth] :
+           {std::tuple<const char*, const PinholeCamera&, Silhouette&, Silhouette&>{"front", cams.front, in->front, in->rendered_truth[0]},
+            {"side", cams.side, in->side, in->rendered_truth[1]}}) {
+        const Stopwatch untimed;
+        const RenderBuffers render = render_mesh(subject, cam);
+        truth = silhouette_from_render(render);
+        if (variation == PhotoVariation::kPhoneMasks) {
+          in->rendering_seconds += untimed.seconds();
+          sil = truth;
+          continue;
+        }
+        Image8 photo = photo_in_room(render, cam, floor_y, 1.2);
+        blur_image(&photo, 0.6);
+        opencv_calls::add_gaussian_noise(&photo, seed++, 2.0);
+        const std::vector<std::uint8_t> jpg = encode_jpeg(photo, 70);
+        const std::string what = std::string(view) + " phone photo of " + id;
+        photo = decode_image(std::string(jpg.begin(), jpg.end()), ImageColor::kBgr, what);
+        in->rendering_seconds += untimed.seconds();
+        sil = silhouette_from_pixels(photo.width, photo.height, 3, photo.pixels.data(), what);
+      }
+      break;
+    }
+    default:
+      in->front = read_silhouette_mask((root / photos.at("front_mask").get<std::string>()).string(), "front mask of " + id);
+      in->side = read_silhouette_mask((root / photos.at("side_mask").get<std::string>()).string(), "side mask of " + id);
+      break;
+  }
+  if (variation == PhotoVariation::kErode2 || variation == PhotoVariation::kDilate2) {
+    in->front = morph(in->front, variation == PhotoVariation::kErode2, 2);
+    in->side = morph(in->side, variation == PhotoVariation::kErode2, 2);
+  }
+}
+
+/// The variations without a camera file: a stated stature (maybe 1 cm off) and an assumed distance
+/// (maybe 20 cm off).
+void state_the_stature(PhotoVariation variation, double true_stature, VariationInputs* in) {
+  if (variation != PhotoVariation::kHeightPlus1cm && variation != PhotoVariation::kNearer20cm && variation != PhotoVariation::kFarther20cm)
+    return;
+  const PinholeCamera& front = in->cameras.front;
+  const double true_distance = (front.centre() - Eigen::Vector3d(0, front.centre().y(), 0)).norm();
+  const double d = true_distance + (variation == PhotoVariation::kNearer20cm ? -0.2 : variation == PhotoVariation::kFarther20cm ? 0.2 : 0);
+  in->stated_stature = true_stature + (variation == PhotoVariation::kHeightPlus1cm ? 0.01 : 0);
+  in->cameras = cameras_from_stature(in->front, in->side, in->stated_stature, d);
+}
+
+void write_variation_inputs(const fs::path& dir, const VariationInputs& in) {
+  create_folders(dir.string());
+  write_silhouette_png((dir / "front_mask.png").string(), in.front);
+  write_silhouette_png((dir / "side_mask.png").string(), in.side);
+  const std::string text = "{\n\"front\": " + camera_to_json(in.cameras.front) + ",\n\"side\": " + camera_to_json(in.cameras.side) + "}\n";
+  write_file_atomically((dir / "camera.json").string(), [&](std::ostream& os) { os << text; }, false);
+}
+
+double silhouette_iou(const Silhouette& truth, const Silhouette& mine) {
+  long inter = 0, uni = 0;
+  for (size_t k = 0; k < truth.mask.size() && k < mine.mask.size(); ++k)
+    inter += truth.mask[k] && mine.mask[k], uni += truth.mask[k] || mine.mask[k];
+  return static_cast<double>(inter) / std::max(1L, uni);
+}
+
+/// The result's stature, girths and surface against the subject's (its measurements file).
+void score_against_truth(const CustomizedBody& body, const nlohmann::json& truth, const VariationInputs& in, PhotoSubjectResult* r) {
+  r->warnings = body.warnings;
+  r->photo_agreement = body.photo_agreement;
+  const BodyMeasurements m = measure_body(body.mesh.V, body.mesh.F);
+  r->stature_mm = 1000 * (m.stature - truth.at("stature").get<double>());
+  const auto& g = truth.at("girths");
+  const Girth *b = m.find("bust"), *w = m.find("waist"), *h = m.find("hip");
+  r->girths_measured = b && w && h && b->measured && w->measured && h->measured;
+  if (r->girths_measured) {
+    r->bust_mm = 1000 * (b->value - g.at("bust").get<double>());
+    r->waist_mm = 1000 * (w->value - g.at("waist").get<double>());
+    r->hip_mm = 1000 * (h->value - g.at("hip").get<double>());
+  } else {
+    for (const Girth* x : {b, w, h})
+      if (x && !x->measured) {
+        r->error = "the result's " + x->name + " not measured: " + x->note;
+        break;
+      }
+  }
+  // Distance from the subject's vertices to the result: the result is where the person is in the
+  // photos' world, and so is the subject's mesh (the dataset's cameras look at it). Without a camera
+  // file the result stands in the assumed cameras' world: it is moved onto the subject by the
+  // difference of the bounding boxes' floor centres (no rotation, no scale).
+  TriangleMesh placed = body.mesh;
+  if (!in.cameras.assumed.empty()) {
+    auto floor_centre = [](const Eigen::MatrixXd& V) {
+      const Eigen::RowVector3d lo = V.colwise().minCoeff(), hi = V.colwise().maxCoeff();
+      return Eigen::RowVector3d(0.5 * (lo.x() + hi.x()), lo.y(), 0.5 * (lo.z() + hi.z()));
+    };
+    placed.V = placed.V.rowwise() + (floor_centre(in.subject.V) - floor_centre(placed.V));
+  }
+  const TriangleTree tree(placed.V, placed.F);
+  r->surface_mm = 1000 * tree.closest(in.subject.V, 2).distance.mean();
+}
+
+/// One subject of the dataset customized under `variation` and scored.
+PhotoSubjectResult evaluate_subject(const fs::path& root, const nlohmann::json& s, const CustomizationModel& model, PhotoVariation variation,
+                                    const std::string& inputs_out, const BodyModel* body_model) {
+  PhotoSubjectResult r;
+  r.id = s.at("id").get<std::string>();
+  const auto& photos = s.at("photos");
+  const nlohmann::json truth = read_json(root / s.at("measurements").get<std::string>());
+  VariationInputs in;
+  in.cameras = read_photo_cameras((root / photos.at("camera").get<std::string>()).string());
+  const Stopwatch t0;
+  in.subject = load_subject_mesh((root / s.at("rest").get<std::string>()).string());
+  photograph_subject(root, photos, r.id, variation, &in);
+  state_the_stature(variation, truth.at("stature").get<double>(), &in);
+  if (!inputs_out.empty()) write_variation_inputs(fs::path(inputs_out) / photo_variation_name(variation) / r.id, in);
+  const CustomizedBody body = body_model ? customize_by_body_model(*body_model, in.front, in.side, in.cameras, in.stated_stature)
+                                         : customize_from_silhouettes(in.front, in.side, in.cameras, model, in.stated_stature);
+  r.seconds = t0.seconds() - in.rendering_seconds;
+  if (variation == PhotoVariation::kPhone || variation == PhotoVariation::kPhoneMasks)
+    r.silhouette_iou = std::min({r.silhouette_iou, silhouette_iou(in.rendered_truth[0], in.front), silhouette_iou(in.rendered_truth[1], in.side)});
+  if (variation < PhotoVariation::kTurned5deg || variation == PhotoVariation::kJpegNoise || variation == PhotoVariation::kRoom)
+    for (const auto& [mine, key] : {std::pair<const Silhouette*, const char*>{&in.front, "front_mask"}, {&in.side, "side_mask"}})
+      r.silhouette_iou =
+          std::min(r.silhouette_iou, silhouette_iou(read_silhouette_mask((root / photos.at(key).get<std::string>()).string(), key), *mine));
+  score_against_truth(body, truth, in, &r);
+  r.ok = true;
+  return r;
+}
+
+}  // namespace
+
 PhotoEvaluation evaluate_photo_customization(const std::string& dataset_dir, const CustomizationModel& model, PhotoVariation variation,
                                              const std::vector<std::string>& ids, const std::string& inputs_out,
                                              const BodyModel* body_model) {
@@ -188,169 +373,14 @@ PhotoEvaluation evaluate_photo_customization(const std::string& dataset_dir, con
   for (const auto& s : manifest.at("subjects")) {
     const std::string id = s.at("id").get<std::string>();
     if (!ids.empty() && std::find(ids.begin(), ids.end(), id) == ids.end()) continue;
-    PhotoSubjectResult r;
-    r.id = id;
     try {
-      const auto& ph = s.at("photos");
-      const std::string front_photo = (root / ph.at("front").get<std::string>()).string();
-      const std::string side_photo = (root / ph.at("side").get<std::string>()).string();
-      const nlohmann::json meas = read_json(root / s.at("measurements").get<std::string>());
-      const double true_stature = meas.at("stature").get<double>();
-      PhotoCameras cams = read_photo_cameras((root / ph.at("camera").get<std::string>()).string());
-      double stated = 0;
-      const Stopwatch t0;
-      double rendering_seconds = 0;     // of photos made here (not timed)
-      Silhouette rendered_truth[2];     // their true silhouettes
-      Silhouette front, side;
-      TriangleMesh subject = load_subject_mesh((root / s.at("rest").get<std::string>()).string());
-      switch (variation) {
-        case PhotoVariation::kPhotos:
-          front = silhouette_from_photo(front_photo, "front photo of " + id);
-          side = silhouette_from_photo(side_photo, "side photo of " + id);
-          break;
-        case PhotoVariation::kJpegNoise:
-          front = degraded_photo(front_photo, "front photo of " + id, 17);
-          side = degraded_photo(side_photo, "side photo of " + id, 29);
-          break;
-        case PhotoVariation::kTurned5deg: {
-          // The subject turned 5 degrees about the vertical through its centre.
-          const Eigen::RowVector3d c = subject.V.colwise().mean();
-          const Eigen::Matrix3d R = Eigen::AngleAxisd(5 * M_PI / 180, Eigen::Vector3d::UnitY()).toRotationMatrix();
-          TriangleMesh turned = subject;
-          turned.V = ((subject.V.rowwise() - c) * R.transpose()).rowwise() + c;
-          front = silhouette_from_render(render_mesh(turned, cams.front));
-          side = silhouette_from_render(render_mesh(turned, cams.side));
-          subject = std::move(turned);  // the surface is compared where the person stood
-          break;
-        }
-        case PhotoVariation::kCamera130Level:
-        case PhotoVariation::kCamera130Aimed:
-        case PhotoVariation::kCamera100Level: {
-          const double h = variation == PhotoVariation::kCamera100Level ? 1.0 : 1.3;
-          cams = cameras_at_height(cams, subject, h, variation == PhotoVariation::kCamera130Aimed);
-          front = silhouette_from_render(render_mesh(subject, cams.front));
-          side = silhouette_from_render(render_mesh(subject, cams.side));
-          break;
-        }
-        case PhotoVariation::kRoom: {
-          const double floor_y = subject.V.col(1).minCoeff();
-          for (const auto& [view, cam, sil] : {std::tuple<const char*, const PinholeCamera&, Silhouette&>{"front", cams.front, front},
-                                               {"side", cams.side, side}}) {
-            const Image8 photo = photo_in_room(render_mesh(subject, cam), cam, floor_y, 1.2);
-            sil = silhouette_from_pixels(photo.width, photo.height, 3, photo.pixels.data(), std::string(view) + " photo of " + id + " in a room");
-          }
-          break;
-        }
-        case PhotoVariation::kPhone:
-        case PhotoVariation::kPhoneMasks: {
-          const double floor_y = subject.V.col(1).minCoeff();
-          cams = phone_cameras(cams, subject);
-          unsigned seed = 41;
-          for (const auto& [view, cam, sil, truth] : {std::tuple<const char*, const PinholeCamera&, Silhouette&, Silhouette&>{
-                                                          "front", cams.front, front, rendered_truth[0]},
-                                                      {"side", cams.side, side, rendered_truth[1]}}) {
-            const Stopwatch untimed;
-            const RenderBuffers render = render_mesh(subject, cam);
-            truth = silhouette_from_render(render);
-            if (variation == PhotoVariation::kPhoneMasks) {
-              rendering_seconds += untimed.seconds();
-              sil = truth;
-              continue;
-            }
-            Image8 photo = photo_in_room(render, cam, floor_y, 1.2);
-            blur_image(&photo, 0.6);
-            opencv_calls::add_gaussian_noise(&photo, seed++, 2.0);
-            const std::vector<std::uint8_t> jpg = encode_jpeg(photo, 70);
-            const std::string what = std::string(view) + " phone photo of " + id;
-            photo = decode_image(std::string(jpg.begin(), jpg.end()), ImageColor::kBgr, what);
-            rendering_seconds += untimed.seconds();
-            sil = silhouette_from_pixels(photo.width, photo.height, 3, photo.pixels.data(), what);
-          }
-          break;
-        }
-        default:
-          front = read_silhouette_mask((root / ph.at("front_mask").get<std::string>()).string(), "front mask of " + id);
-          side = read_silhouette_mask((root / ph.at("side_mask").get<std::string>()).string(), "side mask of " + id);
-          break;
-      }
-      if (variation == PhotoVariation::kErode2 || variation == PhotoVariation::kDilate2) {
-        front = morph(front, variation == PhotoVariation::kErode2, 2);
-        side = morph(side, variation == PhotoVariation::kErode2, 2);
-      }
-      if (variation == PhotoVariation::kHeightPlus1cm || variation == PhotoVariation::kNearer20cm ||
-          variation == PhotoVariation::kFarther20cm) {
-        const double true_distance = (cams.front.centre() - Eigen::Vector3d(0, cams.front.centre().y(), 0)).norm();
-        const double d = true_distance + (variation == PhotoVariation::kNearer20cm ? -0.2 : variation == PhotoVariation::kFarther20cm ? 0.2 : 0);
-        stated = true_stature + (variation == PhotoVariation::kHeightPlus1cm ? 0.01 : 0);
-        cams = cameras_from_stature(front, side, stated, d);
-      }
-      if (!inputs_out.empty()) {
-        const fs::path dir = fs::path(inputs_out) / photo_variation_name(variation) / id;
-        create_folders(dir.string());
-        write_silhouette_png((dir / "front_mask.png").string(), front);
-        write_silhouette_png((dir / "side_mask.png").string(), side);
-        const std::string text = "{\n\"front\": " + camera_to_json(cams.front) + ",\n\"side\": " + camera_to_json(cams.side) + "}\n";
-        write_file_atomically((dir / "camera.json").string(), [&](std::ostream& os) { os << text; }, false);
-      }
-      const CustomizedBody body = body_model ? customize_by_body_model(*body_model, front, side, cams, stated)
-                                             : customize_from_silhouettes(front, side, cams, model, stated);
-      const double elapsed = t0.seconds() - rendering_seconds;
-      if (variation == PhotoVariation::kPhone || variation == PhotoVariation::kPhoneMasks) {
-        for (int k = 0; k < 2; ++k) {
-          const Silhouette& mine = k == 0 ? front : side;
-          long inter = 0, uni = 0;
-          for (size_t i = 0; i < rendered_truth[k].mask.size() && i < mine.mask.size(); ++i)
-            inter += rendered_truth[k].mask[i] && mine.mask[i], uni += rendered_truth[k].mask[i] || mine.mask[i];
-          r.silhouette_iou = std::min(r.silhouette_iou, static_cast<double>(inter) / std::max(1L, uni));
-        }
-      }
-      if (variation < PhotoVariation::kTurned5deg || variation == PhotoVariation::kJpegNoise || variation == PhotoVariation::kRoom) {
-        for (const auto& [mine, key] : {std::pair<const Silhouette*, const char*>{&front, "front_mask"}, {&side, "side_mask"}}) {
-          const Silhouette truth = read_silhouette_mask((root / ph.at(key).get<std::string>()).string(), key);
-          long inter = 0, uni = 0;
-          for (size_t k = 0; k < truth.mask.size() && k < mine->mask.size(); ++k)
-            inter += truth.mask[k] && mine->mask[k], uni += truth.mask[k] || mine->mask[k];
-          r.silhouette_iou = std::min(r.silhouette_iou, static_cast<double>(inter) / std::max(1L, uni));
-        }
-      }
-      r.seconds = elapsed;
-      r.warnings = body.warnings;
-      r.photo_agreement = body.photo_agreement;
-      const BodyMeasurements m = measure_body(body.mesh.V, body.mesh.F);
-      r.stature_mm = 1000 * (m.stature - true_stature);
-      const auto& g = meas.at("girths");
-      const Girth *b = m.find("bust"), *w = m.find("waist"), *h = m.find("hip");
-      r.girths_measured = b && w && h && b->measured && w->measured && h->measured;
-      if (r.girths_measured) {
-        r.bust_mm = 1000 * (b->value - g.at("bust").get<double>());
-        r.waist_mm = 1000 * (w->value - g.at("waist").get<double>());
-        r.hip_mm = 1000 * (h->value - g.at("hip").get<double>());
-      } else {
-        for (const Girth* x : {b, w, h})
-          if (x && !x->measured) {
-            r.error = "the result's " + x->name + " not measured: " + x->note;
-            break;
-          }
-      }
-      // Distance from the subject's vertices to the result: the result is where the person is
-      // in the photos' world, and so is the subject's mesh (the dataset's cameras look at it).
-      // Without a camera file the result stands in the assumed cameras' world: it is moved onto the
-      // subject by the difference of the bounding boxes' floor centres (no rotation, no scale).
-      TriangleMesh placed = body.mesh;
-      if (!cams.assumed.empty()) {
-        auto floor_centre = [](const Eigen::MatrixXd& V) {
-          const Eigen::RowVector3d lo = V.colwise().minCoeff(), hi = V.colwise().maxCoeff();
-          return Eigen::RowVector3d(0.5 * (lo.x() + hi.x()), lo.y(), 0.5 * (lo.z() + hi.z()));
-        };
-        placed.V = placed.V.rowwise() + (floor_centre(subject.V) - floor_centre(placed.V));
-      }
-      const TriangleTree tree(placed.V, placed.F);
-      r.surface_mm = 1000 * tree.closest(subject.V, 2).distance.mean();
-      r.ok = true;
+      ev.subjects.push_back(evaluate_subject(root, s, model, variation, inputs_out, body_model));
     } catch (const Error& e) {
+      PhotoSubjectResult r;
+      r.id = id;
       r.error = e.what();
+      ev.subjects.push_back(std::move(r));
     }
-    ev.subjects.push_back(std::move(r));
   }
   summarise_photo_evaluation(&ev);
   return ev;

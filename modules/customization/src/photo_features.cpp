@@ -69,8 +69,35 @@ class Finder {
 
   PhotoLandmarks find() {
     PhotoLandmarks L;
-    const int top = fs_.top(), bot = fs_.bottom(), H = bot - top;
-    // Axis: the torso run's centre a little below the middle of the figure.
+    FrontRows rows;
+    rows.top = fs_.top(), rows.bottom = fs_.bottom(), rows.height = rows.bottom - rows.top;
+    find_axis(rows);
+    find_crotch(&rows, &L);
+    find_armpits(&rows);
+    find_neck(&rows);
+    follow_arms(&rows);
+    place_levels(rows, &L);
+    std::vector<double> d;
+    describe_head_and_arms(rows, &L, &d);
+    describe_torso(&L, &d);
+    describe_legs(L, &d);
+    L.descriptor = Eigen::Map<Eigen::VectorXd>(d.data(), static_cast<Eigen::Index>(d.size()));
+    L.side_arm_occlusion = side_arm_occlusion(L);
+    return L;
+  }
+
+  /// Rows (front photo's pixels) of the landmarks, found top-down.
+  struct FrontRows {
+    int top = 0, bottom = 0, height = 0;  ///< the figure
+    int crotch = -1, armpit[2] = {-1, -1};
+    int head = 0, neck = 0;               ///< the head's widest row and the narrowest below it
+    double head_width = 0, neck_width = 1e9;
+    std::vector<Eigen::Vector2d> arm_track[2];  ///< (u, v) centres of each arm's runs, down from the armpit
+  };
+
+  /// The body axis: the torso run's centre a little below the middle of the figure.
+  void find_axis(const FrontRows& rows) {
+    const int top = rows.top, H = rows.height;
     std::vector<double> centres;
     double mid_u = 0;
     long count = 0;
@@ -85,53 +112,66 @@ class Finder {
     if (centres.empty()) throw InvalidInput("front photo: no torso found");
     std::nth_element(centres.begin(), centres.begin() + centres.size() / 2, centres.end());
     axis_u_ = centres[centres.size() / 2];
-    // Crotch: the top of the gap between the legs, 3 rows of it at least.
-    int crotch_v = -1;
-    for (int v = top + static_cast<int>(0.42 * H); v < bot - 3 && crotch_v < 0; ++v) {
+  }
+
+  /// The crotch: the top of the gap between the legs, 3 rows of it at least.
+  void find_crotch(FrontRows* rows, PhotoLandmarks* L) const {
+    const int top = rows->top, H = rows->height;
+    for (int v = top + static_cast<int>(0.42 * H); v < rows->bottom - 3 && rows->crotch < 0; ++v) {
       bool gap = true;
       for (int k = 0; k < 3 && gap; ++k) gap = !fs_.inside(static_cast<int>(axis_u_), v + k);
-      if (gap) crotch_v = v - 1;
+      if (gap) rows->crotch = v - 1;
     }
-    if (crotch_v < 0 || crotch_v > top + 0.66 * H)
+    if (rows->crotch < 0 || rows->crotch > top + 0.66 * H)
       throw InvalidInput("front photo: no gap between the legs below the torso: the person must stand facing the camera, "
                          "feet apart (is the side photo given as front?)");
-    if (crotch_v > top + 0.58 * H) L.warnings.push_back("front photo: the legs touch below the crotch; its level is uncertain");
-    // Armpits: the top of the gap between the torso and each arm, searched down from below the head
-    // (a thick arm may touch the waist lower down).
-    int armpit_v[2];
+    if (rows->crotch > top + 0.58 * H) L->warnings.push_back("front photo: the legs touch below the crotch; its level is uncertain");
+  }
+
+  /// The armpits: the top of the gap between the torso and each arm, searched down from below the
+  /// head (a thick arm may touch the waist lower down).
+  void find_armpits(FrontRows* rows) const {
+    const int top = rows->top, H = rows->height;
     for (int side : {kLeft, kRight}) {
       const int dir = side == kLeft ? x_dir_ : -x_dir_;
-      armpit_v[side] = -1;
-      for (int v = top + static_cast<int>(0.12 * H); v < crotch_v && armpit_v[side] < 0; ++v) {
+      for (int v = top + static_cast<int>(0.12 * H); v < rows->crotch && rows->armpit[side] < 0; ++v) {
         bool open = true;  // 8 rows: a noisy outline may open a gap for a row or two
         for (int k = 0; k < 8 && open; ++k) open = gap_beside_torso(v + k, dir);
-        if (open) armpit_v[side] = v;
+        if (open) rows->armpit[side] = v;
       }
-      if (armpit_v[side] < 0)
+      if (rows->armpit[side] < 0)
         throw InvalidInput(std::string("front photo: the ") + (side == kLeft ? "left" : "right") +
                            " arm touches the torso all the way: hold the arms away from the body (the standard pose)");
     }
-    const int armpit_top = std::min(armpit_v[0], armpit_v[1]);
-    if (armpit_top < top + 0.1 * H || armpit_top > crotch_v - 0.12 * H)
+    const int armpit_top = std::min(rows->armpit[0], rows->armpit[1]);
+    if (armpit_top < top + 0.1 * H || armpit_top > rows->crotch - 0.12 * H)
       throw InvalidInput("front photo: armpits found at implausible heights (is the person standing in the standard pose?)");
-    // Neck: the narrowest torso row between the head's widest and the armpits.
-    int head_v = top, neck_v = top;
-    double head_w = 0, neck_w = 1e9;
-    for (int v = top; v <= top + 0.13 * H; ++v) {
+  }
+
+  /// The neck: the narrowest torso row between the head's widest and the armpits.
+  void find_neck(FrontRows* rows) const {
+    const int top = rows->top;
+    rows->head = rows->neck = top;
+    for (int v = top; v <= top + 0.13 * rows->height; ++v) {
       const auto runs = runs_of(fs_, v);
-      if (const Run* r = run_at(runs, axis_u_)) if (r->width() > head_w) head_w = r->width(), head_v = v;
+      if (const Run* r = run_at(runs, axis_u_))
+        if (r->width() > rows->head_width) rows->head_width = r->width(), rows->head = v;
     }
-    for (int v = head_v; v < armpit_top; ++v) {
+    for (int v = rows->head; v < std::min(rows->armpit[0], rows->armpit[1]); ++v) {
       const auto runs = runs_of(fs_, v);
-      if (const Run* r = run_at(runs, axis_u_)) if (r->width() < neck_w) neck_w = r->width(), neck_v = v;
+      if (const Run* r = run_at(runs, axis_u_))
+        if (r->width() < rows->neck_width) rows->neck_width = r->width(), rows->neck = v;
     }
-    // Arms: followed down from below the armpit by overlapping runs.
-    std::vector<Eigen::Vector2d> arm_track[2];  // (u, v) centres
+  }
+
+  /// Each arm followed down from below its armpit by overlapping runs.
+  void follow_arms(FrontRows* rows) const {
     for (int side : {kLeft, kRight}) {
       const int dir = side == kLeft ? x_dir_ : -x_dir_;
+      std::vector<Eigen::Vector2d>& track = rows->arm_track[side];
       Run prev;
       bool have = false;
-      for (int v = armpit_v[side] + 3; v < bot; ++v) {
+      for (int v = rows->armpit[side] + 3; v < rows->bottom; ++v) {
         const auto runs = runs_of(fs_, v);
         const Run* torso = run_at(runs, axis_u_);
         const Run* next = nullptr;
@@ -148,120 +188,111 @@ class Finder {
           }
           if (next && next->width() > 2.5 * prev.width() + 4) next = nullptr;  // merged with a thigh
         }
-        if (!next && !have && v < armpit_v[side] + 3 + 0.05 * H) continue;  // a bridge of noise under the armpit
+        if (!next && !have && v < rows->armpit[side] + 3 + 0.05 * rows->height) continue;  // a bridge of noise under the armpit
         if (!next) break;
         prev = *next;
         have = true;
-        arm_track[side].emplace_back(next->centre(), v + 0.5);
+        track.emplace_back(next->centre(), v + 0.5);
       }
-      if (arm_track[side].size() < 10)
+      if (track.size() < 10)
         throw InvalidInput(std::string("front photo: the ") + (side == kLeft ? "left" : "right") + " arm cannot be followed below the armpit");
     }
-    // World levels (first on the plane through the meeting point, then at the torso's depth).
-    auto y_of_row = [&](double v) { return point_at_depth(fc_, axis_u_, v, depth_of(fc_, p0_)).y(); };
-    const double crotch_y = y_of_row(crotch_v + 1), armpit_y[2] = {y_of_row(armpit_v[0]), y_of_row(armpit_v[1])};
-    L.axis_x = point_at_depth(fc_, axis_u_, 0.5 * (top + bot), depth_of(fc_, p0_)).x();
-    L.axis_z = p0_.z();
+  }
+
+  /// World height of a front photo row on the body's axis, at the depth of the views' meeting point.
+  double y_of_row(double v) const { return point_at_depth(fc_, axis_u_, v, depth_of(fc_, p0_)).y(); }
+
+  /// The world levels of the rows, the body's axis (the torso's centre in both views), the floor,
+  /// the crown and the stature.
+  void place_levels(const FrontRows& rows, PhotoLandmarks* L) const {
+    const double crotch_y = y_of_row(rows.crotch + 1), armpit_y[2] = {y_of_row(rows.armpit[0]), y_of_row(rows.armpit[1])};
+    L->axis_x = point_at_depth(fc_, axis_u_, 0.5 * (rows.top + rows.bottom), depth_of(fc_, p0_)).x();
+    L->axis_z = p0_.z();
     // The torso's depth centre: the median over its height of the side run's centre (forearms in
     // front of the belly widen a few of them).
-    {
-      std::vector<double> zs, xs;
-      const double lo = crotch_y, hi = std::min(armpit_y[0], armpit_y[1]);
-      for (int k = 1; k < 10; ++k) {
-        const Section s = torso_section(lo + (hi - lo) * k / 10.0, L.axis_x, L.axis_z);
-        if (s.valid) zs.push_back(s.zc), xs.push_back(s.xc);
-      }
-      if (zs.size() < 3) throw InvalidInput("photos: the torso is not found in the side photo at the front photo's levels");
-      std::nth_element(zs.begin(), zs.begin() + zs.size() / 2, zs.end());
-      std::nth_element(xs.begin(), xs.begin() + xs.size() / 2, xs.end());
-      L.axis_z = zs[zs.size() / 2];
-      L.axis_x = xs[xs.size() / 2];
+    std::vector<double> zs, xs;
+    const double lo = crotch_y, hi = std::min(armpit_y[0], armpit_y[1]);
+    for (int k = 1; k < 10; ++k) {
+      const Section s = torso_section(lo + (hi - lo) * k / 10.0, L->axis_x, L->axis_z);
+      if (s.valid) zs.push_back(s.zc), xs.push_back(s.xc);
     }
-    const double mid_y = 0.5 * (crotch_y + std::min(armpit_y[0], armpit_y[1]));
-    L.crotch_y = crotch_y;
-    L.armpit_y[0] = armpit_y[0], L.armpit_y[1] = armpit_y[1];
-    L.neck_y = y_of_row(neck_v + 0.5);
+    if (zs.size() < 3) throw InvalidInput("photos: the torso is not found in the side photo at the front photo's levels");
+    std::nth_element(zs.begin(), zs.begin() + zs.size() / 2, zs.end());
+    std::nth_element(xs.begin(), xs.begin() + xs.size() / 2, xs.end());
+    L->axis_z = zs[zs.size() / 2];
+    L->axis_x = xs[xs.size() / 2];
+    L->crotch_y = crotch_y;
+    L->armpit_y[0] = armpit_y[0], L->armpit_y[1] = armpit_y[1];
+    L->neck_y = y_of_row(rows.neck + 0.5);
     // Floor and crown from both views.
-    L.floor_y = floor_level(L);
-    L.crown_y = crown_level();
-    L.stature = L.crown_y - L.floor_y;
-    if (!(L.stature > 0.5 && L.stature < 2.6))
-      throw InvalidInput("photos: a stature of " + std::to_string(L.stature) + " m: check the camera file or the stated height");
-    // Hand tips and the arm profile.
-    const double body_depth = depth_of(fc_, Eigen::Vector3d(L.axis_x, mid_y, L.axis_z));
+    L->floor_y = floor_level(*L);
+    L->crown_y = crown_level();
+    L->stature = L->crown_y - L->floor_y;
+    if (!(L->stature > 0.5 && L->stature < 2.6))
+      throw InvalidInput("photos: a stature of " + std::to_string(L->stature) + " m: check the camera file or the stated height");
+  }
+
+  /// The descriptor's levels, neck and head, and six points down each arm (the hand tips kept).
+  void describe_head_and_arms(const FrontRows& rows, PhotoLandmarks* L, std::vector<double>* d) const {
+    const double mid_y = 0.5 * (L->crotch_y + std::min(L->armpit_y[0], L->armpit_y[1]));
+    const double body_depth = depth_of(fc_, Eigen::Vector3d(L->axis_x, mid_y, L->axis_z));
     auto world_xy = [&](const Eigen::Vector2d& uv, int side) {
       const Eigen::Vector3d p = arms_ && arms_->chain[side].size() >= 2 ? nearest_on_ray(fc_, uv, arms_->chain[side])
                                                                         : point_at_depth(fc_, uv.x(), uv.y(), body_depth);
-      return Eigen::Vector2d(p.x() - L.axis_x, p.y() - L.floor_y);
+      return Eigen::Vector2d(p.x() - L->axis_x, p.y() - L->floor_y);
     };
-    std::vector<double> d;
-    auto push = [&](double x) { d.push_back(x); };
-    push(L.stature);
-    push(L.crotch_y - L.floor_y);
-    push(L.armpit_y[0] - L.floor_y);
-    push(L.armpit_y[1] - L.floor_y);
-    push(L.neck_y - L.floor_y);
-    push(neck_w * body_depth / fc_.fx);
-    push(head_w * body_depth / fc_.fx);
-    push(y_of_row(head_v) - L.floor_y);
+    d->insert(d->end(), {L->stature, L->crotch_y - L->floor_y, L->armpit_y[0] - L->floor_y, L->armpit_y[1] - L->floor_y,
+                         L->neck_y - L->floor_y, rows.neck_width * body_depth / fc_.fx, rows.head_width * body_depth / fc_.fx,
+                         y_of_row(rows.head) - L->floor_y});
     for (int side : {kLeft, kRight}) {
-      const auto& track = arm_track[side];
+      const auto& track = rows.arm_track[side];
       const Eigen::Vector2d tip = world_xy(track.back(), side);
-      L.hand_tip[side] = Eigen::Vector2d(tip.x() + L.axis_x, tip.y() + L.floor_y);
+      L->hand_tip[side] = Eigen::Vector2d(tip.x() + L->axis_x, tip.y() + L->floor_y);
       for (double f : {0.0, 0.2, 0.4, 0.6, 0.8, 1.0}) {
         const Eigen::Vector2d p = world_xy(track[static_cast<size_t>(f * (track.size() - 1))], side);
-        push(p.x());
-        push(p.y());
+        d->insert(d->end(), {p.x(), p.y()});
       }
     }
-    // Torso profile: 9 levels from the crotch to the lower armpit, and the neck.
-    const double span = std::min(L.armpit_y[0], L.armpit_y[1]) - L.crotch_y;
+  }
+
+  /// The torso's profile at 9 levels from the crotch to the lower armpit and at the neck, and the
+  /// elliptic girths every centimetre that place the hip, waist and bust.
+  void describe_torso(PhotoLandmarks* L, std::vector<double>* d) const {
+    const double span = std::min(L->armpit_y[0], L->armpit_y[1]) - L->crotch_y;
     for (int k = 0; k <= 8; ++k) {
-      const Section s = torso_section(L.crotch_y + 0.03 + (span - 0.05) * k / 8.0, L.axis_x, L.axis_z);
+      const Section s = torso_section(L->crotch_y + 0.03 + (span - 0.05) * k / 8.0, L->axis_x, L->axis_z);
       if (!s.valid) throw InvalidInput("photos: the torso is not seen in both photos at " + std::to_string(k) + "/8 of the crotch-to-armpit span");
-      push(s.x1 - s.x0);
-      push(s.xc - L.axis_x);
-      push(s.z1 - s.z0);
-      push(s.zc - L.axis_z);
+      d->insert(d->end(), {s.x1 - s.x0, s.xc - L->axis_x, s.z1 - s.z0, s.zc - L->axis_z});
     }
-    {
-      const Section s = torso_section(L.neck_y, L.axis_x, L.axis_z);
-      push(s.valid ? s.z1 - s.z0 : 0);
-      push(s.valid ? s.zc - L.axis_z : 0);
-    }
-    // Elliptic girths every centimetre: hip, waist, bust.
+    const Section neck = torso_section(L->neck_y, L->axis_x, L->axis_z);
+    d->insert(d->end(), {neck.valid ? neck.z1 - neck.z0 : 0, neck.valid ? neck.zc - L->axis_z : 0});
     double best_hip = -1, best_waist = 1e9, best_bust = -1, hip_ratio = 0;
-    for (double y = L.crotch_y + 0.01; y < L.crotch_y + span - 0.01; y += 0.01) {
-      const Section s = torso_section(y, L.axis_x, L.axis_z);
+    for (double y = L->crotch_y + 0.01; y < L->crotch_y + span - 0.01; y += 0.01) {
+      const Section s = torso_section(y, L->axis_x, L->axis_z);
       if (!s.valid) continue;
-      const double g = ramanujan(0.5 * (s.x1 - s.x0), 0.5 * (s.z1 - s.z0)), t = (y - L.crotch_y) / span;
-      if (t < 0.4 && g > best_hip) best_hip = g, L.hip_y = y, hip_ratio = (s.x1 - s.x0) / (s.z1 - s.z0);
-      if (t > 0.3 && t < 0.8 && g < best_waist) best_waist = g, L.waist_y = y;
-      if (t > 0.6 && g > best_bust) best_bust = g, L.bust_y = y;
+      const double g = ramanujan(0.5 * (s.x1 - s.x0), 0.5 * (s.z1 - s.z0)), t = (y - L->crotch_y) / span;
+      if (t < 0.4 && g > best_hip) best_hip = g, L->hip_y = y, hip_ratio = (s.x1 - s.x0) / (s.z1 - s.z0);
+      if (t > 0.3 && t < 0.8 && g < best_waist) best_waist = g, L->waist_y = y;
+      if (t > 0.6 && g > best_bust) best_bust = g, L->bust_y = y;
     }
     // A pelvis is wider than deep, whatever the belly does (the side view's hands may add depth).
-    L.front_to_side_ratio = hip_ratio;
+    L->front_to_side_ratio = hip_ratio;
     if (hip_ratio > 0 && hip_ratio < 0.6)
-      L.warnings.push_back("photos: the hips look deeper in the side photo than wide in the front one (ratio " +
-                           std::to_string(hip_ratio).substr(0, 4) + "): front and side swapped, or the hands held in front?");
-    for (double y : {L.hip_y, L.waist_y, L.bust_y}) push(y - L.floor_y);
-    for (double g : {best_hip, best_waist, best_bust}) push(g);
-    // Legs: centre and width in front, depth and centre in the side view, at 4 levels.
+      L->warnings.push_back("photos: the hips look deeper in the side photo than wide in the front one (ratio " +
+                            std::to_string(hip_ratio).substr(0, 4) + "): front and side swapped, or the hands held in front?");
+    d->insert(d->end(), {L->hip_y - L->floor_y, L->waist_y - L->floor_y, L->bust_y - L->floor_y, best_hip, best_waist, best_bust});
+  }
+
+  /// The legs: centre and width in front, depth and centre in the side view, at 4 levels.
+  void describe_legs(const PhotoLandmarks& L, std::vector<double>* d) const {
     for (double f : {0.15, 0.4, 0.65, 0.9}) {
       const double y = L.crotch_y - f * (L.crotch_y - L.floor_y);
       for (int side : {kLeft, kRight}) {
         const Section s = leg_section(y, side, L);
-        push(s.x1 - s.x0);
-        push(s.xc - L.axis_x);
-        if (side == kLeft) {
-          push(s.z1 - s.z0);
-          push(s.zc - L.axis_z);
-        }
+        d->insert(d->end(), {s.x1 - s.x0, s.xc - L.axis_x});
+        if (side == kLeft) d->insert(d->end(), {s.z1 - s.z0, s.zc - L.axis_z});
       }
     }
-    L.descriptor = Eigen::Map<Eigen::VectorXd>(d.data(), static_cast<Eigen::Index>(d.size()));
-    L.side_arm_occlusion = side_arm_occlusion(L);
-    return L;
   }
 
   /// The point of the ray through pixel uv nearest the polyline `chain`.
