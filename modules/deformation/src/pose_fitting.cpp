@@ -76,41 +76,176 @@ PoseFitResult fit_pose(const PoseSynthesizer& synth, const Eigen::MatrixXd& T, c
   return fit_pose(SynthesizedBody(synth, o.method), T, o);
 }
 
-PoseFitResult fit_pose(const PosableBody& subject, const Eigen::MatrixXd& T, const PoseFitOptions& o) {
-  const Stopwatch t0;
-  if (T.rows() < 100 || T.cols() != 3 || !T.allFinite())
-    throw InvalidInput("fit: the target has " + std::to_string(T.rows()) + " points (at least 100 finite ones needed)");
-  const Eigen::MatrixXd& V0 = subject.rest_vertices();
-  const Eigen::VectorXi& part = subject.vertex_parts();
-  const Eigen::MatrixXd& joints = subject.joint_centres();
-  const Eigen::MatrixXd pivots = subject.joint_pivots();  // the Jacobian's centres of rotation
-  const PointGrid target_grid(T, surface_cell(T));
-  // A subsample of the target (at most 20,000 points) for the start hypotheses: its coarser grid
-  // answers their long-range queries several times faster.
-  const Eigen::MatrixXd T_coarse = T(Eigen::seq(0, T.rows() - 1, std::max<Eigen::Index>(1, T.rows() / 20000)), Eigen::all);
-  const PointGrid coarse_grid(T_coarse, surface_cell(T_coarse));
+namespace {
 
-  // Start: the rest pose, its feet on the target's lowest points and its centre over the target's.
-  PoseFitResult out;
-  PartPose pose;
-  {
+using System = Eigen::Matrix<double, kUnknowns, kUnknowns>;
+using Vector = Eigen::Matrix<double, kUnknowns, 1>;
+/// One linearisation of fit_pose's robust objective at a pose.
+struct Linearisation {
+  System N = System::Zero();
+  Vector g = Vector::Zero();
+  double cost = 0, data_weight = 0;
+};
+constexpr int kMaxActive = 6 + 3 * 5;  // root and the longest chain (pelvis to a hand)
+
+/// Swing-twist decomposition of a joint rotation about its bone axis: the twist angle about the
+/// bone, and the swing (the rotation left, as a rotation vector across the bone).
+struct SwingTwist {
+  Eigen::Vector3d swing;
+  double twist;
+};
+
+/// fit_pose in stages over the subject, the target and what the stages share: the start search
+/// (search_start), the final refinement (refine), parts the target does not show (hold_unseen_parts)
+/// and the result's residuals and warnings (finish). The objective's pieces are linearise and
+/// add_joint_priors; icp minimises it.
+class PoseFitter {
+ public:
+  PoseFitter(const PosableBody& subject, const Eigen::MatrixXd& T, const PoseFitOptions& o)
+      : subject(subject), T(T), o(o), V0(subject.rest_vertices()), part(subject.vertex_parts()), joints(subject.joint_centres()),
+        pivots(subject.joint_pivots()), target_grid(T, surface_cell(T)),
+        // A subsample of the target (at most 20,000 points) for the start hypotheses: its coarser
+        // grid answers their long-range queries several times faster.
+        T_coarse(T(Eigen::seq(0, T.rows() - 1, std::max<Eigen::Index>(1, T.rows() / 20000)), Eigen::all)),
+        coarse_grid(T_coarse, surface_cell(T_coarse)) {
+    // Which joints move each part: the chain up to the pelvis.
+    for (int q = 0; q < kNumParts; ++q)
+      for (int c = q; c > 0; c = part_parent(c)) chain[static_cast<size_t>(q)].push_back(c - 1);
+    rest_pivot = (joints.row(kAbdomen - 1) + joints.row(kLeftThigh - 1) + joints.row(kRightThigh - 1)).transpose() / 3;
+    find_bone_axes();
+    find_hinge_axes();
+    // Where the joint priors pull: the rest, or the pose the caller recognised (PoseFitOptions::prior_pose).
+    for (int j = 0; j < kNumJoints; ++j)
+      prior_centre[static_cast<size_t>(j)] = o.prior_pose ? o.prior_pose->joint(j) : Eigen::Vector3d::Zero();
+  }
+
+  /// The rest pose, its feet on the target's lowest points and its centre over the target's.
+  PartPose standing_start() const {
+    PartPose pose;
     std::vector<double> ty(static_cast<size_t>(T.rows())), vy(static_cast<size_t>(V0.rows()));
     for (Eigen::Index i = 0; i < T.rows(); ++i) ty[static_cast<size_t>(i)] = T(i, 1);
     for (Eigen::Index i = 0; i < V0.rows(); ++i) vy[static_cast<size_t>(i)] = V0(i, 1);
     const Eigen::RowVector3d tc = T.colwise().mean(), vc = V0.colwise().mean();
     pose.root_translation = Eigen::Vector3d(tc.x() - vc.x(), quantile(ty, 0.01) - quantile(vy, 0.0), tc.z() - vc.z());
+    return pose;
   }
 
-  // Which joints move each part: the chain up to the pelvis.
-  std::array<std::vector<int>, kNumParts> chain;
-  for (int q = 0; q < kNumParts; ++q)
-    for (int c = q; c > 0; c = part_parent(c)) chain[static_cast<size_t>(q)].push_back(c - 1);
-  const Eigen::Vector3d rest_pivot =
-      (joints.row(kAbdomen - 1) + joints.row(kLeftThigh - 1) + joints.row(kRightThigh - 1)).transpose() / 3;
+  /// Automatic start, no markers: the rest pose at four headings, then whole-body hypotheses (arms
+  /// forward, arms up, a half squat, sitting, a stride either way) at the best one, each standing on
+  /// the target's feet and refined briefly; the best of all (or options.start) is returned.
+  PartPose search_start(const PartPose& standing) {
+    PartPose pose = standing;
+    // First the heading (the target may face any way about its vertical), standing at rest.
+    double best = std::numeric_limits<double>::infinity();
+    for (int quarter = 0; quarter < 4 && !o.start; ++quarter) {
+      PartPose start = standing;
+      start.root_rotation = quarter * M_PI / 2 * Eigen::Vector3d::UnitY();
+      refine_and_keep(start, &best, &pose);
+    }
+    // Then whole-body hypotheses at that heading.
+    const Eigen::Vector3d heading = pose.root_rotation;
+    if (o.start) pose = *o.start;
+    const Eigen::Vector3d X_ = Eigen::Vector3d::UnitX(), Z_ = Eigen::Vector3d::UnitZ();
+    for (const auto& joints_deg : o.start ? std::vector<std::vector<std::pair<const char*, Eigen::Vector3d>>>{} :
+         std::vector<std::vector<std::pair<const char*, Eigen::Vector3d>>>{
+             {{"left_shoulder", -90 * X_}, {"right_shoulder", -90 * X_}},
+             {{"left_shoulder", 130 * Z_}, {"right_shoulder", -130 * Z_}},
+             {{"left_hip", -50 * X_}, {"right_hip", -50 * X_}, {"left_knee", 65 * X_}, {"right_knee", 65 * X_},
+              {"lower_back", 10 * X_}, {"left_shoulder", -30 * X_}, {"right_shoulder", -30 * X_}},
+             {{"left_hip", -90 * X_}, {"right_hip", -90 * X_}, {"left_knee", 90 * X_}, {"right_knee", 90 * X_}},
+             {{"left_hip", -30 * X_}, {"right_hip", 25 * X_}, {"left_knee", 15 * X_}, {"right_knee", 30 * X_}},   // striding
+             {{"left_hip", 25 * X_}, {"right_hip", -30 * X_}, {"left_knee", 30 * X_}, {"right_knee", 15 * X_}}}) {
+      PartPose start = hypothesis(standing, joints_deg);
+      start.root_rotation = heading;
+      refine_and_keep(start, &best, &pose);
+    }
+    return pose;
+  }
 
-  // Each joint's bone axis at rest: from the joint to the centroid of the part it moves.
-  std::array<Eigen::Vector3d, kNumJoints> bone_axis;
-  {
+  /// The final refinement: the rest prior on swing and weighted twist from here on.
+  int refine(PartPose* pose) {
+    refining = true;
+    return icp(*pose, o.iterations, o.refinement_model_samples, o.model_samples, o.max_distance_end, o.max_distance_end);
+  }
+
+  /// Residuals (each vertex to the target, the body posed in X) and the fraction of each part within 1 cm of it.
+  void measure_residuals(const PartPose& pose, PoseFitResult* out) {
+    subject.pose(pose, &X);
+    out->residual.resize(X.rows());
+    part_vertices.fill(0), part_covered.fill(0);
+    for (Eigen::Index v = 0; v < X.rows(); ++v) {
+      double sq = 0;
+      target_grid.nearest(X.row(v).transpose(), &sq);
+      out->residual[v] = std::sqrt(sq);
+      if (part[v] >= 0 && part[v] < kNumParts)
+        ++part_vertices[static_cast<size_t>(part[v])], part_covered[static_cast<size_t>(part[v])] += out->residual[v] < 0.01;
+    }
+  }
+
+  /// A part the target does not show (cut off, hidden), nor any part beyond it, has its joint set by
+  /// the priors and its neighbours' pairs alone: with the hands cut off the wrists came out 57 degrees
+  /// off. Such a joint is held at its rest rotation (the least committal guess; at a recognised
+  /// pose's, arms crossed with the hands cut off folded the forearms onto the upper arms) and the
+  /// rest refined again. Returns the iterations made.
+  int hold_unseen_parts(PartPose* pose, PoseFitResult* out) {
+    for (int c = 1; c < kNumParts; ++c) {
+      bool all = unseen(c);
+      for (int d = c + 1; d < kNumParts && all; ++d)
+        for (int a = d; a > 0 && all; a = part_parent(a))
+          if (a == c) all = unseen(d);
+      held[static_cast<size_t>(c - 1)] = all;
+    }
+    if (std::find(held.begin(), held.end(), true) == held.end()) return 0;
+    for (int j = 0; j < kNumJoints; ++j)
+      if (held[static_cast<size_t>(j)]) pose->joint(j).setZero();
+    const int iterations = icp(*pose, std::max(1, o.iterations / 4), o.refinement_model_samples, o.model_samples, o.max_distance_end,
+                               o.max_distance_end);
+    measure_residuals(*pose, out);
+    return iterations;
+  }
+
+  /// The result: the posed body, its coverage and distances to the target, and the warnings.
+  void finish(const PartPose& pose, PoseFitResult* out) const {
+    out->pose = pose;
+    out->V = X;
+    int covered = 0;
+    for (Eigen::Index v = 0; v < X.rows(); ++v) covered += out->residual[v] < 0.01;
+    out->coverage = static_cast<double>(covered) / static_cast<double>(std::max<Eigen::Index>(1, X.rows()));
+    const PointGrid body_grid(X, surface_cell(X));
+    std::vector<double> to_body;
+    for (Eigen::Index i = 0; i < T.rows(); i += std::max<Eigen::Index>(1, T.rows() / 20000)) {
+      double sq = 0;
+      body_grid.nearest(T.row(i).transpose(), &sq);
+      to_body.push_back(std::sqrt(sq));
+    }
+    double sum = 0;
+    for (double d : to_body) sum += d;
+    out->target_mean = sum / static_cast<double>(std::max<size_t>(1, to_body.size()));
+    out->target_p95 = quantile(to_body, 0.95);
+    std::ostringstream msg;
+    msg.precision(1);
+    if (out->coverage < 0.6)
+      msg << std::fixed << "only " << 100 * out->coverage << "% of the body lies within 1 cm of the target (holes, another body, or a wrong fit)",
+          out->warnings.push_back(msg.str()), msg.str("");
+    if (out->target_p95 > 0.03)
+      msg << std::fixed << "a twentieth of the target lies over " << 1000 * out->target_p95 << " mm from the fitted body",
+          out->warnings.push_back(msg.str()), msg.str("");
+    for (int c = 1; c < kNumParts; ++c) {
+      const size_t q = static_cast<size_t>(c);
+      if (unseen(c))
+        msg << std::fixed << "only " << 100.0 * part_covered[q] / part_vertices[q] << "% of the " << part_name(c)
+            << " lies within 1 cm of the target (cut off or hidden?): joint '" << joint_name(c - 1)
+            << (held[q - 1] ? "' is held at its rest rotation" : "' is a guess"),
+            out->warnings.push_back(msg.str()), msg.str("");
+    }
+    for (int j = 0; j < kNumJoints; ++j)
+      if (pose.joint(j).norm() * 180 / M_PI > joint_limit_degrees(j) + 5)
+        out->warnings.push_back("joint '" + joint_name(j) + "' ends beyond its range of motion: the fit is probably wrong there");
+  }
+
+ private:
+  /// Each joint's bone axis at rest: from the joint to the centroid of the part it moves.
+  void find_bone_axes() {
     std::array<Eigen::Vector3d, kNumParts> sum;
     std::array<int, kNumParts> count{};
     for (auto& v : sum) v.setZero();
@@ -122,13 +257,29 @@ PoseFitResult fit_pose(const PosableBody& subject, const Eigen::MatrixXd& T, con
       bone_axis[static_cast<size_t>(j)] = d.norm() > 1e-9 ? Eigen::Vector3d(d.normalized()) : Eigen::Vector3d::UnitY();
     }
   }
-  // Swing-twist decomposition of a joint rotation about its bone axis: the twist angle about the
-  // bone, and the swing (the rotation left, as a rotation vector across the bone).
-  struct SwingTwist {
-    Eigen::Vector3d swing;
-    double twist;
-  };
-  auto swing_twist = [&](int j, const Eigen::Vector3d& r) {
+
+  /// Elbows and knees are hinges: they flex about an axis h across the limb and twist about the
+  /// bone, but barely swing about the third axis (no varus or valgus). An elbow's h lies in the
+  /// body's frontal plane across the arm (arm x forward, the arm from shoulder to wrist; the rest body
+  /// faces +Z), whatever the arm's abduction; a knee's is the body's left-right axis, about which the
+  /// pose library and the robustness set bend knees (across a leg leaning 5 degrees, a knee bent
+  /// 138 degrees about it read as 8 degrees of varus). Per hinge joint (zero for the others) h and
+  /// that third axis n = h x bone.
+  void find_hinge_axes() {
+    for (auto& n : hinge_axis) n.setZero();
+    for (auto& n : off_hinge_axis) n.setZero();
+    for (int c : {kLeftForearm, kRightForearm, kLeftShank, kRightShank}) {
+      const Eigen::Vector3d& a = bone_axis[static_cast<size_t>(c - 1)];
+      const Eigen::Vector3d limb = (joints.row(c) - joints.row(part_parent(c) - 1)).transpose().normalized();  // shoulder to wrist, hip to ankle
+      const Eigen::Vector3d h = c == kLeftShank || c == kRightShank ? Eigen::Vector3d::UnitX() : limb.cross(Eigen::Vector3d::UnitZ());
+      if (h.norm() > 0.5) {
+        hinge_axis[static_cast<size_t>(c - 1)] = h.normalized();
+        off_hinge_axis[static_cast<size_t>(c - 1)] = h.normalized().cross(a).normalized();
+      }
+    }
+  }
+
+  SwingTwist swing_twist(int j, const Eigen::Vector3d& r) const {
     const Eigen::Quaterniond q(Eigen::AngleAxisd(r.norm(), r.norm() > 1e-12 ? Eigen::Vector3d(r.normalized()) : Eigen::Vector3d::UnitX()));
     const Eigen::Vector3d& a = bone_axis[static_cast<size_t>(j)];
     Eigen::Quaterniond t(q.w(), 0, 0, 0);
@@ -137,38 +288,19 @@ PoseFitResult fit_pose(const PosableBody& subject, const Eigen::MatrixXd& T, con
     t.normalize();
     const Eigen::AngleAxisd s(q * t.conjugate());
     return SwingTwist{s.angle() * s.axis(), 2 * std::atan2(t.vec().dot(a), t.w())};
-  };
-  // The final refinement's prior residual of a joint rotation: its swing plus its twist, weighted,
-  // along the bone.
-  auto refinement_prior_residual = [&](int j, const Eigen::Vector3d& r) {
+  }
+  /// The final refinement's prior residual of a joint rotation: its swing plus its twist, weighted,
+  /// along the bone.
+  Eigen::Vector3d refinement_prior_residual(int j, const Eigen::Vector3d& r) const {
     const SwingTwist st = swing_twist(j, r);
     return Eigen::Vector3d(st.swing + o.refinement_twist_weight * st.twist * bone_axis[static_cast<size_t>(j)]);
-  };
-  // Elbows and knees are hinges: they flex about an axis h across the limb and twist about the
-  // bone, but barely swing about the third axis (no varus or valgus). An elbow's h lies in the
-  // body's frontal plane across the arm (arm x forward, the arm from shoulder to wrist; the rest body
-  // faces +Z), whatever the arm's abduction; a knee's is the body's left-right axis, about which the
-  // pose library and the robustness set bend knees (across a leg leaning 5 degrees, a knee bent
-  // 138 degrees about it read as 8 degrees of varus). Per hinge joint (zero for the others) h and
-  // that third axis n = h x bone.
-  std::array<Eigen::Vector3d, kNumJoints> hinge_axis, off_hinge_axis;
-  for (auto& n : hinge_axis) n.setZero();
-  for (auto& n : off_hinge_axis) n.setZero();
-  for (int c : {kLeftForearm, kRightForearm, kLeftShank, kRightShank}) {
-    const Eigen::Vector3d& a = bone_axis[static_cast<size_t>(c - 1)];
-    const Eigen::Vector3d limb = (joints.row(c) - joints.row(part_parent(c) - 1)).transpose().normalized();  // shoulder to wrist, hip to ankle
-    const Eigen::Vector3d h = c == kLeftShank || c == kRightShank ? Eigen::Vector3d::UnitX() : limb.cross(Eigen::Vector3d::UnitZ());
-    if (h.norm() > 0.5) {
-      hinge_axis[static_cast<size_t>(c - 1)] = h.normalized();
-      off_hinge_axis[static_cast<size_t>(c - 1)] = h.normalized().cross(a).normalized();
-    }
   }
-  // The residual: the joint rotation as a flexion about h after a swing s across h (r = flex * s),
-  // s's part about n. Zero for any flexion alone, however deep; a twist about the bone is s about
-  // the bone, also free. (The swing left by twisting about the bone first grows with the flexion: a
-  // 138-degree knee bent about an axis 5 degrees off h showed a 25-degree twist, and the prior turned
-  // the squatting robustness bodies' thighs by 20 degrees.)
-  auto off_hinge_residual = [&](int j, const Eigen::Vector3d& r) {
+  /// The hinge prior's residual: the joint rotation as a flexion about h after a swing s across h
+  /// (r = flex * s), s's part about n. Zero for any flexion alone, however deep; a twist about the
+  /// bone is s about the bone, also free. (The swing left by twisting about the bone first grows
+  /// with the flexion: a 138-degree knee bent about an axis 5 degrees off h showed a 25-degree twist,
+  /// and the prior turned the squatting robustness bodies' thighs by 20 degrees.)
+  Eigen::Vector3d off_hinge_residual(int j, const Eigen::Vector3d& r) const {
     const Eigen::Vector3d &h = hinge_axis[static_cast<size_t>(j)], &n = off_hinge_axis[static_cast<size_t>(j)];
     const Eigen::Quaterniond q(Eigen::AngleAxisd(r.norm(), r.norm() > 1e-12 ? Eigen::Vector3d(r.normalized()) : Eigen::Vector3d::UnitX()));
     Eigen::Quaterniond flex(q.w(), 0, 0, 0);
@@ -177,18 +309,11 @@ PoseFitResult fit_pose(const PosableBody& subject, const Eigen::MatrixXd& T, con
     flex.normalize();
     const Eigen::AngleAxisd swing(flex.conjugate() * q);
     return Eigen::Vector3d((swing.angle() * swing.axis()).dot(n) * n);
-  };
-  bool refining = false;  // the final refinement: the rest prior on swing and weighted twist
-  // Where the joint priors pull: the rest, or the pose the caller recognised (PoseFitOptions::prior_pose).
-  std::array<Eigen::Vector3d, kNumJoints> prior_centre;
-  for (int j = 0; j < kNumJoints; ++j)
-    prior_centre[static_cast<size_t>(j)] = o.prior_pose ? o.prior_pose->joint(j) : Eigen::Vector3d::Zero();
-  std::array<bool, kNumJoints> held{};  // joints of parts the target does not show: held at rest
-  Eigen::MatrixXd X;
+  }
 
-  // How well a pose explains the target: the mean distance of target points to the body, each
-  // capped at 10 cm so that outliers and holes do not decide.
-  auto score = [&](const PartPose& pose) {
+  /// How well a pose explains the target: the mean distance of target points to the body, each
+  /// capped at 10 cm so that outliers and holes do not decide.
+  double score(const PartPose& pose) {
     subject.pose(pose, &X);
     const PointGrid body(X, surface_cell(X));
     double sum = 0;
@@ -199,22 +324,15 @@ PoseFitResult fit_pose(const PosableBody& subject, const Eigen::MatrixXd& T, con
       ++n;
     }
     return sum / static_cast<double>(std::max<long>(n, 1));
-  };
-  // One linearisation of the robust objective at a pose: pairs both ways (every sampled target
-  // point to its nearest body vertex; a sampled body vertex to its nearest target point where that is
-  // mutual), each costing rho(s) = sigma^2/2 log(1 + s/sigma^2) of s = (n.r)^2 + point_to_point |r|^2
-  // along the body's normal n; a sample with no pair within max_d costs rho(max_d^2). With the joint
-  // priors this is the objective the Levenberg-Marquardt steps below decrease.
-  using System = Eigen::Matrix<double, kUnknowns, kUnknowns>;
-  using Vector = Eigen::Matrix<double, kUnknowns, 1>;
-  struct Linearisation {
-    System N = System::Zero();
-    Vector g = Vector::Zero();
-    double cost = 0, data_weight = 0;
-  };
-  constexpr int kMaxActive = 6 + 3 * 5;  // root and the longest chain (pelvis to a hand)
-  auto linearise = [&](const Eigen::MatrixXd& target, const PointGrid& grid, const PartPose& pose, double max_d, double sigma,
-                       Eigen::Index model_stride, Eigen::Index target_stride, double prior_scale, double p2p) {
+  }
+
+  /// One linearisation of the robust objective at a pose: pairs both ways (every sampled target
+  /// point to its nearest body vertex; a sampled body vertex to its nearest target point where that is
+  /// mutual), each costing rho(s) = sigma^2/2 log(1 + s/sigma^2) of s = (n.r)^2 + point_to_point |r|^2
+  /// along the body's normal n; a sample with no pair within max_d costs rho(max_d^2). With the joint
+  /// priors (add_joint_priors) this is the objective the Levenberg-Marquardt steps of icp decrease.
+  Linearisation linearise(const Eigen::MatrixXd& target, const PointGrid& grid, const PartPose& pose, double max_d, double sigma,
+                          Eigen::Index model_stride, Eigen::Index target_stride, double prior_scale, double p2p) {
     Linearisation L;
     subject.pose(pose, &X);
     const PartTransforms P = subject.part_motions(pose);
@@ -314,6 +432,14 @@ PoseFitResult fit_pose(const PosableBody& subject, const Eigen::MatrixXd& T, con
         for (Eigen::Index k = 0; k < B.cols(); ++k) L.N(column[static_cast<size_t>(a)], column[static_cast<size_t>(k)]) += BtHB(a, k);
       }
     }
+    add_joint_priors(pose, prior_scale, &L);
+    return L;
+  }
+
+  /// Priors on the joint rotations, in the data term's scale: towards the rest (or the recognised
+  /// pose), the hinge prior, the joint limits; joints of unseen parts held at rest.
+  void add_joint_priors(const PartPose& pose, double prior_scale, Linearisation* lin) const {
+    Linearisation& L = *lin;
     // Priors on the joint rotations, in the data term's scale.
     const auto R = part_rotations(pose);
     for (int j = 0; j < kNumJoints; ++j) {
@@ -343,20 +469,19 @@ PoseFitResult fit_pose(const PosableBody& subject, const Eigen::MatrixXd& T, con
         });
       else prior(o.rest_prior * prior_scale, r - centre, to_parent);
       if (o.hinge_prior > 0 && off_hinge_axis[static_cast<size_t>(j)].squaredNorm() > 0)
-        prior_by_differences(o.hinge_prior * prior_scale, off_hinge_residual);
+        prior_by_differences(o.hinge_prior * prior_scale, [&](int i, const Eigen::Vector3d& v) { return off_hinge_residual(i, v); });
       const double limit = joint_limit_degrees(j) * M_PI / 180, angle = r.norm();
       if (angle > limit) {
         const Eigen::Vector3d axis = r / angle;
         prior(o.limit_prior * prior_scale, (angle - limit) * axis, axis * axis.transpose() * to_parent);
       }
     }
-    return L;
-  };
+  }
 
-  // Articulated ICP from `pose`: Levenberg-Marquardt on the objective above, a step kept only when
-  // it lowers it; the correspondence distance shrinks from `d0` to `d1` over the first two thirds.
-  // Returns the linearisations made.
-  auto icp = [&](PartPose& pose, int iterations, int model_samples, int target_samples, double d0, double d1) {
+  /// Articulated ICP from `pose`: Levenberg-Marquardt on the objective above, a step kept only when
+  /// it lowers it; the correspondence distance shrinks from `d0` to `d1` over the first two thirds.
+  /// Returns the linearisations made.
+  int icp(PartPose& pose, int iterations, int model_samples, int target_samples, double d0, double d1) {
     const bool coarse = d0 != d1;
     const Eigen::MatrixXd& TT = coarse ? T_coarse : T;
     const PointGrid& grid = coarse ? coarse_grid : target_grid;
@@ -406,15 +531,12 @@ PoseFitResult fit_pose(const PosableBody& subject, const Eigen::MatrixXd& T, con
       }
     }
     return it;
-  };
+  }
 
-  // Automatic start, no markers: the rest pose at four headings, then whole-body hypotheses (arms
-  // forward, arms up, a half squat, sitting, a stride either way) at the best one, each standing on the target's feet and
-  // refined briefly; the best of all is refined fully.
-  const PartPose standing_start = pose;
-  const double deg = M_PI / 180;
-  auto hypothesis = [&](const std::vector<std::pair<const char*, Eigen::Vector3d>>& joints_deg) {
-    PartPose h = standing_start;
+  /// The standing start with some joints set (degrees), back on the target's feet.
+  PartPose hypothesis(const PartPose& standing, const std::vector<std::pair<const char*, Eigen::Vector3d>>& joints_deg) {
+    const double deg = M_PI / 180;
+    PartPose h = standing;
     for (const auto& [name, v] : joints_deg) h.joint(find_joint_index(name)) = v * deg;
     subject.pose(h, &X);
     std::vector<double> ty(static_cast<size_t>(T.rows())), xy(static_cast<size_t>(X.rows()));
@@ -422,110 +544,49 @@ PoseFitResult fit_pose(const PosableBody& subject, const Eigen::MatrixXd& T, con
     for (Eigen::Index i = 0; i < X.rows(); ++i) xy[static_cast<size_t>(i)] = X(i, 1);
     h.root_translation.y() += quantile(ty, 0.01) - quantile(xy, 0.0);
     return h;
-  };
-  const Eigen::Vector3d X_ = Eigen::Vector3d::UnitX(), Z_ = Eigen::Vector3d::UnitZ();
-  auto refine_and_keep = [&](PartPose start, double* best, PartPose* best_pose) {
+  }
+  /// A start refined briefly and scored; kept when the best so far.
+  void refine_and_keep(PartPose start, double* best, PartPose* best_pose) {
     icp(start, std::max(1, o.search_iterations), o.model_samples / 2, o.model_samples / 2, o.max_distance_start, o.max_distance_end);
     const double e = score(start);
     if (e < *best) *best = e, *best_pose = start;
-  };
-  // First the heading (the target may face any way about its vertical), standing at rest.
-  double best = std::numeric_limits<double>::infinity();
-  const PartPose standing = pose;
-  for (int quarter = 0; quarter < 4 && !o.start; ++quarter) {
-    PartPose start = standing;
-    start.root_rotation = quarter * M_PI / 2 * Eigen::Vector3d::UnitY();
-    refine_and_keep(start, &best, &pose);
   }
-  // Then whole-body hypotheses at that heading.
-  const Eigen::Vector3d heading = pose.root_rotation;
-  if (o.start) pose = *o.start;
-  for (const auto& joints_deg : o.start ? std::vector<std::vector<std::pair<const char*, Eigen::Vector3d>>>{} :
-       std::vector<std::vector<std::pair<const char*, Eigen::Vector3d>>>{
-           {{"left_shoulder", -90 * X_}, {"right_shoulder", -90 * X_}},
-           {{"left_shoulder", 130 * Z_}, {"right_shoulder", -130 * Z_}},
-           {{"left_hip", -50 * X_}, {"right_hip", -50 * X_}, {"left_knee", 65 * X_}, {"right_knee", 65 * X_},
-            {"lower_back", 10 * X_}, {"left_shoulder", -30 * X_}, {"right_shoulder", -30 * X_}},
-           {{"left_hip", -90 * X_}, {"right_hip", -90 * X_}, {"left_knee", 90 * X_}, {"right_knee", 90 * X_}},
-           {{"left_hip", -30 * X_}, {"right_hip", 25 * X_}, {"left_knee", 15 * X_}, {"right_knee", 30 * X_}},   // striding
-           {{"left_hip", 25 * X_}, {"right_hip", -30 * X_}, {"left_knee", 30 * X_}, {"right_knee", 15 * X_}}}) {
-    PartPose start = hypothesis(joints_deg);
-    start.root_rotation = heading;
-    refine_and_keep(start, &best, &pose);
-  }
-  refining = true;
-  out.iterations = icp(pose, o.iterations, o.refinement_model_samples, o.model_samples, o.max_distance_end, o.max_distance_end);
-  // Residuals (each vertex to the target) and the fraction of each part within 1 cm of it.
-  std::array<int, kNumParts> part_vertices{}, part_covered{};
-  auto residuals = [&] {
-    subject.pose(pose, &X);
-    out.residual.resize(X.rows());
-    part_vertices.fill(0), part_covered.fill(0);
-    for (Eigen::Index v = 0; v < X.rows(); ++v) {
-      double sq = 0;
-      target_grid.nearest(X.row(v).transpose(), &sq);
-      out.residual[v] = std::sqrt(sq);
-      if (part[v] >= 0 && part[v] < kNumParts)
-        ++part_vertices[static_cast<size_t>(part[v])], part_covered[static_cast<size_t>(part[v])] += out.residual[v] < 0.01;
-    }
-  };
-  residuals();
-  // A part the target does not show (cut off, hidden), nor any part beyond it, has its joint set by the
-  // priors and its neighbours' pairs alone: with the hands cut off the wrists came out 57 degrees off.
-  // Such a joint is held at its rest rotation (the least committal guess; at a recognised pose's, arms
-  // crossed with the hands cut off folded the forearms onto the upper arms) and the rest refined again.
-  auto unseen = [&](int c) {
+  bool unseen(int c) const {
     return part_vertices[static_cast<size_t>(c)] > 0 && part_covered[static_cast<size_t>(c)] < 0.2 * part_vertices[static_cast<size_t>(c)];
-  };
-  for (int c = 1; c < kNumParts; ++c) {
-    bool all = unseen(c);
-    for (int d = c + 1; d < kNumParts && all; ++d)
-      for (int a = d; a > 0 && all; a = part_parent(a))
-        if (a == c) all = unseen(d);
-    held[static_cast<size_t>(c - 1)] = all;
   }
-  if (std::find(held.begin(), held.end(), true) != held.end()) {
-    for (int j = 0; j < kNumJoints; ++j)
-      if (held[static_cast<size_t>(j)]) pose.joint(j).setZero();
-    out.iterations += icp(pose, std::max(1, o.iterations / 4), o.refinement_model_samples, o.model_samples, o.max_distance_end,
-                          o.max_distance_end);
-    residuals();
-  }
-  out.pose = pose;
-  out.V = X;
-  int covered = 0;
-  for (Eigen::Index v = 0; v < X.rows(); ++v) covered += out.residual[v] < 0.01;
-  out.coverage = static_cast<double>(covered) / static_cast<double>(std::max<Eigen::Index>(1, X.rows()));
-  const PointGrid body_grid(X, surface_cell(X));
-  std::vector<double> to_body;
-  for (Eigen::Index i = 0; i < T.rows(); i += std::max<Eigen::Index>(1, T.rows() / 20000)) {
-    double sq = 0;
-    body_grid.nearest(T.row(i).transpose(), &sq);
-    to_body.push_back(std::sqrt(sq));
-  }
-  double sum = 0;
-  for (double d : to_body) sum += d;
-  out.target_mean = sum / static_cast<double>(std::max<size_t>(1, to_body.size()));
-  out.target_p95 = quantile(to_body, 0.95);
-  std::ostringstream msg;
-  msg.precision(1);
-  if (out.coverage < 0.6)
-    msg << std::fixed << "only " << 100 * out.coverage << "% of the body lies within 1 cm of the target (holes, another body, or a wrong fit)",
-        out.warnings.push_back(msg.str()), msg.str("");
-  if (out.target_p95 > 0.03)
-    msg << std::fixed << "a twentieth of the target lies over " << 1000 * out.target_p95 << " mm from the fitted body",
-        out.warnings.push_back(msg.str()), msg.str("");
-  for (int c = 1; c < kNumParts; ++c) {
-    const size_t q = static_cast<size_t>(c);
-    if (unseen(c))
-      msg << std::fixed << "only " << 100.0 * part_covered[q] / part_vertices[q] << "% of the " << part_name(c)
-          << " lies within 1 cm of the target (cut off or hidden?): joint '" << joint_name(c - 1)
-          << (held[q - 1] ? "' is held at its rest rotation" : "' is a guess"),
-          out.warnings.push_back(msg.str()), msg.str("");
-  }
-  for (int j = 0; j < kNumJoints; ++j)
-    if (pose.joint(j).norm() * 180 / M_PI > joint_limit_degrees(j) + 5)
-      out.warnings.push_back("joint '" + joint_name(j) + "' ends beyond its range of motion: the fit is probably wrong there");
+
+  const PosableBody& subject;
+  const Eigen::MatrixXd& T;
+  const PoseFitOptions& o;
+  const Eigen::MatrixXd& V0;
+  const Eigen::VectorXi& part;
+  const Eigen::MatrixXd& joints;
+  const Eigen::MatrixXd pivots;  // the Jacobian's centres of rotation
+  const PointGrid target_grid;
+  const Eigen::MatrixXd T_coarse;
+  const PointGrid coarse_grid;
+  std::array<std::vector<int>, kNumParts> chain;
+  Eigen::Vector3d rest_pivot;
+  std::array<Eigen::Vector3d, kNumJoints> bone_axis, hinge_axis, off_hinge_axis, prior_centre;
+  bool refining = false;                 // the final refinement: the rest prior on swing and weighted twist
+  std::array<bool, kNumJoints> held{};   // joints of parts the target does not show: held at rest
+  std::array<int, kNumParts> part_vertices{}, part_covered{};
+  Eigen::MatrixXd X;                     // the body as last posed
+};
+
+}  // namespace
+
+PoseFitResult fit_pose(const PosableBody& subject, const Eigen::MatrixXd& T, const PoseFitOptions& o) {
+  const Stopwatch t0;
+  if (T.rows() < 100 || T.cols() != 3 || !T.allFinite())
+    throw InvalidInput("fit: the target has " + std::to_string(T.rows()) + " points (at least 100 finite ones needed)");
+  PoseFitter fitter(subject, T, o);
+  PoseFitResult out;
+  PartPose pose = fitter.search_start(fitter.standing_start());
+  out.iterations = fitter.refine(&pose);
+  fitter.measure_residuals(pose, &out);
+  out.iterations += fitter.hold_unseen_parts(&pose, &out);
+  fitter.finish(pose, &out);
   out.seconds = t0.seconds();
   return out;
 }
