@@ -11,6 +11,7 @@
 #include "posekit/deformation/rigid_pose.h"
 #include "posekit/io/atomic_file.h"
 #include "posekit/io/checksum.h"
+#include "posekit/io/detail/binary_stream.h"
 
 namespace posekit {
 
@@ -22,46 +23,9 @@ constexpr char kMagic[8] = {'P', 'O', 'S', 'E', 'K', 'P', 'K', 'M'};
 /// offsets after the prior; 1 to 3 are still read.
 constexpr std::uint32_t kVersion = 4;
 
-template <typename T>
-void put(std::ostream& os, const T& value) {
-  os.write(reinterpret_cast<const char*>(&value), sizeof(T));
-}
-template <typename Matrix>
-void put_matrix(std::ostream& os, const Matrix& M) {
-  for (Eigen::Index r = 0; r < M.rows(); ++r)
-    for (Eigen::Index c = 0; c < M.cols(); ++c) put(os, M(r, c));
-}
-
-class Reader {
- public:
-  Reader(std::string bytes, std::string path) : bytes_(std::move(bytes)), path_(std::move(path)) {}
-  template <typename T>
-  T get(const char* what) {
-    if (pos_ + sizeof(T) > bytes_.size())
-      throw IoError(path_ + ": the file ends inside " + what + " (truncated .pkm model?)");
-    T value;
-    std::memcpy(&value, bytes_.data() + pos_, sizeof(T));
-    pos_ += sizeof(T);
-    return value;
-  }
-  template <typename Scalar>
-  Eigen::Matrix<Scalar, Eigen::Dynamic, Eigen::Dynamic> matrix(Eigen::Index rows, Eigen::Index cols, const char* what) {
-    // Checked before allocating, so a corrupt count costs no memory.
-    if (static_cast<double>(sizeof(Scalar)) * static_cast<double>(rows) * static_cast<double>(cols) >
-        static_cast<double>(bytes_.size() - pos_))
-      throw IoError(path_ + ": the file ends inside " + what + " (" + std::to_string(rows) + " x " +
-                    std::to_string(cols) + " values declared; truncated or corrupt .pkm model?)");
-    Eigen::Matrix<Scalar, Eigen::Dynamic, Eigen::Dynamic> M(rows, cols);
-    for (Eigen::Index r = 0; r < rows; ++r)
-      for (Eigen::Index c = 0; c < cols; ++c) M(r, c) = get<Scalar>(what);
-    return M;
-  }
-  bool at_end() const { return pos_ == bytes_.size(); }
-
- private:
-  std::string bytes_, path_;
-  size_t pos_ = 0;
-};
+using io_detail::put;
+using io_detail::put_matrix;
+using Reader = io_detail::BinaryReader;
 
 SegmentationPrior read_segmentation_prior(Reader& in, const std::string& path) {
   SegmentationPrior prior;
@@ -179,7 +143,7 @@ PoseModel pose_model_from_bytes(std::string bytes, const std::string& path) {
       throw IoError(path + ": .pkm checksum mismatch (the file is corrupt, truncated or was changed after it was written)");
     bytes.resize(bytes.size() - 4);
   }
-  Reader in(std::move(bytes), path);
+  Reader in(std::move(bytes), path, ".pkm model");
   for (size_t k = 0; k < sizeof(kMagic); ++k) in.get<char>("the header");
   in.get<std::uint32_t>("the header");  // the version, read above
   const auto nv = in.get<std::uint32_t>("the header"), nf = in.get<std::uint32_t>("the header");

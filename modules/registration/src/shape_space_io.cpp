@@ -9,6 +9,7 @@
 #include "posekit/core/error.h"
 #include "posekit/io/atomic_file.h"
 #include "posekit/io/checksum.h"
+#include "posekit/io/detail/binary_stream.h"
 #include "posekit/registration/shape_space.h"
 
 namespace posekit {
@@ -19,38 +20,8 @@ constexpr char kMagic[8] = {'P', 'O', 'S', 'E', 'K', 'P', 'K', 'S'};
 // row width, then each pose's name length, name and row); older versions are still read.
 constexpr std::uint32_t kVersion = 3;
 
-template <typename T>
-void put(std::ostream& os, const T& value) {
-  os.write(reinterpret_cast<const char*>(&value), sizeof(T));
-}
-
-class Reader {
- public:
-  Reader(const std::string& bytes, const std::string& path) : bytes_(bytes), path_(path) {}
-  template <typename T>
-  T get(const char* what) {
-    if (pos_ + sizeof(T) > bytes_.size()) throw IoError(path_ + ": the file ends inside " + what + " (truncated .pks?)");
-    T value;
-    std::memcpy(&value, bytes_.data() + pos_, sizeof(T));
-    pos_ += sizeof(T);
-    return value;
-  }
-  /// `count` values of T, checked against the bytes left before anything is allocated.
-  template <typename T>
-  void values(T* out, size_t count, const char* what) {
-    if (count == 0) return;  // (an empty vector's data() may be null, which memcpy must not get)
-    if (static_cast<double>(count) * sizeof(T) > static_cast<double>(bytes_.size() - pos_))
-      throw IoError(path_ + ": the file ends inside " + what + " (" + std::to_string(count) + " values declared; truncated .pks?)");
-    std::memcpy(out, bytes_.data() + pos_, count * sizeof(T));
-    pos_ += count * sizeof(T);
-  }
-  size_t left() const { return bytes_.size() - pos_; }
-
- private:
-  const std::string& bytes_;
-  const std::string& path_;
-  size_t pos_ = 0;
-};
+using io_detail::put;
+using Reader = io_detail::BinaryReader;
 
 }  // namespace
 
@@ -103,7 +74,7 @@ ShapeSpace read_shape_space(const std::string& path) {
   if (stored != crc32(bytes.data(), bytes.size() - 4))
     throw IoError(path + ": .pks checksum mismatch (the file is corrupt, truncated or was changed after it was written)");
   bytes.resize(bytes.size() - 4);
-  Reader in(bytes, path);
+  Reader in(std::move(bytes), path, ".pks");
   for (size_t k = 0; k < sizeof(kMagic); ++k) in.get<char>("the header");
   const auto version = in.get<std::uint32_t>("the header");
   if (version < 1 || version > kVersion)
