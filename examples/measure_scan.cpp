@@ -29,8 +29,7 @@ int main(int argc, char** argv) {
     Eigen::MatrixXd points = is_mesh ? mesh.V : posekit::read_point_cloud(path).P;
     const double height = points.col(1).maxCoeff() - points.col(1).minCoeff();
     if (height > 100) points *= 0.001;  // millimetres
-    const posekit::BodyMeasurements m =
-        is_mesh ? posekit::measure_body(points, mesh.F) : posekit::measure_point_cloud(points);
+    const posekit::BodyMeasurements m = is_mesh ? posekit::measure_body(points, mesh.F) : posekit::measure_point_cloud(points);
     std::cout << std::fixed << std::setprecision(1) << "stature " << 100 * m.stature << " cm\n";
     for (const posekit::Girth& g : m.girths) {
       std::cout << "  " << std::setw(10) << std::left << g.name << std::right;

@@ -13,8 +13,8 @@
 #include "posekit/core/data_root.h"
 #include "posekit/core/error.h"
 #include "posekit/deformation/pose_model.h"
-#include "posekit/deformation/rigid_pose.h"
 #include "posekit/deformation/pose_synthesis.h"
+#include "posekit/deformation/rigid_pose.h"
 #include "posekit/io/bvh.h"
 #include "posekit/io/mesh_io.h"
 
@@ -33,8 +33,8 @@ int main(int argc, char** argv) {
     posekit::TriangleMesh posed;
     posed.F = subject.F;
     for (long i = 0; i < frames; ++i) {
-      const posekit::PartPose pose = posekit::part_pose_from_bone_pose(
-          makehuman->rig, posekit::bone_pose_from_bvh(makehuman->rig, motion, static_cast<int>(i)));
+      const posekit::PartPose pose =
+          posekit::part_pose_from_bone_pose(makehuman->rig, posekit::bone_pose_from_bvh(makehuman->rig, motion, static_cast<int>(i)));
       synth.pose(pose, posekit::PoseMethod::kLearned, &posed.V);
       const std::string out = std::string(argv[4]) + "_" + std::to_string(i) + ".ply";
       posekit::write_mesh(out, posed);

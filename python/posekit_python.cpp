@@ -46,8 +46,8 @@ TriangleMesh mesh_of(const Eigen::Ref<const Vertices>& V, const Eigen::Ref<const
   m.V = V;
   m.F = F;
   if (m.F.size() > 0 && (m.F.minCoeff() < 0 || m.F.maxCoeff() >= m.V.rows()))
-    throw InvalidInput("faces refer to vertex " + std::to_string(m.F.minCoeff() < 0 ? m.F.minCoeff() : m.F.maxCoeff()) +
-                       ", outside the " + std::to_string(m.V.rows()) + " vertices");
+    throw InvalidInput("faces refer to vertex " + std::to_string(m.F.minCoeff() < 0 ? m.F.minCoeff() : m.F.maxCoeff()) + ", outside the " +
+                       std::to_string(m.V.rows()) + " vertices");
   return m;
 }
 
@@ -130,8 +130,8 @@ class Subject {
   Vertices pose(const PartPose& p, PoseMethod method) const { return in_callers_frame(frame_, synth_->pose(p, method)); }
   std::vector<Vertices> pose_batch(const std::vector<PartPose>& poses, PoseMethod method, int threads) const {
     std::vector<Vertices> out(poses.size());
-    const int n = std::max(1, std::min<int>(threads > 0 ? threads : static_cast<int>(std::thread::hardware_concurrency()),
-                                           static_cast<int>(poses.size())));
+    const int n = std::max(
+        1, std::min<int>(threads > 0 ? threads : static_cast<int>(std::thread::hardware_concurrency()), static_cast<int>(poses.size())));
     std::vector<std::thread> pool;
     std::vector<std::exception_ptr> error(static_cast<size_t>(n));
     for (int t = 0; t < n; ++t)
@@ -168,8 +168,9 @@ class Subject {
 }  // namespace
 
 PYBIND11_MODULE(posekit, m) {
-  m.doc() = "posekit: customize, pose and validate human body models (Zhu & Mok). Arrays are numpy; "
-            "lengths in metres, bodies Y up and facing +Z.";
+  m.doc() =
+      "posekit: customize, pose and validate human body models (Zhu & Mok). Arrays are numpy; "
+      "lengths in metres, bodies Y up and facing +Z.";
   m.attr("__version__") = posekit::version();
   // Error (a RuntimeError); InvalidInput is also a ValueError, IoError also an OSError.
   py::object type = py::module_::import("builtins").attr("type");
@@ -183,9 +184,9 @@ PYBIND11_MODULE(posekit, m) {
   };
   static const py::handle error_class = make_class("Error", py::make_tuple(py::handle(PyExc_RuntimeError)), "Any posekit error.");
   static const py::handle invalid_class = make_class("InvalidInput", py::make_tuple(error_class, py::handle(PyExc_ValueError)),
-                                               "Input that is not what the function needs (the message says what and why).");
+                                                     "Input that is not what the function needs (the message says what and why).");
   static const py::handle io_class = make_class("IoError", py::make_tuple(error_class, py::handle(PyExc_OSError)),
-                                          "A file that cannot be read or written (the message names it).");
+                                                "A file that cannot be read or written (the message names it).");
   py::register_exception_translator([](std::exception_ptr p) {
     try {
       if (p) std::rethrow_exception(p);
@@ -209,7 +210,9 @@ PYBIND11_MODULE(posekit, m) {
   }();
 
   // Paths are str or pathlib.Path. With fields=True the readers also give what else the file holds.
-  m.def("read_mesh", [](const std::filesystem::path& path, bool fields) -> py::object {
+  m.def(
+      "read_mesh",
+      [](const std::filesystem::path& path, bool fields) -> py::object {
         const TriangleMesh mesh = read_mesh(path.string());
         if (!fields) return py::make_tuple(rows(mesh.V), Faces(mesh.F));
         py::dict extra;
@@ -219,12 +222,15 @@ PYBIND11_MODULE(posekit, m) {
         extra["vertex_scalars"] = mesh.vertex_scalars;
         extra["face_scalars"] = mesh.face_scalars;
         return py::make_tuple(rows(mesh.V), Faces(mesh.F), extra);
-      }, py::arg("path"), py::arg("fields") = false,
+      },
+      py::arg("path"), py::arg("fields") = false,
       "Reads a PLY, OBJ, OFF or STL mesh: (V #V x 3, F #F x 3), in the file's unit; with fields=True (V, F, "
       "{'normals', 'colors' (uint8 RGB), 'uv', 'vertex_scalars': {name: #V}, 'face_scalars': {name: #F}}), empty "
       "where the file has none.");
-  m.def("write_mesh", [](const std::filesystem::path& path, const Eigen::Ref<const Vertices>& V, const Eigen::Ref<const Faces>& F,
-                         const py::object& normals, const py::object& colors, const std::map<std::string, Eigen::VectorXd>& scalars) {
+  m.def(
+      "write_mesh",
+      [](const std::filesystem::path& path, const Eigen::Ref<const Vertices>& V, const Eigen::Ref<const Faces>& F,
+         const py::object& normals, const py::object& colors, const std::map<std::string, Eigen::VectorXd>& scalars) {
         TriangleMesh mesh = mesh_of(V, F);
         if (!normals.is_none()) mesh.N = normals.cast<Eigen::MatrixXd>();
         if (!colors.is_none()) mesh.C = colors.cast<Eigen::Matrix<std::uint8_t, Eigen::Dynamic, 3, Eigen::RowMajor>>();
@@ -239,23 +245,30 @@ PYBIND11_MODULE(posekit, m) {
           mesh.vertex_scalars[name] = values;
         }
         write_mesh(path.string(), mesh);
-      }, py::arg("path"), py::arg("V"), py::arg("F"), py::arg("normals") = py::none(), py::arg("colors") = py::none(),
+      },
+      py::arg("path"), py::arg("V"), py::arg("F"), py::arg("normals") = py::none(), py::arg("colors") = py::none(),
       py::arg("scalars") = std::map<std::string, Eigen::VectorXd>{},
       "Writes a mesh (format from the extension), atomically, with per-vertex normals, uint8 RGB colors and named "
       "scalar fields where the format holds them (PLY all of them).");
-  m.def("read_point_cloud", [](const std::filesystem::path& path, bool fields) -> py::object {
+  m.def(
+      "read_point_cloud",
+      [](const std::filesystem::path& path, bool fields) -> py::object {
         const PointCloud cloud = read_point_cloud(path.string());
         if (!fields) return py::cast(rows(cloud.P));
         py::dict extra;
         extra["normals"] = rows(cloud.has_normals() ? cloud.N : Eigen::MatrixXd(0, 3));
-        extra["colors"] = Eigen::Matrix<std::uint8_t, Eigen::Dynamic, 3, Eigen::RowMajor>(cloud.has_colors() ? cloud.C : RowMatrixX3u8(0, 3));
+        extra["colors"] =
+            Eigen::Matrix<std::uint8_t, Eigen::Dynamic, 3, Eigen::RowMajor>(cloud.has_colors() ? cloud.C : RowMatrixX3u8(0, 3));
         extra["scalars"] = cloud.point_scalars;
         return py::make_tuple(rows(cloud.P), extra);
-      }, py::arg("path"), py::arg("fields") = false,
+      },
+      py::arg("path"), py::arg("fields") = false,
       "Reads a point cloud (PLY, PCD, XYZ): #P x 3, in the file's unit; with fields=True (P, {'normals', 'colors', "
       "'scalars': {name: #P}}).");
-  m.def("write_point_cloud", [](const std::filesystem::path& path, const Eigen::Ref<const Vertices>& P, const py::object& normals,
-                                const std::map<std::string, Eigen::VectorXd>& scalars) {
+  m.def(
+      "write_point_cloud",
+      [](const std::filesystem::path& path, const Eigen::Ref<const Vertices>& P, const py::object& normals,
+         const std::map<std::string, Eigen::VectorXd>& scalars) {
         PointCloud c;
         c.P = P;
         if (!normals.is_none()) c.N = normals.cast<Eigen::MatrixXd>();
@@ -263,17 +276,20 @@ PYBIND11_MODULE(posekit, m) {
           throw InvalidInput("write_point_cloud: normals are #P x 3 (" + std::to_string(c.P.rows()) + " x 3)");
         for (const auto& [name, values] : scalars) {
           if (values.size() != c.P.rows())
-            throw InvalidInput("write_point_cloud: scalar field '" + name + "' has " + std::to_string(values.size()) +
-                               " values for " + std::to_string(c.P.rows()) + " points");
+            throw InvalidInput("write_point_cloud: scalar field '" + name + "' has " + std::to_string(values.size()) + " values for " +
+                               std::to_string(c.P.rows()) + " points");
           c.point_scalars[name] = values;
         }
         write_point_cloud(path.string(), c);
-      }, py::arg("path"), py::arg("P"), py::arg("normals") = py::none(), py::arg("scalars") = std::map<std::string, Eigen::VectorXd>{},
+      },
+      py::arg("path"), py::arg("P"), py::arg("normals") = py::none(), py::arg("scalars") = std::map<std::string, Eigen::VectorXd>{},
       "Writes a point cloud (format from the extension), atomically, with normals and named scalar fields where the "
       "format holds them.");
 
-  m.def("measure", [](const Eigen::Ref<const Vertices>& V, const py::object& F, const std::string& unit, const std::string& up,
-                      const std::string& forward) {
+  m.def(
+      "measure",
+      [](const Eigen::Ref<const Vertices>& V, const py::object& F, const std::string& unit, const std::string& up,
+         const std::string& forward) {
         BodyMeasurements result;
         BodyFrame frame;
         const bool is_mesh = !F.is_none();
@@ -289,7 +305,8 @@ PYBIND11_MODULE(posekit, m) {
         for (const auto& w : frame.orientation.warnings) out["warnings"].cast<py::list>().append(w);
         out["frame"] = frame_dict(frame);
         return out;
-      }, py::arg("V"), py::arg("F") = py::none(), py::arg("unit") = "auto", py::arg("up") = "auto", py::arg("forward") = "auto",
+      },
+      py::arg("V"), py::arg("F") = py::none(), py::arg("unit") = "auto", py::arg("up") = "auto", py::arg("forward") = "auto",
       "Stature and girths of a standing body: a mesh (V, F) or, without F, a scan's points, in any unit and axes as "
       "the CLI reads them: unit m, dm, cm, mm or 'auto' (the largest extent tells), up and forward axes ('+Z', '-y', "
       "...) or 'auto' (detected). Values in metres; each girth's 'point' in the caller's unit and axes. Returns "
@@ -297,22 +314,28 @@ PYBIND11_MODULE(posekit, m) {
       "'warnings', 'frame': {'unit', 'unit_detected', 'up', 'forward', 'description'}}.");
 
   py::class_<PoseModel, std::shared_ptr<PoseModel>>(m, "PoseModel", "A trained pose model (Eq. 3-5; posekit train)")
-      .def_static("load", [](const std::filesystem::path& path) { return std::make_shared<PoseModel>(read_pose_model(path.string())); },
-                  py::arg("path"), "Reads a .pkm model file (posekit train), checksum checked.")
-      .def("save", [](const PoseModel& model, const std::filesystem::path& path) { write_pose_model(path.string(), model); },
-           py::arg("path"), "Writes the model as a .pkm file, atomically.")
+      .def_static(
+          "load", [](const std::filesystem::path& path) { return std::make_shared<PoseModel>(read_pose_model(path.string())); },
+          py::arg("path"), "Reads a .pkm model file (posekit train), checksum checked.")
+      .def(
+          "save", [](const PoseModel& model, const std::filesystem::path& path) { write_pose_model(path.string(), model); },
+          py::arg("path"), "Writes the model as a .pkm file, atomically.")
       .def(py::pickle([](const PoseModel& model) { return py::bytes(pose_model_bytes(model)); },
                       [](const py::bytes& state) {
                         return std::make_shared<PoseModel>(pose_model_from_bytes(std::string(state), "a pickled PoseModel"));
                       }))
       .def_readonly("training_poses", &PoseModel::training_poses, "How many posed examples Eq. 5 was fitted to.")
       .def_readonly("fit_rms", &PoseModel::fit_rms, "RMS residual of Eq. 5 over the training examples' T^Q entries.")
-      .def_property_readonly("template", [](const PoseModel& model) { return py::make_tuple(rows(model.template_V), Faces(model.template_F)); },
-                             "The training template at rest: (V #V x 3 in metres, F #F x 3).")
-      .def_property_readonly("calibration_bodies", [](const PoseModel& model) { return model.segmentation_prior.bodies.size(); },
-                             "Bodies in the segmentation prior (0: the template alone).");
+      .def_property_readonly(
+          "template", [](const PoseModel& model) { return py::make_tuple(rows(model.template_V), Faces(model.template_F)); },
+          "The training template at rest: (V #V x 3 in metres, F #F x 3).")
+      .def_property_readonly(
+          "calibration_bodies", [](const PoseModel& model) { return model.segmentation_prior.bodies.size(); },
+          "Bodies in the segmentation prior (0: the template alone).");
 
-  m.def("train", [](const std::string& dataset, int calibration_bodies, const std::string& data_root) {
+  m.def(
+      "train",
+      [](const std::string& dataset, int calibration_bodies, const std::string& data_root) {
         py::gil_scoped_release release;
         auto model = std::make_shared<PoseModel>(train_on_dataset(dataset));
         if (calibration_bodies > 0) {
@@ -322,13 +345,15 @@ PYBIND11_MODULE(posekit, m) {
           if (!report.not_made.empty()) throw InvalidInput("segmentation prior not made: " + report.not_made);
         }
         return model;
-      }, py::arg("dataset"), py::arg("calibration_bodies") = 128, py::arg("data_root") = "",
+      },
+      py::arg("dataset"), py::arg("calibration_bodies") = 128, py::arg("data_root") = "",
       "Trains a pose model on a posekit dataset's training split (as posekit train), with a segmentation "
       "prior of `calibration_bodies` MakeHuman bodies (0: the template alone).");
 
-  m.def("segment", [](const Eigen::Ref<const Vertices>& V, const Eigen::Ref<const Faces>& F,
-                      const std::shared_ptr<PoseModel>& model, bool checked, const std::string& unit, const std::string& up,
-                      const std::string& forward) {
+  m.def(
+      "segment",
+      [](const Eigen::Ref<const Vertices>& V, const Eigen::Ref<const Faces>& F, const std::shared_ptr<PoseModel>& model, bool checked,
+         const std::string& unit, const std::string& up, const std::string& forward) {
         BodySegmentation result;
         TriangleMesh surface;
         BodyFrame frame;
@@ -356,16 +381,18 @@ PYBIND11_MODULE(posekit, m) {
         out["notes"] = result.notes;
         out["frame"] = frame_dict(frame);
         return out;
-      }, py::arg("V"), py::arg("F"), py::arg("model") = nullptr, py::arg("checked") = true, py::arg("unit") = "auto",
-      py::arg("up") = "auto", py::arg("forward") = "auto",
+      },
+      py::arg("V"), py::arg("F"), py::arg("model") = nullptr, py::arg("checked") = true, py::arg("unit") = "auto", py::arg("up") = "auto",
+      py::arg("forward") = "auto",
       "Segments a standing body mesh into 16 parts (Eq. 2) and embeds the 15 joints; with a model, from its "
       "segmentation prior. Any unit and axes, as measure() reads them. Returns {'triangle_part' (#F, see part_names), "
       "'joints' (15 x 3, see joint_names, in the caller's unit and axes), 'problems', 'notes', 'frame'}; raises "
       "InvalidInput when the result fails the sanity checks (unless checked=False).");
 
-  m.def("register", [](const Eigen::Ref<const Vertices>& source_V, const Eigen::Ref<const Faces>& source_F,
-                       const Eigen::Ref<const Vertices>& target_V, const Eigen::Ref<const Faces>& target_F,
-                       const std::string& method, const std::string& shape_space, int threads) {
+  m.def(
+      "register",
+      [](const Eigen::Ref<const Vertices>& source_V, const Eigen::Ref<const Faces>& source_F, const Eigen::Ref<const Vertices>& target_V,
+         const Eigen::Ref<const Faces>& target_F, const std::string& method, const std::string& shape_space, int threads) {
         RegistrationResult r;
         {
           RegistrationOptions o;
@@ -388,15 +415,18 @@ PYBIND11_MODULE(posekit, m) {
         out["shape_space_kept"] = !shape_space.empty() && r.shape_fit.plausible;
         out["warnings"] = r.warnings;
         return out;
-      }, py::arg("source_V"), py::arg("source_F"), py::arg("target_V"), py::arg("target_F"), py::arg("method") = "ctffd",
+      },
+      py::arg("source_V"), py::arg("source_F"), py::arg("target_V"), py::arg("target_F"), py::arg("method") = "ctffd",
       py::arg("shape_space") = "", py::arg("threads") = 0,
       "Registers source to target (ctffd, icp or nicp) and matches triangles by nearest centroid. shape_space: a .pks "
       "file (posekit shape-space) in the source's topology refining ct-FFD; threads: ct-FFD's (0: all cores; the same "
       "result to rounding). Returns {'deformed_source', 'correspondence' (for each target triangle its source "
       "triangle), 'normal_failures', 'seconds', 'shape_space_kept' (the fit was plausible and used), 'warnings'}.");
 
-  m.def("compare", [](const Eigen::Ref<const Vertices>& V, const Eigen::Ref<const Faces>& F, const Eigen::Ref<const Vertices>& scan,
-                      double outlier_threshold) {
+  m.def(
+      "compare",
+      [](const Eigen::Ref<const Vertices>& V, const Eigen::Ref<const Faces>& F, const Eigen::Ref<const Vertices>& scan,
+         double outlier_threshold) {
         ScanComparison c;
         {
           const TriangleMesh mesh = mesh_of(V, F);
@@ -421,13 +451,15 @@ PYBIND11_MODULE(posekit, m) {
         out["hausdorff_mm"] = c.hausdorff_mm;
         out["coverage"] = c.coverage;
         return out;
-      }, py::arg("V"), py::arg("F"), py::arg("scan"), py::arg("outlier_threshold") = 0.02,
+      },
+      py::arg("V"), py::arg("F"), py::arg("scan"), py::arg("outlier_threshold") = 0.02,
       "Distances between a body mesh and a scan (both m; outlier_threshold m): every distance out is in mm, its key "
       "says so: signed 'scan_to_model_mm' per scan point and 'model_to_scan_mm' per vertex (NaN where uncovered), "
       "their statistics, 'hausdorff_mm', and 'coverage' (a fraction).");
 
-  py::class_<Subject>(m, "Subject", "A customized body prepared for posing with a model (segmentation, skeleton, "
-                                    "correspondence, factorisation once; then each pose is one solve)")
+  py::class_<Subject>(m, "Subject",
+                      "A customized body prepared for posing with a model (segmentation, skeleton, "
+                      "correspondence, factorisation once; then each pose is one solve)")
       .def(py::init([](std::shared_ptr<PoseModel> model, const Eigen::Ref<const Vertices>& V, const Eigen::Ref<const Faces>& F,
                        const std::string& unit, const std::string& up, const std::string& forward) {
              TriangleMesh mesh = mesh_of(V, F);
@@ -442,52 +474,61 @@ PYBIND11_MODULE(posekit, m) {
              for (const auto& w : subject->frame().orientation.warnings) warn("posekit.Subject: " + w);
              for (const auto& p : subject->info().skeleton_problems) warn("posekit.Subject: the skeleton: " + p);
              return subject;
-           }), py::arg("model"), py::arg("V"), py::arg("F"), py::arg("unit") = "auto", py::arg("up") = "auto",
-           py::arg("forward") = "auto",
+           }),
+           py::arg("model"), py::arg("V"), py::arg("F"), py::arg("unit") = "auto", py::arg("up") = "auto", py::arg("forward") = "auto",
            "The body at rest in any unit and axes (read as measure() reads them); posed bodies and joints come back "
            "in the same unit and axes. Pose rotations are about posekit's axes (the body's left, up and forward).")
-      .def("pose", [](const Subject& s, const py::object& pose, const std::string& method) {
-             const PartPose p = part_pose_of(pose);
-             const PoseMethod how = parse_pose_method(method);
-             py::gil_scoped_release release;
-             return s.pose(p, how);
-           }, py::arg("pose"), py::arg("method") = "learned",
-           "The posed vertices (#V x 3) for joint rotations (axis-angle, radians, relative to the parent part, "
-           "as posekit's pose JSON): a 15 x 3 array in joint_names order, a dict {joint name: rotation}, a pose "
-           "file's path (str or pathlib.Path) or its JSON as loaded (with 'joints' and the root's rotation and "
-           "translation). method: learned, rigid or lbs.")
-      .def("pose_batch", [](const Subject& s, const py::array_t<double>& poses, const std::string& method, int threads) {
-             if (poses.ndim() != 3 || poses.shape(1) != kNumJoints || poses.shape(2) != 3)
-               throw InvalidInput("pose_batch expects a k x 15 x 3 array of joint rotations");
-             std::vector<PartPose> list(static_cast<size_t>(poses.shape(0)));
-             auto r = poses.unchecked<3>();
-             for (py::ssize_t i = 0; i < poses.shape(0); ++i)
-               for (int j = 0; j < kNumJoints; ++j) {
-                 list[static_cast<size_t>(i)].joint(j) = Eigen::Vector3d(r(i, j, 0), r(i, j, 1), r(i, j, 2));
-                 if (!list[static_cast<size_t>(i)].joint(j).allFinite())
-                   throw InvalidInput("pose " + std::to_string(i) + " holds a NaN or infinite rotation");
-               }
-             const PoseMethod how = parse_pose_method(method);
-             std::vector<Vertices> posed;
-             {
-               py::gil_scoped_release release;
-               posed = s.pose_batch(list, how, threads);
-             }
-             const py::ssize_t n = posed.empty() ? 0 : static_cast<py::ssize_t>(posed[0].rows());
-             py::array_t<double> out({static_cast<py::ssize_t>(posed.size()), n, py::ssize_t{3}});
-             auto w = out.mutable_unchecked<3>();
-             for (size_t i = 0; i < posed.size(); ++i)
-               for (py::ssize_t v = 0; v < n; ++v)
-                 for (int c = 0; c < 3; ++c) w(static_cast<py::ssize_t>(i), v, c) = posed[i](v, c);
-             return out;
-           }, py::arg("poses"), py::arg("method") = "learned", py::arg("threads") = 0,
-           "Poses a k x 15 x 3 array of poses on `threads` threads (0: all cores): k x #V x 3.")
-      .def_property_readonly("triangle_part", [](const Subject& s) { return Eigen::VectorXi(s.info().triangle_part); },
-                             "The part of each triangle (#F, indices into part_names).")
-      .def_property_readonly("joints", [](const Subject& s) { return in_callers_frame(s.frame(), s.info().joint_centres); },
-                             "The 15 joint centres at rest (15 x 3, joint_names order), in the body's own unit and axes.")
-      .def_property_readonly("frame", [](const Subject& s) { return frame_dict(s.frame()); },
-                             "How the body was read: {'unit', 'unit_detected', 'up', 'forward', 'description'}.")
+      .def(
+          "pose",
+          [](const Subject& s, const py::object& pose, const std::string& method) {
+            const PartPose p = part_pose_of(pose);
+            const PoseMethod how = parse_pose_method(method);
+            py::gil_scoped_release release;
+            return s.pose(p, how);
+          },
+          py::arg("pose"), py::arg("method") = "learned",
+          "The posed vertices (#V x 3) for joint rotations (axis-angle, radians, relative to the parent part, "
+          "as posekit's pose JSON): a 15 x 3 array in joint_names order, a dict {joint name: rotation}, a pose "
+          "file's path (str or pathlib.Path) or its JSON as loaded (with 'joints' and the root's rotation and "
+          "translation). method: learned, rigid or lbs.")
+      .def(
+          "pose_batch",
+          [](const Subject& s, const py::array_t<double>& poses, const std::string& method, int threads) {
+            if (poses.ndim() != 3 || poses.shape(1) != kNumJoints || poses.shape(2) != 3)
+              throw InvalidInput("pose_batch expects a k x 15 x 3 array of joint rotations");
+            std::vector<PartPose> list(static_cast<size_t>(poses.shape(0)));
+            auto r = poses.unchecked<3>();
+            for (py::ssize_t i = 0; i < poses.shape(0); ++i)
+              for (int j = 0; j < kNumJoints; ++j) {
+                list[static_cast<size_t>(i)].joint(j) = Eigen::Vector3d(r(i, j, 0), r(i, j, 1), r(i, j, 2));
+                if (!list[static_cast<size_t>(i)].joint(j).allFinite())
+                  throw InvalidInput("pose " + std::to_string(i) + " holds a NaN or infinite rotation");
+              }
+            const PoseMethod how = parse_pose_method(method);
+            std::vector<Vertices> posed;
+            {
+              py::gil_scoped_release release;
+              posed = s.pose_batch(list, how, threads);
+            }
+            const py::ssize_t n = posed.empty() ? 0 : static_cast<py::ssize_t>(posed[0].rows());
+            py::array_t<double> out({static_cast<py::ssize_t>(posed.size()), n, py::ssize_t{3}});
+            auto w = out.mutable_unchecked<3>();
+            for (size_t i = 0; i < posed.size(); ++i)
+              for (py::ssize_t v = 0; v < n; ++v)
+                for (int c = 0; c < 3; ++c) w(static_cast<py::ssize_t>(i), v, c) = posed[i](v, c);
+            return out;
+          },
+          py::arg("poses"), py::arg("method") = "learned", py::arg("threads") = 0,
+          "Poses a k x 15 x 3 array of poses on `threads` threads (0: all cores): k x #V x 3.")
+      .def_property_readonly(
+          "triangle_part", [](const Subject& s) { return Eigen::VectorXi(s.info().triangle_part); },
+          "The part of each triangle (#F, indices into part_names).")
+      .def_property_readonly(
+          "joints", [](const Subject& s) { return in_callers_frame(s.frame(), s.info().joint_centres); },
+          "The 15 joint centres at rest (15 x 3, joint_names order), in the body's own unit and axes.")
+      .def_property_readonly(
+          "frame", [](const Subject& s) { return frame_dict(s.frame()); },
+          "How the body was read: {'unit', 'unit_detected', 'up', 'forward', 'description'}.")
       // Pickled as the model and the body in posekit's frame with how it got there; set-up runs again
       // where it is unpickled (a worker process), giving the same subject.
       .def(py::pickle(
@@ -514,7 +555,9 @@ PYBIND11_MODULE(posekit, m) {
             py::gil_scoped_release release;
             return std::make_unique<Subject>(std::move(model), mesh, f);
           }))
-      .def_property_readonly("faces", [](const Subject& s) { return Faces(s.faces()); }, "The body's triangles (#F x 3).")
-      .def_property_readonly("skeleton_problems", [](const Subject& s) { return s.info().skeleton_problems; },
-                             "What the skeleton checks found wrong (empty: nothing); also given as warnings.");
+      .def_property_readonly(
+          "faces", [](const Subject& s) { return Faces(s.faces()); }, "The body's triangles (#F x 3).")
+      .def_property_readonly(
+          "skeleton_problems", [](const Subject& s) { return s.info().skeleton_problems; },
+          "What the skeleton checks found wrong (empty: nothing); also given as warnings.");
 }

@@ -54,9 +54,7 @@ std::string write_open3d_compare_script(const std::string& dir) {
   return path;
 }
 
-bool have_program(const std::string& program) {
-  return std::system(("command -v " + program + " >/dev/null 2>&1").c_str()) == 0;
-}
+bool have_program(const std::string& program) { return std::system(("command -v " + program + " >/dev/null 2>&1").c_str()) == 0; }
 
 PointCloud sample_surface(const TriangleMesh& mesh, long n, double sigma, unsigned seed) {
   const Eigen::VectorXd area = face_areas(mesh.V, mesh.F);
@@ -80,8 +78,7 @@ PointCloud sample_surface(const TriangleMesh& mesh, long n, double sigma, unsign
   return scan;
 }
 
-ScratchDir::ScratchDir()
-    : path((std::filesystem::temp_directory_path() / ("posekit-bench-" + std::to_string(::getpid()))).string()) {
+ScratchDir::ScratchDir() : path((std::filesystem::temp_directory_path() / ("posekit-bench-" + std::to_string(::getpid()))).string()) {
   create_folders(path);
 }
 

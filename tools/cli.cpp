@@ -50,8 +50,9 @@ ArgParser& ArgParser::flag(const std::string& name, const std::string& help) {
   return *this;
 }
 ArgParser& ArgParser::data_option(const std::string& purpose) {
-  return option("data", "DIR", "MakeHuman data root" + (purpose.empty() ? "" : " " + purpose) +
-                                   " (default: $POSEKIT_DATA, else ../shared/datasets/makehuman)");
+  return option(
+      "data", "DIR",
+      "MakeHuman data root" + (purpose.empty() ? "" : " " + purpose) + " (default: $POSEKIT_DATA, else ../shared/datasets/makehuman)");
 }
 ArgParser& ArgParser::example(const std::string& line) {
   examples_.push_back(line);
@@ -163,11 +164,9 @@ bool ArgParser::parse(int argc, char** argv) {
   size_t required = 0;
   for (const auto& p : positional_specs_) required += p.required;
   if (positional_values_.size() < required)
-    throw UsageError("missing argument <" + positional_specs_[positional_values_.size()].name + "> (see posekit " +
-                     command_ + " --help)");
+    throw UsageError("missing argument <" + positional_specs_[positional_values_.size()].name + "> (see posekit " + command_ + " --help)");
   if (positional_values_.size() > positional_specs_.size())
-    throw UsageError("unexpected argument '" + positional_values_[positional_specs_.size()] + "' (see posekit " +
-                     command_ + " --help)");
+    throw UsageError("unexpected argument '" + positional_values_[positional_specs_.size()] + "' (see posekit " + command_ + " --help)");
   for (const auto& o : options_)
     if (!o.is_flag && !o.default_value.empty() && !values_.count(o.name)) values_[o.name] = o.default_value;
   check_outputs();
@@ -318,8 +317,7 @@ std::string BodyUnit::describe() const {
   return text.str();
 }
 
-BodyInput read_body_input(const std::string& path, const std::string& unit_option, const std::string& command,
-                          BodyUnit* chosen) {
+BodyInput read_body_input(const std::string& path, const std::string& unit_option, const std::string& command, BodyUnit* chosen) {
   const bool automatic = unit_option == "auto";
   BodyUnit u;
   u.unit = automatic ? Unit::kMetre : parse_unit(unit_option);
@@ -349,8 +347,8 @@ void add_orientation_options(ArgParser* args, const std::string& prefix, const s
       .option(prefix + "forward", "AXIS", "the axis " + what + " faces, or auto (the feet tell)", "auto");
 }
 
-BodyOrientation orient_body_input(BodyInput* in, const std::string& up_option, const std::string& forward_option,
-                                  const std::string& path, const std::string& command) {
+BodyOrientation orient_body_input(BodyInput* in, const std::string& up_option, const std::string& forward_option, const std::string& path,
+                                  const std::string& command) {
   if (up_option != "auto") parse_axis(up_option);  // a bad axis is a usage error, not the file's
   if (forward_option != "auto") parse_axis(forward_option);
   BodyOrientation orientation;
@@ -362,8 +360,7 @@ BodyOrientation orient_body_input(BodyInput* in, const std::string& up_option, c
     throw InvalidInput(path + ": " + e.what());
   }
   std::cerr << "posekit " << command << ": " << path << ": " << orientation.describe()
-            << (orientation.is_identity() ? ", posekit's own frame" : ": turned into posekit's frame (Y up, facing +Z)")
-            << "\n";
+            << (orientation.is_identity() ? ", posekit's own frame" : ": turned into posekit's frame (Y up, facing +Z)") << "\n";
   for (const auto& w : orientation.warnings) std::cerr << "warning: " << path << ": " << w << "\n";
   return orientation;
 }
@@ -372,16 +369,17 @@ Eigen::MatrixXd in_file_frame(const BodyOrientation& orientation, const Eigen::M
   return P * orientation.rotation;  // rows: (R^T p)^T = p^T R
 }
 
-Eigen::Vector3d in_file_frame(const BodyOrientation& orientation, const Eigen::Vector3d& p) {
-  return orientation.rotation.transpose() * p;
-}
+Eigen::Vector3d in_file_frame(const BodyOrientation& orientation, const Eigen::Vector3d& p) { return orientation.rotation.transpose() * p; }
 
 nlohmann::ordered_json orientation_json(const BodyOrientation& orientation) {
   nlohmann::ordered_json R = nlohmann::ordered_json::array();
   for (int r = 0; r < 3; ++r) R.push_back({orientation.rotation(r, 0), orientation.rotation(r, 1), orientation.rotation(r, 2)});
-  return {{"up", axis_name(orientation.up())}, {"forward", axis_name(orientation.forward())},
-          {"up_detected", orientation.up_detected}, {"forward_detected", orientation.forward_detected},
-          {"posekit_from_file", R}, {"warnings", orientation.warnings}};
+  return {{"up", axis_name(orientation.up())},
+          {"forward", axis_name(orientation.forward())},
+          {"up_detected", orientation.up_detected},
+          {"forward_detected", orientation.forward_detected},
+          {"posekit_from_file", R},
+          {"warnings", orientation.warnings}};
 }
 
 void print_json(const nlohmann::json& value) { std::cout << value.dump(2) << std::endl; }

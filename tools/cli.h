@@ -29,8 +29,7 @@ class ArgParser {
   ArgParser(std::string command, std::string summary) : command_(std::move(command)), summary_(std::move(summary)) {}
 
   ArgParser& positional(const std::string& name, const std::string& help, bool required = true);
-  ArgParser& option(const std::string& name, const std::string& value_name, const std::string& help,
-                    const std::string& default_value = "");
+  ArgParser& option(const std::string& name, const std::string& value_name, const std::string& help, const std::string& default_value = "");
   ArgParser& flag(const std::string& name, const std::string& help);
   /// --data DIR, the MakeHuman data root (find_data_root: else $POSEKIT_DATA, else
   /// ../shared/datasets/makehuman); `purpose` says what the command reads there ("for the BVH skeleton").
@@ -38,8 +37,7 @@ class ArgParser {
   ArgParser& example(const std::string& line);
   /// An option naming a file the command writes: its folder must exist, or --mkdir (added with the
   /// first output) creates it; a typo in a path is an error, not a new folder tree.
-  ArgParser& output(const std::string& name, const std::string& value_name, const std::string& help,
-                    const std::string& default_value = "");
+  ArgParser& output(const std::string& name, const std::string& value_name, const std::string& help, const std::string& default_value = "");
   /// An option naming a folder the command fills: the folder is created, its parent must exist (or --mkdir).
   ArgParser& output_folder(const std::string& name, const std::string& value_name, const std::string& help,
                            const std::string& default_value = "");
@@ -123,8 +121,7 @@ struct BodyUnit {
 /// largest extent (stray points aside) tells (a standing body or a torso, 0.5 to 3 m, in m, dm, cm or mm). A detected
 /// unit is announced on stderr by `command`; an extent no unit explains is an error naming the
 /// file and asking for the unit.
-BodyInput read_body_input(const std::string& path, const std::string& unit_option, const std::string& command,
-                          BodyUnit* chosen);
+BodyInput read_body_input(const std::string& path, const std::string& unit_option, const std::string& command, BodyUnit* chosen);
 /// The unit of `points` read in metres, detected from their largest extent as read_body_input does
 /// (the same message on stderr); scales them to metres.
 BodyUnit detect_body_unit(Eigen::MatrixXd* points, const std::string& path, const std::string& command);
@@ -135,8 +132,8 @@ void add_orientation_options(ArgParser* args, const std::string& prefix = "", co
 /// Turns a body read from `path` into posekit's frame (Y up, facing +Z, left +X): the options are
 /// axes or "auto" (detected from the body's shape). Announces the orientation on stderr from
 /// `command`, with any doubt as warnings; normals turn too. Returns the orientation applied.
-BodyOrientation orient_body_input(BodyInput* in, const std::string& up_option, const std::string& forward_option,
-                                  const std::string& path, const std::string& command);
+BodyOrientation orient_body_input(BodyInput* in, const std::string& up_option, const std::string& forward_option, const std::string& path,
+                                  const std::string& command);
 
 /// Points (#P x 3, rows) in posekit's frame written back in the file's frame.
 Eigen::MatrixXd in_file_frame(const BodyOrientation& orientation, const Eigen::MatrixXd& P);

@@ -1,9 +1,9 @@
 // posekit batch: one command over many bodies, on several cores and, by shards, several machines.
 #include <algorithm>
 #include <atomic>
-#include <functional>
 #include <filesystem>
 #include <fstream>
+#include <functional>
 #include <iomanip>
 #include <iostream>
 #include <mutex>
@@ -13,22 +13,22 @@
 
 #include "cli.h"
 #include "commands.h"
-#include "posekit/core/error.h"
-#include "posekit/core/timer.h"
-#include "posekit/core/units.h"
-#include "posekit/io/atomic_file.h"
-#include "posekit/io/checksum.h"
-#include "posekit/io/mesh_io.h"
-#include "posekit/io/point_cloud_io.h"
 #include "posekit/body/makehuman_model.h"
 #include "posekit/core/data_root.h"
+#include "posekit/core/error.h"
 #include "posekit/core/mesh_validation.h"
+#include "posekit/core/timer.h"
+#include "posekit/core/units.h"
 #include "posekit/deformation/pose_model.h"
 #include "posekit/deformation/pose_synthesis.h"
 #include "posekit/deformation/rigid_pose.h"
 #include "posekit/evaluation/scan_comparison.h"
-#include "posekit/registration/registration.h"
+#include "posekit/io/atomic_file.h"
 #include "posekit/io/bvh.h"
+#include "posekit/io/checksum.h"
+#include "posekit/io/mesh_io.h"
+#include "posekit/io/point_cloud_io.h"
+#include "posekit/registration/registration.h"
 #include "posekit/segmentation/segmentation.h"
 #include "posekit/shape/body_orientation.h"
 #include "posekit/shape/measurements.h"
@@ -86,7 +86,9 @@ nlohmann::ordered_json input_content(const std::vector<std::string>& files) {
     const auto bytes = fs::file_size(file, ec);
     if (ec) throw IoError(file + ": cannot read (" + ec.message() + ")");
     const auto mtime = fs::last_write_time(file, ec);
-    content.push_back({{"file", file}, {"bytes", bytes}, {"crc32", file_crc32(file)},
+    content.push_back({{"file", file},
+                       {"bytes", bytes},
+                       {"crc32", file_crc32(file)},
                        {"mtime_ns", ec ? 0LL : static_cast<long long>(mtime.time_since_epoch().count())}});
   }
   return content;
@@ -176,9 +178,7 @@ nlohmann::ordered_json measure_one(const std::string& path) {
 
 /// JSON text of a result or summary; bytes that are not UTF-8 (a Latin-1 file name in an error
 /// message) are replaced rather than failing the write.
-std::string dump_json(const nlohmann::ordered_json& j) {
-  return j.dump(2, ' ', false, nlohmann::ordered_json::error_handler_t::replace);
-}
+std::string dump_json(const nlohmann::ordered_json& j) { return j.dump(2, ' ', false, nlohmann::ordered_json::error_handler_t::replace); }
 
 std::string csv_field(const std::string& text) {
   if (text.find_first_of(",\"\n") == std::string::npos) return text;
@@ -199,18 +199,20 @@ std::string number(const nlohmann::json& value, int digits) {
 void write_summary(const fs::path& out, const std::string& stem, const nlohmann::ordered_json& summary,
                    const std::vector<BatchColumn>& columns) {
   write_file_atomically((out / (stem + ".json")).string(), [&](std::ostream& os) { os << dump_json(summary) << "\n"; }, false);
-  write_file_atomically((out / (stem + ".csv")).string(), [&](std::ostream& os) {
-    os << "index,input,status,error";
-    for (const auto& c : columns) os << "," << c.header;
-    os << ",warnings\n";
-    for (const auto& r : summary["results"]) {
-      const bool ok = r["ok"].get<bool>();
-      os << r["index"].get<long>() << "," << csv_field(r["input"].get<std::string>()) << "," << (ok ? "ok" : "failed") << ","
-         << csv_field(r.value("error", ""));
-      for (const auto& c : columns) os << "," << (ok ? csv_field(c.value(r)) : "");
-      os << "," << (ok ? std::to_string(r.value("warnings", nlohmann::ordered_json::array()).size()) : "") << "\n";
-    }
-  }, false);
+  write_file_atomically((out / (stem + ".csv")).string(),
+                        [&](std::ostream& os) {
+                          os << "index,input,status,error";
+                          for (const auto& c : columns) os << "," << c.header;
+                          os << ",warnings\n";
+                          for (const auto& r : summary["results"]) {
+                            const bool ok = r["ok"].get<bool>();
+                            os << r["index"].get<long>() << "," << csv_field(r["input"].get<std::string>()) << "," << (ok ? "ok" : "failed")
+                               << "," << csv_field(r.value("error", ""));
+                            for (const auto& c : columns) os << "," << (ok ? csv_field(c.value(r)) : "");
+                            os << "," << (ok ? std::to_string(r.value("warnings", nlohmann::ordered_json::array()).size()) : "") << "\n";
+                          }
+                        },
+                        false);
 }
 
 std::vector<BatchColumn> measure_columns() {
@@ -322,8 +324,7 @@ int run_batch_job(const ArgParser& args, const BatchJob& job, const std::vector<
       if (have) {
         ++reused;
       } else {
-        r = nlohmann::ordered_json{{"input", input}, {"command", job.command}, {"settings", job.settings},
-                                   {"input_content", content}};
+        r = nlohmann::ordered_json{{"input", input}, {"command", job.command}, {"settings", job.settings}, {"input_content", content}};
         try {
           const nlohmann::ordered_json m = job.process(input, name);
           r["ok"] = true;
@@ -336,7 +337,8 @@ int run_batch_job(const ArgParser& args, const BatchJob& job, const std::vector<
           r["error"] = e.what();
         }
         try {
-          write_file_atomically(result_path.string(), [&](std::ostream& os) { os << dump_json(r) << "\n"; }, false);
+          write_file_atomically(
+              result_path.string(), [&](std::ostream& os) { os << dump_json(r) << "\n"; }, false);
         } catch (const WriteError& e) {
           stop_on(e);
           continue;
@@ -378,9 +380,14 @@ int run_batch_job(const ArgParser& args, const BatchJob& job, const std::vector<
   summary["results"] = results;
   write_summary(out, shard_stem(shard, shards), summary, job.columns);
   const long processed = static_cast<long>(mine.size()) - reused.load();
-  nlohmann::ordered_json run = {{"command", job.command},    {"inputs", mine.size()},   {"processed", processed},
-                                {"reused", reused.load()},   {"failed", failed.load()}, {"jobs", jobs},
-                                {"seconds", seconds},        {"inputs_per_second", processed > 0 ? processed / seconds : 0.0},
+  nlohmann::ordered_json run = {{"command", job.command},
+                                {"inputs", mine.size()},
+                                {"processed", processed},
+                                {"reused", reused.load()},
+                                {"failed", failed.load()},
+                                {"jobs", jobs},
+                                {"seconds", seconds},
+                                {"inputs_per_second", processed > 0 ? processed / seconds : 0.0},
                                 {"peak_rss_mib", peak_rss_mib()}};
   const std::string run_stem = shards == 1 ? "run" : "run.shard-" + std::to_string(shard) + "-of-" + std::to_string(shards);
   write_file_atomically((out / (run_stem + ".json")).string(), [&](std::ostream& os) { os << run.dump(2) << "\n"; }, false);
@@ -388,8 +395,8 @@ int run_batch_job(const ArgParser& args, const BatchJob& job, const std::vector<
     print_json(run);
   } else {
     std::cout << "batch " << job.command << ": " << mine.size() << " inputs" << (shards > 1 ? " (shard " + args.get("shard") + ")" : "")
-              << ", " << processed << " processed, " << reused.load() << " done earlier, " << failed.load() << " failed, in "
-              << std::fixed << std::setprecision(1) << seconds << " s on " << jobs << " jobs (" << std::setprecision(2)
+              << ", " << processed << " processed, " << reused.load() << " done earlier, " << failed.load() << " failed, in " << std::fixed
+              << std::setprecision(1) << seconds << " s on " << jobs << " jobs (" << std::setprecision(2)
               << (processed > 0 ? processed / seconds : 0.0) << " inputs/s), peak RSS " << std::setprecision(0) << peak_rss_mib()
               << " MiB; wrote " << (out / (shard_stem(shard, shards) + ".csv")).string() << "\n";
     for (const auto& r : results)
@@ -402,7 +409,8 @@ int run_batch_measure(int argc, char** argv) {
   ArgParser args("batch measure",
                  std::string("Measures many bodies (meshes or scans; unit from each file's extent, orientation detected) on\n"
                              "--jobs cores: one result file per input in OUT/results, then OUT/summary.json and summary.csv\n"
-                             "(girths in metres, one row per input in input order).") + kBatchCommon);
+                             "(girths in metres, one row per input in input order).") +
+                     kBatchCommon);
   args.option("inputs", "DIR|LIST", "a folder (its body files, recursively, in sorted order) or a text file of paths, one per line");
   add_batch_options(&args);
   args.example("posekit batch measure --inputs scans/ --out measured --jobs 2")
@@ -428,25 +436,24 @@ std::pair<std::string, std::string> model_and_scan(const std::string& line, cons
 }
 
 nlohmann::ordered_json distance_stats_json(const DistanceStats& s) {
-  return {{"mean_mm", s.mean_mm}, {"rms_mm", s.rms_mm}, {"p95_mm", s.p95_mm}, {"max_mm", s.max_mm},
-          {"signed_mean_mm", s.signed_mean_mm}, {"count", s.count}, {"outliers", s.outliers}};
+  return {{"mean_mm", s.mean_mm}, {"rms_mm", s.rms_mm},    {"p95_mm", s.p95_mm}, {"max_mm", s.max_mm}, {"signed_mean_mm", s.signed_mean_mm},
+          {"count", s.count},     {"outliers", s.outliers}};
 }
 
 std::vector<BatchColumn> compare_columns(bool measure) {
   auto stat = [](const char* direction, const char* key) {
     return [direction, key](const nlohmann::ordered_json& r) { return number(r[direction][key], 3); };
   };
-  std::vector<BatchColumn> columns = {
-      {"model", [](const auto& r) { return r["model"].template get<std::string>(); }},
-      {"scan", [](const auto& r) { return r["scan"].template get<std::string>(); }},
-      {"scan_points", [](const auto& r) { return std::to_string(r["scan_points"].template get<long>()); }},
-      {"scan_to_model_mean_mm", stat("scan_to_model", "mean_mm")},
-      {"scan_to_model_rms_mm", stat("scan_to_model", "rms_mm")},
-      {"scan_to_model_p95_mm", stat("scan_to_model", "p95_mm")},
-      {"model_to_scan_mean_mm", stat("model_to_scan", "mean_mm")},
-      {"model_to_scan_p95_mm", stat("model_to_scan", "p95_mm")},
-      {"hausdorff_mm", [](const auto& r) { return number(r["hausdorff_mm"], 3); }},
-      {"coverage", [](const auto& r) { return number(r["coverage"], 4); }}};
+  std::vector<BatchColumn> columns = {{"model", [](const auto& r) { return r["model"].template get<std::string>(); }},
+                                      {"scan", [](const auto& r) { return r["scan"].template get<std::string>(); }},
+                                      {"scan_points", [](const auto& r) { return std::to_string(r["scan_points"].template get<long>()); }},
+                                      {"scan_to_model_mean_mm", stat("scan_to_model", "mean_mm")},
+                                      {"scan_to_model_rms_mm", stat("scan_to_model", "rms_mm")},
+                                      {"scan_to_model_p95_mm", stat("scan_to_model", "p95_mm")},
+                                      {"model_to_scan_mean_mm", stat("model_to_scan", "mean_mm")},
+                                      {"model_to_scan_p95_mm", stat("model_to_scan", "p95_mm")},
+                                      {"hausdorff_mm", [](const auto& r) { return number(r["hausdorff_mm"], 3); }},
+                                      {"coverage", [](const auto& r) { return number(r["coverage"], 4); }}};
   if (measure)
     for (const char* g : {"stature", "bust", "waist", "hip"})
       columns.push_back({std::string(g) + "_difference_cm", [g](const auto& r) {
@@ -498,7 +505,8 @@ int run_batch_compare(int argc, char** argv) {
                              "both ways in mm, coverage and, with --measure, the girth discrepancies with ISO 20685-1\n"
                              "tolerances. Units come from each body's extent and orientations are detected. One result per\n"
                              "pair in OUT/results, OUT/summary.json and summary.csv; --heatmaps adds each model with its\n"
-                             "signed_distance_mm scalar in OUT/heatmaps (PLY, in the model file's frame and unit).") + kBatchCommon);
+                             "signed_distance_mm scalar in OUT/heatmaps (PLY, in the model file's frame and unit).") +
+                     kBatchCommon);
   args.option("inputs", "DIR|LIST",
               "a text file of pairs, one per line: MODEL SCAN (separated by a tab, a comma or a space); with "
               "--model, a folder or list of scans")
@@ -525,8 +533,11 @@ int run_batch_compare(int argc, char** argv) {
   if (heatmaps) create_folders(heatmap_dir.string());
   BatchJob job;
   job.command = "compare";
-  job.settings = {{"model", shared_model}, {"threshold_mm", 1000 * o.outlier_threshold}, {"coverage_mm", 1000 * o.coverage_radius},
-                  {"measure", measure}, {"heatmaps", heatmaps}};
+  job.settings = {{"model", shared_model},
+                  {"threshold_mm", 1000 * o.outlier_threshold},
+                  {"coverage_mm", 1000 * o.coverage_radius},
+                  {"measure", measure},
+                  {"heatmaps", heatmaps}};
   job.files = [&](const std::string& input) {
     const auto [model_path, scan_path] = model_and_scan(input, shared_model);
     return std::vector<std::string>{model_path, scan_path};
@@ -545,11 +556,15 @@ int run_batch_compare(int argc, char** argv) {
     } catch (const InvalidInput& e) {
       throw InvalidInput(scan_path + " against " + model_path + ": " + e.what());
     }
-    nlohmann::ordered_json r = {{"model", model_path}, {"scan", scan_path}, {"model_unit", unit_name(model.unit)},
-                                {"scan_unit", unit_name(scan.unit)}, {"scan_points", cloud.P.rows()},
+    nlohmann::ordered_json r = {{"model", model_path},
+                                {"scan", scan_path},
+                                {"model_unit", unit_name(model.unit)},
+                                {"scan_unit", unit_name(scan.unit)},
+                                {"scan_points", cloud.P.rows()},
                                 {"model_vertices", model.in.mesh.V.rows()},
                                 {"scan_to_model", distance_stats_json(c.scan_stats)},
-                                {"model_to_scan", distance_stats_json(c.model_stats)}, {"hausdorff_mm", c.hausdorff_mm},
+                                {"model_to_scan", distance_stats_json(c.model_stats)},
+                                {"hausdorff_mm", c.hausdorff_mm},
                                 {"coverage", c.coverage}};
     std::vector<std::string> warnings = model.warnings;
     warnings.insert(warnings.end(), scan.warnings.begin(), scan.warnings.end());
@@ -595,12 +610,16 @@ int run_batch_compare(int argc, char** argv) {
 }
 
 int run_batch_pose(int argc, char** argv) {
-  ArgParser args("batch pose",
-                 std::string("Poses many bodies with one trained model (posekit pose): each subject mesh is segmented and\n"
-                             "set up once, then put into every pose of --pose (a pose JSON, or the frames of a BVH: MakeHuman's\n"
-                             "skeleton, or any humanoid one retargeted to each subject's joints). The posed meshes go to OUT/posed/<input>/<pose>.<format> (listed relative to OUT), in\n"
-                             "the subject file's frame and unit, with the vertex scalar 'part'. One result per subject in OUT/results, OUT/summary.json\n"
-                             "and summary.csv; set-up and posing times in OUT/run*.json.") + kBatchCommon);
+  ArgParser args(
+      "batch pose",
+      std::string(
+          "Poses many bodies with one trained model (posekit pose): each subject mesh is segmented and\n"
+          "set up once, then put into every pose of --pose (a pose JSON, or the frames of a BVH: MakeHuman's\n"
+          "skeleton, or any humanoid one retargeted to each subject's joints). The posed meshes go to OUT/posed/<input>/<pose>.<format> "
+          "(listed relative to OUT), in\n"
+          "the subject file's frame and unit, with the vertex scalar 'part'. One result per subject in OUT/results, OUT/summary.json\n"
+          "and summary.csv; set-up and posing times in OUT/run*.json.") +
+          kBatchCommon);
   args.option("inputs", "DIR|LIST", "a folder of subject meshes (recursively, in sorted order) or a text file of paths")
       .option("model", "FILE", "trained model (.pkm, posekit train)")
       .option("pose", "FILE", "pose.json (16-part pose) or a motion capture .bvh (any humanoid skeleton, retargeted; see --joint-map)")
@@ -632,15 +651,17 @@ int run_batch_pose(int argc, char** argv) {
   const bool per_subject = ext == ".bvh" && motion.find_joint("upperarm01.L") < 0;
   LoadedPoses shared;
   if (!per_subject) shared = load_poses(pose_path, frames, data, Eigen::MatrixXd(), "", root_motion, ext == ".bvh" ? &motion : nullptr);
-  else (void)load_poses(pose_path, frames, data, Eigen::MatrixXd::Zero(kNumJoints, 3), joint_map, root_motion, &motion);  // bad input fails once, not per subject
+  else
+    (void)load_poses(pose_path, frames, data, Eigen::MatrixXd::Zero(kNumJoints, 3), joint_map, root_motion,
+                     &motion);  // bad input fails once, not per subject
   const fs::path posed_dir = fs::path(args.get("out")) / "posed";
   std::mutex timing_mutex;
   std::vector<double> setup_seconds, pose_ms;
   BatchJob job;
   job.command = "pose";
-  job.settings = {{"model", args.get("model")}, {"model_checksum", model_crc}, {"pose", pose_path},
-                  {"frames", frames}, {"joint_map", joint_map}, {"root_motion", root_motion}, {"method", pose_method_name(method)},
-                  {"format", format}};
+  job.settings = {
+      {"model", args.get("model")}, {"model_checksum", model_crc},        {"pose", pose_path}, {"frames", frames}, {"joint_map", joint_map},
+      {"root_motion", root_motion}, {"method", pose_method_name(method)}, {"format", format}};
   job.process = [&](const std::string& input, const std::string& stem) {
     PreparedBody subject = prepare_body(input, "auto");
     if (subject.in.is_cloud) throw InvalidInput(input + ": the subject must be a mesh (triangles); this file has only points");
@@ -650,8 +671,7 @@ int run_batch_pose(int argc, char** argv) {
       throw InvalidInput(input + ": the subject mesh has " + std::to_string(report.components) +
                          " connected components; posing needs one connected body");
     std::vector<std::string> warnings = subject.warnings;
-    if (report.boundary_loops > 0)
-      warnings.push_back(std::to_string(report.boundary_loops) + " holes: features near them may be off");
+    if (report.boundary_loops > 0) warnings.push_back(std::to_string(report.boundary_loops) + " holes: features near them may be off");
     const Stopwatch t0;
     const PoseSynthesizer synth = set_up_subject(model, mesh, input);
     const double setup = t0.seconds();
@@ -663,8 +683,8 @@ int run_batch_pose(int argc, char** argv) {
     posed.vertex_scalars["part"] = vertex_labels_from_triangles(mesh.V, mesh.F, synth.info().triangle_part).cast<double>();
     nlohmann::ordered_json files = nlohmann::ordered_json::array();
     const Stopwatch t1;
-    const LoadedPoses own = per_subject ? load_poses(pose_path, frames, data, synth.info().joint_centres, joint_map, root_motion, &motion)
-                                         : LoadedPoses{};
+    const LoadedPoses own =
+        per_subject ? load_poses(pose_path, frames, data, synth.info().joint_centres, joint_map, root_motion, &motion) : LoadedPoses{};
     const LoadedPoses& poses = per_subject ? own : shared;
     for (size_t k = 0; k < poses.poses.size(); ++k) {
       const std::string& name = poses.names[k];
@@ -683,10 +703,14 @@ int run_batch_pose(int argc, char** argv) {
       setup_seconds.push_back(setup);
       pose_ms.push_back(1000 * posing / static_cast<double>(poses.poses.size()));
     }
-    nlohmann::ordered_json r = {{"unit", unit_name(subject.unit)},  {"up", axis_name(subject.orientation.up())},
-                                {"forward", axis_name(subject.orientation.forward())}, {"vertices", mesh.V.rows()},
-                                {"poses", poses.poses.size()}, {"normal_failures", synth.info().normal_failures},
-                                {"files", files}, {"warnings", warnings}};
+    nlohmann::ordered_json r = {{"unit", unit_name(subject.unit)},
+                                {"up", axis_name(subject.orientation.up())},
+                                {"forward", axis_name(subject.orientation.forward())},
+                                {"vertices", mesh.V.rows()},
+                                {"poses", poses.poses.size()},
+                                {"normal_failures", synth.info().normal_failures},
+                                {"files", files},
+                                {"warnings", warnings}};
     return r;
   };
   job.columns = pose_columns();
@@ -706,7 +730,8 @@ int run_batch_register(int argc, char** argv) {
                              "target: OUT/correspondence/<input>.json (each target triangle's source triangle, Eq. 2b/2c),\n"
                              "with --deformed the source on the target (OUT/deformed/<input>.ply, in the target file's frame\n"
                              "and unit), and the quality judged without ground truth in the summary. Units and\n"
-                             "orientations are detected.") + kBatchCommon);
+                             "orientations are detected.") +
+                     kBatchCommon);
   args.option("source", "FILE", "the source mesh registered to every target")
       .option("inputs", "DIR|LIST", "a folder of target meshes (recursively, in sorted order) or a text file of paths")
       .option("method", "M", "ctffd, icp or nicp", "ctffd")
@@ -744,31 +769,43 @@ int run_batch_register(int argc, char** argv) {
   BatchJob job;
   job.command = "register";
   // A changed source or space file redoes every target.
-  job.settings = {{"source", args.get("source")}, {"source_checksum", file_crc32(args.get("source"))},
-                  {"method", args.get("method")}, {"shape_space", shape_arg}, {"shape_space_checksum", space_crc},
-                  {"refine", o.refine}, {"deformed", deformed}};
+  job.settings = {{"source", args.get("source")},
+                  {"source_checksum", file_crc32(args.get("source"))},
+                  {"method", args.get("method")},
+                  {"shape_space", shape_arg},
+                  {"shape_space_checksum", space_crc},
+                  {"refine", o.refine},
+                  {"deformed", deformed}};
   job.process = [&](const std::string& input, const std::string& stem) {
     PreparedBody target = prepare_body(input, "auto");
     if (target.in.is_cloud) throw InvalidInput(input + ": register needs a mesh (triangles); this file has only points");
     const TriangleMesh& mesh = target.in.mesh;
     const RegistrationResult r = prepared ? register_bodies(*prepared, mesh, o) : register_bodies(source_mesh, mesh, o);
     const RegistrationQuality q = assess_registration(source_mesh, r.deformed_source, mesh);
-    nlohmann::json corr = {{"source", args.get("source")}, {"target", input}, {"method", args.get("method")},
-                           {"meaning", "target_to_source[k] is the source triangle matched to target triangle k"},
-                           {"target_to_source", std::vector<int>(r.correspondence.data(), r.correspondence.data() + r.correspondence.size())}};
+    nlohmann::json corr = {
+        {"source", args.get("source")},
+        {"target", input},
+        {"method", args.get("method")},
+        {"meaning", "target_to_source[k] is the source triangle matched to target triangle k"},
+        {"target_to_source", std::vector<int>(r.correspondence.data(), r.correspondence.data() + r.correspondence.size())}};
     const std::string text = corr.dump() + "\n";
     write_file_atomically((corr_dir / (stem + ".json")).string(), [&](std::ostream& os) { os << text; }, false);
     std::vector<std::string> warnings = target.warnings;
     for (const std::string& w : r.warnings) warnings.push_back(w);
     for (const std::string& w : q.warnings) warnings.push_back(w);
-    nlohmann::ordered_json result = {
-        {"unit", unit_name(target.unit)}, {"up", axis_name(target.orientation.up())},
-        {"forward", axis_name(target.orientation.forward())}, {"target_triangles", mesh.num_faces()}, {"seconds", r.seconds},
-        {"normal_failures", r.normal_failures},
-        {"quality", {{"mean_distance_mm", q.mean_distance_mm}, {"p95_distance_mm", q.p95_distance_mm},
-                     {"target_covered", q.target_covered}, {"normals_agree", q.normals_agree},
-                     {"folded_triangles", q.folded_triangles}}},
-        {"correspondence", (fs::path("correspondence") / (stem + ".json")).string()}};
+    nlohmann::ordered_json result = {{"unit", unit_name(target.unit)},
+                                     {"up", axis_name(target.orientation.up())},
+                                     {"forward", axis_name(target.orientation.forward())},
+                                     {"target_triangles", mesh.num_faces()},
+                                     {"seconds", r.seconds},
+                                     {"normal_failures", r.normal_failures},
+                                     {"quality",
+                                      {{"mean_distance_mm", q.mean_distance_mm},
+                                       {"p95_distance_mm", q.p95_distance_mm},
+                                       {"target_covered", q.target_covered},
+                                       {"normals_agree", q.normals_agree},
+                                       {"folded_triangles", q.folded_triangles}}},
+                                     {"correspondence", (fs::path("correspondence") / (stem + ".json")).string()}};
     if (o.shape_space) {
       result["shape_space_kept"] = r.shape_fit.plausible;
       result["shape_space_median_distance_mm"] = 1000 * r.shape_fit.median_distance;
@@ -825,7 +862,8 @@ int run_batch_merge(int argc, char** argv) {
   for (long i = 0; i < shards; ++i)
     if (!seen[static_cast<size_t>(i)]) missing += (missing.empty() ? "" : ", ") + std::to_string(i);
   if (!missing.empty()) throw InvalidInput(out.string() + ": shards " + missing + " of " + std::to_string(shards) + " have no summary yet");
-  std::sort(rows.begin(), rows.end(), [](const auto& a, const auto& b) { return a["index"].template get<long>() < b["index"].template get<long>(); });
+  std::sort(rows.begin(), rows.end(),
+            [](const auto& a, const auto& b) { return a["index"].template get<long>() < b["index"].template get<long>(); });
   long failed = 0;
   for (const auto& r : rows) failed += !r["ok"].get<bool>();
   nlohmann::ordered_json summary;

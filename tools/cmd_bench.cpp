@@ -3,46 +3,46 @@
 #include <sys/wait.h>
 #include <unistd.h>
 
-#include <chrono>
-#include <cstdlib>
 #include <algorithm>
 #include <atomic>
+#include <chrono>
 #include <cmath>
-#include <random>
+#include <cstdlib>
 #include <filesystem>
 #include <fstream>
 #include <iomanip>
 #include <iostream>
 #include <map>
 #include <nlohmann/json.hpp>
+#include <random>
 
 #include "bench_tools.h"
 #include "cli.h"
-#include "posekit/body/bvh_retarget.h"
-#include "posekit/io/bvh.h"
 #include "commands.h"
 #include "fitted_input.h"
-#include "posekit/fitting/fitted_measurements.h"
+#include "posekit/body/bvh_retarget.h"
 #include "posekit/body/makehuman_model.h"
 #include "posekit/body/parts.h"
 #include "posekit/body/skinning.h"
-#include "posekit/core/parallel.h"
 #include "posekit/core/data_root.h"
 #include "posekit/core/error.h"
 #include "posekit/core/mesh_geometry.h"
 #include "posekit/core/mesh_topology.h"
+#include "posekit/core/parallel.h"
 #include "posekit/customization/photo_customization.h"
 #include "posekit/datasets/dataset.h"
 #include "posekit/datasets/remesh.h"
-#include "posekit/io/atomic_file.h"
 #include "posekit/deformation/pose_synthesis.h"
 #include "posekit/deformation/segmentation_calibration.h"
 #include "posekit/evaluation/pose_evaluation.h"
 #include "posekit/evaluation/registration_table.h"
 #include "posekit/evaluation/scan_comparison.h"
-#include "posekit/registration/registration.h"
+#include "posekit/fitting/fitted_measurements.h"
+#include "posekit/io/atomic_file.h"
+#include "posekit/io/bvh.h"
 #include "posekit/io/mesh_io.h"
 #include "posekit/io/point_cloud_io.h"
+#include "posekit/registration/registration.h"
 #include "posekit/shape/body_orientation.h"
 #include "posekit/shape/measurements.h"
 
@@ -83,8 +83,9 @@ Stats time_runs(int runs, const std::string& label, F&& body) {
 }
 
 int bench_io(int argc, char** argv) {
-  ArgParser args("bench io", "Times reading large files: binary PLY, OBJ and binary STL meshes and a binary PCD cloud.\n"
-                             "Files are generated in a temporary folder and removed afterwards.");
+  ArgParser args("bench io",
+                 "Times reading large files: binary PLY, OBJ and binary STL meshes and a binary PCD cloud.\n"
+                 "Files are generated in a temporary folder and removed afterwards.");
   args.option("triangles", "N", "triangles of the test mesh", "1000000")
       .option("points", "N", "points of the test cloud", "1000000")
       .option("runs", "R", "timed runs per format (median reported)", "5")
@@ -112,15 +113,25 @@ int bench_io(int argc, char** argv) {
       long read_faces = 0;
       const Stats s = time_runs(runs, "read " + c.name, [&] { read_faces = read_mesh(path).num_faces(); });
       if (read_faces != mesh.num_faces()) throw Error("bench io: " + c.name + " read back " + std::to_string(read_faces) + " faces");
-      results.push_back({{"case", "read " + c.name}, {"elements", mesh.num_faces()}, {"element", "triangles"},
-                         {"file_mib", size / 1048576.0}, {"median_s", s.median}, {"min_s", s.min}, {"max_s", s.max}});
+      results.push_back({{"case", "read " + c.name},
+                         {"elements", mesh.num_faces()},
+                         {"element", "triangles"},
+                         {"file_mib", size / 1048576.0},
+                         {"median_s", s.median},
+                         {"min_s", s.min},
+                         {"max_s", s.max}});
     }
     const std::string pcd = (dir / "c.pcd").string();
     write_point_cloud(pcd, cloud);
     const auto size = std::filesystem::file_size(pcd);
     const Stats s = time_runs(runs, "read pcd_binary", [&] { (void)read_point_cloud(pcd); });
-    results.push_back({{"case", "read pcd_binary"}, {"elements", points}, {"element", "points"},
-                       {"file_mib", size / 1048576.0}, {"median_s", s.median}, {"min_s", s.min}, {"max_s", s.max}});
+    results.push_back({{"case", "read pcd_binary"},
+                       {"elements", points},
+                       {"element", "points"},
+                       {"file_mib", size / 1048576.0},
+                       {"median_s", s.median},
+                       {"min_s", s.min},
+                       {"max_s", s.max}});
   } catch (...) {
     std::filesystem::remove_all(dir);
     throw;
@@ -133,9 +144,9 @@ int bench_io(int argc, char** argv) {
   }
   std::cout << "| case | elements | file MiB | median s | min s | max s |\n|---|---|---|---|---|---|\n" << std::fixed;
   for (const auto& r : results)
-    std::cout << "| " << r["case"].get<std::string>() << " | " << r["elements"] << " " << r["element"].get<std::string>()
-              << " | " << std::setprecision(1) << r["file_mib"].get<double>() << " | " << std::setprecision(3)
-              << r["median_s"].get<double>() << " | " << r["min_s"].get<double>() << " | " << r["max_s"].get<double>() << " |\n";
+    std::cout << "| " << r["case"].get<std::string>() << " | " << r["elements"] << " " << r["element"].get<std::string>() << " | "
+              << std::setprecision(1) << r["file_mib"].get<double>() << " | " << std::setprecision(3) << r["median_s"].get<double>()
+              << " | " << r["min_s"].get<double>() << " | " << r["max_s"].get<double>() << " |\n";
   std::cout << "peak RSS: " << std::setprecision(0) << out["peak_rss_mib"].get<double>() << " MiB, " << runs << " runs each\n";
   return 0;
 }
@@ -155,10 +166,10 @@ void print_ms_table(const nlohmann::json& rows, int precision) {
 }
 
 int bench_body(int argc, char** argv) {
-  ArgParser args("bench body", "Times building a MakeHuman body from a spec and posing it (13,380 vertices): the model is\n"
-                               "loaded once, then each run shapes a body and skins it into a 16-part pose, single thread.");
-  args.data_option().option("runs", "R", "timed runs (median reported)", "50")
-      .flag("json", "machine-readable results on stdout");
+  ArgParser args("bench body",
+                 "Times building a MakeHuman body from a spec and posing it (13,380 vertices): the model is\n"
+                 "loaded once, then each run shapes a body and skins it into a 16-part pose, single thread.");
+  args.data_option().option("runs", "R", "timed runs (median reported)", "50").flag("json", "machine-readable results on stdout");
   if (!args.parse(argc, argv)) return 0;
   const int runs = static_cast<int>(args.get_int("runs"));
   if (runs < 1) throw UsageError("--runs must be at least 1");
@@ -196,10 +207,9 @@ int bench_body(int argc, char** argv) {
   }
   progress.finish();
   nlohmann::json results = nlohmann::json::array({ms_row("build body (shape + joints)", build_s), ms_row("pose, LBS", lbs_s),
-                                                   ms_row("pose, DQS", dqs_s), ms_row("build + pose (LBS)", total_s)});
-  nlohmann::json out = {{"benchmark", "body"}, {"vertices", model->num_body_vertices}, {"runs", runs},
-                        {"model_load_s", load_s}, {"results", results}, {"peak_rss_mib", peak_rss_mib()},
-                        {"checksum", checksum}};
+                                                  ms_row("pose, DQS", dqs_s), ms_row("build + pose (LBS)", total_s)});
+  nlohmann::json out = {{"benchmark", "body"}, {"vertices", model->num_body_vertices}, {"runs", runs},        {"model_load_s", load_s},
+                        {"results", results},  {"peak_rss_mib", peak_rss_mib()},       {"checksum", checksum}};
   if (args.flag_set("json")) {
     print_json(out);
     return 0;
@@ -252,11 +262,15 @@ int bench_customize(int argc, char** argv) {
     }
   }
   progress.finish();
-  nlohmann::json results = nlohmann::json::array({ms_row("silhouettes from the two photos", sil_s),
-                                                   ms_row("features, sections, ct-FFD to a mesh", body_s),
-                                                   ms_row("photos to mesh", total_s)});
-  nlohmann::json out = {{"benchmark", "customize"}, {"subjects", manifest.at("subjects").size()}, {"runs", runs},
-                        {"model_load_s", load_s}, {"results", results}, {"peak_rss_mib", peak_rss_mib()}};
+  nlohmann::json results =
+      nlohmann::json::array({ms_row("silhouettes from the two photos", sil_s), ms_row("features, sections, ct-FFD to a mesh", body_s),
+                             ms_row("photos to mesh", total_s)});
+  nlohmann::json out = {{"benchmark", "customize"},
+                        {"subjects", manifest.at("subjects").size()},
+                        {"runs", runs},
+                        {"model_load_s", load_s},
+                        {"results", results},
+                        {"peak_rss_mib", peak_rss_mib()}};
   if (args.flag_set("json")) {
     print_json(out);
     return 0;
@@ -282,10 +296,14 @@ int bench_registration(int argc, char** argv) {
       .option("nicp-runs", "R", "timed runs of non-rigid ICP (seconds each; 0 leaves it out)", "1")
       .option("model", "FILE", "a trained model (.pkm): also each correspondence's pose-transfer error on the posed subjects")
       .flag("other-topologies", "also to each subject remeshed to ~6,900 vertices and to a ~50,000-vertex remesh with 25 holes")
-      .option("shape-space", "N|FILE", "also ct-FFD refined by a shape space of N MakeHuman bodies or a .pks file (posekit "
-              "shape-space) (0: not)", "300")
-      .option("shape-space-leave-out", "WHAT", "none, men (gender over 0.5), obese (BMI 30 and over) or local (the subjects' "
-              "measure modifiers): what the shape space's population lacks", "none")
+      .option("shape-space", "N|FILE",
+              "also ct-FFD refined by a shape space of N MakeHuman bodies or a .pks file (posekit "
+              "shape-space) (0: not)",
+              "300")
+      .option("shape-space-leave-out", "WHAT",
+              "none, men (gender over 0.5), obese (BMI 30 and over) or local (the subjects' "
+              "measure modifiers): what the shape space's population lacks",
+              "none")
       .data_option("for the shape space")
       .option("threads", "T", "also the ct-FFD rows (whole, prepared, + shape space) on T threads (1: not)", "1")
       .flag("json", "results as JSON on stdout");
@@ -319,13 +337,20 @@ int bench_registration(int argc, char** argv) {
   const auto table_json = [&](const RegistrationTable& t) {
     nlohmann::ordered_json rows = nlohmann::ordered_json::array();
     for (const auto& row : t.rows)
-      rows.push_back({{"method", row.method}, {"median_s", row.median_s}, {"min_s", row.min_s}, {"max_s", row.max_s},
-                      {"point_mean_mm", row.point_mean_mm}, {"point_p95_mm", row.point_p95_mm}, {"point_max_mm", row.point_max_mm},
+      rows.push_back({{"method", row.method},
+                      {"median_s", row.median_s},
+                      {"min_s", row.min_s},
+                      {"max_s", row.max_s},
+                      {"point_mean_mm", row.point_mean_mm},
+                      {"point_p95_mm", row.point_p95_mm},
+                      {"point_max_mm", row.point_max_mm},
                       {"worst_subject_point_mean_mm", row.worst_subject_point_mean_mm},
                       {"subject_point_mean_mm", row.subject_point_mean_mm},
-                      {"mean_error_mm", row.mean_error_mm}, {"p95_error_mm", row.p95_error_mm},
+                      {"mean_error_mm", row.mean_error_mm},
+                      {"p95_error_mm", row.p95_error_mm},
                       {"worst_subject_mean_error_mm", row.worst_subject_mean_error_mm},
-                      {"subject_mean_error_mm", row.subject_mean_error_mm}, {"pose_transfer_mm", row.pose_transfer_mm}});
+                      {"subject_mean_error_mm", row.subject_mean_error_mm},
+                      {"pose_transfer_mm", row.pose_transfer_mm}});
     return nlohmann::ordered_json{{"targets", t.targets},
                                   {"mean_subject_vertices", t.mean_subject_vertices},
                                   {"mean_subject_triangles", t.mean_subject_triangles},
@@ -335,8 +360,12 @@ int bench_registration(int argc, char** argv) {
                                   {"ctffd_template_s", t.ctffd_template_seconds},
                                   {"results", rows}};
   };
-  nlohmann::ordered_json out = {{"benchmark", "registration"}, {"subjects", count}, {"runs", runs}, {"ctffd_threads", threads},
-                                {"template_vertices", table.template_vertices}, {"template_triangles", table.template_triangles},
+  nlohmann::ordered_json out = {{"benchmark", "registration"},
+                                {"subjects", count},
+                                {"runs", runs},
+                                {"ctffd_threads", threads},
+                                {"template_vertices", table.template_vertices},
+                                {"template_triangles", table.template_triangles},
                                 {"subject_ids", table.subject_ids}};
   out.update(table_json(table));
   nlohmann::ordered_json others = nlohmann::ordered_json::array();
@@ -347,23 +376,24 @@ int bench_registration(int argc, char** argv) {
     print_json(out);
     return 0;
   }
-  std::cout << "Registration of the template (" << table.template_vertices << " vertices), " << runs
-            << " runs each (non-rigid ICP " << nicp_runs << "), single thread"
+  std::cout << "Registration of the template (" << table.template_vertices << " vertices), " << runs << " runs each (non-rigid ICP "
+            << nicp_runs << "), single thread"
             << (threads > 1 ? " except the rows marked (" + std::to_string(threads) + " threads)" : std::string()) << "\n"
             << std::fixed;
   std::vector<nlohmann::ordered_json> sets = {out};
   for (const auto& t : others) sets.push_back(t);
   for (const auto& set : sets) {
-    std::cout << "\nTo " << set["targets"].get<std::string>() << " (" << count << ", ~" << set["mean_subject_vertices"]
-              << " vertices, ~" << set["mean_subject_triangles"] << " triangles)\n\n"
-              << "| method | median s | min s | max s | point mean mm | p95 | max | worst subject | triangle mean mm | p95 | pose transfer mm |\n"
-              << "|---|---|---|---|---|---|---|---|---|---|---|\n";
+    std::cout
+        << "\nTo " << set["targets"].get<std::string>() << " (" << count << ", ~" << set["mean_subject_vertices"] << " vertices, ~"
+        << set["mean_subject_triangles"] << " triangles)\n\n"
+        << "| method | median s | min s | max s | point mean mm | p95 | max | worst subject | triangle mean mm | p95 | pose transfer mm |\n"
+        << "|---|---|---|---|---|---|---|---|---|---|---|\n";
     for (const auto& r : set["results"])
-      std::cout << "| " << r["method"].get<std::string>() << " | " << std::setprecision(3) << r["median_s"].get<double>()
-                << " | " << r["min_s"].get<double>() << " | " << r["max_s"].get<double>() << " | " << std::setprecision(1)
-                << r["point_mean_mm"].get<double>() << " | " << r["point_p95_mm"].get<double>() << " | "
-                << r["point_max_mm"].get<double>() << " | " << r["worst_subject_point_mean_mm"].get<double>() << " | "
-                << r["mean_error_mm"].get<double>() << " | " << r["p95_error_mm"].get<double>() << " | "
+      std::cout << "| " << r["method"].get<std::string>() << " | " << std::setprecision(3) << r["median_s"].get<double>() << " | "
+                << r["min_s"].get<double>() << " | " << r["max_s"].get<double>() << " | " << std::setprecision(1)
+                << r["point_mean_mm"].get<double>() << " | " << r["point_p95_mm"].get<double>() << " | " << r["point_max_mm"].get<double>()
+                << " | " << r["worst_subject_point_mean_mm"].get<double>() << " | " << r["mean_error_mm"].get<double>() << " | "
+                << r["p95_error_mm"].get<double>() << " | "
                 << (r["pose_transfer_mm"].get<double>() >= 0 ? std::to_string(r["pose_transfer_mm"].get<double>()).substr(0, 5) : "")
                 << " |\n";
     if (set["pose_transfer_true_mm"].get<double>() >= 0)
@@ -371,8 +401,8 @@ int bench_registration(int argc, char** argv) {
                 << set["pose_transfer_true_mm"].get<double>() << " mm";
     std::cout << "\nct-FFD's template side (features, representation, parametrisation), made once: " << std::setprecision(3)
               << set["ctffd_template_s"].get<double>() << " s" << std::setprecision(1);
-    std::cout << "\nTriangle match of the true correspondence itself: mean " << set["triangle_floor_mean_mm"].get<double>()
-              << " mm, p95 " << set["triangle_floor_p95_mm"].get<double>() << " mm\n";
+    std::cout << "\nTriangle match of the true correspondence itself: mean " << set["triangle_floor_mean_mm"].get<double>() << " mm, p95 "
+              << set["triangle_floor_p95_mm"].get<double>() << " mm\n";
   }
   std::cout << "\nPaper (Matlab, Core i7, 12,428 vertices): ICP 1 iteration 24 s, 6 iterations 229 s, ct-FFD 5.1 s.\n";
   return 0;
@@ -387,12 +417,12 @@ int bench_pose(int argc, char** argv) {
       .option("runs", "R", "training runs and set-up runs per subject", "5")
       .option("poses", "P", "poses timed per subject (the dataset's poses, cycled)", "50")
       .option("subjects", "N", "use only the first N subjects (0: all)", "0")
-      .option("frames", "N", "a motion of N frames (the dataset's poses blended in sequence) posed by the learned "
-                             "method on the first subject",
+      .option("frames", "N",
+              "a motion of N frames (the dataset's poses blended in sequence) posed by the learned "
+              "method on the first subject",
               "1000")
       .option("threads", "T", "threads for the motion", "2")
-      .option("motion", "FILE.bvh",
-              "motion capture instead: its first N frames retargeted to the first subject (timed) and posed")
+      .option("motion", "FILE.bvh", "motion capture instead: its first N frames retargeted to the first subject (timed) and posed")
       .flag("json", "results as JSON on stdout")
       .example("posekit bench pose --dataset ds --motion ../shared/datasets/motions/cmu/01_01.bvh");
   if (!args.parse(argc, argv)) return 0;
@@ -441,9 +471,7 @@ int bench_pose(int argc, char** argv) {
     const size_t i = static_cast<size_t>(at) % data.poses.size(), next = (i + 1) % data.poses.size();
     const double w = at - std::floor(at);
     PartPose& p = motion[static_cast<size_t>(f)];
-    for (int j = 0; j < kNumJoints; ++j)
-      p.joint(j) = (1 - w) * data.poses[i].joint(j) +
-                                                 w * data.poses[next].joint(j);
+    for (int j = 0; j < kNumJoints; ++j) p.joint(j) = (1 - w) * data.poses[i].joint(j) + w * data.poses[next].joint(j);
     p.root_rotation = (1 - w) * data.poses[i].root_rotation + w * data.poses[next].root_rotation;
   }
   Progress subjects_progress("bench pose subjects", static_cast<long>(manifest["subjects"].size()));
@@ -458,8 +486,8 @@ int bench_pose(int argc, char** argv) {
       setup_s.push_back(std::chrono::duration<double>(Clock::now() - t0).count());
     }
     // Each method over its own run of poses, as a user posing a motion with it would.
-    for (auto [method, out] : {std::pair{PoseMethod::kLearned, &pose_ms}, std::pair{PoseMethod::kRigid, &rigid_ms},
-                               std::pair{PoseMethod::kLbs, &lbs_ms}})
+    for (auto [method, out] :
+         {std::pair{PoseMethod::kLearned, &pose_ms}, std::pair{PoseMethod::kRigid, &rigid_ms}, std::pair{PoseMethod::kLbs, &lbs_ms}})
       for (int i = 0; i < pose_count; ++i) {
         const PartPose& pose = data.poses[static_cast<size_t>(i) % data.poses.size()];
         const auto t0 = Clock::now();
@@ -484,13 +512,16 @@ int bench_pose(int argc, char** argv) {
         // Each thread poses its share of the frames into its own buffer, as a player or exporter would.
         std::atomic<long> non_finite{0};
         const auto t0 = Clock::now();
-        parallel_for_ranges(frame_count, motion_threads, [&](long begin, long end) {
-          Eigen::MatrixXd X;
-          for (long f = begin; f < end; ++f) {
-            synth->pose(motion[static_cast<size_t>(f)], PoseMethod::kLearned, &X);
-            if (!X.allFinite()) ++non_finite;
-          }
-        }, 1);
+        parallel_for_ranges(
+            frame_count, motion_threads,
+            [&](long begin, long end) {
+              Eigen::MatrixXd X;
+              for (long f = begin; f < end; ++f) {
+                synth->pose(motion[static_cast<size_t>(f)], PoseMethod::kLearned, &X);
+                if (!X.allFinite()) ++non_finite;
+              }
+            },
+            1);
         motion_s.push_back(std::chrono::duration<double>(Clock::now() - t0).count());
         if (non_finite > 0) throw InvalidInput("posing the motion produced non-finite vertices");
       }
@@ -502,23 +533,33 @@ int bench_pose(int argc, char** argv) {
   auto j = [](const Stats& st) { return nlohmann::ordered_json{{"median", st.median}, {"min", st.min}, {"max", st.max}}; };
   const Stats train = stats_of(train_s), setup = stats_of(setup_s), learned = stats_of(pose_ms), rigid = stats_of(rigid_ms),
               lbs = stats_of(lbs_ms), moving = stats_of(motion_s);
-  nlohmann::ordered_json out = {{"benchmark", "pose"}, {"training_poses", model->training_poses},
-                                {"template_vertices", model->template_V.rows()}, {"subjects", count},
-                                {"mean_subject_vertices", vertices / std::max(count, 1)}, {"runs", runs},
-                                {"poses_per_subject", pose_count}, {"train_s", j(train)}, {"setup_s", j(setup)},
-                                {"pose_ms_learned", j(learned)}, {"pose_ms_rigid", j(rigid)}, {"pose_ms_lbs", j(lbs)},
-                                {"motion_frames", frame_count}, {"motion_threads", motion_threads}, {"motion_s", j(moving)},
+  nlohmann::ordered_json out = {{"benchmark", "pose"},
+                                {"training_poses", model->training_poses},
+                                {"template_vertices", model->template_V.rows()},
+                                {"subjects", count},
+                                {"mean_subject_vertices", vertices / std::max(count, 1)},
+                                {"runs", runs},
+                                {"poses_per_subject", pose_count},
+                                {"train_s", j(train)},
+                                {"setup_s", j(setup)},
+                                {"pose_ms_learned", j(learned)},
+                                {"pose_ms_rigid", j(rigid)},
+                                {"pose_ms_lbs", j(lbs)},
+                                {"motion_frames", frame_count},
+                                {"motion_threads", motion_threads},
+                                {"motion_s", j(moving)},
                                 {"motion", args.has("motion") ? args.get("motion") : std::string("dataset poses blended")},
                                 {"retarget_s", retarget_s.empty() ? nlohmann::ordered_json(nullptr) : j(stats_of(retarget_s))},
-                                {"segmentation_prior_bodies", prior.bodies}, {"segmentation_prior_s", prior.seconds},
+                                {"segmentation_prior_bodies", prior.bodies},
+                                {"segmentation_prior_s", prior.seconds},
                                 {"peak_rss_mib", per_stage ? nlohmann::ordered_json{{"train", train_peak}, {"pose", pose_peak}}
                                                            : nlohmann::ordered_json(peak_rss_mib())}};
   if (args.flag_set("json")) {
     print_json(out);
     return 0;
   }
-  std::cout << std::fixed << std::setprecision(3) << "Pose deformation, single thread: " << model->training_poses
-            << " training poses, " << count << " subjects of ~" << out["mean_subject_vertices"] << " vertices\n\n"
+  std::cout << std::fixed << std::setprecision(3) << "Pose deformation, single thread: " << model->training_poses << " training poses, "
+            << count << " subjects of ~" << out["mean_subject_vertices"] << " vertices\n\n"
             << "| stage | median | min | max |\n|---|---|---|---|\n"
             << "| training (s) | " << train.median << " | " << train.min << " | " << train.max << " |\n"
             << "| segmentation prior, " << prior.bodies << " bodies, 2 threads (s, once) | " << prior.seconds << " | | |\n"
@@ -526,15 +567,14 @@ int bench_pose(int argc, char** argv) {
             << "| one pose, learned (ms) | " << learned.median << " | " << learned.min << " | " << learned.max << " |\n"
             << "| one pose, rigid (ms) | " << rigid.median << " | " << rigid.min << " | " << rigid.max << " |\n"
             << "| one pose, 16-part LBS (ms) | " << lbs.median << " | " << lbs.min << " | " << lbs.max << " |\n"
-            << "| motion of " << frame_count << " frames, learned, " << motion_threads << " threads (s) | " << moving.median
-            << " | " << moving.min << " | " << moving.max << " |\n";
+            << "| motion of " << frame_count << " frames, learned, " << motion_threads << " threads (s) | " << moving.median << " | "
+            << moving.min << " | " << moving.max << " |\n";
   if (!retarget_s.empty()) {
     const Stats rt = stats_of(retarget_s);
-    std::cout << "| retargeting those frames from " << args.get("motion") << ", 1 thread (s) | " << rt.median << " | " << rt.min
-              << " | " << rt.max << " |\n";
+    std::cout << "| retargeting those frames from " << args.get("motion") << ", 1 thread (s) | " << rt.median << " | " << rt.min << " | "
+              << rt.max << " |\n";
   }
-  std::cout
-            << "\npeak RSS " << std::setprecision(0);
+  std::cout << "\npeak RSS " << std::setprecision(0);
   if (per_stage) std::cout << "training (with the prior) " << train_peak << " MiB, set-up and posing " << pose_peak << " MiB\n";
   else std::cout << peak_rss_mib() << " MiB (whole run)\n";
   return 0;
@@ -563,13 +603,21 @@ std::vector<WholeCommand> time_whole_comparisons(const std::string& dir, int run
   std::error_code ec;
   const std::string self = std::filesystem::read_symlink("/proc/self/exe", ec).string();
   std::vector<WholeCommand> tools;
-  tools.push_back({"posekit", self + " compare " + dir + "/model.ply " + dir + "/scan.ply --json --threads " +
-                                  std::to_string(threads), "", {}, 0, true});
+  tools.push_back({"posekit",
+                   self + " compare " + dir + "/model.ply " + dir + "/scan.ply --json --threads " + std::to_string(threads),
+                   "",
+                   {},
+                   0,
+                   true});
   if (have_program("CloudCompare"))
-    tools.push_back({"CloudCompare", "QT_QPA_PLATFORM=offscreen CloudCompare -SILENT -NO_TIMESTAMP -AUTO_SAVE OFF -O " + dir +
-                                         "/scan.ply -O " + dir + "/model.ply -c2m_dist", "", {}, 0, true});
-  else
-    tools.push_back({"CloudCompare", "", "not installed (Debian: cloudcompare)", {}, 0, false});
+    tools.push_back({"CloudCompare",
+                     "QT_QPA_PLATFORM=offscreen CloudCompare -SILENT -NO_TIMESTAMP -AUTO_SAVE OFF -O " + dir + "/scan.ply -O " + dir +
+                         "/model.ply -c2m_dist",
+                     "",
+                     {},
+                     0,
+                     true});
+  else tools.push_back({"CloudCompare", "", "not installed (Debian: cloudcompare)", {}, 0, false});
   const std::string python = open3d_python();
   if (!python.empty()) {
     const std::string script = write_open3d_compare_script(dir);
@@ -607,21 +655,24 @@ PeerResult run_open3d(const std::string& dir, int runs) {
     return r;
   }
   const std::string script = dir + "/open3d_c2m.py";
-  write_file_atomically(script, [&](std::ostream& out) {
-    out << "import sys, time, statistics\nimport numpy as np\nimport open3d as o3d\n"
-           "t0 = time.perf_counter()\n"
-           "mesh = o3d.t.geometry.TriangleMesh.from_legacy(o3d.io.read_triangle_mesh(sys.argv[1]))\n"
-           "pts = o3d.core.Tensor(np.asarray(o3d.io.read_point_cloud(sys.argv[2]).points, dtype=np.float32))\n"
-           "load = time.perf_counter() - t0\n"
-           "times = []\n"
-           "for _ in range(int(sys.argv[3])):\n"
-           "    t = time.perf_counter()\n"
-           "    scene = o3d.t.geometry.RaycastingScene()\n"
-           "    scene.add_triangles(mesh)\n"
-           "    d = scene.compute_distance(pts).numpy()\n"
-           "    times.append(time.perf_counter() - t)\n"
-           "print(statistics.median(times), load, float(d.mean()))\n";
-  }, false);
+  write_file_atomically(
+      script,
+      [&](std::ostream& out) {
+        out << "import sys, time, statistics\nimport numpy as np\nimport open3d as o3d\n"
+               "t0 = time.perf_counter()\n"
+               "mesh = o3d.t.geometry.TriangleMesh.from_legacy(o3d.io.read_triangle_mesh(sys.argv[1]))\n"
+               "pts = o3d.core.Tensor(np.asarray(o3d.io.read_point_cloud(sys.argv[2]).points, dtype=np.float32))\n"
+               "load = time.perf_counter() - t0\n"
+               "times = []\n"
+               "for _ in range(int(sys.argv[3])):\n"
+               "    t = time.perf_counter()\n"
+               "    scene = o3d.t.geometry.RaycastingScene()\n"
+               "    scene.add_triangles(mesh)\n"
+               "    d = scene.compute_distance(pts).numpy()\n"
+               "    times.append(time.perf_counter() - t)\n"
+               "print(statistics.median(times), load, float(d.mean()))\n";
+      },
+      false);
   const std::string log = dir + "/open3d.log";
   const double wall = timed_command(python + " " + script + " " + dir + "/model.ply " + dir + "/scan.ply " + std::to_string(runs), log);
   std::ifstream in(log);
@@ -642,8 +693,8 @@ PeerResult run_cloudcompare(const std::string& dir, int runs) {
     r.note = "not installed (Debian: cloudcompare)";
     return r;
   }
-  const std::string base = "QT_QPA_PLATFORM=offscreen CloudCompare -SILENT -NO_TIMESTAMP -AUTO_SAVE OFF -O " + dir +
-                           "/scan.ply -O " + dir + "/model.ply";
+  const std::string base =
+      "QT_QPA_PLATFORM=offscreen CloudCompare -SILENT -NO_TIMESTAMP -AUTO_SAVE OFF -O " + dir + "/scan.ply -O " + dir + "/model.ply";
   std::vector<double> load, full;
   for (int k = 0; k < runs; ++k) {
     load.push_back(timed_command(base, dir + "/cc_load.log"));
@@ -727,14 +778,21 @@ int bench_measure(int argc, char** argv) {
     }
   progress.finish();
   const double peak = peak_rss_mib();
-  nlohmann::ordered_json out = {{"runs", runs}, {"mesh_vertices", mesh.V.rows()}, {"mesh_triangles", mesh.F.rows()},
-                                {"scan_points", scan.P.rows()}, {"units", "s"}, {"peak_rss_mib", peak}};
+  nlohmann::ordered_json out = {{"runs", runs},
+                                {"mesh_vertices", mesh.V.rows()},
+                                {"mesh_triangles", mesh.F.rows()},
+                                {"scan_points", scan.P.rows()},
+                                {"units", "s"},
+                                {"peak_rss_mib", peak}};
   for (int kind = 0; kind < 2; ++kind) {
     nlohmann::ordered_json g;
     for (const auto& m : last[kind].girths)
-      if (m.name == "bust" || m.name == "waist" || m.name == "hip") g[m.name] = m.measured ? nlohmann::json(m.value) : nlohmann::json(m.note);
-    out[kind == 0 ? "mesh" : "scan"] = {{"read", stats_json(stages[kind].read)}, {"unit_and_orientation", stats_json(stages[kind].orient)},
-                                        {"measure", stats_json(stages[kind].measure)}, {"total", stats_json(stages[kind].total)},
+      if (m.name == "bust" || m.name == "waist" || m.name == "hip")
+        g[m.name] = m.measured ? nlohmann::json(m.value) : nlohmann::json(m.note);
+    out[kind == 0 ? "mesh" : "scan"] = {{"read", stats_json(stages[kind].read)},
+                                        {"unit_and_orientation", stats_json(stages[kind].orient)},
+                                        {"measure", stats_json(stages[kind].measure)},
+                                        {"total", stats_json(stages[kind].total)},
                                         {"girths_m", g}};
   }
   if (args.flag_set("json")) {
@@ -780,7 +838,8 @@ int bench_fit(int argc, char** argv) {
       n = std::stol(item, &used);
     } catch (...) {
     }
-    if (used != item.size() || n < 1000) throw UsageError("--points: each scan needs a whole number of at least 1000 points, not '" + item + "'");
+    if (used != item.size() || n < 1000)
+      throw UsageError("--points: each scan needs a whole number of at least 1000 points, not '" + item + "'");
     sizes.push_back(n);
   }
   auto t_load = Clock::now();
@@ -836,13 +895,16 @@ int bench_fit(int argc, char** argv) {
     t.peak_mib = peak_rss_mib();
   }
   progress.finish();
-  nlohmann::ordered_json out = {{"runs", runs}, {"units", "s"}, {"body_model", args.get("body-model")},
-                                {"load_body_model_s", load_seconds}, {"inputs", nlohmann::ordered_json::array()}};
+  nlohmann::ordered_json out = {{"runs", runs},
+                                {"units", "s"},
+                                {"body_model", args.get("body-model")},
+                                {"load_body_model_s", load_seconds},
+                                {"inputs", nlohmann::ordered_json::array()}};
   for (size_t k = 0; k < inputs.size(); ++k) {
     const Timings& t = timings[k];
-    nlohmann::ordered_json e = {{"input", k == 0 ? "mesh" : "scan"}, {"points", t.points}, {"confident", t.confident},
-                                {"read", stats_json(t.read)}, {"fit", stats_json(t.fit)}, {"measure", stats_json(t.measure)},
-                                {"total", stats_json(t.total)}, {"peak_rss_mib", t.peak_mib}, {"girths_m", t.girths}};
+    nlohmann::ordered_json e = {{"input", k == 0 ? "mesh" : "scan"}, {"points", t.points},         {"confident", t.confident},
+                                {"read", stats_json(t.read)},        {"fit", stats_json(t.fit)},   {"measure", stats_json(t.measure)},
+                                {"total", stats_json(t.total)},      {"peak_rss_mib", t.peak_mib}, {"girths_m", t.girths}};
     for (const auto& [stage, v] : t.stages) e["fit_stages"][stage] = stats_json(v);
     out["inputs"].push_back(e);
   }
@@ -862,8 +924,8 @@ int bench_fit(int argc, char** argv) {
       g << (name[0] == 'b' ? "" : " / ") << (it == t.girths.end() ? std::string("-") : std::to_string(100 * it->second).substr(0, 5));
     }
     std::cout << "| " << t.points << (k == 0 ? "-vertex mesh" : "-point scan") << (t.confident ? "" : " (POOR FIT)") << " | "
-              << stats_cell(t.read, 2) << " | " << stats_cell(t.fit, 2) << " | " << stats_cell(t.measure, 2) << " | " << stats_cell(t.total, 2) << " | "
-              << std::setprecision(0) << t.peak_mib << " | " << g.str() << " |\n";
+              << stats_cell(t.read, 2) << " | " << stats_cell(t.fit, 2) << " | " << stats_cell(t.measure, 2) << " | "
+              << stats_cell(t.total, 2) << " | " << std::setprecision(0) << t.peak_mib << " | " << g.str() << " |\n";
   }
   std::cout << "\nfit stages, median seconds:\n";
   for (size_t k = 0; k < inputs.size(); ++k) {
@@ -949,21 +1011,28 @@ int bench_compare(int argc, char** argv) {
   std::string best_name;
   for (const PeerResult& p : peers)
     if (p.compute_s > 0 && (best_peer < 0 || p.compute_s < best_peer)) best_peer = p.compute_s, best_name = p.name;
-  nlohmann::ordered_json out = {{"benchmark", "compare"}, {"model_triangles", body.mesh.F.rows()}, {"scan_points", n},
-                                {"threads", o.threads}, {"runs", runs}, {"median_s", t.median}, {"min_s", t.min},
+  nlohmann::ordered_json out = {{"benchmark", "compare"},
+                                {"model_triangles", body.mesh.F.rows()},
+                                {"scan_points", n},
+                                {"threads", o.threads},
+                                {"runs", runs},
+                                {"median_s", t.median},
+                                {"min_s", t.min},
                                 {"max_s", t.max},
-                                {"stages_median_s", {{"load", load_s}, {"build", stats_of(build).median},
-                                                     {"scan_to_model", stats_of(s2m).median},
-                                                     {"model_to_scan", stats_of(m2s).median},
-                                                     {"stats", stats_of(stats).median}}},
+                                {"stages_median_s",
+                                 {{"load", load_s},
+                                  {"build", stats_of(build).median},
+                                  {"scan_to_model", stats_of(s2m).median},
+                                  {"model_to_scan", stats_of(m2s).median},
+                                  {"stats", stats_of(stats).median}}},
                                 {"scan_to_model_mean_mm", r.scan_stats.mean_mm},
-                                {"scan_to_model_rms_mm", r.scan_stats.rms_mm}, {"coverage", r.coverage},
+                                {"scan_to_model_rms_mm", r.scan_stats.rms_mm},
+                                {"coverage", r.coverage},
                                 {compare_peak_only ? "compare_peak_rss_mib" : "peak_rss_mib", compare_peak}};
   if (!peers.empty()) {
     nlohmann::ordered_json jp = nlohmann::ordered_json::array();
     for (const PeerResult& p : peers)
-      jp.push_back({{"name", p.name}, {"what", p.what}, {"compute_median_s", p.compute_s}, {"wall_median_s", p.wall_s},
-                    {"note", p.note}});
+      jp.push_back({{"name", p.name}, {"what", p.what}, {"compute_median_s", p.compute_s}, {"wall_median_s", p.wall_s}, {"note", p.note}});
     out["peers"] = jp;
     out["ratio_to_best_peer"] = best_peer > 0 ? nlohmann::ordered_json(t.median / best_peer) : nlohmann::ordered_json();
     nlohmann::ordered_json jw = nlohmann::ordered_json::array();
@@ -985,21 +1054,20 @@ int bench_compare(int argc, char** argv) {
     return 0;
   }
   std::cout << std::fixed << std::setprecision(3) << "compare: " << n << " scan points against " << body.mesh.F.rows()
-            << " triangles, threads " << (o.threads > 0 ? std::to_string(o.threads) : std::string("all")) << ": median "
-            << t.median << " s (min " << t.min << ", max " << t.max << ") over " << runs << " runs; RMS "
-            << std::setprecision(2) << r.scan_stats.rms_mm << " mm (noise sigma 1.5 mm); peak RSS "
-            << (compare_peak_only ? "of the comparison " : "") << std::setprecision(0) << compare_peak << " MiB\n"
-            << std::setprecision(3) << "  stages (median s): load " << load_s << ", build " << stats_of(build).median
-            << ", scan-to-model " << stats_of(s2m).median << ", model-to-scan " << stats_of(m2s).median << ", stats "
-            << stats_of(stats).median << "\n";
+            << " triangles, threads " << (o.threads > 0 ? std::to_string(o.threads) : std::string("all")) << ": median " << t.median
+            << " s (min " << t.min << ", max " << t.max << ") over " << runs << " runs; RMS " << std::setprecision(2) << r.scan_stats.rms_mm
+            << " mm (noise sigma 1.5 mm); peak RSS " << (compare_peak_only ? "of the comparison " : "") << std::setprecision(0)
+            << compare_peak << " MiB\n"
+            << std::setprecision(3) << "  stages (median s): load " << load_s << ", build " << stats_of(build).median << ", scan-to-model "
+            << stats_of(s2m).median << ", model-to-scan " << stats_of(m2s).median << ", stats " << stats_of(stats).median << "\n";
   for (const PeerResult& p : peers) {
     std::cout << "  " << std::left << std::setw(13) << p.name << std::right;
     if (p.compute_s < 0) std::cout << p.note << "\n";
-    else std::cout << "computation " << p.compute_s << " s, wall " << p.wall_s << " s: " << p.what
-                   << (p.note.empty() ? "" : "; " + p.note) << "\n";
+    else
+      std::cout << "computation " << p.compute_s << " s, wall " << p.wall_s << " s: " << p.what << (p.note.empty() ? "" : "; " + p.note)
+                << "\n";
   }
-  if (best_peer > 0)
-    std::cout << "  posekit / best peer (" << best_name << "): " << std::setprecision(2) << t.median / best_peer << "\n";
+  if (best_peer > 0) std::cout << "  posekit / best peer (" << best_name << "): " << std::setprecision(2) << t.median / best_peer << "\n";
   if (!whole.empty()) {
     std::cout << "whole processes (start, read, compare, output), median over " << runs << " runs:\n";
     for (const WholeCommand& w : whole) {

@@ -2,6 +2,7 @@
 #include <sys/utsname.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <cstdlib>
 #include <ctime>
 #include <filesystem>
@@ -11,7 +12,6 @@
 #include <nlohmann/json.hpp>
 #include <sstream>
 #include <thread>
-#include <algorithm>
 
 #include "cli.h"
 #include "commands.h"
@@ -67,7 +67,10 @@ void collect_rows(const std::string& bench, const std::string& path, const nlohm
     return;
   }
   if (!j.is_object()) return;
-  const std::string label = j.contains("case") ? j["case"].get<std::string>() : j.contains("method") ? j["method"].get<std::string>() : path.empty() ? "total" : path;
+  const std::string label = j.contains("case")     ? j["case"].get<std::string>()
+                            : j.contains("method") ? j["method"].get<std::string>()
+                            : path.empty()         ? "total"
+                                                   : path;
   for (const auto& [suffix, u] : {std::pair<std::string, std::string>{"", unit}, {"_s", "s"}, {"_ms", "ms"}}) {
     if (!j.contains("median" + suffix) || !j["median" + suffix].is_number()) continue;
     nlohmann::ordered_json row = {{"benchmark", bench}, {"case", label}, {"unit", u}, {"median", j["median" + suffix]}};
@@ -77,8 +80,12 @@ void collect_rows(const std::string& bench, const std::string& path, const nlohm
     rows->push_back(row);
   }
   if (j.contains("compute_median_s") && j["compute_median_s"].is_number() && j["compute_median_s"].get<double>() >= 0)
-    rows->push_back({{"benchmark", bench}, {"case", "peer: " + j.value("name", path) + " (" + j.value("what", "") + ")"}, {"unit", "s"},
-                     {"median", j["compute_median_s"]}, {"min", nullptr}, {"max", nullptr}});
+    rows->push_back({{"benchmark", bench},
+                     {"case", "peer: " + j.value("name", path) + " (" + j.value("what", "") + ")"},
+                     {"unit", "s"},
+                     {"median", j["compute_median_s"]},
+                     {"min", nullptr},
+                     {"max", nullptr}});
   for (const auto& [key, value] : j.items()) {
     if (value.is_object() || value.is_array()) {
       // The unit in the key: train_s, pose_ms_learned, stages_median_s.
@@ -101,9 +108,9 @@ std::string markdown(const nlohmann::ordered_json& report) {
   std::ostringstream md;
   const auto& m = report["machine"];
   md << "Made by `" << report["command"].get<std::string>() << "` on " << report["date"].get<std::string>() << ".\n\n"
-     << "Machine: " << m["cpu"].get<std::string>() << ", " << m["cores"].get<unsigned>() << " cores, " << std::fixed
-     << std::setprecision(1) << m["memory_gib"].get<double>() << " GiB, " << m["os"].get<std::string>() << " (Linux "
-     << m.value("kernel", "") << "), posekit " << m["posekit"].get<std::string>() << ".\n\n"
+     << "Machine: " << m["cpu"].get<std::string>() << ", " << m["cores"].get<unsigned>() << " cores, " << std::fixed << std::setprecision(1)
+     << m["memory_gib"].get<double>() << " GiB, " << m["os"].get<std::string>() << " (Linux " << m.value("kernel", "") << "), posekit "
+     << m["posekit"].get<std::string>() << ".\n\n"
      << "| benchmark | case | median | min | max | unit | peak RSS MiB |\n|---|---|---|---|---|---|---|\n";
   for (const auto& b : report["benchmarks"]) {
     if (!b["ok"].get<bool>()) {
@@ -130,7 +137,8 @@ std::string markdown(const nlohmann::ordered_json& report) {
 int bench_all(int argc, char** argv) {
   ArgParser args("bench all",
                  "Runs every benchmark (io, body, measure, compare, commands, and with --dataset pose, registration and a\n"
-                 "batch measure of its rest subjects and scans), each in its own process, and writes one table with the date and the machine: OUT/benchmarks.json (every\n"
+                 "batch measure of its rest subjects and scans), each in its own process, and writes one table with the date and the "
+                 "machine: OUT/benchmarks.json (every\n"
                  "benchmark's full output) and OUT/benchmarks.md (the table, for docs/). --quick runs each once on\n"
                  "smaller inputs (a smoke test, not figures to report).");
   args.option("dataset", "DIR", "a posekit dataset, for the pose and registration benchmarks (left out without it)")
@@ -193,9 +201,9 @@ int bench_all(int argc, char** argv) {
     std::cerr << "bench all: " << s.name << " (" << s.options << ")\n";
     const std::string json_path = (out / ("." + s.name + ".json")).string(), log = (out / (s.name + ".log")).string();
     const Stopwatch t0;
-    const int status = std::system((shell_quote(exe) + " bench " + s.name + " " + s.options + " --json >" + shell_quote(json_path) +
-                                    " 2>" + shell_quote(log))
-                                       .c_str());
+    const int status = std::system(
+        (shell_quote(exe) + " bench " + s.name + " " + s.options + " --json >" + shell_quote(json_path) + " 2>" + shell_quote(log))
+            .c_str());
     b["wall_s"] = t0.seconds();
     nlohmann::ordered_json result;
     try {
@@ -214,7 +222,8 @@ int bench_all(int argc, char** argv) {
     nlohmann::ordered_json rows = nlohmann::ordered_json::array();
     collect_rows(s.name, "", result, result.value("units", "s"), &rows);
     b["rows"] = rows;
-    const auto& peak = result.contains("peak_rss_mib") ? result["peak_rss_mib"] : result.value("compare_peak_rss_mib", nlohmann::ordered_json());
+    const auto& peak =
+        result.contains("peak_rss_mib") ? result["peak_rss_mib"] : result.value("compare_peak_rss_mib", nlohmann::ordered_json());
     if (peak.is_number()) {
       b["peak_rss_mib"] = peak;
     } else if (peak.is_object()) {
@@ -231,18 +240,21 @@ int bench_all(int argc, char** argv) {
     nlohmann::ordered_json b = {{"name", "batch"}, {"options", "measure, rest subjects and rest scans of the dataset, --jobs 2"}};
     const fs::path list = out / ".batch_inputs.txt";
     long inputs = 0;
-    write_file_atomically(list.string(), [&](std::ostream& os) {
-      for (const char* kind : {"subjects", "scans"}) {
-        if (!fs::is_directory(fs::path(dataset) / kind)) continue;
-        std::vector<std::string> paths;
-        for (const auto& e : fs::directory_iterator(fs::path(dataset) / kind)) {
-          const fs::path rest = e.path() / (std::string(kind) == "subjects" ? "rest.ply" : "rest.pcd");
-          if (fs::is_regular_file(rest)) paths.push_back(rest.string());
-        }
-        std::sort(paths.begin(), paths.end());
-        for (const auto& p : paths) os << p << "\n", ++inputs;
-      }
-    }, false);
+    write_file_atomically(
+        list.string(),
+        [&](std::ostream& os) {
+          for (const char* kind : {"subjects", "scans"}) {
+            if (!fs::is_directory(fs::path(dataset) / kind)) continue;
+            std::vector<std::string> paths;
+            for (const auto& e : fs::directory_iterator(fs::path(dataset) / kind)) {
+              const fs::path rest = e.path() / (std::string(kind) == "subjects" ? "rest.ply" : "rest.pcd");
+              if (fs::is_regular_file(rest)) paths.push_back(rest.string());
+            }
+            std::sort(paths.begin(), paths.end());
+            for (const auto& p : paths) os << p << "\n", ++inputs;
+          }
+        },
+        false);
     std::vector<double> rate, seconds, peak;
     std::string note;
     for (int run = 0; run < (quick ? 1 : 3) && note.empty(); ++run) {
@@ -272,9 +284,14 @@ int bench_all(int argc, char** argv) {
     } else {
       const Stats r = stats_of(rate), t = stats_of(seconds);
       b["ok"] = true;
-      b["rows"] = {{{"benchmark", "batch"}, {"case", "measure " + std::to_string(inputs) + " meshes and scans, 2 jobs: throughput"},
-                    {"unit", "inputs/s"}, {"median", r.median}, {"min", r.min}, {"max", r.max}},
-                   {{"benchmark", "batch"}, {"case", "the same: wall time"}, {"unit", "s"}, {"median", t.median}, {"min", t.min}, {"max", t.max}}};
+      b["rows"] = {
+          {{"benchmark", "batch"},
+           {"case", "measure " + std::to_string(inputs) + " meshes and scans, 2 jobs: throughput"},
+           {"unit", "inputs/s"},
+           {"median", r.median},
+           {"min", r.min},
+           {"max", r.max}},
+          {{"benchmark", "batch"}, {"case", "the same: wall time"}, {"unit", "s"}, {"median", t.median}, {"min", t.min}, {"max", t.max}}};
       b["peak_rss_mib"] = stats_of(peak).max;
     }
     report["benchmarks"].push_back(b);

@@ -133,11 +133,12 @@ int bench_commands(int argc, char** argv) {
       if (meshlab && o == "convert") tools[3].command = "meshlabserver -i " + scan + " -o " + out;
       for (Tool& t : tools)
         if (t.command.empty())
-          t.note = o == "measure" && t.name != "posekit" ? "no girths"
-                   : !peers ? "not asked (--peers)"
+          t.note = o == "measure" && t.name != "posekit"       ? "no girths"
+                   : !peers                                    ? "not asked (--peers)"
                    : t.name == "CloudCompare" && !cloudcompare ? "not installed"
-                   : t.name == "Open3D" && python.empty() ? "not installed"
-                   : t.name == "MeshLab" ? (meshlab ? "no such command" : "not installed") : "no such command";
+                   : t.name == "Open3D" && python.empty()      ? "not installed"
+                   : t.name == "MeshLab"                       ? (meshlab ? "no such command" : "not installed")
+                                                               : "no such command";
       std::cerr << "bench commands: " << o << " " << label << "\n";
       for (int k = 0; k < runs; ++k)
         for (Tool& t : tools) {
@@ -180,8 +181,8 @@ int bench_commands(int argc, char** argv) {
     }
   }
   if (args.flag_set("json")) {
-    print_json(nlohmann::ordered_json{{"benchmark", "commands"}, {"points", sizes}, {"runs", runs}, {"commands", rows},
-                                      {"ratios", ratios}, {"table", table.str()}});
+    print_json(nlohmann::ordered_json{
+        {"benchmark", "commands"}, {"points", sizes}, {"runs", runs}, {"commands", rows}, {"ratios", ratios}, {"table", table.str()}});
     return 0;
   }
   std::cout << "whole commands, median seconds over " << runs << " runs (peak MiB):\n\n" << table.str();

@@ -15,8 +15,8 @@
 #include "posekit/core/error.h"
 #include "posekit/core/mesh_geometry.h"
 #include "posekit/core/timer.h"
-#include "posekit/io/bvh.h"
 #include "posekit/io/atomic_file.h"
+#include "posekit/io/bvh.h"
 #include "posekit/io/mesh_io.h"
 
 namespace posekit::cli {
@@ -56,7 +56,9 @@ int run_body(int argc, char** argv) {
       .option("weight", "W", "0 .. 1")
       .option("height", "H", "0 .. 1")
       .option("proportions", "P", "0 .. 1")
-      .option("african", "A", "ethnic mix weight").option("asian", "A", "ethnic mix weight").option("caucasian", "C", "ethnic mix weight")
+      .option("african", "A", "ethnic mix weight")
+      .option("asian", "A", "ethnic mix weight")
+      .option("caucasian", "C", "ethnic mix weight")
       .option("modifiers", "LIST", "local modifiers name=value,... (see --list-modifiers)")
       .option("pose", "FILE", "16-part pose (.json) or MakeHuman-skeleton motion (.bvh)")
       .option("frame", "N", "BVH frame to use", "0")
@@ -87,8 +89,8 @@ int run_body(int argc, char** argv) {
   }
   BodySpec spec = args.has("spec") ? read_body_spec(args.get("spec")) : BodySpec{};
   const std::pair<const char*, double*> sliders[] = {
-      {"gender", &spec.gender}, {"muscle", &spec.muscle}, {"weight", &spec.weight}, {"height", &spec.height},
-      {"proportions", &spec.proportions}, {"african", &spec.african}, {"asian", &spec.asian}, {"caucasian", &spec.caucasian}};
+      {"gender", &spec.gender},           {"muscle", &spec.muscle},   {"weight", &spec.weight}, {"height", &spec.height},
+      {"proportions", &spec.proportions}, {"african", &spec.african}, {"asian", &spec.asian},   {"caucasian", &spec.caucasian}};
   for (const auto& [name, value] : sliders)
     if (args.has(name)) *value = args.get_double(name);
   if (args.has("modifiers")) apply_modifier_list(args.get("modifiers"), spec);
@@ -125,8 +127,8 @@ int run_body(int argc, char** argv) {
         }
       }
       std::vector<std::string> skipped;
-      pose = bone_pose_from_pose_units(model->rig, body, read_pose_units(model->data_root + "/poseunits/body-poseunits.json"),
-                                       weighted, &skipped);
+      pose = bone_pose_from_pose_units(model->rig, body, read_pose_units(model->data_root + "/poseunits/body-poseunits.json"), weighted,
+                                       &skipped);
       if (!skipped.empty()) {
         report["pose_unit_bones_not_in_rig"] = skipped;
         std::cerr << "note: " << skipped.size() << " pose-unit bone(s) are not in the 163-bone rig and were skipped\n";
@@ -152,7 +154,8 @@ int run_body(int argc, char** argv) {
     j["units"] = "m, rest pose";
     for (int k = 0; k < kNumJoints; ++k) j["joints"][joint_name(k)] = {joints(k, 0), joints(k, 1), joints(k, 2)};
     const std::string text = j.dump(2) + "\n";
-    write_file_atomically(args.get("joints"), [&](std::ostream& out) { out << text; }, false);
+    write_file_atomically(
+        args.get("joints"), [&](std::ostream& out) { out << text; }, false);
   }
   if (args.has("out")) {
     write_mesh(args.get("out"), body.mesh, {parse_unit(args.get("unit")), MeshFormat::kAuto, true, io_warnings()});
@@ -162,9 +165,9 @@ int run_body(int argc, char** argv) {
     print_json(report);
     return 0;
   }
-  std::cout << std::fixed << std::setprecision(3) << "body: " << body.mesh.num_vertices() << " vertices, "
-            << body.mesh.num_faces() << " triangles\n  rest stature " << stature << " m, volume " << std::setprecision(1) << litres
-            << " L, mass " << mass << " kg (1.01 kg/L), BMI " << mass / (stature * stature) << "\n";
+  std::cout << std::fixed << std::setprecision(3) << "body: " << body.mesh.num_vertices() << " vertices, " << body.mesh.num_faces()
+            << " triangles\n  rest stature " << stature << " m, volume " << std::setprecision(1) << litres << " L, mass " << mass
+            << " kg (1.01 kg/L), BMI " << mass / (stature * stature) << "\n";
   if (report.contains("pose")) std::cout << "  posed by " << args.get("pose") << " (" << args.get("skinning") << ")\n";
   if (report.contains("out")) std::cout << "  wrote " << args.get("out") << "\n";
   return 0;

@@ -1,10 +1,10 @@
 // posekit compare / view: a model against a scan, and VTK viewers for meshes with error fields.
 #include <algorithm>
 #include <cmath>
-#include <tuple>
 #include <iomanip>
 #include <iostream>
 #include <nlohmann/json.hpp>
+#include <tuple>
 
 #include "cli.h"
 #include "commands.h"
@@ -20,8 +20,8 @@ namespace posekit::cli {
 namespace {
 
 nlohmann::ordered_json stats_json(const DistanceStats& s) {
-  return {{"mean_mm", s.mean_mm}, {"rms_mm", s.rms_mm}, {"p95_mm", s.p95_mm}, {"max_mm", s.max_mm},
-          {"signed_mean_mm", s.signed_mean_mm}, {"count", s.count}, {"outliers", s.outliers}};
+  return {{"mean_mm", s.mean_mm}, {"rms_mm", s.rms_mm},    {"p95_mm", s.p95_mm}, {"max_mm", s.max_mm}, {"signed_mean_mm", s.signed_mean_mm},
+          {"count", s.count},     {"outliers", s.outliers}};
 }
 
 ColourMap colour_map_from(const ArgParser& args, ColourMapKind default_kind) {
@@ -51,7 +51,8 @@ int run_compare(int argc, char** argv) {
                  "uniform grid) where the scan has data; vertices in scan holes are reported as uncovered, not as\n"
                  "error. Distances are signed by the model's outward normal (+: the scan lies outside the model).\n"
                  "All figures are in millimetres.");
-  args.positional("model", "model mesh (PLY/OBJ/OFF/STL)").positional("scan", "scan: PCD/PLY/XYZ cloud, or a mesh")
+  args.positional("model", "model mesh (PLY/OBJ/OFF/STL)")
+      .positional("scan", "scan: PCD/PLY/XYZ cloud, or a mesh")
       .option("model-unit", "U", "unit of the model: m, dm, cm, mm, or auto (its largest extent tells)", "auto")
       .option("scan-unit", "U", "unit of the scan, as --model-unit", "auto")
       .option("model-up", "AXIS", "the axis the model stands along (+X, -Y, ...) or auto (detected)", "auto")
@@ -72,8 +73,7 @@ int run_compare(int argc, char** argv) {
   if (!args.parse(argc, argv)) return 0;
   BodyUnit model_unit, scan_unit;
   BodyInput model_input = read_body_input(args.positionals()[0], args.get("model-unit"), "compare", &model_unit);
-  if (model_input.is_cloud)
-    throw InvalidInput(args.positionals()[0] + ": the model must be a mesh (triangles); this file has only points");
+  if (model_input.is_cloud) throw InvalidInput(args.positionals()[0] + ": the model must be a mesh (triangles); this file has only points");
   const BodyOrientation model_orientation =
       orient_body_input(&model_input, args.get("model-up"), args.get("model-forward"), args.positionals()[0], "compare");
   const TriangleMesh model = std::move(model_input.mesh);
@@ -188,15 +188,27 @@ int run_compare(int argc, char** argv) {
 
   nlohmann::ordered_json g = nlohmann::ordered_json::array();
   for (const auto& d : girths)
-    g.push_back({{"name", d.name}, {"model_cm", d.model_cm}, {"scan_cm", d.scan_cm}, {"difference_cm", d.difference_cm},
-                 {"measured", d.measured}, {"iso20685_tolerance_mm", d.tolerance_mm},
-                 {"within_tolerance", d.measured && std::abs(d.difference_cm) * 10 <= d.tolerance_mm}, {"note", d.note}});
-  nlohmann::ordered_json out = {{"model", args.positionals()[0]}, {"scan", args.positionals()[1]}, {"units", "mm"},
-                                {"scan_points", scan_points}, {"model_vertices", model.V.rows()},
-                                {"scan_to_model", stats_json(r.scan_stats)}, {"model_to_scan", stats_json(r.model_stats)},
-                                {"hausdorff_mm", r.hausdorff_mm}, {"coverage", r.coverage},
-                                {"uncovered_vertices", r.uncovered_vertices}, {"coverage_radius_mm", 1000 * r.coverage_radius},
-                                {"outlier_threshold_mm", 1000 * o.outlier_threshold}, {"seconds", r.seconds}};
+    g.push_back({{"name", d.name},
+                 {"model_cm", d.model_cm},
+                 {"scan_cm", d.scan_cm},
+                 {"difference_cm", d.difference_cm},
+                 {"measured", d.measured},
+                 {"iso20685_tolerance_mm", d.tolerance_mm},
+                 {"within_tolerance", d.measured && std::abs(d.difference_cm) * 10 <= d.tolerance_mm},
+                 {"note", d.note}});
+  nlohmann::ordered_json out = {{"model", args.positionals()[0]},
+                                {"scan", args.positionals()[1]},
+                                {"units", "mm"},
+                                {"scan_points", scan_points},
+                                {"model_vertices", model.V.rows()},
+                                {"scan_to_model", stats_json(r.scan_stats)},
+                                {"model_to_scan", stats_json(r.model_stats)},
+                                {"hausdorff_mm", r.hausdorff_mm},
+                                {"coverage", r.coverage},
+                                {"uncovered_vertices", r.uncovered_vertices},
+                                {"coverage_radius_mm", 1000 * r.coverage_radius},
+                                {"outlier_threshold_mm", 1000 * o.outlier_threshold},
+                                {"seconds", r.seconds}};
   out["model_unit"] = {{"unit", unit_name(model_unit.unit)}, {"detected", model_unit.detected}};
   out["scan_unit"] = {{"unit", unit_name(scan_unit.unit)}, {"detected", scan_unit.detected}};
   out["model_orientation"] = orientation_json(model_orientation);
@@ -207,13 +219,13 @@ int run_compare(int argc, char** argv) {
     print_json(out);
     return 0;
   }
-  std::cout << std::fixed << std::setprecision(2) << "compared " << args.positionals()[0] << " (" << model.V.rows()
-            << " vertices) with " << args.positionals()[1] << " (" << scan_points << " points) in " << r.seconds
-            << " s\n\n| direction | mean mm | RMS mm | 95th pct mm | max mm | signed mean mm | outliers (> "
-            << 1000 * o.outlier_threshold << " mm) |\n|---|---|---|---|---|---|---|\n";
+  std::cout << std::fixed << std::setprecision(2) << "compared " << args.positionals()[0] << " (" << model.V.rows() << " vertices) with "
+            << args.positionals()[1] << " (" << scan_points << " points) in " << r.seconds
+            << " s\n\n| direction | mean mm | RMS mm | 95th pct mm | max mm | signed mean mm | outliers (> " << 1000 * o.outlier_threshold
+            << " mm) |\n|---|---|---|---|---|---|---|\n";
   for (auto [name, s] : {std::pair{"scan to model", &r.scan_stats}, std::pair{"model to scan", &r.model_stats}})
-    std::cout << "| " << name << " | " << s->mean_mm << " | " << s->rms_mm << " | " << s->p95_mm << " | " << s->max_mm
-              << " | " << s->signed_mean_mm << " | " << s->outliers << " |\n";
+    std::cout << "| " << name << " | " << s->mean_mm << " | " << s->rms_mm << " | " << s->p95_mm << " | " << s->max_mm << " | "
+              << s->signed_mean_mm << " | " << s->outliers << " |\n";
   std::cout << "\nHausdorff " << r.hausdorff_mm << " mm; coverage " << std::setprecision(1) << 100 * r.coverage << "% ("
             << r.uncovered_vertices << " model vertices without scan data within " << 1000 * r.coverage_radius << " mm)\n";
   for (const auto& w : warnings) std::cout << "\nwarning: " << w << "\n";
@@ -224,8 +236,7 @@ int run_compare(int argc, char** argv) {
       if (d.measured)
         std::cout << d.model_cm << " | " << d.scan_cm << " | " << std::showpos << d.difference_cm << std::noshowpos << " | "
                   << d.tolerance_mm << " | " << (std::abs(d.difference_cm) * 10 <= d.tolerance_mm ? "yes" : "no") << " |\n";
-      else
-        std::cout << "- | - | - | " << d.tolerance_mm << " | " << d.note << " |\n";
+      else std::cout << "- | - | - | " << d.tolerance_mm << " | " << d.note << " |\n";
     }
   }
   return 0;

@@ -16,7 +16,8 @@ int run_convert(int argc, char** argv) {
                  "point clouds; a mesh written to .pcd or .xyz keeps its vertices. Colours, normals, texture\n"
                  "coordinates and scalar fields are kept where the target format can hold them; a warning names\n"
                  "what it cannot. The output appears only when complete.");
-  args.positional("in", "input file").positional_output("out", "output file")
+  args.positional("in", "input file")
+      .positional_output("out", "output file")
       .option("from-unit", "U", "unit of the input: m, dm, cm, mm", "m")
       .option("to-unit", "U", "unit of the output: m, dm, cm, mm", "m")
       .option("group", "NAME", "keep only this OBJ group of a mesh")
@@ -55,8 +56,8 @@ int run_convert(int argc, char** argv) {
   }
   write_mesh(out, mesh, {to, MeshFormat::kAuto, binary, io_warnings()});
   flush_warnings();
-  std::cerr << "wrote " << out << ": " << mesh.num_vertices() << " vertices, " << mesh.num_faces() << " triangles ("
-            << unit_name(to) << ")\n";
+  std::cerr << "wrote " << out << ": " << mesh.num_vertices() << " vertices, " << mesh.num_faces() << " triangles (" << unit_name(to)
+            << ")\n";
   return 0;
 }
 

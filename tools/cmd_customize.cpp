@@ -18,9 +18,9 @@
 #include "posekit/customization/model_silhouette_fit.h"
 #include "posekit/customization/phone_set.h"
 #include "posekit/customization/photo_evaluation.h"
-#include "posekit/population/ansur.h"
 #include "posekit/io/atomic_file.h"
 #include "posekit/io/mesh_io.h"
+#include "posekit/population/ansur.h"
 #include "posekit/shape/measurements.h"
 
 namespace posekit::cli {
@@ -112,15 +112,18 @@ void print_evaluation(const PhotoEvaluation& ev, std::ostream& os) {
       else t << "n/a";
       return t.str();
     };
-    os << std::fixed << std::setprecision(1) << std::setw(7) << r.stature_mm << girth(r.bust_mm) << girth(r.waist_mm)
-       << girth(r.hip_mm) << std::setw(8) << r.surface_mm << std::setw(7) << std::setprecision(2) << r.seconds << "s"
-       << std::setw(7) << std::setprecision(3) << r.silhouette_iou
-       << (!r.error.empty() ? "  " + r.error : r.warnings.empty() ? "" : "  warning: " + r.warnings.front()) << "\n";
+    os << std::fixed << std::setprecision(1) << std::setw(7) << r.stature_mm << girth(r.bust_mm) << girth(r.waist_mm) << girth(r.hip_mm)
+       << std::setw(8) << r.surface_mm << std::setw(7) << std::setprecision(2) << r.seconds << "s" << std::setw(7) << std::setprecision(3)
+       << r.silhouette_iou
+       << (!r.error.empty()     ? "  " + r.error
+           : r.warnings.empty() ? ""
+                                : "  warning: " + r.warnings.front())
+       << "\n";
   }
   os << std::fixed << std::setprecision(1) << "mean |error|: stature " << ev.mean_abs_stature_mm << ", bust " << ev.mean_abs_bust_mm
-     << ", waist " << ev.mean_abs_waist_mm << ", hip " << ev.mean_abs_hip_mm << " mm; surface " << ev.mean_surface_mm
-     << " mm; worst girth " << ev.worst_girth_mm << " mm; bust, waist and hip within 2 cm on " << ev.within_2cm << "/"
-     << ev.subjects.size() << (ev.girths_not_measured ? "; girths not measured on " + std::to_string(ev.girths_not_measured) : "")
+     << ", waist " << ev.mean_abs_waist_mm << ", hip " << ev.mean_abs_hip_mm << " mm; surface " << ev.mean_surface_mm << " mm; worst girth "
+     << ev.worst_girth_mm << " mm; bust, waist and hip within 2 cm on " << ev.within_2cm << "/" << ev.subjects.size()
+     << (ev.girths_not_measured ? "; girths not measured on " + std::to_string(ev.girths_not_measured) : "")
      << (ev.failed ? "; " + std::to_string(ev.failed) + " failed" : "") << "\n\n";
 }
 
@@ -129,13 +132,24 @@ nlohmann::json evaluation_json(const PhotoEvaluation& ev) {
   j["variation"] = ev.label.empty() ? std::string(photo_variation_name(ev.variation)) : ev.label;
   j["units"] = "mm, customized - truth";
   for (const auto& r : ev.subjects)
-    j["subjects"].push_back({{"id", r.id}, {"ok", r.ok}, {"error", r.error}, {"girths_measured", r.girths_measured}, {"stature", r.stature_mm}, {"bust", r.bust_mm},
-                             {"waist", r.waist_mm}, {"hip", r.hip_mm}, {"surface", r.surface_mm}, {"seconds", r.seconds},
+    j["subjects"].push_back({{"id", r.id},
+                             {"ok", r.ok},
+                             {"error", r.error},
+                             {"girths_measured", r.girths_measured},
+                             {"stature", r.stature_mm},
+                             {"bust", r.bust_mm},
+                             {"waist", r.waist_mm},
+                             {"hip", r.hip_mm},
+                             {"surface", r.surface_mm},
+                             {"seconds", r.seconds},
                              {"silhouette_iou", r.silhouette_iou},
                              {"photo_agreement", r.photo_agreement},
                              {"warnings", r.warnings}});
-  j["mean_abs"] = {{"stature", ev.mean_abs_stature_mm}, {"bust", ev.mean_abs_bust_mm}, {"waist", ev.mean_abs_waist_mm},
-                   {"hip", ev.mean_abs_hip_mm}, {"surface", ev.mean_surface_mm}};
+  j["mean_abs"] = {{"stature", ev.mean_abs_stature_mm},
+                   {"bust", ev.mean_abs_bust_mm},
+                   {"waist", ev.mean_abs_waist_mm},
+                   {"hip", ev.mean_abs_hip_mm},
+                   {"surface", ev.mean_surface_mm}};
   j["worst_girth"] = ev.worst_girth_mm;
   j["within_2cm"] = ev.within_2cm;
   j["failed"] = ev.failed;
@@ -152,9 +166,13 @@ int customize_eval(int argc, char** argv) {
                  "body turned 5 degrees, JPEG and sensor noise).");
   args.option("dataset", "DIR", "dataset folder (posekit dataset make)")
       .option("model", "FILE", "customization model (posekit customize train)", "customization.pkc")
-      .option("variation", "V", "photos, masks, erode2, dilate2, height+1cm, nearer20cm, farther20cm, turned5, jpeg-noise, camera1.30, camera1.30-aimed, camera1.00, room, phone, phone-masks, or all", "photos")
+      .option("variation", "V",
+              "photos, masks, erode2, dilate2, height+1cm, nearer20cm, farther20cm, turned5, jpeg-noise, camera1.30, camera1.30-aimed, "
+              "camera1.00, room, phone, phone-masks, or all",
+              "photos")
       .option("subjects", "A,B", "only these subjects")
-      .option("method", "NAME", "paper (section 3.2's rules and learned sections) or model (the body model fitted to the silhouettes)", "paper")
+      .option("method", "NAME", "paper (section 3.2's rules and learned sections) or model (the body model fitted to the silhouettes)",
+              "paper")
       .option("body-model", "FILE", "--method model: the body model (.pks from posekit shape-space --ansur)")
       .data_option()
       .output("json", "FILE", "write the tables as JSON")
@@ -171,19 +189,19 @@ int customize_eval(int argc, char** argv) {
   const std::vector<std::string> ids = args.has("subjects") ? split_commas(args.get("subjects")) : std::vector<std::string>{};
   nlohmann::json all = nlohmann::json::array();
   for (PhotoVariation v : variations) {
-    const PhotoEvaluation ev = evaluate_photo_customization(args.get("dataset"), model, v, ids, args.has("inputs-out") ? args.get("inputs-out") : "",
-                                                              body_model.get());
+    const PhotoEvaluation ev = evaluate_photo_customization(args.get("dataset"), model, v, ids,
+                                                            args.has("inputs-out") ? args.get("inputs-out") : "", body_model.get());
     print_evaluation(ev, std::cout);
     std::cout.flush();
     all.push_back(evaluation_json(ev));
   }
   if (args.has("json")) {
     const std::string text = all.dump(2) + "\n";
-    write_file_atomically(args.get("json"), [&](std::ostream& os) { os << text; }, false);
+    write_file_atomically(
+        args.get("json"), [&](std::ostream& os) { os << text; }, false);
   }
   return 0;
 }
-
 
 int customize_robustness(int argc, char** argv) {
   ArgParser args("customize robustness",
@@ -218,9 +236,11 @@ int customize_robustness(int argc, char** argv) {
   for (const std::string& m : method_names) {
     if (m == "paper") {
       model = load_customization_model(args.get("model"));
-      methods.push_back([&](const Silhouette& f, const Silhouette& s, const PhotoCameras& c) { return customize_from_silhouettes(f, s, c, *model); });
+      methods.push_back(
+          [&](const Silhouette& f, const Silhouette& s, const PhotoCameras& c) { return customize_from_silhouettes(f, s, c, *model); });
     } else if (m == "model") {
-      if (!args.has("body-model")) throw UsageError("--methods model needs --body-model FILE (build one with posekit shape-space --ansur --out FILE)");
+      if (!args.has("body-model"))
+        throw UsageError("--methods model needs --body-model FILE (build one with posekit shape-space --ansur --out FILE)");
       body_model = load_body_model(args);
       std::string no_survey;
       survey = load_survey(o_survey, &no_survey);
@@ -247,12 +267,14 @@ int customize_robustness(int argc, char** argv) {
   for (const PhoneSetBody& b : bodies)
     if (!b.survey_id.empty()) ids += (ids.empty() ? "" : ",") + b.survey_id;
   std::cerr << "posekit customize robustness: " << bodies.size() << " bodies"
-            << (ids.empty() ? "" : "; a body model that has not seen them: posekit shape-space --ansur --leave-out-ids " + ids + " --out FILE") << "\n";
+            << (ids.empty() ? ""
+                            : "; a body model that has not seen them: posekit shape-space --ansur --leave-out-ids " + ids + " --out FILE")
+            << "\n";
   nlohmann::json all = nlohmann::json::array();
   for (PhoneCondition c : conditions) {
     Progress progress(std::string("condition ") + phone_condition_name(c), static_cast<int>(bodies.size()));
-    const std::vector<PhotoEvaluation> evs = evaluate_phone_set(bodies, c, methods, o.seed, [&](int done, int) { progress.update(done); },
-                                                             args.has("inputs-out") ? args.get("inputs-out") : "");
+    const std::vector<PhotoEvaluation> evs = evaluate_phone_set(
+        bodies, c, methods, o.seed, [&](int done, int) { progress.update(done); }, args.has("inputs-out") ? args.get("inputs-out") : "");
     progress.finish();
     for (size_t m = 0; m < evs.size(); ++m) {
       PhotoEvaluation ev = evs[m];
@@ -267,7 +289,8 @@ int customize_robustness(int argc, char** argv) {
   }
   if (args.has("json")) {
     const std::string text = all.dump(2) + "\n";
-    write_file_atomically(args.get("json"), [&](std::ostream& os) { os << text; }, false);
+    write_file_atomically(
+        args.get("json"), [&](std::ostream& os) { os << text; }, false);
   }
   return 0;
 }
@@ -288,7 +311,8 @@ int run_customize(int argc, char** argv) {
                  "to it by ct-FFD. The scale comes from the camera file, or from the stated height.\n"
                  "Subcommands: 'customize train' (the model), 'customize eval' (against a dataset's truth),\n"
                  "'customize robustness' (phone photos of bodies of real proportions, both methods).");
-  args.option("front", "IMG", "front photo").option("side", "IMG", "side photo")
+  args.option("front", "IMG", "front photo")
+      .option("side", "IMG", "side photo")
       .option("front-mask", "IMG", "front silhouette (person white) instead of the photo")
       .option("side-mask", "IMG", "side silhouette instead of the photo")
       .option("front-background", "IMG", "photo of the empty scene from the front camera's place (a textured wall or a room)")
@@ -298,7 +322,9 @@ int run_customize(int argc, char** argv) {
       .option("distance", "M", "without --camera: camera distance to the person", "3.0")
       .option("focal", "PX", "without --camera: focal length in pixels (default: from the stated height)")
       .option("model", "FILE", "customization model (posekit customize train)", "customization.pkc")
-      .option("method", "NAME", "paper (section 3.2's rules and learned sections) or model (the body model's shape and pose fitted to both silhouettes)", "paper")
+      .option("method", "NAME",
+              "paper (section 3.2's rules and learned sections) or model (the body model's shape and pose fitted to both silhouettes)",
+              "paper")
       .option("body-model", "FILE", "--method model: the body model (.pks from posekit shape-space --ansur)")
       .data_option()
       .output("out", "FILE", "customized body mesh (PLY/OBJ/OFF/STL)")
@@ -348,8 +374,9 @@ int run_customize(int argc, char** argv) {
     write_silhouette_png((std::filesystem::path(args.get("debug")) / "front_mask.png").string(), front);
     write_silhouette_png((std::filesystem::path(args.get("debug")) / "side_mask.png").string(), side);
   }
-  const CustomizedBody body = by_body_model ? customize_by_body_model(*body_model, front, side, cams, height, args.flag_set("accept-poor"), {}, survey.get())
-                                            : customize_from_silhouettes(front, side, cams, model, height, args.flag_set("accept-poor"));
+  const CustomizedBody body =
+      by_body_model ? customize_by_body_model(*body_model, front, side, cams, height, args.flag_set("accept-poor"), {}, survey.get())
+                    : customize_from_silhouettes(front, side, cams, model, height, args.flag_set("accept-poor"));
   const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   for (const auto& w : body.warnings) std::cerr << "posekit customize: warning: " << w << "\n";
   if (args.has("debug") && by_body_model) {
@@ -377,8 +404,9 @@ int run_customize(int argc, char** argv) {
   j["photo_agreement"] = body.photo_agreement;
   j["poor"] = body.photo_agreement < kMinPhotoAgreement;
   if (!by_body_model) {
-    j["levels_y"] = {{"floor", L.floor_y}, {"crotch", L.crotch_y}, {"hip", L.hip_y}, {"waist", L.waist_y}, {"bust", L.bust_y},
-                     {"armpit_left", L.armpit_y[0]}, {"armpit_right", L.armpit_y[1]}, {"neck", L.neck_y}, {"crown", L.crown_y}};
+    j["levels_y"] = {
+        {"floor", L.floor_y},           {"crotch", L.crotch_y},          {"hip", L.hip_y},   {"waist", L.waist_y}, {"bust", L.bust_y},
+        {"armpit_left", L.armpit_y[0]}, {"armpit_right", L.armpit_y[1]}, {"neck", L.neck_y}, {"crown", L.crown_y}};
     for (const auto& [lo, hi] : L.side_arm_occlusion) j["side_arm_occlusion_y"].push_back({lo, hi});
   }
   j["assumed"] = cams.assumed;
@@ -391,7 +419,9 @@ int run_customize(int argc, char** argv) {
     j["stature"] = m.stature;
     for (const char* name : {"bust", "waist", "hip"}) {
       const Girth* g = m.find(name);
-      const double level = std::string(name) == "bust" ? body.features.bust_y : std::string(name) == "waist" ? body.features.waist_y : body.features.hip_y;
+      const double level = std::string(name) == "bust"    ? body.features.bust_y
+                           : std::string(name) == "waist" ? body.features.waist_y
+                                                          : body.features.hip_y;
       j["girths"][name] = {{"mesh", g && g->measured ? nlohmann::json(g->value) : nlohmann::json()}};
       if (!by_body_model) j["girths"][name]["representation"] = representation_torso_girth(body.representation, level);
     }
@@ -405,8 +435,8 @@ int run_customize(int argc, char** argv) {
   std::cout << "\n";
   if (!by_body_model)
     std::cout << std::setprecision(3) << "levels (m): crotch " << L.crotch_y - L.floor_y << ", hip " << L.hip_y - L.floor_y << ", waist "
-            << L.waist_y - L.floor_y << ", bust " << L.bust_y - L.floor_y << ", armpits " << L.armpit_y[0] - L.floor_y << " / "
-            << L.armpit_y[1] - L.floor_y << ", neck " << L.neck_y - L.floor_y << " above the soles\n";
+              << L.waist_y - L.floor_y << ", bust " << L.bust_y - L.floor_y << ", armpits " << L.armpit_y[0] - L.floor_y << " / "
+              << L.armpit_y[1] - L.floor_y << ", neck " << L.neck_y - L.floor_y << " above the soles\n";
   if (args.flag_set("measure")) {
     std::cout << "girths (m)     mesh" << (by_body_model ? "" : "    representation") << "\n";
     for (const char* name : {"bust", "waist", "hip"}) {

@@ -12,8 +12,8 @@
 #include "posekit/core/error.h"
 #include "posekit/datasets/dataset.h"
 #include "posekit/datasets/robustness.h"
-#include "posekit/population/survey_fit.h"
 #include "posekit/io/atomic_file.h"
+#include "posekit/population/survey_fit.h"
 
 namespace posekit::cli {
 namespace {
@@ -60,13 +60,13 @@ int make_robustness(const ArgParser& args) {
   const RobustnessSummary s = make_robustness_set(args.get("out"), o);
   if (progress) progress->finish();
   if (args.flag_set("json")) {
-    print_json({{"out", args.get("out")}, {"bodies", s.bodies}, {"shapes", s.shapes}, {"variations", s.variations},
-                {"seconds", s.seconds}});
+    print_json(
+        {{"out", args.get("out")}, {"bodies", s.bodies}, {"shapes", s.shapes}, {"variations", s.variations}, {"seconds", s.seconds}});
     return 0;
   }
-  std::cout << "wrote " << args.get("out") << ": robustness set of " << s.bodies << " bodies (" << s.shapes << " shapes x "
-            << s.variations << " variations) in " << std::fixed << std::setprecision(1) << s.seconds
-            << " s; evaluate with: posekit eval bodies --dataset " << args.get("out") << "\n";
+  std::cout << "wrote " << args.get("out") << ": robustness set of " << s.bodies << " bodies (" << s.shapes << " shapes x " << s.variations
+            << " variations) in " << std::fixed << std::setprecision(1) << s.seconds << " s; evaluate with: posekit eval bodies --dataset "
+            << args.get("out") << "\n";
   return 0;
 }
 
@@ -79,7 +79,8 @@ int dataset_make(int argc, char** argv) {
                  "with ground-truth measurements, correspondence and posed meshes, simulated booth scans (mm)\n"
                  "and front/side photos with silhouette masks. Written to a temporary folder, renamed when done.\n\n"
                  "With --robustness, the robustness set instead: --shapes bodies (women, men, mixed; BMI about 15\n"
-                 "to 40) each in every variation, with the rig's joints, girths and part labels as truth:" + variations);
+                 "to 40) each in every variation, with the rig's joints, girths and part labels as truth:" +
+                     variations);
   args.output_folder("out", "DIR", "output folder (must not exist unless --force; its parent must, unless --mkdir)")
       .data_option()
       .option("seed", "N", "random seed (same seed, same bytes)", "1")
@@ -89,14 +90,18 @@ int dataset_make(int argc, char** argv) {
       .option("driving", "RULE",
               "how a 16-part pose drives the rig for the ground truth: rig (one bone per part), anatomical (girdle,\n"
               "                          spine, neck and limb twist spread over their bones) or anatomical-alternative (other\n"
-              "                          fractions, linear blend skinning: the second generator of a cross-generator test)", "rig")
+              "                          fractions, linear blend skinning: the second generator of a cross-generator test)",
+              "rig")
       .flag("small", "a third of the poses and 2 subjects (quick)")
       .flag("robustness", "write the robustness set (for posekit eval bodies) instead")
       .option("shapes", "N", "robustness set: body shapes, each in every variation", "10")
       .option("variations", "LIST", "robustness set: only these variations (comma-separated names)")
-      .option("population", "P", "robustness set: the shapes' proportions: makehuman (random sliders) or ansur (MakeHuman fitted\n"
-              "                          to ANSUR II subjects drawn with the seed, women and men alternately)", "makehuman")
-      .option("survey", "DIR|FILE", "--population ansur: ANSUR II's folder or a survey CSV (default: $POSEKIT_ANSUR, else ansur2 "
+      .option("population", "P",
+              "robustness set: the shapes' proportions: makehuman (random sliders) or ansur (MakeHuman fitted\n"
+              "                          to ANSUR II subjects drawn with the seed, women and men alternately)",
+              "makehuman")
+      .option("survey", "DIR|FILE",
+              "--population ansur: ANSUR II's folder or a survey CSV (default: $POSEKIT_ANSUR, else ansur2 "
               "beside the data root)")
       .flag("force", "replace an existing output folder")
       .flag("json", "summary as JSON on stdout")
@@ -131,29 +136,30 @@ int dataset_make(int argc, char** argv) {
   };
   const DatasetSummary s = make_dataset(args.get("out"), o);
   if (progress) progress->finish();
-  nlohmann::ordered_json j = {{"out", args.get("out")}, {"poses", s.poses}, {"test_poses", s.test_poses},
-                              {"subjects", s.subjects}, {"scans", s.scans}, {"photo_pairs", s.photos / 2},
-                              {"files", s.files}, {"seconds", s.seconds}};
+  nlohmann::ordered_json j = {{"out", args.get("out")}, {"poses", s.poses},    {"test_poses", s.test_poses},
+                              {"subjects", s.subjects}, {"scans", s.scans},    {"photo_pairs", s.photos / 2},
+                              {"files", s.files},       {"seconds", s.seconds}};
   if (args.flag_set("json")) {
     std::cout << j.dump(2) << std::endl;
     return 0;
   }
-  std::cout << "wrote " << args.get("out") << ": " << s.poses << " poses (" << s.test_poses << " held out), " << s.subjects
-            << " subjects, " << s.scans << " scans, " << s.photos / 2 << " photo pairs, " << s.files << " files in "
-            << std::fixed << std::setprecision(1) << s.seconds << " s\n";
+  std::cout << "wrote " << args.get("out") << ": " << s.poses << " poses (" << s.test_poses << " held out), " << s.subjects << " subjects, "
+            << s.scans << " scans, " << s.photos / 2 << " photo pairs, " << s.files << " files in " << std::fixed << std::setprecision(1)
+            << s.seconds << " s\n";
   return 0;
 }
 
 int dataset_info(int argc, char** argv) {
-  ArgParser args("dataset info", "Checks a dataset folder (posekit's, or a user's folder of registered meshes with optional\n"
-                                 "16-part pose JSONs) and summarises it.");
+  ArgParser args("dataset info",
+                 "Checks a dataset folder (posekit's, or a user's folder of registered meshes with optional\n"
+                 "16-part pose JSONs) and summarises it.");
   args.positional("dir", "dataset folder").option("unit", "U", "unit of user meshes", "m").flag("json", "JSON on stdout");
   if (!args.parse(argc, argv)) return 0;
   const std::string dir = args.positionals()[0];
   const PoseDataset ds = load_pose_dataset(dir, parse_unit(args.get("unit")));
   int test = 0, with_pose = 0;
   for (size_t i = 0; i < ds.names.size(); ++i) test += ds.test[i], with_pose += ds.has_pose[i];
-  nlohmann::ordered_json j = {{"dir", dir}, {"pose_meshes", ds.names.size()}, {"with_pose_json", with_pose},
+  nlohmann::ordered_json j = {{"dir", dir},       {"pose_meshes", ds.names.size()},  {"with_pose_json", with_pose},
                               {"held_out", test}, {"vertices", ds.V.front().rows()}, {"triangles", ds.F.rows()}};
   const auto manifest = std::filesystem::path(dir) / "manifest.json";
   if (std::filesystem::is_regular_file(manifest)) {
@@ -180,8 +186,9 @@ int dataset_info(int argc, char** argv) {
 }  // namespace
 
 int run_dataset(int argc, char** argv) {
-  const std::string usage = "usage: posekit dataset <make|info> [options]\n\n  make   generate the evaluation dataset\n"
-                            "  info   check and summarise a dataset folder\n";
+  const std::string usage =
+      "usage: posekit dataset <make|info> [options]\n\n  make   generate the evaluation dataset\n"
+      "  info   check and summarise a dataset folder\n";
   if (argc < 1 || std::string(argv[0]) == "--help" || std::string(argv[0]) == "-h") {
     std::cout << usage;
     return argc < 1 ? 2 : 0;

@@ -76,14 +76,22 @@ struct Tally {
     nlohmann::ordered_json iso;
     for (int g = 0; g < 3; ++g)
       iso[kIsoGirths[g]] = {{"measured", iso_measured[g]}, {"within_iso", iso_within[g]}, {"mean_abs_error_mm", mean_abs_error_mm(g)}};
-    return {{"bodies", bodies}, {"meshes", meshes}, {"unit_and_orientation_right", frame_right}, {"measured", measured},
-            {"segmented", segmented}, {"agreement_at_least_95", agree}, {"joints_within_3cm", joints},
+    return {{"bodies", bodies},
+            {"meshes", meshes},
+            {"unit_and_orientation_right", frame_right},
+            {"measured", measured},
+            {"segmented", segmented},
+            {"agreement_at_least_95", agree},
+            {"joints_within_3cm", joints},
             {"agreement_and_joints", both},
-            {"girths_iso_20685", iso}, {"median_joint_error_max_mm", 1000 * median_of(joint_max)},
-            {"median_agreement", median_of(agreement)}, {"median_border_roughness", median_of(roughness)},
+            {"girths_iso_20685", iso},
+            {"median_joint_error_max_mm", 1000 * median_of(joint_max)},
+            {"median_agreement", median_of(agreement)},
+            {"median_border_roughness", median_of(roughness)},
             {"median_truth_border_roughness", median_of(truth_roughness)},
             {"mean_joint_angle_error_deg", angle.empty() ? std::nan("") : mean_of(angle)},
-            {"mean_joint_angle_error_deg_every_fit", angle_all.empty() ? std::nan("") : mean_of(angle_all)}, {"silent_nonsense", silent}};
+            {"mean_joint_angle_error_deg_every_fit", angle_all.empty() ? std::nan("") : mean_of(angle_all)},
+            {"silent_nonsense", silent}};
   }
 };
 
@@ -95,9 +103,9 @@ std::string percent(int part, int whole) {
 }
 
 void print_row(const std::string& name, const Tally& t) {
-  std::cout << "| " << name << " | " << t.bodies << " | " << percent(t.frame_right, t.bodies) << " | "
-            << percent(t.measured, t.bodies) << " | " << percent(t.segmented, t.meshes) << " | " << percent(t.agree, t.labelled)
-            << " | " << percent(t.joints, t.meshes) << " | " << percent(t.both, t.meshes) << " |";
+  std::cout << "| " << name << " | " << t.bodies << " | " << percent(t.frame_right, t.bodies) << " | " << percent(t.measured, t.bodies)
+            << " | " << percent(t.segmented, t.meshes) << " | " << percent(t.agree, t.labelled) << " | " << percent(t.joints, t.meshes)
+            << " | " << percent(t.both, t.meshes) << " |";
   auto one_decimal = [](double v) {
     if (std::isnan(v)) return std::string("-");
     std::ostringstream s;
@@ -105,8 +113,8 @@ void print_row(const std::string& name, const Tally& t) {
     return s.str();
   };
   for (int g = 0; g < 3; ++g)
-    std::cout << " " << percent(t.iso_within[g], t.iso_measured[g]) << (t.iso_measured[g] ? ", MAE " + one_decimal(t.mean_abs_error_mm(g)) : "")
-              << " |";
+    std::cout << " " << percent(t.iso_within[g], t.iso_measured[g])
+              << (t.iso_measured[g] ? ", MAE " + one_decimal(t.mean_abs_error_mm(g)) : "") << " |";
   std::cout << " " << one_decimal(1000 * median_of(t.joint_max)) << " | " << one_decimal(100 * median_of(t.agreement)) << " | "
             << one_decimal(t.angle.empty() ? std::nan("") : mean_of(t.angle)) << " | " << t.silent << " |\n";
 }
@@ -166,9 +174,15 @@ int run_eval_bodies(int argc, char** argv) {
   for (size_t v = 0; v < per.size(); ++v) out["variations"][ev.variations[v]] = per[v].json();
   nlohmann::ordered_json bodies = nlohmann::ordered_json::array();
   for (const auto& b : ev.bodies) {
-    nlohmann::ordered_json j = {{"name", b.name}, {"variation", b.variation}, {"kind", b.kind}, {"unit_right", b.unit_right},
-                                {"orientation_right", b.orientation_right}, {"orientation", b.orientation},
-                                {"measured", b.measured}, {"segmented", b.segmented}, {"seconds", b.seconds}};
+    nlohmann::ordered_json j = {{"name", b.name},
+                                {"variation", b.variation},
+                                {"kind", b.kind},
+                                {"unit_right", b.unit_right},
+                                {"orientation_right", b.orientation_right},
+                                {"orientation", b.orientation},
+                                {"measured", b.measured},
+                                {"segmented", b.segmented},
+                                {"seconds", b.seconds}};
     if (b.by_body_model) j["fit_start"] = b.fit_start;
     if (!std::isnan(b.fit_seconds)) j["fit_seconds"] = b.fit_seconds;
     if (!std::isnan(b.joint_angle_error_mean)) j["joint_angle_error_mean_deg"] = b.joint_angle_error_mean * 180 / M_PI;
@@ -193,17 +207,21 @@ int run_eval_bodies(int argc, char** argv) {
   out["bodies"] = bodies;
   if (args.has("report")) {
     const std::string text = out.dump(2) + "\n";
-    write_file_atomically(args.get("report"), [&](std::ostream& os) { os << text; }, false);
+    write_file_atomically(
+        args.get("report"), [&](std::ostream& os) { os << text; }, false);
   }
   if (args.flag_set("json")) {
     print_json(out);
     return 0;
   }
-  std::cout << "robustness set " << args.get("dataset") << ": " << ev.bodies.size() << " bodies in " << std::fixed
-            << std::setprecision(0) << ev.seconds << " s; segmentation "
-            << (o.body_model ? "by the body model " + args.get("body-model") : o.model_path.empty() ? "without a model" : "with " + o.model_path)
+  std::cout << "robustness set " << args.get("dataset") << ": " << ev.bodies.size() << " bodies in " << std::fixed << std::setprecision(0)
+            << ev.seconds << " s; segmentation "
+            << (o.body_model           ? "by the body model " + args.get("body-model")
+                : o.model_path.empty() ? "without a model"
+                                       : "with " + o.model_path)
             << "\n\n| variation | bodies | unit+orientation | measured | segmented (checked) | agreement >= 95% | "
-               "joints <= 3 cm | both | bust ISO, MAE mm | waist ISO, MAE mm | hip ISO, MAE mm | median worst joint mm | median agreement % | mean joint angle error deg (returned fits) | "
+               "joints <= 3 cm | both | bust ISO, MAE mm | waist ISO, MAE mm | hip ISO, MAE mm | median worst joint mm | median agreement "
+               "% | mean joint angle error deg (returned fits) | "
                "silent nonsense |\n"
                "|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|\n";
   for (size_t v = 0; v < per.size(); ++v) print_row(ev.variations[v], per[v]);
@@ -213,11 +231,12 @@ int run_eval_bodies(int argc, char** argv) {
                                "returned (a refused fit gives no pose; it counts in segmented and both; --report has every fit's too);\n"
                              : "\nsegmented, agreement and joints count meshes (scans are measured only); both: agreement and joints\n"
                                "on the same body;")
-            << (o.body_model ? "" : " ") << "a girth's ISO column counts the bodies where it was measured within ISO 20685-1's allowable error, and gives\n"
+            << (o.body_model ? "" : " ")
+            << "a girth's ISO column counts the bodies where it was measured within ISO 20685-1's allowable error, and gives\n"
                "their mean absolute error (the standard's bar: 15 mm bust, 12 waist and hip).\n"
             << "part borders' roughness (edge length over the hull's perimeter, median of the joints' borders; 1 is a\n"
-               "smooth ring): median " << std::setprecision(3) << median_of(all.roughness) << " ours, "
-            << median_of(all.truth_roughness) << " the rig's labels\n";
+               "smooth ring): median "
+            << std::setprecision(3) << median_of(all.roughness) << " ours, " << median_of(all.truth_roughness) << " the rig's labels\n";
   std::vector<double> fit_seconds;
   for (const auto& b : ev.bodies)
     if (!std::isnan(b.fit_seconds)) fit_seconds.push_back(b.fit_seconds);

@@ -2,43 +2,42 @@
 #include <Eigen/Geometry>
 #include <algorithm>
 #include <filesystem>
-#include <sstream>
 #include <iomanip>
 #include <iostream>
 #include <map>
 #include <memory>
-#include <numeric>
-#include <tuple>
 #include <nlohmann/json.hpp>
+#include <numeric>
+#include <sstream>
+#include <tuple>
 
 #include "cli.h"
 #include "commands.h"
 #include "fitted_input.h"
-#include "posing_inputs.h"
 #include "posekit/body/makehuman_model.h"
 #include "posekit/body/parts.h"
 #include "posekit/core/data_root.h"
 #include "posekit/core/error.h"
+#include "posekit/core/mesh_geometry.h"
+#include "posekit/core/mesh_validation.h"
+#include "posekit/core/point_grid.h"
 #include "posekit/core/timer.h"
 #include "posekit/datasets/dataset.h"
-#include "posekit/fitting/body_fit.h"
-#include "posekit/fitting/body_model.h"
 #include "posekit/deformation/part_pose_estimation.h"
 #include "posekit/deformation/pose_fitting.h"
 #include "posekit/deformation/pose_model.h"
 #include "posekit/deformation/pose_synthesis.h"
 #include "posekit/deformation/rigid_pose.h"
 #include "posekit/deformation/segmentation_calibration.h"
-#include "posekit/population/survey_fit.h"
-#include "posekit/registration/shape_space.h"
 #include "posekit/evaluation/pose_evaluation.h"
-#include "posekit/io/bvh.h"
+#include "posekit/fitting/body_fit.h"
+#include "posekit/fitting/body_model.h"
 #include "posekit/io/atomic_file.h"
+#include "posekit/io/bvh.h"
 #include "posekit/io/mesh_io.h"
 #include "posekit/io/point_cloud_io.h"
-#include "posekit/core/mesh_geometry.h"
-#include "posekit/core/mesh_validation.h"
-#include "posekit/core/point_grid.h"
+#include "posekit/population/survey_fit.h"
+#include "posekit/registration/shape_space.h"
 #include "posekit/segmentation/body_segmentation.h"
 #include "posekit/segmentation/segmentation.h"
 #include "posekit/segmentation/segmentation_prior.h"
@@ -47,6 +46,7 @@
 #include "posekit/shape/body_features.h"
 #include "posekit/shape/body_orientation.h"
 #include "posekit/shape/layered_representation.h"
+#include "posing_inputs.h"
 
 namespace fs = std::filesystem;
 
@@ -84,19 +84,27 @@ void add_folder_json(const std::vector<FolderMethodErrors>& methods, const std::
                      const std::vector<FolderMeshErrors>* meshes, nlohmann::ordered_json* out) {
   nlohmann::ordered_json m = nlohmann::ordered_json::array(), t = nlohmann::ordered_json::array();
   for (const auto& e : methods)
-    m.push_back({{"method", pose_method_name(e.method)}, {"raw", stats_json(e.raw)}, {"shape", stats_json(e.shape)},
-                 {"raw_per_part", parts_json(e.raw_per_part)}, {"shape_per_part", parts_json(e.shape_per_part)}});
+    m.push_back({{"method", pose_method_name(e.method)},
+                 {"raw", stats_json(e.raw)},
+                 {"shape", stats_json(e.shape)},
+                 {"raw_per_part", parts_json(e.raw_per_part)},
+                 {"shape_per_part", parts_json(e.shape_per_part)}});
   for (const auto& e : by_type)
-    t.push_back({{"type", e.type}, {"meshes", e.meshes}, {"raw_mean_mm", per_method_json(methods, e.raw_mean_mm)},
+    t.push_back({{"type", e.type},
+                 {"meshes", e.meshes},
+                 {"raw_mean_mm", per_method_json(methods, e.raw_mean_mm)},
                  {"shape_mean_mm", per_method_json(methods, e.shape_mean_mm)}});
   (*out)["methods"] = m;
   (*out)["by_pose_type"] = t;
   if (!meshes) return;
   nlohmann::ordered_json rows = nlohmann::ordered_json::array();
   for (const auto& e : *meshes)
-    rows.push_back({{"name", e.name}, {"type", e.type}, {"pose_fit_rms_mm", e.pose_fit_rms_mm},
+    rows.push_back({{"name", e.name},
+                    {"type", e.type},
+                    {"pose_fit_rms_mm", e.pose_fit_rms_mm},
                     {"raw_mean_mm", per_method_json(methods, e.raw_mean_mm)},
-                    {"shape_mean_mm", per_method_json(methods, e.shape_mean_mm)}, {"problems", e.problems}});
+                    {"shape_mean_mm", per_method_json(methods, e.shape_mean_mm)},
+                    {"problems", e.problems}});
   (*out)["meshes"] = rows;
 }
 
@@ -108,8 +116,8 @@ void print_folder_tables(const std::vector<FolderMethodErrors>& methods, const s
             << "raw: per-vertex error; shape: after each part is rigidly aligned onto the held-out mesh (raw - shape: placement)\n\n"
                "| method | raw mean mm | raw 95th pct | shape mean mm | shape 95th pct |\n|---|---|---|---|---|\n";
   for (const auto& m : methods)
-    std::cout << "| " << pose_method_name(m.method) << " | " << m.raw.mean_mm << " | " << m.raw.p95_mm << " | " << m.shape.mean_mm
-              << " | " << m.shape.p95_mm << " |\n";
+    std::cout << "| " << pose_method_name(m.method) << " | " << m.raw.mean_mm << " | " << m.raw.p95_mm << " | " << m.shape.mean_mm << " | "
+              << m.shape.p95_mm << " |\n";
   auto head = [&](const std::string& first) {
     std::cout << "\n| " << first << " |";
     for (const auto& m : methods) std::cout << " " << pose_method_name(m.method) << " raw / shape |";
@@ -121,7 +129,8 @@ void print_folder_tables(const std::vector<FolderMethodErrors>& methods, const s
   for (int p = 0; p < kNumParts; ++p) {
     std::cout << "| " << part_name(p) << " |";
     for (const auto& m : methods)
-      std::cout << " " << m.raw_per_part[static_cast<size_t>(p)].mean_mm << " / " << m.shape_per_part[static_cast<size_t>(p)].mean_mm << " |";
+      std::cout << " " << m.raw_per_part[static_cast<size_t>(p)].mean_mm << " / " << m.shape_per_part[static_cast<size_t>(p)].mean_mm
+                << " |";
     std::cout << "\n";
   }
   head("kind of pose (meshes)");
@@ -170,8 +179,10 @@ int eval_registered_folder(const ArgParser& args) {
     nlohmann::ordered_json persons = nlohmann::ordered_json::array();
     for (size_t p = 0; p < ev.people.size(); ++p) {
       const FolderPoseEvaluation& e = ev.per_person[p];
-      nlohmann::ordered_json j = {{"person", ev.people[p]}, {"rest", ev.reports[p].rest_name},
-                                  {"trained_on_others_poses", e.training_poses}, {"train_seconds", e.train_seconds}};
+      nlohmann::ordered_json j = {{"person", ev.people[p]},
+                                  {"rest", ev.reports[p].rest_name},
+                                  {"trained_on_others_poses", e.training_poses},
+                                  {"train_seconds", e.train_seconds}};
       add_folder_json(e.methods, e.by_pose_type, &e.meshes, &j);
       persons.push_back(j);
     }
@@ -181,7 +192,8 @@ int eval_registered_folder(const ArgParser& args) {
       print_json(out);
       return 0;
     }
-    std::cout << ev.people.size() << " people of one topology; each person's rest mesh posed, by a model trained on the others,\n"
+    std::cout << ev.people.size()
+              << " people of one topology; each person's rest mesh posed, by a model trained on the others,\n"
                  "at each of their other meshes' poses estimated from its vertices\n";
     std::vector<std::vector<double>> raw(ev.people.size()), shape(ev.people.size());
     std::vector<std::tuple<std::string, const std::vector<double>*, const std::vector<double>*>> rows;
@@ -248,8 +260,9 @@ int run_eval(int argc, char** argv) {
       .option("model", "FILE", "trained model (default: train on the dataset's training split first)")
       .option("held-out", "A,B,...", "these examples are held out (by file name without extension); the rest is trained on")
       .option("every", "N", "every N-th example in name order (the rest example skipped) is held out")
-      .flag("people", "the folder holds one folder of registered meshes per person, one topology: each person's rest mesh\n"
-                      "                          posed into their other meshes by a model trained on the other people")
+      .flag("people",
+            "the folder holds one folder of registered meshes per person, one topology: each person's rest mesh\n"
+            "                          posed into their other meshes by a model trained on the other people")
       .flag("json", "results as JSON on stdout")
       .example("posekit eval pose --dataset out/dataset")
       .example("posekit eval pose --dataset scape_meshes/ --rest mesh000 --every 6");
@@ -289,8 +302,11 @@ int run_eval(int argc, char** argv) {
   };
   nlohmann::ordered_json subjects = nlohmann::ordered_json::array();
   for (const auto& s : ev.subjects)
-    subjects.push_back({{"id", s.id}, {"setup_seconds", s.setup_seconds}, {"segmentation_agreement", s.segmentation_agreement},
-                        {"joint_error_mean_mm", s.joint_error_mean_mm}, {"joint_error_max_mm", s.joint_error_max_mm},
+    subjects.push_back({{"id", s.id},
+                        {"setup_seconds", s.setup_seconds},
+                        {"segmentation_agreement", s.segmentation_agreement},
+                        {"joint_error_mean_mm", s.joint_error_mean_mm},
+                        {"joint_error_max_mm", s.joint_error_max_mm},
                         {"methods", methods_json(s.methods)}});
   nlohmann::ordered_json types = nlohmann::ordered_json::array();
   for (const auto& t : ev.by_pose_type) {
@@ -303,11 +319,16 @@ int run_eval(int argc, char** argv) {
     }
     types.push_back(tj);
   }
-  nlohmann::ordered_json out = {{"dataset", dir}, {"units", "mm"}, {"model_seconds", train_seconds},
-                                {"template_test_poses", ev.test_poses}, {"template", methods_json(ev.template_errors)},
-                                {"subjects_pooled", methods_json(ev.subject_errors)}, {"subjects", subjects},
+  nlohmann::ordered_json out = {{"dataset", dir},
+                                {"units", "mm"},
+                                {"model_seconds", train_seconds},
+                                {"template_test_poses", ev.test_poses},
+                                {"template", methods_json(ev.template_errors)},
+                                {"subjects_pooled", methods_json(ev.subject_errors)},
+                                {"subjects", subjects},
                                 {"by_pose_type", types},
-                                {"pose_ms_median", ev.pose_ms_median}, {"peak_rss_mib", peak_rss_mib()}};
+                                {"pose_ms_median", ev.pose_ms_median},
+                                {"peak_rss_mib", peak_rss_mib()}};
   if (args.flag_set("json")) {
     print_json(out);
     return 0;
@@ -316,8 +337,7 @@ int run_eval(int argc, char** argv) {
   auto table = [](const std::vector<MethodErrors>& ms) {
     std::cout << "| method | mean mm | 95th pct mm | max mm |\n|---|---|---|---|\n";
     for (const auto& m : ms)
-      std::cout << "| " << pose_method_name(m.method) << " | " << m.all.mean_mm << " | " << m.all.p95_mm << " | "
-                << m.all.max_mm << " |\n";
+      std::cout << "| " << pose_method_name(m.method) << " | " << m.all.mean_mm << " | " << m.all.p95_mm << " | " << m.all.max_mm << " |\n";
   };
   std::cout << "(a) template, " << ev.test_poses << " held-out poses\n\n";
   table(ev.template_errors);
@@ -329,14 +349,15 @@ int run_eval(int argc, char** argv) {
   for (size_t m = 0; m < ev.subject_errors.size(); ++m) std::cout << "---|";
   std::cout << "\n";
   for (const auto& s : ev.subjects) {
-    std::cout << "| " << s.id << " | " << std::setprecision(1) << 100 * s.segmentation_agreement << " | "
-              << s.joint_error_mean_mm << " / " << s.joint_error_max_mm << " |";
+    std::cout << "| " << s.id << " | " << std::setprecision(1) << 100 * s.segmentation_agreement << " | " << s.joint_error_mean_mm << " / "
+              << s.joint_error_max_mm << " |";
     for (const auto& m : s.methods) std::cout << " " << std::setprecision(2) << m.all.mean_mm << " |";
     std::cout << "\n";
   }
   const std::vector<MethodErrors>& methods = ev.template_errors.empty() ? ev.subject_errors : ev.template_errors;
   std::cout << "\nmean mm per kind of pose (template poses / subject meshes):\n\n| pose type | poses |";
-  for (const auto& m : methods) std::cout << " " << pose_method_name(m.method) << " template | " << pose_method_name(m.method) << " subjects |";
+  for (const auto& m : methods)
+    std::cout << " " << pose_method_name(m.method) << " template | " << pose_method_name(m.method) << " subjects |";
   std::cout << "\n|---|---|";
   for (size_t m = 0; m < methods.size(); ++m) std::cout << "---|---|";
   std::cout << "\n";
@@ -344,7 +365,9 @@ int run_eval(int argc, char** argv) {
     if (!t.template_poses && !t.subject_meshes) continue;
     std::cout << "| " << t.type << " | " << t.template_poses << " / " << t.subject_meshes << " |";
     for (size_t m = 0; m < methods.size(); ++m) {
-      auto cell = [](int n, double v) { return n ? [&] { std::ostringstream o; o << std::fixed << std::setprecision(2) << v; return o.str(); }() : std::string("-"); };
+      auto cell = [](int n, double v) {
+        return n ? [&] { std::ostringstream o; o << std::fixed << std::setprecision(2) << v; return o.str(); }() : std::string("-");
+      };
       std::cout << " " << cell(t.template_poses, t.template_mean_mm[m]) << " | " << cell(t.subject_meshes, t.subject_mean_mm[m]) << " |";
     }
     std::cout << "\n";

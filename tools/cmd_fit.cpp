@@ -2,42 +2,41 @@
 #include <Eigen/Geometry>
 #include <algorithm>
 #include <filesystem>
-#include <sstream>
 #include <iomanip>
 #include <iostream>
 #include <map>
 #include <memory>
-#include <numeric>
 #include <nlohmann/json.hpp>
+#include <numeric>
+#include <sstream>
 
 #include "cli.h"
 #include "commands.h"
-#include "posing_inputs.h"
 #include "fitted_input.h"
 #include "posekit/body/makehuman_model.h"
 #include "posekit/body/parts.h"
 #include "posekit/core/data_root.h"
 #include "posekit/core/error.h"
+#include "posekit/core/mesh_geometry.h"
+#include "posekit/core/mesh_validation.h"
+#include "posekit/core/point_grid.h"
 #include "posekit/core/timer.h"
 #include "posekit/datasets/dataset.h"
-#include "posekit/fitting/body_fit.h"
-#include "posekit/fitting/body_model.h"
 #include "posekit/deformation/part_pose_estimation.h"
 #include "posekit/deformation/pose_fitting.h"
 #include "posekit/deformation/pose_model.h"
 #include "posekit/deformation/pose_synthesis.h"
 #include "posekit/deformation/rigid_pose.h"
 #include "posekit/deformation/segmentation_calibration.h"
-#include "posekit/population/survey_fit.h"
-#include "posekit/registration/shape_space.h"
 #include "posekit/evaluation/pose_evaluation.h"
-#include "posekit/io/bvh.h"
+#include "posekit/fitting/body_fit.h"
+#include "posekit/fitting/body_model.h"
 #include "posekit/io/atomic_file.h"
+#include "posekit/io/bvh.h"
 #include "posekit/io/mesh_io.h"
 #include "posekit/io/point_cloud_io.h"
-#include "posekit/core/mesh_geometry.h"
-#include "posekit/core/mesh_validation.h"
-#include "posekit/core/point_grid.h"
+#include "posekit/population/survey_fit.h"
+#include "posekit/registration/shape_space.h"
 #include "posekit/segmentation/body_segmentation.h"
 #include "posekit/segmentation/segmentation.h"
 #include "posekit/segmentation/segmentation_prior.h"
@@ -46,6 +45,7 @@
 #include "posekit/shape/body_features.h"
 #include "posekit/shape/body_orientation.h"
 #include "posekit/shape/layered_representation.h"
+#include "posing_inputs.h"
 
 namespace fs = std::filesystem;
 
@@ -53,35 +53,35 @@ namespace posekit::cli {
 namespace {
 
 nlohmann::ordered_json fit_summary_json(const PoseFitResult& r) {
-  return {{"iterations", r.iterations}, {"seconds", r.seconds},
+  return {{"iterations", r.iterations},
+          {"seconds", r.seconds},
           {"target_to_body_mm", {{"mean", 1000 * r.target_mean}, {"p95", 1000 * r.target_p95}}},
-          {"coverage_1cm", r.coverage}, {"warnings", r.warnings}};
+          {"coverage_1cm", r.coverage},
+          {"warnings", r.warnings}};
 }
 
 /// Angle (degrees) between two poses' rotations: the root's, then each joint's.
 std::vector<double> joint_angle_errors(const PartPose& a, const PartPose& b) {
   std::vector<double> out{rotation_difference(a.root_rotation, b.root_rotation) * 180 / M_PI};
-  for (int j = 0; j < kNumJoints; ++j)
-    out.push_back(rotation_difference(a.joint(j), b.joint(j)) * 180 / M_PI);
+  for (int j = 0; j < kNumJoints; ++j) out.push_back(rotation_difference(a.joint(j), b.joint(j)) * 180 / M_PI);
   return out;
 }
 
 /// fit --registered: the pose of the subject's own mesh in another pose, from its vertices.
-int fit_registered(const ArgParser& args, const PoseSynthesizer& synth, const TriangleMesh& subject,
-                   const BodyOrientation& orientation, const BodyUnit& unit) {
+int fit_registered(const ArgParser& args, const PoseSynthesizer& synth, const TriangleMesh& subject, const BodyOrientation& orientation,
+                   const BodyUnit& unit) {
   const Stopwatch clock;
   const std::string path = args.get("target");
   TriangleMesh target = read_mesh(path);
   if (target.V.rows() != subject.V.rows() || target.F.rows() != subject.F.rows() || target.F != subject.F)
     throw InvalidInput(path + ": --registered needs the subject's topology (" + std::to_string(subject.V.rows()) + " vertices, " +
-                       std::to_string(subject.F.rows()) + " triangles, in the same order); it has " +
-                       std::to_string(target.V.rows()) + " vertices and " + std::to_string(target.F.rows()) +
-                       " triangles" + (target.V.rows() == subject.V.rows() ? " in another order" : ""));
+                       std::to_string(subject.F.rows()) + " triangles, in the same order); it has " + std::to_string(target.V.rows()) +
+                       " vertices and " + std::to_string(target.F.rows()) + " triangles" +
+                       (target.V.rows() == subject.V.rows() ? " in another order" : ""));
   // The subject's file axes and unit apply to its registered copy too.
   target.V *= metres_per_unit(unit.unit);
   if (!orientation.is_identity()) target.V = (target.V * orientation.rotation.transpose()).eval();
-  const PartPoseEstimator estimator(synth.rest_vertices(), synth.faces(), synth.info().triangle_part,
-                                    synth.info().joint_centres);
+  const PartPoseEstimator estimator(synth.rest_vertices(), synth.faces(), synth.info().triangle_part, synth.info().joint_centres);
   const PartPoseEstimate e = estimator.estimate(target.V);
   const PoseMethod method = parse_pose_method(args.get("method"));
   const Eigen::MatrixXd X = synth.pose(e.pose, method);
@@ -103,16 +103,22 @@ int fit_registered(const ArgParser& args, const PoseSynthesizer& synth, const Tr
   nlohmann::ordered_json parts = nlohmann::ordered_json::object();
   for (int p = 0; p < kNumParts; ++p) parts[part_name(p)] = 1000 * e.core_rms[static_cast<size_t>(p)];
   if (args.flag_set("json")) {
-    print_json({{"registered", true}, {"seconds", seconds}, {"method", pose_method_name(method)},
-                {"rigid_parts_rms_mm", 1000 * e.rms}, {"part_core_rms_mm", parts}, {"worst_part", part_name(e.worst_part)},
+    print_json({{"registered", true},
+                {"seconds", seconds},
+                {"method", pose_method_name(method)},
+                {"rigid_parts_rms_mm", 1000 * e.rms},
+                {"part_core_rms_mm", parts},
+                {"worst_part", part_name(e.worst_part)},
                 {"posed_to_target_mm", {{"mean", stats.mean_mm}, {"p95", stats.p95_mm}, {"max", stats.max_mm}}},
-                {"warnings", problems}, {"pose", nlohmann::json::parse(part_pose_to_json(e.pose))}});
+                {"warnings", problems},
+                {"pose", nlohmann::json::parse(part_pose_to_json(e.pose))}});
     return 0;
   }
   std::cout << std::fixed << std::setprecision(1) << "pose from the registered vertices in " << std::setprecision(3) << seconds
             << " s: rigid parts explain the target to " << std::setprecision(1) << 1000 * e.rms << " mm RMS (worst part "
-            << part_name(e.worst_part) << ", " << 1000 * e.core_rms[static_cast<size_t>(e.worst_part)] << " mm away from its joints); posed by "
-            << pose_method_name(method) << ": " << stats.mean_mm << " mm mean, " << stats.p95_mm << " mm 95th percentile from the target\n";
+            << part_name(e.worst_part) << ", " << 1000 * e.core_rms[static_cast<size_t>(e.worst_part)]
+            << " mm away from its joints); posed by " << pose_method_name(method) << ": " << stats.mean_mm << " mm mean, " << stats.p95_mm
+            << " mm 95th percentile from the target\n";
   for (int j = 0; j < kNumJoints; ++j) {
     const Eigen::Vector3d& v = e.pose.joint(j);
     if (v.norm() > 5 * M_PI / 180)
@@ -148,12 +154,14 @@ int run_fit(int argc, char** argv) {
       .option("iterations", "N", "Levenberg-Marquardt steps of the final refinement at most", "100")
       .option("start", "FILE", "start from this 16-part pose (e.g. the previous frame's --pose-out) instead of searching")
       .flag("json", "summary as JSON on stdout")
-      .example("posekit fit --model model.pkm --subject ds/subjects/f01/rest.ply --target ds/scans/f01/squat_half.pcd "
-               "--out fitted.ply --pose-out pose.json");
+      .example(
+          "posekit fit --model model.pkm --subject ds/subjects/f01/rest.ply --target ds/scans/f01/squat_half.pcd "
+          "--out fitted.ply --pose-out pose.json");
   args.option("target-up", "AXIS", "the axis the target stands along (+X, -Y, ...) or auto (detected); its heading is fitted", "auto");
-  args.flag("registered", "the target is the subject's own mesh posed (same vertices and triangles, same axes and unit):\n"
-                          "its pose comes from the known correspondences (each part's weighted Procrustes fit, then\n"
-                          "the parts refined together so that parent and child meet at every joint), no search");
+  args.flag("registered",
+            "the target is the subject's own mesh posed (same vertices and triangles, same axes and unit):\n"
+            "its pose comes from the known correspondences (each part's weighted Procrustes fit, then\n"
+            "the parts refined together so that parent and child meet at every joint), no search");
   add_body_model_options(&args);
   add_orientation_options(&args, "", "the subject");
   if (!args.parse(argc, argv)) return 0;
@@ -164,8 +172,8 @@ int run_fit(int argc, char** argv) {
   BodyUnit unit;
   const TriangleMesh subject = read_posing_subject(args, "fit", &orientation, &unit);
   if (args.flag_set("registered"))
-    return fit_registered(args, set_up_subject(model, subject, args.get("subject"), subject_setup(args, subject)), subject,
-                          orientation, unit);
+    return fit_registered(args, set_up_subject(model, subject, args.get("subject"), subject_setup(args, subject)), subject, orientation,
+                          unit);
   BodyUnit target_unit;
   BodyInput target_input = read_body_input(args.get("target"), args.get("target-unit"), "fit", &target_unit);
   Eigen::MatrixXd T = target_input.is_cloud ? target_input.cloud.P : target_input.mesh.V;
@@ -209,9 +217,9 @@ int run_fit(int argc, char** argv) {
     print_json(s);
     return 0;
   }
-  std::cout << std::fixed << std::setprecision(1) << "fitted in " << r.iterations << " iterations, " << std::setprecision(2)
-            << r.seconds << " s: target to body mean " << std::setprecision(1) << 1000 * r.target_mean << " mm, 95th percentile "
-            << 1000 * r.target_p95 << " mm; " << 100 * r.coverage << "% of the body within 1 cm of the target\n";
+  std::cout << std::fixed << std::setprecision(1) << "fitted in " << r.iterations << " iterations, " << std::setprecision(2) << r.seconds
+            << " s: target to body mean " << std::setprecision(1) << 1000 * r.target_mean << " mm, 95th percentile " << 1000 * r.target_p95
+            << " mm; " << 100 * r.coverage << "% of the body within 1 cm of the target\n";
   for (int j = 0; j < kNumJoints; ++j) {
     const Eigen::Vector3d& v = r.pose.joint(j);
     if (v.norm() > 5 * M_PI / 180)
@@ -238,7 +246,9 @@ int run_eval_fit(int argc, char** argv) {
   const auto manifest = nlohmann::json::parse(read_file_bytes(dir + "/manifest.json"));
   const long limit = args.get_int("subjects");
   nlohmann::ordered_json rows = nlohmann::ordered_json::array();
-  struct Sums { std::vector<double> angle, vertex, target, seconds; };
+  struct Sums {
+    std::vector<double> angle, vertex, target, seconds;
+  };
   std::map<std::string, Sums> sums;
   int done = 0;
   Progress progress("eval fit", limit > 0 ? limit : static_cast<long>(manifest["subjects"].size()));
@@ -270,9 +280,12 @@ int run_eval_fit(int argc, char** argv) {
         a.vertex.push_back(1000 * vertex);
         a.target.push_back(1000 * r.target_mean);
         a.seconds.push_back(r.seconds);
-        rows.push_back({{"subject", id}, {"pose", pose_name}, {"method", pose_method_name(method)},
+        rows.push_back({{"subject", id},
+                        {"pose", pose_name},
+                        {"method", pose_method_name(method)},
                         {"joint_angle_error_deg", {{"mean", angle_mean}, {"max", angle_max}, {"per_joint", per_joint}}},
-                        {"vertex_error_mm", 1000 * vertex}, {"fit", fit_summary_json(r)}});
+                        {"vertex_error_mm", 1000 * vertex},
+                        {"fit", fit_summary_json(r)}});
       }
     }
     progress.update(++done);
@@ -285,19 +298,23 @@ int run_eval_fit(int argc, char** argv) {
   };
   nlohmann::ordered_json summary = nlohmann::ordered_json::object();
   for (const auto& [method, a] : sums)
-    summary[method] = {{"scans", a.angle.size()}, {"joint_angle_error_deg_mean", mean(a.angle)},
-                       {"vertex_error_mm_mean", mean(a.vertex)}, {"target_to_body_mm_mean", mean(a.target)},
-                       {"seconds_median", stats_of(a.seconds).median}, {"seconds_max", stats_of(a.seconds).max}};
+    summary[method] = {{"scans", a.angle.size()},
+                       {"joint_angle_error_deg_mean", mean(a.angle)},
+                       {"vertex_error_mm_mean", mean(a.vertex)},
+                       {"target_to_body_mm_mean", mean(a.target)},
+                       {"seconds_median", stats_of(a.seconds).median},
+                       {"seconds_max", stats_of(a.seconds).max}};
   if (args.flag_set("json")) {
     print_json({{"dataset", dir}, {"summary", summary}, {"fits", rows}});
     return 0;
   }
   std::cout << std::fixed << std::setprecision(2)
-            << "| posing in the loop | scans | joint angle error, mean deg | vertex error vs truth, mean mm | scan to body, mean mm | s per scan (median / max) |\n"
+            << "| posing in the loop | scans | joint angle error, mean deg | vertex error vs truth, mean mm | scan to body, mean mm | s "
+               "per scan (median / max) |\n"
                "|---|---|---|---|---|---|\n";
   for (const auto& [method, a] : sums)
-    std::cout << "| " << method << " | " << a.angle.size() << " | " << mean(a.angle) << " | " << mean(a.vertex) << " | "
-              << mean(a.target) << " | " << stats_of(a.seconds).median << " / " << stats_of(a.seconds).max << " |\n";
+    std::cout << "| " << method << " | " << a.angle.size() << " | " << mean(a.angle) << " | " << mean(a.vertex) << " | " << mean(a.target)
+              << " | " << stats_of(a.seconds).median << " / " << stats_of(a.seconds).max << " |\n";
   return 0;
 }
 

@@ -13,9 +13,9 @@
 #include "posekit/customization/photo_customization.h"
 #include "posekit/deformation/pose_model.h"
 #include "posekit/io/bvh.h"
-#include "posekit/registration/shape_space.h"
 #include "posekit/io/mesh_io.h"
 #include "posekit/io/point_cloud_io.h"
+#include "posekit/registration/shape_space.h"
 #include "posekit/shape/body_orientation.h"
 
 namespace posekit::cli {
@@ -25,7 +25,6 @@ nlohmann::json box_json(const BoundingBox& b, double to_unit) {
   auto v = [&](const Eigen::Vector3d& x) { return nlohmann::json{x.x() * to_unit, x.y() * to_unit, x.z() * to_unit}; };
   return {{"min", v(b.min)}, {"max", v(b.max)}, {"extent", v(b.extent())}};
 }
-
 
 /// A BVH motion: its skeleton, frames and rate, and how it maps onto the 16 parts.
 int info_bvh(const std::string& path, bool json) {
@@ -51,9 +50,11 @@ int info_bvh(const std::string& path, bool json) {
   Eigen::MatrixXd rest(static_cast<Eigen::Index>(motion.joints.size()), 3);
   for (size_t j = 0; j < motion.joints.size(); ++j) {
     const auto& b = motion.joints[j];
-    rest.row(static_cast<Eigen::Index>(j)) = (b.parent < 0 ? Eigen::Vector3d::Zero() : Eigen::Vector3d(rest.row(b.parent).transpose())) + b.offset;
+    rest.row(static_cast<Eigen::Index>(j)) =
+        (b.parent < 0 ? Eigen::Vector3d::Zero() : Eigen::Vector3d(rest.row(b.parent).transpose())) + b.offset;
   }
-  const Eigen::Vector3d extent = rest.rows() ? Eigen::Vector3d(rest.colwise().maxCoeff() - rest.colwise().minCoeff()) : Eigen::Vector3d::Zero();
+  const Eigen::Vector3d extent =
+      rest.rows() ? Eigen::Vector3d(rest.colwise().maxCoeff() - rest.colwise().minCoeff()) : Eigen::Vector3d::Zero();
   report["rest_extent_file_units"] = {extent.x(), extent.y(), extent.z()};
   nlohmann::ordered_json mapping;
   std::string mapping_error;
@@ -63,7 +64,8 @@ int info_bvh(const std::string& path, bool json) {
     try {
       const BvhPartMap map = map_bvh_skeleton(motion);
       for (int p = 0; p < kNumParts; ++p)
-        mapping[part_name(p)] = map.joint[static_cast<size_t>(p)] >= 0 ? motion.joints[static_cast<size_t>(map.joint[static_cast<size_t>(p)])].name : "";
+        mapping[part_name(p)] =
+            map.joint[static_cast<size_t>(p)] >= 0 ? motion.joints[static_cast<size_t>(map.joint[static_cast<size_t>(p)])].name : "";
       report["mapping_notes"] = map.notes;
     } catch (const InvalidInput& e) {
       mapping_error = e.what();
@@ -76,11 +78,11 @@ int info_bvh(const std::string& path, bool json) {
     return 0;
   }
   std::cout << path << ": BVH motion, " << motion.joints.size() << " joints (root '" << report["root"].get<std::string>() << "', "
-            << channels << " channels, " << six << " with position and rotation), " << motion.num_frames() << " frames at "
-            << std::fixed << std::setprecision(1) << report["fps"].get<double>() << " fps (" << std::setprecision(2)
-            << report["duration_s"].get<double>() << " s)\n"
-            << "rest skeleton extent (file units): " << std::setprecision(3) << extent.x() << " x " << extent.y() << " x "
-            << extent.z() << "\n";
+            << channels << " channels, " << six << " with position and rotation), " << motion.num_frames() << " frames at " << std::fixed
+            << std::setprecision(1) << report["fps"].get<double>() << " fps (" << std::setprecision(2) << report["duration_s"].get<double>()
+            << " s)\n"
+            << "rest skeleton extent (file units): " << std::setprecision(3) << extent.x() << " x " << extent.y() << " x " << extent.z()
+            << "\n";
   if (!mapping_error.empty()) {
     std::cout << "16-part mapping: none: " << mapping_error << "\n";
   } else if (mapping.is_string()) {
@@ -111,12 +113,13 @@ int info_model(const std::string& path, const std::string& ext, bool json) {
     report["triangles"] = s.faces.rows();
     report["components"] = s.components();
     report["variance_kept"] = kept;
-    report["first_components_variance"] = std::vector<double>(s.variance_share.begin(),
-                                                              s.variance_share.begin() + std::min<size_t>(5, s.variance_share.size()));
+    report["first_components_variance"] =
+        std::vector<double>(s.variance_share.begin(), s.variance_share.begin() + std::min<size_t>(5, s.variance_share.size()));
     report["joints"] = s.joint_mean.rows();
     report["motion_poses"] = s.poses.rows();  // the body-model fit's search, beside its built-in library
     if (s.poses.rows() > 0)
-      report["first_motion_poses"] = std::vector<std::string>(s.pose_names.begin(), s.pose_names.begin() + std::min<size_t>(5, s.pose_names.size()));
+      report["first_motion_poses"] =
+          std::vector<std::string>(s.pose_names.begin(), s.pose_names.begin() + std::min<size_t>(5, s.pose_names.size()));
   } else if (ext == ".pkm") {
     const PoseModel m = read_pose_model(path);
     int offsets = 0;
@@ -161,13 +164,14 @@ int info_model(const std::string& path, const std::string& ext, bool json) {
 }  // namespace
 
 int run_info(int argc, char** argv) {
-  ArgParser args("info", "Reports what a mesh (OBJ, PLY, OFF, STL) or point cloud (PCD, PLY, XYZ) holds: counts,\n"
-                         "groups, scalar fields, bounding box, the unit it seems to be in, and a validity report\n"
-                         "(out-of-range indices, non-finite coordinates, degenerate and duplicate faces,\n"
-                         "boundaries, non-manifold edges, components, watertightness, area, volume). For a BVH\n"
-                         "motion: joints, channels, frames, rate, and how its skeleton maps onto the 16 parts. For a\n"
-                         "trained model (.pkm pose model, .pkc photo customization model, .pks shape space): what it\n"
-                         "was trained on.");
+  ArgParser args("info",
+                 "Reports what a mesh (OBJ, PLY, OFF, STL) or point cloud (PCD, PLY, XYZ) holds: counts,\n"
+                 "groups, scalar fields, bounding box, the unit it seems to be in, and a validity report\n"
+                 "(out-of-range indices, non-finite coordinates, degenerate and duplicate faces,\n"
+                 "boundaries, non-manifold edges, components, watertightness, area, volume). For a BVH\n"
+                 "motion: joints, channels, frames, rate, and how its skeleton maps onto the 16 parts. For a\n"
+                 "trained model (.pkm pose model, .pkc photo customization model, .pks shape space): what it\n"
+                 "was trained on.");
   args.positional("file", "mesh, point cloud, BVH motion, trained model or shape space")
       .option("unit", "U", "unit the file is written in: m, dm, cm, mm", "m")
       .option("group", "NAME", "report only this OBJ group (e.g. body)")
@@ -258,8 +262,8 @@ int run_info(int argc, char** argv) {
       }
       if (guess != unit)
         report["warning"] = "largest extent " + std::to_string(extent_in_file_units) + " " + unit_name(unit) +
-                            ": if this is a human body, the file is probably in " + unit_name(guess) +
-                            " (pass --unit " + unit_name(guess) + ")";
+                            ": if this is a human body, the file is probably in " + unit_name(guess) + " (pass --unit " + unit_name(guess) +
+                            ")";
     }
   }
   if (args.flag_set("json")) {
@@ -283,14 +287,15 @@ int run_info(int argc, char** argv) {
     std::cout << "  vertices:    " << report["vertices"] << "\n  triangles:   " << report["triangles"] << "\n";
     std::cout << "  validity:    " << (v["usable"].get<bool>() ? "usable" : "NOT usable") << ", "
               << (v["watertight"].get<bool>() ? "watertight" : "not watertight") << "\n";
-    for (const char* key : {"out_of_range_indices", "non_finite_vertices", "degenerate_faces", "duplicate_faces",
-                            "unreferenced_vertices", "boundary_edges", "boundary_loops", "non_manifold_edges", "components"})
+    for (const char* key : {"out_of_range_indices", "non_finite_vertices", "degenerate_faces", "duplicate_faces", "unreferenced_vertices",
+                            "boundary_edges", "boundary_loops", "non_manifold_edges", "components"})
       std::cout << "    " << key << ": " << v[key] << "\n";
     std::cout << "  area:        " << report["surface_area_m2"].get<double>() << " m^2\n";
     if (report.contains("volume_litres")) std::cout << "  volume:      " << report["volume_litres"].get<double>() << " L\n";
   }
   std::string kept;
-  for (const auto& [key, what] : {std::pair<const char*, const char*>{"has_normals", "normals"}, {"has_colors", "colours"},
+  for (const auto& [key, what] : {std::pair<const char*, const char*>{"has_normals", "normals"},
+                                  {"has_colors", "colours"},
                                   {"has_texture_coordinates", "texture coordinates"}})
     if (report.value(key, false)) kept += std::string(kept.empty() ? "" : ", ") + what;
   std::cout << "  per vertex:  " << (kept.empty() ? "positions only" : "positions, " + kept) << "\n";
@@ -302,8 +307,8 @@ int run_info(int argc, char** argv) {
     auto d = [&](const char* key, int i) { return b[key][i].get<double>(); };
     std::cout << "  bbox min:    " << d("min", 0) << " " << d("min", 1) << " " << d("min", 2) << " " << unit_name(unit) << "\n";
     std::cout << "  bbox max:    " << d("max", 0) << " " << d("max", 1) << " " << d("max", 2) << " " << unit_name(unit) << "\n";
-    std::cout << "  extent:      " << d("extent", 0) << " x " << d("extent", 1) << " x " << d("extent", 2) << " "
-              << unit_name(unit) << "\n";
+    std::cout << "  extent:      " << d("extent", 0) << " x " << d("extent", 1) << " x " << d("extent", 2) << " " << unit_name(unit)
+              << "\n";
   }
   if (report.contains("orientation_guess_for_a_body"))
     std::cout << "  as a body:   " << report["orientation_guess_for_a_body"].get<std::string>() << "\n";

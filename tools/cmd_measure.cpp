@@ -3,22 +3,22 @@
 #include <chrono>
 #include <cmath>
 #include <future>
-#include <memory>
-#include <sstream>
 #include <iomanip>
 #include <iostream>
+#include <memory>
 #include <nlohmann/json.hpp>
+#include <sstream>
 
 #include "cli.h"
 #include "commands.h"
 #include "fitted_input.h"
-#include "posekit/fitting/fitted_measurements.h"
+#include "posekit/core/data_root.h"
 #include "posekit/core/error.h"
+#include "posekit/fitting/fitted_measurements.h"
 #include "posekit/io/mesh_io.h"
 #include "posekit/io/point_cloud_io.h"
-#include "posekit/shape/body_orientation.h"
-#include "posekit/core/data_root.h"
 #include "posekit/population/survey_plausibility.h"
+#include "posekit/shape/body_orientation.h"
 #include "posekit/shape/measurements.h"
 
 namespace posekit::cli {
@@ -31,9 +31,14 @@ nlohmann::json point_in(const BodyOrientation& frame, const Eigen::Vector3d& p) 
 
 nlohmann::json plausibility_json(const Plausibility* p, const SurveyDistribution* survey, const std::string& no_survey) {
   if (!p) return {{"checked", false}, {"why", survey ? "fewer than 2 measures match the survey's" : no_survey}};
-  return {{"survey", survey->source}, {"as", p->male ? "man" : "woman"}, {"measures", p->measures}, {"distance", p->distance},
-          {"more_unusual_share", p->more_unusual_share}, {"least_expected", survey_measure_name(p->most_unusual)},
-          {"z", p->most_unusual_z}, {"expected_given_others", p->expected_given_others}};
+  return {{"survey", survey->source},
+          {"as", p->male ? "man" : "woman"},
+          {"measures", p->measures},
+          {"distance", p->distance},
+          {"more_unusual_share", p->more_unusual_share},
+          {"least_expected", survey_measure_name(p->most_unusual)},
+          {"z", p->most_unusual_z},
+          {"expected_given_others", p->expected_given_others}};
 }
 
 /// A warning when the measurements are rarer than 1 in 1,000 of the survey's adults.
@@ -94,8 +99,8 @@ nlohmann::ordered_json rule_based_cross_check(const RuleMeasurement& rule, const
     cross["girths"][name] = theirs->value;
     if (std::abs(theirs->value - ours->value) <= kCrossCheckDisagreement) continue;
     std::ostringstream w;
-    w << std::fixed << std::setprecision(1) << "the rule-based measurement gives a " << name << " of " << 100 * theirs->value
-      << " cm, " << 100 * (theirs->value - ours->value) << " cm from the body model's " << 100 * ours->value
+    w << std::fixed << std::setprecision(1) << "the rule-based measurement gives a " << name << " of " << 100 * theirs->value << " cm, "
+      << 100 * (theirs->value - ours->value) << " cm from the body model's " << 100 * ours->value
       << " cm: one of the two is wrong there (look at the landmarks in --json)";
     warnings->push_back(w.str());
   }
@@ -164,8 +169,9 @@ int measure_by_body_model(const ArgParser& args, const SurveyDistribution* surve
     j["units"] = "m";
     j["file_unit"] = {{"unit", unit_name(unit.unit)}, {"detected", unit.detected}, {"largest_extent", unit.extent}};
     j["frame"] = "input";
-    j["fit"] = {{"confident", fit.confident}, {"reasons", fit.reasons}, {"start", fit.start}, {"up", vec(fit.up)},
-                {"coverage", fit.coverage}, {"target_p95_mm", 1000 * fit.target_p95}, {"seconds", fit.seconds}};
+    j["fit"] = {{"confident", fit.confident}, {"reasons", fit.reasons},   {"start", fit.start},
+                {"up", vec(fit.up)},          {"coverage", fit.coverage}, {"target_p95_mm", 1000 * fit.target_p95},
+                {"seconds", fit.seconds}};
     for (const auto& [stage, seconds] : fit.stage_seconds) j["fit"]["stage_seconds"][stage] = seconds;
     j["stature"] = m.stature;
     j["stature_note"] = m.stature_note;
@@ -181,14 +187,14 @@ int measure_by_body_model(const ArgParser& args, const SurveyDistribution* surve
     j["cross_check"] = cross;
     j["plausibility"] = plausibility_json(plausibility.get(), survey, no_survey);
     j["warnings"] = warnings;
-    j["seconds"] = {{"read", read_seconds}, {"load_body_model", load_seconds}, {"fit", fit.seconds}, {"measure", measure_seconds},
-                    {"cross_check", cross_seconds}, {"total", since(t0)}};
+    j["seconds"] = {{"read", read_seconds},       {"load_body_model", load_seconds}, {"fit", fit.seconds},
+                    {"measure", measure_seconds}, {"cross_check", cross_seconds},    {"total", since(t0)}};
     std::cout << j.dump(2) << std::endl;
     return 0;
   }
   std::cout << path << " (" << (in.is_cloud ? "point cloud" : "mesh") << "), by the body model " << args.get("body-model")
-            << (fit.confident ? "" : " (POOR FIT)") << "\n" << std::fixed << std::setprecision(1)
-            << "  stature      " << m.stature * 100 << " cm (" << m.stature_note << ")\n";
+            << (fit.confident ? "" : " (POOR FIT)") << "\n"
+            << std::fixed << std::setprecision(1) << "  stature      " << m.stature * 100 << " cm (" << m.stature_note << ")\n";
   std::cout << "  girths standing (as posed on the surface; the fitted body's)\n";
   for (size_t k = 0; k < m.girths.size(); ++k) {
     const Girth& g = m.girths[k];
@@ -223,8 +229,11 @@ int run_measure(int argc, char** argv) {
   args.positional("file", "body mesh (OBJ/PLY/OFF/STL) or scan (PCD/PLY/XYZ)")
       .option("unit", "U", "unit of the file: m, dm, cm, mm, or auto (its largest extent tells)", "auto")
       .flag("json", "machine-readable results on stdout (metres)")
-      .option("frame", "F", "frame of the points in the results: input (the file's axes) or posekit (Y up, facing +Z; levels_y are always heights in it)", "input")
-      .option("survey", "DIR|FILE", "judge the proportions against this survey (ANSUR II's folder or a CSV in its columns; "
+      .option("frame", "F",
+              "frame of the points in the results: input (the file's axes) or posekit (Y up, facing +Z; levels_y are always heights in it)",
+              "input")
+      .option("survey", "DIR|FILE",
+              "judge the proportions against this survey (ANSUR II's folder or a CSV in its columns; "
               "default: $POSEKIT_ANSUR, else ansur2 beside the data root, skipped when absent)")
       .flag("no-cross-check", "with --body-model: skip the rule-based measurement it is compared with")
       .example("posekit measure subjects/f01/rest.ply")
@@ -274,25 +283,34 @@ int run_measure(int argc, char** argv) {
       else e["note"] = g.note;
       j["girths"][g.name] = e;
     }
-    j["levels_y"] = {{"crotch", f.crotch_y}, {"hip", f.hip_y}, {"waist", f.waist_y}, {"underbust", f.underbust_y},
-                     {"bust", f.bust_y}, {"arms_separate", f.arms_separate_y}, {"neck", f.neck_y},
-                     {"floor", f.floor_y}, {"top", f.top_y}};
-    j["features"] = {{"crotch", point_in(shown, f.crotch)}, {"neck_base", point_in(shown, f.neck_base)},
-                     {"neck_joint", point_in(shown, f.neck_joint)}, {"head_joint", point_in(shown, f.head_joint)},
-                     {"left_armpit", point_in(shown, f.armpit[kLeft])}, {"right_armpit", point_in(shown, f.armpit[kRight])},
-                     {"left_shoulder", point_in(shown, f.shoulder[kLeft])}, {"right_shoulder", point_in(shown, f.shoulder[kRight])},
-                     {"left_elbow", point_in(shown, f.elbow[kLeft])}, {"right_elbow", point_in(shown, f.elbow[kRight])},
-                     {"left_wrist", point_in(shown, f.wrist[kLeft])}, {"right_wrist", point_in(shown, f.wrist[kRight])},
-                     {"left_hip_joint", point_in(shown, f.hip[kLeft])}, {"right_hip_joint", point_in(shown, f.hip[kRight])},
-                     {"left_knee", point_in(shown, f.knee[kLeft])}, {"right_knee", point_in(shown, f.knee[kRight])},
-                     {"left_ankle", point_in(shown, f.ankle[kLeft])}, {"right_ankle", point_in(shown, f.ankle[kRight])}};
+    j["levels_y"] = {{"crotch", f.crotch_y},       {"hip", f.hip_y},     {"waist", f.waist_y},
+                     {"underbust", f.underbust_y}, {"bust", f.bust_y},   {"arms_separate", f.arms_separate_y},
+                     {"neck", f.neck_y},           {"floor", f.floor_y}, {"top", f.top_y}};
+    j["features"] = {{"crotch", point_in(shown, f.crotch)},
+                     {"neck_base", point_in(shown, f.neck_base)},
+                     {"neck_joint", point_in(shown, f.neck_joint)},
+                     {"head_joint", point_in(shown, f.head_joint)},
+                     {"left_armpit", point_in(shown, f.armpit[kLeft])},
+                     {"right_armpit", point_in(shown, f.armpit[kRight])},
+                     {"left_shoulder", point_in(shown, f.shoulder[kLeft])},
+                     {"right_shoulder", point_in(shown, f.shoulder[kRight])},
+                     {"left_elbow", point_in(shown, f.elbow[kLeft])},
+                     {"right_elbow", point_in(shown, f.elbow[kRight])},
+                     {"left_wrist", point_in(shown, f.wrist[kLeft])},
+                     {"right_wrist", point_in(shown, f.wrist[kRight])},
+                     {"left_hip_joint", point_in(shown, f.hip[kLeft])},
+                     {"right_hip_joint", point_in(shown, f.hip[kRight])},
+                     {"left_knee", point_in(shown, f.knee[kLeft])},
+                     {"right_knee", point_in(shown, f.knee[kRight])},
+                     {"left_ankle", point_in(shown, f.ankle[kLeft])},
+                     {"right_ankle", point_in(shown, f.ankle[kRight])}};
     j["plausibility"] = plausibility_json(plausibility.get(), survey.get(), no_survey);
     j["warnings"] = warnings;
     std::cout << j.dump(2) << std::endl;
     return 0;
   }
-  std::cout << path << " (" << (cloud ? "point cloud" : "mesh") << ")\n" << std::fixed << std::setprecision(1)
-            << "  stature      " << m.stature * 100 << " cm"
+  std::cout << path << " (" << (cloud ? "point cloud" : "mesh") << ")\n"
+            << std::fixed << std::setprecision(1) << "  stature      " << m.stature * 100 << " cm"
             << (m.stature_measured ? "" : " (not measured: " + m.stature_note + ")") << "\n";
   for (const auto& g : m.girths) {
     std::cout << "  " << std::left << std::setw(12) << g.name << std::right << " ";

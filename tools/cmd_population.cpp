@@ -39,8 +39,8 @@ ResidualStats residual_stats(const std::vector<SurveyFit>& fits, const std::vect
 }
 
 nlohmann::ordered_json stats_json(const ResidualStats& s) {
-  return {{"subjects", s.count}, {"bias_mm", 1000 * s.bias}, {"mae_mm", 1000 * s.mae}, {"p95_mm", 1000 * s.p95},
-          {"max_mm", 1000 * s.worst}};
+  return {
+      {"subjects", s.count}, {"bias_mm", 1000 * s.bias}, {"mae_mm", 1000 * s.mae}, {"p95_mm", 1000 * s.p95}, {"max_mm", 1000 * s.worst}};
 }
 
 /// The residuals per measure and sex, and the components' curve.
@@ -65,8 +65,10 @@ nlohmann::ordered_json fit_summary(const std::string& survey_path, const std::ve
   summary["worst_rms_mm"] = report.worst_rms.empty() ? 0.0 : 1000 * report.worst_rms.back();
   summary["mean_rms_mm"] = report.mean_rms.empty() ? 0.0 : 1000 * report.mean_rms.back();
   for (size_t k = 0; k < report.variance_kept.size(); ++k)
-    summary["components_curve"].push_back({{"components", k + 1}, {"variance_kept", report.variance_kept[k]},
-                                           {"worst_rms_mm", 1000 * report.worst_rms[k]}, {"mean_rms_mm", 1000 * report.mean_rms[k]}});
+    summary["components_curve"].push_back({{"components", k + 1},
+                                           {"variance_kept", report.variance_kept[k]},
+                                           {"worst_rms_mm", 1000 * report.worst_rms[k]},
+                                           {"mean_rms_mm", 1000 * report.mean_rms[k]}});
   return summary;
 }
 
@@ -82,9 +84,8 @@ void print_residual_table(const nlohmann::ordered_json& summary) {
     std::cout << " |\n";
   }
   std::cout << "\nComponents: " << summary["components"].get<int>() << " keep " << std::setprecision(4)
-            << 100 * summary["variance_kept"].get<double>() << "% of the variance; every body within "
-            << std::setprecision(2) << summary["worst_rms_mm"].get<double>() << " mm RMS (mean "
-            << summary["mean_rms_mm"].get<double>() << " mm)\n";
+            << 100 * summary["variance_kept"].get<double>() << "% of the variance; every body within " << std::setprecision(2)
+            << summary["worst_rms_mm"].get<double>() << " mm RMS (mean " << summary["mean_rms_mm"].get<double>() << " mm)\n";
   std::cout.unsetf(std::ios::fixed);
 }
 

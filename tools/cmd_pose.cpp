@@ -2,42 +2,41 @@
 #include <Eigen/Geometry>
 #include <algorithm>
 #include <filesystem>
-#include <sstream>
 #include <iomanip>
 #include <iostream>
 #include <map>
 #include <memory>
-#include <numeric>
 #include <nlohmann/json.hpp>
+#include <numeric>
+#include <sstream>
 
 #include "cli.h"
 #include "commands.h"
-#include "posing_inputs.h"
 #include "fitted_input.h"
 #include "posekit/body/makehuman_model.h"
 #include "posekit/body/parts.h"
 #include "posekit/core/data_root.h"
 #include "posekit/core/error.h"
+#include "posekit/core/mesh_geometry.h"
+#include "posekit/core/mesh_validation.h"
+#include "posekit/core/point_grid.h"
 #include "posekit/core/timer.h"
 #include "posekit/datasets/dataset.h"
-#include "posekit/fitting/body_fit.h"
-#include "posekit/fitting/body_model.h"
 #include "posekit/deformation/part_pose_estimation.h"
 #include "posekit/deformation/pose_fitting.h"
 #include "posekit/deformation/pose_model.h"
 #include "posekit/deformation/pose_synthesis.h"
 #include "posekit/deformation/rigid_pose.h"
 #include "posekit/deformation/segmentation_calibration.h"
-#include "posekit/population/survey_fit.h"
-#include "posekit/registration/shape_space.h"
 #include "posekit/evaluation/pose_evaluation.h"
-#include "posekit/io/bvh.h"
+#include "posekit/fitting/body_fit.h"
+#include "posekit/fitting/body_model.h"
 #include "posekit/io/atomic_file.h"
+#include "posekit/io/bvh.h"
 #include "posekit/io/mesh_io.h"
 #include "posekit/io/point_cloud_io.h"
-#include "posekit/core/mesh_geometry.h"
-#include "posekit/core/mesh_validation.h"
-#include "posekit/core/point_grid.h"
+#include "posekit/population/survey_fit.h"
+#include "posekit/registration/shape_space.h"
 #include "posekit/segmentation/body_segmentation.h"
 #include "posekit/segmentation/segmentation.h"
 #include "posekit/segmentation/segmentation_prior.h"
@@ -46,6 +45,7 @@
 #include "posekit/shape/body_features.h"
 #include "posekit/shape/body_orientation.h"
 #include "posekit/shape/layered_representation.h"
+#include "posing_inputs.h"
 
 namespace fs = std::filesystem;
 
@@ -69,7 +69,9 @@ int run_pose(int argc, char** argv) {
       .option("joint-map", "FILE", "JSON {\"left_shoulder\": \"<BVH joint>\", ...} for BVH joints the names do not tell")
       .option("root-motion", "M", "a retargeted BVH's root translation: none, vertical (feet stay down) or all", "vertical")
       .flag("json", "summary as JSON on stdout")
-      .example("posekit pose --model model.pkm --subject out/dataset/subjects/f01/rest.ply --pose out/dataset/subjects/f01/posed/squat_half.json --out posed.ply")
+      .example(
+          "posekit pose --model model.pkm --subject out/dataset/subjects/f01/rest.ply --pose "
+          "out/dataset/subjects/f01/posed/squat_half.json --out posed.ply")
       .example("posekit pose --model model.pkm --subject body.ply --pose cmu/01_01.bvh --frames 0:100 --out walk/frame.ply");
   add_body_model_options(&args, false);
   add_orientation_options(&args, "", "the subject");
@@ -86,8 +88,9 @@ int run_pose(int argc, char** argv) {
   const double setup = t0.seconds();
   for (const auto& problem : synth.info().skeleton_problems)
     std::cerr << "warning: " << args.get("subject") << ": the subject's skeleton looks wrong: " << problem << "\n";
-  const LoadedPoses loaded = load_poses(args.get("pose"), args.has("frames") ? args.get("frames") : "", args.has("data") ? args.get("data") : "",
-                                        synth.info().joint_centres, args.has("joint-map") ? args.get("joint-map") : "", args.get("root-motion"));
+  const LoadedPoses loaded =
+      load_poses(args.get("pose"), args.has("frames") ? args.get("frames") : "", args.has("data") ? args.get("data") : "",
+                 synth.info().joint_centres, args.has("joint-map") ? args.get("joint-map") : "", args.get("root-motion"));
   for (const auto& note : loaded.notes) std::cerr << "posekit pose: " << note << "\n";
   const std::vector<PartPose>& poses = loaded.poses;
   Progress progress("pose", static_cast<long>(poses.size()));
@@ -113,20 +116,23 @@ int run_pose(int argc, char** argv) {
     progress.update(static_cast<long>(i + 1));
   }
   progress.finish();
-  nlohmann::ordered_json s = {{"subject", args.get("subject")}, {"method", pose_method_name(method)},
-                              {"poses", poses.size()}, {"setup_seconds", setup},
+  nlohmann::ordered_json s = {{"subject", args.get("subject")},
+                              {"method", pose_method_name(method)},
+                              {"poses", poses.size()},
+                              {"setup_seconds", setup},
                               {"pose_ms_mean", 1000 * pose_seconds / static_cast<double>(poses.size())},
-                              {"normal_failures", synth.info().normal_failures}, {"written", written},
+                              {"normal_failures", synth.info().normal_failures},
+                              {"written", written},
                               {"peak_rss_mib", peak_rss_mib()}};
   if (args.flag_set("json")) {
     print_json(s);
     return 0;
   }
   std::cout << "posed " << args.get("subject") << " (" << subject.num_vertices() << " vertices) in " << poses.size()
-            << (poses.size() == 1 ? " pose" : " poses") << " by the " << pose_method_name(method) << " method: set-up "
-            << std::fixed << std::setprecision(3) << setup << " s, " << std::setprecision(2)
-            << 1000 * pose_seconds / static_cast<double>(poses.size()) << " ms per pose, peak RSS " << std::setprecision(0)
-            << peak_rss_mib() << " MiB; wrote " << written.front() << (written.size() > 1 ? " ..." : "") << "\n";
+            << (poses.size() == 1 ? " pose" : " poses") << " by the " << pose_method_name(method) << " method: set-up " << std::fixed
+            << std::setprecision(3) << setup << " s, " << std::setprecision(2) << 1000 * pose_seconds / static_cast<double>(poses.size())
+            << " ms per pose, peak RSS " << std::setprecision(0) << peak_rss_mib() << " MiB; wrote " << written.front()
+            << (written.size() > 1 ? " ..." : "") << "\n";
   return 0;
 }
 
@@ -152,8 +158,9 @@ int run_retarget(int argc, char** argv) {
   if (every < 1) throw UsageError("--every must be at least 1");
   const auto mh = load_makehuman_model(find_data_root(args.has("data") ? args.get("data") : ""));
   const Eigen::MatrixXd rest = joint_centres(mh->rig, build_body(*mh, BodySpec{}));
-  const LoadedPoses loaded = load_poses(args.positionals()[0], args.has("frames") ? args.get("frames") : "", args.has("data") ? args.get("data") : "",
-                                        rest, args.has("joint-map") ? args.get("joint-map") : "", args.get("root-motion"));
+  const LoadedPoses loaded =
+      load_poses(args.positionals()[0], args.has("frames") ? args.get("frames") : "", args.has("data") ? args.get("data") : "", rest,
+                 args.has("joint-map") ? args.get("joint-map") : "", args.get("root-motion"));
   for (const auto& note : loaded.notes) std::cerr << "posekit retarget: " << note << "\n";
   create_folders(args.get("out"));
   std::vector<std::string> written;
@@ -163,8 +170,8 @@ int run_retarget(int argc, char** argv) {
     write_file_atomically(path, [&](std::ostream& out) { out << part_pose_to_json(loaded.poses[i]); });
     written.push_back(path);
   }
-  nlohmann::ordered_json s = {{"bvh", args.positionals()[0]}, {"frames", loaded.poses.size()}, {"written", written.size()},
-                              {"mapping", loaded.notes}};
+  nlohmann::ordered_json s = {
+      {"bvh", args.positionals()[0]}, {"frames", loaded.poses.size()}, {"written", written.size()}, {"mapping", loaded.notes}};
   if (args.flag_set("json")) {
     print_json(s);
     return 0;

@@ -2,11 +2,11 @@
 // posekit shape-space: a shape space file for register --shape-space.
 #include <algorithm>
 #include <filesystem>
-#include <sstream>
 #include <iomanip>
-#include <memory>
 #include <iostream>
+#include <memory>
 #include <nlohmann/json.hpp>
+#include <sstream>
 
 #include "cli.h"
 #include "commands.h"
@@ -15,10 +15,10 @@
 #include "posekit/core/error.h"
 #include "posekit/core/timer.h"
 #include "posekit/core/units.h"
-#include "posekit/io/atomic_file.h"
 #include "posekit/datasets/dataset.h"
 #include "posekit/evaluation/registration_table.h"
 #include "posekit/fitting/body_fit.h"
+#include "posekit/io/atomic_file.h"
 #include "posekit/io/mesh_io.h"
 #include "posekit/registration/correspondence.h"
 #include "posekit/registration/nicp.h"
@@ -41,8 +41,7 @@ void set_population_leave_out(PopulationOptions& o, const std::string& what) {
   }
 }
 
-ShapeSpace make_makehuman_shape_space(const MakeHumanModel& model, PopulationOptions o, double variance_kept,
-                                      int max_components) {
+ShapeSpace make_makehuman_shape_space(const MakeHumanModel& model, PopulationOptions o, double variance_kept, int max_components) {
   std::unique_ptr<Progress> progress;
   o.progress = [&](int done, int total) {
     if (!progress) progress = std::make_unique<Progress>("shape space bodies", total);
@@ -57,8 +56,7 @@ bool is_shape_space_file(const std::string& value) {
   return !value.empty() && value.find_first_not_of("0123456789", value[0] == '-' ? 1 : 0) != std::string::npos;
 }
 
-std::shared_ptr<const ShapeSpace> shape_space_option(const std::string& value, const std::string& leave_out,
-                                                     const std::string& data_root) {
+std::shared_ptr<const ShapeSpace> shape_space_option(const std::string& value, const std::string& leave_out, const std::string& data_root) {
   if (is_shape_space_file(value)) return std::make_shared<const ShapeSpace>(read_shape_space(value));
   const long bodies = value.empty() ? 0 : std::stol(value);
   if (bodies < 0 || bodies == 1) throw UsageError("--shape-space must be 0, at least 2 bodies, or a .pks file");
@@ -78,9 +76,11 @@ RegistrationResult register_by_body_model(const TriangleMesh& source, const Tria
   const Stopwatch t0;
   const std::unique_ptr<BodyModel> model = load_body_model(args);
   if (source.V.rows() != model->space().vertices() || source.F != model->faces())
-    throw InvalidInput(args.positionals()[0] + ": --method body-model registers a source of the body model's topology (MakeHuman's "
-                       "template, " + std::to_string(model->space().vertices()) + " vertices); this one has " +
-                       std::to_string(source.V.rows()) + " (use --method ctffd)");
+    throw InvalidInput(args.positionals()[0] +
+                       ": --method body-model registers a source of the body model's topology (MakeHuman's "
+                       "template, " +
+                       std::to_string(model->space().vertices()) + " vertices); this one has " + std::to_string(source.V.rows()) +
+                       " (use --method ctffd)");
   BodyInput in;
   in.mesh = target;
   const BodyFit fit = fit_body_model_to_input(*model, in, args.positionals()[1], args);
@@ -90,8 +90,7 @@ RegistrationResult register_by_body_model(const TriangleMesh& source, const Tria
     r.nicp = nonrigid_icp(source, target, o.refinement, {}, &fit.V);
     r.deformed_source = r.nicp.V;
   }
-  r.correspondence = nearest_centroid_correspondence(r.deformed_source, source.F, target.V, target.F, &r.normal_failures,
-                                                     o.threads);
+  r.correspondence = nearest_centroid_correspondence(r.deformed_source, source.F, target.V, target.F, &r.normal_failures, o.threads);
   r.warnings = fit.warnings;
   r.seconds = t0.seconds();
   return r;
@@ -114,7 +113,8 @@ int run_register(int argc, char** argv) {
                  "pose and frame, its vertices the source's (the source must be MakeHuman's template topology);\n"
                  "--refine adds the soft non-rigid ICP steps after it. A poor fit exits with status 3.\n"
                  "Both bodies standing (any pose for body-model), in any axis convention and unit (detected, or given).");
-  args.positional("source", "source mesh").positional("target", "target mesh")
+  args.positional("source", "source mesh")
+      .positional("target", "target mesh")
       .option("method", "M", "ctffd, icp, nicp or body-model", "ctffd")
       .option("iterations", "N", "ICP iterations", "6")
       .flag("refine", "ctffd, body-model: refine by soft non-rigid ICP steps started from its result")
@@ -122,11 +122,15 @@ int run_register(int argc, char** argv) {
       .option("landmark-weight", "W", "non-rigid ICP landmark weight at the first stiffness (falls with it)", "10")
       .option("steps", "N", "non-rigid ICP iterations at most per stiffness (default: nicp 5, refine 2)")
       .option("point-to-point", "S", "share of point-to-point in non-rigid ICP's data term (0: point-to-plane)", "0.1")
-      .option("shape-space", "N|FILE", "ctffd: refine by a shape space: of N MakeHuman bodies (built from the data root, a "
+      .option("shape-space", "N|FILE",
+              "ctffd: refine by a shape space: of N MakeHuman bodies (built from the data root, a "
               "few seconds; the source must be in MakeHuman's base topology, as the dataset's template), or a .pks file "
-              "(posekit shape-space) in the source's topology; 0: not", "0")
-      .option("shape-space-leave-out", "WHAT", "none, men, obese or local (the measure modifiers): what the shape space's "
-              "population lacks", "none")
+              "(posekit shape-space) in the source's topology; 0: not",
+              "0")
+      .option("shape-space-leave-out", "WHAT",
+              "none, men, obese or local (the measure modifiers): what the shape space's "
+              "population lacks",
+              "none")
       .data_option("for --shape-space and --body-model")
       .option("unit", "U", "unit of both meshes: m, dm, cm, mm, or auto (each one's largest extent tells)", "auto")
       .output("out", "FILE", "correspondence JSON: for each target triangle its source triangle")
@@ -171,16 +175,17 @@ int run_register(int argc, char** argv) {
   }
   const std::string shape_arg = args.get("shape-space");
   const bool shape_file = is_shape_space_file(shape_arg);
-  if (shape_arg != "0" && (o.method != RegistrationMethod::kCtffd || by_body_model)) throw UsageError("--shape-space applies to --method ctffd");
+  if (shape_arg != "0" && (o.method != RegistrationMethod::kCtffd || by_body_model))
+    throw UsageError("--shape-space applies to --method ctffd");
   o.shape_space = shape_space_option(shape_arg, args.get("shape-space-leave-out"), args.get("data"));
-  if (o.shape_space && (o.shape_space->vertices() != source.num_vertices() ||
-                        (o.shape_space->faces.size() > 0 && o.shape_space->faces != source.F)))
-    throw InvalidInput(args.positionals()[0] + ": the shape space " + (shape_file ? shape_arg + " " : std::string()) +
-                       "is of another topology (" + std::to_string(o.shape_space->vertices()) + " vertices, " +
-                       std::to_string(o.shape_space->faces.rows()) + " triangles; the source has " +
-                       std::to_string(source.num_vertices()) + " and " + std::to_string(source.num_faces()) + ")" +
-                       (shape_file ? std::string(": register from the mesh the space's bodies were registered to")
-                                   : std::string(": MakeHuman's spaces need its base topology, the dataset's template (template/rest.ply)")));
+  if (o.shape_space &&
+      (o.shape_space->vertices() != source.num_vertices() || (o.shape_space->faces.size() > 0 && o.shape_space->faces != source.F)))
+    throw InvalidInput(
+        args.positionals()[0] + ": the shape space " + (shape_file ? shape_arg + " " : std::string()) + "is of another topology (" +
+        std::to_string(o.shape_space->vertices()) + " vertices, " + std::to_string(o.shape_space->faces.rows()) +
+        " triangles; the source has " + std::to_string(source.num_vertices()) + " and " + std::to_string(source.num_faces()) + ")" +
+        (shape_file ? std::string(": register from the mesh the space's bodies were registered to")
+                    : std::string(": MakeHuman's spaces need its base topology, the dataset's template (template/rest.ply)")));
   // Folds are judged against the source as the method poses it: the body model's fitted body (a
   // kneeling or Z-up target turns most triangles away from the template's own directions).
   TriangleMesh posed_source = source;
@@ -194,7 +199,8 @@ int run_register(int argc, char** argv) {
     j["meaning"] = "target_to_source[k] is the source triangle matched to target triangle k";
     j["target_to_source"] = std::vector<int>(r.correspondence.data(), r.correspondence.data() + r.correspondence.size());
     const std::string text = j.dump() + "\n";
-    write_file_atomically(args.get("out"), [&](std::ostream& out) { out << text; }, false);
+    write_file_atomically(
+        args.get("out"), [&](std::ostream& out) { out << text; }, false);
   }
   if (args.has("deformed")) {
     TriangleMesh d;
@@ -203,24 +209,35 @@ int run_register(int argc, char** argv) {
     write_mesh(args.get("deformed"), d, {target_unit.unit, MeshFormat::kAuto, true, io_warnings()});
   }
   const RegistrationQuality q = assess_registration(posed_source, r.deformed_source, target);
-  nlohmann::ordered_json s = {{"method", args.get("method")}, {"refine", o.refine}, {"source_vertices", source.num_vertices()},
-                              {"target_triangles", target.num_faces()}, {"seconds", r.seconds},
+  nlohmann::ordered_json s = {{"method", args.get("method")},
+                              {"refine", o.refine},
+                              {"source_vertices", source.num_vertices()},
+                              {"target_triangles", target.num_faces()},
+                              {"seconds", r.seconds},
                               {"normal_failures", r.normal_failures},
-                              {"quality", {{"mean_distance_mm", q.mean_distance_mm}, {"p95_distance_mm", q.p95_distance_mm},
-                                           {"target_covered", q.target_covered}, {"normals_agree", q.normals_agree},
-                                           {"folded_triangles", q.folded_triangles}, {"warnings", q.warnings}}}};
+                              {"quality",
+                               {{"mean_distance_mm", q.mean_distance_mm},
+                                {"p95_distance_mm", q.p95_distance_mm},
+                                {"target_covered", q.target_covered},
+                                {"normals_agree", q.normals_agree},
+                                {"folded_triangles", q.folded_triangles},
+                                {"warnings", q.warnings}}}};
   s["warnings"] = r.warnings;
   if (!r.nicp.stiffness.empty())
-    s["nicp"] = {{"stiffness", r.nicp.stiffness}, {"iterations", r.nicp.iterations}, {"solves", r.nicp.solves},
-                 {"landmarks", r.nicp.landmarks}, {"accepted_fraction", r.nicp.accepted_fraction}};
+    s["nicp"] = {{"stiffness", r.nicp.stiffness},
+                 {"iterations", r.nicp.iterations},
+                 {"solves", r.nicp.solves},
+                 {"landmarks", r.nicp.landmarks},
+                 {"accepted_fraction", r.nicp.accepted_fraction}};
   if (o.shape_space)
     s["shape_space"] = {{"population", o.shape_space->population}, {"components", o.shape_space->components()},
-                        {"iterations", r.shape_fit.iterations}, {"median_distance_mm", 1000 * r.shape_fit.median_distance},
-                        {"far_share", r.shape_fit.far_share}, {"uncovered_share", r.shape_fit.uncovered_share},
-                        {"kept", r.shape_fit.plausible}, {"seconds", r.shape_fit_seconds}};
+                        {"iterations", r.shape_fit.iterations},    {"median_distance_mm", 1000 * r.shape_fit.median_distance},
+                        {"far_share", r.shape_fit.far_share},      {"uncovered_share", r.shape_fit.uncovered_share},
+                        {"kept", r.shape_fit.plausible},           {"seconds", r.shape_fit_seconds}};
   if (args.has("quality")) {
     const std::string text = s.dump(2) + "\n";
-    write_file_atomically(args.get("quality"), [&](std::ostream& out) { out << text; }, false);
+    write_file_atomically(
+        args.get("quality"), [&](std::ostream& out) { out << text; }, false);
   }
   for (const std::string& w : r.warnings) std::cerr << "posekit register: warning: " << w << "\n";
   for (const std::string& w : q.warnings) std::cerr << "posekit register: warning: " << w << "\n";
@@ -228,19 +245,19 @@ int run_register(int argc, char** argv) {
     std::cout << s.dump(2) << std::endl;
     return 0;
   }
-  std::cout << "registered " << args.positionals()[0] << " -> " << args.positionals()[1] << " by " << args.get("method")
-            << " in " << std::fixed << std::setprecision(3) << r.seconds << " s; " << target.num_faces()
-            << " target triangles matched (" << r.normal_failures << " without a source triangle facing the same way)\n"
+  std::cout << "registered " << args.positionals()[0] << " -> " << args.positionals()[1] << " by " << args.get("method") << " in "
+            << std::fixed << std::setprecision(3) << r.seconds << " s; " << target.num_faces() << " target triangles matched ("
+            << r.normal_failures << " without a source triangle facing the same way)\n"
             << "quality: source to target " << std::setprecision(1) << q.mean_distance_mm << " mm mean, " << q.p95_distance_mm
-            << " mm p95; target covered " << 100 * q.target_covered << "%; normals agree " << 100 * q.normals_agree
-            << "%; " << q.folded_triangles << " triangles folded\n";
+            << " mm p95; target covered " << 100 * q.target_covered << "%; normals agree " << 100 * q.normals_agree << "%; "
+            << q.folded_triangles << " triangles folded\n";
   if (o.shape_space)
     std::cout << "shape space: " << o.shape_space->components() << " components of " << o.shape_space->population << "; fitted in "
               << r.shape_fit.iterations << " iterations, " << std::setprecision(3) << r.shape_fit_seconds << " s, median "
-              << std::setprecision(1) << 1000 * r.shape_fit.median_distance << " mm from the target, "
-              << 100 * r.shape_fit.far_share << "% of it and " << 100 * r.shape_fit.uncovered_share << "% of the target over "
-              << std::setprecision(0) << 1000 * o.shape_fit.far_distance << " mm apart: "
-              << (r.shape_fit.plausible ? "kept" : "not kept (see the warning)") << "\n";
+              << std::setprecision(1) << 1000 * r.shape_fit.median_distance << " mm from the target, " << 100 * r.shape_fit.far_share
+              << "% of it and " << 100 * r.shape_fit.uncovered_share << "% of the target over " << std::setprecision(0)
+              << 1000 * o.shape_fit.far_distance << " mm apart: " << (r.shape_fit.plausible ? "kept" : "not kept (see the warning)")
+              << "\n";
   if (!r.nicp.stiffness.empty()) {
     std::cout << "non-rigid ICP: " << r.nicp.landmarks << " landmarks; stiffness (iterations)";
     for (size_t k = 0; k < r.nicp.stiffness.size(); ++k)
@@ -333,18 +350,23 @@ int run_shape_space(int argc, char** argv) {
       .option("unit", "U", "--meshes: their unit, m, dm, cm, mm, or auto (the first mesh's largest extent tells)", "auto")
       .flag("no-align", "--meshes: keep them where they stand (no rigid alignment onto their mean)")
       .flag("ansur", "learn from MakeHuman bodies fitted to ANSUR II's 6,068 adults (found as --survey says)")
-      .option("survey", "DIR|FILE", "--ansur: ANSUR II's folder or one survey CSV with its columns (default: $POSEKIT_ANSUR, "
+      .option("survey", "DIR|FILE",
+              "--ansur: ANSUR II's folder or one survey CSV with its columns (default: $POSEKIT_ANSUR, "
               "else ansur2 beside the data root)")
       .option("subjects", "N", "--ansur: that many subjects spread through the survey (0: all)", "0")
       .option("leave-out-ids", "A,B", "--ansur: leave these SubjectIds out (e.g. the bodies customize robustness photographs)")
       .option("max-rms-mm", "MM", "--ansur: keep the fewest components that reconstruct every fitted body within this RMS", "1")
       .output("residuals", "FILE", "--ansur: write the fit residuals and each subject's sliders (JSON)")
       .option("threads", "N", "--ansur: threads for the fits (0: all cores)", "0")
-      .option("motions", "LIST", "--ansur: motion capture (BVH files or folders, comma-separated) whose most distinct frames join "
+      .option("motions", "LIST",
+              "--ansur: motion capture (BVH files or folders, comma-separated) whose most distinct frames join "
               "the body-model fit's pose library; auto: the motions folder beside the data root and the data root's poses "
-              "and animations; none: the built-in library only", "auto")
-      .option("motion-poses", "N", "--motions: poses kept at most (each at least 30 degrees at some joint from the others "
-              "and the built-in library)", "40")
+              "and animations; none: the built-in library only",
+              "auto")
+      .option("motion-poses", "N",
+              "--motions: poses kept at most (each at least 30 degrees at some joint from the others "
+              "and the built-in library)",
+              "40")
       .option("motion-every", "N", "--motions: every N-th frame is a candidate", "10")
       .option("variance", "F", "share of the population's variance the components keep", "0.99999")
       .option("max-components", "K", "components at most", "60")
@@ -389,16 +411,16 @@ int run_shape_space(int argc, char** argv) {
         throw InvalidInput(dir + ": cannot tell the meshes' unit from the first one's largest extent (" + std::to_string(extent) +
                            "): give --unit");
       for (Eigen::MatrixXd& V : data.V) V *= metres_per_unit(unit);
-      std::cerr << "posekit shape-space: unit " << unit_name(unit) << " (detected from " << data.names.front()
-                << "'s largest extent, " << extent << ")\n";
+      std::cerr << "posekit shape-space: unit " << unit_name(unit) << " (detected from " << data.names.front() << "'s largest extent, "
+                << extent << ")\n";
     }
     // One unit for all: a body 10 or 1000 times the first one's size is another unit, not a shape.
     const double first = robust_largest_extent(data.V.front());
     for (size_t b = 1; b < data.V.size(); ++b) {
       const double ratio = robust_largest_extent(data.V[b]) / first;
       if (!(ratio > 0.5 && ratio < 2))
-        throw InvalidInput(dir + ": " + data.names[b] + " is " + std::to_string(ratio) + " times the size of " +
-                           data.names.front() + ": the meshes must be in one unit (convert it, or learn without it)");
+        throw InvalidInput(dir + ": " + data.names[b] + " is " + std::to_string(ratio) + " times the size of " + data.names.front() +
+                           ": the meshes must be in one unit (convert it, or learn without it)");
     }
     if (!args.flag_set("no-align")) align_bodies_rigidly(data.V);
     space = learn_shape_space(data.V, variance, static_cast<int>(max_components),
@@ -410,15 +432,19 @@ int run_shape_space(int argc, char** argv) {
     PopulationOptions po;
     po.count = static_cast<int>(count);
     set_population_leave_out(po, args.get("leave-out"));
-    space = make_makehuman_shape_space(*load_makehuman_model(find_data_root(args.get("data"))), po, variance,
-                                       static_cast<int>(max_components));
+    space =
+        make_makehuman_shape_space(*load_makehuman_model(find_data_root(args.get("data"))), po, variance, static_cast<int>(max_components));
   }
   write_shape_space(args.get("out"), space);
   double kept = 0;
   for (double v : space.variance_share) kept += v;
   if (args.flag_set("json")) {
-    print_json({{"out", args.get("out")}, {"population", space.population}, {"bodies", space.bodies},
-                {"vertices", space.vertices()}, {"triangles", space.faces.rows()}, {"components", space.components()},
+    print_json({{"out", args.get("out")},
+                {"population", space.population},
+                {"bodies", space.bodies},
+                {"vertices", space.vertices()},
+                {"triangles", space.faces.rows()},
+                {"components", space.components()},
                 {"variance_kept", kept}});
     return 0;
   }

@@ -14,7 +14,8 @@ int run_report(int argc, char** argv) {
   ArgParser args("report",
                  "Regenerates the paper's evaluation figures and tables from a dataset: the template in synthesized\n"
                  "poses (Fig. 2), the same poses on a customized model (Fig. 3), customized models against scans\n"
-                 "(Fig. 4, customized from photos), all women and men customized from photos (Figs. 5, 6), all female and male subjects (Fig. 7), posed subjects (Fig. 8), posed models beside their\n"
+                 "(Fig. 4, customized from photos), all women and men customized from photos (Figs. 5, 6), all female and male subjects "
+                 "(Fig. 7), posed subjects (Fig. 8), posed models beside their\n"
                  "scans (Fig. 9), the registration timing table (Table 1) and the pose error table, into\n"
                  "OUT/index.html and OUT/report.md with the PNGs (off-screen VTK; no display needed).");
   args.option("dataset", "DIR", "a posekit dataset (posekit dataset make)")
@@ -25,9 +26,12 @@ int run_report(int argc, char** argv) {
       .option("nicp-subjects", "N", "run the slow non-rigid ICP baseline on the first N subjects (0: leave it out)", "2")
       .option("customization", "FILE", "photo customization model (.pkc); default: train one (customize train)")
       .option("customization-bodies", "N", "population of a customization model trained here", "2000")
-      .option("shape-space", "N|FILE", "Table 1's ct-FFD + shape space row: MakeHuman bodies in the space, or a .pks file "
-              "(posekit shape-space) (0: no row)", "300")
-      .option("cache", "DIR", "folder of reusable results: the trained models and Table 1, reused while their inputs "
+      .option("shape-space", "N|FILE",
+              "Table 1's ct-FFD + shape space row: MakeHuman bodies in the space, or a .pks file "
+              "(posekit shape-space) (0: no row)",
+              "300")
+      .option("cache", "DIR",
+              "folder of reusable results: the trained models and Table 1, reused while their inputs "
               "(dataset, data root, options, this posekit) are unchanged (default: OUT/.cache)")
       .flag("no-cache", "make everything afresh and keep nothing")
       .flag("full-table", "Table 1 in full: the slow non-rigid ICP baseline on every subject (as --nicp-subjects all)")
@@ -61,12 +65,12 @@ int run_report(int argc, char** argv) {
   if (progress) progress->finish();
   for (const auto& w : s.warnings) std::cerr << "posekit report: warning: " << w << "\n";
   std::cerr << "posekit report: stages (s):";
-  for (const auto& [what, seconds] : s.stage_seconds) std::cerr << " " << what << " " << std::fixed << std::setprecision(1) << seconds << ";";
+  for (const auto& [what, seconds] : s.stage_seconds)
+    std::cerr << " " << what << " " << std::fixed << std::setprecision(1) << seconds << ";";
   std::cerr << "\n";
   for (const auto& r : s.reused) std::cerr << "posekit report: reused " << r << "\n";
-  std::cout << "wrote " << args.get("out") << "/index.html (" << s.files.size() << " files, " << s.warnings.size()
-            << " warnings) in " << static_cast<int>(s.seconds + 0.5) << " s, peak RSS " << static_cast<int>(peak_rss_mib() + 0.5)
-            << " MiB\n";
+  std::cout << "wrote " << args.get("out") << "/index.html (" << s.files.size() << " files, " << s.warnings.size() << " warnings) in "
+            << static_cast<int>(s.seconds + 0.5) << " s, peak RSS " << static_cast<int>(peak_rss_mib() + 0.5) << " MiB\n";
   return 0;
 }
 

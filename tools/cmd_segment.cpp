@@ -2,13 +2,13 @@
 #include <Eigen/Geometry>
 #include <algorithm>
 #include <filesystem>
-#include <sstream>
 #include <iomanip>
 #include <iostream>
 #include <map>
 #include <memory>
-#include <numeric>
 #include <nlohmann/json.hpp>
+#include <numeric>
+#include <sstream>
 
 #include "cli.h"
 #include "commands.h"
@@ -17,26 +17,26 @@
 #include "posekit/body/parts.h"
 #include "posekit/core/data_root.h"
 #include "posekit/core/error.h"
+#include "posekit/core/mesh_geometry.h"
+#include "posekit/core/mesh_validation.h"
+#include "posekit/core/point_grid.h"
 #include "posekit/core/timer.h"
 #include "posekit/datasets/dataset.h"
-#include "posekit/fitting/body_fit.h"
-#include "posekit/fitting/body_model.h"
 #include "posekit/deformation/part_pose_estimation.h"
 #include "posekit/deformation/pose_fitting.h"
 #include "posekit/deformation/pose_model.h"
 #include "posekit/deformation/pose_synthesis.h"
 #include "posekit/deformation/rigid_pose.h"
 #include "posekit/deformation/segmentation_calibration.h"
-#include "posekit/population/survey_fit.h"
-#include "posekit/registration/shape_space.h"
 #include "posekit/evaluation/pose_evaluation.h"
-#include "posekit/io/bvh.h"
+#include "posekit/fitting/body_fit.h"
+#include "posekit/fitting/body_model.h"
 #include "posekit/io/atomic_file.h"
+#include "posekit/io/bvh.h"
 #include "posekit/io/mesh_io.h"
 #include "posekit/io/point_cloud_io.h"
-#include "posekit/core/mesh_geometry.h"
-#include "posekit/core/mesh_validation.h"
-#include "posekit/core/point_grid.h"
+#include "posekit/population/survey_fit.h"
+#include "posekit/registration/shape_space.h"
 #include "posekit/segmentation/body_segmentation.h"
 #include "posekit/segmentation/segmentation.h"
 #include "posekit/segmentation/segmentation_prior.h"
@@ -118,14 +118,25 @@ int segment_by_body_model(const ArgParser& args) {
   const nlohmann::ordered_json cross = input.is_cloud ? nlohmann::ordered_json{{"ran", false}, {"why", "a scan: the rules segment meshes"}}
                                                       : rule_based_cross_check(input.mesh, fit, &disagreements);
   for (const auto& w : disagreements) std::cerr << "warning: " << path << ": " << w << "\n";
-  nlohmann::ordered_json summary = {
-      {"mesh", path}, {"method", "body model"}, {"body_model", args.get("body-model")}, {"confident", fit.confident},
-      {"reasons", fit.reasons}, {"warnings", fit.warnings}, {"start", fit.start},
-      {"up", {fit.up.x(), fit.up.y(), fit.up.z()}}, {"coverage", fit.coverage},
-      {"target_mean_mm", 1000 * fit.target_mean}, {"target_p95_mm", 1000 * fit.target_p95},
-      {"shape_mahalanobis", fit.shape_mahalanobis}, {"components", model.components()},
-      {"working_points", fit.working_points}, {"seconds", fit.seconds}, {"joints", joints}, {"pose_fit_frame", pose},
-      {"cross_check", cross}, {"disagreements", disagreements}};
+  nlohmann::ordered_json summary = {{"mesh", path},
+                                    {"method", "body model"},
+                                    {"body_model", args.get("body-model")},
+                                    {"confident", fit.confident},
+                                    {"reasons", fit.reasons},
+                                    {"warnings", fit.warnings},
+                                    {"start", fit.start},
+                                    {"up", {fit.up.x(), fit.up.y(), fit.up.z()}},
+                                    {"coverage", fit.coverage},
+                                    {"target_mean_mm", 1000 * fit.target_mean},
+                                    {"target_p95_mm", 1000 * fit.target_p95},
+                                    {"shape_mahalanobis", fit.shape_mahalanobis},
+                                    {"components", model.components()},
+                                    {"working_points", fit.working_points},
+                                    {"seconds", fit.seconds},
+                                    {"joints", joints},
+                                    {"pose_fit_frame", pose},
+                                    {"cross_check", cross},
+                                    {"disagreements", disagreements}};
   for (const auto& [stage, seconds] : fit.stage_seconds) summary["stage_seconds"][stage] = seconds;
   if (args.has("fitted")) {
     // The fitted body (the template's topology: vertex k is the template's vertex k, a correspondence)
@@ -147,19 +158,20 @@ int segment_by_body_model(const ArgParser& args) {
   if (args.has("joints")) {
     nlohmann::ordered_json jj = {{"units", "m"}, {"frame", "input"}, {"confident", fit.confident}, {"joints", joints}};
     const std::string text = jj.dump(2) + "\n";
-    write_file_atomically(args.get("joints"), [&](std::ostream& o) { o << text; }, false);
+    write_file_atomically(
+        args.get("joints"), [&](std::ostream& o) { o << text; }, false);
   }
   if (args.flag_set("json")) {
     print_json(summary);
     return 0;
   }
-  std::cout << "fitted the body model to " << path << " in " << std::fixed << std::setprecision(2) << fit.seconds
-            << " s (started from " << fit.start << ", up " << fit.up.transpose().format(Eigen::IOFormat(2, 0, " ", " ", "", "", "(", ")"))
+  std::cout << "fitted the body model to " << path << " in " << std::fixed << std::setprecision(2) << fit.seconds << " s (started from "
+            << fit.start << ", up " << fit.up.transpose().format(Eigen::IOFormat(2, 0, " ", " ", "", "", "(", ")"))
             << "): " << std::setprecision(1) << 100 * fit.coverage << "% of the body within 2 cm of the target, 95% of the target within "
             << 1000 * fit.target_p95 << " mm" << (fit.confident ? "" : " (POOR FIT)") << "\n";
   for (int j = 0; j < kNumJoints; ++j)
-    std::cout << "  " << std::left << std::setw(16) << joint_name(j) << std::right << std::setprecision(3) << fit.joints(j, 0)
-              << " " << fit.joints(j, 1) << " " << fit.joints(j, 2) << " m\n";
+    std::cout << "  " << std::left << std::setw(16) << joint_name(j) << std::right << std::setprecision(3) << fit.joints(j, 0) << " "
+              << fit.joints(j, 1) << " " << fit.joints(j, 2) << " m\n";
   return 0;
 }
 
@@ -180,7 +192,8 @@ int run_segment(int argc, char** argv) {
       .option("unit", "U", "unit of the mesh: m, dm, cm, mm, or auto (its largest extent tells)", "auto")
       .output("out", "FILE", "mesh with vertex scalar 'part' (0..15); PLY keeps it for other tools")
       .output("joints", "FILE", "write the joint centres as JSON")
-      .output("fitted", "FILE", "with --body-model: the fitted body (the template's vertices, in order) with vertex scalars "
+      .output("fitted", "FILE",
+              "with --body-model: the fitted body (the template's vertices, in order) with vertex scalars "
               "'residual_mm' (distance to the body given) and 'part'")
       .option("frame", "F", "frame of the joints written and printed: input (the file's axes) or posekit", "input")
       .flag("unchecked", "write the result even when it fails the sanity checks (they become warnings)")
@@ -198,8 +211,7 @@ int run_segment(int argc, char** argv) {
   BodyInput input = read_body_input(args.positionals()[0], args.get("unit"), "segment", &unit);
   if (input.is_cloud) throw InvalidInput(args.positionals()[0] + ": segment needs a mesh (triangles); this file has only points");
   const Eigen::MatrixXd file_vertices = input.mesh.V;
-  const BodyOrientation orientation =
-      orient_body_input(&input, args.get("up"), args.get("forward"), args.positionals()[0], "segment");
+  const BodyOrientation orientation = orient_body_input(&input, args.get("up"), args.get("forward"), args.positionals()[0], "segment");
   require_usable_mesh(input.mesh, args.positionals()[0]);
   std::string left_out;
   std::vector<int> surface_vertex;  // index in the file of each vertex segmented
@@ -241,7 +253,8 @@ int run_segment(int argc, char** argv) {
   for (int j = 0; j < kNumJoints; ++j) jj["joints"][joint_name(j)] = {joints(j, 0), joints(j, 1), joints(j, 2)};
   if (args.has("joints")) {
     const std::string text = jj.dump(2) + "\n";
-    write_file_atomically(args.get("joints"), [&](std::ostream& o) { o << text; }, false);
+    write_file_atomically(
+        args.get("joints"), [&](std::ostream& o) { o << text; }, false);
   }
   const Eigen::VectorXd area = face_areas(mesh.V, mesh.F);
   nlohmann::ordered_json parts;
@@ -253,20 +266,24 @@ int run_segment(int argc, char** argv) {
     parts[part_name(p)] = {{"area_m2", a}};
     present += a > 0;
   }
-  nlohmann::ordered_json s = {{"mesh", args.positionals()[0]}, {"seconds", seconds}, {"notes", result.notes},
-                              {"normal_failures", seg.normal_failures}, {"relabelled_by_cleanup", seg.relabelled},
-                              {"parts", parts}, {"joints", jj["joints"]},
+  nlohmann::ordered_json s = {{"mesh", args.positionals()[0]},
+                              {"seconds", seconds},
+                              {"notes", result.notes},
+                              {"normal_failures", seg.normal_failures},
+                              {"relabelled_by_cleanup", seg.relabelled},
+                              {"parts", parts},
+                              {"joints", jj["joints"]},
                               {"checks", {{"ok", check.ok()}, {"problems", check.problems}}}};
   if (args.flag_set("json")) {
     print_json(s);
     return 0;
   }
-  std::cout << "segmented " << args.positionals()[0] << " into " << present << " parts (of " << kNumParts << ") in " << std::fixed << std::setprecision(3) << seconds
-            << " s (" << seg.normal_failures << " triangles without a representation triangle facing the same way, "
-            << seg.relabelled << " moved by the clean-up)\n";
+  std::cout << "segmented " << args.positionals()[0] << " into " << present << " parts (of " << kNumParts << ") in " << std::fixed
+            << std::setprecision(3) << seconds << " s (" << seg.normal_failures
+            << " triangles without a representation triangle facing the same way, " << seg.relabelled << " moved by the clean-up)\n";
   for (int j = 0; j < kNumJoints; ++j)
-    std::cout << "  " << std::left << std::setw(16) << joint_name(j) << std::right << std::setprecision(3) << joints(j, 0)
-              << " " << joints(j, 1) << " " << joints(j, 2) << " m\n";
+    std::cout << "  " << std::left << std::setw(16) << joint_name(j) << std::right << std::setprecision(3) << joints(j, 0) << " "
+              << joints(j, 1) << " " << joints(j, 2) << " m\n";
   return 0;
 }
 

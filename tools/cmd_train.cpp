@@ -2,42 +2,41 @@
 #include <Eigen/Geometry>
 #include <algorithm>
 #include <filesystem>
-#include <sstream>
 #include <iomanip>
 #include <iostream>
 #include <map>
 #include <memory>
-#include <numeric>
 #include <nlohmann/json.hpp>
+#include <numeric>
+#include <sstream>
 
 #include "cli.h"
 #include "commands.h"
-#include "posing_inputs.h"
 #include "fitted_input.h"
 #include "posekit/body/makehuman_model.h"
 #include "posekit/body/parts.h"
 #include "posekit/core/data_root.h"
 #include "posekit/core/error.h"
+#include "posekit/core/mesh_geometry.h"
+#include "posekit/core/mesh_validation.h"
+#include "posekit/core/point_grid.h"
 #include "posekit/core/timer.h"
 #include "posekit/datasets/dataset.h"
-#include "posekit/fitting/body_fit.h"
-#include "posekit/fitting/body_model.h"
 #include "posekit/deformation/part_pose_estimation.h"
 #include "posekit/deformation/pose_fitting.h"
 #include "posekit/deformation/pose_model.h"
 #include "posekit/deformation/pose_synthesis.h"
 #include "posekit/deformation/rigid_pose.h"
 #include "posekit/deformation/segmentation_calibration.h"
-#include "posekit/population/survey_fit.h"
-#include "posekit/registration/shape_space.h"
 #include "posekit/evaluation/pose_evaluation.h"
-#include "posekit/io/bvh.h"
+#include "posekit/fitting/body_fit.h"
+#include "posekit/fitting/body_model.h"
 #include "posekit/io/atomic_file.h"
+#include "posekit/io/bvh.h"
 #include "posekit/io/mesh_io.h"
 #include "posekit/io/point_cloud_io.h"
-#include "posekit/core/mesh_geometry.h"
-#include "posekit/core/mesh_validation.h"
-#include "posekit/core/point_grid.h"
+#include "posekit/population/survey_fit.h"
+#include "posekit/registration/shape_space.h"
 #include "posekit/segmentation/body_segmentation.h"
 #include "posekit/segmentation/segmentation.h"
 #include "posekit/segmentation/segmentation_prior.h"
@@ -46,6 +45,7 @@
 #include "posekit/shape/body_features.h"
 #include "posekit/shape/body_orientation.h"
 #include "posekit/shape/layered_representation.h"
+#include "posing_inputs.h"
 
 namespace fs = std::filesystem;
 
@@ -55,19 +55,29 @@ namespace {
 nlohmann::ordered_json fit_report_json(const DatasetTrainingReport& r) {
   nlohmann::ordered_json examples = nlohmann::ordered_json::array();
   for (const auto& e : r.examples) {
-    nlohmann::ordered_json x = {{"name", e.name}, {"split", e.test ? "test" : e.left_out ? "left out" : "train"}, {"rms_mm", e.rms_mm},
-                                {"worst_part", e.worst_part}, {"worst_part_rms_mm", e.worst_core_rms_mm}};
+    nlohmann::ordered_json x = {{"name", e.name},
+                                {"split", e.test       ? "test"
+                                          : e.left_out ? "left out"
+                                                       : "train"},
+                                {"rms_mm", e.rms_mm},
+                                {"worst_part", e.worst_part},
+                                {"worst_part_rms_mm", e.worst_core_rms_mm}};
     if (e.joint_error_mean_deg >= 0)
-      x["against_json"] = {{"joint_error_mean_deg", e.joint_error_mean_deg}, {"joint_error_max_deg", e.joint_error_max_deg},
-                           {"worst_joint", e.worst_joint}};
+      x["against_json"] = {
+          {"joint_error_mean_deg", e.joint_error_mean_deg}, {"joint_error_max_deg", e.joint_error_max_deg}, {"worst_joint", e.worst_joint}};
     x["problems"] = e.problems;
     examples.push_back(x);
   }
-  return {{"rest", r.rest_name}, {"rest_reason", r.rest_reason}, {"unit", r.unit}, {"orientation", r.orientation},
-          {"labels", r.labels_from_dataset ? "template/parts.json, template/joints.json"
-                                           : r.labels_from_body_model ? "the body model's fit" : "segmented (Eq. 2)"},
+  return {{"rest", r.rest_name},
+          {"rest_reason", r.rest_reason},
+          {"unit", r.unit},
+          {"orientation", r.orientation},
+          {"labels", r.labels_from_dataset      ? "template/parts.json, template/joints.json"
+                     : r.labels_from_body_model ? "the body model's fit"
+                                                : "segmented (Eq. 2)"},
           {"poses", r.poses_estimated ? "estimated from the meshes" : "pose JSONs"},
-          {"examples", examples}, {"warnings", r.warnings}};
+          {"examples", examples},
+          {"warnings", r.warnings}};
 }
 
 /// The joints whose learned offsets training kept.
@@ -113,14 +123,17 @@ int run_train(int argc, char** argv) {
   args.option("dataset", "DIR", "a posekit dataset, or a folder of registered meshes (OBJ/PLY/OFF), with or without .json poses")
       .output("out", "FILE", "model file to write (.pkm)", "model.pkm")
       .output("fit-report", "FILE", "per-example fit of the estimated poses (JSON: residuals, joint errors against given JSONs)")
-      .output_folder("poses-out", "DIR", "each example's estimated pose as DIR/<name>.json (posekit's pose JSON, its frame;\n"
+      .output_folder("poses-out", "DIR",
+                     "each example's estimated pose as DIR/<name>.json (posekit's pose JSON, its frame;\n"
                      "                          poses estimated from the meshes: a folder of meshes alone, or --poses estimate)")
       .option("calibration-bodies", "N", "random MakeHuman bodies in the segmentation prior; 0: the template alone (default: 128)")
-      .option("calibration-population", "P", "the segmentation prior's bodies: makehuman (random sliders) or ansur (MakeHuman\n"
+      .option("calibration-population", "P",
+              "the segmentation prior's bodies: makehuman (random sliders) or ansur (MakeHuman\n"
               "                          fitted to ANSUR II subjects drawn at random, women and men alternately: real proportions)\n"
               "                          or both (N of each)",
               "makehuman")
-      .option("survey", "DIR|FILE", "--calibration-population ansur: ANSUR II's folder or a survey CSV (default: $POSEKIT_ANSUR, "
+      .option("survey", "DIR|FILE",
+              "--calibration-population ansur: ANSUR II's folder or a survey CSV (default: $POSEKIT_ANSUR, "
               "else ansur2 beside the data root)")
       .data_option("for the prior")
       .flag("json", "summary as JSON on stdout")
@@ -144,7 +157,9 @@ int run_train(int argc, char** argv) {
     throw UsageError("--poses-out: the training poses were the dataset's pose JSONs, nothing was estimated (add --poses estimate)");
   const nlohmann::ordered_json fit_json = fit_report_json(fits);
   report_pose_estimation(fits, std::cerr, "train");
-  if (args.has("fit-report")) write_file_atomically(args.get("fit-report"), [&](std::ostream& f) { f << fit_json.dump(2) << "\n"; }, false);
+  if (args.has("fit-report"))
+    write_file_atomically(
+        args.get("fit-report"), [&](std::ostream& f) { f << fit_json.dump(2) << "\n"; }, false);
   if (args.has("poses-out")) {
     const fs::path dir = args.get("poses-out");
     std::error_code ec;
@@ -166,12 +181,18 @@ int run_train(int argc, char** argv) {
     if (!prior.not_made.empty()) std::cerr << "posekit train: segmentation prior is the template alone: " << prior.not_made << "\n";
   }
   write_pose_model(args.get("out"), model);
-  nlohmann::ordered_json s = {{"model", args.get("out")}, {"training_poses", model.training_poses},
-                              {"template_vertices", model.template_V.rows()}, {"template_triangles", model.template_F.rows()},
-                              {"fit_rms", model.fit_rms}, {"seconds", seconds},
-                              {"calibration_bodies", prior.bodies}, {"calibration_skipped", prior.skipped},
+  nlohmann::ordered_json s = {{"model", args.get("out")},
+                              {"training_poses", model.training_poses},
+                              {"template_vertices", model.template_V.rows()},
+                              {"template_triangles", model.template_F.rows()},
+                              {"fit_rms", model.fit_rms},
+                              {"seconds", seconds},
+                              {"calibration_bodies", prior.bodies},
+                              {"calibration_skipped", prior.skipped},
                               {"calibration_seconds", prior.seconds},
-                              {"rest", fits.rest_name}, {"poses", fit_json["poses"]}, {"labels", fit_json["labels"]},
+                              {"rest", fits.rest_name},
+                              {"poses", fit_json["poses"]},
+                              {"labels", fit_json["labels"]},
                               {"joint_offsets_kept", offsets_kept(model)},
                               {"warnings", fits.warnings},
                               {"peak_rss_mib", peak_rss_mib()}};
@@ -179,9 +200,8 @@ int run_train(int argc, char** argv) {
     print_json(s);
     return 0;
   }
-  std::cout << "trained on " << model.training_poses << " poses of a " << model.template_V.rows() << "-vertex template in "
-            << std::fixed << std::setprecision(2) << seconds << " s (RMS residual of Eq. 5: " << std::setprecision(4)
-            << model.fit_rms << ")";
+  std::cout << "trained on " << model.training_poses << " poses of a " << model.template_V.rows() << "-vertex template in " << std::fixed
+            << std::setprecision(2) << seconds << " s (RMS residual of Eq. 5: " << std::setprecision(4) << model.fit_rms << ")";
   if (prior.bodies > 0)
     std::cout << "; segmentation prior of " << prior.bodies << " bodies in " << std::setprecision(2) << prior.seconds << " s"
               << (prior.skipped ? " (" + std::to_string(prior.skipped) + " left out: features not found)" : "");

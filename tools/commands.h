@@ -13,7 +13,7 @@ namespace posekit::cli {
 int run_info(int argc, char** argv);
 int run_convert(int argc, char** argv);
 int run_bench(int argc, char** argv);
-int bench_all(int argc, char** argv);  ///< posekit bench all
+int bench_all(int argc, char** argv);       ///< posekit bench all
 int bench_commands(int argc, char** argv);  ///< posekit bench commands
 int run_body(int argc, char** argv);
 int run_dataset(int argc, char** argv);
@@ -44,9 +44,8 @@ struct LoadedPoses {
   std::vector<PartPose> poses;
   std::vector<std::string> notes;  ///< how a BVH skeleton was mapped
 };
-LoadedPoses load_poses(const std::string& path, const std::string& frames, const std::string& data_root,
-                       const Eigen::MatrixXd& rest_joints, const std::string& joint_map, const std::string& root_motion,
-                       const BvhMotion* parsed = nullptr);
+LoadedPoses load_poses(const std::string& path, const std::string& frames, const std::string& data_root, const Eigen::MatrixXd& rest_joints,
+                       const std::string& joint_map, const std::string& root_motion, const BvhMotion* parsed = nullptr);
 
 /// Sets a subject up for posing (segmentation, skeleton, correspondence); a body that cannot be set
 /// up is an InvalidInput naming `path` and the likely cause (it does not stand in the standard pose).
@@ -64,13 +63,13 @@ ShapeSpace make_makehuman_shape_space(const MakeHumanModel& model, PopulationOpt
 /// --shape-space: a count of digits is a MakeHuman population of that many bodies (0: none,
 /// `leave_out` as set_population_leave_out), anything else a .pks file (posekit shape-space).
 bool is_shape_space_file(const std::string& value);
-std::shared_ptr<const ShapeSpace> shape_space_option(const std::string& value, const std::string& leave_out,
-                                                     const std::string& data_root);
+std::shared_ptr<const ShapeSpace> shape_space_option(const std::string& value, const std::string& leave_out, const std::string& data_root);
 /// posekit shape-space --survey: MakeHuman sliders fitted to every subject of an ANSUR II-style survey
 /// (a folder of ANSUR II's two files or one CSV; "" finds ANSUR II), then the principal components of
 /// those bodies, keeping the fewest that reconstruct every body within `max_rms_mm`. `subjects`: that
 /// many spread through the survey (0: all). Prints the fit residuals unless `quiet`; writes them, with
 /// each subject's sliders, to `residuals_path` (JSON) when not empty.
-ShapeSpace survey_shape_space(const std::string& survey, const std::string& data_root, long subjects, double max_rms_mm,
-                              int max_components, int threads, const std::string& residuals_path, bool quiet, const std::vector<std::string>& leave_out_ids = {});
+ShapeSpace survey_shape_space(const std::string& survey, const std::string& data_root, long subjects, double max_rms_mm, int max_components,
+                              int threads, const std::string& residuals_path, bool quiet,
+                              const std::vector<std::string>& leave_out_ids = {});
 }  // namespace posekit::cli

@@ -33,8 +33,7 @@ std::unique_ptr<SurveyDistribution> load_survey(const std::string& survey_arg, s
 void add_body_model_options(ArgParser* args, bool data_option) {
   args->option("body-model", "FILE", "fit this body model (a shape space with joints: posekit shape-space --ansur)")
       .flag("accept-poor", "with --body-model: give the result of a poor fit too (marked poor; exit status 0)");
-  if (data_option)
-    args->data_option("for --body-model");
+  if (data_option) args->data_option("for --body-model");
 }
 
 std::unique_ptr<BodyModel> load_body_model(const ArgParser& args) {
@@ -47,19 +46,21 @@ BodyFit fit_body_model_to_input(const BodyModel& model, const BodyInput& input, 
   // An up axis given (--up) is the only one tried; auto: every axis direction.
   BodyFitOptions o = options;
   if (const std::string& up = args.get("up"); !up.empty() && up != "auto" && o.up_candidates.empty()) o.up_candidates = {parse_axis(up)};
-  const BodyFit fit = input.is_cloud ? fit_body_model(model, input.cloud.P, o) : fit_body_model_to_mesh(model, input.mesh.V, input.mesh.F, o);
+  const BodyFit fit =
+      input.is_cloud ? fit_body_model(model, input.cloud.P, o) : fit_body_model_to_mesh(model, input.mesh.V, input.mesh.F, o);
   for (const auto& w : fit.warnings) std::cerr << "warning: " << path << ": " << w << "\n";
   if (fit.confident) return fit;
   std::string why;
   for (const auto& r : fit.reasons) why += (why.empty() ? "" : "; ") + r;
   if (!args.flag_set("accept-poor"))
-    throw BelowConfidence(path + ": the body model's fit is poor (" + why + "); nothing written (--accept-poor gives it anyway, marked as poor)");
+    throw BelowConfidence(path + ": the body model's fit is poor (" + why +
+                          "); nothing written (--accept-poor gives it anyway, marked as poor)");
   std::cerr << "warning: " << path << ": the body model's fit is poor (" << why << "); given as asked, marked poor\n";
   return fit;
 }
 
-void segment_subject_by_body_model(const BodyModel& model, const TriangleMesh& subject, const std::string& path,
-                                   const ArgParser& args, Eigen::VectorXi* triangle_part, Eigen::MatrixXd* joint_centres) {
+void segment_subject_by_body_model(const BodyModel& model, const TriangleMesh& subject, const std::string& path, const ArgParser& args,
+                                   Eigen::VectorXi* triangle_part, Eigen::MatrixXd* joint_centres) {
   BodyInput input;
   input.mesh = subject;
   const BodyFit fit = fit_body_model_to_input(model, input, path, args);

@@ -30,7 +30,7 @@ BodyFit fit_body_model_to_input(const BodyModel& model, const BodyInput& input, 
 /// A subject's segmentation (#F) and joint centres read off the body model fitted to it (its own
 /// frame), for SubjectSetupOptions: posing then needs no rule about its sections (arms close, a
 /// natural stance). A poor fit as fit_body_model_to_input.
-void segment_subject_by_body_model(const BodyModel& model, const TriangleMesh& subject, const std::string& path,
-                                   const ArgParser& args, Eigen::VectorXi* triangle_part, Eigen::MatrixXd* joint_centres);
+void segment_subject_by_body_model(const BodyModel& model, const TriangleMesh& subject, const std::string& path, const ArgParser& args,
+                                   Eigen::VectorXi* triangle_part, Eigen::MatrixXd* joint_centres);
 
 }  // namespace posekit::cli

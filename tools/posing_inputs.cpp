@@ -2,13 +2,13 @@
 #include <Eigen/Geometry>
 #include <algorithm>
 #include <filesystem>
-#include <sstream>
 #include <iomanip>
 #include <iostream>
 #include <map>
 #include <memory>
-#include <numeric>
 #include <nlohmann/json.hpp>
+#include <numeric>
+#include <sstream>
 
 #include "posing_inputs.h"
 
@@ -19,26 +19,26 @@
 #include "posekit/body/parts.h"
 #include "posekit/core/data_root.h"
 #include "posekit/core/error.h"
+#include "posekit/core/mesh_geometry.h"
+#include "posekit/core/mesh_validation.h"
+#include "posekit/core/point_grid.h"
 #include "posekit/core/timer.h"
 #include "posekit/datasets/dataset.h"
-#include "posekit/fitting/body_fit.h"
-#include "posekit/fitting/body_model.h"
 #include "posekit/deformation/part_pose_estimation.h"
 #include "posekit/deformation/pose_fitting.h"
 #include "posekit/deformation/pose_model.h"
 #include "posekit/deformation/pose_synthesis.h"
 #include "posekit/deformation/rigid_pose.h"
 #include "posekit/deformation/segmentation_calibration.h"
-#include "posekit/population/survey_fit.h"
-#include "posekit/registration/shape_space.h"
 #include "posekit/evaluation/pose_evaluation.h"
-#include "posekit/io/bvh.h"
+#include "posekit/fitting/body_fit.h"
+#include "posekit/fitting/body_model.h"
 #include "posekit/io/atomic_file.h"
+#include "posekit/io/bvh.h"
 #include "posekit/io/mesh_io.h"
 #include "posekit/io/point_cloud_io.h"
-#include "posekit/core/mesh_geometry.h"
-#include "posekit/core/mesh_validation.h"
-#include "posekit/core/point_grid.h"
+#include "posekit/population/survey_fit.h"
+#include "posekit/registration/shape_space.h"
 #include "posekit/segmentation/body_segmentation.h"
 #include "posekit/segmentation/segmentation.h"
 #include "posekit/segmentation/segmentation_prior.h"
@@ -76,9 +76,8 @@ TriangleMesh read_posing_subject(const ArgParser& args, const std::string& comma
   return std::move(input.mesh);
 }
 
-LoadedPoses load_poses(const std::string& path, const std::string& frames, const std::string& data_root,
-                       const Eigen::MatrixXd& rest_joints, const std::string& joint_map, const std::string& root_motion,
-                       const BvhMotion* parsed) {
+LoadedPoses load_poses(const std::string& path, const std::string& frames, const std::string& data_root, const Eigen::MatrixXd& rest_joints,
+                       const std::string& joint_map, const std::string& root_motion, const BvhMotion* parsed) {
   LoadedPoses out;
   std::string ext = fs::path(path).extension().string();
   std::transform(ext.begin(), ext.end(), ext.begin(), [](unsigned char c) { return static_cast<char>(std::tolower(c)); });
@@ -134,7 +133,8 @@ LoadedPoses load_poses(const std::string& path, const std::string& frames, const
   out.poses = retarget_bvh(motion, map, rest_joints, o);
   std::string mapped;
   for (int p = 0; p < kNumParts; ++p)
-    if (map.joint[p] >= 0) mapped += (mapped.empty() ? "" : ", ") + part_name(p) + "=" + motion.joints[static_cast<size_t>(map.joint[p])].name;
+    if (map.joint[p] >= 0)
+      mapped += (mapped.empty() ? "" : ", ") + part_name(p) + "=" + motion.joints[static_cast<size_t>(map.joint[p])].name;
   out.notes.push_back(path + ": retargeted from its own skeleton (" + mapped + ")");
   out.notes.insert(out.notes.end(), map.notes.begin(), map.notes.end());
   return out;
@@ -146,7 +146,9 @@ PoseSynthesizer set_up_subject(std::shared_ptr<const PoseModel> model, const Tri
     return PoseSynthesizer(std::move(model), subject, options);
   } catch (const InvalidInput& e) {
     throw InvalidInput(path + ": cannot be set up for posing: " + e.what() +
-                       (options.joint_centres.size() ? std::string() : "; a subject must stand upright in the standard pose, arms away from the body (or give --body-model)"));
+                       (options.joint_centres.size()
+                            ? std::string()
+                            : "; a subject must stand upright in the standard pose, arms away from the body (or give --body-model)"));
   }
 }
 
@@ -161,8 +163,11 @@ SubjectSetupOptions subject_setup(const ArgParser& args, const TriangleMesh& sub
 
 /// What a user needs to hear about the template and the estimated poses, on stderr.
 void report_pose_estimation(const DatasetTrainingReport& r, std::ostream& err, const std::string& command) {
-  err << "posekit " << command << ": template '" << r.rest_name << "' (" << r.rest_reason << "), unit " << r.unit << ", "
-      << r.orientation << "; labels " << (r.labels_from_dataset ? "from the dataset" : r.labels_from_body_model ? "from the body model's fit" : "from its own segmentation (Eq. 2)")
+  err << "posekit " << command << ": template '" << r.rest_name << "' (" << r.rest_reason << "), unit " << r.unit << ", " << r.orientation
+      << "; labels "
+      << (r.labels_from_dataset      ? "from the dataset"
+          : r.labels_from_body_model ? "from the body model's fit"
+                                     : "from its own segmentation (Eq. 2)")
       << "\n";
   if (!r.poses_estimated) return;
   std::vector<double> rms, joint;
@@ -194,7 +199,10 @@ void add_dataset_training_options(ArgParser* args) {
       .flag("joint-offsets",
             "extension beyond the paper: learn where each joint sits as a function of its twist (a shoulder girdle\n"
             "                          that rises with the arm), kept per joint where it lowers the training error")
-      .option("smooth", "N", "extension beyond the paper, for noisy meshes: smooth each example's non-rigid deformation over N rounds of neighbouring triangles before Eq. 5", "0");
+      .option("smooth", "N",
+              "extension beyond the paper, for noisy meshes: smooth each example's non-rigid deformation over N rounds of neighbouring "
+              "triangles before Eq. 5",
+              "0");
   add_orientation_options(args, "", "the meshes' body");
 }
 

@@ -11,14 +11,14 @@
 #include <sstream>
 
 #include "json_helpers.h"
-#include "posekit/body/makehuman_model.h"
 #include "posekit/body/anatomical_driving.h"
+#include "posekit/body/makehuman_model.h"
 #include "posekit/body/skinning.h"
 #include "posekit/core/error.h"
-#include "posekit/datasets/pose_set.h"
-#include "posekit/datasets/rasterizer.h"
 #include "posekit/core/mesh_geometry.h"
 #include "posekit/core/timer.h"
+#include "posekit/datasets/pose_set.h"
+#include "posekit/datasets/rasterizer.h"
 #include "posekit/datasets/remesh.h"
 #include "posekit/datasets/scanner.h"
 #include "posekit/datasets/subjects.h"
@@ -36,8 +36,7 @@ namespace {
 const char* kSubjectTestPoses[] = {"walk_phase_1", "reach_forward", "squat_half"};
 /// With anatomical driving, subjects are also posed (not scanned) in these held-out poses, so that
 /// every pose type has subjects: sit, torso, single joints, a reach across the body.
-const char* kSubjectExtraPoses[] = {"sitting", "torso_bend_right_20", "reach_left_low", "right_shoulder_raise_120",
-                                    "left_hip_flex_75"};
+const char* kSubjectExtraPoses[] = {"sitting", "torso_bend_right_20", "reach_left_low", "right_shoulder_raise_120", "left_hip_flex_75"};
 
 class DatasetWriter {
  public:
@@ -58,8 +57,7 @@ class DatasetWriter {
     write_point_cloud((root_ / rel).string(), c, {Unit::kMillimetre});
     add(rel, "scan", meaning);
   }
-  void png(const std::string& rel, int w, int h, const std::vector<std::uint8_t>& px, const std::string& kind,
-           const std::string& meaning) {
+  void png(const std::string& rel, int w, int h, const std::vector<std::uint8_t>& px, const std::string& kind, const std::string& meaning) {
     ensure_parent(rel);
     write_gray_png((root_ / rel).string(), w, h, px);
     add(rel, kind, meaning);
@@ -110,10 +108,13 @@ std::string measurements_json(const Measurements& m, const BodyStats& st) {
   nlohmann::ordered_json j;
   j["units"] = "m (girths are convex-hull perimeters of the cross-section; definitions in README)";
   j["stature"] = m.stature;
-  j["girths"] = {{"bust", m.bust}, {"underbust", m.underbust}, {"waist", m.waist}, {"hip", m.hip},
+  j["girths"] = {{"bust", m.bust},   {"underbust", m.underbust}, {"waist", m.waist}, {"hip", m.hip},
                  {"thigh", m.thigh}, {"upper_arm", m.upper_arm}, {"neck", m.neck}};
-  j["levels_y"] = {{"arms_separate", m.arms_separate_height}, {"bust", m.bust_height}, {"waist", m.waist_height},
-                  {"hip", m.hip_height}, {"crotch", m.crotch_height}};
+  j["levels_y"] = {{"arms_separate", m.arms_separate_height},
+                   {"bust", m.bust_height},
+                   {"waist", m.waist_height},
+                   {"hip", m.hip_height},
+                   {"crotch", m.crotch_height}};
   j["volume_litres"] = st.volume_litres;
   j["mass_kg"] = st.mass_kg;
   j["bmi"] = st.bmi;
@@ -129,8 +130,7 @@ DatasetSummary make_dataset(const std::string& out_dir, const DatasetOptions& o)
   if (fs::exists(out, ec) && !o.force) throw IoError(out.string() + ": already exists (choose another --out or pass --force)");
   const fs::path tmp = out.string() + ".tmp-" + std::to_string(::getpid());
   fs::remove_all(tmp, ec);
-  if (!fs::create_directories(tmp, ec) || ec)
-    throw IoError(tmp.string() + ": cannot create the output folder (" + ec.message() + ")");
+  if (!fs::create_directories(tmp, ec) || ec) throw IoError(tmp.string() + ": cannot create the output folder (" + ec.message() + ")");
   try {
     const auto model = load_makehuman_model(o.data_root);
     const std::optional<AnatomicalDriving> anatomy = parse_driving(o.driving);
@@ -138,11 +138,14 @@ DatasetSummary make_dataset(const std::string& out_dir, const DatasetOptions& o)
     DatasetSummary summary;
     nlohmann::ordered_json manifest;
     manifest["format"] = "posekit dataset 1";
-    manifest["generator"] = {{"seed", o.seed}, {"small", o.small}, {"source", "MakeHuman CC0 assets (data root)"},
-                             {"posing", anatomy ? "163-bone rig driven anatomically (" + anatomy->name + "), MakeHuman skinning weights, " +
-                                            (anatomy->dual_quaternion ? "dual quaternion" : "linear blend") + " skinning"
-                                        : std::string("163-bone rig, one bone per part, MakeHuman skinning weights, dual quaternion skinning")},
-                             {"driving", o.driving}};
+    manifest["generator"] = {
+        {"seed", o.seed},
+        {"small", o.small},
+        {"source", "MakeHuman CC0 assets (data root)"},
+        {"posing", anatomy ? "163-bone rig driven anatomically (" + anatomy->name + "), MakeHuman skinning weights, " +
+                                 (anatomy->dual_quaternion ? "dual quaternion" : "linear blend") + " skinning"
+                           : std::string("163-bone rig, one bone per part, MakeHuman skinning weights, dual quaternion skinning")},
+        {"driving", o.driving}};
     manifest["units"] = {{"meshes", "m"}, {"scans", "mm"}, {"angles", "radians"}};
 
     // Template: the pose-dataset subject in rest pose.
@@ -187,14 +190,18 @@ DatasetSummary make_dataset(const std::string& out_dir, const DatasetOptions& o)
       m.F = templ.mesh.F;
       w.mesh("pose_dataset/" + p.name + ".ply", m, "pose example", "template registered in pose '" + p.name + "'");
       w.text("pose_dataset/" + p.name + ".json", pose_json(p), "pose", "16-part pose of '" + p.name + "'");
-      pose_list.push_back({{"name", p.name}, {"mesh", "pose_dataset/" + p.name + ".ply"},
-                           {"pose", "pose_dataset/" + p.name + ".json"}, {"split", p.test ? "test" : "train"}});
+      pose_list.push_back({{"name", p.name},
+                           {"mesh", "pose_dataset/" + p.name + ".ply"},
+                           {"pose", "pose_dataset/" + p.name + ".json"},
+                           {"split", p.test ? "test" : "train"}});
       ++summary.poses;
       summary.test_poses += p.test;
       if (o.progress) o.progress(++step, total_steps, "pose " + p.name);
     }
-    manifest["template"] = {{"mesh", "template/rest.ply"}, {"parts", "template/parts.json"},
-                            {"joints", "template/joints.json"}, {"spec", "template/spec.json"}};
+    manifest["template"] = {{"mesh", "template/rest.ply"},
+                            {"parts", "template/parts.json"},
+                            {"joints", "template/joints.json"},
+                            {"spec", "template/spec.json"}};
     manifest["pose_dataset"] = {{"rest", "rest"}, {"poses", pose_list}};
 
     // Subjects.
@@ -248,16 +255,19 @@ DatasetSummary make_dataset(const std::string& out_dir, const DatasetOptions& o)
         const SimulatedScan scan = simulate_scan(scanned[k].second, so);
         const std::string rel = "scans/" + s.id + "/" + scanned[k].first + ".pcd";
         w.cloud(rel, scan.cloud, "simulated scan of " + s.id + " in '" + scanned[k].first + "' (mm, 8 views, noise along rays)");
-        scans.push_back({{"pose", scanned[k].first}, {"cloud", rel}, {"points", scan.cloud.size()}, {"outliers", scan.outliers},
+        scans.push_back({{"pose", scanned[k].first},
+                         {"cloud", rel},
+                         {"points", scan.cloud.size()},
+                         {"outliers", scan.outliers},
                          {"noise_sigma_mm", o.scan_noise_sigma * 1000}});
         ++summary.scans;
       }
       // Photos: front and (left) side at 3 m, perspective, plain background.
       const double mid = 0.5 * (rest_mesh.V.col(1).maxCoeff() + rest_mesh.V.col(1).minCoeff());
-      const PinholeCamera front = PinholeCamera::look_at(Eigen::Vector3d(0, mid, 3.0), Eigen::Vector3d(0, mid, 0),
-                                                         Eigen::Vector3d::UnitY(), 800, 1200, 1400);
-      const PinholeCamera side = PinholeCamera::look_at(Eigen::Vector3d(3.0, mid, 0), Eigen::Vector3d(0, mid, 0),
-                                                        Eigen::Vector3d::UnitY(), 800, 1200, 1400);
+      const PinholeCamera front =
+          PinholeCamera::look_at(Eigen::Vector3d(0, mid, 3.0), Eigen::Vector3d(0, mid, 0), Eigen::Vector3d::UnitY(), 800, 1200, 1400);
+      const PinholeCamera side =
+          PinholeCamera::look_at(Eigen::Vector3d(3.0, mid, 0), Eigen::Vector3d(0, mid, 0), Eigen::Vector3d::UnitY(), 800, 1200, 1400);
       std::string cameras = "{\n\"front\": " + camera_to_json(front) + ",\n\"side\": " + camera_to_json(side) + "}\n";
       for (const auto& [view, cam] : {std::pair<std::string, PinholeCamera>{"front", front}, {"side", side}}) {
         const RenderBuffers buf = render_mesh(rest_mesh, cam);
@@ -270,16 +280,28 @@ DatasetSummary make_dataset(const std::string& out_dir, const DatasetOptions& o)
         summary.photos += 1;
       }
       w.text("photos/" + s.id + "/camera.json", cameras, "camera", "intrinsics and extrinsics of the front and side photos");
-      subjects.push_back({{"id", s.id}, {"gender", s.female ? "female" : "male"}, {"bmi", st.bmi},
-                          {"bmi_class", bmi_class_name(bmi_class_of(st.bmi))}, {"target_bmi", s.target_bmi},
-                          {"stature_m", st.stature_m}, {"mass_kg", st.mass_kg}, {"spec", dir + "spec.json"},
-                          {"rest", dir + "rest.ply"}, {"vertices", rest_mesh.num_vertices()}, {"triangles", rest_mesh.num_faces()},
-                          {"measurements", dir + "measurements.json"}, {"correspondence", dir + "correspondence.csv"},
-                          {"joints", dir + "joints.json"}, {"posed", posed}, {"scans", scans},
-                          {"photos", {{"front", "photos/" + s.id + "/front.png"}, {"side", "photos/" + s.id + "/side.png"},
-                                      {"front_mask", "photos/" + s.id + "/front_mask.png"},
-                                      {"side_mask", "photos/" + s.id + "/side_mask.png"},
-                                      {"camera", "photos/" + s.id + "/camera.json"}}}});
+      subjects.push_back({{"id", s.id},
+                          {"gender", s.female ? "female" : "male"},
+                          {"bmi", st.bmi},
+                          {"bmi_class", bmi_class_name(bmi_class_of(st.bmi))},
+                          {"target_bmi", s.target_bmi},
+                          {"stature_m", st.stature_m},
+                          {"mass_kg", st.mass_kg},
+                          {"spec", dir + "spec.json"},
+                          {"rest", dir + "rest.ply"},
+                          {"vertices", rest_mesh.num_vertices()},
+                          {"triangles", rest_mesh.num_faces()},
+                          {"measurements", dir + "measurements.json"},
+                          {"correspondence", dir + "correspondence.csv"},
+                          {"joints", dir + "joints.json"},
+                          {"posed", posed},
+                          {"scans", scans},
+                          {"photos",
+                           {{"front", "photos/" + s.id + "/front.png"},
+                            {"side", "photos/" + s.id + "/side.png"},
+                            {"front_mask", "photos/" + s.id + "/front_mask.png"},
+                            {"side_mask", "photos/" + s.id + "/side_mask.png"},
+                            {"camera", "photos/" + s.id + "/camera.json"}}}});
       ++summary.subjects;
       if (o.progress) o.progress(++step, total_steps, "subject " + s.id);
     }
@@ -344,8 +366,8 @@ PoseDataset load_pose_dataset(const std::string& dir, Unit unit) {
       ds.F = m.F;
     } else if (m.V.rows() != ds.V.front().rows() || m.F.rows() != ds.F.rows() || m.F != ds.F) {
       throw InvalidInput(p.string() + ": " + std::to_string(m.V.rows()) + " vertices / " + std::to_string(m.F.rows()) +
-                         " triangles disagree with " + meshes.front().string() + " (" + std::to_string(ds.V.front().rows()) +
-                         " / " + std::to_string(ds.F.rows()) + "): a pose dataset's meshes must share one topology");
+                         " triangles disagree with " + meshes.front().string() + " (" + std::to_string(ds.V.front().rows()) + " / " +
+                         std::to_string(ds.F.rows()) + "): a pose dataset's meshes must share one topology");
     }
     const std::string stem = p.stem().string();
     ds.names.push_back(stem);

@@ -83,32 +83,42 @@ std::vector<NamedPose> standard_pose_set(const Eigen::MatrixXd& C, unsigned seed
   };
   for (int phase = 0; phase < 4; ++phase) {  // a walking cycle
     const double s = std::sin(phase * M_PI / 2), c = std::cos(phase * M_PI / 2);
-    combo("walk_phase_" + std::to_string(phase),
-          {{"left_hip", -30 * s * kDeg * X}, {"right_hip", 30 * s * kDeg * X},
-           {"left_knee", (10 + 25 * std::max(0.0, -c)) * kDeg * X}, {"right_knee", (10 + 25 * std::max(0.0, c)) * kDeg * X},
-           {"left_shoulder", 25 * s * kDeg * X}, {"right_shoulder", -25 * s * kDeg * X},
-           {"left_elbow", 20 * kDeg * ax.left_elbow_flex}, {"right_elbow", 20 * kDeg * ax.right_elbow_flex},
-           {"upper_back", 6 * s * kDeg * Y}});
+    combo("walk_phase_" + std::to_string(phase), {{"left_hip", -30 * s * kDeg * X},
+                                                  {"right_hip", 30 * s * kDeg * X},
+                                                  {"left_knee", (10 + 25 * std::max(0.0, -c)) * kDeg * X},
+                                                  {"right_knee", (10 + 25 * std::max(0.0, c)) * kDeg * X},
+                                                  {"left_shoulder", 25 * s * kDeg * X},
+                                                  {"right_shoulder", -25 * s * kDeg * X},
+                                                  {"left_elbow", 20 * kDeg * ax.left_elbow_flex},
+                                                  {"right_elbow", 20 * kDeg * ax.right_elbow_flex},
+                                                  {"upper_back", 6 * s * kDeg * Y}});
   }
   combo("reach_forward", {{"left_shoulder", -90 * kDeg * X}, {"right_shoulder", -90 * kDeg * X}, {"lower_back", 15 * kDeg * X}});
   combo("reach_up", {{"left_shoulder", 150 * kDeg * ax.left_arm_raise}, {"right_shoulder", 150 * kDeg * ax.right_arm_raise}});
   combo("reach_left_low", {{"right_shoulder", -110 * kDeg * X}, {"lower_back", 30 * kDeg * X}, {"upper_back", 25 * kDeg * Y}});
   for (double depth : {0.5, 1.0}) {
-    combo(depth < 1 ? "squat_half" : "squat_deep",
-          {{"left_hip", -100 * depth * kDeg * X}, {"right_hip", -100 * depth * kDeg * X},
-           {"left_knee", 130 * depth * kDeg * X}, {"right_knee", 130 * depth * kDeg * X},
-           {"left_ankle", -25 * depth * kDeg * X}, {"right_ankle", -25 * depth * kDeg * X},
-           {"lower_back", 20 * depth * kDeg * X}, {"left_shoulder", -60 * depth * kDeg * X},
-           {"right_shoulder", -60 * depth * kDeg * X}});
+    combo(depth < 1 ? "squat_half" : "squat_deep", {{"left_hip", -100 * depth * kDeg * X},
+                                                    {"right_hip", -100 * depth * kDeg * X},
+                                                    {"left_knee", 130 * depth * kDeg * X},
+                                                    {"right_knee", 130 * depth * kDeg * X},
+                                                    {"left_ankle", -25 * depth * kDeg * X},
+                                                    {"right_ankle", -25 * depth * kDeg * X},
+                                                    {"lower_back", 20 * depth * kDeg * X},
+                                                    {"left_shoulder", -60 * depth * kDeg * X},
+                                                    {"right_shoulder", -60 * depth * kDeg * X}});
   }
-  combo("sitting", {{"left_hip", -90 * kDeg * X}, {"right_hip", -90 * kDeg * X}, {"left_knee", 90 * kDeg * X},
-                    {"right_knee", 90 * kDeg * X}, {"left_elbow", 60 * kDeg * ax.left_elbow_flex},
+  combo("sitting", {{"left_hip", -90 * kDeg * X},
+                    {"right_hip", -90 * kDeg * X},
+                    {"left_knee", 90 * kDeg * X},
+                    {"right_knee", 90 * kDeg * X},
+                    {"left_elbow", 60 * kDeg * ax.left_elbow_flex},
                     {"right_elbow", 60 * kDeg * ax.right_elbow_flex}});
   combo("t_pose", {{"left_shoulder", 45 * kDeg * ax.left_arm_raise}, {"right_shoulder", 45 * kDeg * ax.right_arm_raise}});
-  combo("guard", {{"left_shoulder", -40 * kDeg * X}, {"right_shoulder", -40 * kDeg * X},
-                  {"left_elbow", 120 * kDeg * ax.left_elbow_flex}, {"right_elbow", 120 * kDeg * ax.right_elbow_flex}});
-  combo("lunge", {{"left_hip", -70 * kDeg * X}, {"left_knee", 80 * kDeg * X}, {"right_hip", 25 * kDeg * X},
-                  {"right_knee", 20 * kDeg * X}});
+  combo("guard", {{"left_shoulder", -40 * kDeg * X},
+                  {"right_shoulder", -40 * kDeg * X},
+                  {"left_elbow", 120 * kDeg * ax.left_elbow_flex},
+                  {"right_elbow", 120 * kDeg * ax.right_elbow_flex}});
+  combo("lunge", {{"left_hip", -70 * kDeg * X}, {"left_knee", 80 * kDeg * X}, {"right_hip", 25 * kDeg * X}, {"right_knee", 20 * kDeg * X}});
 
   // Random plausible combinations: every joint within a third of its range.
   std::mt19937 rng(seed);

@@ -18,8 +18,8 @@ Eigen::Vector3d PinholeCamera::ray(double u, double v) const {
   return (R.transpose() * d_cam).normalized();
 }
 
-PinholeCamera PinholeCamera::look_at(const Eigen::Vector3d& eye, const Eigen::Vector3d& target, const Eigen::Vector3d& up,
-                                     int width, int height, double focal_px) {
+PinholeCamera PinholeCamera::look_at(const Eigen::Vector3d& eye, const Eigen::Vector3d& target, const Eigen::Vector3d& up, int width,
+                                     int height, double focal_px) {
   PinholeCamera c;
   c.width = width;
   c.height = height;
@@ -36,7 +36,9 @@ PinholeCamera PinholeCamera::look_at(const Eigen::Vector3d& eye, const Eigen::Ve
   return c;
 }
 
-int RenderBuffers::covered() const { return static_cast<int>(std::count_if(face.begin(), face.end(), [](int f) { return f >= 0; })); }
+int RenderBuffers::covered() const {
+  return static_cast<int>(std::count_if(face.begin(), face.end(), [](int f) { return f >= 0; }));
+}
 
 RenderBuffers render_mesh(const TriangleMesh& mesh, const PinholeCamera& cam, std::uint8_t background) {
   if (cam.width <= 0 || cam.height <= 0 || cam.fx <= 0 || cam.fy <= 0) throw InvalidInput("render_mesh: bad camera");
@@ -94,13 +96,12 @@ RenderBuffers render_mesh(const TriangleMesh& mesh, const PinholeCamera& cam, st
 std::string camera_to_json(const PinholeCamera& c) {
   std::ostringstream o;
   o << std::setprecision(17) << "{\n  \"model\": \"pinhole\",\n  \"convention\": \"x_cam = R x_world + t; camera looks along +z, "
-    << "x right, y down (OpenCV); world in metres, Y up, subject facing +Z\",\n  \"width\": " << c.width
-    << ",\n  \"height\": " << c.height << ",\n  \"K\": [[" << c.fx << ", 0, " << c.cx << "], [0, " << c.fy << ", " << c.cy
-    << "], [0, 0, 1]],\n  \"R\": [";
+    << "x right, y down (OpenCV); world in metres, Y up, subject facing +Z\",\n  \"width\": " << c.width << ",\n  \"height\": " << c.height
+    << ",\n  \"K\": [[" << c.fx << ", 0, " << c.cx << "], [0, " << c.fy << ", " << c.cy << "], [0, 0, 1]],\n  \"R\": [";
   for (int r = 0; r < 3; ++r) o << (r ? ", " : "") << "[" << c.R(r, 0) << ", " << c.R(r, 1) << ", " << c.R(r, 2) << "]";
   const Eigen::Vector3d e = c.centre();
-  o << "],\n  \"t\": [" << c.t.x() << ", " << c.t.y() << ", " << c.t.z() << "],\n  \"centre\": [" << e.x() << ", " << e.y()
-    << ", " << e.z() << "]\n}\n";
+  o << "],\n  \"t\": [" << c.t.x() << ", " << c.t.y() << ", " << c.t.z() << "],\n  \"centre\": [" << e.x() << ", " << e.y() << ", " << e.z()
+    << "]\n}\n";
   return o.str();
 }
 

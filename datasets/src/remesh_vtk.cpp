@@ -3,6 +3,7 @@
 #include "posekit/datasets/remesh.h"
 
 #include <vtkCellArray.h>
+#include <vtkCellLocator.h>
 #include <vtkGenericCell.h>
 #include <vtkIdList.h>
 #include <vtkLoopSubdivisionFilter.h>
@@ -11,7 +12,6 @@
 #include <vtkPolyData.h>
 #include <vtkQuadricDecimation.h>
 #include <vtkSmartPointer.h>
-#include <vtkCellLocator.h>
 
 #include <Eigen/Geometry>
 
@@ -59,7 +59,6 @@ TriangleMesh from_vtk(vtkPolyData* poly) {
   m.F = Eigen::Map<Eigen::Matrix<int, Eigen::Dynamic, 3, Eigen::RowMajor>>(tris.data(), static_cast<Eigen::Index>(tris.size() / 3), 3);
   return m;
 }
-
 
 }  // namespace
 
@@ -164,9 +163,9 @@ TriangleMesh remesh_body_vtk(const TriangleMesh& mesh, int target_vertices, Surf
     if (correspondence) *correspondence = std::move(snap);
     return out;
   }
-  throw InvalidInput("remesh_body: the remeshed body is not a closed manifold (" + std::to_string(r.boundary_edges) +
-                     " boundary edges, " + std::to_string(r.non_manifold_edges) + " non-manifold edges, " +
-                     std::to_string(r.degenerate_faces) + " degenerate faces)");
+  throw InvalidInput("remesh_body: the remeshed body is not a closed manifold (" + std::to_string(r.boundary_edges) + " boundary edges, " +
+                     std::to_string(r.non_manifold_edges) + " non-manifold edges, " + std::to_string(r.degenerate_faces) +
+                     " degenerate faces)");
 }
 
 }  // namespace posekit

@@ -90,8 +90,9 @@ const std::vector<RobustnessVariation> kVariations = {
     {"sitting_floor", "hips flexed 85-95 degrees, knees 0-10, arms down"},
     {"bending_forward", "pelvis tipped 30-45 degrees forward over upright legs, back 20-30 more"},
     {"tilted", "the A-pose tilted 5-15 degrees about a random horizontal axis (a scanner's frame)"},
-    {"random_pose", "each joint at random within a range of motion: arms 0-110 degrees out and -20-90 forward, elbows 0-120, "
-                    "hips -15-90 forward and 0-25 out, knees 0-100, back -10-30 forward and 15 twisted, neck -20-30"},
+    {"random_pose",
+     "each joint at random within a range of motion: arms 0-110 degrees out and -20-90 forward, elbows 0-120, "
+     "hips -15-90 forward and 0-25 out, knees 0-100, back -10-30 forward and 15 twisted, neck -20-30"},
     // Booth scans of pose kinds (as scan_cloud): what a body scanner gives of people who do not hold
     // the scanning posture.
     {"scan_arms_touching", "arms_touching as a simulated booth scan (points, mm)"},
@@ -101,9 +102,7 @@ const std::vector<RobustnessVariation> kVariations = {
 };
 
 /// The pose kind of a variation: its name, or for a scan of a pose kind the name without "scan_".
-std::string pose_kind_of(const std::string& v) {
-  return v.rfind("scan_", 0) == 0 && v != "scan_cloud" ? v.substr(5) : v;
-}
+std::string pose_kind_of(const std::string& v) { return v.rfind("scan_", 0) == 0 && v != "scan_cloud" ? v.substr(5) : v; }
 
 Eigen::Vector3d joint(const Eigen::MatrixXd& J, const std::string& name) { return J.row(find_joint_index(name)).transpose(); }
 
@@ -212,8 +211,9 @@ std::optional<PartPose> pose_kind(const std::string& v, const Eigen::MatrixXd& J
       const Eigen::Vector3d d = joint(J, s + "elbow") - joint(J, s + "shoulder");
       const double rest = std::atan2(std::abs(d.x()), -d.y());
       set((s + "shoulder").c_str(), axis_angle_from_rotation(rotation_from_axis_angle(-deg(-20, 90) * X) *
-                                                           rotation_from_axis_angle(side * (deg(0, 110) - rest) * Z)));
-      set((s + "hip").c_str(), axis_angle_from_rotation(rotation_from_axis_angle(-deg(-15, 90) * X) * rotation_from_axis_angle(side * deg(0, 25) * Z)));
+                                                             rotation_from_axis_angle(side * (deg(0, 110) - rest) * Z)));
+      set((s + "hip").c_str(),
+          axis_angle_from_rotation(rotation_from_axis_angle(-deg(-15, 90) * X) * rotation_from_axis_angle(side * deg(0, 25) * Z)));
       set((s + "knee").c_str(), deg(0, 100) * X);
     }
     PartPose elbows;
@@ -234,10 +234,9 @@ std::optional<PartPose> pose_kind(const std::string& v, const Eigen::MatrixXd& J
   return p;
 }
 
-
 const std::vector<std::pair<std::string, double>> kFists = {
-    {"Finger1CloseLeft", 0.8}, {"Finger2CloseLeft", 1.0}, {"Finger3CloseLeft", 1.0}, {"Finger4CloseLeft", 1.0},
-    {"Finger5CloseLeft", 1.0}, {"Finger1CloseRight", 0.8}, {"Finger2CloseRight", 1.0}, {"Finger3CloseRight", 1.0},
+    {"Finger1CloseLeft", 0.8},  {"Finger2CloseLeft", 1.0},  {"Finger3CloseLeft", 1.0},  {"Finger4CloseLeft", 1.0},
+    {"Finger5CloseLeft", 1.0},  {"Finger1CloseRight", 0.8}, {"Finger2CloseRight", 1.0}, {"Finger3CloseRight", 1.0},
     {"Finger4CloseRight", 1.0}, {"Finger5CloseRight", 1.0}};
 
 /// The gap (m) between the thighs 4 cm below the crotch (the rig's upperleg02 heads): inner
@@ -344,8 +343,8 @@ void add_floating_bits(Sample* s, int blobs, int loose, std::mt19937* rng) {
   ico << -1, t, 0, 1, t, 0, -1, -t, 0, 1, -t, 0, 0, -1, t, 0, 1, t, 0, -1, -t, 0, 1, -t, t, 0, -1, t, 0, 1, -t, 0, -1, -t, 0, 1;
   ico.rowwise().normalize();
   Eigen::MatrixXi ico_f(20, 3);
-  ico_f << 0, 11, 5, 0, 5, 1, 0, 1, 7, 0, 7, 10, 0, 10, 11, 1, 5, 9, 5, 11, 4, 11, 10, 2, 10, 7, 6, 7, 1, 8, 3, 9, 4, 3, 4, 2,
-      3, 2, 6, 3, 6, 8, 3, 8, 9, 4, 9, 5, 2, 4, 11, 6, 2, 10, 8, 6, 7, 9, 8, 1;
+  ico_f << 0, 11, 5, 0, 5, 1, 0, 1, 7, 0, 7, 10, 0, 10, 11, 1, 5, 9, 5, 11, 4, 11, 10, 2, 10, 7, 6, 7, 1, 8, 3, 9, 4, 3, 4, 2, 3, 2, 6, 3,
+      6, 8, 3, 8, 9, 4, 9, 5, 2, 4, 11, 6, 2, 10, 8, 6, 7, 9, 8, 1;
   for (int b = 0; b < blobs; ++b) {
     const double r = 0.01 + 0.03 * u(*rng);
     const double angle = 2 * M_PI * u(*rng), away = 0.15 + 0.35 * u(*rng);
@@ -438,9 +437,8 @@ RobustnessSummary make_robustness_set(const std::string& out_dir, const Robustne
         return s;
       };
       auto posed = [&](const PartPose& pose, const std::vector<std::pair<std::string, double>>& fingers,
-                       const nlohmann::ordered_json& facts, const Body& base) {
-        return sample_of(pose_body(*model, units, base, pose, fingers), facts);
-      };
+                       const nlohmann::ordered_json& facts,
+                       const Body& base) { return sample_of(pose_body(*model, units, base, pose, fingers), facts); };
       // A heavier version of the shape, feet brought together (20 cm down to 8 cm between the ankles)
       // until the thighs press `overlap` (m) into each other 4 cm below the crotch, as on heavy people.
       auto thighs_pressed = [&](int shape, double overlap) {
@@ -460,8 +458,8 @@ RobustnessSummary make_robustness_set(const std::string& out_dir, const Robustne
           if (gap < -overlap) break;
         }
         const BodyStats heavy_stats = body_stats(body.mesh);
-        Sample pressed = sample_of(together, {{"weight_slider", heavy.weight}, {"bmi", heavy_stats.bmi}, {"ankle_separation_m", d},
-                                              {"thigh_gap_m", gap}});
+        Sample pressed = sample_of(
+            together, {{"weight_slider", heavy.weight}, {"bmi", heavy_stats.bmi}, {"ankle_separation_m", d}, {"thigh_gap_m", gap}});
         if (pressed.girth_truth != "this pose") pressed.girths = measure_makehuman_body(*model, body);
         return pressed;
       };
@@ -554,7 +552,8 @@ RobustnessSummary make_robustness_set(const std::string& out_dir, const Robustne
           cut_head(&s, 0.05 + 0.05 * u(rng));
         } else if (v == "no_head") {
           s = apose;
-          const double chin = joint(s.joints, "neck").y() + 0.45 * (rest.bone_heads(model->rig.find_bone("head"), 1) - joint(s.joints, "neck").y());
+          const double chin =
+              joint(s.joints, "neck").y() + 0.45 * (rest.bone_heads(model->rig.find_bone("head"), 1) - joint(s.joints, "neck").y());
           const double top = s.mesh.V.col(1).maxCoeff(), floor = s.mesh.V.col(1).minCoeff();
           cut_head(&s, (top - chin) / (top - floor));
         } else if (v == "hands_cut") {
@@ -615,13 +614,15 @@ RobustnessSummary make_robustness_set(const std::string& out_dir, const Robustne
         truth["shape"] = id;
         truth["kind"] = form.scan ? "scan" : "mesh";
         truth["file"] = {{"path", file}, {"unit", unit_name(form.unit)}, {"up", form.up}, {"forward", form.forward}};
-        truth["body"] = {{"gender", specs[static_cast<size_t>(k)].gender}, {"weight", specs[static_cast<size_t>(k)].weight},
-                         {"bmi", stats.bmi}, {"stature_m", stats.stature_m}};
+        truth["body"] = {{"gender", specs[static_cast<size_t>(k)].gender},
+                         {"weight", specs[static_cast<size_t>(k)].weight},
+                         {"bmi", stats.bmi},
+                         {"stature_m", stats.stature_m}};
         truth["done"] = s.facts;
         truth["frame"] = "posekit (Y up, facing +Z, left +X), metres";
         for (int j = 0; j < kNumJoints; ++j) truth["joints"][joint_name(j)] = vec(s.joints.row(j).transpose());
         const Measurements& g = s.girths;
-        truth["girths"] = {{"bust", g.bust}, {"underbust", g.underbust}, {"waist", g.waist}, {"hip", g.hip},
+        truth["girths"] = {{"bust", g.bust},   {"underbust", g.underbust}, {"waist", g.waist}, {"hip", g.hip},
                            {"thigh", g.thigh}, {"upper_arm", g.upper_arm}, {"neck", g.neck}};
         truth["girths_from"] = s.girth_truth;
         truth["levels_y"] = {{"crotch", g.crotch_height}, {"hip", g.hip_height}, {"waist", g.waist_height}, {"bust", g.bust_height}};
@@ -635,7 +636,9 @@ RobustnessSummary make_robustness_set(const std::string& out_dir, const Robustne
     }
     nlohmann::ordered_json manifest;
     manifest["format"] = "posekit robustness set 1";
-    manifest["generator"] = {{"seed", o.seed}, {"shapes", shapes}, {"source", "MakeHuman CC0 assets (data root)"},
+    manifest["generator"] = {{"seed", o.seed},
+                             {"shapes", shapes},
+                             {"source", "MakeHuman CC0 assets (data root)"},
                              {"shapes_from", o.shape_specs.empty() ? "random MakeHuman sliders" : o.shapes_source},
                              {"posing", "163-bone rig, MakeHuman skinning weights, dual quaternion skinning"}};
     nlohmann::ordered_json vars = nlohmann::ordered_json::array();

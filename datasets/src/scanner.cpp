@@ -81,9 +81,11 @@ class ColumnGrid {
     cells_.resize(static_cast<size_t>(nx_) * ny_);
     for (int f = 0; f < F.rows(); ++f) {
       Eigen::Vector2d a = V.row(F(f, 0)).head<2>().transpose(), b = a;
-      for (int c = 1; c < 3; ++c) a = a.cwiseMin(V.row(F(f, c)).head<2>().transpose()), b = b.cwiseMax(V.row(F(f, c)).head<2>().transpose());
+      for (int c = 1; c < 3; ++c)
+        a = a.cwiseMin(V.row(F(f, c)).head<2>().transpose()), b = b.cwiseMax(V.row(F(f, c)).head<2>().transpose());
       for (int i = index(a.x(), lo_.x(), nx_); i <= index(b.x(), lo_.x(), nx_); ++i)
-        for (int j = index(a.y(), lo_.y(), ny_); j <= index(b.y(), lo_.y(), ny_); ++j) cells_[static_cast<size_t>(i) * ny_ + j].push_back(f);
+        for (int j = index(a.y(), lo_.y(), ny_); j <= index(b.y(), lo_.y(), ny_); ++j)
+          cells_[static_cast<size_t>(i) * ny_ + j].push_back(f);
     }
   }
 
@@ -119,7 +121,9 @@ class ColumnGrid {
 constexpr double kFuseProbe = 0.001;  ///< m outside a triangle where its winding number is taken
 constexpr size_t kSmallPatch = 8;     ///< triangles: a patch this small is a contact's ragged edge
 
-std::uint64_t edge_key(int a, int b) { return (static_cast<std::uint64_t>(static_cast<std::uint32_t>(a)) << 32) | static_cast<std::uint32_t>(b); }
+std::uint64_t edge_key(int a, int b) {
+  return (static_cast<std::uint64_t>(static_cast<std::uint32_t>(a)) << 32) | static_cast<std::uint32_t>(b);
+}
 
 }  // namespace
 
@@ -133,8 +137,8 @@ TriangleMesh fuse_interpenetrating_surfaces(const TriangleMesh& mesh, const Eige
     // the triangle lies inside another part of the body.
     const Eigen::Vector3d a = V.row(F(f, 0)), b = V.row(F(f, 1)), c = V.row(F(f, 2));
     const Eigen::Vector3d normal = (b - a).cross(c - a);
-    inside[static_cast<size_t>(f)] = region.contains((a + b + c) / 3) && normal.norm() > 0 &&
-                                     grid.winding((a + b + c) / 3 + kFuseProbe * normal.normalized()) >= 1;
+    inside[static_cast<size_t>(f)] =
+        region.contains((a + b + c) / 3) && normal.norm() > 0 && grid.winding((a + b + c) / 3 + kFuseProbe * normal.normalized()) >= 1;
   }
   // Ragged edges of a contact patch: a few triangles inside (or outside) cut off from the rest of
   // their kind join their surroundings, so each patch leaves one clean hole.
@@ -201,8 +205,7 @@ TriangleMesh fuse_interpenetrating_surfaces(const TriangleMesh& mesh, const Eige
     }
     for (size_t a = 0; a < loops.size(); ++a) {
       const size_t b = static_cast<size_t>(partner[a]);
-      if (partner[b] != static_cast<int>(a))
-        throw InvalidInput("fuse_interpenetrating_surfaces: more than two holes meet along one curve");
+      if (partner[b] != static_cast<int>(a)) throw InvalidInput("fuse_interpenetrating_surfaces: more than two holes meet along one curve");
       if (b < a) continue;
       // Zip: A forward, B backward (the facing holes run round their common curve in opposite senses).
       const std::vector<int>& A = loops[a];
@@ -258,8 +261,8 @@ TriangleMesh fuse_interpenetrating_surfaces(const TriangleMesh& mesh, const Eige
     const int a = static_cast<int>(key >> 32), b = static_cast<int>(key & 0xffffffffu);
     const auto reverse = directed.find(edge_key(b, a));
     if (uses != 1 || reverse == directed.end() || reverse->second != 1)
-      throw InvalidInput("fuse_interpenetrating_surfaces: the fused surface is not a closed manifold at edge " +
-                         std::to_string(a) + "-" + std::to_string(b));
+      throw InvalidInput("fuse_interpenetrating_surfaces: the fused surface is not a closed manifold at edge " + std::to_string(a) + "-" +
+                         std::to_string(b));
   }
   if (face_origin) *face_origin = std::move(origin);
   return out;

@@ -8,32 +8,30 @@
 #include <random>
 
 #include "posekit/body/parts.h"
-#include "posekit/core/parallel.h"
 #include "posekit/core/error.h"
 #include "posekit/core/mesh_geometry.h"
 #include "posekit/core/mesh_slice.h"
+#include "posekit/core/parallel.h"
 #include "posekit/core/profile.h"
 
 namespace posekit {
 namespace {
 
 const char* kVariationModifiers[] = {
-    "measure/measure-neck-circ-decr|incr",       "measure/measure-shoulder-dist-decr|incr",
-    "measure/measure-napetowaist-dist-decr|incr", "measure/measure-waisttohip-dist-decr|incr",
-    "measure/measure-upperleg-height-decr|incr", "measure/measure-lowerleg-height-decr|incr",
-    "measure/measure-calf-circ-decr|incr",       "measure/measure-frontchest-dist-decr|incr",
-    "measure/measure-upperarm-length-decr|incr", "measure/measure-lowerarm-length-decr|incr",
-    "measure/measure-bust-circ-decr|incr",       "measure/measure-hips-circ-decr|incr",
+    "measure/measure-neck-circ-decr|incr",       "measure/measure-shoulder-dist-decr|incr",   "measure/measure-napetowaist-dist-decr|incr",
+    "measure/measure-waisttohip-dist-decr|incr", "measure/measure-upperleg-height-decr|incr", "measure/measure-lowerleg-height-decr|incr",
+    "measure/measure-calf-circ-decr|incr",       "measure/measure-frontchest-dist-decr|incr", "measure/measure-upperarm-length-decr|incr",
+    "measure/measure-lowerarm-length-decr|incr", "measure/measure-bust-circ-decr|incr",       "measure/measure-hips-circ-decr|incr",
     "buttocks/buttocks-volume-decr|incr"};
 
 /// Fat added beyond the weight slider per unit of fatness above 1, and taken away below 0.
 const std::pair<const char*, double> kFatModifiers[] = {
-    {"measure/measure-waist-circ-decr|incr", 0.9}, {"measure/measure-hips-circ-decr|incr", 0.7},
-    {"measure/measure-bust-circ-decr|incr", 0.6},  {"measure/measure-thigh-circ-decr|incr", 0.7},
+    {"measure/measure-waist-circ-decr|incr", 0.9},    {"measure/measure-hips-circ-decr|incr", 0.7},
+    {"measure/measure-bust-circ-decr|incr", 0.6},     {"measure/measure-thigh-circ-decr|incr", 0.7},
     {"measure/measure-upperarm-circ-decr|incr", 0.6}, {"stomach/stomach-pregnant-decr|incr", 0.5},
-    {"torso/torso-scale-depth-decr|incr", 0.4},     {"torso/torso-scale-horiz-decr|incr", 0.3},
-    {"hip/hip-scale-horiz-decr|incr", 0.3},         {"measure/measure-calf-circ-decr|incr", 0.4},
-    {"measure/measure-neck-circ-decr|incr", 0.4},   {"buttocks/buttocks-volume-decr|incr", 0.4}};
+    {"torso/torso-scale-depth-decr|incr", 0.4},       {"torso/torso-scale-horiz-decr|incr", 0.3},
+    {"hip/hip-scale-horiz-decr|incr", 0.3},           {"measure/measure-calf-circ-decr|incr", 0.4},
+    {"measure/measure-neck-circ-decr|incr", 0.4},     {"buttocks/buttocks-volume-decr|incr", 0.4}};
 constexpr double kMinFatness = -1.0, kMaxFatness = 3.0;
 
 /// fatness < 0: weight 0 and thinner; 0..1: the weight slider; > 1: weight 1 and fatter.
@@ -107,10 +105,14 @@ bool inside_xz(const Eigen::MatrixXd& loop, double x, double z) {
 
 const char* bmi_class_name(BmiClass c) {
   switch (c) {
-    case BmiClass::kUnderweight: return "underweight";
-    case BmiClass::kNormal: return "normal";
-    case BmiClass::kOverweight: return "overweight";
-    case BmiClass::kObese: return "obese";
+    case BmiClass::kUnderweight:
+      return "underweight";
+    case BmiClass::kNormal:
+      return "normal";
+    case BmiClass::kOverweight:
+      return "overweight";
+    case BmiClass::kObese:
+      return "obese";
   }
   return "";
 }
@@ -186,18 +188,21 @@ std::vector<Eigen::MatrixXd> make_population_bodies(const MakeHumanModel& model,
   std::vector<char> kept(specs.size(), 0);
   std::mutex progress_mutex;
   int done = 0;
-  parallel_for_ranges(static_cast<long>(specs.size()), o.threads, [&](long begin, long end) {
-    for (long i = begin; i < end; ++i) {
-      const size_t k = static_cast<size_t>(i);
-      Body body = build_body(model, specs[k]);
-      kept[k] = !o.keep || o.keep(specs[k], body.mesh);
-      if (kept[k]) bodies[k] = std::move(body.mesh.V);
-      if (o.progress) {
-        const std::lock_guard<std::mutex> lock(progress_mutex);
-        o.progress(++done, static_cast<int>(specs.size()));
-      }
-    }
-  }, 1);
+  parallel_for_ranges(
+      static_cast<long>(specs.size()), o.threads,
+      [&](long begin, long end) {
+        for (long i = begin; i < end; ++i) {
+          const size_t k = static_cast<size_t>(i);
+          Body body = build_body(model, specs[k]);
+          kept[k] = !o.keep || o.keep(specs[k], body.mesh);
+          if (kept[k]) bodies[k] = std::move(body.mesh.V);
+          if (o.progress) {
+            const std::lock_guard<std::mutex> lock(progress_mutex);
+            o.progress(++done, static_cast<int>(specs.size()));
+          }
+        }
+      },
+      1);
   std::vector<Eigen::MatrixXd> out;
   for (size_t k = 0; k < bodies.size(); ++k)
     if (kept[k]) out.push_back(std::move(bodies[k]));
@@ -241,11 +246,13 @@ Measurements measure_makehuman_body(const MakeHumanModel& model, const Body& bod
     }
     size_t k = 0;
     while (k + 10 < heights.size() && !(separate[k] && separate[k + 5] && separate[k + 10])) ++k;
-    if (k + 10 >= heights.size()) throw InvalidInput("measure_makehuman_body: the " + std::string(side) + " arm never separates from the torso");
+    if (k + 10 >= heights.size())
+      throw InvalidInput("measure_makehuman_body: the " + std::string(side) + " arm never separates from the torso");
     // From there down, where the arm first stands 5 mm clear of the torso (between the 1 mm levels).
     double above_y = heights[k] + 0.001, above_gap = 0;
     while (k + 1 < heights.size() && gap[k] < kArmClearance) above_y = heights[k], above_gap = gap[k], ++k;
-    if (gap[k] < kArmClearance) throw InvalidInput("measure_makehuman_body: the " + std::string(side) + " arm never stands clear of the torso");
+    if (gap[k] < kArmClearance)
+      throw InvalidInput("measure_makehuman_body: the " + std::string(side) + " arm never stands clear of the torso");
     arms_separate = std::min(arms_separate, above_y + (heights[k] - above_y) * (kArmClearance - above_gap) / (gap[k] - above_gap));
   }
   r.arms_separate_height = arms_separate;
@@ -304,7 +311,8 @@ Measurements measure_makehuman_body(const MakeHumanModel& model, const Body& bod
   }
   // Thigh: the left leg 2 cm below the crotch.
   r.thigh = section(m, N, up, Eigen::Vector3d(0, r.crotch_height - 0.02, 0),
-                    Eigen::Vector3d(crotch_bone.x(), r.crotch_height - 0.02, crotch_bone.z())).girth;
+                    Eigen::Vector3d(crotch_bone.x(), r.crotch_height - 0.02, crotch_bone.z()))
+                .girth;
   // Upper arm: perpendicular to the left upper arm, midway between shoulder and elbow.
   const Eigen::Vector3d sh = J.row(find_joint_index("left_shoulder")).transpose(), el = J.row(find_joint_index("left_elbow")).transpose();
   const Eigen::Vector3d mid = 0.5 * (sh + el);

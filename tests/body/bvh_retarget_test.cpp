@@ -69,8 +69,8 @@ TEST(BvhRetarget, CmuMotionsPoseTheBodyAsTheFilesOwnKinematicsMoveIt) {
   POSEKIT_REQUIRE_MAKEHUMAN();
   const Body body = build_body(model, BodySpec{});
   const Eigen::MatrixXd rest = joint_centres(model.rig, body);
-  const std::pair<int, int> bones[] = {{kLeftThigh, kLeftShank},       {kLeftShank, kLeftFoot},        {kRightThigh, kRightShank},
-                                       {kRightShank, kRightFoot},      {kLeftUpperArm, kLeftForearm},  {kLeftForearm, kLeftHand},
+  const std::pair<int, int> bones[] = {{kLeftThigh, kLeftShank},        {kLeftShank, kLeftFoot},       {kRightThigh, kRightShank},
+                                       {kRightShank, kRightFoot},       {kLeftUpperArm, kLeftForearm}, {kLeftForearm, kLeftHand},
                                        {kRightUpperArm, kRightForearm}, {kRightForearm, kRightHand}};
   for (const char* file : {"01_01.bvh", "131_01.bvh"}) {
     const BvhMotion m = read_bvh(motion_file(file));

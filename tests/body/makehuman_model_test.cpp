@@ -60,8 +60,7 @@ TEST(MakeHumanModel, MaleSliderMakesATallerBody) {
 TEST(MakeHumanModel, WeightSliderWidensTheWaist) {
   POSEKIT_REQUIRE_MAKEHUMAN();
   for (double g : {0.0, 1.0}) {
-    const double thin = waist_girth(model, build_body(model, spec(g, 0))),
-                 heavy = waist_girth(model, build_body(model, spec(g, 1)));
+    const double thin = waist_girth(model, build_body(model, spec(g, 0))), heavy = waist_girth(model, build_body(model, spec(g, 1)));
     EXPECT_GT(heavy, thin + 0.05) << "gender " << g << ": waist " << thin << " m vs " << heavy << " m";
     EXPECT_GT(thin, 0.5);
     EXPECT_LT(heavy, 1.5);
@@ -156,7 +155,8 @@ TEST(MakeHumanModel, BadInputNamesTheFile) {
   // One macro target missing from an otherwise complete copy is named.
   fs::create_directories(dir.file("targets"));
   for (const auto& e : fs::directory_iterator(root))
-    if (e.path().filename() != "targets" && e.path().filename() != "3dobjs") fs::create_symlink(e.path(), dir.file(e.path().filename().string()));
+    if (e.path().filename() != "targets" && e.path().filename() != "3dobjs")
+      fs::create_symlink(e.path(), dir.file(e.path().filename().string()));
   for (const auto& e : fs::directory_iterator(root + "/targets"))
     if (e.path().filename() != "macrodetails") fs::create_symlink(e.path(), dir.file("targets/" + e.path().filename().string()));
   for (const auto& e : fs::recursive_directory_iterator(root + "/targets/macrodetails")) {

@@ -116,14 +116,17 @@ TEST(AnatomicalDriving, SpreadsEachJointOverItsChainAndEndsWhereThePoseSays) {
     std::vector<Eigen::Matrix3d> world(static_cast<size_t>(rig.num_bones()));
     for (int b = 0; b < rig.num_bones(); ++b) {
       const int p = rig.parent[static_cast<size_t>(b)];
-      world[static_cast<size_t>(b)] = p < 0 ? bones.local[static_cast<size_t>(b)] : Eigen::Matrix3d(world[static_cast<size_t>(p)] * bones.local[static_cast<size_t>(b)]);
+      world[static_cast<size_t>(b)] = p < 0 ? bones.local[static_cast<size_t>(b)]
+                                            : Eigen::Matrix3d(world[static_cast<size_t>(p)] * bones.local[static_cast<size_t>(b)]);
     }
     // The last bone of every chain is where the one-bone-per-part rig puts its part.
     const BonePose rigid = bone_pose_from_part_pose(rig, pose);
     std::vector<Eigen::Matrix3d> rigid_world(world.size());
     for (int b = 0; b < rig.num_bones(); ++b) {
       const int p = rig.parent[static_cast<size_t>(b)];
-      rigid_world[static_cast<size_t>(b)] = p < 0 ? rigid.local[static_cast<size_t>(b)] : Eigen::Matrix3d(rigid_world[static_cast<size_t>(p)] * rigid.local[static_cast<size_t>(b)]);
+      rigid_world[static_cast<size_t>(b)] =
+          p < 0 ? rigid.local[static_cast<size_t>(b)]
+                : Eigen::Matrix3d(rigid_world[static_cast<size_t>(p)] * rigid.local[static_cast<size_t>(b)]);
     }
     for (const char* name : {"spine03", "spine01", "head", "upperarm02.L", "lowerarm02.L", "wrist.R", "upperleg02.R", "foot.R"}) {
       const size_t b = static_cast<size_t>(rig.find_bone(name));
@@ -131,7 +134,8 @@ TEST(AnatomicalDriving, SpreadsEachJointOverItsChainAndEndsWhereThePoseSays) {
     }
     // Inside the chains the bones share the motion: the clavicle takes its share of the 120 degree raise.
     const double clavicle = Eigen::AngleAxisd(world[static_cast<size_t>(rig.find_bone("clavicle.L"))] *
-                                              world[static_cast<size_t>(rig.find_bone("spine01"))].transpose()).angle();
+                                              world[static_cast<size_t>(rig.find_bone("spine01"))].transpose())
+                                .angle();
     EXPECT_NEAR(clavicle * 180 / M_PI, 120 * d.girdle_share * d.clavicle_share, 1.0) << d.name;
     const double lumbar_first = Eigen::AngleAxisd(bones.local[static_cast<size_t>(rig.find_bone("spine05"))]).angle();
     EXPECT_GT(lumbar_first, 0.05) << d.name;

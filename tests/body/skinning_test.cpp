@@ -1,7 +1,7 @@
 #include "posekit/body/skinning.h"
 
-#include <Eigen/Geometry>
 #include <gtest/gtest.h>
+#include <Eigen/Geometry>
 
 #include "posekit/body/parts.h"
 #include "posekit/core/error.h"

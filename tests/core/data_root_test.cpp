@@ -38,5 +38,6 @@ TEST(DataRoot, EnvironmentVariableIsUsedAndCheckedWhenSet) {
   std::filesystem::create_directories(dir.path() + "/3dobjs");
   dir.write("3dobjs/base.obj", "v 0 0 0\n");
   EXPECT_EQ(std::filesystem::path(find_data_root()), std::filesystem::path(dir.path()));
-  if (old) ::setenv("POSEKIT_DATA", saved.c_str(), 1); else ::unsetenv("POSEKIT_DATA");
+  if (old) ::setenv("POSEKIT_DATA", saved.c_str(), 1);
+  else ::unsetenv("POSEKIT_DATA");
 }

@@ -1,8 +1,8 @@
 #include "posekit/core/mesh_geometry.h"
 
+#include <gtest/gtest.h>
 #include <Eigen/Geometry>
 #include <algorithm>
-#include <gtest/gtest.h>
 #include <string>
 #include <vector>
 
@@ -62,4 +62,3 @@ TEST(MeshGeometry, BoundingBoxOfEmptySetThrows) {
   EXPECT_TRUE(b.extent().isApprox(Eigen::Vector3d(1, 1, 1)));
   EXPECT_TRUE(b.center().isApprox(Eigen::Vector3d(0.5, 0.5, 0.5)));
 }
-

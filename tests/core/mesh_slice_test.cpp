@@ -5,9 +5,9 @@
 #include <algorithm>
 #include <cmath>
 #include <cstring>
+#include <limits>
 #include <numeric>
 #include <random>
-#include <limits>
 
 #include "posekit/core/error.h"
 #include "posekit/core/winding_number.h"
@@ -60,7 +60,7 @@ TEST(MeshSlice, HullPerimeterDoesNotDependOnThePointsOrderToTheBit) {
       const double a = 2 * M_PI * i / n;
       const double r = kind == 2 ? 1 + jitter(rng) * 10 : 1 + 0.3 * std::cos(3 * a);  // a trefoil-like bulge or jagged
       P.row(i) << r * std::cos(a), 0.5, 0.7 * r * std::sin(a);
-      if (kind == 1 && i % 50 == 0 && i > 0) P.row(i) = P.row(i - 1);          // repeated points
+      if (kind == 1 && i % 50 == 0 && i > 0) P.row(i) = P.row(i - 1);         // repeated points
       if (kind == 1 && i % 75 == 0) P(i, 0) = std::round(P(i, 0) * 10) / 10;  // ties in x
     }
     const double in_order = convex_hull_perimeter(P, Eigen::Vector3d::UnitY());
@@ -120,7 +120,7 @@ TEST(MeshSlice, EvenAndClusteredStacksEqualOneSliceAtATimeToTheBit) {
   // 5 mm stack) or cluster (refinement heights beside far ones).
   const TriangleMesh s = test::icosphere(5, 1.0);
   std::vector<double> even, clustered;
-  for (int k = 0; k < 200; ++k) even.push_back(-0.995 + 0.01 * k);  // as a body's 5 mm stack
+  for (int k = 0; k < 200; ++k) even.push_back(-0.995 + 0.01 * k);     // as a body's 5 mm stack
   for (int k = 0; k < 40; ++k) clustered.push_back(0.3 + 0.0005 * k);  // 40 levels within 2 cm
   clustered.push_back(-0.8);
   clustered.push_back(0.95);

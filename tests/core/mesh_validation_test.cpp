@@ -21,13 +21,13 @@ TEST(MeshValidation, CleanCubeIsWatertightAndUsable) {
 TEST(MeshValidation, CountsEveryKindOfDefect) {
   TriangleMesh m = test::unit_cube();
   m.V.conservativeResize(10, 3);
-  m.V.row(8) << 0.5, 0.5, 0.5;                  // unreferenced
-  m.V.row(9) << std::nan(""), 0, 0;             // non-finite
+  m.V.row(8) << 0.5, 0.5, 0.5;       // unreferenced
+  m.V.row(9) << std::nan(""), 0, 0;  // non-finite
   m.F.conservativeResize(16, 3);
-  m.F.row(12) << 0, 2, 1;                       // duplicate of face 0
-  m.F.row(13) << 0, 0, 1;                       // degenerate (repeated index)
-  m.F.row(14) << 0, 1, 12;                      // out of range
-  m.F.row(15) << -1, 1, 2;                      // negative
+  m.F.row(12) << 0, 2, 1;   // duplicate of face 0
+  m.F.row(13) << 0, 0, 1;   // degenerate (repeated index)
+  m.F.row(14) << 0, 1, 12;  // out of range
+  m.F.row(15) << -1, 1, 2;  // negative
   const MeshReport r = validate_mesh(m);
   EXPECT_EQ(r.out_of_range_indices, 2);
   EXPECT_EQ(r.non_finite_vertices, 1);

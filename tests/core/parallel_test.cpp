@@ -16,24 +16,35 @@ namespace {
 
 TEST(ParallelForRanges, CoversEveryItemOnceAndRethrowsAWorkersException) {
   std::vector<int> hits(10000, 0);
-  parallel_for_ranges(10000, 4, [&](long begin, long end) {
-    for (long i = begin; i < end; ++i) ++hits[static_cast<size_t>(i)];
-  }, 100);
+  parallel_for_ranges(
+      10000, 4,
+      [&](long begin, long end) {
+        for (long i = begin; i < end; ++i) ++hits[static_cast<size_t>(i)];
+      },
+      100);
   EXPECT_EQ(std::count(hits.begin(), hits.end(), 1), 10000);
   // A throw in the last chunk (another thread) reaches the caller instead of terminating.
-  EXPECT_THROW(parallel_for_ranges(10000, 4, [](long begin, long) {
-    if (begin >= 7500) throw InvalidInput("chunk " + std::to_string(begin));
-  }, 100), InvalidInput);
+  EXPECT_THROW(parallel_for_ranges(
+                   10000, 4,
+                   [](long begin, long) {
+                     if (begin >= 7500) throw InvalidInput("chunk " + std::to_string(begin));
+                   },
+                   100),
+               InvalidInput);
 }
 
 TEST(ParallelForRanges, GivesEachThreadAtLeastTheMinimumNumberOfItems) {
   std::atomic<int> calls{0};
-  parallel_for_ranges(10, 8, [&](long begin, long end) {
-    ++calls;
-    EXPECT_GE(end - begin, 5);
-  }, 5);
+  parallel_for_ranges(
+      10, 8,
+      [&](long begin, long end) {
+        ++calls;
+        EXPECT_GE(end - begin, 5);
+      },
+      5);
   EXPECT_EQ(calls.load(), 2);
-  EXPECT_NO_THROW(parallel_for_ranges(0, 4, [](long, long) {}, 1));
+  EXPECT_NO_THROW(parallel_for_ranges(
+      0, 4, [](long, long) {}, 1));
 }
 
 TEST(ParallelForEach, RunsEveryItemOnceOnEveryThreadCount) {
@@ -47,26 +58,32 @@ TEST(ParallelForEach, RunsEveryItemOnceOnEveryThreadCount) {
 
 TEST(ParallelForEach, StopsHandingOutItemsAfterAnExceptionAndRethrowsIt) {
   std::atomic<int> started{0};
-  EXPECT_THROW(parallel_for_each(1000, 2, [&](long i) {
-    ++started;
-    if (i == 3) throw InvalidInput("item 3");
-    std::this_thread::sleep_for(std::chrono::microseconds(200));
-  }), InvalidInput);
+  EXPECT_THROW(parallel_for_each(1000, 2,
+                                 [&](long i) {
+                                   ++started;
+                                   if (i == 3) throw InvalidInput("item 3");
+                                   std::this_thread::sleep_for(std::chrono::microseconds(200));
+                                 }),
+               InvalidInput);
   EXPECT_LT(started.load(), 1000);
 }
 
 TEST(RunBeside, RunsBothAndRethrowsTheMainWorksExceptionFirst) {
   for (int threads : {1, 2}) {
     int a = 0, b = 0;
-    run_beside(threads, [&] { a = 1; }, [&] { b = 2; });
+    run_beside(
+        threads, [&] { a = 1; }, [&] { b = 2; });
     EXPECT_EQ(a + b, 3);
     try {
-      run_beside(threads, [] { throw IoError("beside"); }, [] { throw InvalidInput("main"); });
+      run_beside(
+          threads, [] { throw IoError("beside"); }, [] { throw InvalidInput("main"); });
       ADD_FAILURE() << "no exception";
     } catch (const InvalidInput& e) {
       EXPECT_STREQ(e.what(), "main");
     }
-    EXPECT_THROW(run_beside(threads, [] { throw IoError("beside"); }, [] {}), IoError);
+    EXPECT_THROW(run_beside(
+                     threads, [] { throw IoError("beside"); }, [] {}),
+                 IoError);
   }
 }
 

@@ -9,8 +9,7 @@
 using namespace posekit;
 
 TEST(Units, ParseAndNameRoundTrip) {
-  for (Unit u : {Unit::kMetre, Unit::kDecimetre, Unit::kCentimetre, Unit::kMillimetre})
-    EXPECT_EQ(parse_unit(unit_name(u)), u);
+  for (Unit u : {Unit::kMetre, Unit::kDecimetre, Unit::kCentimetre, Unit::kMillimetre}) EXPECT_EQ(parse_unit(unit_name(u)), u);
   EXPECT_EQ(parse_unit("Millimetres"), Unit::kMillimetre);
   EXPECT_DOUBLE_EQ(metres_per_unit(Unit::kCentimetre), 0.01);
   EXPECT_THROW(parse_unit("inch"), InvalidInput);

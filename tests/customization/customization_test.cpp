@@ -205,8 +205,9 @@ TEST(Silhouette, PhotosWithoutOnePersonAreRefusedWithTheReason) {
   two.F.conservativeResize(2 * m, 3);
   two.F.bottomRows(m) = two.F.topRows(m).array() + static_cast<int>(n);
   Scene s = photograph(two, 4.5);
-  EXPECT_NE(error_of([&] { silhouette_from_pixels(s.front.width, s.front.height, 1, s.front.gray.data(), "front photo"); }).find("two figures"),
-            std::string::npos);
+  EXPECT_NE(
+      error_of([&] { silhouette_from_pixels(s.front.width, s.front.height, 1, s.front.gray.data(), "front photo"); }).find("two figures"),
+      std::string::npos);
   // The gap between a forearm and the waist is background enclosed by the person: it stays.
   Silhouette ring;
   ring.width = 200, ring.height = 300;

@@ -3,16 +3,16 @@
 #include <gtest/gtest.h>
 
 #include <filesystem>
-#include <map>
-#include <set>
 #include <fstream>
+#include <map>
 #include <nlohmann/json.hpp>
+#include <set>
 #include <sstream>
 
 #include "posekit/core/error.h"
+#include "posekit/core/mesh_geometry.h"
 #include "posekit/core/mesh_validation.h"
 #include "posekit/datasets/rasterizer.h"
-#include "posekit/core/mesh_geometry.h"
 #include "posekit/datasets/remesh.h"
 #include "posekit/datasets/subjects.h"
 #include "posekit/io/atomic_file.h"
@@ -30,9 +30,7 @@ namespace {
 struct SmallDataset {
   std::string root;
   nlohmann::json manifest;
-  SmallDataset() : root(test::small_dataset().root) {
-    manifest = nlohmann::json::parse(read_file_bytes(root + "/manifest.json"));
-  }
+  SmallDataset() : root(test::small_dataset().root) { manifest = nlohmann::json::parse(read_file_bytes(root + "/manifest.json")); }
 };
 
 const SmallDataset& small_dataset() {
@@ -101,8 +99,11 @@ TEST(Dataset, SubjectsHaveTheirOwnManifoldTopologyAndExactCorrespondence) {
     const SurfacePoints corr = load_correspondence(ds.root + "/" + s["correspondence"].get<std::string>());
     ASSERT_EQ(corr.face.size(), rest.num_vertices());
     EXPECT_LT((evaluate_smooth_surface_points(body.mesh.V, body.mesh.F, vertex_normals(body.mesh.V, body.mesh.F), corr) - rest.V)
-                  .rowwise().norm().maxCoeff(),
-              0.001) << id;
+                  .rowwise()
+                  .norm()
+                  .maxCoeff(),
+              0.001)
+        << id;
     // Posed meshes keep the subject's topology.
     ASSERT_EQ(s["posed"].size(), 3u);
     for (const auto& p : s["posed"]) {

@@ -12,7 +12,8 @@ using namespace posekit;
 
 TEST(Rasterizer, SphereCoversItsProjectedDiscAtTheRightDepth) {
   const TriangleMesh s = test::icosphere(5, 0.5);
-  const PinholeCamera cam = PinholeCamera::look_at(Eigen::Vector3d(0, 0, 4), Eigen::Vector3d::Zero(), Eigen::Vector3d::UnitY(), 400, 400, 500);
+  const PinholeCamera cam =
+      PinholeCamera::look_at(Eigen::Vector3d(0, 0, 4), Eigen::Vector3d::Zero(), Eigen::Vector3d::UnitY(), 400, 400, 500);
   const RenderBuffers b = render_mesh(s, cam);
   // Silhouette radius of a sphere of radius r at distance d: f * r / sqrt(d^2 - r^2).
   const double radius_px = 500 * 0.5 / std::sqrt(16 - 0.25);
@@ -24,7 +25,8 @@ TEST(Rasterizer, SphereCoversItsProjectedDiscAtTheRightDepth) {
 }
 
 TEST(Rasterizer, LookAtProjectsTheTargetToThePrincipalPoint) {
-  const PinholeCamera cam = PinholeCamera::look_at(Eigen::Vector3d(3, 1, 0), Eigen::Vector3d(0, 1, 0), Eigen::Vector3d::UnitY(), 800, 1200, 1400);
+  const PinholeCamera cam =
+      PinholeCamera::look_at(Eigen::Vector3d(3, 1, 0), Eigen::Vector3d(0, 1, 0), Eigen::Vector3d::UnitY(), 800, 1200, 1400);
   const Eigen::Vector3d c = cam.R * Eigen::Vector3d(0, 1, 0) + cam.t;
   EXPECT_NEAR(c.x() / c.z(), 0, 1e-12);
   EXPECT_NEAR(c.y() / c.z(), 0, 1e-12);

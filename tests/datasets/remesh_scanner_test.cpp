@@ -38,8 +38,7 @@ TEST(Remesh, BodyGetsItsOwnTopologyOnTheSameSurface) {
   for (Eigen::Index f = 0; f < r.F.rows(); ++f) shared += original.count(key(r.V, r.F.row(f)));
   EXPECT_EQ(shared, 0);
   int near_original = 0;  // vertices that happen to sit on an original vertex
-  for (Eigen::Index i = 0; i < r.V.rows(); ++i)
-    near_original += (b.mesh.V.rowwise() - r.V.row(i)).rowwise().norm().minCoeff() < 5e-4;
+  for (Eigen::Index i = 0; i < r.V.rows(); ++i) near_original += (b.mesh.V.rowwise() - r.V.row(i)).rowwise().norm().minCoeff() < 5e-4;
   EXPECT_LT(near_original, r.V.rows() / 10);
   // The correspondence reproduces every vertex on the smooth surface, which lies a little outside
   // the flat triangles (measured: at most 2.1 mm).
@@ -102,7 +101,8 @@ TEST(Scanner, InterpenetratingSpheresAreFusedIntoOneClosedSurface) {
   both.F.resize(a.F.rows() + b.F.rows(), 3);
   both.F << a.F, (b.F.array() + static_cast<int>(a.V.rows())).matrix();
   std::vector<int> origin;
-  const TriangleMesh fused = fuse_interpenetrating_surfaces(both, Eigen::AlignedBox3d(Eigen::Vector3d::Constant(-5), Eigen::Vector3d::Constant(5)), &origin);
+  const TriangleMesh fused =
+      fuse_interpenetrating_surfaces(both, Eigen::AlignedBox3d(Eigen::Vector3d::Constant(-5), Eigen::Vector3d::Constant(5)), &origin);
   const MeshReport report = validate_mesh(fused);
   EXPECT_TRUE(report.watertight);
   EXPECT_EQ(report.components, 1);
@@ -116,6 +116,7 @@ TEST(Scanner, InterpenetratingSpheresAreFusedIntoOneClosedSurface) {
   const double cap = M_PI * 0.2 * 0.2 * (3 - 0.2) / 3;
   EXPECT_NEAR(signed_volume(fused.V, fused.F), 2 * (4.0 / 3 * M_PI) - 2 * cap, 0.02);
   // Outside the region nothing is removed; spheres apart are left as they are.
-  const TriangleMesh untouched = fuse_interpenetrating_surfaces(both, Eigen::AlignedBox3d(Eigen::Vector3d::Constant(10), Eigen::Vector3d::Constant(11)));
+  const TriangleMesh untouched =
+      fuse_interpenetrating_surfaces(both, Eigen::AlignedBox3d(Eigen::Vector3d::Constant(10), Eigen::Vector3d::Constant(11)));
   EXPECT_EQ(untouched.F.rows(), both.F.rows());
 }

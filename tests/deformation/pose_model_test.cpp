@@ -2,22 +2,22 @@
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
-#include <algorithm>
 #include <iostream>
 #include <random>
 
 #include "posekit/body/makehuman_model.h"
 #include "posekit/body/skinning.h"
 #include "posekit/core/error.h"
+#include "posekit/deformation/rigid_pose.h"
 #include "posekit/deformation/segmentation_calibration.h"
 #include "posekit/evaluation/pose_evaluation.h"
 #include "posekit/io/atomic_file.h"
 #include "posekit/io/checksum.h"
 #include "posekit/io/mesh_io.h"
-#include "posekit/deformation/rigid_pose.h"
 #include "posekit/segmentation/segmentation.h"
 #include "testing/makehuman_fixture.h"
 #include "testing/small_dataset.h"
@@ -70,9 +70,8 @@ TEST(PoseModel, FitsTheTrainingPosesAndSavesLosslessly) {
   std::memcpy(&huge[12], &forty_million, 4);  // the vertex count: 960 MB if allocated before the size check
   dir.write("huge.pkm", sealed(huge));
   const std::vector<std::pair<const char*, const char*>> bad = {
-      {"cut.pkm", "checksum"},          {"foreign.pkm", "not a posekit pose model"},
-      {"nan.pkm", "NaN"},               {"nan_rms.pkm", "fit RMS nan"},
-      {"huge.pkm", "40000000 x 3 values"}, {"missing.pkm", "missing.pkm"}};
+      {"cut.pkm", "checksum"},        {"foreign.pkm", "not a posekit pose model"}, {"nan.pkm", "NaN"},
+      {"nan_rms.pkm", "fit RMS nan"}, {"huge.pkm", "40000000 x 3 values"},         {"missing.pkm", "missing.pkm"}};
   for (const auto& [name, phrase] : bad) {
     try {
       read_pose_model(dir.file(name));
@@ -308,9 +307,7 @@ TEST(PartPoseEstimation, RecoversARigidlyPosedBodyExactlyAndANoisyOneClosely) {
   // The estimator's vertex parts come from the triangle majority; a vertex on a seam may move with
   // the neighbour part, which the robust weights ignore.
   const PartPoseEstimate e = estimator.estimate(X);
-  for (int j = 0; j < kNumJoints; ++j)
-    EXPECT_LT(rotation_difference(e.pose.joint(j), pose.joint(j)), 1e-3)
-        << joint_name(j);
+  for (int j = 0; j < kNumJoints; ++j) EXPECT_LT(rotation_difference(e.pose.joint(j), pose.joint(j)), 1e-3) << joint_name(j);
   EXPECT_LT(rotation_difference(e.pose.root_rotation, pose.root_rotation), 1e-3);
   EXPECT_LT((e.pose.root_translation - pose.root_translation).norm(), 1e-3);
   EXPECT_TRUE(pose_estimate_problems(e).empty());
@@ -321,8 +318,7 @@ TEST(PartPoseEstimation, RecoversARigidlyPosedBodyExactlyAndANoisyOneClosely) {
     for (int c = 0; c < 3; ++c) X(v, c) += noise(rng);
   const PartPoseEstimate noisy = estimator.estimate(X);
   for (int j = 0; j < kNumJoints; ++j)
-    EXPECT_LT(rotation_difference(noisy.pose.joint(j), pose.joint(j)) * 180 / M_PI, 1.0)
-        << joint_name(j);
+    EXPECT_LT(rotation_difference(noisy.pose.joint(j), pose.joint(j)) * 180 / M_PI, 1.0) << joint_name(j);
   // An arm swapped for the other one's vertices is no rigid motion: named, not hidden.
   const Eigen::MatrixXd swapped = [&] {
     Eigen::MatrixXd S = X;
@@ -447,9 +443,8 @@ TEST(PoseModel, TrainsFromAFolderOfMeshesAloneInAnyUnitAxesAndFormat) {
   }
   std::sort(noisy_joint_error.begin(), noisy_joint_error.end());
   EXPECT_LT(noisy_joint_error[noisy_joint_error.size() / 2], 0.5);
-  std::cout << "folder of meshes (own segmentation): with JSONs " << e_json << " mm, alone " << e_alone << " mm, mm/Z-up/OBJ "
-            << e_foreign << " mm, 1 mm noise " << e_noisy << " mm (with JSONs " << e_noisy_json << " mm, smoothed "
-            << e_noisy_smoothed << " mm)\n";
+  std::cout << "folder of meshes (own segmentation): with JSONs " << e_json << " mm, alone " << e_alone << " mm, mm/Z-up/OBJ " << e_foreign
+            << " mm, 1 mm noise " << e_noisy << " mm (with JSONs " << e_noisy_json << " mm, smoothed " << e_noisy_smoothed << " mm)\n";
 
   // Another body among the examples (8% larger) is named, not learned from silently.
   {
@@ -570,8 +565,8 @@ TEST(PoseModel, EvaluatesAFolderOfRegisteredMeshesOnHeldOutMeshesByTheirEstimate
   EXPECT_LT(shape[0], 0.7 * std::min(shape[1], shape[2]));
   const double n = static_cast<double>(ev.meshes.size() - 1);
   std::cout << "folder of " << data.names.size() + 1 << " meshes, " << ev.meshes.size() - 1
-            << " held out (and the probe): raw / shape mean mm learned " << raw[0] / n << " / " << shape[0] / n << ", rigid "
-            << raw[1] / n << " / " << shape[1] / n << ", lbs " << raw[2] / n << " / " << shape[2] / n << "\n";
+            << " held out (and the probe): raw / shape mean mm learned " << raw[0] / n << " / " << shape[0] / n << ", rigid " << raw[1] / n
+            << " / " << shape[1] / n << ", lbs " << raw[2] / n << " / " << shape[2] / n << "\n";
   // Every N-th: the rest example is never held out.
   DatasetTrainingOptions every;
   every.hold_out_every = 4;
@@ -638,9 +633,9 @@ TEST(PoseModel, EvaluatesSeveralPeopleOfOneTopologyEachPosedByAModelOfTheOthers)
   const FolderMethodErrors &learned = ev.methods[0], &lbs = ev.methods[2];
   EXPECT_LT(learned.raw.mean_mm, 0.9 * lbs.raw.mean_mm);
   EXPECT_LT(learned.shape.mean_mm, 0.7 * lbs.shape.mean_mm);
-  std::cout << "3 people, each by the others' model: raw / shape mean mm learned " << learned.raw.mean_mm << " / "
-            << learned.shape.mean_mm << ", rigid " << ev.methods[1].raw.mean_mm << " / " << ev.methods[1].shape.mean_mm << ", lbs "
-            << lbs.raw.mean_mm << " / " << lbs.shape.mean_mm << "\n";
+  std::cout << "3 people, each by the others' model: raw / shape mean mm learned " << learned.raw.mean_mm << " / " << learned.shape.mean_mm
+            << ", rigid " << ev.methods[1].raw.mean_mm << " / " << ev.methods[1].shape.mean_mm << ", lbs " << lbs.raw.mean_mm << " / "
+            << lbs.shape.mean_mm << "\n";
   // A person of another topology is named; one person is not several.
   const auto& ds = test::small_dataset();
   std::filesystem::create_directories(dir.file("zz_other"));

@@ -13,10 +13,10 @@
 
 #include "posekit/core/error.h"
 #include "posekit/core/mesh_geometry.h"
+#include "posekit/datasets/dataset.h"
 #include "posekit/deformation/part_pose_estimation.h"
 #include "posekit/deformation/poisson_solver.h"
 #include "posekit/deformation/pose_fitting.h"
-#include "posekit/datasets/dataset.h"
 #include "posekit/deformation/rigid_pose.h"
 #include "posekit/evaluation/pose_evaluation.h"
 #include "posekit/io/mesh_io.h"
@@ -100,8 +100,7 @@ TEST(PoseSynthesis, FastKernelsAgreeWithEq4AndEq6EvaluatedInDouble) {
       const int source = info.template_triangle[k];
       Eigen::Matrix<double, kPoseFeatures, 1> x = Eigen::Matrix<double, kPoseFeatures, 1>::Zero();
       for (int slot = 0; slot < 2; ++slot)
-        if (model.triangle_joints(source, slot) >= 0)
-          x.segment<3>(3 * slot) = pose.joint(model.triangle_joints(source, slot));
+        if (model.triangle_joints(source, slot) >= 0) x.segment<3>(3 * slot) = pose.joint(model.triangle_joints(source, slot));
       x[6] = 1;
       Eigen::Matrix3d Q;
       for (int m = 0; m < 9; ++m) Q(m / 3, m % 3) = model.coefficients.row(source).segment<kPoseFeatures>(m * kPoseFeatures).dot(x);
@@ -110,8 +109,7 @@ TEST(PoseSynthesis, FastKernelsAgreeWithEq4AndEq6EvaluatedInDouble) {
       if (info.triangle_part[k] == kPelvis)
         anchor[k] = area[k] * std::exp(-(Q - Eigen::Matrix3d::Identity()).squaredNorm() / (0.02 * 0.02));
     }
-    const Eigen::MatrixXd expected =
-        PoissonSolver(subject.V, subject.F).solve(T, anchor, parts.R[kPelvis], parts.t[kPelvis]);
+    const Eigen::MatrixXd expected = PoissonSolver(subject.V, subject.F).solve(T, anchor, parts.R[kPelvis], parts.t[kPelvis]);
     for (bool avx2 : {true, false}) {
       use_avx2_kernels(avx2);
       const Eigen::MatrixXd X = synth.pose(pose, method);
@@ -205,7 +203,8 @@ Eigen::MatrixXd joints_of_posing(const PoseSynthesizer& synth, const Eigen::Matr
       if (synth.vertex_parts()[v] == j + 1) rows.push_back(v);
     Eigen::MatrixXd rest(3, static_cast<Eigen::Index>(rows.size())), posed(3, static_cast<Eigen::Index>(rows.size()));
     for (size_t k = 0; k < rows.size(); ++k)
-      rest.col(static_cast<Eigen::Index>(k)) = V.row(rows[k]).transpose(), posed.col(static_cast<Eigen::Index>(k)) = X.row(rows[k]).transpose();
+      rest.col(static_cast<Eigen::Index>(k)) = V.row(rows[k]).transpose(),
+      posed.col(static_cast<Eigen::Index>(k)) = X.row(rows[k]).transpose();
     const Eigen::Matrix4d m = Eigen::umeyama(rest, posed, false);
     joints.row(j) = (m.topLeftCorner<3, 3>() * synth.info().joint_centres.row(j).transpose() + m.topRightCorner<3, 1>()).transpose();
   }
@@ -230,10 +229,10 @@ TEST(PoseSynthesis, TheThreeMethodsPutTheJointsInOnePlace) {
                         lbs = apart(small_model(), PosePlacement::kParts, PoseMethod::kLbs),
                         inflated_parts = apart(inflated, PosePlacement::kParts, PoseMethod::kLearned),
                         inflated_pelvis = apart(inflated, PosePlacement::kPelvis, PoseMethod::kLearned);
-  std::cerr << "joints from rigid's, mean / max mm: learned " << learned.mean() << " / " << learned.maxCoeff() << ", LBS "
-            << lbs.mean() << " / " << lbs.maxCoeff() << ", tripled coefficients " << inflated_parts.mean() << " / "
-            << inflated_parts.maxCoeff() << " (placed by the pelvis " << inflated_pelvis.mean() << " / " << inflated_pelvis.maxCoeff() << ")\n";
-  EXPECT_LT(learned.mean(), 2.5);  // measured 1.67 (LBS 0.80)
+  std::cerr << "joints from rigid's, mean / max mm: learned " << learned.mean() << " / " << learned.maxCoeff() << ", LBS " << lbs.mean()
+            << " / " << lbs.maxCoeff() << ", tripled coefficients " << inflated_parts.mean() << " / " << inflated_parts.maxCoeff()
+            << " (placed by the pelvis " << inflated_pelvis.mean() << " / " << inflated_pelvis.maxCoeff() << ")\n";
+  EXPECT_LT(learned.mean(), 2.5);       // measured 1.67 (LBS 0.80)
   EXPECT_LT(learned.maxCoeff(), 10.0);  // 7.0, the flexed right hip (LBS 3.8 at the bent knee)
   EXPECT_LT(inflated_parts.mean(), 0.5 * inflated_pelvis.mean());
 }
@@ -290,7 +289,8 @@ TEST(PoseSynthesis, JointPivotsAreTheCentresOrTheLearnedOffsetsPivots) {
   bend.joint_rotation[1] = Eigen::Vector3d(0, 0, 0.35);
   const PartTransforms T = pivoted.part_motions(bend, PoseMethod::kLearned);
   const Eigen::Vector3d pivot = p.row(1).transpose();
-  EXPECT_LT((T.R[kChest] * pivot + T.t[kChest] - (T.R[kAbdomen] * pivot + T.t[kAbdomen])).norm(), 0.2 * std::pow(0.35, 3) * scale * D.norm());
+  EXPECT_LT((T.R[kChest] * pivot + T.t[kChest] - (T.R[kAbdomen] * pivot + T.t[kAbdomen])).norm(),
+            0.2 * std::pow(0.35, 3) * scale * D.norm());
 }
 
 TEST(PoseEvaluation, RefusesAModelOfAnotherTemplate) {
@@ -311,8 +311,7 @@ TEST(PoseFitting, FindsThePoseOfAScanWithoutMarkersAndAtAnyHeading) {
   const PointCloud scan = load_scan(ds.root + "/scans/f01/walk_phase_1.pcd");
   auto angle_error = [&](const PartPose& p) {
     double sum = 0;
-    for (int j = 0; j < kNumJoints; ++j)
-      sum += rotation_difference(p.joint(j), truth.joint(j));
+    for (int j = 0; j < kNumJoints; ++j) sum += rotation_difference(p.joint(j), truth.joint(j));
     return sum / kNumJoints * 180 / M_PI;
   };
   const PoseFitResult fit = fit_pose(synth, scan.P);
@@ -390,8 +389,7 @@ TEST(PoseFitting, EndsARefinementThatCrawlsAtNearlyThePoseItWouldReach) {
   EXPECT_LT(ended.iterations, full.iterations);
   auto mean_error = [&](const PartPose& p) {
     double sum = 0;
-    for (int j = 0; j < kNumJoints; ++j)
-      sum += rotation_difference(p.joint(j), f.truth.joint(j));
+    for (int j = 0; j < kNumJoints; ++j) sum += rotation_difference(p.joint(j), f.truth.joint(j));
     return sum / kNumJoints * 180 / M_PI;
   };
   EXPECT_LT(mean_error(full.pose), 4.0);
@@ -436,8 +434,7 @@ TEST(PoseFitting, WarnsWhenTheTargetDoesNotShowAPart) {
   int wrists = 0;
   for (const auto& w : fit.warnings) wrists += w.find("wrist' is held at its rest rotation") != std::string::npos;
   EXPECT_EQ(wrists, 2);
-  for (const char* name : {"left_wrist", "right_wrist"})
-    EXPECT_LT(fit.pose.joint(find_joint_index(name)).norm() * 180 / M_PI, 1.0) << name;
+  for (const char* name : {"left_wrist", "right_wrist"}) EXPECT_LT(fit.pose.joint(find_joint_index(name)).norm() * 180 / M_PI, 1.0) << name;
   EXPECT_TRUE(fit_pose(synth, truth_mesh.V).warnings.empty());
 }
 

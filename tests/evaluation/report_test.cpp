@@ -15,7 +15,6 @@
 using namespace posekit;
 namespace fs = std::filesystem;
 
-
 namespace {
 
 /// Checks a report in a real headless browser (Chromium): a copy of index.html with a script that,
@@ -53,9 +52,10 @@ window.addEventListener('load', function () {
   const std::string page = report_dir + "/.browser_check.html";
   write_file_atomically(page, [&](std::ostream& out) { out << html; });
   const std::string dump = scratch + "/dom.html";
-  const std::string cmd = "timeout 120 chromium --headless --no-sandbox --disable-gpu --allow-file-access-from-files "
-                          "--virtual-time-budget=20000 --user-data-dir=" + scratch + "/profile --dump-dom 'file://" +
-                          fs::absolute(page).string() + "' > " + dump + " 2>/dev/null";
+  const std::string cmd =
+      "timeout 120 chromium --headless --no-sandbox --disable-gpu --allow-file-access-from-files "
+      "--virtual-time-budget=20000 --user-data-dir=" +
+      scratch + "/profile --dump-dom 'file://" + fs::absolute(page).string() + "' > " + dump + " 2>/dev/null";
   const int status = std::system(cmd.c_str());
   fs::remove(page);
   if (status != 0) return nlohmann::json{{"error", "chromium failed (exit " + std::to_string(status) + "): " + cmd}};
@@ -83,9 +83,9 @@ TEST(Report, OnTheSmallDatasetLinksOnlyFilesThatExistAndLoadsInABrowser) {
   const std::string html = read_file_bytes(dir.file("report/index.html"));
   const std::string md = read_file_bytes(dir.file("report/report.md"));
   // Every figure the paper's evaluation has, and both tables.
-  for (const char* figure : {"fig2_template_poses.png", "fig3_transferred_poses.png", "fig4_customization_vs_scan.png", "fig5_female_from_photos.png",
-                             "fig6_male_from_photos.png",
-                             "fig7_female_subjects.png", "fig7_male_subjects.png", "fig9_posed_vs_scans.png"})
+  for (const char* figure :
+       {"fig2_template_poses.png", "fig3_transferred_poses.png", "fig4_customization_vs_scan.png", "fig5_female_from_photos.png",
+        "fig6_male_from_photos.png", "fig7_female_subjects.png", "fig7_male_subjects.png", "fig9_posed_vs_scans.png"})
     EXPECT_NE(html.find(figure), std::string::npos) << figure;
   EXPECT_NE(html.find("Table 1"), std::string::npos);
   EXPECT_NE(html.find("Pose accuracy"), std::string::npos);

@@ -66,12 +66,13 @@ TEST(ClosestPoint, MatchesABruteForceSearch) {
     for (Eigen::Index i = 0; i < Q.rows(); ++i) {
       double best = 1e300;
       for (Eigen::Index f = 0; f < s.F.rows(); ++f)
-        best = std::min(best, (closest_point_on_triangle(Q.row(i), s.V.row(s.F(f, 0)), s.V.row(s.F(f, 1)),
-                                                         s.V.row(s.F(f, 2))) - Q.row(i).transpose()).norm());
+        best = std::min(
+            best, (closest_point_on_triangle(Q.row(i), s.V.row(s.F(f, 0)), s.V.row(s.F(f, 1)), s.V.row(s.F(f, 2))) - Q.row(i).transpose())
+                      .norm());
       ASSERT_NEAR(near.distance[i], best, 1e-12) << i;
       const int f = near.face[i];
-      const Eigen::RowVector3d from_bary = near.bary(i, 0) * s.V.row(s.F(f, 0)) + near.bary(i, 1) * s.V.row(s.F(f, 1)) +
-                                           near.bary(i, 2) * s.V.row(s.F(f, 2));
+      const Eigen::RowVector3d from_bary =
+          near.bary(i, 0) * s.V.row(s.F(f, 0)) + near.bary(i, 1) * s.V.row(s.F(f, 1)) + near.bary(i, 2) * s.V.row(s.F(f, 2));
       ASSERT_LT((from_bary - near.point.row(i)).norm(), 1e-12) << i;
     }
   }
@@ -112,8 +113,9 @@ TEST(ClosestPoint, MatchesABruteForceSearch) {
     for (Eigen::Index i = 0; i < P.rows(); ++i) {
       double best = 1e300;
       for (Eigen::Index f = 0; f < m->F.rows(); ++f)
-        best = std::min(best, (closest_point_on_triangle(3 * P.row(i), m->V.row(m->F(f, 0)), m->V.row(m->F(f, 1)),
-                                                         m->V.row(m->F(f, 2))) - 3 * P.row(i).transpose()).norm());
+        best = std::min(best, (closest_point_on_triangle(3 * P.row(i), m->V.row(m->F(f, 0)), m->V.row(m->F(f, 1)), m->V.row(m->F(f, 2))) -
+                               3 * P.row(i).transpose())
+                                  .norm());
       ASSERT_NEAR(got.distance[i], best, 1e-12) << i;
     }
   }
@@ -210,8 +212,7 @@ TEST(ScanComparison, ReadInPiecesGivesTheWholeScansResultsToTheBit) {
   std::shuffle(order.begin(), order.end(), rng);
   PointCloud scan;
   scan.P.resize(static_cast<Eigen::Index>(order.size()) + 2, 3);
-  for (size_t k = 0; k < order.size(); ++k)
-    scan.P.row(static_cast<Eigen::Index>(k)) = P.row(order[k]) + noise(rng) * N.row(order[k]);
+  for (size_t k = 0; k < order.size(); ++k) scan.P.row(static_cast<Eigen::Index>(k)) = P.row(order[k]) + noise(rng) * N.row(order[k]);
   scan.P.bottomRows(2) << 0, -0.5, 0, 0.4, 0, 0;
   for (double radius : {0.0, 0.012}) {
     ScanComparisonOptions o;
@@ -233,8 +234,8 @@ TEST(ScanComparison, ReadInPiecesGivesTheWholeScansResultsToTheBit) {
     ASSERT_EQ(r.scan_to_model.size(), whole.scan_to_model.size());
     EXPECT_TRUE((r.scan_to_model.array() == whole.scan_to_model.array()).all());
     for (Eigen::Index v = 0; v < body.V.rows(); ++v)
-      ASSERT_TRUE(r.model_to_scan[v] == whole.model_to_scan[v] ||
-                  (std::isnan(r.model_to_scan[v]) && std::isnan(whole.model_to_scan[v]))) << v;
+      ASSERT_TRUE(r.model_to_scan[v] == whole.model_to_scan[v] || (std::isnan(r.model_to_scan[v]) && std::isnan(whole.model_to_scan[v])))
+          << v;
     for (auto [a, b] : {std::pair{&r.scan_stats, &whole.scan_stats}, std::pair{&r.model_stats, &whole.model_stats}}) {
       EXPECT_EQ(a->mean_mm, b->mean_mm);
       EXPECT_EQ(a->rms_mm, b->rms_mm);

@@ -79,7 +79,8 @@ Score score(const BodyFit& fit, const Truth& truth, const Eigen::Matrix3d& to_fi
   s.agreement = static_cast<double>(agree) / static_cast<double>(truth.part.size());
   const Eigen::MatrixXd joints = truth.joints * to_file.transpose();
   for (int j = 0; j < kNumJoints; ++j)
-    if ((fit.joints.row(j) - joints.row(j)).norm() > s.worst_joint) s.worst_joint = (fit.joints.row(j) - joints.row(j)).norm(), s.worst = joint_name(j);
+    if ((fit.joints.row(j) - joints.row(j)).norm() > s.worst_joint)
+      s.worst_joint = (fit.joints.row(j) - joints.row(j)).norm(), s.worst = joint_name(j);
   return s;
 }
 
@@ -113,8 +114,14 @@ TEST(BodyFit, KneelingSittingAndArmsCloseInAnyFrame) {
        Eigen::Matrix3d::Identity(), 0.03},
       // A deep squat with the arms crossed: neither is a pose a bone swung towards one direction says.
       {"squatting, arms crossed",
-       pose_of({{"left_hip", -110 * X}, {"right_hip", -110 * X}, {"left_knee", 130 * X}, {"right_knee", 130 * X}, {"lower_back", 20 * X},
-                {"left_shoulder", -45 * X}, {"right_shoulder", -45 * X}, {"left_elbow", Eigen::Vector3d(-60, -55, 0)},
+       pose_of({{"left_hip", -110 * X},
+                {"right_hip", -110 * X},
+                {"left_knee", 130 * X},
+                {"right_knee", 130 * X},
+                {"lower_back", 20 * X},
+                {"left_shoulder", -45 * X},
+                {"right_shoulder", -45 * X},
+                {"left_elbow", Eigen::Vector3d(-60, -55, 0)},
                 {"right_elbow", Eigen::Vector3d(-60, 55, 0)}}),
        Eigen::Matrix3d::Identity(), 0.03},
   };
@@ -126,11 +133,11 @@ TEST(BodyFit, KneelingSittingAndArmsCloseInAnyFrame) {
     const auto mh = test::makehuman();
     const Eigen::MatrixXd J = joint_centres(mh->rig, build_body(*mh, touching_spec));
     for (const char* side : {"left", "right"}) {
-      const Eigen::Vector3d arm = J.row(find_joint_index(std::string(side) + "_elbow")) - J.row(find_joint_index(std::string(side) + "_shoulder"));
+      const Eigen::Vector3d arm =
+          J.row(find_joint_index(std::string(side) + "_elbow")) - J.row(find_joint_index(std::string(side) + "_shoulder"));
       const double from_vertical = std::atan2(std::abs(arm.x()), -arm.y());
       const double sign = side[0] == 'l' ? -1 : 1;
-      touching.joint(find_joint_index(std::string(side) + "_shoulder")) =
-          sign * (from_vertical - 5 * M_PI / 180) * Z;
+      touching.joint(find_joint_index(std::string(side) + "_shoulder")) = sign * (from_vertical - 5 * M_PI / 180) * Z;
     }
   }
   cases.push_back({"arms touching the torso", touching, Eigen::Matrix3d::Identity(), 0.03, Case::kAtRest});
@@ -150,8 +157,8 @@ TEST(BodyFit, KneelingSittingAndArmsCloseInAnyFrame) {
     EXPECT_GT((frames_chosen.back() * c.to_file * Eigen::Vector3d::UnitY()).y(), std::cos(15 * M_PI / 180)) << c.name << ": up is +Y";
     const Score s = score(fit, truth, c.to_file);
     std::printf("%s: start %s, agreement %.3f, worst joint %.1f mm (%s), coverage %.3f, p95 %.1f mm, |c| %.1f, %.2f s%s\n", c.name,
-                fit.start.c_str(), s.agreement, 1000 * s.worst_joint, s.worst.c_str(), fit.coverage, 1000 * fit.target_p95, fit.shape_mahalanobis,
-                fit.seconds, fit.confident ? "" : " (poor)");
+                fit.start.c_str(), s.agreement, 1000 * s.worst_joint, s.worst.c_str(), fit.coverage, 1000 * fit.target_p95,
+                fit.shape_mahalanobis, fit.seconds, fit.confident ? "" : " (poor)");
     for (const auto& r : fit.reasons) std::printf("  reason: %s\n", r.c_str());
     EXPECT_GE(s.agreement, 0.95) << c.name;
     EXPECT_LE(s.worst_joint, c.joint_bar) << c.name;
@@ -172,7 +179,6 @@ TEST(BodyFit, KneelingSittingAndArmsCloseInAnyFrame) {
   }
 }
 
-
 // The shape and the pose found together: held-out bodies at rest come back as themselves, vertex for
 // vertex. Shape and pose fitted in turns crawled along the valley where wider shoulders and arms
 // hung at another angle explain the surface alike: on these four bodies 3.6 mm between vertices and
@@ -187,8 +193,8 @@ TEST(BodyFit, ShapeAndPoseTogetherGiveTheHeldOutBodiesBack) {
     const BodyFit fit = fit_body_model(*pop.model, truth.V);
     const Score s = score(fit, truth, Eigen::Matrix3d::Identity());
     const double apart = (fit.V - truth.V).rowwise().norm().mean();
-    std::printf("body %zu: vertices %.1f mm apart on average, worst joint %.1f mm (%s), %.2f s%s\n", k, 1000 * apart,
-                1000 * s.worst_joint, s.worst.c_str(), fit.seconds, fit.confident ? "" : " (poor)");
+    std::printf("body %zu: vertices %.1f mm apart on average, worst joint %.1f mm (%s), %.2f s%s\n", k, 1000 * apart, 1000 * s.worst_joint,
+                s.worst.c_str(), fit.seconds, fit.confident ? "" : " (poor)");
     EXPECT_TRUE(fit.confident) << k;
     vertex_mean += apart / kBodies;
     worst_joint_mean += s.worst_joint / kBodies;
@@ -247,8 +253,8 @@ TEST(BodyFit, ACrouchTheLibraryMatchesUpsideDownIsFoundUpright) {
   const Truth truth = posed_body(pop.held_out[4], pose);
   const BodyFit fit = fit_body_model(*pop.model, truth.V);
   const Score s = score(fit, truth, Eigen::Matrix3d::Identity());
-  std::printf("start %s, up (%.0f %.0f %.0f), agreement %.3f, worst joint %.1f mm (%s), %.2f s%s\n", fit.start.c_str(), fit.up.x(), fit.up.y(),
-              fit.up.z(), s.agreement, 1000 * s.worst_joint, s.worst.c_str(), fit.seconds, fit.confident ? "" : " (poor)");
+  std::printf("start %s, up (%.0f %.0f %.0f), agreement %.3f, worst joint %.1f mm (%s), %.2f s%s\n", fit.start.c_str(), fit.up.x(),
+              fit.up.y(), fit.up.z(), s.agreement, 1000 * s.worst_joint, s.worst.c_str(), fit.seconds, fit.confident ? "" : " (poor)");
   EXPECT_TRUE(fit.confident);
   EXPECT_GT(fit.up.y(), 0.99);
   EXPECT_GE(s.agreement, 0.95);
@@ -282,8 +288,7 @@ TEST(BodyFit, PosesTheSpacesBodyAboutItsOwnJointsAndRefusesANonBody) {
   EXPECT_GE(library.size(), 15u);
   for (size_t i = 0; i < library.size(); ++i) {
     for (size_t k = 0; k < i; ++k) EXPECT_NE(library[i].name, library[k].name);
-    for (int j = 0; j < kNumJoints; ++j)
-      EXPECT_LE(library[i].pose.joint(j).norm() * 180 / M_PI, joint_limit_degrees(j)) << library[i].name;
+    for (int j = 0; j < kNumJoints; ++j) EXPECT_LE(library[i].pose.joint(j).norm() * 180 / M_PI, joint_limit_degrees(j)) << library[i].name;
   }
   // Motion frames join the library by how far they are from it and from each other, heading aside:
   // the A-pose turned about the vertical is no new pose, a frame with a raised knee is, once.
@@ -291,8 +296,8 @@ TEST(BodyFit, PosesTheSpacesBodyAboutItsOwnJointsAndRefusesANonBody) {
   PartPose turned;
   turned.root_rotation = Eigen::Vector3d(0, 1.2, 0);
   frames.push_back({"turned a-pose", "turned a-pose", turned});
-  PartPose knee = pose_of({{"left_hip", Eigen::Vector3d(-100, 0, 0)}, {"left_knee", Eigen::Vector3d(110, 0, 0)},
-                           {"left_shoulder", Eigen::Vector3d(0, 0, 60)}});
+  PartPose knee = pose_of(
+      {{"left_hip", Eigen::Vector3d(-100, 0, 0)}, {"left_knee", Eigen::Vector3d(110, 0, 0)}, {"left_shoulder", Eigen::Vector3d(0, 0, 60)}});
   for (const double heading : {0.3, 2.0}) {
     knee.root_rotation = Eigen::Vector3d(0, heading, 0);
     frames.push_back({"knee " + std::to_string(heading), "knee", knee});
@@ -309,7 +314,7 @@ TEST(BodyFit, PosesTheSpacesBodyAboutItsOwnJointsAndRefusesANonBody) {
   for (Eigen::Index i = 0; i < box.rows(); ++i) box.row(i) << u(rng), 1.8 * u(rng), 0.5 * u(rng);
   BodyFitOptions quick;
   quick.headings = 4, quick.shape_rounds = 1, quick.hypotheses_refined = 1;  // one start: no runner-up to retry
-  quick.legs_searched = 1;  // the second search (a poor fit's), on one start
+  quick.legs_searched = 1;                                                   // the second search (a poor fit's), on one start
   const BodyFit fit = fit_body_model(m, box, quick);
   EXPECT_FALSE(fit.confident);
   EXPECT_FALSE(fit.reasons.empty());
@@ -339,16 +344,17 @@ TEST(BodyFit, FittedToTwoSilhouettesFromAPhoneAtChestHeight) {
   body.V = ((body.V.rowwise() - centre) * turn.transpose()).rowwise() + centre;
   const double floor = body.V.col(1).minCoeff(), mid = 0.5 * (floor + body.V.col(1).maxCoeff());
   PhotoCameras cams;
-  cams.front = PinholeCamera::look_at(Eigen::Vector3d(centre.x(), floor + 1.3, centre.z() + 2.3), Eigen::Vector3d(centre.x(), mid, centre.z()),
-                                      Eigen::Vector3d::UnitY(), 800, 1200, 1000);
-  cams.side = PinholeCamera::look_at(Eigen::Vector3d(centre.x() + 2.3, floor + 1.3, centre.z()), Eigen::Vector3d(centre.x(), mid, centre.z()),
-                                     Eigen::Vector3d::UnitY(), 800, 1200, 1000);
+  cams.front = PinholeCamera::look_at(Eigen::Vector3d(centre.x(), floor + 1.3, centre.z() + 2.3),
+                                      Eigen::Vector3d(centre.x(), mid, centre.z()), Eigen::Vector3d::UnitY(), 800, 1200, 1000);
+  cams.side = PinholeCamera::look_at(Eigen::Vector3d(centre.x() + 2.3, floor + 1.3, centre.z()),
+                                     Eigen::Vector3d(centre.x(), mid, centre.z()), Eigen::Vector3d::UnitY(), 800, 1200, 1000);
   const Silhouette front = silhouette_from_render(render_mesh(body, cams.front));
   const Silhouette side = silhouette_from_render(render_mesh(body, cams.side));
   const CustomizedBody fitted = customize_by_body_model(*pop.model, front, side, cams);
   const BodyMeasurements want = measure_body(body.V, body.F), got = measure_body(fitted.mesh.V, fitted.mesh.F);
   const double surface = TriangleTree(fitted.mesh.V, fitted.mesh.F).closest(body.V, 1).distance.mean();
-  std::printf("stature %+.1f mm, surface %.1f mm, agreement %.3f\n", 1000 * (got.stature - want.stature), 1000 * surface, fitted.photo_agreement);
+  std::printf("stature %+.1f mm, surface %.1f mm, agreement %.3f\n", 1000 * (got.stature - want.stature), 1000 * surface,
+              fitted.photo_agreement);
   EXPECT_NEAR(got.stature, want.stature, 0.01);
   EXPECT_LE(surface, 0.006);
   for (const char* name : {"bust", "waist", "hip"}) {

@@ -25,8 +25,7 @@ void measure_file(const std::string& path) {
   posekit::Unit unit;
   if (!posekit::guess_body_unit(posekit::robust_largest_extent(P), &unit)) return;  // measure refuses it
   P *= posekit::metres_per_unit(unit);
-  const posekit::BodyOrientation o =
-      is_cloud ? posekit::detect_body_orientation(P) : posekit::detect_mesh_orientation(mesh.V, mesh.F);
+  const posekit::BodyOrientation o = is_cloud ? posekit::detect_body_orientation(P) : posekit::detect_mesh_orientation(mesh.V, mesh.F);
   P = (P * o.rotation.transpose()).eval();
   if (is_cloud) (void)posekit::measure_point_cloud(P);
   else (void)posekit::measure_body(mesh.V, mesh.F);

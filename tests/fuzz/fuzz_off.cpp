@@ -1,7 +1,7 @@
 // libFuzzer target: the OFF reader, as a mesh and as a point cloud.
+#include "fuzz_input.h"
 #include "posekit/io/mesh_io.h"
 #include "posekit/io/point_cloud_io.h"
-#include "fuzz_input.h"
 
 extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size) {
   const std::string path = posekit::fuzz::write_input(data, size, ".off");

@@ -1,7 +1,7 @@
 // libFuzzer target: the PCD reader (ascii, binary, binary_compressed).
+#include "fuzz_input.h"
 #include "posekit/io/mesh_io.h"
 #include "posekit/io/point_cloud_io.h"
-#include "fuzz_input.h"
 
 extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size) {
   const std::string path = posekit::fuzz::write_input(data, size, ".pcd");

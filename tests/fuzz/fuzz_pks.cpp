@@ -11,8 +11,7 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
   const std::uint32_t crc = posekit::crc32(sealed.data(), sealed.size());
   for (int k = 0; k < 4; ++k) sealed.push_back(static_cast<char>((crc >> (8 * k)) & 0xFFu));
   for (const std::string& bytes : {std::string(reinterpret_cast<const char*>(data), size), sealed}) {
-    const std::string path =
-        posekit::fuzz::write_input(reinterpret_cast<const std::uint8_t*>(bytes.data()), bytes.size(), ".pks");
+    const std::string path = posekit::fuzz::write_input(reinterpret_cast<const std::uint8_t*>(bytes.data()), bytes.size(), ".pks");
     posekit::fuzz::expect_clean([&] { (void)posekit::read_shape_space(path); });
   }
   return 0;

@@ -34,17 +34,19 @@ std::string one_binary_triangle(int i0, int i1, int i2, float x0 = 0) {
 }
 
 struct BadFile {
-  const char* name;      // test name and file name stem
+  const char* name;  // test name and file name stem
   const char* ext;
   std::string content;
   const char* expected;  // a phrase the message must contain
 };
 
 std::vector<BadFile> corpus() {
-  const std::string ply_ascii_head = "ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\nproperty float y\n"
-                                     "property float z\nelement face 1\nproperty list uchar int vertex_indices\nend_header\n";
-  const std::string pcd_head = "VERSION 0.7\nFIELDS x y z\nSIZE 4 4 4\nTYPE F F F\nCOUNT 1 1 1\nWIDTH 3\nHEIGHT 1\n"
-                               "VIEWPOINT 0 0 0 1 0 0 0\nPOINTS 3\n";
+  const std::string ply_ascii_head =
+      "ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\nproperty float y\n"
+      "property float z\nelement face 1\nproperty list uchar int vertex_indices\nend_header\n";
+  const std::string pcd_head =
+      "VERSION 0.7\nFIELDS x y z\nSIZE 4 4 4\nTYPE F F F\nCOUNT 1 1 1\nWIDTH 3\nHEIGHT 1\n"
+      "VIEWPOINT 0 0 0 1 0 0 0\nPOINTS 3\n";
   return {
       {"obj_empty", ".obj", "", "no vertices"},
       {"obj_nan", ".obj", "v 0 0 0\nv nan 0 0\nv 0 1 0\nf 1 2 3\n", ":2: non-finite"},
@@ -69,12 +71,16 @@ std::vector<BadFile> corpus() {
       {"ply_ascii_word", ".ply", ply_ascii_head + "0 0 0\n1 x 0\n0 1 0\n3 0 1 2\n", "expected a number"},
       {"ply_huge_list", ".ply", binary_ply_header(3, 1) + std::string(36, '\0') + "\xff" + std::string(8, '\0'), "truncated"},
       // Found by the PLY fuzz target: a float list length or index that is NaN or not whole.
-      {"ply_nan_list_length", ".ply", "ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\nproperty float y\n"
-                                      "property float z\nelement face 1\nproperty list float int vertex_indices\nend_header\n"
-                                      "0 0 0\n1 0 0\n0 1 0\nnan 0 1 2\n", "implausible list length"},
-      {"ply_fractional_index", ".ply", "ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\nproperty float y\n"
-                                       "property float z\nelement face 1\nproperty list uchar float vertex_indices\n"
-                                       "end_header\n0 0 0\n1 0 0\n0 1 0\n3 0 1 nan\n", "is not a whole number"},
+      {"ply_nan_list_length", ".ply",
+       "ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\nproperty float y\n"
+       "property float z\nelement face 1\nproperty list float int vertex_indices\nend_header\n"
+       "0 0 0\n1 0 0\n0 1 0\nnan 0 1 2\n",
+       "implausible list length"},
+      {"ply_fractional_index", ".ply",
+       "ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\nproperty float y\n"
+       "property float z\nelement face 1\nproperty list uchar float vertex_indices\n"
+       "end_header\n0 0 0\n1 0 0\n0 1 0\n3 0 1 nan\n",
+       "is not a whole number"},
       {"ply_no_xyz", ".ply", "ply\nformat ascii 1.0\nelement vertex 1\nproperty float q\nend_header\n1\n", "no x, y, z"},
       {"off_wrong_header", ".off", "PFF\n3 1 0\n", "expected the header 'OFF'"},
       {"off_empty", ".off", "", "file ends early"},
@@ -84,23 +90,33 @@ std::vector<BadFile> corpus() {
       {"off_huge_count", ".off", "OFF\n2000000000 1 0\n", "more than the file can hold"},
       {"stl_garbage", ".stl", "this is not an stl file at all", "not an STL file"},
       {"stl_empty", ".stl", "", "not an STL file"},
-      {"stl_ascii_partial_facet", ".stl", "solid x\nfacet normal 0 0 1\nouter loop\nvertex 0 0 0\nvertex 1 0 0\nendloop\nendfacet\nendsolid\n", "facets of 3"},
-      {"stl_binary_nan", ".stl", std::string(80, ' ') + bytes_of<std::uint32_t>(1) + std::string(12, '\0') + bytes_of(std::nanf("")) + std::string(32 + 2, '\0'), "non-finite"},
-      {"pcd_width_times_height_overflows", ".pcd", "FIELDS x y z\nSIZE 4 4 4\nTYPE F F F\nWIDTH 4294967296\n"
-                                                   "HEIGHT 4294967296\nDATA binary\n", "more points than any file can hold"},
+      {"stl_ascii_partial_facet", ".stl",
+       "solid x\nfacet normal 0 0 1\nouter loop\nvertex 0 0 0\nvertex 1 0 0\nendloop\nendfacet\nendsolid\n", "facets of 3"},
+      {"stl_binary_nan", ".stl",
+       std::string(80, ' ') + bytes_of<std::uint32_t>(1) + std::string(12, '\0') + bytes_of(std::nanf("")) + std::string(32 + 2, '\0'),
+       "non-finite"},
+      {"pcd_width_times_height_overflows", ".pcd",
+       "FIELDS x y z\nSIZE 4 4 4\nTYPE F F F\nWIDTH 4294967296\n"
+       "HEIGHT 4294967296\nDATA binary\n",
+       "more points than any file can hold"},
       {"pcd_no_data", ".pcd", "VERSION 0.7\nFIELDS x y z\n", "no DATA"},
       {"pcd_truncated_binary", ".pcd", pcd_head + "DATA binary\n" + std::string(20, '\0'), "truncated"},
       {"pcd_truncated_ascii", ".pcd", pcd_head + "DATA ascii\n1 2 3\n", "truncated"},
-      {"pcd_no_xyz", ".pcd", "FIELDS a b c\nSIZE 4 4 4\nTYPE F F F\nCOUNT 1 1 1\nWIDTH 1\nHEIGHT 1\nPOINTS 1\nDATA ascii\n1 2 3\n", "no x, y, z"},
+      {"pcd_no_xyz", ".pcd", "FIELDS a b c\nSIZE 4 4 4\nTYPE F F F\nCOUNT 1 1 1\nWIDTH 1\nHEIGHT 1\nPOINTS 1\nDATA ascii\n1 2 3\n",
+       "no x, y, z"},
       {"pcd_size_mismatch", ".pcd", "FIELDS x y z\nSIZE 4 4\n", "expected one per field"},
-      {"pcd_bad_compressed", ".pcd", pcd_head + "DATA binary_compressed\n" + bytes_of<std::uint32_t>(8) + bytes_of<std::uint32_t>(36) + std::string(8, '\x55'), "decompress"},
+      {"pcd_bad_compressed", ".pcd",
+       pcd_head + "DATA binary_compressed\n" + bytes_of<std::uint32_t>(8) + bytes_of<std::uint32_t>(36) + std::string(8, '\x55'),
+       "decompress"},
       {"pcd_garbage", ".pcd", std::string("\x01\x02\x03\xff garbage\n", 13), "unexpected PCD header line"},
       {"xyz_empty", ".xyz", "", "no points"},
       {"xyz_inconsistent_columns", ".xyz", "1 2 3\n4 5 6 7 8 9\n", ":2: expected 3 values"},
       {"xyz_word", ".xyz", "1 2 three\n", "expected a number"},
       {"xyz_garbage", ".xyz", std::string("\x00\x01\x02", 3), "NUL"},
       {"bvh_empty", ".bvh", "", "expected HIERARCHY"},
-      {"bvh_truncated_frames", ".bvh", "HIERARCHY\nROOT a\n{\nOFFSET 0 0 0\nCHANNELS 3 Zrotation Xrotation Yrotation\n}\nMOTION\nFrames: 2\nFrame Time: 0.1\n1 2 3\n4 5\n", "truncated"},
+      {"bvh_truncated_frames", ".bvh",
+       "HIERARCHY\nROOT a\n{\nOFFSET 0 0 0\nCHANNELS 3 Zrotation Xrotation Yrotation\n}\nMOTION\nFrames: 2\nFrame Time: 0.1\n1 2 3\n4 5\n",
+       "truncated"},
       {"bvh_bad_channel", ".bvh", "HIERARCHY\nROOT a\n{\nOFFSET 0 0 0\nCHANNELS 1 Wrotation\n}\n", "unknown channel"},
       {"bvh_missing_motion", ".bvh", "HIERARCHY\nROOT a\n{\nOFFSET 0 0 0\n}\n", "MOTION"},
   };

@@ -1,7 +1,7 @@
 #include "posekit/io/bvh.h"
 
-#include <Eigen/Geometry>
 #include <gtest/gtest.h>
+#include <Eigen/Geometry>
 
 #include "posekit/core/error.h"
 #include "testing/temp_dir.h"
@@ -49,9 +49,10 @@ TEST(Bvh, ForwardKinematicsFollowsChannelOrder) {
   Eigen::MatrixXd frames = m.frames;
   BvhMotion twisted = m;
   twisted.frames.row(0) << 0, 0, 0, 30, 40, 50, 0, 0, 0;
-  const Eigen::Matrix3d zxy = (Eigen::AngleAxisd(30 * M_PI / 180, Eigen::Vector3d::UnitZ()) *
-                               Eigen::AngleAxisd(40 * M_PI / 180, Eigen::Vector3d::UnitX()) *
-                               Eigen::AngleAxisd(50 * M_PI / 180, Eigen::Vector3d::UnitY())).toRotationMatrix();
+  const Eigen::Matrix3d zxy =
+      (Eigen::AngleAxisd(30 * M_PI / 180, Eigen::Vector3d::UnitZ()) * Eigen::AngleAxisd(40 * M_PI / 180, Eigen::Vector3d::UnitX()) *
+       Eigen::AngleAxisd(50 * M_PI / 180, Eigen::Vector3d::UnitY()))
+          .toRotationMatrix();
   EXPECT_TRUE(twisted.local_rotation(0, 0).isApprox(zxy, 1e-12));
 }
 

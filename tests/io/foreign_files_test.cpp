@@ -72,8 +72,7 @@ TEST(XyzColumns, UnitLengthColumnsAreNormals) {
 
 TEST(XyzColumns, HeaderNamesTheColumnsInAnyOrder) {
   test::TempDir dir;
-  const std::string path =
-      dir.write("cc.txt", "//X,Y,Z,R,G,B,Nx,Ny,Nz,Intensity\n1,2,3,10,20,30,0,1,0,0.5\n4,5,6,40,50,60,1,0,0,0.25\n");
+  const std::string path = dir.write("cc.txt", "//X,Y,Z,R,G,B,Nx,Ny,Nz,Intensity\n1,2,3,10,20,30,0,1,0,0.5\n4,5,6,40,50,60,1,0,0,0.25\n");
   const PointCloud c = read_point_cloud(path);
   ASSERT_TRUE(c.has_colors());
   ASSERT_TRUE(c.has_normals());
@@ -136,12 +135,14 @@ TEST(XyzColumns, LeadingPlusSignsAreNumbers) {
 
 TEST(NonFinitePoints, EveryCloudFormatDropsThemAndSaysHowMany) {
   test::TempDir dir;
-  const std::string pcd = "VERSION 0.7\nFIELDS x y z\nSIZE 4 4 4\nTYPE F F F\nCOUNT 1 1 1\nWIDTH 3\nHEIGHT 1\n"
-                          "POINTS 3\nDATA ascii\n0 0 0\nnan nan nan\n1 1 1\n";
-  const std::string ply = "ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\nproperty float y\n"
-                          "property float z\nend_header\n0 0 0\nnan nan nan\n1 1 1\n";
-  for (const auto& [name, text] : {std::pair<std::string, std::string>{"o.pcd", pcd}, {"o.ply", ply},
-                                   {"o.xyz", "0 0 0\nnan nan nan\n1 1 1\n"}}) {
+  const std::string pcd =
+      "VERSION 0.7\nFIELDS x y z\nSIZE 4 4 4\nTYPE F F F\nCOUNT 1 1 1\nWIDTH 3\nHEIGHT 1\n"
+      "POINTS 3\nDATA ascii\n0 0 0\nnan nan nan\n1 1 1\n";
+  const std::string ply =
+      "ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\nproperty float y\n"
+      "property float z\nend_header\n0 0 0\nnan nan nan\n1 1 1\n";
+  for (const auto& [name, text] :
+       {std::pair<std::string, std::string>{"o.pcd", pcd}, {"o.ply", ply}, {"o.xyz", "0 0 0\nnan nan nan\n1 1 1\n"}}) {
     std::vector<std::string> warnings;
     const PointCloud c = read_point_cloud(dir.write(name, text), {Unit::kMetre, CloudFormat::kAuto, &warnings});
     EXPECT_EQ(c.size(), 2) << name;
@@ -183,8 +184,9 @@ TEST(Pcd, PackedColoursAreReadInEveryEncodingAndWritten) {
   const std::uint32_t orange = (255u << 16) | (128u << 8) | 7u;
   float as_float;
   std::memcpy(&as_float, &orange, 4);
-  const std::string head = "VERSION 0.7\nFIELDS x y z rgb\nSIZE 4 4 4 4\nTYPE F F F %\nCOUNT 1 1 1 1\nWIDTH 1\nHEIGHT 1\n"
-                           "POINTS 1\nDATA ";
+  const std::string head =
+      "VERSION 0.7\nFIELDS x y z rgb\nSIZE 4 4 4 4\nTYPE F F F %\nCOUNT 1 1 1 1\nWIDTH 1\nHEIGHT 1\n"
+      "POINTS 1\nDATA ";
   auto with_type = [&](char t) {
     std::string h = head;
     h[h.find('%')] = t;
@@ -193,8 +195,8 @@ TEST(Pcd, PackedColoursAreReadInEveryEncodingAndWritten) {
   char old_pcl_text[64];
   std::snprintf(old_pcl_text, sizeof(old_pcl_text), "%.9g", as_float);
   const std::vector<std::pair<std::string, std::string>> files = {
-      {"u_ascii.pcd", with_type('U') + "ascii\n1 2 3 " + std::to_string(orange) + "\n"},        // PCL 1.13
-      {"f_ascii.pcd", with_type('F') + "ascii\n1 2 3 " + std::string(old_pcl_text) + "\n"},   // older PCL
+      {"u_ascii.pcd", with_type('U') + "ascii\n1 2 3 " + std::to_string(orange) + "\n"},     // PCL 1.13
+      {"f_ascii.pcd", with_type('F') + "ascii\n1 2 3 " + std::string(old_pcl_text) + "\n"},  // older PCL
       {"f_binary.pcd", with_type('F') + "binary\n" + bytes_of(1.f) + bytes_of(2.f) + bytes_of(3.f) + bytes_of(as_float)},
   };
   for (const auto& [name, text] : files) {
@@ -216,8 +218,9 @@ TEST(Pcd, HeaderMustBeCompleteAndConsistent) {
   test::TempDir dir;
   const std::string no_height = "FIELDS x y z\nSIZE 4 4 4\nTYPE F F F\nWIDTH 1\nPOINTS 1\nDATA ascii\n1 2 3\n";
   const std::string no_size = "FIELDS x y z\nTYPE F F F\nWIDTH 1\nHEIGHT 1\nPOINTS 1\nDATA ascii\n1 2 3\n";
-  const std::string mismatch = "FIELDS x y z\nSIZE 4 4 4\nTYPE F F F\nWIDTH 2\nHEIGHT 2\nPOINTS 3\nDATA ascii\n"
-                               "1 2 3\n1 2 3\n1 2 3\n";
+  const std::string mismatch =
+      "FIELDS x y z\nSIZE 4 4 4\nTYPE F F F\nWIDTH 2\nHEIGHT 2\nPOINTS 3\nDATA ascii\n"
+      "1 2 3\n1 2 3\n1 2 3\n";
   EXPECT_NE(error_of([&] { read_point_cloud(dir.write("a.pcd", no_height)); }).find("lacks HEIGHT"), std::string::npos);
   EXPECT_NE(error_of([&] { read_point_cloud(dir.write("b.pcd", no_size)); }).find("lacks SIZE"), std::string::npos);
   EXPECT_NE(error_of([&] { read_point_cloud(dir.write("c.pcd", mismatch)); }).find("POINTS 3 but WIDTH x HEIGHT = 2 x 2"),
@@ -228,9 +231,10 @@ TEST(Pcd, HeaderMustBeCompleteAndConsistent) {
 
 TEST(Ply, PclPcd2PlyOutputWithEmptyFaceAndCameraElements) {
   test::TempDir dir;
-  std::string ply = "ply\nformat binary_little_endian 1.0\ncomment PCL generated\nelement vertex 2\n"
-                    "property float x\nproperty float y\nproperty float z\nelement face 0\nelement camera 1\n"
-                    "property float view_px\nproperty float view_py\nproperty float view_pz\nend_header\n";
+  std::string ply =
+      "ply\nformat binary_little_endian 1.0\ncomment PCL generated\nelement vertex 2\n"
+      "property float x\nproperty float y\nproperty float z\nelement face 0\nelement camera 1\n"
+      "property float view_px\nproperty float view_py\nproperty float view_pz\nend_header\n";
   for (float v : {1.f, 2.f, 3.f, 4.f, 5.f, 6.f, 0.f, 0.f, 0.f}) ply += bytes_of(v);
   const PointCloud c = read_point_cloud(dir.write("pcl.ply", ply));
   ASSERT_EQ(c.size(), 2);
@@ -239,37 +243,40 @@ TEST(Ply, PclPcd2PlyOutputWithEmptyFaceAndCameraElements) {
 
 TEST(Ply, ExporterNotesBeforeTheElementsAreSkippedWithAWarning) {
   test::TempDir dir;
-  const std::string ply = "ply\nformat ascii 1.0\nCreated by SomeScanner 2.1\nelement vertex 3\nproperty float x\n"
-                          "property float y\nproperty float z\nelement face 1\nproperty list uchar int vertex_indices\n"
-                          "end_header\n+0 0 0\n1 0 0\n0 1 0\n3 0 1 2\n";
+  const std::string ply =
+      "ply\nformat ascii 1.0\nCreated by SomeScanner 2.1\nelement vertex 3\nproperty float x\n"
+      "property float y\nproperty float z\nelement face 1\nproperty list uchar int vertex_indices\n"
+      "end_header\n+0 0 0\n1 0 0\n0 1 0\n3 0 1 2\n";
   std::vector<std::string> warnings;
   const TriangleMesh m = read_mesh(dir.write("note.ply", ply), {Unit::kMetre, MeshFormat::kAuto, &warnings});
   EXPECT_EQ(m.num_faces(), 1);
   EXPECT_TRUE(contains(warnings, "skipped the header line 'Created by SomeScanner 2.1'"));
   // The same line among the properties would shift every value: refused.
   const std::string inside = "ply\nformat ascii 1.0\nelement vertex 1\nproperty float x\npropery float y\nend_header\n1\n";
-  EXPECT_NE(error_of([&] { read_mesh(dir.write("typo.ply", inside)); }).find("unexpected header keyword 'propery'"),
-            std::string::npos);
+  EXPECT_NE(error_of([&] { read_mesh(dir.write("typo.ply", inside)); }).find("unexpected header keyword 'propery'"), std::string::npos);
 }
 
 TEST(Ply, ExtraValuesAndDuplicatePropertiesAreRefused) {
   test::TempDir dir;
-  const std::string head = "ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\nproperty float y\n"
-                           "property float z\nelement face 1\nproperty list uchar int vertex_indices\nend_header\n";
+  const std::string head =
+      "ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\nproperty float y\n"
+      "property float z\nelement face 1\nproperty list uchar int vertex_indices\nend_header\n";
   const std::string extra = head + "0 0 0 9\n1 0 0\n0 1 0\n3 0 1 2\n";
   EXPECT_NE(error_of([&] { read_mesh(dir.write("extra.ply", extra)); }).find("#0 of 3: 1 more value(s)"), std::string::npos);
-  const std::string dup = "ply\nformat ascii 1.0\nelement vertex 1\nproperty float x\nproperty float y\n"
-                          "property float z\nproperty float x\nend_header\n1 2 3 4\n";
+  const std::string dup =
+      "ply\nformat ascii 1.0\nelement vertex 1\nproperty float x\nproperty float y\n"
+      "property float z\nproperty float x\nend_header\n1 2 3 4\n";
   EXPECT_NE(error_of([&] { read_point_cloud(dir.write("dup.ply", dup)); }).find("property 'x' of element 'vertex' is declared twice"),
             std::string::npos);
 }
 
 TEST(Ply, AlphaAndTextureCoordinatesAreKept) {
   test::TempDir dir;
-  const std::string ply = "ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\nproperty float y\nproperty float z\n"
-                          "property uchar red\nproperty uchar green\nproperty uchar blue\nproperty uchar alpha\n"
-                          "property float s\nproperty float t\nelement face 1\nproperty list uchar int vertex_indices\n"
-                          "end_header\n0 0 0 1 2 3 128 0.25 0.5\n1 0 0 1 2 3 255 1 0\n0 1 0 1 2 3 0 0 1\n3 0 1 2\n";
+  const std::string ply =
+      "ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\nproperty float y\nproperty float z\n"
+      "property uchar red\nproperty uchar green\nproperty uchar blue\nproperty uchar alpha\n"
+      "property float s\nproperty float t\nelement face 1\nproperty list uchar int vertex_indices\n"
+      "end_header\n0 0 0 1 2 3 128 0.25 0.5\n1 0 0 1 2 3 255 1 0\n0 1 0 1 2 3 0 0 1\n3 0 1 2\n";
   const TriangleMesh m = read_mesh(dir.write("a.ply", ply));
   ASSERT_TRUE(m.has_uv());
   EXPECT_DOUBLE_EQ(m.UV(0, 1), 0.5);
@@ -293,8 +300,9 @@ TEST(Obj, TextureCoordinatesSurvivePlyToObjToPly) {
 
 TEST(Obj, UvSeamsAreReportedNotSilentlyMerged) {
   test::TempDir dir;
-  const std::string obj = "v 0 0 0\nv 1 0 0\nv 0 1 0\nv 1 1 0\nvt 0 0\nvt 1 0\nvt 0 1\nvt 1 1\nvt 0.5 0.5\n"
-                          "f 1/1 2/2 3/3\nf 2/5 4/4 3/3\n";
+  const std::string obj =
+      "v 0 0 0\nv 1 0 0\nv 0 1 0\nv 1 1 0\nvt 0 0\nvt 1 0\nvt 0 1\nvt 1 1\nvt 0.5 0.5\n"
+      "f 1/1 2/2 3/3\nf 2/5 4/4 3/3\n";
   std::vector<std::string> warnings;
   const TriangleMesh m = read_mesh(dir.write("seam.obj", obj), {Unit::kMetre, MeshFormat::kAuto, &warnings});
   EXPECT_FALSE(m.has_uv());
@@ -364,16 +372,14 @@ TEST(WriteMesh, WarnsOfEveryAttributeTheFormatCannotHold) {
 TEST(BvhFrameTime, MustBeAPositiveNumberOfSeconds) {
   test::TempDir dir;
   for (const std::string t : {"nan", "inf", "0", "-1"}) {
-    const std::string text = "HIERARCHY\nROOT a\n{\nOFFSET 0 0 0\nCHANNELS 1 Zrotation\n}\nMOTION\nFrames: 1\nFrame Time: " +
-                             t + "\n5\n";
+    const std::string text = "HIERARCHY\nROOT a\n{\nOFFSET 0 0 0\nCHANNELS 1 Zrotation\n}\nMOTION\nFrames: 1\nFrame Time: " + t + "\n5\n";
     const std::string msg = error_of([&] { read_bvh(dir.write("t.bvh", text)); });
     EXPECT_NE(msg.find("Frame Time must be a positive number"), std::string::npos) << t << ": " << msg;
   }
 }
 
 TEST(Json, DuplicateKeysAreRefusedWithTheirObject) {
-  const std::string msg =
-      error_of([] { parse_json(R"({"joints": {"left_knee": [0, 0, 1], "left_knee": [0, 0, 0]}})", "pose.json"); });
+  const std::string msg = error_of([] { parse_json(R"({"joints": {"left_knee": [0, 0, 1], "left_knee": [0, 0, 0]}})", "pose.json"); });
   EXPECT_NE(msg.find("pose.json: the key 'left_knee' appears twice in 'joints'"), std::string::npos) << msg;
   // The same key in two objects is fine.
   EXPECT_NO_THROW(parse_json(R"({"a": {"x": 1}, "b": {"x": 2}, "c": [{"x": 1}, {"x": 2}]})", "ok.json"));

@@ -96,13 +96,15 @@ TEST(HostileFiles, BvhUnclosedDeepHierarchyIsAnErrorNotACrash) {
 
 TEST(HostileFiles, PlyClaimingTwoToThe31Elements) {
   test::TempDir dir;
-  const std::string vertices = "ply\nformat ascii 1.0\nelement vertex " + kClaimText +
-                               "\nproperty float x\nproperty float y\nproperty float z\nend_header\n0 0 0\n";
+  const std::string vertices =
+      "ply\nformat ascii 1.0\nelement vertex " + kClaimText + "\nproperty float x\nproperty float y\nproperty float z\nend_header\n0 0 0\n";
   const std::string path1 = dir.write("ascii_vertices.ply", vertices);
   expect_refused_cheaply(path1, "claims " + kClaimText, [&] { read_mesh(path1); });
   expect_refused_cheaply(path1, "claims " + kClaimText, [&] { read_point_cloud(path1); });
-  std::string faces = "ply\nformat binary_little_endian 1.0\nelement vertex 3\nproperty float x\nproperty float y\n"
-                      "property float z\nelement face " + kClaimText + "\nproperty list uchar int vertex_indices\nend_header\n";
+  std::string faces =
+      "ply\nformat binary_little_endian 1.0\nelement vertex 3\nproperty float x\nproperty float y\n"
+      "property float z\nelement face " +
+      kClaimText + "\nproperty list uchar int vertex_indices\nend_header\n";
   for (int k = 0; k < 9; ++k) faces += bytes_of(0.f);
   const std::string path2 = dir.write("binary_faces.ply", faces);
   expect_refused_cheaply(path2, "element 'face' claims " + kClaimText, [&] { read_mesh(path2); });
@@ -111,16 +113,17 @@ TEST(HostileFiles, PlyClaimingTwoToThe31Elements) {
 TEST(HostileFiles, PcdClaimingTwoToThe31Points) {
   test::TempDir dir;
   for (const std::string data : {"ascii", "binary", "binary_compressed"}) {
-    std::string pcd = "VERSION 0.7\nFIELDS x y z\nSIZE 4 4 4\nTYPE F F F\nCOUNT 1 1 1\nWIDTH " + kClaimText +
-                      "\nHEIGHT 1\nPOINTS " + kClaimText + "\nDATA " + data + "\n";
+    std::string pcd = "VERSION 0.7\nFIELDS x y z\nSIZE 4 4 4\nTYPE F F F\nCOUNT 1 1 1\nWIDTH " + kClaimText + "\nHEIGHT 1\nPOINTS " +
+                      kClaimText + "\nDATA " + data + "\n";
     if (data == "binary_compressed") pcd += bytes_of<std::uint32_t>(12) + bytes_of<std::uint32_t>(0) + std::string(12, 'x');
     else pcd += "0 0 0\n";
     const std::string path = dir.write(data + ".pcd", pcd);
     expect_refused_cheaply(path, kClaimText + " points", [&] { read_point_cloud(path); });
   }
   // The 149-byte header that cost 6-7 GB before the check.
-  const std::string small = "VERSION 0.7\nFIELDS x y z\nSIZE 4 4 4\nTYPE F F F\nCOUNT 1 1 1\nWIDTH 200000000\nHEIGHT 1\n"
-                            "POINTS 200000000\nDATA binary\n";
+  const std::string small =
+      "VERSION 0.7\nFIELDS x y z\nSIZE 4 4 4\nTYPE F F F\nCOUNT 1 1 1\nWIDTH 200000000\nHEIGHT 1\n"
+      "POINTS 200000000\nDATA binary\n";
   const std::string path = dir.write("small.pcd", small);
   expect_refused_cheaply(path, "200000000 points", [&] { read_point_cloud(path); });
 }
@@ -129,8 +132,10 @@ TEST(HostileFiles, PcdClaimingTwoToThe31Points) {
 TEST(HostileFiles, PcdColourOutsideAPackedRgbIsAnError) {
   test::TempDir dir;
   for (const std::string rgb : {"131586000000000", "-1", "nan"}) {
-    const std::string path = dir.write("rgb.pcd", "VERSION 0.7\nFIELDS x y z rgb\nSIZE 4 4 4 4\nTYPE F F F U\nCOUNT 1 1 1 1\n"
-                                                  "WIDTH 2\nHEIGHT 1\nPOINTS 2\nDATA ascii\n0 0 0 255\n1 0 0 " + rgb + "\n");
+    const std::string path = dir.write("rgb.pcd",
+                                       "VERSION 0.7\nFIELDS x y z rgb\nSIZE 4 4 4 4\nTYPE F F F U\nCOUNT 1 1 1 1\n"
+                                       "WIDTH 2\nHEIGHT 1\nPOINTS 2\nDATA ascii\n0 0 0 255\n1 0 0 " +
+                                           rgb + "\n");
     try {
       read_point_cloud(path);
       FAIL() << "rgb " << rgb << " was read";

@@ -66,8 +66,9 @@ TEST(InteropFindings, ObjNormalsFollowTheFacesIndicesNotTheOrderOfTheVnLines) {
 TEST(InteropFindings, ObjNormalsOfAFlatShadedMeshAreDroppedWithAWarning) {
   test::TempDir dir;
   // Two triangles sharing an edge, each with its own normal (a hard edge): a vertex has two.
-  dir.write("flat.obj", "v 0 0 0\nv 1 0 0\nv 0 1 0\nv 1 1 0.5\nvn 0 0 1\nvn 0 -0.4 0.9\n"
-                        "f 1//1 2//1 3//1\nf 2//2 4//2 3//2\n");
+  dir.write("flat.obj",
+            "v 0 0 0\nv 1 0 0\nv 0 1 0\nv 1 1 0.5\nvn 0 0 1\nvn 0 -0.4 0.9\n"
+            "f 1//1 2//1 3//1\nf 2//2 4//2 3//2\n");
   std::vector<std::string> warnings;
   const TriangleMesh mesh = read_mesh(dir.file("flat.obj"), {Unit::kMetre, MeshFormat::kAuto, &warnings});
   EXPECT_FALSE(mesh.has_normals());
@@ -118,17 +119,19 @@ TEST(InteropFindings, BvhFrameLinesEachHoldExactlyTheChannelCount) {
 
 TEST(InteropFindings, PlyElementsInAnyOrderFaceBeforeVertex) {
   test::TempDir dir;
-  dir.write("face_first.ply", "ply\nformat ascii 1.0\nelement face 1\nproperty list uchar int vertex_indices\n"
-                              "element vertex 3\nproperty float x\nproperty float y\nproperty float z\nend_header\n"
-                              "3 0 1 2\n0 0 0\n1 0 0\n0 1 0\n");
+  dir.write("face_first.ply",
+            "ply\nformat ascii 1.0\nelement face 1\nproperty list uchar int vertex_indices\n"
+            "element vertex 3\nproperty float x\nproperty float y\nproperty float z\nend_header\n"
+            "3 0 1 2\n0 0 0\n1 0 0\n0 1 0\n");
   const TriangleMesh mesh = read_mesh(dir.file("face_first.ply"));
   ASSERT_EQ(mesh.F.rows(), 1);
   EXPECT_EQ(mesh.F.row(0), Eigen::RowVector3i(0, 1, 2));
   EXPECT_DOUBLE_EQ(mesh.V(1, 0), 1.0);
   // An index beyond the vertices is still refused, naming the face.
-  dir.write("bad.ply", "ply\nformat ascii 1.0\nelement face 1\nproperty list uchar int vertex_indices\n"
-                       "element vertex 3\nproperty float x\nproperty float y\nproperty float z\nend_header\n"
-                       "3 0 1 7\n0 0 0\n1 0 0\n0 1 0\n");
+  dir.write("bad.ply",
+            "ply\nformat ascii 1.0\nelement face 1\nproperty list uchar int vertex_indices\n"
+            "element vertex 3\nproperty float x\nproperty float y\nproperty float z\nend_header\n"
+            "3 0 1 7\n0 0 0\n1 0 0\n0 1 0\n");
   try {
     read_mesh(dir.file("bad.ply"));
     FAIL();
@@ -140,10 +143,11 @@ TEST(InteropFindings, PlyElementsInAnyOrderFaceBeforeVertex) {
 TEST(InteropFindings, PlyFacePropertiesAreKeptAndWrittenBack) {
   test::TempDir dir;
   // A quad and a triangle with face colours (uchar) and a quality (float).
-  dir.write("faces.ply", "ply\nformat ascii 1.0\nelement vertex 5\nproperty float x\nproperty float y\nproperty float z\n"
-                         "element face 2\nproperty list uchar int vertex_indices\nproperty uchar red\nproperty uchar green\n"
-                         "property uchar blue\nproperty float quality\nend_header\n"
-                         "0 0 0\n1 0 0\n1 1 0\n0 1 0\n2 0 0\n4 0 1 2 3 200 10 20 0.5\n3 1 4 2 5 6 7 -1.25\n");
+  dir.write("faces.ply",
+            "ply\nformat ascii 1.0\nelement vertex 5\nproperty float x\nproperty float y\nproperty float z\n"
+            "element face 2\nproperty list uchar int vertex_indices\nproperty uchar red\nproperty uchar green\n"
+            "property uchar blue\nproperty float quality\nend_header\n"
+            "0 0 0\n1 0 0\n1 1 0\n0 1 0\n2 0 0\n4 0 1 2 3 200 10 20 0.5\n3 1 4 2 5 6 7 -1.25\n");
   const TriangleMesh mesh = read_mesh(dir.file("faces.ply"));
   ASSERT_EQ(mesh.F.rows(), 3);  // the quad in two triangles
   ASSERT_EQ(mesh.face_scalars.size(), 4u);
@@ -162,9 +166,10 @@ TEST(InteropFindings, PlyFacePropertiesAreKeptAndWrittenBack) {
 
 TEST(InteropFindings, PlyPerCornerTexcoordBecomesVertexUvOrAWarningAtSeams) {
   test::TempDir dir;
-  const std::string head = "ply\nformat ascii 1.0\nelement vertex 4\nproperty float x\nproperty float y\nproperty float z\n"
-                           "element face 2\nproperty list uchar int vertex_indices\nproperty list uchar float texcoord\nend_header\n"
-                           "0 0 0\n1 0 0\n1 1 0\n0 1 0\n";
+  const std::string head =
+      "ply\nformat ascii 1.0\nelement vertex 4\nproperty float x\nproperty float y\nproperty float z\n"
+      "element face 2\nproperty list uchar int vertex_indices\nproperty list uchar float texcoord\nend_header\n"
+      "0 0 0\n1 0 0\n1 1 0\n0 1 0\n";
   dir.write("uv.ply", head + "3 0 1 2 6 0 0 1 0 1 1\n3 0 2 3 6 0 0 1 1 0 1\n");
   const TriangleMesh mesh = read_mesh(dir.file("uv.ply"));
   ASSERT_TRUE(mesh.has_uv());
@@ -180,9 +185,10 @@ TEST(InteropFindings, PlyPerCornerTexcoordBecomesVertexUvOrAWarningAtSeams) {
 
 TEST(InteropFindings, PlyDiffuseColoursAreColours) {
   test::TempDir dir;
-  dir.write("diffuse.ply", "ply\nformat ascii 1.0\nelement vertex 2\nproperty float x\nproperty float y\nproperty float z\n"
-                           "property uchar diffuse_red\nproperty uchar diffuse_green\nproperty uchar diffuse_blue\nend_header\n"
-                           "0 0 0 255 128 0\n1 0 0 1 2 3\n");
+  dir.write("diffuse.ply",
+            "ply\nformat ascii 1.0\nelement vertex 2\nproperty float x\nproperty float y\nproperty float z\n"
+            "property uchar diffuse_red\nproperty uchar diffuse_green\nproperty uchar diffuse_blue\nend_header\n"
+            "0 0 0 255 128 0\n1 0 0 1 2 3\n");
   const PointCloud cloud = read_point_cloud(dir.file("diffuse.ply"));
   ASSERT_TRUE(cloud.has_colors());
   EXPECT_EQ(cloud.C(0, 1), 128);

@@ -27,8 +27,8 @@ TEST(PointCloudIo, RoundTripsEveryFormat) {
     bool binary;
     double tol;
   };
-  for (const Case& k : {Case{"a.pcd", false, 1e-6}, Case{"b.pcd", true, 1e-6}, Case{"a.ply", false, 1e-15},
-                        Case{"b.ply", true, 0.0}, Case{"c.xyz", false, 1e-15}}) {
+  for (const Case& k : {Case{"a.pcd", false, 1e-6}, Case{"b.pcd", true, 1e-6}, Case{"a.ply", false, 1e-15}, Case{"b.ply", true, 0.0},
+                        Case{"c.xyz", false, 1e-15}}) {
     write_point_cloud(dir.file(k.file), c, {Unit::kMetre, CloudFormat::kAuto, k.binary});
     const PointCloud r = read_point_cloud(dir.file(k.file));
     ASSERT_EQ(r.size(), c.size()) << k.file;
@@ -71,8 +71,7 @@ TEST(PointCloudIo, ReadsPclCompressedPcdWithLongRepeats) {
   // Runs of equal records compress into LZF back-references of every length, overlapping the output.
   test::TempDir dir;
   pcl::PointCloud<pcl::PointXYZ> pc;
-  for (int i = 0; i < 5000; ++i)
-    pc.push_back(pcl::PointXYZ(static_cast<float>(i / 1000), 0.5f, static_cast<float>(i % 7) * 0.25f));
+  for (int i = 0; i < 5000; ++i) pc.push_back(pcl::PointXYZ(static_cast<float>(i / 1000), 0.5f, static_cast<float>(i % 7) * 0.25f));
   pcl::io::savePCDFileBinaryCompressed(dir.file("repeats.pcd"), pc);
   const PointCloud r = read_point_cloud(dir.file("repeats.pcd"), {Unit::kMetre});
   ASSERT_EQ(r.size(), 5000);

@@ -68,17 +68,17 @@ TEST(PointStream, GivesReadPointCloudsPointsToTheBitInAnyPieces) {
   write_point_cloud(dir.file("a.ply"), finite, {Unit::kMillimetre});
   write_point_cloud(dir.file("a.pcd"), finite, {Unit::kMillimetre});
   for (const char* name : {"a.ply", "a.pcd"})
-    for (Eigen::Index piece : {Eigen::Index(1000), Eigen::Index(333), Eigen::Index(5000)})
-      expect_same_points(dir.file(name), 0.001, piece);
+    for (Eigen::Index piece : {Eigen::Index(1000), Eigen::Index(333), Eigen::Index(5000)}) expect_same_points(dir.file(name), 0.001, piece);
   // Big-endian floats with other properties around x, y, z and non-finite points; faces after.
-  std::string ply = "ply\nformat binary_big_endian 1.0\ncomment made by hand\nelement vertex 300\nproperty uchar red\n"
-                    "property float z\nproperty float x\nproperty short id\nproperty float y\nelement face 0\n"
-                    "property list uchar int vertex_indices\nend_header\n";
+  std::string ply =
+      "ply\nformat binary_big_endian 1.0\ncomment made by hand\nelement vertex 300\nproperty uchar red\n"
+      "property float z\nproperty float x\nproperty short id\nproperty float y\nelement face 0\n"
+      "property list uchar int vertex_indices\nend_header\n";
   for (int i = 0; i < 300; ++i) {
     const float nan = std::numeric_limits<float>::quiet_NaN();
     const float x = 0.01f * static_cast<float>(i), y = i % 41 == 0 ? nan : 1.5f, z = -0.25f * static_cast<float>(i % 7);
-    ply += bytes_of<std::uint8_t>(200) + bytes_of(z, true) + bytes_of(x, true) + bytes_of<std::int16_t>(static_cast<std::int16_t>(i), true) +
-           bytes_of(y, true);
+    ply += bytes_of<std::uint8_t>(200) + bytes_of(z, true) + bytes_of(x, true) +
+           bytes_of<std::int16_t>(static_cast<std::int16_t>(i), true) + bytes_of(y, true);
   }
   dir.write("big.ply", ply);
   for (Eigen::Index piece : {Eigen::Index(7), Eigen::Index(100)}) expect_same_points(dir.file("big.ply"), 1.0, piece);
@@ -96,8 +96,8 @@ TEST(PointStream, LeavesEveryOtherFileToTheWholeReader) {
   std::string truncated((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
   truncated.resize(truncated.size() - 5);
   dir.write("truncated.ply", truncated);
-  dir.write("list.ply", "ply\nformat binary_little_endian 1.0\nelement vertex 1\nproperty list uchar float xyz\nend_header\n" +
-                            std::string(13, '\0'));
+  dir.write("list.ply",
+            "ply\nformat binary_little_endian 1.0\nelement vertex 1\nproperty list uchar float xyz\nend_header\n" + std::string(13, '\0'));
   dir.write("noy.ply", "ply\nformat binary_little_endian 1.0\nelement vertex 1\nproperty float x\nproperty float z\nend_header\n" +
                            std::string(8, '\0'));
   for (const char* name : {"ascii.ply", "ascii.pcd", "c.xyz", "truncated.ply", "list.ply", "noy.ply", "missing.ply"})

@@ -81,8 +81,7 @@ TEST(RoundTripProperty, EveryMeshFormatKeepsEveryFieldItCanHold) {
         // Geometry only, as float32, welded: every triangle's corners where they were.
         ASSERT_EQ(r.F.rows(), m.F.rows()) << what;
         for (Eigen::Index f = 0; f < m.F.rows(); ++f)
-          for (int c = 0; c < 3; ++c)
-            EXPECT_LE((r.V.row(r.F(f, c)) - m.V.row(m.F(f, c))).norm(), 1e-6) << what << " face " << f;
+          for (int c = 0; c < 3; ++c) EXPECT_LE((r.V.row(r.F(f, c)) - m.V.row(m.F(f, c))).norm(), 1e-6) << what << " face " << f;
         continue;
       }
       expect_near(r.V, m.V, 0, what + " V");
@@ -126,8 +125,7 @@ TEST(RoundTripProperty, EveryCloudFormatKeepsEveryFieldItCanHold) {
       ASSERT_EQ(r.point_scalars.size(), c.point_scalars.size()) << what;
       for (const auto& [field, values] : c.point_scalars) {
         ASSERT_EQ(r.point_scalars.count(field), 1u) << what << " " << field;
-        expect_near(r.point_scalars.at(field), values, pcd ? 1e-6 * std::max(1.0, values.cwiseAbs().maxCoeff()) : 0,
-                    what + " " + field);
+        expect_near(r.point_scalars.at(field), values, pcd ? 1e-6 * std::max(1.0, values.cwiseAbs().maxCoeff()) : 0, what + " " + field);
       }
     }
   }

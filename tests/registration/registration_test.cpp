@@ -11,15 +11,15 @@
 #include <string>
 #include <vector>
 
+#include "posekit/body/parts.h"
 #include "posekit/core/error.h"
 #include "posekit/core/mesh_geometry.h"
 #include "posekit/datasets/remesh.h"
-#include "posekit/body/parts.h"
 #include "posekit/datasets/robustness.h"
+#include "posekit/datasets/subjects.h"
 #include "posekit/io/atomic_file.h"
 #include "posekit/io/checksum.h"
 #include "posekit/io/mesh_io.h"
-#include "posekit/datasets/subjects.h"
 #include "posekit/registration/correspondence.h"
 #include "posekit/registration/ctffd.h"
 #include "posekit/registration/nicp.h"
@@ -53,7 +53,8 @@ double mean_point_error(const TriangleMesh& templ, const Eigen::MatrixXd& deform
 /// Dataset subject `index` (seed 1) remeshed to 12,400 vertices, and each vertex's true point on the template.
 TriangleMesh remeshed_subject(const MakeHumanModel& model, const Body& templ, int index, Eigen::MatrixXd* true_points) {
   SurfacePoints truth;
-  TriangleMesh subject = remesh_body(build_body(model, make_subject_specs(model, 1, 16)[static_cast<size_t>(index)].spec).mesh, 12400, &truth);
+  TriangleMesh subject =
+      remesh_body(build_body(model, make_subject_specs(model, 1, 16)[static_cast<size_t>(index)].spec).mesh, 12400, &truth);
   *true_points = evaluate_surface_points(templ.mesh.V, templ.mesh.F, truth);
   return subject;
 }
@@ -424,8 +425,9 @@ TEST(ShapeSpace, AlignsBodiesRigidlyAndRoundTripsThroughAFile) {
   for (const auto& c : coefficients) bodies.push_back(two_mode_body(sphere, c[0], c[1]));
   // Each body turned about a different axis and moved: aligned, the space has the two modes again.
   for (size_t b = 0; b < bodies.size(); ++b) {
-    const Eigen::Matrix3d R = Eigen::AngleAxisd(0.3 * static_cast<double>(b + 1), Eigen::Vector3d(1, 2, 0.5 * static_cast<double>(b)).normalized())
-                                  .toRotationMatrix();
+    const Eigen::Matrix3d R =
+        Eigen::AngleAxisd(0.3 * static_cast<double>(b + 1), Eigen::Vector3d(1, 2, 0.5 * static_cast<double>(b)).normalized())
+            .toRotationMatrix();
     placed.push_back((bodies[b] * R.transpose()).rowwise() + Eigen::RowVector3d(0.1 * static_cast<double>(b), 1, -0.2));
   }
   // (Where a body stands is not quite separable from its shape: a pushed-forward top moves the
@@ -454,7 +456,11 @@ TEST(ShapeSpace, AlignsBodiesRigidlyAndRoundTripsThroughAFile) {
   write_shape_space(dir.path() + "/joints.pks", jointed);
   const ShapeSpace jointed_read = read_shape_space(dir.path() + "/joints.pks");
   EXPECT_TRUE(jointed_read.joint_mean == jointed.joint_mean && jointed_read.joint_basis == jointed.joint_basis);
-  EXPECT_LT((jointed_read.joints(Eigen::VectorXd::Ones(2)) - jointed.joint_mean - (jointed.joint_basis.leftCols(2).rowwise().sum()).reshaped(3, kNumJoints).transpose()).cwiseAbs().maxCoeff(), 1e-12);
+  EXPECT_LT((jointed_read.joints(Eigen::VectorXd::Ones(2)) - jointed.joint_mean -
+             (jointed.joint_basis.leftCols(2).rowwise().sum()).reshaped(3, kNumJoints).transpose())
+                .cwiseAbs()
+                .maxCoeff(),
+            1e-12);
   // Poses (version 3) come back with their names; a pose count that does not match the names is refused.
   ShapeSpace posed = jointed;
   posed.poses = Eigen::MatrixXd::Random(2, 3 * (1 + kNumJoints));

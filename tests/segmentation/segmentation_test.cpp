@@ -116,8 +116,7 @@ TEST(Segmentation, SubjectsAgreeWithTheRigLabels) {
     // Skeleton embedding: every rig joint within 3 cm.
     const Eigen::MatrixXd joints = embed_skeleton(prior, rep);
     const Eigen::MatrixXd rig_joints = joint_centres(model.rig, body);
-    for (int j = 0; j < kNumJoints; ++j)
-      EXPECT_LT((joints.row(j) - rig_joints.row(j)).norm(), 0.03) << specs[i].id << " " << joint_name(j);
+    for (int j = 0; j < kNumJoints; ++j) EXPECT_LT((joints.row(j) - rig_joints.row(j)).norm(), 0.03) << specs[i].id << " " << joint_name(j);
   }
   // Arms held otherwise (closer to the body, elbows nearly straight) leave the spine where it was:
   // the torso joints once took their neighbours by whole-body shape, arms included, and the upper

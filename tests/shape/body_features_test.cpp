@@ -1,7 +1,7 @@
 #include "posekit/shape/body_features.h"
 
-#include <Eigen/Geometry>
 #include <gtest/gtest.h>
+#include <Eigen/Geometry>
 
 #include "posekit/body/parts.h"
 #include "posekit/body/skinning.h"
@@ -9,8 +9,8 @@
 #include "posekit/core/mesh_slice.h"
 #include "posekit/datasets/remesh.h"
 #include "posekit/datasets/scanner.h"
-#include "posekit/shape/measurements.h"
 #include "posekit/datasets/subjects.h"
+#include "posekit/shape/measurements.h"
 #include "testing/makehuman_fixture.h"
 
 using namespace posekit;
@@ -24,28 +24,28 @@ struct FeatureErrors {
 /// rig's ground truth.
 FeatureErrors find_subject_errors(const MakeHumanModel& model, bool remeshed) {
   FeatureErrors out;
-    for (const auto& s : make_subject_specs(model, 1, 16)) {
-      const Body b = build_body(model, s.spec);
-      const TriangleMesh mesh = remeshed ? remesh_body(b.mesh, 12400) : b.mesh;
-      const Measurements gt = measure_makehuman_body(model, b);
-      const Eigen::MatrixXd J = joint_centres(model.rig, b);
-      auto j = [&](const char* name) { return Eigen::Vector3d(J.row(find_joint_index(name))); };
-      const BodyFeatures f = find_body_features(mesh.V, mesh.F);
-      out.crotch.push_back(100 * std::abs(f.crotch_y - gt.crotch_height));
-      out.hip.push_back(100 * std::abs(f.hip_y - gt.hip_height));
-      out.waist.push_back(100 * std::abs(f.waist_y - gt.waist_height));
-      out.bust.push_back(100 * std::abs(f.bust_y - gt.bust_height));
-      out.neck_base.push_back(100 * (f.neck_base - j("neck")).norm());
-      for (int side : {kLeft, kRight}) {
-        const std::string p = side == kLeft ? "left_" : "right_";
-        out.shoulder.push_back(100 * (f.shoulder[side] - j((p + "shoulder").c_str())).norm());
-        out.elbow.push_back(100 * (f.elbow[side] - j((p + "elbow").c_str())).norm());
-        out.wrist.push_back(100 * (f.wrist[side] - j((p + "wrist").c_str())).norm());
-        out.knee.push_back(100 * (f.knee[side] - j((p + "knee").c_str())).norm());
-        out.ankle.push_back(100 * (f.ankle[side] - j((p + "ankle").c_str())).norm());
-      }
+  for (const auto& s : make_subject_specs(model, 1, 16)) {
+    const Body b = build_body(model, s.spec);
+    const TriangleMesh mesh = remeshed ? remesh_body(b.mesh, 12400) : b.mesh;
+    const Measurements gt = measure_makehuman_body(model, b);
+    const Eigen::MatrixXd J = joint_centres(model.rig, b);
+    auto j = [&](const char* name) { return Eigen::Vector3d(J.row(find_joint_index(name))); };
+    const BodyFeatures f = find_body_features(mesh.V, mesh.F);
+    out.crotch.push_back(100 * std::abs(f.crotch_y - gt.crotch_height));
+    out.hip.push_back(100 * std::abs(f.hip_y - gt.hip_height));
+    out.waist.push_back(100 * std::abs(f.waist_y - gt.waist_height));
+    out.bust.push_back(100 * std::abs(f.bust_y - gt.bust_height));
+    out.neck_base.push_back(100 * (f.neck_base - j("neck")).norm());
+    for (int side : {kLeft, kRight}) {
+      const std::string p = side == kLeft ? "left_" : "right_";
+      out.shoulder.push_back(100 * (f.shoulder[side] - j((p + "shoulder").c_str())).norm());
+      out.elbow.push_back(100 * (f.elbow[side] - j((p + "elbow").c_str())).norm());
+      out.wrist.push_back(100 * (f.wrist[side] - j((p + "wrist").c_str())).norm());
+      out.knee.push_back(100 * (f.knee[side] - j((p + "knee").c_str())).norm());
+      out.ankle.push_back(100 * (f.ankle[side] - j((p + "ankle").c_str())).norm());
     }
-    return out;
+  }
+  return out;
 }
 
 const FeatureErrors& subject_errors(const MakeHumanModel& model) {
@@ -195,8 +195,8 @@ TEST(BodyFeatures, RejectsBodiesThatAreNotStanding) {
   arms_down.joint_rotation[find_joint_index("right_shoulder")] = Eigen::Vector3d(0, 0, 0.75);
   TriangleMesh lowered;
   lowered.F = b.mesh.F;
-  lowered.V = linear_blend_skinning(
-      b.mesh.V, model.weights, pose_bone_transforms(model.rig, b.bone_heads, bone_pose_from_part_pose(model.rig, arms_down)));
+  lowered.V = linear_blend_skinning(b.mesh.V, model.weights,
+                                    pose_bone_transforms(model.rig, b.bone_heads, bone_pose_from_part_pose(model.rig, arms_down)));
   ScannerOptions o;
   o.width = 320;
   o.height = 480;
@@ -278,8 +278,7 @@ TEST(BodyFeatures, AnArmNotFollowedLeavesItsJointsUnsetNotGarbage) {
   const BodyFeatures f = find_body_features(posed.mesh.V, posed.mesh.F);
   for (int side : {kLeft, kRight}) {
     ASSERT_FALSE(f.arm_found[side]) << side;
-    for (const Eigen::Vector3d& p : {f.elbow[side], f.wrist[side], f.hand_tip[side]})
-      EXPECT_TRUE(p.array().isNaN().all()) << p.transpose();
+    for (const Eigen::Vector3d& p : {f.elbow[side], f.wrist[side], f.hand_tip[side]}) EXPECT_TRUE(p.array().isNaN().all()) << p.transpose();
     EXPECT_TRUE(f.shoulder[side].allFinite());  // the placeholder above the armpit
   }
 }

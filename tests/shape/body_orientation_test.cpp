@@ -1,7 +1,7 @@
 #include "posekit/shape/body_orientation.h"
 
-#include <Eigen/Geometry>
 #include <gtest/gtest.h>
+#include <Eigen/Geometry>
 
 #include "posekit/body/parts.h"
 #include "posekit/body/skinning.h"
@@ -131,8 +131,8 @@ TEST(BodyOrientation, EveryAxisConventionIsUndone) {
     for (const Eigen::Matrix3d& Q : axis_conventions()) {
       const Eigen::MatrixXd V = remeshed.V * Q.transpose();
       const BodyOrientation o = detect_mesh_orientation(V, remeshed.F);
-      EXPECT_LT(error_degrees(o, Q), 1e-9) << specs[static_cast<size_t>(which)].id << " up " << axis_name(Q.col(1))
-                                           << " forward " << axis_name(Q.col(2)) << ": found " << o.describe();
+      EXPECT_LT(error_degrees(o, Q), 1e-9) << specs[static_cast<size_t>(which)].id << " up " << axis_name(Q.col(1)) << " forward "
+                                           << axis_name(Q.col(2)) << ": found " << o.describe();
       EXPECT_TRUE(o.warnings.empty());
     }
   }
@@ -141,8 +141,8 @@ TEST(BodyOrientation, EveryAxisConventionIsUndone) {
 TEST(BodyOrientation, StandingVariationsAndTurnedBodies) {
   POSEKIT_REQUIRE_MAKEHUMAN();
   const auto specs = make_subject_specs(model, 1, 16);
-  const Eigen::Matrix3d z_up_turned = (Eigen::AngleAxisd(0.65, Eigen::Vector3d::UnitZ()) *
-                                       Eigen::AngleAxisd(M_PI / 2, Eigen::Vector3d::UnitX())).toRotationMatrix();
+  const Eigen::Matrix3d z_up_turned =
+      (Eigen::AngleAxisd(0.65, Eigen::Vector3d::UnitZ()) * Eigen::AngleAxisd(M_PI / 2, Eigen::Vector3d::UnitX())).toRotationMatrix();
   for (int which : {3, 9}) {  // f04, m02
     const Body b = build_body(model, specs[static_cast<size_t>(which)].spec);
     for (int variation = 0; variation < 4; ++variation) {
@@ -152,8 +152,7 @@ TEST(BodyOrientation, StandingVariationsAndTurnedBodies) {
       // where its chest faces (measured 22.6-22.8 degrees off the pelvis), not where its feet do.
       const double allowed = variation == 3 ? 0.4 * 180 / M_PI + 3 : 6.0;
       if (variation != 3) {
-        EXPECT_TRUE(same.is_identity()) << specs[static_cast<size_t>(which)].id << " variation " << variation << ": "
-                                        << same.describe();
+        EXPECT_TRUE(same.is_identity()) << specs[static_cast<size_t>(which)].id << " variation " << variation << ": " << same.describe();
       }
       EXPECT_LT(error_degrees(same, Eigen::Matrix3d::Identity()), allowed) << specs[static_cast<size_t>(which)].id;
       // Z-up and turned 37 degrees about the vertical: not an axis convention, found within a few degrees.

@@ -8,9 +8,9 @@
 
 #include "posekit/body/parts.h"
 #include "posekit/core/triangle_mesh.h"
-#include "posekit/shape/body_features.h"
 #include "posekit/datasets/remesh.h"
 #include "posekit/datasets/subjects.h"
+#include "posekit/shape/body_features.h"
 #include "testing/makehuman_fixture.h"
 
 using namespace posekit;
@@ -58,7 +58,8 @@ TEST(LayeredRepresentation, OnTwoThreadsAndFromTheFeaturesSurfaceTheSameToTheBit
   // And a floating bit (a scan's strap): the ring around the hole copied 30 cm ahead of the body.
   {
     std::vector<bool> ring(static_cast<size_t>(mesh.F.rows()));
-    for (Eigen::Index f = 0; f < mesh.F.rows(); ++f) ring[static_cast<size_t>(f)] = (mesh.V.row(mesh.F(f, 0)).transpose() - front).norm() < 0.13;
+    for (Eigen::Index f = 0; f < mesh.F.rows(); ++f)
+      ring[static_cast<size_t>(f)] = (mesh.V.row(mesh.F(f, 0)).transpose() - front).norm() < 0.13;
     TriangleMesh bit = extract_faces(mesh, ring);
     ASSERT_GT(bit.F.rows(), 100);
     bit.V.col(2).array() += 0.3;

@@ -15,8 +15,8 @@
 #include "posekit/io/atomic_file.h"
 #include "posekit/io/mesh_io.h"
 #include "posekit/io/point_cloud_io.h"
-#include "testing/temp_dir.h"
 #include "testing/makehuman_fixture.h"
+#include "testing/temp_dir.h"
 
 using namespace posekit;
 
@@ -243,8 +243,15 @@ TEST(Measurements, ImplausibleGirthsAreRejectedWithTheReason) {
     reject_implausible_girths(&m);
     return m;
   };
-  const BodyMeasurements m = measured({{"bust", 1.02}, {"waist", 0.88}, {"hip", 1.01}, {"thigh", 0.58}, {"knee", 0.39},
-                                       {"calf", 0.38}, {"ankle", 0.23}, {"upper_arm", 1.309}, {"wrist", 0.17},
+  const BodyMeasurements m = measured({{"bust", 1.02},
+                                       {"waist", 0.88},
+                                       {"hip", 1.01},
+                                       {"thigh", 0.58},
+                                       {"knee", 0.39},
+                                       {"calf", 0.38},
+                                       {"ankle", 0.23},
+                                       {"upper_arm", 1.309},
+                                       {"wrist", 0.17},
                                        {"neck", 1.569}});
   for (const Girth& g : m.girths) {
     const bool implausible = g.name == "upper_arm" || g.name == "neck";

@@ -17,8 +17,8 @@ inline std::shared_ptr<const MakeHumanModel> makehuman() {
   return model;
 }
 
-#define POSEKIT_REQUIRE_MAKEHUMAN()                                                     \
-  const auto model_ptr = ::posekit::test::makehuman();                                  \
+#define POSEKIT_REQUIRE_MAKEHUMAN()                                                       \
+  const auto model_ptr = ::posekit::test::makehuman();                                    \
   ASSERT_NE(model_ptr, nullptr) << "POSEKIT_DATA does not point at the MakeHuman assets"; \
   [[maybe_unused]] const ::posekit::MakeHumanModel& model = *model_ptr
 

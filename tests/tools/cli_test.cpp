@@ -3,8 +3,8 @@
 
 #include <Eigen/Geometry>
 #include <algorithm>
-#include <cmath>
 #include <array>
+#include <cmath>
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
@@ -36,14 +36,14 @@ CommandResult run(const std::string& args, bool merge_stderr = false) { return t
 }  // namespace
 
 TEST(Cli, EveryCommandHasHelp) {
-  for (const char* c : {"info", "convert", "bench", "body", "dataset", "train", "pose", "fit", "segment", "register", "measure",
-                        "compare", "view", "report", "batch", "retarget", "customize", "shape-space"}) {
+  for (const char* c : {"info", "convert", "bench", "body", "dataset", "train", "pose", "fit", "segment", "register", "measure", "compare",
+                        "view", "report", "batch", "retarget", "customize", "shape-space"}) {
     const CommandResult r = run(std::string(c) + " --help");
     EXPECT_EQ(r.code, 0) << c;
     EXPECT_NE(r.out.find("usage: posekit"), std::string::npos) << c;
   }
-  for (const char* c : {"batch measure", "batch compare", "batch pose", "batch merge", "bench all", "customize train", "customize eval", "customize robustness", "eval fit",
-                        "bench customize"}) {
+  for (const char* c : {"batch measure", "batch compare", "batch pose", "batch merge", "bench all", "customize train", "customize eval",
+                        "customize robustness", "eval fit", "bench customize"}) {
     const CommandResult r = run(std::string(c) + " --help");
     EXPECT_EQ(r.code, 0) << c;
     EXPECT_NE(r.out.find(std::string("usage: posekit ") + c), std::string::npos) << c;
@@ -107,8 +107,9 @@ TEST(Cli, InfoWarnsWhenABodyIsInAnotherUnit) {
 
 TEST(Cli, BadInputGivesOneLineAndNonZeroExit) {
   test::TempDir dir;
-  const std::string bad = dir.write("bad.ply", "ply\nformat ascii 1.0\nelement vertex 5\nproperty float x\nproperty float y\n"
-                                                "property float z\nend_header\n0 0 0\n");
+  const std::string bad = dir.write("bad.ply",
+                                    "ply\nformat ascii 1.0\nelement vertex 5\nproperty float x\nproperty float y\n"
+                                    "property float z\nend_header\n0 0 0\n");
   const CommandResult r = run("info " + bad, true);
   EXPECT_EQ(r.code, 1);
   EXPECT_EQ(std::count(r.out.begin(), r.out.end(), '\n'), 1) << r.out;
@@ -131,9 +132,10 @@ TEST(Cli, ConvertChangesFormatAndUnit) {
 TEST(Cli, ConvertTakesPointCloudPlyAndSaysWhatATargetCannotHold) {
   test::TempDir dir;
   // A coloured point-cloud PLY (as Open3D and PCL write them): PLY -> PCD -> PLY, and a unit change.
-  const std::string ply = dir.write("scan.ply", "ply\nformat ascii 1.0\nelement vertex 2\nproperty float x\nproperty float y\n"
-                                              "property float z\nproperty uchar red\nproperty uchar green\n"
-                                              "property uchar blue\nend_header\n0.5 1 2 255 0 0\n1.5 1 2 0 0 255\n");
+  const std::string ply = dir.write("scan.ply",
+                                    "ply\nformat ascii 1.0\nelement vertex 2\nproperty float x\nproperty float y\n"
+                                    "property float z\nproperty uchar red\nproperty uchar green\n"
+                                    "property uchar blue\nend_header\n0.5 1 2 255 0 0\n1.5 1 2 0 0 255\n");
   ASSERT_EQ(run("convert " + ply + " " + dir.file("scan.pcd")).code, 0);
   ASSERT_EQ(run("convert " + dir.file("scan.pcd") + " " + dir.file("back.ply") + " --to-unit mm").code, 0);
   std::ifstream back(dir.file("back.ply"));
@@ -146,7 +148,8 @@ TEST(Cli, ConvertTakesPointCloudPlyAndSaysWhatATargetCannotHold) {
   const CommandResult r = run("convert " + dir.file("err.ply") + " " + dir.file("err.obj"), true);
   EXPECT_EQ(r.code, 0);
   EXPECT_NE(r.out.find("warning: " + dir.file("err.obj") + ": OBJ cannot hold the vertex scalar field(s) signed_distance_mm"),
-            std::string::npos) << r.out;
+            std::string::npos)
+      << r.out;
 }
 
 TEST(Cli, AMotionFileNested100000DeepIsAnErrorNotACrash) {
@@ -175,8 +178,8 @@ TEST(Cli, BodyBuildsPosesAndLabelsTheMakeHumanBody) {
   const std::string root = test::test_data_root();
   ASSERT_FALSE(root.empty());
   test::TempDir dir;
-  const CommandResult r = run("body --gender 1 --weight 0.9 --labels --save-spec " + dir.file("s.json") + " --out " +
-                              dir.file("b.ply") + " --json");
+  const CommandResult r =
+      run("body --gender 1 --weight 0.9 --labels --save-spec " + dir.file("s.json") + " --out " + dir.file("b.ply") + " --json");
   ASSERT_EQ(r.code, 0) << r.out;
   const auto j = nlohmann::json::parse(r.out);
   EXPECT_EQ(j["vertices"], 13380);
@@ -303,7 +306,8 @@ TEST(Cli, FitWritesThePoseTheFittedBodyAndItsResiduals) {
     dir.write("z_up.xyz", xyz.str());
   }
   r = run("fit --model " + dir.file("m.pkm") + " --subject " + ds.root + "/subjects/m01/rest.ply --target " + dir.file("z_up.xyz") +
-          " --out " + dir.file("fitted_z.ply"), true);
+              " --out " + dir.file("fitted_z.ply"),
+          true);
   ASSERT_EQ(r.code, 0) << r.out;
   EXPECT_NE(r.out.find("up +Z, turned to +Y"), std::string::npos) << r.out;
   const TriangleMesh fitted_z = read_mesh(dir.file("fitted_z.ply"));
@@ -314,8 +318,8 @@ TEST(Cli, FitWritesThePoseTheFittedBodyAndItsResiduals) {
   r = run("pose --model " + dir.file("m.pkm") + " --subject " + ds.root + "/subjects/m01/rest.ply --pose " + ds.root +
           "/subjects/m01/posed/squat_half.json --method rigid --out " + dir.file("rigid.ply"));
   ASSERT_EQ(r.code, 0) << r.out;
-  for (const auto& [from, to] : {std::pair<std::string, std::string>{ds.root + "/subjects/m01/rest.ply", "rest_z.ply"},
-                                 {dir.file("rigid.ply"), "rigid_z.ply"}}) {
+  for (const auto& [from, to] :
+       {std::pair<std::string, std::string>{ds.root + "/subjects/m01/rest.ply", "rest_z.ply"}, {dir.file("rigid.ply"), "rigid_z.ply"}}) {
     TriangleMesh m = read_mesh(from);
     m.V = 1000 * m.V * file_from_posekit.transpose();
     m.N.resize(0, 3);
@@ -328,8 +332,11 @@ TEST(Cli, FitWritesThePoseTheFittedBodyAndItsResiduals) {
   EXPECT_LT(reg["posed_to_target_mm"]["max"].get<double>(), 0.01) << r.out;
   const PartPose registered = read_part_pose(dir.file("registered.json"));
   for (int j = 0; j < kNumJoints; ++j)
-    EXPECT_LT(Eigen::AngleAxisd(rotation_from_axis_angle(registered.joint(j)).transpose() * rotation_from_axis_angle(truth.joint(j)))
-                      .angle() * 180 / M_PI, 0.01) << joint_name(j);
+    EXPECT_LT(
+        Eigen::AngleAxisd(rotation_from_axis_angle(registered.joint(j)).transpose() * rotation_from_axis_angle(truth.joint(j))).angle() *
+            180 / M_PI,
+        0.01)
+        << joint_name(j);
   const TriangleMesh registered_body = read_mesh(dir.file("registered.ply"));  // in the subject's file axes and unit
   EXPECT_LT((registered_body.V - read_mesh(dir.file("rigid_z.ply")).V).rowwise().norm().maxCoeff(), 0.01);
   // The rig-driven truth mesh is no rigid posing: learned explains it to a few millimetres.
@@ -339,13 +346,15 @@ TEST(Cli, FitWritesThePoseTheFittedBodyAndItsResiduals) {
   EXPECT_LT(nlohmann::json::parse(r.out)["posed_to_target_mm"]["mean"].get<double>(), 10.0) << r.out;
   // Another topology is refused, named, with what --registered needs.
   r = run("fit --registered --model " + dir.file("m.pkm") + " --subject " + ds.root + "/subjects/m01/rest.ply --target " + ds.root +
-          "/subjects/f01/rest.ply", true);
+              "/subjects/f01/rest.ply",
+          true);
   EXPECT_EQ(r.code, 1);
   EXPECT_NE(r.out.find("f01/rest.ply: --registered needs the subject's topology"), std::string::npos) << r.out;
   // A target that is no body: refused, named.
   dir.write("few.xyz", "0 0 0\n1 0 0\n0 1 0\n");
   r = run("fit --model " + dir.file("m.pkm") + " --subject " + ds.root + "/subjects/m01/rest.ply --target " + dir.file("few.xyz") +
-          " --target-unit m --target-up +Y", true);
+              " --target-unit m --target-up +Y",
+          true);
   EXPECT_EQ(r.code, 1);
   EXPECT_NE(r.out.find("points"), std::string::npos) << r.out;
 }
@@ -357,15 +366,16 @@ TEST(Cli, TrainsOnAFolderOfMeshesAloneAndNamesWhatIsWrongWithAFolder) {
   ASSERT_FALSE(ds.root.empty());
   test::TempDir dir;
   std::filesystem::create_directories(dir.file("meshes"));
-  for (const char* name : {"rest", "left_elbow_flex_105", "right_knee_flex_65", "torso_twist_left_30", "left_shoulder_raise_30",
-                           "right_hip_abduct_40"})
+  for (const char* name :
+       {"rest", "left_elbow_flex_105", "right_knee_flex_65", "torso_twist_left_30", "left_shoulder_raise_30", "right_hip_abduct_40"})
     std::filesystem::copy_file(ds.root + "/pose_dataset/" + name + ".ply", dir.file(std::string("meshes/") + name + ".ply"));
-  CommandResult r = run("train --dataset " + dir.file("meshes") + " --calibration-bodies 0 --out " + dir.file("m.pkm") +
-                        " --fit-report " + dir.file("fits.json") + " --poses-out " + dir.file("poses"), true);
+  CommandResult r = run("train --dataset " + dir.file("meshes") + " --calibration-bodies 0 --out " + dir.file("m.pkm") + " --fit-report " +
+                            dir.file("fits.json") + " --poses-out " + dir.file("poses"),
+                        true);
   ASSERT_EQ(r.code, 0) << r.out;
   // The estimated poses, written out: each within a few degrees of the pose the example was made in.
-  for (const char* name : {"rest", "left_elbow_flex_105", "right_knee_flex_65", "torso_twist_left_30", "left_shoulder_raise_30",
-                           "right_hip_abduct_40"}) {
+  for (const char* name :
+       {"rest", "left_elbow_flex_105", "right_knee_flex_65", "torso_twist_left_30", "left_shoulder_raise_30", "right_hip_abduct_40"}) {
     const std::string path = dir.file(std::string("poses/") + name + ".json");
     ASSERT_TRUE(std::filesystem::exists(path)) << path;
     const PartPose estimated = part_pose_from_json(read_file_bytes(path), path);
@@ -447,8 +457,8 @@ TEST(Cli, TrainPoseSegmentAndEvalOnASmallDataset) {
 
   // A 16-part pose JSON.
   const std::string subject = ds + "/subjects/f01/rest.ply";
-  r = run("pose --model " + dir.file("m.pkm") + " --subject " + subject + " --pose " + ds +
-          "/subjects/f01/posed/squat_half.json --out " + dir.file("squat.ply") + " --json");
+  r = run("pose --model " + dir.file("m.pkm") + " --subject " + subject + " --pose " + ds + "/subjects/f01/posed/squat_half.json --out " +
+          dir.file("squat.ply") + " --json");
   ASSERT_EQ(r.code, 0) << r.out;
   const TriangleMesh posed = read_mesh(dir.file("squat.ply"));
   const TriangleMesh truth = read_mesh(ds + "/subjects/f01/posed/squat_half.ply");
@@ -460,8 +470,8 @@ TEST(Cli, TrainPoseSegmentAndEvalOnASmallDataset) {
   BvhMotion motion = read_bvh(test::test_data_root() + "/poses/benchmark.bvh");
   motion.frames = motion.frames.replicate(3, 1).eval();
   write_bvh(dir.file("three.bvh"), motion);
-  r = run("pose --model " + dir.file("m.pkm") + " --subject " + subject + " --pose " + dir.file("three.bvh") +
-          " --out " + dir.file("walk.ply") + " --json");
+  r = run("pose --model " + dir.file("m.pkm") + " --subject " + subject + " --pose " + dir.file("three.bvh") + " --out " +
+          dir.file("walk.ply") + " --json");
   ASSERT_EQ(r.code, 0) << r.out;
   EXPECT_EQ(nlohmann::json::parse(r.out)["written"].size(), 3u);
   for (const char* f : {"walk_0000.ply", "walk_0001.ply", "walk_0002.ply"}) EXPECT_EQ(read_mesh(dir.file(f)).V.rows(), posed.V.rows()) << f;
@@ -503,7 +513,8 @@ TEST(Cli, TrainPoseSegmentAndEvalOnASmallDataset) {
   ASSERT_EQ(pose_summary["results"].size(), 3u);
   ASSERT_TRUE(pose_summary["results"][0]["ok"].get<bool>());
   EXPECT_FALSE(pose_summary["results"][2]["ok"].get<bool>());
-  EXPECT_NE(pose_summary["results"][2]["error"].get<std::string>().find("must stand upright"), std::string::npos) << pose_summary["results"][2];
+  EXPECT_NE(pose_summary["results"][2]["error"].get<std::string>().find("must stand upright"), std::string::npos)
+      << pose_summary["results"][2];
   const TriangleMesh batch_posed = read_mesh(dir.file("posed/" + pose_summary["results"][0]["files"][0].get<std::string>()));
   ASSERT_EQ(batch_posed.V.rows(), posed.V.rows());
   EXPECT_LT((batch_posed.V - posed.V).cwiseAbs().maxCoeff(), 1e-9);
@@ -543,17 +554,16 @@ TEST(Cli, TrainPoseSegmentAndEvalOnASmallDataset) {
 
   // Bad input: an unknown joint, degrees instead of radians, a model file that is not one.
   dir.write("bad.json", R"({"joints": {"left_elbw": [0, 0, 1]}})");
-  r = run("pose --model " + dir.file("m.pkm") + " --subject " + subject + " --pose " + dir.file("bad.json") + " --out " +
-              dir.file("x.ply"), true);
+  r = run("pose --model " + dir.file("m.pkm") + " --subject " + subject + " --pose " + dir.file("bad.json") + " --out " + dir.file("x.ply"),
+          true);
   EXPECT_EQ(r.code, 1);
   EXPECT_NE(r.out.find("left_elbw"), std::string::npos) << r.out;
   dir.write("deg.json", R"({"joints": {"left_elbow": [90, 0, 0]}})");
-  r = run("pose --model " + dir.file("m.pkm") + " --subject " + subject + " --pose " + dir.file("deg.json") + " --out " +
-              dir.file("x.ply"), true);
+  r = run("pose --model " + dir.file("m.pkm") + " --subject " + subject + " --pose " + dir.file("deg.json") + " --out " + dir.file("x.ply"),
+          true);
   EXPECT_EQ(r.code, 1);
   EXPECT_NE(r.out.find("left_elbow"), std::string::npos) << r.out;
-  r = run("pose --model " + subject + " --subject " + subject + " --pose " + dir.file("deg.json") + " --out " +
-              dir.file("x.ply"), true);
+  r = run("pose --model " + subject + " --subject " + subject + " --pose " + dir.file("deg.json") + " --out " + dir.file("x.ply"), true);
   EXPECT_EQ(r.code, 1);
   EXPECT_NE(r.out.find("POSEKPKM"), std::string::npos) << r.out;
   EXPECT_FALSE(std::filesystem::exists(dir.file("x.ply")));
@@ -616,8 +626,8 @@ TEST(Cli, BatchRegisterAgreesWithRegisterAndRedoesAChangedSource) {
   std::filesystem::copy_file(ds + "/subjects/f01/rest.ply", dir.file("in/f01.ply"));
   std::filesystem::copy_file(ds + "/subjects/m01/rest.ply", dir.file("in/m01.ply"));
   dir.write("in/scan.ply", "ply\nformat ascii 1.0\nelement vertex 3\nend_header\n1 2\n");
-  CommandResult r = run("batch register --source " + templ + " --inputs " + dir.file("in") + " --out " + dir.file("r") +
-                        " --deformed --jobs 2", true);
+  CommandResult r =
+      run("batch register --source " + templ + " --inputs " + dir.file("in") + " --out " + dir.file("r") + " --deformed --jobs 2", true);
   EXPECT_EQ(r.code, 1) << r.out;
   EXPECT_NE(r.out.find("3 inputs, 3 processed, 0 done earlier, 1 failed"), std::string::npos) << r.out;
   const auto summary = nlohmann::json::parse(read_file_bytes(dir.file("r/summary.json")));
@@ -643,7 +653,9 @@ TEST(Cli, BatchRegisterAgreesWithRegisterAndRedoesAChangedSource) {
   r = run("batch register --source " + dir.file("t.obj") + " --inputs " + dir.file("in") + " --out " + dir.file("r") + " --deformed");
   EXPECT_NE(r.out.find("3 inputs, 3 processed, 0 done earlier, 1 failed"), std::string::npos) << r.out;
   EXPECT_EQ(run("batch register --inputs " + dir.file("in") + " --out " + dir.file("x")).code, 2);
-  EXPECT_EQ(run("batch register --source " + templ + " --inputs " + dir.file("in") + " --out " + dir.file("x") + " --method icp --refine").code, 2);
+  EXPECT_EQ(
+      run("batch register --source " + templ + " --inputs " + dir.file("in") + " --out " + dir.file("x") + " --method icp --refine").code,
+      2);
 }
 
 TEST(Cli, BatchCompareAgreesWithCompareAndWritesHeatmaps) {
@@ -652,9 +664,10 @@ TEST(Cli, BatchCompareAgreesWithCompareAndWritesHeatmaps) {
   const std::string ds = test::small_dataset().root;
   const std::string m01 = ds + "/subjects/m01/rest.ply", m01_scan = ds + "/scans/m01/rest.pcd";
   // Pairs: tab, comma and space separated; a scan given as the model; a line without a scan.
-  dir.write("pairs.txt", m01 + "\t" + m01_scan + "\n" + ds + "/subjects/f01/rest.ply," + ds + "/scans/f01/rest.pcd\n" + m01_scan +
-                             " " + m01_scan + "\n" + m01 + "\n");
-  CommandResult r = run("batch compare --inputs " + dir.file("pairs.txt") + " --out " + dir.file("c") + " --measure --heatmaps --jobs 2", true);
+  dir.write("pairs.txt", m01 + "\t" + m01_scan + "\n" + ds + "/subjects/f01/rest.ply," + ds + "/scans/f01/rest.pcd\n" + m01_scan + " " +
+                             m01_scan + "\n" + m01 + "\n");
+  CommandResult r =
+      run("batch compare --inputs " + dir.file("pairs.txt") + " --out " + dir.file("c") + " --measure --heatmaps --jobs 2", true);
   EXPECT_EQ(r.code, 1) << r.out;
   EXPECT_NE(r.out.find("4 inputs, 4 processed, 0 done earlier, 2 failed"), std::string::npos) << r.out;
   EXPECT_NE(r.out.find("the model must be a mesh"), std::string::npos) << r.out;
@@ -690,8 +703,8 @@ TEST(Cli, CompareMeasureAndView) {
   test::TempDir dir;
   const std::string ds = test::small_dataset().root;  // `dataset make` itself: TrainPoseSegmentAndEval
   const std::string subject = ds + "/subjects/m01/rest.ply", scan = ds + "/scans/m01/rest.pcd";
-  CommandResult r = run("compare " + subject + " " + scan + " --measure --json --out " + dir.file("err.ply") + " --png " +
-                        dir.file("err.png"));
+  CommandResult r =
+      run("compare " + subject + " " + scan + " --measure --json --out " + dir.file("err.ply") + " --png " + dir.file("err.png"));
   ASSERT_EQ(r.code, 0) << r.out;
   const auto j = nlohmann::json::parse(r.out);
   EXPECT_EQ(j["units"], "mm");
@@ -726,8 +739,8 @@ TEST(Cli, CompareMeasureAndView) {
   // The viewer off-screen, with the scan overlaid, two meshes side by side.
   r = run("view " + dir.file("err.ply") + "," + subject + " --scalar covered --scan " + scan + " --png " + dir.file("v.png"));
   EXPECT_EQ(r.code, 1);  // the second mesh has no 'covered' scalar: a clear error
-  r = run("view " + dir.file("err.ply") + " --scalar signed_distance_mm --colours diverging --range -5:5 --camera back --scan " +
-          scan + " --png " + dir.file("v.png"));
+  r = run("view " + dir.file("err.ply") + " --scalar signed_distance_mm --colours diverging --range -5:5 --camera back --scan " + scan +
+          " --png " + dir.file("v.png"));
   ASSERT_EQ(r.code, 0) << r.out;
   EXPECT_TRUE(std::filesystem::is_regular_file(dir.file("v.png")));
   EXPECT_EQ(run("view " + subject + " --camera top --png " + dir.file("x.png")).code, 1);
@@ -880,7 +893,8 @@ TEST(Cli, Report) {
   ASSERT_FALSE(test::test_data_root().empty());
   test::TempDir dir;
   const std::string ds = test::small_dataset().root;
-  const std::string command = "report --dataset " + ds + " --out " + dir.file("report") + " --runs 1 --nicp-subjects 0 --customization-bodies 30";
+  const std::string command =
+      "report --dataset " + ds + " --out " + dir.file("report") + " --runs 1 --nicp-subjects 0 --customization-bodies 30";
   const CommandResult r = run(command, true);
   ASSERT_EQ(r.code, 0) << r.out;
   EXPECT_TRUE(std::filesystem::is_regular_file(dir.file("report/index.html")));
@@ -996,8 +1010,9 @@ TEST(Cli, SegmentMeasureRegisterTrainAndPoseByTheBodyModelInAnyFrameAndRefusePoo
   const std::string space = dir.file("ansur60.pks");
   ASSERT_EQ(run("shape-space --ansur --subjects 60 --threads 2 --out " + space).code, 0);
   // Bodies of held-out survey subjects (another seed's sample), kneeling and tilted, as users' files.
-  CommandResult r = run("dataset make --robustness --population ansur --shapes 1 --seed 21 --variations kneeling,tilted,zup,arms_touching --out " +
-                        dir.file("rb") + " --json");
+  CommandResult r =
+      run("dataset make --robustness --population ansur --shapes 1 --seed 21 --variations kneeling,tilted,zup,arms_touching --out " +
+          dir.file("rb") + " --json");
   ASSERT_EQ(r.code, 0) << r.out;
   for (const char* variation : {"kneeling", "tilted", "zup"}) {
     const std::string name = std::string("s01_") + variation;
@@ -1024,8 +1039,8 @@ TEST(Cli, SegmentMeasureRegisterTrainAndPoseByTheBodyModelInAnyFrameAndRefusePoo
     std::nth_element(residual.begin(), residual.begin() + residual.size() / 2, residual.end());
     EXPECT_LT(residual[residual.size() / 2], 5.0) << name;
     // Joints in the file's frame against the rig's (the zup file is Z up, facing -Y).
-    const Eigen::Matrix3d to_file = std::string(variation) == "zup" ? orientation_from_axes(parse_axis("+Z"), parse_axis("-Y")).rotation
-                                                                     : Eigen::Matrix3d::Identity();
+    const Eigen::Matrix3d to_file =
+        std::string(variation) == "zup" ? orientation_from_axes(parse_axis("+Z"), parse_axis("-Y")).rotation : Eigen::Matrix3d::Identity();
     const auto joints = nlohmann::json::parse(read_file_bytes(dir.file(name + "_joints.json")))["joints"];
     for (const auto& [joint, xyz] : truth["joints"].items()) {
       const Eigen::Vector3d want = to_file.transpose() * Eigen::Vector3d(xyz[0], xyz[1], xyz[2]);
@@ -1036,7 +1051,8 @@ TEST(Cli, SegmentMeasureRegisterTrainAndPoseByTheBodyModelInAnyFrameAndRefusePoo
     const TriangleMesh parts = read_mesh(dir.file(name + "_parts.ply"));
     const Eigen::VectorXd& label = parts.vertex_scalars.at("part");
     int same = 0;
-    for (Eigen::Index f = 0; f < parts.F.rows(); ++f) same += static_cast<int>(label[parts.F(f, 0)]) == truth["triangle_part"][f].get<int>();
+    for (Eigen::Index f = 0; f < parts.F.rows(); ++f)
+      same += static_cast<int>(label[parts.F(f, 0)]) == truth["triangle_part"][f].get<int>();
     EXPECT_GT(same, 0.93 * parts.F.rows()) << name;
   }
   // An up axis given is the only one tried: the Z-up body told it stands along -Z is fitted upside
@@ -1069,8 +1085,9 @@ TEST(Cli, SegmentMeasureRegisterTrainAndPoseByTheBodyModelInAnyFrameAndRefusePoo
   {
     const auto truth = nlohmann::json::parse(read_file_bytes(dir.file("rb/truth/s01_kneeling.json")));
     const std::string target = dir.file("rb/" + truth["file"]["path"].get<std::string>());
-    r = run("register " + test::small_dataset().root + "/template/rest.ply " + target + " --method body-model --body-model " +
-            space + " --refine --out " + dir.file("corr.json") + " --quality " + dir.file("quality.json"), true);
+    r = run("register " + test::small_dataset().root + "/template/rest.ply " + target + " --method body-model --body-model " + space +
+                " --refine --out " + dir.file("corr.json") + " --quality " + dir.file("quality.json"),
+            true);
     ASSERT_EQ(r.code, 0) << r.out;
     // Folds are judged against the fitted body, not the standing template (the kneeling legs turned
     // a thousand triangles against their standing directions).
@@ -1103,7 +1120,8 @@ TEST(Cli, SegmentMeasureRegisterTrainAndPoseByTheBodyModelInAnyFrameAndRefusePoo
     const std::string subject = dir.file("rb/" + truth["file"]["path"].get<std::string>());
     dir.write("elbow.json", R"({"joints": {"left_elbow": [-1.2, 0, 0]}})");
     r = run("pose --model " + dir.file("bm.pkm") + " --subject " + subject + " --body-model " + space + " --pose " +
-            dir.file("elbow.json") + " --out " + dir.file("posed.ply"), true);
+                dir.file("elbow.json") + " --out " + dir.file("posed.ply"),
+            true);
     ASSERT_EQ(r.code, 0) << r.out;
     const TriangleMesh rest = read_mesh(subject), posed = read_mesh(dir.file("posed.ply"));
     const Eigen::VectorXd moved = (posed.V - rest.V).rowwise().norm();
@@ -1127,7 +1145,8 @@ TEST(Cli, SegmentMeasureRegisterTrainAndPoseByTheBodyModelInAnyFrameAndRefusePoo
   EXPECT_EQ(r.code, 3) << r.out;
   EXPECT_NE(r.out.find("below confidence"), std::string::npos) << r.out;
   EXPECT_FALSE(std::filesystem::exists(dir.file("box_parts.ply")));
-  r = run("segment " + dir.file("box.xyz") + " --unit m --body-model " + space + " --accept-poor --out " + dir.file("box_parts.ply") + " --json");
+  r = run("segment " + dir.file("box.xyz") + " --unit m --body-model " + space + " --accept-poor --out " + dir.file("box_parts.ply") +
+          " --json");
   EXPECT_EQ(r.code, 0) << r.out;
   EXPECT_FALSE(nlohmann::json::parse(r.out)["confident"].get<bool>());
   EXPECT_TRUE(std::filesystem::exists(dir.file("box_parts.ply")));
@@ -1210,4 +1229,3 @@ TEST(Cli, ShapeSpaceFilesFromMakeHumanOrARegisteredFolder) {
   EXPECT_EQ(r.code, 1);
   EXPECT_NE(r.out.find("checksum mismatch"), std::string::npos) << r.out;
 }
-

@@ -80,9 +80,8 @@ TEST(CliReliability, BatchStopsAtTheFirstFailedWriteWithTheSystemsReason) {
   fs::copy_file(dir.file("a.ply"), dir.file("in/a.ply"));
   fs::copy_file(dir.file("b.ply"), dir.file("in/b.ply"));
   // No file may grow (as on a full disk): the first result cannot be written.
-  const test::CommandResult r =
-      run_posekit("batch measure --inputs " + dir.file("in") + " --out " + dir.file("out") + " --jobs 1", true,
-                  "trap '' XFSZ; ulimit -f 0; ");
+  const test::CommandResult r = run_posekit("batch measure --inputs " + dir.file("in") + " --out " + dir.file("out") + " --jobs 1", true,
+                                            "trap '' XFSZ; ulimit -f 0; ");
   EXPECT_EQ(r.code, 1) << r.out;
   EXPECT_TRUE(contains(r.out, "stopped at the first failed write (0 of 2 inputs done")) << r.out;
   EXPECT_TRUE(contains(r.out, "File too large")) << r.out;
@@ -93,8 +92,9 @@ TEST(CliReliability, BatchStopsAtTheFirstFailedWriteWithTheSystemsReason) {
 
 TEST(CliReliability, OutputsIntoMissingOrReadOnlyFoldersAreErrorsNamingThem) {
   test::TempDir dir;
-  dir.write("tri.ply", "ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\nproperty float y\nproperty float z\n"
-                       "element face 1\nproperty list uchar int vertex_indices\nend_header\n0 0 0\n1 0 0\n0 1 0\n3 0 1 2\n");
+  dir.write("tri.ply",
+            "ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\nproperty float y\nproperty float z\n"
+            "element face 1\nproperty list uchar int vertex_indices\nend_header\n0 0 0\n1 0 0\n0 1 0\n3 0 1 2\n");
   // A typo in a path is an error, not a new folder tree.
   test::CommandResult r = run_posekit("convert " + dir.file("tri.ply") + " " + dir.file("typo/dir/x.obj"), true);
   EXPECT_EQ(r.code, 1) << r.out;
@@ -112,8 +112,7 @@ TEST(CliReliability, OutputsIntoMissingOrReadOnlyFoldersAreErrorsNamingThem) {
   if (std::system(("mount -t tmpfs -o ro,size=1m tmpfs " + dir.file("ro") + " 2>/dev/null").c_str()) != 0)
     GTEST_SKIP() << "cannot mount a read-only tmpfs here (not root, or no mount permission)";
   r = run_posekit("convert " + dir.file("tri.ply") + " " + dir.file("ro/x.ply"), true);
-  const test::CommandResult batch =
-      run_posekit("batch measure --inputs " + dir.file("tri.ply") + " --out " + dir.file("ro/out"), true);
+  const test::CommandResult batch = run_posekit("batch measure --inputs " + dir.file("tri.ply") + " --out " + dir.file("ro/out"), true);
   std::system(("umount " + dir.file("ro")).c_str());
   EXPECT_EQ(r.code, 1) << r.out;
   EXPECT_TRUE(contains(r.out, dir.file("ro/x.ply") + ": cannot open for writing (Read-only file system)")) << r.out;

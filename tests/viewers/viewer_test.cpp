@@ -23,7 +23,7 @@ TEST(Viewer, OffScreenHeatmapShowsTheBodyTheColourBarAndRedWhereTheErrorIsHigh) 
   test::TempDir dir;
   ViewPanel panel;
   panel.mesh = test::icosphere(4, 0.3);
-  panel.mesh.V.col(1) *= 3;  // a standing ellipsoid, 1.8 tall
+  panel.mesh.V.col(1) *= 3;                                          // a standing ellipsoid, 1.8 tall
   Eigen::VectorXd error = 10 * (panel.mesh.V.col(1).array() / 0.9);  // -10 mm at the bottom, +10 at the top
   panel.mesh.vertex_scalars["error_mm"] = error;
   panel.scalar = "error_mm";
@@ -178,7 +178,8 @@ TEST(Viewer, SurfacesFacingUpAreLitNotDark) {
   int top = img.rows, bottom = -1, left = img.cols, right = -1;
   for (int y = 40; y < img.rows; ++y)  // below the caption
     for (int x = 0; x < img.cols; ++x)
-      if (img.at<uchar>(y, x) < 245) top = std::min(top, y), bottom = std::max(bottom, y), left = std::min(left, x), right = std::max(right, x);
+      if (img.at<uchar>(y, x) < 245)
+        top = std::min(top, y), bottom = std::max(bottom, y), left = std::min(left, x), right = std::max(right, x);
   ASSERT_GT(bottom - top, 100);
   const double cx = 0.5 * (left + right), cy = 0.5 * (top + bottom), r = 0.5 * (bottom - top);
   auto mean_around = [&](double x, double y) {
@@ -208,8 +209,10 @@ TEST(Viewer, InteractiveWindowPicksAVertexAndTogglesOverlayAndCamera) {
   o.panel_height = 300;
   const double centre_x = 150.0 / (300 + 200);  // the colour bar takes 200 pixels on the right
   using Kind = ViewerEvent::Kind;
-  const std::vector<ViewerEvent> script = {{Kind::kClick, centre_x, 0.5, 0}, {Kind::kKey, centre_x, 0.5, 's'},
-                                           {Kind::kKey, centre_x, 0.5, 'c'}, {Kind::kClick, centre_x, 0.5, 0}};
+  const std::vector<ViewerEvent> script = {{Kind::kClick, centre_x, 0.5, 0},
+                                           {Kind::kKey, centre_x, 0.5, 's'},
+                                           {Kind::kKey, centre_x, 0.5, 'c'},
+                                           {Kind::kClick, centre_x, 0.5, 0}};
   const ViewerState state = show_panels({panel}, o, &script);
   EXPECT_FALSE(state.overlays_visible);
   EXPECT_EQ(state.camera, CameraPreset::kSide);

@@ -12,13 +12,12 @@
 #include <vtkCamera.h>
 #include <vtkCellArray.h>
 #include <vtkCellPicker.h>
-#include <vtkCommand.h>
 #include <vtkColorTransferFunction.h>
+#include <vtkCommand.h>
 #include <vtkFloatArray.h>
 #include <vtkInteractorStyleTrackballCamera.h>
 #include <vtkLightKit.h>
 #include <vtkLookupTable.h>
-#include <vtkVariant.h>
 #include <vtkNew.h>
 #include <vtkObjectFactory.h>
 #include <vtkPNGWriter.h>
@@ -36,6 +35,7 @@
 #include <vtkTextActor.h>
 #include <vtkTextProperty.h>
 #include <vtkUnsignedCharArray.h>
+#include <vtkVariant.h>
 #include <vtkWindowToImageFilter.h>
 
 #include <cmath>
@@ -77,8 +77,7 @@ class Display {
   static void require(bool allow_virtual) {
     static Display instance;
     if (const char* d = std::getenv("DISPLAY"); d && *d) return;
-    if (!allow_virtual)
-      throw IoError("no display (DISPLAY is unset): the interactive viewer needs one; use --png for off-screen images");
+    if (!allow_virtual) throw IoError("no display (DISPLAY is unset): the interactive viewer needs one; use --png for off-screen images");
     instance.start();
   }
   ~Display() {
@@ -116,8 +115,9 @@ class Display {
     ::close(fds[0]);
     if (number.empty()) {
       ::waitpid(pid, nullptr, 0);
-      throw IoError("no display (DISPLAY is unset) and Xvfb could not be started: install xvfb (apt-get install xvfb) "
-                    "or run under xvfb-run");
+      throw IoError(
+          "no display (DISPLAY is unset) and Xvfb could not be started: install xvfb (apt-get install xvfb) "
+          "or run under xvfb-run");
     }
     pid_ = pid;
     ::setenv("DISPLAY", (":" + number).c_str(), 1);
@@ -146,11 +146,10 @@ vtkSmartPointer<vtkColorTransferFunction> make_colours(ColourMapKind kind, doubl
 
 /// Distinct colours for categories, cycled beyond 16 (hue steps, alternating light and dark).
 Eigen::Vector3d category_colour(size_t i) {
-  static const double kPalette[16][3] = {
-      {0.90, 0.60, 0.00}, {0.34, 0.71, 0.91}, {0.00, 0.62, 0.45}, {0.94, 0.89, 0.26}, {0.00, 0.45, 0.70},
-      {0.84, 0.37, 0.00}, {0.80, 0.47, 0.65}, {0.55, 0.34, 0.16}, {0.60, 0.60, 0.60}, {0.20, 0.20, 0.55},
-      {0.65, 0.85, 0.35}, {0.75, 0.10, 0.20}, {0.45, 0.25, 0.60}, {0.10, 0.40, 0.25}, {1.00, 0.70, 0.75},
-      {0.30, 0.30, 0.30}};
+  static const double kPalette[16][3] = {{0.90, 0.60, 0.00}, {0.34, 0.71, 0.91}, {0.00, 0.62, 0.45}, {0.94, 0.89, 0.26},
+                                         {0.00, 0.45, 0.70}, {0.84, 0.37, 0.00}, {0.80, 0.47, 0.65}, {0.55, 0.34, 0.16},
+                                         {0.60, 0.60, 0.60}, {0.20, 0.20, 0.55}, {0.65, 0.85, 0.35}, {0.75, 0.10, 0.20},
+                                         {0.45, 0.25, 0.60}, {0.10, 0.40, 0.25}, {1.00, 0.70, 0.75}, {0.30, 0.30, 0.30}};
   const double* c = kPalette[i % 16];
   return Eigen::Vector3d(c[0], c[1], c[2]);
 }
@@ -265,8 +264,7 @@ Scene build_scene(const std::vector<ViewPanel>& panels, const ViewOptions& o) {
     if (it == p.mesh.vertex_scalars.end()) {
       std::string names;
       for (const auto& [name, v] : p.mesh.vertex_scalars) names += (names.empty() ? "" : ", ") + name;
-      throw InvalidInput("viewer: the mesh has no vertex scalar '" + p.scalar + "' (it has: " +
-                         (names.empty() ? "none" : names) + ")");
+      throw InvalidInput("viewer: the mesh has no vertex scalar '" + p.scalar + "' (it has: " + (names.empty() ? "none" : names) + ")");
     }
     values.push_back(&it->second);
   }
@@ -409,8 +407,8 @@ class PickingStyle : public vtkInteractorStyleTrackballCamera {
       const vtkIdType id = picker->GetPointId();
       if (id >= p.mesh.V.rows()) break;
       std::ostringstream line;
-      line << "panel " << i << (p.caption.empty() ? "" : " (" + p.caption + ")") << " vertex " << id << " at ("
-           << p.mesh.V(id, 0) << ", " << p.mesh.V(id, 1) << ", " << p.mesh.V(id, 2) << ") m";
+      line << "panel " << i << (p.caption.empty() ? "" : " (" + p.caption + ")") << " vertex " << id << " at (" << p.mesh.V(id, 0) << ", "
+           << p.mesh.V(id, 1) << ", " << p.mesh.V(id, 2) << ") m";
       if (!p.scalar.empty()) line << ": " << p.scalar << " = " << p.mesh.vertex_scalars.at(p.scalar)[id];
       std::cout << line.str() << std::endl;
       state->picks.push_back(line.str());
@@ -507,8 +505,8 @@ ViewerState show_panels_vtk(const std::vector<ViewPanel>& panels, const ViewOpti
 
 }  // namespace posekit
 
-POSEKIT_PLUGIN_EXPORT void posekit_render_panels_png(const std::vector<posekit::ViewPanel>& panels,
-                                                     const posekit::ViewOptions& options, const std::string& png_path) {
+POSEKIT_PLUGIN_EXPORT void posekit_render_panels_png(const std::vector<posekit::ViewPanel>& panels, const posekit::ViewOptions& options,
+                                                     const std::string& png_path) {
   posekit::render_panels_png_vtk(panels, options, png_path);
 }
 

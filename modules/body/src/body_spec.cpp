@@ -4,8 +4,8 @@
 #include <nlohmann/json.hpp>
 
 #include "posekit/core/error.h"
-#include "posekit/io/json.h"
 #include "posekit/io/atomic_file.h"
+#include "posekit/io/json.h"
 
 namespace posekit {
 namespace {
@@ -69,7 +69,8 @@ BodySpec read_body_spec(const std::string& path) { return body_spec_from_json(re
 
 void write_body_spec(const std::string& path, const BodySpec& spec) {
   const std::string text = body_spec_to_json(spec);
-  write_file_atomically(path, [&](std::ostream& out) { out << text; }, false);
+  write_file_atomically(
+      path, [&](std::ostream& out) { out << text; }, false);
 }
 
 }  // namespace posekit

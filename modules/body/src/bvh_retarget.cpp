@@ -41,9 +41,9 @@ JointName parse_name(const std::string& raw) {
     else base += t;
   }
   // A one-letter side glued to a body word: "lhand", "rfoot", "lhumerus".
-  static const char* const kWords[] = {"hand", "wrist", "foot", "ankle", "humerus", "radius", "femur", "tibia", "hip",
-                                       "knee", "elbow", "shoulder", "arm", "forearm", "leg", "upleg", "thigh", "shin",
-                                       "clavicle", "collar", "toe", "toes"};
+  static const char* const kWords[] = {"hand",  "wrist", "foot",     "ankle",    "humerus", "radius",  "femur", "tibia",
+                                       "hip",   "knee",  "elbow",    "shoulder", "arm",     "forearm", "leg",   "upleg",
+                                       "thigh", "shin",  "clavicle", "collar",   "toe",     "toes"};
   if (out.side == kNoSide && base.size() > 1 && (base[0] == 'l' || base[0] == 'r'))
     for (const char* w : kWords)
       if (base.compare(1, std::string::npos, w) == 0) {
@@ -147,15 +147,17 @@ BvhPartMap map_bvh_skeleton(const BvhMotion& m, const std::map<std::string, std:
   overridden.fill(false);
   for (const auto& [key, joint] : overrides) {
     const int p = part_of(key);
-    if (p < 0) throw InvalidInput("joint map: '" + key + "' is neither a part (pelvis, ..., right_foot) nor a joint (lower_back, ..., right_ankle)");
+    if (p < 0)
+      throw InvalidInput("joint map: '" + key + "' is neither a part (pelvis, ..., right_foot) nor a joint (lower_back, ..., right_ankle)");
     const int j = m.find_joint(joint);
     if (j < 0) throw InvalidInput("joint map: the BVH has no joint '" + joint + "' (for " + key + ")");
     map.joint[p] = j;
     overridden[p] = true;
   }
   // Limb joints not named in the map follow from the ones that are.
-  for (const auto& [hand, forearm, upper] : {std::tuple{kLeftHand, kLeftForearm, kLeftUpperArm}, std::tuple{kRightHand, kRightForearm, kRightUpperArm},
-                                            std::tuple{kLeftFoot, kLeftShank, kLeftThigh}, std::tuple{kRightFoot, kRightShank, kRightThigh}}) {
+  for (const auto& [hand, forearm, upper] :
+       {std::tuple{kLeftHand, kLeftForearm, kLeftUpperArm}, std::tuple{kRightHand, kRightForearm, kRightUpperArm},
+        std::tuple{kLeftFoot, kLeftShank, kLeftThigh}, std::tuple{kRightFoot, kRightShank, kRightThigh}}) {
     if (!overridden[forearm] && overridden[hand]) map.joint[forearm] = parent(map.joint[hand]);
     if (!overridden[upper] && (overridden[hand] || overridden[forearm])) map.joint[upper] = parent(map.joint[forearm]);
   }
@@ -212,9 +214,9 @@ BvhPartMap map_bvh_skeleton(const BvhMotion& m, const std::map<std::string, std:
   const Eigen::Vector3d hips = (P0.row(map.joint[kLeftThigh]) - P0.row(map.joint[kRightThigh])).transpose();
   const Eigen::Vector3d shoulders = (P0.row(map.joint[kLeftUpperArm]) - P0.row(map.joint[kRightUpperArm])).transpose();
   if (hips.norm() < 1e-9 || shoulders.norm() < 1e-9 || hips.dot(shoulders) <= 0)
-    throw InvalidInput("BVH retargeting: the left hip and left shoulder joints (" + m.joints[static_cast<size_t>(map.joint[kLeftThigh])].name +
-                       ", " + m.joints[static_cast<size_t>(map.joint[kLeftUpperArm])].name +
-                       ") are not on the same side of the rest skeleton: give a joint map");
+    throw InvalidInput(
+        "BVH retargeting: the left hip and left shoulder joints (" + m.joints[static_cast<size_t>(map.joint[kLeftThigh])].name + ", " +
+        m.joints[static_cast<size_t>(map.joint[kLeftUpperArm])].name + ") are not on the same side of the rest skeleton: give a joint map");
   return map;
 }
 
@@ -233,9 +235,15 @@ std::vector<PartPose> retarget_bvh(const BvhMotion& m, const BvhPartMap& map, co
   auto file_origin = [&](int p) { return Eigen::Vector3d(W * P0.row(map.joint[p]).transpose()); };
   std::array<Eigen::Matrix3d, kNumParts> A;
   A.fill(Eigen::Matrix3d::Identity());
-  const std::pair<int, int> bones[] = {{kAbdomen, kChest},         {kChest, kHead},           {kLeftUpperArm, kLeftForearm},
-                                       {kLeftForearm, kLeftHand},  {kRightUpperArm, kRightForearm}, {kRightForearm, kRightHand},
-                                       {kLeftThigh, kLeftShank},   {kLeftShank, kLeftFoot},   {kRightThigh, kRightShank},
+  const std::pair<int, int> bones[] = {{kAbdomen, kChest},
+                                       {kChest, kHead},
+                                       {kLeftUpperArm, kLeftForearm},
+                                       {kLeftForearm, kLeftHand},
+                                       {kRightUpperArm, kRightForearm},
+                                       {kRightForearm, kRightHand},
+                                       {kLeftThigh, kLeftShank},
+                                       {kLeftShank, kLeftFoot},
+                                       {kRightThigh, kRightShank},
                                        {kRightShank, kRightFoot}};
   for (int p = 1; p < kNumParts; ++p) A[p] = A[part_parent(p)];  // leaves follow their parent's alignment
   for (const auto& [p, child] : bones) {
@@ -262,7 +270,8 @@ std::vector<PartPose> retarget_bvh(const BvhMotion& m, const BvhPartMap& map, co
     floor = std::min(floor, scale * std::min((W * P.row(left_ankle).transpose()).y(), (W * P.row(right_ankle).transpose()).y()));
   }
   const double rest_ankles = std::min(rest_joints(kLeftFoot - 1, 1), rest_joints(kRightFoot - 1, 1));
-  const Eigen::Vector3d centre = (rest_joints.row(kAbdomen - 1) + rest_joints.row(kLeftThigh - 1) + rest_joints.row(kRightThigh - 1)).transpose() / 3;
+  const Eigen::Vector3d centre =
+      (rest_joints.row(kAbdomen - 1) + rest_joints.row(kLeftThigh - 1) + rest_joints.row(kRightThigh - 1)).transpose() / 3;
   std::vector<PartPose> poses;
   Eigen::Vector3d root0 = Eigen::Vector3d::Zero();
   for (int f = o.first; f < last; ++f) {

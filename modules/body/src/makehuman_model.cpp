@@ -166,8 +166,9 @@ void load_targets(const fs::path& root, int nv, MakeHumanModel* model) {
       }
     for (const auto& r : required)
       if (!fs::is_regular_file(r))
-        throw IoError(r.string() + ": missing macro target (every gender/muscle/weight/height/proportions combination "
-                                   "of the MakeHuman macro model is needed)");
+        throw IoError(r.string() +
+                      ": missing macro target (every gender/muscle/weight/height/proportions combination "
+                      "of the MakeHuman macro model is needed)");
   }
   for (const auto& p : macro_files) {
     MakeHumanModel::MacroTarget mt;
@@ -299,8 +300,7 @@ std::shared_ptr<const MakeHumanModel> load_makehuman_model(const std::string& da
 }
 
 double macro_target_weight(const std::vector<std::string>& variants, const BodySpec& s) {
-  auto three_way = [](double x, const std::string& lo, const std::string& mid, const std::string& hi, const std::string& v,
-                      double* out) {
+  auto three_way = [](double x, const std::string& lo, const std::string& mid, const std::string& hi, const std::string& v, double* out) {
     const double wlo = std::max(0.0, 1 - 2 * x), whi = std::max(0.0, 2 * x - 1);
     if (v == lo) return *out = wlo, true;
     if (v == hi) return *out = whi, true;
@@ -317,9 +317,9 @@ double macro_target_weight(const std::vector<std::string>& variants, const BodyS
     else if (v == "african") f = s.african / ethnic_sum;
     else if (v == "asian") f = s.asian / ethnic_sum;
     else if (v == "caucasian") f = s.caucasian / ethnic_sum;
-    else if (three_way(s.muscle, "minmuscle", "averagemuscle", "maxmuscle", v, &f)) {}
-    else if (three_way(s.weight, "minweight", "averageweight", "maxweight", v, &f)) {}
-    else if (v == "minheight") f = std::max(0.0, 1 - 2 * s.height);
+    else if (three_way(s.muscle, "minmuscle", "averagemuscle", "maxmuscle", v, &f)) {
+    } else if (three_way(s.weight, "minweight", "averageweight", "maxweight", v, &f)) {
+    } else if (v == "minheight") f = std::max(0.0, 1 - 2 * s.height);
     else if (v == "maxheight") f = std::max(0.0, 2 * s.height - 1);
     else if (v == "uncommonproportions") f = std::max(0.0, 1 - 2 * s.proportions);
     else if (v == "idealproportions") f = std::max(0.0, 2 * s.proportions - 1);

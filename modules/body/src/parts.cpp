@@ -5,25 +5,25 @@
 #include <nlohmann/json.hpp>
 
 #include "posekit/core/error.h"
-#include "posekit/io/json.h"
 #include "posekit/io/atomic_file.h"
+#include "posekit/io/json.h"
 
 namespace posekit {
 namespace {
 
 const std::array<std::string, kNumParts> kPartNames = {
-    "pelvis", "abdomen", "chest", "head", "left_upper_arm", "left_forearm", "left_hand", "right_upper_arm",
-    "right_forearm", "right_hand", "left_thigh", "left_shank", "left_foot", "right_thigh", "right_shank", "right_foot"};
-const std::array<int, kNumParts> kPartParent = {-1, kPelvis, kAbdomen, kChest, kChest, kLeftUpperArm, kLeftForearm,
-                                                kChest, kRightUpperArm, kRightForearm, kPelvis, kLeftThigh, kLeftShank,
-                                                kPelvis, kRightThigh, kRightShank};
-const std::array<std::string, kNumJoints> kJointNames = {
-    "lower_back", "upper_back", "neck", "left_shoulder", "left_elbow", "left_wrist", "right_shoulder", "right_elbow",
-    "right_wrist", "left_hip", "left_knee", "left_ankle", "right_hip", "right_knee", "right_ankle"};
+    "pelvis",        "abdomen",    "chest",      "head",       "left_upper_arm", "left_forearm", "left_hand",   "right_upper_arm",
+    "right_forearm", "right_hand", "left_thigh", "left_shank", "left_foot",      "right_thigh",  "right_shank", "right_foot"};
+const std::array<int, kNumParts> kPartParent = {-1,           kPelvis, kAbdomen,       kChest,        kChest,  kLeftUpperArm,
+                                                kLeftForearm, kChest,  kRightUpperArm, kRightForearm, kPelvis, kLeftThigh,
+                                                kLeftShank,   kPelvis, kRightThigh,    kRightShank};
+const std::array<std::string, kNumJoints> kJointNames = {"lower_back", "upper_back",     "neck",        "left_shoulder", "left_elbow",
+                                                         "left_wrist", "right_shoulder", "right_elbow", "right_wrist",   "left_hip",
+                                                         "left_knee",  "left_ankle",     "right_hip",   "right_knee",    "right_ankle"};
 /// The MakeHuman bone that starts each part (".L" is the subject's left, +X).
 const std::array<std::string, kNumParts> kPartRootBone = {
-    "root", "spine04", "spine02", "neck01", "upperarm01.L", "lowerarm01.L", "wrist.L", "upperarm01.R",
-    "lowerarm01.R", "wrist.R", "upperleg01.L", "lowerleg01.L", "foot.L", "upperleg01.R", "lowerleg01.R", "foot.R"};
+    "root",         "spine04", "spine02",      "neck01",       "upperarm01.L", "lowerarm01.L", "wrist.L",      "upperarm01.R",
+    "lowerarm01.R", "wrist.R", "upperleg01.L", "lowerleg01.L", "foot.L",       "upperleg01.R", "lowerleg01.R", "foot.R"};
 
 Eigen::Vector3d vec3(const nlohmann::json& j, const std::string& key, const std::string& context) {
   if (!j.is_array() || j.size() != 3) throw InvalidInput(context + ": '" + key + "' must be an array of 3 numbers");
@@ -77,8 +77,7 @@ Eigen::VectorXi vertex_part_labels(const MakeHumanModel& model) {
   Eigen::VectorXi labels(model.weights.rows());
   for (Eigen::Index v = 0; v < model.weights.rows(); ++v) {
     std::array<double, kNumParts> sum{};
-    for (Eigen::SparseMatrix<double, Eigen::RowMajor>::InnerIterator it(model.weights, v); it; ++it)
-      sum[parts[it.col()]] += it.value();
+    for (Eigen::SparseMatrix<double, Eigen::RowMajor>::InnerIterator it(model.weights, v); it; ++it) sum[parts[it.col()]] += it.value();
     labels[v] = static_cast<int>(std::max_element(sum.begin(), sum.end()) - sum.begin());
   }
   return labels;
@@ -164,7 +163,8 @@ PartPose read_part_pose(const std::string& path) { return part_pose_from_json(re
 
 void write_part_pose(const std::string& path, const PartPose& pose) {
   const std::string text = part_pose_to_json(pose);
-  write_file_atomically(path, [&](std::ostream& out) { out << text; }, false);
+  write_file_atomically(
+      path, [&](std::ostream& out) { out << text; }, false);
 }
 
 BonePose bone_pose_from_part_pose(const Rig& rig, const PartPose& pose) {

@@ -44,8 +44,7 @@ PoseUnits read_pose_units(const std::string& path) {
 }
 
 BonePose bone_pose_from_pose_units(const Rig& rig, const Body& body, const PoseUnits& units,
-                                   const std::vector<std::pair<std::string, double>>& weighted,
-                                   std::vector<std::string>* skipped) {
+                                   const std::vector<std::pair<std::string, double>>& weighted, std::vector<std::string>* skipped) {
   if (static_cast<int>(body.bone_frames.size()) != rig.num_bones())
     throw InvalidInput("bone_pose_from_pose_units: the body has no bone frames for this rig");
   const Eigen::Matrix3d M = Eigen::Vector3d(-1, 1, 1).asDiagonal();  // sagittal mirror x -> -x

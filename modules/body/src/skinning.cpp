@@ -115,8 +115,8 @@ BonePose bone_pose_from_bvh(const Rig& rig, const BvhMotion& motion, int frame) 
   }
   if (matched * 2 < rig.num_bones())
     throw InvalidInput("the BVH skeleton (" + std::to_string(motion.joints.size()) + " joints, root '" +
-                       (motion.joints.empty() ? std::string("-") : motion.joints[0].name) + "') shares only " +
-                       std::to_string(matched) + " of " + std::to_string(rig.num_bones()) +
+                       (motion.joints.empty() ? std::string("-") : motion.joints[0].name) + "') shares only " + std::to_string(matched) +
+                       " of " + std::to_string(rig.num_bones()) +
                        " bone names with the MakeHuman default rig: expected a BVH for this skeleton (poses/*.bvh)");
   return pose;
 }

@@ -72,8 +72,7 @@ std::vector<int> morton_order(const Eigen::MatrixXd& P, std::vector<std::uint32_
   std::vector<std::uint32_t> code(static_cast<size_t>(n)), code2(static_cast<size_t>(n));
   for (Eigen::Index i = 0; i < n; ++i) {
     std::uint32_t c = 0;
-    for (int k = 0; k < 3; ++k)
-      c |= spread_bits(static_cast<std::uint32_t>(std::min(1023.0, (P(i, k) - lo[k]) / span[k] * 1024.0))) << k;
+    for (int k = 0; k < 3; ++k) c |= spread_bits(static_cast<std::uint32_t>(std::min(1023.0, (P(i, k) - lo[k]) / span[k] * 1024.0))) << k;
     code[static_cast<size_t>(i)] = c;
   }
   std::vector<int> tmp(static_cast<size_t>(n));
@@ -267,12 +266,15 @@ ClosestPoints TriangleTree::closest(const Eigen::MatrixXd& P, int threads, const
   out.point.resize(P.rows(), 3);
   out.bary.resize(P.rows(), 3);
   out.distance.resize(P.rows());
-  for_each_closest(P, threads, [&](Eigen::Index i, const ClosestHit& h) {
-    out.face[i] = h.face;
-    out.point.row(i) = h.point.transpose();
-    out.distance[i] = h.distance;
-    out.bary.row(i) = h.bary.transpose();
-  }, start_faces);
+  for_each_closest(
+      P, threads,
+      [&](Eigen::Index i, const ClosestHit& h) {
+        out.face[i] = h.face;
+        out.point.row(i) = h.point.transpose();
+        out.distance[i] = h.distance;
+        out.bary.row(i) = h.bary.transpose();
+      },
+      start_faces);
   return out;
 }
 
@@ -281,8 +283,8 @@ void TriangleTree::for_each_closest(const Eigen::MatrixXd& P, int threads,
                                     const Eigen::VectorXi* start_faces) const {
   const Impl& s = *impl_;
   if (start_faces && start_faces->size() != P.rows())
-    throw InvalidInput("TriangleTree::closest: " + std::to_string(start_faces->size()) + " start faces for " +
-                       std::to_string(P.rows()) + " points");
+    throw InvalidInput("TriangleTree::closest: " + std::to_string(start_faces->size()) + " start faces for " + std::to_string(P.rows()) +
+                       " points");
   const std::vector<int> order = morton_order(P);
   parallel_for_ranges(P.rows(), threads, [&](long begin, long end) {
     // Queries go in blocks: the block's points are gathered into a contiguous copy and the results
@@ -308,8 +310,7 @@ void TriangleTree::for_each_closest(const Eigen::MatrixXd& P, int threads,
         }
         s.search(p, best);
         previous = best.slot;
-        results[static_cast<size_t>(k)] = {s.order[static_cast<size_t>(best.slot)], best.point, best.bary,
-                                           std::sqrt(best.sq_distance)};
+        results[static_cast<size_t>(k)] = {s.order[static_cast<size_t>(best.slot)], best.point, best.bary, std::sqrt(best.sq_distance)};
       }
       for (long k = 0; k < count; ++k) visit(order[static_cast<size_t>(block + k)], results[static_cast<size_t>(k)]);
     }

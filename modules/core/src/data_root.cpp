@@ -23,13 +23,11 @@ bool is_data_root(const fs::path& dir) {
 std::string find_data_root(const std::string& explicit_dir) {
   if (!explicit_dir.empty()) {
     if (is_data_root(explicit_dir)) return fs::absolute(explicit_dir).lexically_normal().string();
-    throw IoError("data root '" + explicit_dir +
-                  "' (from --data) has no 3dobjs/base.obj: expected the MakeHuman assets folder");
+    throw IoError("data root '" + explicit_dir + "' (from --data) has no 3dobjs/base.obj: expected the MakeHuman assets folder");
   }
   if (const char* env = std::getenv("POSEKIT_DATA"); env && *env) {
     if (is_data_root(env)) return fs::absolute(env).lexically_normal().string();
-    throw IoError(std::string("data root '") + env +
-                  "' (from POSEKIT_DATA) has no 3dobjs/base.obj: expected the MakeHuman assets folder");
+    throw IoError(std::string("data root '") + env + "' (from POSEKIT_DATA) has no 3dobjs/base.obj: expected the MakeHuman assets folder");
   }
   std::vector<fs::path> tried;
   std::error_code ec;
@@ -48,9 +46,10 @@ std::string find_data_root(const std::string& explicit_dir) {
   }
   std::string msg = "no MakeHuman data root found (looked in";
   for (const auto& t : tried) msg += " " + t.string();
-  msg += "). Pass --data DIR or set POSEKIT_DATA to a folder holding the CC0 MakeHuman assets "
-         "(3dobjs/base.obj, targets/, rigs/, poses/): the makehuman/data folder of the "
-         "makehumancommunity/makehuman repository, as in ../shared/datasets/makehuman";
+  msg +=
+      "). Pass --data DIR or set POSEKIT_DATA to a folder holding the CC0 MakeHuman assets "
+      "(3dobjs/base.obj, targets/, rigs/, poses/): the makehuman/data folder of the "
+      "makehumancommunity/makehuman repository, as in ../shared/datasets/makehuman";
   throw IoError(msg);
 }
 

@@ -33,8 +33,7 @@ Eigen::VectorXd face_areas(const Eigen::MatrixXd& V, const Eigen::MatrixXi& F) {
 
 Eigen::MatrixXd face_centroids(const Eigen::MatrixXd& V, const Eigen::MatrixXi& F) {
   Eigen::MatrixXd C(F.rows(), 3);
-  for (Eigen::Index f = 0; f < F.rows(); ++f)
-    C.row(f) = (V.row(F(f, 0)) + V.row(F(f, 1)) + V.row(F(f, 2))) / 3.0;
+  for (Eigen::Index f = 0; f < F.rows(); ++f) C.row(f) = (V.row(F(f, 0)) + V.row(F(f, 1)) + V.row(F(f, 2))) / 3.0;
   return C;
 }
 
@@ -97,8 +96,6 @@ double signed_volume(const Eigen::MatrixXd& V, const Eigen::MatrixXi& F) {
   return six_volume / 6.0;
 }
 
-double surface_area(const Eigen::MatrixXd& V, const Eigen::MatrixXi& F) {
-  return face_areas(V, F).sum();
-}
+double surface_area(const Eigen::MatrixXd& V, const Eigen::MatrixXi& F) { return face_areas(V, F).sum(); }
 
 }  // namespace posekit

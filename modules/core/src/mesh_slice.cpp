@@ -12,9 +12,9 @@
 #include <thread>
 
 #include "edge_key.h"
-#include "posekit/core/parallel.h"
 #include "posekit/core/error.h"
 #include "posekit/core/mesh_geometry.h"
+#include "posekit/core/parallel.h"
 
 namespace posekit {
 using core_detail::undirected_edge_key;
@@ -103,8 +103,8 @@ std::vector<SectionLoop> chain_loops(size_t count, const Key& key, const Emit& e
 
 /// The segment of face f on the smooth surface (N: unit vertex normals): its cut points and the
 /// point halfway across the face moved onto the Phong surface; false if none.
-bool cut_face_smooth(const Eigen::MatrixXd& V, const Eigen::MatrixXi& F, const Eigen::MatrixXd& N, Eigen::Index f,
-                     const double* s, SmoothSegment& seg) {
+bool cut_face_smooth(const Eigen::MatrixXd& V, const Eigen::MatrixXi& F, const Eigen::MatrixXd& N, Eigen::Index f, const double* s,
+                     SmoothSegment& seg) {
   double face_w[3] = {0, 0, 0};
   int count = 0;
   for (int c = 0; c < 3 && count < 2; ++c) {
@@ -147,9 +147,12 @@ std::vector<std::vector<SectionLoop>> slice_stack(const Eigen::MatrixXd& V, cons
   const int ranges = static_cast<int>(std::clamp<long>(faces / kFacesPerRange, 1, threads));
   const long range_size = (faces + ranges - 1) / ranges;
   const auto for_each_range = [&](const std::function<void(long, long, int)>& body) {
-    parallel_for_ranges(ranges, ranges, [&](long r0, long r1) {
-      for (long r = r0; r < r1; ++r) body(r * range_size, std::min(faces, (r + 1) * range_size), static_cast<int>(r));
-    }, 1);
+    parallel_for_ranges(
+        ranges, ranges,
+        [&](long r0, long r1) {
+          for (long r = r0; r < r1; ++r) body(r * range_size, std::min(faces, (r + 1) * range_size), static_cast<int>(r));
+        },
+        1);
   };
   std::vector<int> first(static_cast<size_t>(F.rows())), last(static_cast<size_t>(F.rows()));
   std::vector<std::vector<size_t>> fill(static_cast<size_t>(ranges), std::vector<size_t>(level.size() + 1, 0));
@@ -176,9 +179,12 @@ std::vector<std::vector<SectionLoop>> slice_stack(const Eigen::MatrixXd& V, cons
   }
   std::vector<std::vector<SectionLoop>> out(offsets.size());
   const auto for_each_plane = [&](const std::function<void(size_t)>& body) {
-    parallel_for_ranges(static_cast<long>(level.size()), ranges, [&](long k0, long k1) {
-      for (long k = k0; k < k1; ++k) body(static_cast<size_t>(k));
-    }, 1);
+    parallel_for_ranges(
+        static_cast<long>(level.size()), ranges,
+        [&](long k0, long k1) {
+          for (long k = k0; k < k1; ++k) body(static_cast<size_t>(k));
+        },
+        1);
   };
   if (N) {
     std::vector<SmoothSegment> segs(start.back());
@@ -223,21 +229,20 @@ std::vector<std::vector<SectionLoop>> slice_stack(const Eigen::MatrixXd& V, cons
       return Eigen::Vector3d(V.row(a).transpose() + t * (V.row(b) - V.row(a)).transpose());
     };
     auto emit = [&](size_t i, int e, std::vector<Eigen::Vector3d>& pts) { pts.push_back(point(seg[i][static_cast<size_t>(e)])); };
-    out[order[k]] = chain_loops(start[k + 1] - start[k], [&](size_t i, int e) { return seg[i][static_cast<size_t>(e)]; }, emit, emit);
+    out[order[k]] = chain_loops(
+        start[k + 1] - start[k], [&](size_t i, int e) { return seg[i][static_cast<size_t>(e)]; }, emit, emit);
   });
   return out;
 }
 
 }  // namespace
 
-std::vector<SectionLoop> slice_mesh(const Eigen::MatrixXd& V, const Eigen::MatrixXi& F, const Eigen::Vector3d& normal,
-                                    double offset) {
+std::vector<SectionLoop> slice_mesh(const Eigen::MatrixXd& V, const Eigen::MatrixXi& F, const Eigen::Vector3d& normal, double offset) {
   return slice_stack(V, F, nullptr, normal, {offset}, 1).front();
 }
 
-std::vector<std::vector<SectionLoop>> slice_mesh_stack(const Eigen::MatrixXd& V, const Eigen::MatrixXi& F,
-                                                       const Eigen::Vector3d& normal, const std::vector<double>& offsets,
-                                                       int threads) {
+std::vector<std::vector<SectionLoop>> slice_mesh_stack(const Eigen::MatrixXd& V, const Eigen::MatrixXi& F, const Eigen::Vector3d& normal,
+                                                       const std::vector<double>& offsets, int threads) {
   return slice_stack(V, F, nullptr, normal, offsets, threads);
 }
 
@@ -246,9 +251,8 @@ std::vector<SectionLoop> slice_smooth_mesh(const Eigen::MatrixXd& V, const Eigen
   return slice_stack(V, F, &N, normal, {offset}, 1).front();
 }
 
-std::vector<std::vector<SectionLoop>> slice_smooth_mesh_stack(const Eigen::MatrixXd& V, const Eigen::MatrixXi& F,
-                                                              const Eigen::MatrixXd& N, const Eigen::Vector3d& normal,
-                                                              const std::vector<double>& offsets) {
+std::vector<std::vector<SectionLoop>> slice_smooth_mesh_stack(const Eigen::MatrixXd& V, const Eigen::MatrixXi& F, const Eigen::MatrixXd& N,
+                                                              const Eigen::Vector3d& normal, const std::vector<double>& offsets) {
   return slice_stack(V, F, &N, normal, offsets, 1);
 }
 
@@ -303,9 +307,7 @@ double convex_hull_perimeter(const Eigen::MatrixXd& P, const Eigen::Vector3d& no
   const Eigen::Vector3d u = n.unitOrthogonal(), w = n.cross(u);
   std::vector<Eigen::Vector2d> q(static_cast<size_t>(P.rows()));
   for (Eigen::Index i = 0; i < P.rows(); ++i) q[i] = Eigen::Vector2d(P.row(i).dot(u), P.row(i).dot(w));
-  sort_by_runs(q, [](const Eigen::Vector2d& a, const Eigen::Vector2d& b) {
-    return a.x() != b.x() ? a.x() < b.x() : a.y() < b.y();
-  });
+  sort_by_runs(q, [](const Eigen::Vector2d& a, const Eigen::Vector2d& b) { return a.x() != b.x() ? a.x() < b.x() : a.y() < b.y(); });
   auto cross = [](const Eigen::Vector2d& o, const Eigen::Vector2d& a, const Eigen::Vector2d& b) {
     return (a - o).x() * (b - o).y() - (a - o).y() * (b - o).x();
   };
@@ -348,8 +350,7 @@ double loop_distance(const SectionLoop& a, const SectionLoop& b) {
   auto vertices_to_segments = [](const SectionLoop& from, const SectionLoop& to, double best) {
     const Eigen::Index n = to.points.rows(), segments = to.closed ? n : n - 1;
     if (segments <= 0) {
-      for (Eigen::Index i = 0; i < from.points.rows(); ++i)
-        best = std::min(best, (from.points.row(i) - to.points.row(0)).squaredNorm());
+      for (Eigen::Index i = 0; i < from.points.rows(); ++i) best = std::min(best, (from.points.row(i) - to.points.row(0)).squaredNorm());
       return best;
     }
     std::vector<Eigen::AlignedBox3d> box(static_cast<size_t>((segments + kBlock - 1) / kBlock));

@@ -15,18 +15,15 @@ namespace {
 struct HalfEdge {
   std::uint64_t key;  // (min << 32) | max
   int face;
-  int corner;         // edge (F(face,corner), F(face,corner+1))
+  int corner;  // edge (F(face,corner), F(face,corner+1))
 };
 
 std::vector<HalfEdge> sorted_half_edges(const Eigen::MatrixXi& F) {
   std::vector<HalfEdge> h;
   h.reserve(static_cast<size_t>(F.rows()) * 3);
   for (Eigen::Index f = 0; f < F.rows(); ++f)
-    for (int c = 0; c < 3; ++c)
-      h.push_back({undirected_edge_key(F(f, c), F(f, (c + 1) % 3)), static_cast<int>(f), c});
-  std::sort(h.begin(), h.end(), [](const HalfEdge& a, const HalfEdge& b) {
-    return a.key != b.key ? a.key < b.key : a.face < b.face;
-  });
+    for (int c = 0; c < 3; ++c) h.push_back({undirected_edge_key(F(f, c), F(f, (c + 1) % 3)), static_cast<int>(f), c});
+  std::sort(h.begin(), h.end(), [](const HalfEdge& a, const HalfEdge& b) { return a.key != b.key ? a.key < b.key : a.face < b.face; });
   return h;
 }
 

@@ -71,16 +71,13 @@ MeshReport validate_mesh(const TriangleMesh& mesh) {
 }
 
 void require_usable_mesh(const TriangleMesh& mesh, const std::string& what) {
-  if (mesh.V.cols() != 3 || (mesh.F.rows() > 0 && mesh.F.cols() != 3))
-    throw InvalidInput(what + ": expected V #V x 3 and F #F x 3");
+  if (mesh.V.cols() != 3 || (mesh.F.rows() > 0 && mesh.F.cols() != 3)) throw InvalidInput(what + ": expected V #V x 3 and F #F x 3");
   for (Eigen::Index v = 0; v < mesh.V.rows(); ++v)
-    if (!mesh.V.row(v).allFinite())
-      throw InvalidInput(what + ": vertex " + std::to_string(v) + " has a non-finite coordinate");
+    if (!mesh.V.row(v).allFinite()) throw InvalidInput(what + ": vertex " + std::to_string(v) + " has a non-finite coordinate");
   for (Eigen::Index f = 0; f < mesh.F.rows(); ++f)
     for (int c = 0; c < 3; ++c)
       if (mesh.F(f, c) < 0 || mesh.F(f, c) >= mesh.V.rows())
-        throw InvalidInput(what + ": face " + std::to_string(f) + " has vertex index " +
-                           std::to_string(mesh.F(f, c)) + ", expected 0.." +
+        throw InvalidInput(what + ": face " + std::to_string(f) + " has vertex index " + std::to_string(mesh.F(f, c)) + ", expected 0.." +
                            std::to_string(mesh.V.rows() - 1));
 }
 

@@ -83,8 +83,8 @@ void* load_plugin(const std::string& name) {
     using Stamp = const char*();
     auto* stamp = reinterpret_cast<Stamp*>(dlsym(handle, "posekit_plugin_build_stamp"));
     if (!stamp || std::string(stamp()) != POSEKIT_PLUGIN_STAMP) {
-      reasons += "\n  " + path.string() + ": built for " + (stamp ? stamp() : "an unknown build") +
-                 ", not this one (" + POSEKIT_PLUGIN_STAMP + ")";
+      reasons += "\n  " + path.string() + ": built for " + (stamp ? stamp() : "an unknown build") + ", not this one (" +
+                 POSEKIT_PLUGIN_STAMP + ")";
       dlclose(handle);
       continue;
     }
@@ -92,7 +92,8 @@ void* load_plugin(const std::string& name) {
   }
   throw Error("posekit's " + name + " plugin (" + file_name(name) +
               ", installed with posekit in <libdir>/posekit) could not be loaded; it holds the code that uses VTK, "
-              "PCL or OpenCV. Looked in (POSEKIT_PLUGIN_DIR names another folder):" + reasons);
+              "PCL or OpenCV. Looked in (POSEKIT_PLUGIN_DIR names another folder):" +
+              reasons);
 }
 
 }  // namespace
@@ -102,8 +103,7 @@ void* plugin_symbol(const std::string& name, const char* symbol) {
   void*& handle = loaded_plugins()[name];
   if (!handle) handle = load_plugin(name);
   void* address = dlsym(handle, symbol);
-  if (!address)
-    throw Error("posekit's " + name + " plugin has no entry point " + symbol + ": it was built from other sources");
+  if (!address) throw Error("posekit's " + name + " plugin has no entry point " + symbol + ": it was built from other sources");
   return address;
 }
 

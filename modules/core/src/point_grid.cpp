@@ -18,8 +18,7 @@ PointGrid::PointGrid(const Eigen::MatrixXd& P, double cell) {
   if (!std::isfinite(cell)) cell = extent.maxCoeff();  // a volume beyond double's range: one cell
   // At most about 4 cells per point (and 2^30 in all) whatever the cell asked for.
   const double max_cells = std::min(4.0 * static_cast<double>(P.rows()) + 64, 1073741824.0);
-  while ((extent / cell).array().floor().cwiseMax(0).matrix().prod() > max_cells ||
-         ((extent / cell).array() + 1).prod() > max_cells)
+  while ((extent / cell).array().floor().cwiseMax(0).matrix().prod() > max_cells || ((extent / cell).array() + 1).prod() > max_cells)
     cell *= 1.25;
   cell_ = cell;
   for (int k = 0; k < 3; ++k) dims_[k] = static_cast<int>(std::floor(extent[k] / cell_)) + 1;
@@ -29,8 +28,7 @@ PointGrid::PointGrid(const Eigen::MatrixXd& P, double cell) {
   cell_start_.assign(cells + 1, 0);
   for (Eigen::Index i = 0; i < n; ++i) {
     int c[3];
-    for (int k = 0; k < 3; ++k)
-      c[k] = std::min(dims_[k] - 1, static_cast<int>((P(i, k) - lo_[k]) / cell_));
+    for (int k = 0; k < 3; ++k) c[k] = std::min(dims_[k] - 1, static_cast<int>((P(i, k) - lo_[k]) / cell_));
     const int id = (c[2] * dims_[1] + c[1]) * dims_[0] + c[0];
     cell_of[static_cast<size_t>(i)] = id;
     ++cell_start_[static_cast<size_t>(id) + 1];

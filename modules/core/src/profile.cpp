@@ -10,8 +10,8 @@ namespace posekit {
 
 double peak_centre(const std::vector<double>& y, const std::vector<double>& g, size_t peak, double threshold) {
   if (y.size() != g.size() || peak >= y.size())
-    throw InvalidInput("peak_centre: " + std::to_string(y.size()) + " heights, " + std::to_string(g.size()) +
-                       " values and peak index " + std::to_string(peak) + " do not match");
+    throw InvalidInput("peak_centre: " + std::to_string(y.size()) + " heights, " + std::to_string(g.size()) + " values and peak index " +
+                       std::to_string(peak) + " do not match");
   if (!(g[peak] > threshold)) throw InvalidInput("peak_centre: the peak sample does not exceed the threshold");
   for (size_t k = 1; k < y.size(); ++k)
     if (!(y[k] > y[k - 1])) throw InvalidInput("peak_centre: heights must ascend (sample " + std::to_string(k) + ")");

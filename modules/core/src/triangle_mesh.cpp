@@ -4,11 +4,10 @@
 
 namespace posekit {
 
-TriangleMesh extract_faces(const TriangleMesh& mesh, const std::vector<bool>& keep_face,
-                           std::vector<int>* vertex_map) {
+TriangleMesh extract_faces(const TriangleMesh& mesh, const std::vector<bool>& keep_face, std::vector<int>* vertex_map) {
   if (static_cast<Eigen::Index>(keep_face.size()) != mesh.num_faces())
-    throw InvalidInput("extract_faces: keep_face has " + std::to_string(keep_face.size()) +
-                       " entries, expected one per face (" + std::to_string(mesh.num_faces()) + ")");
+    throw InvalidInput("extract_faces: keep_face has " + std::to_string(keep_face.size()) + " entries, expected one per face (" +
+                       std::to_string(mesh.num_faces()) + ")");
   std::vector<int> new_index(mesh.num_vertices(), -1);
   std::vector<int> old_index;
   Eigen::Index kept = 0;
@@ -18,8 +17,8 @@ TriangleMesh extract_faces(const TriangleMesh& mesh, const std::vector<bool>& ke
     for (int c = 0; c < 3; ++c) {
       const int v = mesh.F(f, c);
       if (v < 0 || v >= mesh.num_vertices())
-        throw InvalidInput("extract_faces: face " + std::to_string(f) + " has vertex index " +
-                           std::to_string(v) + " outside [0, " + std::to_string(mesh.num_vertices()) + ")");
+        throw InvalidInput("extract_faces: face " + std::to_string(f) + " has vertex index " + std::to_string(v) + " outside [0, " +
+                           std::to_string(mesh.num_vertices()) + ")");
       if (new_index[v] < 0) {
         new_index[v] = static_cast<int>(old_index.size());
         old_index.push_back(v);
@@ -61,8 +60,7 @@ TriangleMesh extract_faces(const TriangleMesh& mesh, const std::vector<bool>& ke
   return out;
 }
 
-TriangleMesh extract_group(const TriangleMesh& mesh, const std::string& group,
-                           std::vector<int>* vertex_map) {
+TriangleMesh extract_group(const TriangleMesh& mesh, const std::string& group, std::vector<int>* vertex_map) {
   int group_index = -1;
   for (size_t g = 0; g < mesh.group_names.size(); ++g)
     if (mesh.group_names[g] == group) group_index = static_cast<int>(g);

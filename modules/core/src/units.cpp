@@ -10,10 +10,14 @@ namespace posekit {
 
 double metres_per_unit(Unit unit) {
   switch (unit) {
-    case Unit::kMetre: return 1.0;
-    case Unit::kDecimetre: return 0.1;
-    case Unit::kCentimetre: return 0.01;
-    case Unit::kMillimetre: return 0.001;
+    case Unit::kMetre:
+      return 1.0;
+    case Unit::kDecimetre:
+      return 0.1;
+    case Unit::kCentimetre:
+      return 0.01;
+    case Unit::kMillimetre:
+      return 0.001;
   }
   return 1.0;
 }
@@ -22,21 +26,22 @@ Unit parse_unit(const std::string& text) {
   std::string t = text;
   std::transform(t.begin(), t.end(), t.begin(), [](unsigned char c) { return std::tolower(c); });
   if (t == "m" || t == "metre" || t == "metres" || t == "meter" || t == "meters") return Unit::kMetre;
-  if (t == "dm" || t == "decimetre" || t == "decimetres" || t == "decimeter" || t == "decimeters")
-    return Unit::kDecimetre;
-  if (t == "cm" || t == "centimetre" || t == "centimetres" || t == "centimeter" || t == "centimeters")
-    return Unit::kCentimetre;
-  if (t == "mm" || t == "millimetre" || t == "millimetres" || t == "millimeter" || t == "millimeters")
-    return Unit::kMillimetre;
+  if (t == "dm" || t == "decimetre" || t == "decimetres" || t == "decimeter" || t == "decimeters") return Unit::kDecimetre;
+  if (t == "cm" || t == "centimetre" || t == "centimetres" || t == "centimeter" || t == "centimeters") return Unit::kCentimetre;
+  if (t == "mm" || t == "millimetre" || t == "millimetres" || t == "millimeter" || t == "millimeters") return Unit::kMillimetre;
   throw InvalidInput("unknown unit '" + text + "': expected one of m, dm, cm, mm");
 }
 
 std::string unit_name(Unit unit) {
   switch (unit) {
-    case Unit::kMetre: return "m";
-    case Unit::kDecimetre: return "dm";
-    case Unit::kCentimetre: return "cm";
-    case Unit::kMillimetre: return "mm";
+    case Unit::kMetre:
+      return "m";
+    case Unit::kDecimetre:
+      return "dm";
+    case Unit::kCentimetre:
+      return "cm";
+    case Unit::kMillimetre:
+      return "mm";
   }
   return "m";
 }

@@ -10,13 +10,13 @@
 #include <random>
 #include <sstream>
 
+#include "opencv_calls.h"
 #include "posekit/body/makehuman_model.h"
+#include "posekit/core/error.h"
 #include "posekit/core/parallel.h"
 #include "posekit/core/plugin.h"
-#include "posekit/core/error.h"
 #include "posekit/core/timer.h"
 #include "posekit/customization/photo_customization.h"
-#include "opencv_calls.h"
 #include "posekit/datasets/subjects.h"
 #include "posekit/io/atomic_file.h"
 #include "posekit/io/image_io.h"
@@ -45,9 +45,9 @@ constexpr int kFeatureTargets = kFeatureScalars + 3 * kFeaturePoints;
 constexpr int kFirstArmPoint = 3, kLastArmPoint = 12;  // feature_points: armpits, shoulders, elbows, wrists, hand tips
 
 std::vector<Eigen::Vector3d*> feature_points(BodyFeatures& f) {
-  return {&f.crotch, &f.neck_base, &f.neck_top, &f.armpit[0], &f.armpit[1], &f.shoulder[0], &f.shoulder[1],
-          &f.elbow[0], &f.elbow[1], &f.wrist[0], &f.wrist[1], &f.hand_tip[0], &f.hand_tip[1],
-          &f.knee[0], &f.knee[1], &f.ankle[0], &f.ankle[1], &f.hip[0], &f.hip[1]};
+  return {&f.crotch,   &f.neck_base, &f.neck_top, &f.armpit[0], &f.armpit[1],   &f.shoulder[0], &f.shoulder[1],
+          &f.elbow[0], &f.elbow[1],  &f.wrist[0], &f.wrist[1],  &f.hand_tip[0], &f.hand_tip[1], &f.knee[0],
+          &f.knee[1],  &f.ankle[0],  &f.ankle[1], &f.hip[0],    &f.hip[1]};
 }
 
 /// The features a layered representation is placed by, relative to the photos' floor and axis.
@@ -97,7 +97,8 @@ Eigen::VectorXd with_bias(const Eigen::VectorXd& x) {
 Eigen::MatrixXd ridge(const Eigen::MatrixXd& X, const Eigen::MatrixXd& Y, double lambda) {
   const Eigen::RowVectorXd mean = X.colwise().mean();
   Eigen::RowVectorXd scale = ((X.rowwise() - mean).array().square().colwise().mean()).sqrt();
-  for (Eigen::Index c = 0; c < scale.size(); ++c) if (scale[c] < 1e-9) scale[c] = 1;
+  for (Eigen::Index c = 0; c < scale.size(); ++c)
+    if (scale[c] < 1e-9) scale[c] = 1;
   Eigen::MatrixXd Z(X.rows(), X.cols() + 1);
   Z.leftCols(X.cols()) = (X.rowwise() - mean).array().rowwise() / scale.array();
   Z.col(X.cols()).setOnes();
@@ -201,9 +202,7 @@ TriangleMesh turned_about_vertical(TriangleMesh mesh, double angle) {
   return mesh;
 }
 
-std::vector<std::uint8_t> encode(const std::vector<std::uint8_t>& mask, int w, int h) {
-  return encode_png(Image8{w, h, 1, mask});
-}
+std::vector<std::uint8_t> encode(const std::vector<std::uint8_t>& mask, int w, int h) { return encode_png(Image8{w, h, 1, mask}); }
 
 Silhouette decode(const std::vector<std::uint8_t>& png) {
   Image8 m = decode_image(std::string(png.begin(), png.end()), ImageColor::kGray, "a customization model's silhouette");
@@ -243,7 +242,8 @@ BodyFeatures within_photos(BodyFeatures f, const PhotoLandmarks& L, std::vector<
   // hand tips, so a smaller correction changes nothing the photos can show.
   constexpr double kSaid = 0.01;
   if (f.top_y > L.crown_y) {
-    if (notes && f.top_y - L.crown_y > kSaid) notes->push_back("photos: the crown predicted " + mm(f.top_y - L.crown_y) + " mm above the photos' crown: taken from the photos");
+    if (notes && f.top_y - L.crown_y > kSaid)
+      notes->push_back("photos: the crown predicted " + mm(f.top_y - L.crown_y) + " mm above the photos' crown: taken from the photos");
     f.top_y = f.crown_y = L.crown_y;
     f.stature = f.crown_y - f.floor_y;
   }
@@ -287,8 +287,8 @@ void prepare_customization_model(CustomizationModel* model) {
   if (model->template_mesh.V.rows() == 0) throw InvalidInput("customization model: no template mesh");
   auto rt = std::make_shared<CustomizationModel::Runtime>();
   rt->template_features = find_body_features(model->template_mesh.V, model->template_mesh.F);
-  rt->template_rep = build_layered_representation(model->template_mesh.V, model->template_mesh.F, rt->template_features,
-                                                  model->points_per_layer);
+  rt->template_rep =
+      build_layered_representation(model->template_mesh.V, model->template_mesh.F, rt->template_features, model->points_per_layer);
   if (rt->template_rep.layers.size() != model->layers.size())
     throw InvalidInput("customization model: " + std::to_string(model->layers.size()) + " layer models for a representation of " +
                        std::to_string(rt->template_rep.layers.size()) + " layers");
@@ -373,8 +373,9 @@ CustomizedBody customize_from_silhouettes(const Silhouette& front, const Silhoue
   if (model.descriptor_limit > 0 && out.population_distance > model.descriptor_limit) {
     std::ostringstream w;
     w.precision(3);
-    w << "this body lies outside the model's training population (distance " << out.population_distance << "; 99.5% of the population within "
-      << model.descriptor_limit << "): its shape is extrapolated, check the result (" << model.population << ")";
+    w << "this body lies outside the model's training population (distance " << out.population_distance
+      << "; 99.5% of the population within " << model.descriptor_limit << "): its shape is extrapolated, check the result ("
+      << model.population << ")";
     out.warnings.push_back(w.str());
   } else if (out.population_range_excess > kRangeMargin) {
     std::ostringstream w;
@@ -440,9 +441,12 @@ void photograph_training_body(TrainingRun& run, int i) {
   const double turn = o.max_turn_degrees * (2 * u(rng) - 1) * M_PI / 180;
   const TriangleMesh mesh = turned_about_vertical(body.mesh, turn);
   const BodyFeatures f = find_body_features(mesh.V, mesh.F);
-  s.cameras.front = PinholeCamera::look_at(Eigen::Vector3d(0, mid, distance), Eigen::Vector3d(0, mid, 0), Eigen::Vector3d::UnitY(), 800, 1200, 1400);
-  s.cameras.side = PinholeCamera::look_at(Eigen::Vector3d(distance, mid, 0), Eigen::Vector3d(0, mid, 0), Eigen::Vector3d::UnitY(), 800, 1200, 1400);
-  const Silhouette sil[2] = {silhouette_from_render(render_mesh(mesh, s.cameras.front)), silhouette_from_render(render_mesh(mesh, s.cameras.side))};
+  s.cameras.front =
+      PinholeCamera::look_at(Eigen::Vector3d(0, mid, distance), Eigen::Vector3d(0, mid, 0), Eigen::Vector3d::UnitY(), 800, 1200, 1400);
+  s.cameras.side =
+      PinholeCamera::look_at(Eigen::Vector3d(distance, mid, 0), Eigen::Vector3d(0, mid, 0), Eigen::Vector3d::UnitY(), 800, 1200, 1400);
+  const Silhouette sil[2] = {silhouette_from_render(render_mesh(mesh, s.cameras.front)),
+                             silhouette_from_render(render_mesh(mesh, s.cameras.side))};
   s.turn = turn;
   const ArmChains arms = arm_chains(f);
   s.landmarks = find_photo_landmarks(sil[0], sil[1], s.cameras, &arms);
@@ -496,7 +500,8 @@ void describe_population(const Eigen::MatrixXd& X, const std::vector<const Sampl
   model->descriptor_scale = ((X.rowwise() - model->descriptor_mean.transpose()).array().square().colwise().mean()).sqrt().transpose();
   for (Eigen::Index c = 0; c < model->descriptor_scale.size(); ++c)
     if (model->descriptor_scale[c] < 1e-9) model->descriptor_scale[c] = 1;
-  const Eigen::MatrixXd Z = (X.rowwise() - model->descriptor_mean.transpose()).array().rowwise() / model->descriptor_scale.transpose().array();
+  const Eigen::MatrixXd Z =
+      (X.rowwise() - model->descriptor_mean.transpose()).array().rowwise() / model->descriptor_scale.transpose().array();
   Eigen::MatrixXd correlation = Z.transpose() * Z / static_cast<double>(Z.rows());
   correlation.diagonal().array() += 0.01;
   model->descriptor_precision = correlation.ldlt().solve(Eigen::MatrixXd::Identity(correlation.rows(), correlation.cols()));
@@ -518,7 +523,8 @@ void describe_population(const Eigen::MatrixXd& X, const std::vector<const Sampl
 }
 
 /// Stages 2 and 3 on the training bodies, and the features' validation error (mm per point).
-void learn_features(const std::vector<Sample>& samples, const std::vector<int>& train, const std::vector<int>& valid, CustomizationModel* model) {
+void learn_features(const std::vector<Sample>& samples, const std::vector<int>& train, const std::vector<int>& valid,
+                    CustomizationModel* model) {
   const Eigen::Index descriptor_size = samples[static_cast<size_t>(train[0])].landmarks.descriptor.size();
   Eigen::MatrixXd X(static_cast<Eigen::Index>(train.size()), descriptor_size), Y(static_cast<Eigen::Index>(train.size()), kFeatureTargets);
   for (size_t r = 0; r < train.size(); ++r) {
@@ -560,8 +566,8 @@ void measure_training_sections(TrainingRun& run, const CustomizationModel& model
 
 /// Stage 5: layer i's regression, linear (ridge on standardised inputs) and, when asked and better on
 /// the validation bodies, an MLP.
-void fit_layer(const std::vector<Sample>& samples, const std::vector<int>& train, const std::vector<int>& valid, const CustomizationTrainingOptions& o,
-               size_t i, CustomizationModel* model) {
+void fit_layer(const std::vector<Sample>& samples, const std::vector<int>& train, const std::vector<int>& valid,
+               const CustomizationTrainingOptions& o, size_t i, CustomizationModel* model) {
   CustomizationModel::Layer& L = model->layers[i];
   const int n_out = 2 * model->points_per_layer + 2;
   auto gather = [&](const std::vector<int>& ids, Eigen::MatrixXd* X, Eigen::MatrixXd* Y) {
@@ -609,7 +615,8 @@ void fit_layer(const std::vector<Sample>& samples, const std::vector<int>& train
 }
 
 /// The population a model was trained on, as its file records it.
-std::string describe_training_population(const CustomizationTrainingOptions& o, const std::vector<Sample>& samples, size_t train, size_t valid) {
+std::string describe_training_population(const CustomizationTrainingOptions& o, const std::vector<Sample>& samples, size_t train,
+                                         size_t valid) {
   std::ostringstream pop;
   pop << "make_calibration_specs(" << o.seed << ", " << o.bodies << "): " << train << " training and " << valid
       << " validation bodies, turned up to " << o.max_turn_degrees << " degrees";
@@ -651,15 +658,17 @@ CustomizationModel train_customization_model(const CustomizationTrainingOptions&
       run.report(what + " " + std::to_string(j));
     });
   };
-  each_sample(n, [](long j) { return static_cast<int>(j); }, "body", [&](int i) { photograph_training_body(run, i); });
+  each_sample(
+      n, [](long j) { return static_cast<int>(j); }, "body", [&](int i) { photograph_training_body(run, i); });
   const std::vector<int> kept = usable_samples(run.samples);
   // Validation: every fifth body (by index, so the split does not depend on threads).
   const int stride = std::max(2, static_cast<int>(std::lround(1.0 / std::max(0.05, o.validation_fraction))));
   std::vector<int> train, valid;
   for (int i : kept) (i % stride == stride - 1 ? valid : train).push_back(i);
   learn_features(run.samples, train, valid, &model);
-  each_sample(static_cast<long>(kept.size()), [&](long j) { return kept[static_cast<size_t>(j)]; }, "sections",
-              [&](int i) { measure_training_sections(run, model, i); });
+  each_sample(
+      static_cast<long>(kept.size()), [&](long j) { return kept[static_cast<size_t>(j)]; }, "sections",
+      [&](int i) { measure_training_sections(run, model, i); });
   auto usable = [&](std::vector<int> v) {
     v.erase(std::remove_if(v.begin(), v.end(), [&](int i) { return !run.sample(i).ok; }), v.end());
     return v;
@@ -715,9 +724,15 @@ void save_customization_model(const std::string& path, const CustomizationModel&
     j["axis_high"] = vec(m.axis_high);
   }
   for (const auto& L : m.layers)
-    j["layers"].push_back({{"model", L.use_mlp ? "mlp" : "linear"}, {"linear", mat(L.linear)}, {"mlp", L.mlp},
-                           {"in_mean", vec(L.in_mean)}, {"in_scale", vec(L.in_scale)}, {"out_mean", vec(L.out_mean)},
-                           {"out_scale", vec(L.out_scale)}, {"linear_error_mm", L.linear_error_mm}, {"mlp_error_mm", L.mlp_error_mm}});
+    j["layers"].push_back({{"model", L.use_mlp ? "mlp" : "linear"},
+                           {"linear", mat(L.linear)},
+                           {"mlp", L.mlp},
+                           {"in_mean", vec(L.in_mean)},
+                           {"in_scale", vec(L.in_scale)},
+                           {"out_mean", vec(L.out_mean)},
+                           {"out_scale", vec(L.out_scale)},
+                           {"linear_error_mm", L.linear_error_mm},
+                           {"mlp_error_mm", L.mlp_error_mm}});
   j["template"]["V"] = mat(m.template_mesh.V);
   j["template"]["F"] = mat(m.template_mesh.F.cast<double>());
   const std::string text = j.dump();
@@ -792,7 +807,8 @@ CustomizationModel load_customization_model(const std::string& path) {
   }
   if (m.feature_weights.cols() != kFeatureTargets)
     throw InvalidInput("customization model '" + path + "': its feature model predicts " + std::to_string(m.feature_weights.cols()) +
-                       " numbers, this posekit " + std::to_string(kFeatureTargets) + " (made by another version: train it again with posekit customize train)");
+                       " numbers, this posekit " + std::to_string(kFeatureTargets) +
+                       " (made by another version: train it again with posekit customize train)");
   prepare_customization_model(&m);
   return m;
 }

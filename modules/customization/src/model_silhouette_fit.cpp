@@ -5,11 +5,11 @@
 #include <algorithm>
 #include <array>
 #include <cmath>
-#include <limits>
-#include <iomanip>
-#include <sstream>
 #include <cstdio>
 #include <cstdlib>
+#include <iomanip>
+#include <limits>
+#include <sstream>
 #include <unordered_map>
 
 #include "posekit/core/error.h"
@@ -156,7 +156,8 @@ Eigen::Vector2d project_with_jacobian(const PinholeCamera& c, const Eigen::Vecto
 }
 
 /// The point nearest both rays (least squares), for the body's place from two views.
-Eigen::Vector3d nearest_to_rays(const Eigen::Vector3d& o1, const Eigen::Vector3d& d1, const Eigen::Vector3d& o2, const Eigen::Vector3d& d2) {
+Eigen::Vector3d nearest_to_rays(const Eigen::Vector3d& o1, const Eigen::Vector3d& d1, const Eigen::Vector3d& o2,
+                                const Eigen::Vector3d& d2) {
   Eigen::Matrix3d A = Eigen::Matrix3d::Zero();
   Eigen::Vector3d b = Eigen::Vector3d::Zero();
   for (const auto& [o, d] : {std::pair{o1, d1}, std::pair{o2, d2}}) {
@@ -183,10 +184,11 @@ struct View {
   PinholeCamera camera;
   Field silhouette;
   std::vector<Eigen::Vector2d> edge, edge_normal;  ///< the silhouette's edge pixels (centres) and outward normals
-  double metres_per_px = 0;                         ///< at the body's distance
+  double metres_per_px = 0;                        ///< at the body's distance
 };
 
-std::vector<View> make_views(const Silhouette* sil[2], const PinholeCamera* cams[2], int rows, const Eigen::Vector3d& body_centre, int threads) {
+std::vector<View> make_views(const Silhouette* sil[2], const PinholeCamera* cams[2], int rows, const Eigen::Vector3d& body_centre,
+                             int threads) {
   std::vector<View> views(2);
   auto make_view = [&](int k) {
     View& w = views[static_cast<size_t>(k)];
@@ -209,7 +211,8 @@ std::vector<View> make_views(const Silhouette* sil[2], const PinholeCamera* cams
         w.edge_normal.push_back(g.normalized());
       }
   };
-  run_beside(threads, [&] { make_view(1); }, [&] { make_view(0); });  // the views are independent
+  run_beside(
+      threads, [&] { make_view(1); }, [&] { make_view(0); });  // the views are independent
   return views;
 }
 
@@ -222,7 +225,9 @@ std::vector<int> contour_vertices(const TriangleMesh& posed, const Eigen::Matrix
                                   std::vector<std::uint8_t>* on_outline, std::vector<double>* outline_distance, RenderBuffers* rendered) {
   *rendered = render_mesh(posed, cam);
   const RenderBuffers& r = *rendered;
-  auto covered = [&](int u, int v) { return u >= 0 && v >= 0 && u < r.width && v < r.height && r.face[static_cast<size_t>(v) * r.width + u] >= 0; };
+  auto covered = [&](int u, int v) {
+    return u >= 0 && v >= 0 && u < r.width && v < r.height && r.face[static_cast<size_t>(v) * r.width + u] >= 0;
+  };
   const Eigen::Vector3d eye = cam.centre();
   std::vector<int> out;
   for (int i = 0; i < posed.V.rows(); ++i) {
@@ -304,16 +309,16 @@ class ProjectionGrid {
 /// normal. A residual is `direction . (projection - ...)` in working pixels; `share` weighs it so
 /// that each of the two kinds counts a quarter of the two views' data.
 struct OutlinePair {
-  int rim = 0;                  ///< index into ViewOutline::rim
-  Eigen::Vector2d direction;    ///< unit, in the image
+  int rim = 0;                ///< index into ViewOutline::rim
+  Eigen::Vector2d direction;  ///< unit, in the image
   double residual_px = 0;
   double share = 0;
 };
 struct ViewOutline {
-  std::vector<int> rim;                               ///< contour generators
-  std::vector<std::uint8_t> on_outline;               ///< ... seen on the body's outline
-  std::vector<double> outline_distance;               ///< ... the rendered outline's signed distance there (px)
-  std::vector<Eigen::Matrix<double, 2, 3>> dproj;     ///< their projection's derivative by position
+  std::vector<int> rim;                            ///< contour generators
+  std::vector<std::uint8_t> on_outline;            ///< ... seen on the body's outline
+  std::vector<double> outline_distance;            ///< ... the rendered outline's signed distance there (px)
+  std::vector<Eigen::Matrix<double, 2, 3>> dproj;  ///< their projection's derivative by position
   std::vector<OutlinePair> pairs;
 };
 
@@ -321,12 +326,14 @@ ViewOutline outline_pairs(const View& w, const TriangleMesh& posed, const Eigen:
   ViewOutline out;
   RenderBuffers rendered;
   out.rim = contour_vertices(posed, normals, w.camera, &out.on_outline, &out.outline_distance, &rendered);
-  if (std::count(out.on_outline.begin(), out.on_outline.end(), 1) < 50) throw InvalidInput(std::string("model fit to the photos: the body left the ") + view + " photo");
+  if (std::count(out.on_outline.begin(), out.on_outline.end(), 1) < 50)
+    throw InvalidInput(std::string("model fit to the photos: the body left the ") + view + " photo");
   const int R = static_cast<int>(out.rim.size());
   std::vector<Eigen::Vector2d> proj(static_cast<size_t>(R));
   out.dproj.resize(static_cast<size_t>(R));
   for (int r = 0; r < R; ++r)
-    proj[static_cast<size_t>(r)] = project_with_jacobian(w.camera, posed.V.row(out.rim[static_cast<size_t>(r)]).transpose(), &out.dproj[static_cast<size_t>(r)]);
+    proj[static_cast<size_t>(r)] =
+        project_with_jacobian(w.camera, posed.V.row(out.rim[static_cast<size_t>(r)]).transpose(), &out.dproj[static_cast<size_t>(r)]);
   int seen = 0;
   for (int r = 0; r < R; ++r) seen += out.on_outline[static_cast<size_t>(r)];
   for (int r = 0; r < R; ++r) {
@@ -334,7 +341,8 @@ ViewOutline outline_pairs(const View& w, const TriangleMesh& posed, const Eigen:
     const Eigen::Vector2d& p = proj[static_cast<size_t>(r)];
     const Eigen::Vector2d grad = w.silhouette.gradient(p.x(), p.y());
     if (grad.norm() < 0.1) continue;
-    out.pairs.push_back({r, grad.normalized(), w.silhouette.value(p.x(), p.y()) - out.outline_distance[static_cast<size_t>(r)], 0.25 / seen});
+    out.pairs.push_back(
+        {r, grad.normalized(), w.silhouette.value(p.x(), p.y()) - out.outline_distance[static_cast<size_t>(r)], 0.25 / seen});
   }
   const ProjectionGrid grid(proj, 8);
   const double reach = 0.25 / w.metres_per_px;  // 25 cm at the body
@@ -402,7 +410,8 @@ Eigen::Vector3d start_on_the_floor(const ShapeSpace& space, const Silhouette* si
   }
   const Eigen::Vector3d centre = nearest_to_rays(cams[0]->centre(), ray[0], cams[1]->centre(), ray[1]);
   const double depth = depth_of(*cams[0], centre), u_mid = 0.5 * (sil[0]->left() + sil[0]->right() + 1);
-  const double floor_y = point_at_depth(*cams[0], u_mid, bottom[0], depth).y(), crown_y = point_at_depth(*cams[0], u_mid, top[0], depth).y();
+  const double floor_y = point_at_depth(*cams[0], u_mid, bottom[0], depth).y(),
+               crown_y = point_at_depth(*cams[0], u_mid, top[0], depth).y();
   const Eigen::MatrixXd& M = space.mean;
   Eigen::Index hi, lo;
   M.col(1).maxCoeff(&hi), M.col(1).minCoeff(&lo);
@@ -412,7 +421,8 @@ Eigen::Vector3d start_on_the_floor(const ShapeSpace& space, const Silhouette* si
   const Eigen::MatrixXd V = space.body(*c);
   const Eigen::RowVector3d low = V.colwise().minCoeff(), high = V.colwise().maxCoeff();
   *pose = PartPose();
-  pose->root_translation = Eigen::Vector3d(centre.x() - 0.5 * (low.x() + high.x()), floor_y - low.y(), centre.z() - 0.5 * (low.z() + high.z()));
+  pose->root_translation =
+      Eigen::Vector3d(centre.x() - 0.5 * (low.x() + high.x()), floor_y - low.y(), centre.z() - 0.5 * (low.z() + high.z()));
   return centre;
 }
 
@@ -420,8 +430,8 @@ Eigen::Vector3d start_on_the_floor(const ShapeSpace& space, const Silhouette* si
 /// and its outline RMS (mm). Each contour vertex's derivative: shape through the vertex's skinning
 /// rotation (the skinning is affine in the rest vertex), pose by differences.
 void view_normal_equations(const BodyModel& model, const ShapedBody& body, const PartPose& pose, const std::vector<int>& pose_unknowns,
-                           const View& w, const TriangleMesh& posed, const Eigen::MatrixXd& normals, const char* name, double robust_distance,
-                           Eigen::MatrixXd* H, Eigen::VectorXd* g, double* rms_mm) {
+                           const View& w, const TriangleMesh& posed, const Eigen::MatrixXd& normals, const char* name,
+                           double robust_distance, Eigen::MatrixXd* H, Eigen::VectorXd* g, double* rms_mm) {
   const int K = model.components(), P = static_cast<int>(pose_unknowns.size()), N = K + P;
   const ViewOutline outline = outline_pairs(w, posed, normals, name);
   const std::vector<int>& rim = outline.rim;
@@ -491,8 +501,9 @@ void add_priors(const Eigen::VectorXd& c, const PartPose& pose, const std::vecto
 }
 
 /// Shape and pose by Gauss-Newton, coarse to fine; returns the finest views.
-std::vector<View> fit_shape_and_pose(const BodyModel& model, const Silhouette* sil[2], const PinholeCamera* cams[2], const Eigen::Vector3d& centre,
-                                     const SilhouetteFitOptions& o, bool trace, Eigen::VectorXd* c, PartPose* pose, SilhouetteFit* fit) {
+std::vector<View> fit_shape_and_pose(const BodyModel& model, const Silhouette* sil[2], const PinholeCamera* cams[2],
+                                     const Eigen::Vector3d& centre, const SilhouetteFitOptions& o, bool trace, Eigen::VectorXd* c,
+                                     PartPose* pose, SilhouetteFit* fit) {
   const int K = model.components();
   const std::vector<int> pose_unknowns = fitted_pose_unknowns();
   const int P = static_cast<int>(pose_unknowns.size());
@@ -509,14 +520,15 @@ std::vector<View> fit_shape_and_pose(const BodyModel& model, const Silhouette* s
       Eigen::MatrixXd view_H[2];
       Eigen::VectorXd view_g[2];
       auto view = [&](int k) {
-        view_normal_equations(model, body, *pose, pose_unknowns, views[static_cast<size_t>(k)], posed, normals, kViewNames[k], o.robust_distance,
-                              &view_H[k], &view_g[k], &fit->outline_rms_mm[k]);
+        view_normal_equations(model, body, *pose, pose_unknowns, views[static_cast<size_t>(k)], posed, normals, kViewNames[k],
+                              o.robust_distance, &view_H[k], &view_g[k], &fit->outline_rms_mm[k]);
       };
-      run_beside(o.threads, [&] { view(1); }, [&] { view(0); });  // the two views apart
+      run_beside(
+          o.threads, [&] { view(1); }, [&] { view(0); });  // the two views apart
       Eigen::MatrixXd H = view_H[0] + view_H[1];
       Eigen::VectorXd g = view_g[0] + view_g[1];
       add_priors(*c, *pose, pose_unknowns, o, &H, &g);
-      H.triangularView<Eigen::StrictlyUpper>() = H.transpose();  // the rank updates filled the lower half
+      H.triangularView<Eigen::StrictlyUpper>() = H.transpose();    // the rank updates filled the lower half
       H.diagonal().array() += 1e-9 + 1e-4 * H.diagonal().array();  // Levenberg-Marquardt's damping
       Eigen::VectorXd step = -H.ldlt().solve(g);
       if (!step.allFinite()) throw InvalidInput("model fit to the photos: the normal equations are singular");
@@ -542,7 +554,8 @@ std::vector<View> fit_shape_and_pose(const BodyModel& model, const Silhouette* s
 /// What the space cannot say (a local bulge, hips wider than its proportions): each vertex of
 /// `posed` moved along its normal by an offset, smooth over the surface (Laplacian), fitted to the
 /// same outlines. Returns the largest offset (m).
-double fit_detail_offsets(const std::vector<View>& views, const SilhouetteFitOptions& o, bool trace, TriangleMesh* posed, SilhouetteFit* fit) {
+double fit_detail_offsets(const std::vector<View>& views, const SilhouetteFitOptions& o, bool trace, TriangleMesh* posed,
+                          SilhouetteFit* fit) {
   const int n = static_cast<int>(posed->V.rows());
   const Eigen::SparseMatrix<double> L = uniform_laplacian(posed->F, n);
   const Eigen::SparseMatrix<double> smooth = (o.detail_smoothness * L.transpose() * L).pruned();
@@ -554,8 +567,9 @@ double fit_detail_offsets(const std::vector<View>& views, const SilhouetteFitOpt
     const Eigen::MatrixXd now_normals = vertex_normals(posed->V, posed->F);
     Eigen::VectorXd diag = Eigen::VectorXd::Constant(n, o.detail_offset_prior * o.detail_offset_prior), g = Eigen::VectorXd::Zero(n);
     ViewOutline outlines[2];
-    run_beside(o.threads, [&] { outlines[1] = outline_pairs(views[1], *posed, now_normals, kViewNames[1]); },
-               [&] { outlines[0] = outline_pairs(views[0], *posed, now_normals, kViewNames[0]); });
+    run_beside(
+        o.threads, [&] { outlines[1] = outline_pairs(views[1], *posed, now_normals, kViewNames[1]); },
+        [&] { outlines[0] = outline_pairs(views[0], *posed, now_normals, kViewNames[0]); });
     for (int k = 0; k < 2; ++k) {
       const View& w = views[static_cast<size_t>(k)];
       const double m = w.metres_per_px, scale = o.robust_distance / m;
@@ -576,8 +590,11 @@ double fit_detail_offsets(const std::vector<View>& views, const SilhouetteFitOpt
     if (it == 0) solver.analyzePattern(A);
     solver.factorize(A);
     const Eigen::VectorXd step = -solver.solve(g);
-    if (solver.info() != Eigen::Success || !step.allFinite()) throw InvalidInput("model fit to the photos: the detail offsets' system is singular");
-    if (trace) std::fprintf(stderr, "detail it %d rms %.2f %.2f mm max offset %.1f mm\n", it, fit->outline_rms_mm[0], fit->outline_rms_mm[1], 1000 * d.cwiseAbs().maxCoeff());
+    if (solver.info() != Eigen::Success || !step.allFinite())
+      throw InvalidInput("model fit to the photos: the detail offsets' system is singular");
+    if (trace)
+      std::fprintf(stderr, "detail it %d rms %.2f %.2f mm max offset %.1f mm\n", it, fit->outline_rms_mm[0], fit->outline_rms_mm[1],
+                   1000 * d.cwiseAbs().maxCoeff());
     d += step;
   }
   posed->V = base + (normals.array().colwise() * d.array()).matrix();
@@ -596,7 +613,8 @@ void judge_fit(const SilhouetteFitOptions& o, int components, SilhouetteFit* fit
   if (std::abs(fit->yaw_degrees) >= 3) {
     std::ostringstream w;
     w.precision(2);
-    w << "model fit to the photos: the body is turned " << std::abs(fit->yaw_degrees) << " degrees " << (fit->yaw_degrees > 0 ? "to its left" : "to its right")
+    w << "model fit to the photos: the body is turned " << std::abs(fit->yaw_degrees) << " degrees "
+      << (fit->yaw_degrees > 0 ? "to its left" : "to its right")
       << " from the front camera (fitted; photos taken square to the body are more accurate)";
     fit->warnings.push_back(w.str());
   }
@@ -607,11 +625,12 @@ void judge_fit(const SilhouetteFitOptions& o, int components, SilhouetteFit* fit
   auto mm = [](double m) { return std::to_string(static_cast<int>(std::lround(1000 * m))); };
   for (int k = 0; k < 2; ++k)
     if (fit->shape_outline_rms_mm[k] > 1000 * o.max_shape_outline)
-      fit->reasons.push_back(std::string("the body model's outline stays ") + mm(fit->shape_outline_rms_mm[k] / 1000) + " mm (RMS) from the " +
-                             kViewNames[k] + " silhouette (" + mm(o.max_shape_outline) + " mm at most): not a body the model can take in this pose");
+      fit->reasons.push_back(std::string("the body model's outline stays ") + mm(fit->shape_outline_rms_mm[k] / 1000) +
+                             " mm (RMS) from the " + kViewNames[k] + " silhouette (" + mm(o.max_shape_outline) +
+                             " mm at most): not a body the model can take in this pose");
   if (fit->max_offset_mm > 1000 * o.max_offset)
-    fit->reasons.push_back("the silhouettes need the body's surface moved " + mm(fit->max_offset_mm / 1000) + " mm off the model's shape (" +
-                           mm(o.max_offset) + " mm at most)");
+    fit->reasons.push_back("the silhouettes need the body's surface moved " + mm(fit->max_offset_mm / 1000) +
+                           " mm off the model's shape (" + mm(o.max_offset) + " mm at most)");
   fit->confident = fit->reasons.empty();
 }
 
@@ -656,7 +675,9 @@ CustomizedBody customize_by_body_model(const BodyModel& model, const Silhouette&
   if (!fit.confident) {
     std::string why;
     for (const auto& r : fit.reasons) why += (why.empty() ? "" : "; ") + r;
-    if (!accept_poor) throw BelowConfidence("customize: the body model's fit to the photos is poor: " + why + "; nothing written (--accept-poor gives it anyway, marked as poor)");
+    if (!accept_poor)
+      throw BelowConfidence("customize: the body model's fit to the photos is poor: " + why +
+                            "; nothing written (--accept-poor gives it anyway, marked as poor)");
     out.warnings.push_back("poor result: " + why);
   }
   check_photo_agreement(&out, accept_poor);
@@ -669,8 +690,9 @@ CustomizedBody customize_by_body_model(const BodyModel& model, const Silhouette&
       const Plausibility p = judge_plausibility(*survey, values, given);
       if (p.more_unusual_share < 0.005) {
         std::ostringstream w;
-        w << std::fixed << std::setprecision(1) << "this body's measurements are more unusual than " << 100 * (1 - p.more_unusual_share) << "% of " << survey->source << "'s "
-          << (p.male ? "men" : "women") << " (Mahalanobis distance " << p.distance << "): at the edge of the body model's population, "
+        w << std::fixed << std::setprecision(1) << "this body's measurements are more unusual than " << 100 * (1 - p.more_unusual_share)
+          << "% of " << survey->source << "'s " << (p.male ? "men" : "women") << " (Mahalanobis distance " << p.distance
+          << "): at the edge of the body model's population, "
           << "whose shapes there are few; check the result";
         out.warnings.push_back(w.str());
       }
@@ -681,7 +703,8 @@ CustomizedBody customize_by_body_model(const BodyModel& model, const Silhouette&
 
 void write_outline_png(const std::string& path, const Silhouette& silhouette, const PinholeCamera& camera, const TriangleMesh& mesh) {
   const RenderBuffers r = render_mesh(mesh, camera);
-  Image8 img{silhouette.width, silhouette.height, 3, std::vector<std::uint8_t>(static_cast<size_t>(silhouette.width) * silhouette.height * 3)};
+  Image8 img{silhouette.width, silhouette.height, 3,
+             std::vector<std::uint8_t>(static_cast<size_t>(silhouette.width) * silhouette.height * 3)};
   auto covered = [&](int u, int v) {
     return u >= 0 && v >= 0 && u < r.width && v < r.height && r.face[static_cast<size_t>(v) * r.width + u] >= 0;
   };

@@ -9,6 +9,9 @@
 #include <nlohmann/json.hpp>
 #include <random>
 
+#include "named_values.h"
+#include "opencv_calls.h"
+#include "photo_degradation.h"
 #include "posekit/body/makehuman_model.h"
 #include "posekit/core/closest_point.h"
 #include "posekit/core/error.h"
@@ -19,16 +22,15 @@
 #include "posekit/population/ansur.h"
 #include "posekit/population/survey_fit.h"
 #include "posekit/shape/measurements.h"
-#include "named_values.h"
-#include "opencv_calls.h"
-#include "photo_degradation.h"
 
 namespace posekit {
 namespace fs = std::filesystem;
 namespace {
 
-const std::pair<PhoneCondition, const char*> kConditions[] = {
-    {PhoneCondition::kMasks, "masks"}, {PhoneCondition::kRoom, "room"}, {PhoneCondition::kPhone, "phone"}, {PhoneCondition::kTurned, "turned"}};
+const std::pair<PhoneCondition, const char*> kConditions[] = {{PhoneCondition::kMasks, "masks"},
+                                                              {PhoneCondition::kRoom, "room"},
+                                                              {PhoneCondition::kPhone, "phone"},
+                                                              {PhoneCondition::kTurned, "turned"}};
 
 double bmi_of(const SurveySubject& s) {
   const double h = s.values[static_cast<size_t>(SurveyMeasure::kStature)];
@@ -107,7 +109,8 @@ std::vector<PhoneSetBody> make_phone_set_bodies(const PhoneSetOptions& o) {
     const auto mh = load_makehuman_model(o.data_root);
     const SurveyBodyFitter fitter(mh);
     if (o.ansur_bodies > 0)
-      for (const SurveySubject& s : sample_survey(survey, o.ansur_bodies, o.seed)) out.push_back(fitted_body(fitter, *mh, s, "ansur-" + s.id, "ansur"));
+      for (const SurveySubject& s : sample_survey(survey, o.ansur_bodies, o.seed))
+        out.push_back(fitted_body(fitter, *mh, s, "ansur-" + s.id, "ansur"));
     if (o.extremes) {
       auto pick = [&](const char* what, bool male, auto better) {
         const SurveySubject* best = nullptr;
@@ -180,9 +183,12 @@ class SupersampledBody {
     in_band_.resize(static_cast<size_t>(bands));
     for (int f = 0; f < mesh.F.rows(); ++f) {
       double lo = 1e30, hi = -1e30, zmin = 1e30;
-      for (int a = 0; a < 3; ++a) lo = std::min(lo, screen_(mesh.F(f, a), 1)), hi = std::max(hi, screen_(mesh.F(f, a), 1)), zmin = std::min(zmin, screen_(mesh.F(f, a), 2));
+      for (int a = 0; a < 3; ++a)
+        lo = std::min(lo, screen_(mesh.F(f, a), 1)), hi = std::max(hi, screen_(mesh.F(f, a), 1)),
+        zmin = std::min(zmin, screen_(mesh.F(f, a), 2));
       if (zmin < 0.01 || hi < 0 || lo >= cam.height) continue;
-      for (int b = std::max(0, static_cast<int>(lo) / kBand); b <= std::min(bands - 1, static_cast<int>(hi) / kBand); ++b) in_band_[static_cast<size_t>(b)].push_back(f);
+      for (int b = std::max(0, static_cast<int>(lo) / kBand); b <= std::min(bands - 1, static_cast<int>(hi) / kBand); ++b)
+        in_band_[static_cast<size_t>(b)].push_back(f);
     }
     // Directions towards the lights, said in the camera's frame (x right, y down, z ahead) and turned
     // to the world: a key light from the upper left, a fill from the right.
@@ -199,11 +205,14 @@ class SupersampledBody {
     std::fill(depth_.begin(), depth_.end(), std::numeric_limits<float>::infinity());
     for (int f : in_band_[static_cast<size_t>(b)]) {
       const int ia = mesh_.F(f, 0), ib = mesh_.F(f, 1), ic = mesh_.F(f, 2);
-      const Eigen::Vector2d A = screen_.row(ia).head<2>().transpose(), B = screen_.row(ib).head<2>().transpose(), C = screen_.row(ic).head<2>().transpose();
+      const Eigen::Vector2d A = screen_.row(ia).head<2>().transpose(), B = screen_.row(ib).head<2>().transpose(),
+                            C = screen_.row(ic).head<2>().transpose();
       const double area = (B - A).x() * (C - A).y() - (B - A).y() * (C - A).x();
       if (std::abs(area) < 1e-12) continue;
-      const int u_lo = std::max(0, static_cast<int>(std::floor(std::min({A.x(), B.x(), C.x()})))), u_hi = std::min(W - 1, static_cast<int>(std::floor(std::max({A.x(), B.x(), C.x()}))));
-      const int v_lo = std::max(v0, static_cast<int>(std::floor(std::min({A.y(), B.y(), C.y()})))), v_hi = std::min(v1 - 1, static_cast<int>(std::floor(std::max({A.y(), B.y(), C.y()}))));
+      const int u_lo = std::max(0, static_cast<int>(std::floor(std::min({A.x(), B.x(), C.x()})))),
+                u_hi = std::min(W - 1, static_cast<int>(std::floor(std::max({A.x(), B.x(), C.x()}))));
+      const int v_lo = std::max(v0, static_cast<int>(std::floor(std::min({A.y(), B.y(), C.y()})))),
+                v_hi = std::min(v1 - 1, static_cast<int>(std::floor(std::max({A.y(), B.y(), C.y()}))));
       const double iza = 1 / screen_(ia, 2), izb = 1 / screen_(ib, 2), izc = 1 / screen_(ic, 2);
       for (int v = v_lo; v <= v_hi; ++v)
         for (int u = u_lo; u <= u_hi; ++u)
@@ -218,7 +227,8 @@ class SupersampledBody {
               const size_t k = (static_cast<size_t>(v - v0) * W + u) * kSamples + sy * kSub + sx;
               if (static_cast<float>(1 / iz) >= depth_[k]) continue;
               depth_[k] = static_cast<float>(1 / iz);
-              const Eigen::Vector3d n = (wa * iza * normals_.row(ia) + wb * izb * normals_.row(ib) + wc * izc * normals_.row(ic)).transpose().normalized();
+              const Eigen::Vector3d n =
+                  (wa * iza * normals_.row(ia) + wb * izb * normals_.row(ib) + wc * izc * normals_.row(ic)).transpose().normalized();
               const double light = 0.22 + 0.62 * std::max(0.0, n.dot(key_)) + 0.28 * std::max(0.0, n.dot(fill_));
               colour_[k] = (skin_ * light).cast<float>();
             }
@@ -318,18 +328,21 @@ PhoneShot photograph(const PhoneSetBody& body, size_t index, PhoneCondition cond
       }
       if (!inputs_out.empty()) {
         const std::vector<std::uint8_t> jpg = encode_jpeg(photo, 92);
-        write_file_atomically((dir / (view + ".jpg")).string(),
-                              [&](std::ostream& os) { os.write(reinterpret_cast<const char*>(jpg.data()), static_cast<std::streamsize>(jpg.size())); });
+        write_file_atomically((dir / (view + ".jpg")).string(), [&](std::ostream& os) {
+          os.write(reinterpret_cast<const char*>(jpg.data()), static_cast<std::streamsize>(jpg.size()));
+        });
       }
       const Stopwatch t;
       shot.silhouette[k] = silhouette_from_pixels(photo.width, photo.height, 3, photo.pixels.data(), what);
       shot.extraction_seconds += t.seconds();
       long both = 0, either = 0;
-      for (size_t p = 0; p < truth.mask.size(); ++p) both += shot.silhouette[k].mask[p] && truth.mask[p], either += shot.silhouette[k].mask[p] || truth.mask[p];
+      for (size_t p = 0; p < truth.mask.size(); ++p)
+        both += shot.silhouette[k].mask[p] && truth.mask[p], either += shot.silhouette[k].mask[p] || truth.mask[p];
       shot.iou = std::min(shot.iou, static_cast<double>(both) / std::max(1L, either));
     }
     if (!inputs_out.empty()) {
-      const std::string text = "{\n\"front\": " + camera_to_json(shot.cameras.front) + ",\n\"side\": " + camera_to_json(shot.cameras.side) + "}\n";
+      const std::string text =
+          "{\n\"front\": " + camera_to_json(shot.cameras.front) + ",\n\"side\": " + camera_to_json(shot.cameras.side) + "}\n";
       write_file_atomically((dir / "camera.json").string(), [&](std::ostream& os) { os << text; }, false);
     }
   } catch (const Error& e) {

@@ -3,11 +3,14 @@
 #include <Eigen/Geometry>
 #include <algorithm>
 #include <cmath>
-#include <tuple>
 #include <filesystem>
 #include <fstream>
 #include <nlohmann/json.hpp>
+#include <tuple>
 
+#include "named_values.h"
+#include "opencv_calls.h"
+#include "photo_degradation.h"
 #include "posekit/core/closest_point.h"
 #include "posekit/core/error.h"
 #include "posekit/core/timer.h"
@@ -15,23 +18,26 @@
 #include "posekit/io/atomic_file.h"
 #include "posekit/io/image_io.h"
 #include "posekit/shape/measurements.h"
-#include "named_values.h"
-#include "opencv_calls.h"
-#include "photo_degradation.h"
 
 namespace posekit {
 namespace fs = std::filesystem;
 namespace {
 
-const std::pair<PhotoVariation, const char*> kNames[] = {
-    {PhotoVariation::kPhotos, "photos"},          {PhotoVariation::kMasks, "masks"},
-    {PhotoVariation::kErode2, "erode2"},          {PhotoVariation::kDilate2, "dilate2"},
-    {PhotoVariation::kHeightPlus1cm, "height+1cm"}, {PhotoVariation::kNearer20cm, "nearer20cm"},
-    {PhotoVariation::kFarther20cm, "farther20cm"}, {PhotoVariation::kTurned5deg, "turned5"},
-    {PhotoVariation::kJpegNoise, "jpeg-noise"},   {PhotoVariation::kCamera130Level, "camera1.30"},
-    {PhotoVariation::kCamera130Aimed, "camera1.30-aimed"}, {PhotoVariation::kCamera100Level, "camera1.00"},
-    {PhotoVariation::kRoom, "room"},                 {PhotoVariation::kPhone, "phone"},
-    {PhotoVariation::kPhoneMasks, "phone-masks"}};
+const std::pair<PhotoVariation, const char*> kNames[] = {{PhotoVariation::kPhotos, "photos"},
+                                                         {PhotoVariation::kMasks, "masks"},
+                                                         {PhotoVariation::kErode2, "erode2"},
+                                                         {PhotoVariation::kDilate2, "dilate2"},
+                                                         {PhotoVariation::kHeightPlus1cm, "height+1cm"},
+                                                         {PhotoVariation::kNearer20cm, "nearer20cm"},
+                                                         {PhotoVariation::kFarther20cm, "farther20cm"},
+                                                         {PhotoVariation::kTurned5deg, "turned5"},
+                                                         {PhotoVariation::kJpegNoise, "jpeg-noise"},
+                                                         {PhotoVariation::kCamera130Level, "camera1.30"},
+                                                         {PhotoVariation::kCamera130Aimed, "camera1.30-aimed"},
+                                                         {PhotoVariation::kCamera100Level, "camera1.00"},
+                                                         {PhotoVariation::kRoom, "room"},
+                                                         {PhotoVariation::kPhone, "phone"},
+                                                         {PhotoVariation::kPhoneMasks, "phone-masks"}};
 
 }  // namespace
 
@@ -48,13 +54,15 @@ void blur_image(Image8* img, double sigma) {
     for (int v = 0; v < h; ++v)
       for (int u = 0; u < w; ++u) {
         double x = 0;
-        for (int k = -radius; k <= radius; ++k) x += kernel[static_cast<size_t>(k + radius)] * a[static_cast<size_t>(v) * w + std::clamp(u + k, 0, w - 1)];
+        for (int k = -radius; k <= radius; ++k)
+          x += kernel[static_cast<size_t>(k + radius)] * a[static_cast<size_t>(v) * w + std::clamp(u + k, 0, w - 1)];
         b[static_cast<size_t>(v) * w + u] = static_cast<float>(x);
       }
     for (int v = 0; v < h; ++v)
       for (int u = 0; u < w; ++u) {
         double x = 0;
-        for (int k = -radius; k <= radius; ++k) x += kernel[static_cast<size_t>(k + radius)] * b[static_cast<size_t>(std::clamp(v + k, 0, h - 1)) * w + u];
+        for (int k = -radius; k <= radius; ++k)
+          x += kernel[static_cast<size_t>(k + radius)] * b[static_cast<size_t>(std::clamp(v + k, 0, h - 1)) * w + u];
         img->pixels[n * (static_cast<size_t>(v) * w + u) + c] = static_cast<std::uint8_t>(std::clamp(std::lround(x), 0L, 255L));
       }
   }
@@ -183,15 +191,16 @@ namespace {
 /// A subject's two silhouettes under a variation, and the cameras and body they belong to.
 struct VariationInputs {
   Silhouette front, side;
-  Silhouette rendered_truth[2];   ///< the true silhouettes of photos made here (phone variations)
-  double rendering_seconds = 0;   ///< making those photos (not timed)
+  Silhouette rendered_truth[2];  ///< the true silhouettes of photos made here (phone variations)
+  double rendering_seconds = 0;  ///< making those photos (not timed)
   PhotoCameras cameras;
-  TriangleMesh subject;           ///< where the person stood (turned for turned5)
-  double stated_stature = 0;      ///< 0: none stated
+  TriangleMesh subject;       ///< where the person stood (turned for turned5)
+  double stated_stature = 0;  ///< 0: none stated
 };
 
 /// The subject's dataset photos, masks or a re-rendering of its mesh, as `variation` says.
-void photograph_subject(const fs::path& root, const nlohmann::json& photos, const std::string& id, PhotoVariation variation, VariationInputs* in) {
+void photograph_subject(const fs::path& root, const nlohmann::json& photos, const std::string& id, PhotoVariation variation,
+                        VariationInputs* in) {
   const std::string front_photo = (root / photos.at("front").get<std::string>()).string();
   const std::string side_photo = (root / photos.at("side").get<std::string>()).string();
   PhotoCameras& cams = in->cameras;
@@ -228,7 +237,8 @@ void photograph_subject(const fs::path& root, const nlohmann::json& photos, cons
       for (const auto& [view, cam, sil] :
            {std::tuple<const char*, const PinholeCamera&, Silhouette&>{"front", cams.front, in->front}, {"side", cams.side, in->side}}) {
         const Image8 photo = photo_in_room(render_mesh(subject, cam), cam, floor_y, 1.2);
-        sil = silhouette_from_pixels(photo.width, photo.height, 3, photo.pixels.data(), std::string(view) + " photo of " + id + " in a room");
+        sil =
+            silhouette_from_pixels(photo.width, photo.height, 3, photo.pixels.data(), std::string(view) + " photo of " + id + " in a room");
       }
       break;
     }
@@ -334,8 +344,8 @@ void score_against_truth(const CustomizedBody& body, const nlohmann::json& truth
 }
 
 /// One subject of the dataset customized under `variation` and scored.
-PhotoSubjectResult evaluate_subject(const fs::path& root, const nlohmann::json& s, const CustomizationModel& model, PhotoVariation variation,
-                                    const std::string& inputs_out, const BodyModel* body_model) {
+PhotoSubjectResult evaluate_subject(const fs::path& root, const nlohmann::json& s, const CustomizationModel& model,
+                                    PhotoVariation variation, const std::string& inputs_out, const BodyModel* body_model) {
   PhotoSubjectResult r;
   r.id = s.at("id").get<std::string>();
   const auto& photos = s.at("photos");
@@ -351,7 +361,8 @@ PhotoSubjectResult evaluate_subject(const fs::path& root, const nlohmann::json& 
                                          : customize_from_silhouettes(in.front, in.side, in.cameras, model, in.stated_stature);
   r.seconds = t0.seconds() - in.rendering_seconds;
   if (variation == PhotoVariation::kPhone || variation == PhotoVariation::kPhoneMasks)
-    r.silhouette_iou = std::min({r.silhouette_iou, silhouette_iou(in.rendered_truth[0], in.front), silhouette_iou(in.rendered_truth[1], in.side)});
+    r.silhouette_iou =
+        std::min({r.silhouette_iou, silhouette_iou(in.rendered_truth[0], in.front), silhouette_iou(in.rendered_truth[1], in.side)});
   if (variation < PhotoVariation::kTurned5deg || variation == PhotoVariation::kJpegNoise || variation == PhotoVariation::kRoom)
     for (const auto& [mine, key] : {std::pair<const Silhouette*, const char*>{&in.front, "front_mask"}, {&in.side, "side_mask"}})
       r.silhouette_iou =

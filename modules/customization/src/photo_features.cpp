@@ -55,9 +55,7 @@ Eigen::Vector3d meeting_point(const PinholeCamera& a, const PinholeCamera& b) {
   return 0.5 * ((p + s * d) + (q + t * e));
 }
 
-double ramanujan(double a, double b) {
-  return M_PI * (3 * (a + b) - std::sqrt((3 * a + b) * (a + 3 * b)));
-}
+double ramanujan(double a, double b) { return M_PI * (3 * (a + b) - std::sqrt((3 * a + b) * (a + 3 * b))); }
 
 class Finder {
  public:
@@ -90,7 +88,7 @@ class Finder {
   struct FrontRows {
     int top = 0, bottom = 0, height = 0;  ///< the figure
     int crotch = -1, armpit[2] = {-1, -1};
-    int head = 0, neck = 0;               ///< the head's widest row and the narrowest below it
+    int head = 0, neck = 0;  ///< the head's widest row and the narrowest below it
     double head_width = 0, neck_width = 1e9;
     std::vector<Eigen::Vector2d> arm_track[2];  ///< (u, v) centres of each arm's runs, down from the armpit
   };
@@ -123,8 +121,9 @@ class Finder {
       if (gap) rows->crotch = v - 1;
     }
     if (rows->crotch < 0 || rows->crotch > top + 0.66 * H)
-      throw InvalidInput("front photo: no gap between the legs below the torso: the person must stand facing the camera, "
-                         "feet apart (is the side photo given as front?)");
+      throw InvalidInput(
+          "front photo: no gap between the legs below the torso: the person must stand facing the camera, "
+          "feet apart (is the side photo given as front?)");
     if (rows->crotch > top + 0.58 * H) L->warnings.push_back("front photo: the legs touch below the crotch; its level is uncertain");
   }
 
@@ -195,7 +194,8 @@ class Finder {
         track.emplace_back(next->centre(), v + 0.5);
       }
       if (track.size() < 10)
-        throw InvalidInput(std::string("front photo: the ") + (side == kLeft ? "left" : "right") + " arm cannot be followed below the armpit");
+        throw InvalidInput(std::string("front photo: the ") + (side == kLeft ? "left" : "right") +
+                           " arm cannot be followed below the armpit");
     }
   }
 
@@ -241,9 +241,9 @@ class Finder {
                                                                         : point_at_depth(fc_, uv.x(), uv.y(), body_depth);
       return Eigen::Vector2d(p.x() - L->axis_x, p.y() - L->floor_y);
     };
-    d->insert(d->end(), {L->stature, L->crotch_y - L->floor_y, L->armpit_y[0] - L->floor_y, L->armpit_y[1] - L->floor_y,
-                         L->neck_y - L->floor_y, rows.neck_width * body_depth / fc_.fx, rows.head_width * body_depth / fc_.fx,
-                         y_of_row(rows.head) - L->floor_y});
+    d->insert(d->end(),
+              {L->stature, L->crotch_y - L->floor_y, L->armpit_y[0] - L->floor_y, L->armpit_y[1] - L->floor_y, L->neck_y - L->floor_y,
+               rows.neck_width * body_depth / fc_.fx, rows.head_width * body_depth / fc_.fx, y_of_row(rows.head) - L->floor_y});
     for (int side : {kLeft, kRight}) {
       const auto& track = rows.arm_track[side];
       const Eigen::Vector2d tip = world_xy(track.back(), side);
@@ -261,7 +261,8 @@ class Finder {
     const double span = std::min(L->armpit_y[0], L->armpit_y[1]) - L->crotch_y;
     for (int k = 0; k <= 8; ++k) {
       const Section s = torso_section(L->crotch_y + 0.03 + (span - 0.05) * k / 8.0, L->axis_x, L->axis_z);
-      if (!s.valid) throw InvalidInput("photos: the torso is not seen in both photos at " + std::to_string(k) + "/8 of the crotch-to-armpit span");
+      if (!s.valid)
+        throw InvalidInput("photos: the torso is not seen in both photos at " + std::to_string(k) + "/8 of the crotch-to-armpit span");
       d->insert(d->end(), {s.x1 - s.x0, s.xc - L->axis_x, s.z1 - s.z0, s.zc - L->axis_z});
     }
     const Section neck = torso_section(L->neck_y, L->axis_x, L->axis_z);
@@ -346,7 +347,8 @@ class Finder {
   Section torso_section(double y, double x, double z) const {
     Section s;
     for (int pass = 0; pass < 2; ++pass) {
-      if (!interval(fs_, fc_, Eigen::Vector3d(x, y, z), 0, &s.x0, &s.x1) || !interval(ss_, sc_, Eigen::Vector3d(x, y, z), 2, &s.z0, &s.z1, 40))
+      if (!interval(fs_, fc_, Eigen::Vector3d(x, y, z), 0, &s.x0, &s.x1) ||
+          !interval(ss_, sc_, Eigen::Vector3d(x, y, z), 2, &s.z0, &s.z1, 40))
         return s;
       x = s.xc = 0.5 * (s.x0 + s.x1);
       z = s.zc = 0.5 * (s.z0 + s.z1);
@@ -369,7 +371,8 @@ class Finder {
     }
     if (!leg) return s;
     // Touching legs: the part on this side of the axis.
-    const double u0 = dir > 0 ? std::max<double>(leg->u0, a.x()) : leg->u0, u1 = dir > 0 ? leg->u1 + 1 : std::min<double>(leg->u1 + 1, a.x());
+    const double u0 = dir > 0 ? std::max<double>(leg->u0, a.x()) : leg->u0,
+                 u1 = dir > 0 ? leg->u1 + 1 : std::min<double>(leg->u1 + 1, a.x());
     const double depth = depth_of(fc_, Eigen::Vector3d(L.axis_x, y, L.axis_z));
     const double xa = point_at_depth(fc_, u0, a.y(), depth).x(), xb = point_at_depth(fc_, u1, a.y(), depth).x();
     s.x0 = std::min(xa, xb), s.x1 = std::max(xa, xb), s.xc = 0.5 * (s.x0 + s.x1);
@@ -391,7 +394,10 @@ class Finder {
     auto y_of = [&](double v) { return point_at_depth(sc_, row_of(centre.y()).x(), v, depth_of(sc_, centre)).y(); };
     const int top_row = static_cast<int>(row_of(std::min(L.armpit_y[0], L.armpit_y[1])).y());
     const int tip_row = static_cast<int>(row_of(std::min(L.hand_tip[0].y(), L.hand_tip[1].y())).y());
-    struct Band { int v; double c, w; };
+    struct Band {
+      int v;
+      double c, w;
+    };
     std::vector<Band> track;
     for (int v = tip_row; v > top_row; --v) {
       const auto runs = runs_of(ss_, v);
@@ -450,7 +456,8 @@ class Finder {
     double toe = -1e9, outer = -1e9;
     const Eigen::Vector3d front_dir = -fc_.R.row(2).transpose(), side_dir = -sc_.R.row(2).transpose();  // towards each camera
     const double ref_depth_f = depth_of(fc_, p0_), ref_depth_s = depth_of(sc_, p0_);
-    const int band_s = static_cast<int>(std::ceil(0.1 * sc_.fy / ref_depth_s)), band_f = static_cast<int>(std::ceil(0.1 * fc_.fy / ref_depth_f));
+    const int band_s = static_cast<int>(std::ceil(0.1 * sc_.fy / ref_depth_s)),
+              band_f = static_cast<int>(std::ceil(0.1 * fc_.fy / ref_depth_f));
     for (int v = sb - band_s; v <= sb; ++v)
       for (const Run& r : runs_of(ss_, v))
         for (double u : {double(r.u0), r.u1 + 1.0}) toe = std::max(toe, point_at_depth(sc_, u, v, ref_depth_s).dot(front_dir));
@@ -535,8 +542,8 @@ ArmChains arm_chains(const BodyFeatures& f) {
 PhotoLandmarks find_photo_landmarks(const Silhouette& front, const Silhouette& side, const PhotoCameras& cameras, const ArmChains* arms) {
   check_silhouette(front, "front photo");
   check_silhouette(side, "side photo");
-  for (const auto& [s, c, what] : {std::tuple<const Silhouette&, const PinholeCamera&, const char*>{front, cameras.front, "front"},
-                                   {side, cameras.side, "side"}})
+  for (const auto& [s, c, what] :
+       {std::tuple<const Silhouette&, const PinholeCamera&, const char*>{front, cameras.front, "front"}, {side, cameras.side, "side"}})
     if (s.width != c.width || s.height != c.height)
       throw InvalidInput(std::string(what) + " photo is " + std::to_string(s.width) + "x" + std::to_string(s.height) + " but its camera " +
                          std::to_string(c.width) + "x" + std::to_string(c.height));
@@ -594,9 +601,11 @@ std::vector<LayerExtent> measure_layers(const LayeredRepresentation& rep, const 
     for (size_t b = a + 1; b < torso.size() && above < 0; ++b)
       if (!hidden(torso[b])) above = static_cast<int>(b);
     if (below < 0 || above < 0) continue;
-    const double y0 = rep.layers[torso[static_cast<size_t>(below)]].centre.y(), y1 = rep.layers[torso[static_cast<size_t>(above)]].centre.y();
+    const double y0 = rep.layers[torso[static_cast<size_t>(below)]].centre.y(),
+                 y1 = rep.layers[torso[static_cast<size_t>(above)]].centre.y();
     const double t = (rep.layers[torso[a]].centre.y() - y0) / std::max(1e-6, y1 - y0);
-    fixed[a] = std::min(fixed[a], (1 - t) * front_edge(torso[static_cast<size_t>(below)]) + t * front_edge(torso[static_cast<size_t>(above)]));
+    fixed[a] =
+        std::min(fixed[a], (1 - t) * front_edge(torso[static_cast<size_t>(below)]) + t * front_edge(torso[static_cast<size_t>(above)]));
     replace[a] = true;
   }
   for (size_t a = 0; a < torso.size(); ++a) {

@@ -9,12 +9,12 @@
 #include <opencv2/imgproc.hpp>
 #include <opencv2/ml.hpp>
 
+#include "opencv_calls.h"
 #include "posekit/core/error.h"
 #include "posekit/core/plugin.h"
 #include "posekit/customization/photo_customization.h"
 #include "posekit/customization/silhouette.h"
 #include "posekit/io/image_io.h"
-#include "opencv_calls.h"
 
 namespace posekit {
 namespace {
@@ -116,8 +116,7 @@ opencv_calls::Mlp opaque(cv::Ptr<cv::ml::ANN_MLP> mlp) {
 }
 
 void check_silhouette_cv(const Silhouette& s, const std::string& what, double min_area_fraction) {
-  if (s.width <= 0 || s.height <= 0 || s.mask.size() != static_cast<size_t>(s.width) * s.height)
-    throw InvalidInput(what + ": empty image");
+  if (s.width <= 0 || s.height <= 0 || s.mask.size() != static_cast<size_t>(s.width) * s.height) throw InvalidInput(what + ": empty image");
   cv::Mat m(s.height, s.width, CV_8U, const_cast<std::uint8_t*>(s.mask.data()));
   int second = 0;
   cv::Mat filled = largest_component_filled(m > 127, &second);
@@ -177,7 +176,8 @@ cv::Mat person_mask(const cv::Mat& bgr, const cv::Mat& empty_bgr, const Silhouet
       for (int u = 0; u < width; ++u) {
         const float t = static_cast<float>(std::clamp((u - u_left) / (u_right - u_left), 0.0, 1.0));
         cv::Vec3f& m = model.at<cv::Vec3f>(v, u);
-        for (int c = 0; c < 3; ++c) m[c] = left[c][static_cast<size_t>(v)] + t * (right[c][static_cast<size_t>(v)] - left[c][static_cast<size_t>(v)]);
+        for (int c = 0; c < 3; ++c)
+          m[c] = left[c][static_cast<size_t>(v)] + t * (right[c][static_cast<size_t>(v)] - left[c][static_cast<size_t>(v)]);
       }
   }
   auto frame_spread = [&](const cv::Mat& img, double floor_value) {
@@ -303,7 +303,8 @@ void check_photo_size(int width, int height, const std::string& what) {
 }
 
 /// The photo of the empty scene (options.background_photo) as `photo` was decoded; empty without one.
-cv::Mat empty_scene(const std::string& path, const ReducedImage& photo, ReductionChooser choose, const std::string& what, ReducedImage* storage) {
+cv::Mat empty_scene(const std::string& path, const ReducedImage& photo, ReductionChooser choose, const std::string& what,
+                    ReducedImage* storage) {
   if (path.empty()) return cv::Mat();
   *storage = read_image_reduced(path, ImageColor::kBgr, choose);
   if (storage->full_width != photo.full_width || storage->full_height != photo.full_height)
@@ -357,7 +358,6 @@ Silhouette read_silhouette_mask_cv(const std::string& path, const std::string& w
   return from_mat(m);
 }
 
-
 void write_photo_features_png_cv(const std::string& path, const Silhouette& sil, const PinholeCamera& cam, const CustomizedBody& body) {
   cv::Mat gray(sil.height, sil.width, CV_8U, const_cast<std::uint8_t*>(sil.mask.data()));
   cv::Mat img;
@@ -368,9 +368,9 @@ void write_photo_features_png_cv(const std::string& path, const Silhouette& sil,
     return Eigen::Vector3d(body.scale_origin + (p - body.scale_origin) / s);
   };
   const std::pair<double, cv::Scalar> levels[] = {
-      {L.floor_y, {0, 0, 255}},   {L.crotch_y, {0, 128, 255}}, {L.hip_y, {0, 200, 0}},     {L.waist_y, {255, 128, 0}},
-      {L.bust_y, {255, 0, 255}},  {L.armpit_y[0], {0, 255, 255}}, {L.armpit_y[1], {0, 255, 255}}, {L.neck_y, {255, 255, 0}},
-      {L.crown_y, {0, 0, 255}}};
+      {L.floor_y, {0, 0, 255}},       {L.crotch_y, {0, 128, 255}}, {L.hip_y, {0, 200, 0}},
+      {L.waist_y, {255, 128, 0}},     {L.bust_y, {255, 0, 255}},   {L.armpit_y[0], {0, 255, 255}},
+      {L.armpit_y[1], {0, 255, 255}}, {L.neck_y, {255, 255, 0}},   {L.crown_y, {0, 0, 255}}};
   for (const auto& [y, colour] : levels) {
     const Eigen::Vector2d a = project(cam, Eigen::Vector3d(L.axis_x, y, L.axis_z));
     cv::line(img, cv::Point(0, static_cast<int>(a.y())), cv::Point(img.cols - 1, static_cast<int>(a.y())), colour, 1);
@@ -428,8 +428,8 @@ POSEKIT_PLUGIN_EXPORT void posekit_predict_mlp(const Mlp& mlp, const Eigen::Vect
   for (int c = 0; c < y.cols; ++c) (*out)[c] = y.at<float>(0, c);
 }
 
-POSEKIT_PLUGIN_EXPORT void posekit_train_mlp(const Eigen::MatrixXd& inputs, const Eigen::MatrixXd& targets, int hidden,
-                                             int iterations, int seed, Mlp* out) {
+POSEKIT_PLUGIN_EXPORT void posekit_train_mlp(const Eigen::MatrixXd& inputs, const Eigen::MatrixXd& targets, int hidden, int iterations,
+                                             int seed, Mlp* out) {
   auto mlp = cv::ml::ANN_MLP::create();
   cv::Mat sizes = (cv::Mat_<int>(3, 1) << static_cast<int>(inputs.cols()), hidden, static_cast<int>(targets.cols()));
   mlp->setLayerSizes(sizes);
@@ -443,7 +443,8 @@ POSEKIT_PLUGIN_EXPORT void posekit_train_mlp(const Eigen::MatrixXd& inputs, cons
 
 POSEKIT_PLUGIN_EXPORT void posekit_mlp_text(const Mlp& mlp, std::string* out) {
   cv::FileStorage fs(".yml", cv::FileStorage::WRITE | cv::FileStorage::MEMORY);
-  fs << "opencv_ml_ann_mlp" << "{";
+  fs << "opencv_ml_ann_mlp"
+     << "{";
   posekit::as_mlp(mlp).write(fs);
   fs << "}";
   *out = fs.releaseAndGetString();

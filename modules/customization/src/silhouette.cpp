@@ -14,7 +14,9 @@
 
 namespace posekit {
 
-int Silhouette::area() const { return static_cast<int>(std::count_if(mask.begin(), mask.end(), [](std::uint8_t v) { return v != 0; })); }
+int Silhouette::area() const {
+  return static_cast<int>(std::count_if(mask.begin(), mask.end(), [](std::uint8_t v) { return v != 0; }));
+}
 
 namespace {
 
@@ -88,9 +90,7 @@ Silhouette read_silhouette_mask(const std::string& path, const std::string& what
   return s;
 }
 
-void write_silhouette_png(const std::string& path, const Silhouette& s) {
-  write_png(path, Image8{s.width, s.height, 1, s.mask});
-}
+void write_silhouette_png(const std::string& path, const Silhouette& s) { write_png(path, Image8{s.width, s.height, 1, s.mask}); }
 
 PhotoCameras read_photo_cameras(const std::string& path) {
   std::ifstream in(path);
@@ -143,7 +143,8 @@ PhotoCameras cameras_from_stature(const Silhouette& front, const Silhouette& sid
     note << "focal length " << focal_px << " px (given)";
   }
   out.assumed.push_back(note.str());
-  out.assumed.push_back("both cameras level, " + std::to_string(distance).substr(0, 4) + " m from the person, principal point at the image centre");
+  out.assumed.push_back("both cameras level, " + std::to_string(distance).substr(0, 4) +
+                        " m from the person, principal point at the image centre");
   if (front.width != side.width || front.height != side.height)
     out.assumed.push_back("the photos differ in size (" + std::to_string(front.width) + "x" + std::to_string(front.height) + " and " +
                           std::to_string(side.width) + "x" + std::to_string(side.height) + "): the same lens assumed for both");

@@ -16,8 +16,8 @@ namespace posekit {
 namespace {
 
 /// Weighted Kabsch: the proper rotation and translation taking X to Y in the weighted least-squares sense.
-void weighted_procrustes(const Eigen::MatrixXd& X, const Eigen::MatrixXd& Y, const std::vector<double>& w,
-                         Eigen::Matrix3d* R, Eigen::Vector3d* t) {
+void weighted_procrustes(const Eigen::MatrixXd& X, const Eigen::MatrixXd& Y, const std::vector<double>& w, Eigen::Matrix3d* R,
+                         Eigen::Vector3d* t) {
   double total = 0;
   Eigen::Vector3d cx = Eigen::Vector3d::Zero(), cy = Eigen::Vector3d::Zero();
   for (Eigen::Index i = 0; i < X.rows(); ++i) {
@@ -40,13 +40,12 @@ void weighted_procrustes(const Eigen::MatrixXd& X, const Eigen::MatrixXd& Y, con
 
 }  // namespace
 
-PartPoseEstimator::PartPoseEstimator(const Eigen::MatrixXd& rest_V, const Eigen::MatrixXi& F,
-                                     const Eigen::VectorXi& triangle_part, const Eigen::MatrixXd& joint_centres,
-                                     const PartFitOptions& options)
+PartPoseEstimator::PartPoseEstimator(const Eigen::MatrixXd& rest_V, const Eigen::MatrixXi& F, const Eigen::VectorXi& triangle_part,
+                                     const Eigen::MatrixXd& joint_centres, const PartFitOptions& options)
     : rest_V_(rest_V), joints_(joint_centres), options_(options) {
   if (triangle_part.size() != F.rows())
-    throw InvalidInput("part pose estimation: " + std::to_string(triangle_part.size()) + " part labels for " +
-                       std::to_string(F.rows()) + " triangles");
+    throw InvalidInput("part pose estimation: " + std::to_string(triangle_part.size()) + " part labels for " + std::to_string(F.rows()) +
+                       " triangles");
   if (joint_centres.rows() != kNumJoints || joint_centres.cols() != 3 || !joint_centres.allFinite())
     throw InvalidInput("part pose estimation: expected " + std::to_string(kNumJoints) + " x 3 finite joint centres");
   // Each vertex belongs to the part most of its triangles carry.
@@ -54,7 +53,8 @@ PartPoseEstimator::PartPoseEstimator(const Eigen::MatrixXd& rest_V, const Eigen:
   for (auto& v : votes) v.fill(0);
   for (Eigen::Index k = 0; k < F.rows(); ++k) {
     const int p = triangle_part[k];
-    if (p < 0 || p >= kNumParts) throw InvalidInput("part pose estimation: triangle " + std::to_string(k) + " has label " + std::to_string(p));
+    if (p < 0 || p >= kNumParts)
+      throw InvalidInput("part pose estimation: triangle " + std::to_string(k) + " has label " + std::to_string(p));
     for (int c = 0; c < 3; ++c) ++votes[static_cast<size_t>(F(k, c))][static_cast<size_t>(p)];
   }
   for (Eigen::Index v = 0; v < rest_V.rows(); ++v) {
@@ -211,7 +211,8 @@ void PartPoseEstimator::refine_along_chain(const Eigen::MatrixXd& Y, const std::
         turns.emplace_back(6 + 3 * (c - 1), T.R[parent] * joints_.row(c - 1).transpose() + T.t[parent]);
       }
       std::vector<int> column = {0, 1, 2};
-      Eigen::Matrix<double, 6, Eigen::Dynamic> B = Eigen::Matrix<double, 6, Eigen::Dynamic>::Zero(6, 3 + 3 * static_cast<Eigen::Index>(turns.size()));
+      Eigen::Matrix<double, 6, Eigen::Dynamic> B =
+          Eigen::Matrix<double, 6, Eigen::Dynamic>::Zero(6, 3 + 3 * static_cast<Eigen::Index>(turns.size()));
       B.topLeftCorner<3, 3>().setIdentity();
       for (size_t k = 0; k < turns.size(); ++k) {
         const Eigen::Index c = 3 + 3 * static_cast<Eigen::Index>(k);
@@ -360,8 +361,8 @@ std::vector<std::string> pose_estimate_problems(const PartPoseEstimate& e, doubl
     if (e.core_rms[s] > limit) {
       std::ostringstream msg;
       msg.precision(1);
-      msg << std::fixed << "part '" << part_name(p) << "' is no rigid motion of the rest part (residual "
-          << 1000 * e.core_rms[s] << " mm RMS away from its joints, over " << 1000 * limit << " mm)";
+      msg << std::fixed << "part '" << part_name(p) << "' is no rigid motion of the rest part (residual " << 1000 * e.core_rms[s]
+          << " mm RMS away from its joints, over " << 1000 * limit << " mm)";
       found.emplace_back(e.core_rms[s] / limit, msg.str());
     }
   }

@@ -41,27 +41,27 @@ class SparseLdlt {
 
 // The two sweeps: forward L z = y (column j scattered into the rows below it), scaling by D^-1,
 // backward L^T x = z (gathered), two accumulators to shorten the dependency chain.
-#define POSEKIT_LDLT_SWEEPS(Row, load, store)                                                   \
-  for (int j = 0; j < n; ++j) {                                                                 \
-    const Row y = load(j);                                                                      \
-    for (int p = start[j]; p < start[j + 1]; ++p) store(row[p], load(row[p]) - value[p] * y);   \
-  }                                                                                             \
-  for (int j = 0; j < n; ++j) store(j, load(j) * inverse_diagonal[j]);                          \
-  for (int j = n - 1; j >= 0; --j) {                                                            \
-    Row a = load(j), b = a * 0.0;                                                               \
-    int p = start[j];                                                                           \
-    for (; p + 1 < start[j + 1]; p += 2) {                                                      \
-      a -= value[p] * load(row[p]);                                                     \
-      b -= value[p + 1] * load(row[p + 1]);                                             \
-    }                                                                                           \
-    if (p < start[j + 1]) a -= value[p] * load(row[p]);                                 \
-    store(j, a + b);                                                                            \
+#define POSEKIT_LDLT_SWEEPS(Row, load, store)                                                 \
+  for (int j = 0; j < n; ++j) {                                                               \
+    const Row y = load(j);                                                                    \
+    for (int p = start[j]; p < start[j + 1]; ++p) store(row[p], load(row[p]) - value[p] * y); \
+  }                                                                                           \
+  for (int j = 0; j < n; ++j) store(j, load(j) * inverse_diagonal[j]);                        \
+  for (int j = n - 1; j >= 0; --j) {                                                          \
+    Row a = load(j), b = a * 0.0;                                                             \
+    int p = start[j];                                                                         \
+    for (; p + 1 < start[j + 1]; p += 2) {                                                    \
+      a -= value[p] * load(row[p]);                                                           \
+      b -= value[p + 1] * load(row[p + 1]);                                                   \
+    }                                                                                         \
+    if (p < start[j + 1]) a -= value[p] * load(row[p]);                                       \
+    store(j, a + b);                                                                          \
   }
 
 using simd::Double4;
 
-POSEKIT_TARGET_AVX2 void sweeps_avx2(int n, const int* start, const int* row, const double* value,
-                                                      const double* inverse_diagonal, double* Y) {
+POSEKIT_TARGET_AVX2 void sweeps_avx2(int n, const int* start, const int* row, const double* value, const double* inverse_diagonal,
+                                     double* Y) {
   Double4* rows = reinterpret_cast<Double4*>(Y);
 #define POSEKIT_LOAD(i) rows[i]
 #define POSEKIT_STORE(i, v) rows[i] = (v)
@@ -79,8 +79,7 @@ struct Triple {
 };
 Triple operator*(double s, const Triple& t) { return t * s; }
 
-void sweeps_portable(int n, const int* start, const int* row, const double* value, const double* inverse_diagonal,
-                     double* Y) {
+void sweeps_portable(int n, const int* start, const int* row, const double* value, const double* inverse_diagonal, double* Y) {
   auto load = [Y](int i) { return Triple{Y[4 * i], Y[4 * i + 1], Y[4 * i + 2]}; };
   auto store = [Y](int i, const Triple& v) {
     Y[4 * i] = v.x;
@@ -98,8 +97,7 @@ void SparseLdlt::solve_in_place(double* Y) const {
 
 /// The divergence of the transformed edges (the right-hand side of Eq. 6) added to Y in factor
 /// order: corner c of a triangle gets e_{c-1} - e_c.
-inline __attribute__((always_inline)) void scatter_edges_body(long triangles, const int* corner, const double* E,
-                                                              double* Y) {
+inline __attribute__((always_inline)) void scatter_edges_body(long triangles, const int* corner, const double* E, double* Y) {
   Double4* rows = reinterpret_cast<Double4*>(Y);
   const simd::Double4u* e = reinterpret_cast<const simd::Double4u*>(E);
   for (long k = 0; k < triangles; ++k, corner += 3, e += 3) {
@@ -111,9 +109,7 @@ inline __attribute__((always_inline)) void scatter_edges_body(long triangles, co
 POSEKIT_TARGET_AVX2 void scatter_edges_avx2(long triangles, const int* corner, const double* E, double* Y) {
   scatter_edges_body(triangles, corner, E, Y);
 }
-void scatter_edges_portable(long triangles, const int* corner, const double* E, double* Y) {
-  scatter_edges_body(triangles, corner, E, Y);
-}
+void scatter_edges_portable(long triangles, const int* corner, const double* E, double* Y) { scatter_edges_body(triangles, corner, E, Y); }
 
 /// Per-thread scratch for the permuted right-hand side (#n x 4, 32-byte aligned), so that repeated
 /// solves do not allocate.
@@ -151,7 +147,6 @@ struct PoissonSolver::Impl {
   Eigen::MatrixXd edges_from_transformations(const Eigen::MatrixXd& T) const;
 };
 
-
 PoissonSolver::PoissonSolver(const Eigen::MatrixXd& V, const Eigen::MatrixXi& F, const Eigen::VectorXd& position_weight)
     : impl_(std::make_unique<Impl>()) {
   Impl& s = *impl_;
@@ -162,8 +157,7 @@ PoissonSolver::PoissonSolver(const Eigen::MatrixXd& V, const Eigen::MatrixXi& F,
   Eigen::VectorXi components;
   const int count = connected_components(F, static_cast<int>(V.rows()), &components);
   if (count != 1)
-    throw InvalidInput("PoissonSolver: the mesh has " + std::to_string(count) +
-                       " connected components; posing needs one connected body");
+    throw InvalidInput("PoissonSolver: the mesh has " + std::to_string(count) + " connected components; posing needs one connected body");
   s.F = F;
   s.num_vertices = static_cast<int>(V.rows());
   const Eigen::VectorXd area = face_areas(V, F);
@@ -233,8 +227,7 @@ Eigen::MatrixXd PoissonSolver::Impl::edges_from_transformations(const Eigen::Mat
   for (Eigen::Index k = 0; k < F.rows(); ++k) {
     Eigen::Matrix3d Tk;
     Tk << T(k, 0), T(k, 1), T(k, 2), T(k, 3), T(k, 4), T(k, 5), T(k, 6), T(k, 7), T(k, 8);
-    for (int c = 0; c < 3; ++c)
-      E.row(k).segment<3>(4 * c) = (Tk * weighted_edges.row(k).segment<3>(4 * c).transpose()).transpose();
+    for (int c = 0; c < 3; ++c) E.row(k).segment<3>(4 * c) = (Tk * weighted_edges.row(k).segment<3>(4 * c).transpose()).transpose();
   }
   return E;
 }
@@ -261,13 +254,12 @@ void PoissonSolver::finish(double* Y, const RowMatrixX3d& targets, Eigen::Matrix
   s.copy_out(Y, X);
 }
 
-void PoissonSolver::finish(double* Y, const Eigen::VectorXd& anchor_weight, const Eigen::Matrix3d& R,
-                           const Eigen::Vector3d& t, Eigen::MatrixXd* X) const {
+void PoissonSolver::finish(double* Y, const Eigen::VectorXd& anchor_weight, const Eigen::Matrix3d& R, const Eigen::Vector3d& t,
+                           Eigen::MatrixXd* X) const {
   const Impl& s = *impl_;
   if (has_position_weights()) throw InvalidInput("PoissonSolver::solve: this solver needs position targets");
   if (anchor_weight.size() != s.F.rows() || !(anchor_weight.minCoeff() >= 0) || !(anchor_weight.sum() > 0))
-    throw InvalidInput("PoissonSolver::solve: expected " + std::to_string(s.F.rows()) +
-                       " non-negative anchor weights, not all zero");
+    throw InvalidInput("PoissonSolver::solve: expected " + std::to_string(s.F.rows()) + " non-negative anchor weights, not all zero");
   s.factor.solve_in_place(Y);
   s.copy_out(Y, X);
   Eigen::Vector3d posed = Eigen::Vector3d::Zero(), rest = Eigen::Vector3d::Zero();
@@ -287,8 +279,7 @@ void PoissonSolver::Impl::scatter(const EdgeMatrix& E, double* Y) const {
   (simd::has_avx2() ? scatter_edges_avx2 : scatter_edges_portable)(E.rows(), permuted_corners.data(), E.data(), Y);
 }
 
-void PoissonSolver::solve_transformed_edges(const EdgeMatrix& transformed_edges, const RowMatrixX3d& targets,
-                                            Eigen::MatrixXd* X) const {
+void PoissonSolver::solve_transformed_edges(const EdgeMatrix& transformed_edges, const RowMatrixX3d& targets, Eigen::MatrixXd* X) const {
   double* Y = start_right_hand_side();
   impl_->scatter(transformed_edges, Y);
   finish(Y, targets, X);
@@ -311,8 +302,8 @@ Eigen::MatrixXd PoissonSolver::solve(const Eigen::MatrixXd& T, const Eigen::Matr
   return X;
 }
 
-Eigen::MatrixXd PoissonSolver::solve(const Eigen::MatrixXd& T, const Eigen::VectorXd& anchor_weight,
-                                     const Eigen::Matrix3d& R, const Eigen::Vector3d& t) const {
+Eigen::MatrixXd PoissonSolver::solve(const Eigen::MatrixXd& T, const Eigen::VectorXd& anchor_weight, const Eigen::Matrix3d& R,
+                                     const Eigen::Vector3d& t) const {
   Eigen::MatrixXd X;
   solve_transformed_edges(impl_->edges_from_transformations(T), anchor_weight, R, t, &X);
   return X;

@@ -8,9 +8,9 @@
 #include <limits>
 #include <sstream>
 
-#include "posekit/core/parallel.h"
 #include "posekit/core/error.h"
 #include "posekit/core/mesh_geometry.h"
+#include "posekit/core/parallel.h"
 #include "posekit/core/point_grid.h"
 #include "posekit/core/timer.h"
 #include "posekit/deformation/rigid_pose.h"
@@ -42,14 +42,13 @@ double quantile(std::vector<double> v, double q) {
 
 double joint_limit_degrees(int joint) {
   // Ranges of motion a body reaches (rotation from the standing rest, any direction).
-  static const std::array<double, kNumJoints> limits = {
-      60,   // lower_back
-      45,   // upper_back
-      80,   // neck
-      170, 150, 90,  // left shoulder, elbow, wrist
-      170, 150, 90,  // right
-      130, 155, 60,  // left hip, knee, ankle
-      130, 155, 60};  // right
+  static const std::array<double, kNumJoints> limits = {60,             // lower_back
+                                                        45,             // upper_back
+                                                        80,             // neck
+                                                        170, 150, 90,   // left shoulder, elbow, wrist
+                                                        170, 150, 90,   // right
+                                                        130, 155, 60,   // left hip, knee, ankle
+                                                        130, 155, 60};  // right
   return joint >= 0 && joint < kNumJoints ? limits[static_cast<size_t>(joint)] : 180;
 }
 
@@ -102,8 +101,14 @@ struct SwingTwist {
 class PoseFitter {
  public:
   PoseFitter(const PosableBody& subject, const Eigen::MatrixXd& T, const PoseFitOptions& o)
-      : subject(subject), T(T), o(o), V0(subject.rest_vertices()), part(subject.vertex_parts()), joints(subject.joint_centres()),
-        pivots(subject.joint_pivots()), target_grid(T, surface_cell(T)),
+      : subject(subject),
+        T(T),
+        o(o),
+        V0(subject.rest_vertices()),
+        part(subject.vertex_parts()),
+        joints(subject.joint_centres()),
+        pivots(subject.joint_pivots()),
+        target_grid(T, surface_cell(T)),
         // A subsample of the target (at most 20,000 points) for the start hypotheses: its coarser
         // grid answers their long-range queries several times faster.
         T_coarse(T(Eigen::seq(0, T.rows() - 1, std::max<Eigen::Index>(1, T.rows() / 20000)), Eigen::all)),
@@ -146,15 +151,21 @@ class PoseFitter {
     const Eigen::Vector3d heading = pose.root_rotation;
     if (o.start) pose = *o.start;
     const Eigen::Vector3d X_ = Eigen::Vector3d::UnitX(), Z_ = Eigen::Vector3d::UnitZ();
-    for (const auto& joints_deg : o.start ? std::vector<std::vector<std::pair<const char*, Eigen::Vector3d>>>{} :
-         std::vector<std::vector<std::pair<const char*, Eigen::Vector3d>>>{
-             {{"left_shoulder", -90 * X_}, {"right_shoulder", -90 * X_}},
-             {{"left_shoulder", 130 * Z_}, {"right_shoulder", -130 * Z_}},
-             {{"left_hip", -50 * X_}, {"right_hip", -50 * X_}, {"left_knee", 65 * X_}, {"right_knee", 65 * X_},
-              {"lower_back", 10 * X_}, {"left_shoulder", -30 * X_}, {"right_shoulder", -30 * X_}},
-             {{"left_hip", -90 * X_}, {"right_hip", -90 * X_}, {"left_knee", 90 * X_}, {"right_knee", 90 * X_}},
-             {{"left_hip", -30 * X_}, {"right_hip", 25 * X_}, {"left_knee", 15 * X_}, {"right_knee", 30 * X_}},   // striding
-             {{"left_hip", 25 * X_}, {"right_hip", -30 * X_}, {"left_knee", 30 * X_}, {"right_knee", 15 * X_}}}) {
+    for (const auto& joints_deg :
+         o.start ? std::vector<std::vector<std::pair<const char*, Eigen::Vector3d>>>{}
+                 : std::vector<std::vector<std::pair<const char*, Eigen::Vector3d>>>{
+                       {{"left_shoulder", -90 * X_}, {"right_shoulder", -90 * X_}},
+                       {{"left_shoulder", 130 * Z_}, {"right_shoulder", -130 * Z_}},
+                       {{"left_hip", -50 * X_},
+                        {"right_hip", -50 * X_},
+                        {"left_knee", 65 * X_},
+                        {"right_knee", 65 * X_},
+                        {"lower_back", 10 * X_},
+                        {"left_shoulder", -30 * X_},
+                        {"right_shoulder", -30 * X_}},
+                       {{"left_hip", -90 * X_}, {"right_hip", -90 * X_}, {"left_knee", 90 * X_}, {"right_knee", 90 * X_}},
+                       {{"left_hip", -30 * X_}, {"right_hip", 25 * X_}, {"left_knee", 15 * X_}, {"right_knee", 30 * X_}},  // striding
+                       {{"left_hip", 25 * X_}, {"right_hip", -30 * X_}, {"left_knee", 30 * X_}, {"right_knee", 15 * X_}}}) {
       PartPose start = hypothesis(standing, joints_deg);
       start.root_rotation = heading;
       refine_and_keep(start, &best, &pose);
@@ -198,8 +209,8 @@ class PoseFitter {
     if (std::find(held.begin(), held.end(), true) == held.end()) return 0;
     for (int j = 0; j < kNumJoints; ++j)
       if (held[static_cast<size_t>(j)]) pose->joint(j).setZero();
-    const int iterations = icp(*pose, std::max(1, o.iterations / 4), o.refinement_model_samples, o.model_samples, o.max_distance_end,
-                               o.max_distance_end);
+    const int iterations =
+        icp(*pose, std::max(1, o.iterations / 4), o.refinement_model_samples, o.model_samples, o.max_distance_end, o.max_distance_end);
     measure_residuals(*pose, out);
     return iterations;
   }
@@ -225,7 +236,8 @@ class PoseFitter {
     std::ostringstream msg;
     msg.precision(1);
     if (out->coverage < 0.6)
-      msg << std::fixed << "only " << 100 * out->coverage << "% of the body lies within 1 cm of the target (holes, another body, or a wrong fit)",
+      msg << std::fixed << "only " << 100 * out->coverage
+          << "% of the body lies within 1 cm of the target (holes, another body, or a wrong fit)",
           out->warnings.push_back(msg.str()), msg.str("");
     if (out->target_p95 > 0.03)
       msg << std::fixed << "a twentieth of the target lies over " << 1000 * out->target_p95 << " mm from the fitted body",
@@ -250,7 +262,8 @@ class PoseFitter {
     std::array<int, kNumParts> count{};
     for (auto& v : sum) v.setZero();
     for (Eigen::Index v = 0; v < V0.rows(); ++v)
-      if (part[v] >= 0 && part[v] < kNumParts) sum[static_cast<size_t>(part[v])] += V0.row(v).transpose(), ++count[static_cast<size_t>(part[v])];
+      if (part[v] >= 0 && part[v] < kNumParts)
+        sum[static_cast<size_t>(part[v])] += V0.row(v).transpose(), ++count[static_cast<size_t>(part[v])];
     for (int j = 0; j < kNumJoints; ++j) {
       const size_t c = static_cast<size_t>(j + 1);
       const Eigen::Vector3d d = count[c] > 0 ? Eigen::Vector3d(sum[c] / count[c] - joints.row(j).transpose()) : Eigen::Vector3d::Zero();
@@ -270,7 +283,8 @@ class PoseFitter {
     for (auto& n : off_hinge_axis) n.setZero();
     for (int c : {kLeftForearm, kRightForearm, kLeftShank, kRightShank}) {
       const Eigen::Vector3d& a = bone_axis[static_cast<size_t>(c - 1)];
-      const Eigen::Vector3d limb = (joints.row(c) - joints.row(part_parent(c) - 1)).transpose().normalized();  // shoulder to wrist, hip to ankle
+      const Eigen::Vector3d limb =
+          (joints.row(c) - joints.row(part_parent(c) - 1)).transpose().normalized();  // shoulder to wrist, hip to ankle
       const Eigen::Vector3d h = c == kLeftShank || c == kRightShank ? Eigen::Vector3d::UnitX() : limb.cross(Eigen::Vector3d::UnitZ());
       if (h.norm() > 0.5) {
         hinge_axis[static_cast<size_t>(c - 1)] = h.normalized();
@@ -382,32 +396,37 @@ class PoseFitter {
     constexpr Eigen::Index kBlock = 1024;
     const long blocks = static_cast<long>((target_count + model_count + kBlock - 1) / kBlock);
     std::vector<Sums> block_sums(static_cast<size_t>(blocks));
-    parallel_for_ranges(blocks, o.threads, [&](long begin, long end) {
-      for (long k = begin; k < end; ++k) {
-        Sums& S = block_sums[static_cast<size_t>(k)];
-        for (int q = 0; q < kNumParts; ++q) S.H[static_cast<size_t>(q)].setZero(), S.b[static_cast<size_t>(q)].setZero();
-        for (Eigen::Index sample = k * kBlock; sample < std::min((k + 1) * kBlock, target_count + model_count); ++sample) {
-          double sq = 0, back = 0;
-          if (sample < target_count) {
-            const Eigen::Index i = sample * target_stride;
-            const int v = model_grid.nearest(target.row(i).transpose(), &sq, max_d);
-            if (v >= 0) add(S, v, target.row(i).transpose());
-            else S.cost += unpaired;
-            continue;
+    parallel_for_ranges(
+        blocks, o.threads,
+        [&](long begin, long end) {
+          for (long k = begin; k < end; ++k) {
+            Sums& S = block_sums[static_cast<size_t>(k)];
+            for (int q = 0; q < kNumParts; ++q) S.H[static_cast<size_t>(q)].setZero(), S.b[static_cast<size_t>(q)].setZero();
+            for (Eigen::Index sample = k * kBlock; sample < std::min((k + 1) * kBlock, target_count + model_count); ++sample) {
+              double sq = 0, back = 0;
+              if (sample < target_count) {
+                const Eigen::Index i = sample * target_stride;
+                const int v = model_grid.nearest(target.row(i).transpose(), &sq, max_d);
+                if (v >= 0) add(S, v, target.row(i).transpose());
+                else S.cost += unpaired;
+                continue;
+              }
+              const Eigen::Index v = (sample - target_count) * model_stride;
+              const int t = grid.nearest(X.row(v).transpose(), &sq, max_d);
+              const int u = t >= 0 ? model_grid.nearest(target.row(t).transpose(), &back, max_d) : -1;
+              if (u >= 0 && (X.row(u) - X.row(v)).squaredNorm() <= o.mutual_distance * o.mutual_distance)
+                add(S, v, target.row(t).transpose());
+              else S.cost += unpaired;
+            }
           }
-          const Eigen::Index v = (sample - target_count) * model_stride;
-          const int t = grid.nearest(X.row(v).transpose(), &sq, max_d);
-          const int u = t >= 0 ? model_grid.nearest(target.row(t).transpose(), &back, max_d) : -1;
-          if (u >= 0 && (X.row(u) - X.row(v)).squaredNorm() <= o.mutual_distance * o.mutual_distance) add(S, v, target.row(t).transpose());
-          else S.cost += unpaired;
-        }
-      }
-    }, 2);
+        },
+        2);
     std::array<Eigen::Matrix<double, 6, 6>, kNumParts> H;
     std::array<Eigen::Matrix<double, 6, 1>, kNumParts> b;
     for (int q = 0; q < kNumParts; ++q) H[static_cast<size_t>(q)].setZero(), b[static_cast<size_t>(q)].setZero();
     for (const Sums& S : block_sums) {
-      for (int q = 0; q < kNumParts; ++q) H[static_cast<size_t>(q)] += S.H[static_cast<size_t>(q)], b[static_cast<size_t>(q)] += S.b[static_cast<size_t>(q)];
+      for (int q = 0; q < kNumParts; ++q)
+        H[static_cast<size_t>(q)] += S.H[static_cast<size_t>(q)], b[static_cast<size_t>(q)] += S.b[static_cast<size_t>(q)];
       L.cost += S.cost, L.data_weight += S.weight;
     }
     for (int q = 0; q < kNumParts; ++q) {
@@ -425,7 +444,8 @@ class PoseFitter {
         B.block<3, 3>(3, c).setIdentity();
         for (int k = 0; k < 3; ++k) column[static_cast<size_t>(c + k)] = 6 + 3 * j + k;
       }
-      const Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, 0, kMaxActive, kMaxActive> BtHB = B.transpose() * H[static_cast<size_t>(q)] * B;
+      const Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, 0, kMaxActive, kMaxActive> BtHB =
+          B.transpose() * H[static_cast<size_t>(q)] * B;
       const Eigen::Matrix<double, Eigen::Dynamic, 1, 0, kMaxActive, 1> Btb = B.transpose() * b[static_cast<size_t>(q)];
       for (Eigen::Index a = 0; a < B.cols(); ++a) {
         L.g[column[static_cast<size_t>(a)]] += Btb[a];
@@ -457,7 +477,8 @@ class PoseFitter {
         for (int k = 0; k < 3; ++k) {
           const Eigen::Vector3d e = Eigen::Vector3d::Unit(k) * 1e-6;
           Jr.col(k) = (residual(j, axis_angle_from_rotation(to_parent * rotation_from_axis_angle(e) * P * Rr)) -
-                       residual(j, axis_angle_from_rotation(to_parent * rotation_from_axis_angle(-e) * P * Rr))) / 2e-6;
+                       residual(j, axis_angle_from_rotation(to_parent * rotation_from_axis_angle(-e) * P * Rr))) /
+                      2e-6;
         }
         prior(weight, residual(j, r), Jr);
       };
@@ -568,10 +589,10 @@ class PoseFitter {
   std::array<std::vector<int>, kNumParts> chain;
   Eigen::Vector3d rest_pivot;
   std::array<Eigen::Vector3d, kNumJoints> bone_axis, hinge_axis, off_hinge_axis, prior_centre;
-  bool refining = false;                 // the final refinement: the rest prior on swing and weighted twist
-  std::array<bool, kNumJoints> held{};   // joints of parts the target does not show: held at rest
+  bool refining = false;                // the final refinement: the rest prior on swing and weighted twist
+  std::array<bool, kNumJoints> held{};  // joints of parts the target does not show: held at rest
   std::array<int, kNumParts> part_vertices{}, part_covered{};
-  Eigen::MatrixXd X;                     // the body as last posed
+  Eigen::MatrixXd X;  // the body as last posed
 };
 
 }  // namespace

@@ -17,8 +17,8 @@
 #include "posekit/datasets/dataset.h"
 #include "posekit/deformation/part_pose_estimation.h"
 #include "posekit/deformation/pose_synthesis.h"
-#include "posekit/segmentation/segmentation.h"
 #include "posekit/deformation/rigid_pose.h"
+#include "posekit/segmentation/segmentation.h"
 #include "posekit/shape/body_features.h"
 
 namespace posekit {
@@ -80,9 +80,8 @@ Eigen::Matrix<double, kPoseFeatures, 1> features(const PartPose& pose, int a, in
 /// ((I - R(r)) D, exact in r: a side bend's mirror image follows from it), then the general
 /// regression on the twist features of what D leaves.
 /// `placed[e]`: the parts' own rigid fits in example examples[e].
-Eigen::MatrixXd fit_joint_offsets(const PoseDataset& data, const std::vector<int>& examples,
-                                  const std::vector<PartPoseEstimate>& placed, const PoseModel& model,
-                                  Eigen::MatrixXd* pivot_only = nullptr) {
+Eigen::MatrixXd fit_joint_offsets(const PoseDataset& data, const std::vector<int>& examples, const std::vector<PartPoseEstimate>& placed,
+                                  const PoseModel& model, Eigen::MatrixXd* pivot_only = nullptr) {
   const int m = static_cast<int>(examples.size());
   Eigen::MatrixXd offsets = Eigen::MatrixXd::Zero(kNumJoints, 3 * kOffsetFeatures);
   if (pivot_only) pivot_only->setZero(kNumJoints, 3 * kOffsetFeatures);
@@ -142,7 +141,7 @@ Eigen::MatrixXd fit_joint_offsets(const PoseDataset& data, const std::vector<int
 /// (one side bend in training) its pivot.
 Eigen::MatrixXd fit_joint_offsets_that_help(const PoseDataset& data, const std::vector<int>& examples, const PoseModel& model) {
   PartFitOptions fit;
-  fit.joint_coupling = 0;  // each part where its own vertices put it
+  fit.joint_coupling = 0;    // each part where its own vertices put it
   fit.chain_iterations = 0;  // R and t are used, not the pose
   const PartPoseEstimator estimator(model.template_V, model.template_F, model.triangle_part, model.joint_centres, fit);
   std::vector<PartPoseEstimate> placed(examples.size());
@@ -211,8 +210,7 @@ Eigen::MatrixXd fit_joint_offsets_that_help(const PoseDataset& data, const std::
 
 Eigen::MatrixXd deformation_gradients(const Eigen::MatrixXd& V0, const Eigen::MatrixXd& V1, const Eigen::MatrixXi& F) {
   if (V0.rows() != V1.rows())
-    throw InvalidInput("deformation_gradients: meshes of " + std::to_string(V0.rows()) + " and " +
-                       std::to_string(V1.rows()) + " vertices");
+    throw InvalidInput("deformation_gradients: meshes of " + std::to_string(V0.rows()) + " and " + std::to_string(V1.rows()) + " vertices");
   const auto inv = inverse_frames(V0, F);
   Eigen::MatrixXd D(F.rows(), 9);
   for (Eigen::Index k = 0; k < F.rows(); ++k) {
@@ -267,9 +265,9 @@ PoseModel train_pose_model(const PoseDataset& data, const TrainingOptions& optio
   // Per joint pair, PCA of the observed twists, then the ridge least-squares operator H that maps
   // a triangle's observed T^Q entries (m x 9) to its reduced coefficients (Eq. 5).
   struct Group {
-    Eigen::MatrixXd P;                   // 6 x d principal directions
+    Eigen::MatrixXd P;  // 6 x d principal directions
     Eigen::Matrix<double, 6, 1> mean;
-    Eigen::MatrixXd H;                   // (d+1) x m
+    Eigen::MatrixXd H;  // (d+1) x m
   };
   const int m = static_cast<int>(examples.size());
   std::map<std::pair<int, int>, Group> groups;
@@ -277,9 +275,7 @@ PoseModel train_pose_model(const PoseDataset& data, const TrainingOptions& optio
   for (auto& [key, g] : groups) {
     Eigen::MatrixXd X(m, 6);
     for (int e = 0; e < m; ++e)
-      X.row(e) = features(data.poses[static_cast<size_t>(examples[static_cast<size_t>(e)])], key.first, key.second)
-                     .head<6>()
-                     .transpose();
+      X.row(e) = features(data.poses[static_cast<size_t>(examples[static_cast<size_t>(e)])], key.first, key.second).head<6>().transpose();
     g.mean = options.identity_at_rest ? Eigen::Matrix<double, 6, 1>::Zero() : Eigen::Matrix<double, 6, 1>(X.colwise().mean().transpose());
     const Eigen::MatrixXd Xc = X.rowwise() - g.mean.transpose();
     const Eigen::JacobiSVD<Eigen::MatrixXd> svd(Xc, Eigen::ComputeThinV);
@@ -347,12 +343,10 @@ PoseModel train_pose_model(const PoseDataset& data, const TrainingOptions& optio
     const Group& g = *group_of[static_cast<size_t>(k)];
     const Eigen::MatrixXd& B = reduced[static_cast<size_t>(k)];
     const int d = static_cast<int>(g.P.cols());
-    const Eigen::MatrixXd W = g.P * B.topRows(d);                                  // 6 x 9
+    const Eigen::MatrixXd W = g.P * B.topRows(d);  // 6 x 9
     Eigen::RowVectorXd bias(9);
-    if (options.identity_at_rest)
-      bias << 1, 0, 0, 0, 1, 0, 0, 0, 1;
-    else
-      bias = B.row(d) - g.mean.transpose() * W;
+    if (options.identity_at_rest) bias << 1, 0, 0, 0, 1, 0, 0, 0, 1;
+    else bias = B.row(d) - g.mean.transpose() * W;
     for (int entry = 0; entry < 9; ++entry) {
       for (int f = 0; f < 6; ++f) model.coefficients(k, entry * kPoseFeatures + f) = W(f, entry);
       model.coefficients(k, entry * kPoseFeatures + 6) = bias[entry];
@@ -395,11 +389,10 @@ Eigen::MatrixXd predict_nonrigid(const PoseModel& model, const PartPose& pose) {
 
 SegmentationPrior segmentation_prior_of(const PoseModel& model) {
   if (!model.segmentation_prior.bodies.empty()) return model.segmentation_prior;
-  const LayeredRepresentation rep = build_layered_representation(
-      model.template_V, model.template_F, find_body_features(model.template_V, model.template_F));
+  const LayeredRepresentation rep =
+      build_layered_representation(model.template_V, model.template_F, find_body_features(model.template_V, model.template_F));
   SegmentationPrior prior;
-  prior.bodies.push_back(
-      make_calibration_body(model.template_V, model.template_F, model.triangle_part, model.joint_centres, rep));
+  prior.bodies.push_back(make_calibration_body(model.template_V, model.template_F, model.triangle_part, model.joint_centres, rep));
   return prior;
 }
 

@@ -32,16 +32,16 @@ SegmentationPrior read_segmentation_prior(Reader& in, const std::string& path) {
   const auto count = in.get<std::uint32_t>("the segmentation prior");
   prior.neighbours = in.get<std::int32_t>("the segmentation prior");
   if (count > 100000u || prior.neighbours < 1 || prior.neighbours > 100000)
-    throw IoError(path + ": implausible segmentation prior (" + std::to_string(count) + " bodies, " +
-                  std::to_string(prior.neighbours) + " neighbours)");
+    throw IoError(path + ": implausible segmentation prior (" + std::to_string(count) + " bodies, " + std::to_string(prior.neighbours) +
+                  " neighbours)");
   Eigen::Index label_count = -1;
   std::vector<Eigen::Index> region_sizes;
   for (std::uint32_t b = 0; b < count; ++b) {
     CalibrationBody body;
     const auto regions = in.get<std::uint32_t>("the segmentation prior");
     if (regions != kShapeRegions)
-      throw IoError(path + ": calibration body " + std::to_string(b) + " has " + std::to_string(regions) +
-                    " shape regions, expected " + std::to_string(kShapeRegions));
+      throw IoError(path + ": calibration body " + std::to_string(b) + " has " + std::to_string(regions) + " shape regions, expected " +
+                    std::to_string(kShapeRegions));
     for (std::uint32_t r = 0; r < regions; ++r) {
       const auto n = in.get<std::uint32_t>("the segmentation prior");
       if (n > 10000000u) throw IoError(path + ": implausible shape descriptor of " + std::to_string(n) + " values");
@@ -65,8 +65,8 @@ SegmentationPrior read_segmentation_prior(Reader& in, const std::string& path) {
     j.bary = in.matrix<double>(kNumJoints, 3, "a calibration skeleton");
     j.offset = in.matrix<double>(kNumJoints, 3, "a calibration skeleton");
     body.skeleton.torso_fraction = in.matrix<double>(3, 1, "a calibration skeleton");
-    if (j.triangle.minCoeff() < 0 || j.triangle.maxCoeff() >= label_count || !j.bary.allFinite() ||
-        !j.offset.allFinite() || !body.skeleton.torso_fraction.allFinite())
+    if (j.triangle.minCoeff() < 0 || j.triangle.maxCoeff() >= label_count || !j.bary.allFinite() || !j.offset.allFinite() ||
+        !body.skeleton.torso_fraction.allFinite())
       throw IoError(path + ": calibration body " + std::to_string(b) + " has an invalid skeleton");
     prior.bodies.push_back(std::move(body));
   }
@@ -132,8 +132,7 @@ PoseModel pose_model_from_bytes(std::string bytes, const std::string& path) {
   if (bytes.size() < sizeof(kMagic) + 4 || std::memcmp(bytes.data(), kMagic, sizeof(kMagic)) != 0)
     throw IoError(path + ": not a posekit pose model (expected the POSEKPKM header of a .pkm file)");
   if (version < 1 || version > kVersion)
-    throw IoError(path + ": .pkm version " + std::to_string(version) + ", this posekit reads versions 1 to " +
-                  std::to_string(kVersion));
+    throw IoError(path + ": .pkm version " + std::to_string(version) + ", this posekit reads versions 1 to " + std::to_string(kVersion));
   if (version >= 3) {
     // The trailer covers every byte before it: a flipped bit anywhere is refused before it is used.
     std::uint32_t stored = 0;
@@ -149,8 +148,8 @@ PoseModel pose_model_from_bytes(std::string bytes, const std::string& path) {
   const auto nv = in.get<std::uint32_t>("the header"), nf = in.get<std::uint32_t>("the header");
   const auto nj = in.get<std::uint32_t>("the header"), nc = in.get<std::uint32_t>("the header");
   if (nj != kNumJoints || nc != kPoseCoefficients || nv < 3 || nf < 1 || nv > 50000000u || nf > 100000000u)
-    throw IoError(path + ": implausible .pkm header (" + std::to_string(nv) + " vertices, " + std::to_string(nf) +
-                  " triangles, " + std::to_string(nj) + " joints, " + std::to_string(nc) + " coefficients)");
+    throw IoError(path + ": implausible .pkm header (" + std::to_string(nv) + " vertices, " + std::to_string(nf) + " triangles, " +
+                  std::to_string(nj) + " joints, " + std::to_string(nc) + " coefficients)");
   PoseModel m;
   m.training_poses = in.get<std::int32_t>("the header");
   m.fit_rms = in.get<double>("the header");
@@ -172,13 +171,14 @@ PoseModel pose_model_from_bytes(std::string bytes, const std::string& path) {
   }
   if (!in.at_end())
     throw IoError(path + ": unexpected bytes after the " +
-                  (version >= 4 ? "joint offsets" : version >= 2 ? "segmentation prior" : "coefficients"));
+                  (version >= 4   ? "joint offsets"
+                   : version >= 2 ? "segmentation prior"
+                                  : "coefficients"));
   if (!m.template_V.allFinite() || !m.joint_centres.allFinite() || !m.coefficients.allFinite() || !m.joint_offsets.allFinite())
     throw IoError(path + ": the model holds a NaN or infinite value");
   if (m.template_F.minCoeff() < 0 || m.template_F.maxCoeff() >= static_cast<int>(nv))
     throw IoError(path + ": a template triangle refers to a vertex outside [0, " + std::to_string(nv) + ")");
-  if (m.triangle_part.minCoeff() < 0 || m.triangle_part.maxCoeff() >= kNumParts)
-    throw IoError(path + ": a part label is outside [0, 16)");
+  if (m.triangle_part.minCoeff() < 0 || m.triangle_part.maxCoeff() >= kNumParts) throw IoError(path + ": a part label is outside [0, 16)");
   if (m.triangle_joints.minCoeff() < -1 || m.triangle_joints.maxCoeff() >= kNumJoints)
     throw IoError(path + ": a triangle joint is outside [-1, 15)");
   return m;

@@ -35,15 +35,17 @@ PoseMethod parse_pose_method(const std::string& name) {
 
 const char* pose_method_name(PoseMethod method) {
   switch (method) {
-    case PoseMethod::kLearned: return "learned";
-    case PoseMethod::kRigid: return "rigid";
-    case PoseMethod::kLbs: return "lbs";
+    case PoseMethod::kLearned:
+      return "learned";
+    case PoseMethod::kRigid:
+      return "rigid";
+    case PoseMethod::kLbs:
+      return "lbs";
   }
   return "?";
 }
 
-Eigen::MatrixXd diffuse_part_weights(const Eigen::MatrixXi& F, const Eigen::VectorXi& vertex_part, int num_vertices,
-                                     int iterations) {
+Eigen::MatrixXd diffuse_part_weights(const Eigen::MatrixXi& F, const Eigen::VectorXi& vertex_part, int num_vertices, int iterations) {
   const Eigen::MatrixXi E = unique_edges(F);
   Eigen::VectorXd degree = Eigen::VectorXd::Zero(num_vertices);
   for (Eigen::Index e = 0; e < E.rows(); ++e) {
@@ -72,8 +74,8 @@ struct PoseSynthesizer::Impl {
   Eigen::MatrixXi F;
   SubjectSetupInfo info;
   Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor> coefficients;  // #F x 63, from the template
-  Eigen::Matrix<int, Eigen::Dynamic, 2, Eigen::RowMajor> triangle_joints;  // #F x 2
-  Eigen::VectorXd pelvis_area;        // #F: the area of pelvis triangles, 0 elsewhere
+  Eigen::Matrix<int, Eigen::Dynamic, 2, Eigen::RowMajor> triangle_joints;               // #F x 2
+  Eigen::VectorXd pelvis_area;                                                          // #F: the area of pelvis triangles, 0 elsewhere
   // PosePlacement::kParts (set_up_part_placement): each vertex's core weight; per part its core's
   // total weight and rest mean; per vertex its non-zero blend weights (blend_start[v] ..
   // blend_start[v + 1] in blend_part, blend_weight); the LU of the core means of the blend weights.
@@ -87,9 +89,9 @@ struct PoseSynthesizer::Impl {
   void set_up_part_placement(const Eigen::VectorXd& face_area);
   /// Moves each part of X (posed by Eq. 6) so that its core's mean meets T^R's placement of it.
   void place_parts(const PartTransforms& T, Eigen::MatrixXd* X) const;
-  Eigen::VectorXi vertex_part;        // #V
-  double offset_scale = 1;            // the subject's height over the template's, for joint offsets
-  Eigen::MatrixXd lbs_weights;        // #V x 16
+  Eigen::VectorXi vertex_part;  // #V
+  double offset_scale = 1;      // the subject's height over the template's, for joint offsets
+  Eigen::MatrixXd lbs_weights;  // #V x 16
   std::unique_ptr<PoissonSolver> solver;
   /// Eq. 4 folded into the solver's right-hand side: B_kf e_c (x y z), B_kf the 3 x 3 map of feature
   /// f of triangle k and e_c the solver's weighted rest edge c. Per triangle in order: the bias
@@ -100,11 +102,9 @@ struct PoseSynthesizer::Impl {
   double* right_hand_side(const PartPose& pose, const PartTransforms& T, PoseMethod method) const;
 };
 
-namespace {
-}  // namespace
+namespace {}  // namespace
 
-PoseSynthesizer::PoseSynthesizer(std::shared_ptr<const PoseModel> model, const TriangleMesh& subject,
-                                 const SubjectSetupOptions& options)
+PoseSynthesizer::PoseSynthesizer(std::shared_ptr<const PoseModel> model, const TriangleMesh& subject, const SubjectSetupOptions& options)
     : impl_(std::make_unique<Impl>()) {
   Impl& s = *impl_;
   if (!model) throw InvalidInput("PoseSynthesizer: no model");
@@ -117,8 +117,8 @@ PoseSynthesizer::PoseSynthesizer(std::shared_ptr<const PoseModel> model, const T
   if (options.is_template) {
     if (subject.V.rows() != M.template_V.rows() || subject.F != M.template_F)
       throw InvalidInput("the mesh is not the model's template (" + std::to_string(subject.V.rows()) + " vertices, " +
-                         std::to_string(subject.F.rows()) + " triangles; the model was trained on " +
-                         std::to_string(M.template_V.rows()) + " and " + std::to_string(M.template_F.rows()) + ")");
+                         std::to_string(subject.F.rows()) + " triangles; the model was trained on " + std::to_string(M.template_V.rows()) +
+                         " and " + std::to_string(M.template_F.rows()) + ")");
     s.info.triangle_part = M.triangle_part;
     s.info.joint_centres = M.joint_centres;
     s.info.template_triangle = Eigen::VectorXi::LinSpaced(s.F.rows(), 0, static_cast<int>(s.F.rows()) - 1);
@@ -131,8 +131,7 @@ PoseSynthesizer::PoseSynthesizer(std::shared_ptr<const PoseModel> model, const T
     t0.restart();
     SegmentationPrior template_alone;  // a model without a prior: the template's own labelling
     if (M.segmentation_prior.bodies.empty())
-      template_alone.bodies.push_back(
-          make_calibration_body(M.template_V, M.template_F, M.triangle_part, M.joint_centres, template_rep));
+      template_alone.bodies.push_back(make_calibration_body(M.template_V, M.template_F, M.triangle_part, M.joint_centres, template_rep));
     const SegmentationPrior& prior = template_alone.bodies.empty() ? M.segmentation_prior : template_alone;
     BodySegmentation result = segment_standing_body(s.V, s.F, rep, features, &prior);
     s.info.triangle_part = std::move(result.segmentation.triangle_part);
@@ -144,13 +143,11 @@ PoseSynthesizer::PoseSynthesizer(std::shared_ptr<const PoseModel> model, const T
     const LayeredRepresentation rep_in_proportion =
         build_layered_representation(s.V, s.F, torso_levels_in_proportion(features, template_features));
     const Eigen::MatrixXd deformed = ctffd_evaluate(ctffd_parametrize(M.template_V, template_rep), rep_in_proportion);
-    s.info.template_triangle =
-        nearest_centroid_correspondence(deformed, M.template_F, s.V, s.F, &s.info.normal_failures);
+    s.info.template_triangle = nearest_centroid_correspondence(deformed, M.template_F, s.V, s.F, &s.info.normal_failures);
     s.info.seconds_correspondence = t0.seconds();
   }
   if (options.triangle_part.size()) {
-    if (options.triangle_part.size() != s.F.rows() || options.triangle_part.minCoeff() < 0 ||
-        options.triangle_part.maxCoeff() >= kNumParts)
+    if (options.triangle_part.size() != s.F.rows() || options.triangle_part.minCoeff() < 0 || options.triangle_part.maxCoeff() >= kNumParts)
       throw InvalidInput("subject labels: expected " + std::to_string(s.F.rows()) + " labels in [0, 16)");
     s.info.triangle_part = options.triangle_part;
   }
@@ -162,8 +159,8 @@ PoseSynthesizer::PoseSynthesizer(std::shared_ptr<const PoseModel> model, const T
   if (options.template_triangle.size()) {
     if (options.template_triangle.size() != s.F.rows() || options.template_triangle.minCoeff() < 0 ||
         options.template_triangle.maxCoeff() >= M.template_F.rows())
-      throw InvalidInput("subject correspondence: expected " + std::to_string(s.F.rows()) +
-                         " template triangle indices in [0, " + std::to_string(M.template_F.rows()) + ")");
+      throw InvalidInput("subject correspondence: expected " + std::to_string(s.F.rows()) + " template triangle indices in [0, " +
+                         std::to_string(M.template_F.rows()) + ")");
     s.info.template_triangle = options.template_triangle;
   }
   s.coefficients.resize(s.F.rows(), M.coefficients.cols());
@@ -205,8 +202,7 @@ PoseSynthesizer::PoseSynthesizer(std::shared_ptr<const PoseModel> model, const T
   s.pelvis_area = Eigen::VectorXd::Zero(s.F.rows());
   for (Eigen::Index k = 0; k < s.F.rows(); ++k)
     if (s.info.triangle_part[k] == kPelvis) s.pelvis_area[k] = face_area[k];
-  if (!(s.pelvis_area.sum() > 0))
-    throw InvalidInput("subject mesh: no triangle was labelled pelvis; is it a standing body?");
+  if (!(s.pelvis_area.sum() > 0)) throw InvalidInput("subject mesh: no triangle was labelled pelvis; is it a standing body?");
 
   int iterations = options.lbs_smoothing_iterations;
   if (iterations <= 0) {
@@ -302,13 +298,13 @@ PoseScratch& pose_scratch() {
 struct RightHandSideInput {
   long triangles;
   const int* triangle_part;
-  const int* triangle_joints;  // 2 per triangle, -1: none
-  const float* coefficients;   // PoseSynthesizer::Impl::edge_coefficients, or null
-  const double* rest;          // #F x 12
-  const double* part_columns;  // per part the three columns of R, four doubles each (the fourth 0)
+  const int* triangle_joints;    // 2 per triangle, -1: none
+  const float* coefficients;     // PoseSynthesizer::Impl::edge_coefficients, or null
+  const double* rest;            // #F x 12
+  const double* part_columns;    // per part the three columns of R, four doubles each (the fourth 0)
   const double* joint_rotation;  // 3 per joint
-  const int* corners;          // PoissonSolver::factor_corners()
-  double* rhs;                 // PoissonSolver::start_right_hand_side()
+  const int* corners;            // PoissonSolver::factor_corners()
+  double* rhs;                   // PoissonSolver::start_right_hand_side()
 };
 
 inline __attribute__((always_inline)) void right_hand_side_body(const RightHandSideInput& in) {
@@ -401,8 +397,8 @@ void PoseSynthesizer::pose(const PartPose& pose, PoseMethod method, Eigen::Matri
 
 PartTransforms PoseSynthesizer::part_motions(const PartPose& pose, PoseMethod method) const {
   const Impl& s = *impl_;
-  return part_transforms(pose, s.info.joint_centres,
-                         method == PoseMethod::kLearned ? s.model->joint_offsets : Eigen::MatrixXd(), s.offset_scale);
+  return part_transforms(pose, s.info.joint_centres, method == PoseMethod::kLearned ? s.model->joint_offsets : Eigen::MatrixXd(),
+                         s.offset_scale);
 }
 
 Eigen::MatrixXd PoseSynthesizer::joint_pivots(PoseMethod method) const {
@@ -450,8 +446,7 @@ void PoseSynthesizer::pose_with(const PartPose& pose, PoseMethod method, const E
     X->resize(s.V.rows(), 3);
     for (Eigen::Index v = 0; v < s.V.rows(); ++v) {
       const double* m = scratch.blend.data() + 12 * v;
-      for (int d = 0; d < 3; ++d)
-        (*X)(v, d) = m[3 * d] * s.V(v, 0) + m[3 * d + 1] * s.V(v, 1) + m[3 * d + 2] * s.V(v, 2) + m[9 + d];
+      for (int d = 0; d < 3; ++d) (*X)(v, d) = m[3 * d] * s.V(v, 0) + m[3 * d + 1] * s.V(v, 1) + m[3 * d + 2] * s.V(v, 2) + m[9 + d];
     }
     return;
   }

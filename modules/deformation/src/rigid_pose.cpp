@@ -25,8 +25,7 @@ std::array<Eigen::Matrix3d, kNumParts> part_rotations(const PartPose& pose) {
   std::array<Eigen::Matrix3d, kNumParts> R;
   R[kPelvis] = rotation_from_axis_angle(pose.root_rotation);
   for (int p = 1; p < kNumParts; ++p)  // parents precede children in the Part order
-    R[static_cast<size_t>(p)] =
-        R[static_cast<size_t>(part_parent(p))] * rotation_from_axis_angle(pose.joint(p - 1));
+    R[static_cast<size_t>(p)] = R[static_cast<size_t>(part_parent(p))] * rotation_from_axis_angle(pose.joint(p - 1));
   return R;
 }
 
@@ -38,7 +37,8 @@ Eigen::Matrix3d cross_product_matrix(const Eigen::Vector3d& v) {
 
 void apply_pose_increment(PartPose* pose, const Eigen::Ref<const Eigen::VectorXd>& step) {
   if (step.size() != kPoseIncrementSize)
-    throw InvalidInput("apply_pose_increment: expected " + std::to_string(kPoseIncrementSize) + " unknowns, got " + std::to_string(step.size()));
+    throw InvalidInput("apply_pose_increment: expected " + std::to_string(kPoseIncrementSize) + " unknowns, got " +
+                       std::to_string(step.size()));
   const auto R = part_rotations(*pose);
   std::array<Eigen::Matrix3d, kNumParts> W;
   std::array<Eigen::Vector3d, kNumParts> increment;
@@ -51,8 +51,7 @@ void apply_pose_increment(PartPose* pose, const Eigen::Ref<const Eigen::VectorXd
   pose->root_rotation = axis_angle_from_rotation(W[kPelvis]);
   pose->root_translation += step.head<3>();
   for (int c = 1; c < kNumParts; ++c)
-    pose->joint(c - 1) =
-        axis_angle_from_rotation(W[static_cast<size_t>(part_parent(c))].transpose() * W[static_cast<size_t>(c)]);
+    pose->joint(c - 1) = axis_angle_from_rotation(W[static_cast<size_t>(part_parent(c))].transpose() * W[static_cast<size_t>(c)]);
 }
 
 Eigen::Matrix<double, kOffsetFeatures, 1> joint_offset_features(const PartPose& pose, int joint) {
@@ -115,13 +114,13 @@ PartTransforms part_transforms(const PartPose& pose, const Eigen::MatrixXd& join
 
 PartPose part_pose_from_bone_pose(const Rig& rig, const BonePose& pose) {
   if (static_cast<int>(pose.local.size()) != rig.num_bones())
-    throw InvalidInput("part_pose_from_bone_pose: the pose has " + std::to_string(pose.local.size()) +
-                       " bones, the rig " + std::to_string(rig.num_bones()));
+    throw InvalidInput("part_pose_from_bone_pose: the pose has " + std::to_string(pose.local.size()) + " bones, the rig " +
+                       std::to_string(rig.num_bones()));
   std::vector<Eigen::Matrix3d> world(static_cast<size_t>(rig.num_bones()));
   for (int b = 0; b < rig.num_bones(); ++b) {
     const int p = rig.parent[static_cast<size_t>(b)];
-    world[static_cast<size_t>(b)] = p < 0 ? pose.local[static_cast<size_t>(b)]
-                                          : Eigen::Matrix3d(world[static_cast<size_t>(p)] * pose.local[static_cast<size_t>(b)]);
+    world[static_cast<size_t>(b)] =
+        p < 0 ? pose.local[static_cast<size_t>(b)] : Eigen::Matrix3d(world[static_cast<size_t>(p)] * pose.local[static_cast<size_t>(b)]);
   }
   const auto roots = part_root_bones(rig);
   auto axis_angle = [](const Eigen::Matrix3d& R) -> Eigen::Vector3d {

@@ -5,9 +5,9 @@
 
 #include "posekit/body/makehuman_model.h"
 #include "posekit/body/parts.h"
-#include "posekit/core/parallel.h"
 #include "posekit/core/data_root.h"
 #include "posekit/core/error.h"
+#include "posekit/core/parallel.h"
 #include "posekit/core/timer.h"
 #include "posekit/datasets/subjects.h"
 #include "posekit/deformation/pose_model.h"
@@ -24,23 +24,26 @@ SegmentationPrior calibrate_segmentation(const MakeHumanModel& model, const Cali
   std::vector<std::optional<CalibrationBody>> bodies(specs.size());
   std::mutex progress_mutex;
   int done = 0;
-  parallel_for_ranges(static_cast<long>(specs.size()), options.threads, [&](long begin, long end) {
-    for (long i = begin; i < end; ++i) {
-      const Body body = build_body(model, specs[static_cast<size_t>(i)]);
-      try {
-        const LayeredRepresentation rep =
-            build_layered_representation(body.mesh.V, body.mesh.F, find_body_features(body.mesh.V, body.mesh.F));
-        bodies[static_cast<size_t>(i)] =
-            make_calibration_body(body.mesh.V, body.mesh.F, template_labels, joint_centres(model.rig, body), rep);
-      } catch (const InvalidInput&) {
-        // An extreme random body whose features fail: it is left out.
-      }
-      if (options.progress) {
-        const std::lock_guard<std::mutex> lock(progress_mutex);
-        options.progress(++done, static_cast<int>(specs.size()));
-      }
-    }
-  }, 1);
+  parallel_for_ranges(
+      static_cast<long>(specs.size()), options.threads,
+      [&](long begin, long end) {
+        for (long i = begin; i < end; ++i) {
+          const Body body = build_body(model, specs[static_cast<size_t>(i)]);
+          try {
+            const LayeredRepresentation rep =
+                build_layered_representation(body.mesh.V, body.mesh.F, find_body_features(body.mesh.V, body.mesh.F));
+            bodies[static_cast<size_t>(i)] =
+                make_calibration_body(body.mesh.V, body.mesh.F, template_labels, joint_centres(model.rig, body), rep);
+          } catch (const InvalidInput&) {
+            // An extreme random body whose features fail: it is left out.
+          }
+          if (options.progress) {
+            const std::lock_guard<std::mutex> lock(progress_mutex);
+            options.progress(++done, static_cast<int>(specs.size()));
+          }
+        }
+      },
+      1);
   if (!bodies[0]) throw InvalidInput("calibrate_segmentation: the features of the default MakeHuman body were not found");
   SegmentationPrior prior;
   for (auto& b : bodies)

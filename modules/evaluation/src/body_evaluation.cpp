@@ -2,12 +2,12 @@
 
 #include <Eigen/Geometry>
 #include <algorithm>
-#include <cstdio>
 #include <cmath>
+#include <cstdio>
 #include <filesystem>
 #include <memory>
-#include <optional>
 #include <nlohmann/json.hpp>
+#include <optional>
 
 #include "posekit/body/parts.h"
 #include "posekit/core/error.h"
@@ -52,7 +52,8 @@ void flag_silent_nonsense(bool unwarned, BodyResult* result) {
     r.silent_nonsense.push_back(passed + " with the " + r.worst_joint + " " +
                                 std::to_string(static_cast<int>(std::lround(r.joint_error_max * 1000))) + " mm off");
   if (r.segmented && r.segmentation_agreement < kSilentAgreement)
-    r.silent_nonsense.push_back((r.by_body_model ? passed + "," : std::string("segmentation passed its checks")) + " agreeing with the rig on only " +
+    r.silent_nonsense.push_back((r.by_body_model ? passed + "," : std::string("segmentation passed its checks")) +
+                                " agreeing with the rig on only " +
                                 std::to_string(static_cast<int>(std::lround(100 * r.segmentation_agreement))) + "% of the area");
   for (const auto& [name, e] : r.girth_error)
     if (std::abs(e) > kSilentGirth)
@@ -97,9 +98,8 @@ void evaluate_fit(const BodyFit& fit, const nlohmann::json& truth, const Triangl
     const PartPose want = part_pose_from_json(truth.at("done").at("pose").dump(), "truth");
     double sum = 0;
     for (int j = 0; j < kNumJoints; ++j) {
-      const double e = Eigen::AngleAxisd(rotation_from_axis_angle(fit.pose.joint(j)).transpose() *
-                                         rotation_from_axis_angle(want.joint(j)))
-                           .angle();
+      const double e =
+          Eigen::AngleAxisd(rotation_from_axis_angle(fit.pose.joint(j)).transpose() * rotation_from_axis_angle(want.joint(j))).angle();
       r->joint_angle_error[joint_name(j)] = e;
       sum += e;
     }
@@ -117,8 +117,7 @@ void record_girths(const BodyMeasurements& m, const nlohmann::json& truth, BodyR
   }
 }
 
-BodyResult evaluate_body(const fs::path& dir, const nlohmann::json& entry, const SegmentationPrior* prior,
-                         const BodyModel* body_model) {
+BodyResult evaluate_body(const fs::path& dir, const nlohmann::json& entry, const SegmentationPrior* prior, const BodyModel* body_model) {
   const Stopwatch t0;
   BodyResult r;
   r.name = entry.at("name").get<std::string>();

@@ -7,20 +7,20 @@
 #include <map>
 #include <nlohmann/json.hpp>
 
+#include "manifest.h"
+#include "posekit/body/parts.h"
 #include "posekit/core/error.h"
+#include "posekit/core/timer.h"
+#include "posekit/core/units.h"
 #include "posekit/datasets/dataset.h"
 #include "posekit/datasets/remesh.h"
 #include "posekit/fitting/body_fit.h"
 #include "posekit/io/atomic_file.h"
 #include "posekit/io/mesh_io.h"
-#include "manifest.h"
-#include "posekit/body/parts.h"
 #include "posekit/segmentation/segmentation.h"
 #include "posekit/segmentation/skeleton_embedding.h"
 #include "posekit/shape/body_features.h"
 #include "posekit/shape/body_orientation.h"
-#include "posekit/core/timer.h"
-#include "posekit/core/units.h"
 #include "posekit/shape/layered_representation.h"
 
 namespace fs = std::filesystem;
@@ -60,8 +60,8 @@ std::string lower(std::string s) {
 int choose_rest_example(const PoseDataset& data, std::string* reason) {
   const int known = find_rest_example(data);
   if (known >= 0) {
-    *reason = !data.rest_name.empty() && data.names[static_cast<size_t>(known)] == data.rest_name
-                  ? "named as the rest pose" : "its pose JSON is all zero";
+    *reason = !data.rest_name.empty() && data.names[static_cast<size_t>(known)] == data.rest_name ? "named as the rest pose"
+                                                                                                  : "its pose JSON is all zero";
     return known;
   }
   if (!data.rest_name.empty()) return -1;
@@ -139,10 +139,9 @@ PreparedTraining prepare_training(const std::string& dir, const TrainingOptions&
   OrientationOptions orient;
   if (options.up != "auto") orient.up = parse_axis(options.up);
   if (options.forward != "auto") orient.forward = parse_axis(options.forward);
-  const BodyOrientation orientation =
-      options.up == "auto" || options.forward == "auto"
-          ? detect_mesh_orientation(data.V[static_cast<size_t>(rest)], data.F, orient)
-          : orientation_from_axes(orient.up, orient.forward);
+  const BodyOrientation orientation = options.up == "auto" || options.forward == "auto"
+                                          ? detect_mesh_orientation(data.V[static_cast<size_t>(rest)], data.F, orient)
+                                          : orientation_from_axes(orient.up, orient.forward);
   rep.orientation = orientation.describe();
   for (const auto& w : orientation.warnings) rep.warnings.push_back(data.rest_name + ": " + w);
   if (!orientation.is_identity())
@@ -177,8 +176,8 @@ PreparedTraining prepare_training(const std::string& dir, const TrainingOptions&
       o.triangle_part = segment_body(V, data.F, layers).triangle_part;
       o.joint_centres = joint_centres_from_features(V, data.F, o.triangle_part, layers, features);
     } catch (const InvalidInput& e) {
-      throw InvalidInput(dir + ": the rest example '" + data.rest_name + "' (" + rep.rest_reason + ") cannot be segmented: " +
-                         e.what() + "; it must stand upright in the standard pose, arms away from the body");
+      throw InvalidInput(dir + ": the rest example '" + data.rest_name + "' (" + rep.rest_reason + ") cannot be segmented: " + e.what() +
+                         "; it must stand upright in the standard pose, arms away from the body");
     }
   }
 
@@ -252,7 +251,9 @@ PreparedTraining prepare_training(const std::string& dir, const TrainingOptions&
       for (int p = 0; p < kNumParts; ++p)
         worse += core_rms[i][static_cast<size_t>(p)] > 3 * typical[static_cast<size_t>(p)] + options.fit.min_robust_scale;
       if (worse <= kNumParts / 2 || static_cast<int>(i) == rest) continue;
-      const std::string what = std::to_string(worse) + " of its 16 parts fit over 3 times worse than in the typical example: not the rest body posed (another person, scale or registration?); left out of training";
+      const std::string what = std::to_string(worse) +
+                               " of its 16 parts fit over 3 times worse than in the typical example: not the rest body posed (another "
+                               "person, scale or registration?); left out of training";
       rep.examples[i].problems.push_back(what);
       rep.examples[i].left_out = true;
       rep.warnings.push_back("example '" + data.names[i] + "': " + what);
@@ -307,8 +308,7 @@ std::string pose_type(const std::string& name) {
   return "single joint";
 }
 
-PoseEvaluation evaluate_poses(const std::string& dir, std::shared_ptr<const PoseModel> model,
-                              const PoseEvaluationOptions& options) {
+PoseEvaluation evaluate_poses(const std::string& dir, std::shared_ptr<const PoseModel> model, const PoseEvaluationOptions& options) {
   PoseEvaluation out;
   for (const char* type : {"single joint", "walk", "reach", "squat", "sit", "torso", "combined"}) {
     PoseTypeErrors t;
@@ -332,12 +332,10 @@ PoseEvaluation evaluate_poses(const std::string& dir, std::shared_ptr<const Pose
   const PoseModel& M = *model;
   const nlohmann::json manifest = read_dataset_manifest(dir);
   const TemplateAnnotations ann = load_template_annotations(dir);
-  const Eigen::VectorXi template_vertex_part =
-      ann.triangle_part.size() == M.template_F.rows()
-          ? vertex_labels_from_triangles(M.template_V, M.template_F, ann.triangle_part)
-          : vertex_labels_from_triangles(M.template_V, M.template_F, M.triangle_part);
-  const Eigen::VectorXi& template_triangle_part =
-      ann.triangle_part.size() == M.template_F.rows() ? ann.triangle_part : M.triangle_part;
+  const Eigen::VectorXi template_vertex_part = ann.triangle_part.size() == M.template_F.rows()
+                                                   ? vertex_labels_from_triangles(M.template_V, M.template_F, ann.triangle_part)
+                                                   : vertex_labels_from_triangles(M.template_V, M.template_F, M.triangle_part);
+  const Eigen::VectorXi& template_triangle_part = ann.triangle_part.size() == M.template_F.rows() ? ann.triangle_part : M.triangle_part;
 
   int total_steps = 0, step = 0;
   const PoseDataset data = options.template_poses ? load_pose_dataset(dir) : PoseDataset{};
@@ -413,13 +411,12 @@ PoseEvaluation evaluate_poses(const std::string& dir, std::shared_ptr<const Pose
         const TriangleMesh truth = read_mesh((fs::path(dir) / p.at("mesh").get<std::string>()).string());
         const PartPose pose = read_part_pose((fs::path(dir) / p.at("pose_json").get<std::string>()).string());
         if (truth.V.rows() != subject.V.rows())
-          throw InvalidInput(p.at("mesh").get<std::string>() + ": " + std::to_string(truth.V.rows()) +
-                             " vertices, the subject has " + std::to_string(subject.V.rows()));
+          throw InvalidInput(p.at("mesh").get<std::string>() + ": " + std::to_string(truth.V.rows()) + " vertices, the subject has " +
+                             std::to_string(subject.V.rows()));
         for (size_t m = 0; m < options.methods.size(); ++m) {
           const Stopwatch t1;
           const Eigen::MatrixXd X = synth.pose(pose, options.methods[m]);
-          if (options.methods[m] == PoseMethod::kLearned)
-            pose_ms.push_back(1000 * t1.seconds());
+          if (options.methods[m] == PoseMethod::kLearned) pose_ms.push_back(1000 * t1.seconds());
           acc[m].add(X, truth.V, vertex_part);
           pooled[m].add(X, truth.V, vertex_part);
           add_type(p.value("pose", ""), m, X, truth.V, true);
@@ -460,7 +457,8 @@ Eigen::VectorXd part_aligned_errors(const Eigen::MatrixXd& X, const Eigen::Matri
     }
     const Eigen::Matrix4d T = Eigen::umeyama(A, B, false);
     const Eigen::Matrix3Xd aligned = (T.topLeftCorner<3, 3>() * A).colwise() + T.topRightCorner<3, 1>();
-    for (size_t k = 0; k < idx.size(); ++k) e[idx[k]] = (aligned.col(static_cast<Eigen::Index>(k)) - B.col(static_cast<Eigen::Index>(k))).norm();
+    for (size_t k = 0; k < idx.size(); ++k)
+      e[idx[k]] = (aligned.col(static_cast<Eigen::Index>(k)) - B.col(static_cast<Eigen::Index>(k))).norm();
   }
   return e;
 }
@@ -534,7 +532,7 @@ class HeldOutScorer {
 
 /// The vertices of each part, and each vertex's part, from per-triangle labels.
 std::array<std::vector<int>, kNumParts> vertices_of_parts(const Eigen::MatrixXd& V, const Eigen::MatrixXi& F,
-                                                         const Eigen::VectorXi& triangle_part, Eigen::VectorXi* vertex_part) {
+                                                          const Eigen::VectorXi& triangle_part, Eigen::VectorXi* vertex_part) {
   *vertex_part = vertex_labels_from_triangles(V, F, triangle_part);
   std::array<std::vector<int>, kNumParts> out;
   for (Eigen::Index v = 0; v < vertex_part->size(); ++v) out[static_cast<size_t>((*vertex_part)[v])].push_back(static_cast<int>(v));
@@ -543,8 +541,8 @@ std::array<std::vector<int>, kNumParts> vertices_of_parts(const Eigen::MatrixXd&
 
 }  // namespace
 
-FolderPoseEvaluation evaluate_registered_folder(const std::string& dir, const TrainingOptions& base,
-                                                const DatasetTrainingOptions& options, const std::vector<PoseMethod>& methods) {
+FolderPoseEvaluation evaluate_registered_folder(const std::string& dir, const TrainingOptions& base, const DatasetTrainingOptions& options,
+                                                const std::vector<PoseMethod>& methods) {
   FolderPoseEvaluation out;
   const Stopwatch clock;
   PreparedTraining prepared = prepare_training(dir, base, options, out.training);
@@ -555,8 +553,7 @@ FolderPoseEvaluation evaluate_registered_folder(const std::string& dir, const Tr
     if (data.test[i]) held_out.push_back(i);
     else if (static_cast<int>(i) != prepared.rest && data.has_pose[i]) ++training;
   }
-  if (held_out.empty())
-    throw InvalidInput(dir + ": no held-out example to evaluate on (name them, or hold out every N-th)");
+  if (held_out.empty()) throw InvalidInput(dir + ": no held-out example to evaluate on (name them, or hold out every N-th)");
   if (training == 0) throw InvalidInput(dir + ": nothing left to train on besides the rest example and the held-out ones");
   const auto model = std::make_shared<const PoseModel>(train_pose_model(data, prepared.options));
   out.training_poses = model->training_poses;
@@ -590,8 +587,8 @@ FolderPoseEvaluation evaluate_registered_folder(const std::string& dir, const Tr
   return out;
 }
 
-PeoplePoseEvaluation evaluate_registered_people(const std::string& dir, const TrainingOptions& base,
-                                                const DatasetTrainingOptions& options, const std::vector<PoseMethod>& methods,
+PeoplePoseEvaluation evaluate_registered_people(const std::string& dir, const TrainingOptions& base, const DatasetTrainingOptions& options,
+                                                const std::vector<PoseMethod>& methods,
                                                 const std::function<void(int, int, const std::string&)>& progress) {
   if (!options.held_out.empty() || options.hold_out_every > 0)
     throw InvalidInput("several people: each person is held out in turn; no other split can be given");

@@ -8,13 +8,13 @@
 #include <random>
 
 #include "manifest.h"
+#include "posekit/body/makehuman_model.h"
 #include "posekit/body/parts.h"
 #include "posekit/core/error.h"
 #include "posekit/core/mesh_geometry.h"
 #include "posekit/datasets/dataset.h"
 #include "posekit/datasets/remesh.h"
 #include "posekit/datasets/subjects.h"
-#include "posekit/body/makehuman_model.h"
 #include "posekit/deformation/pose_model.h"
 #include "posekit/deformation/pose_synthesis.h"
 #include "posekit/io/atomic_file.h"
@@ -54,15 +54,14 @@ SampleStats triangle_match_error_mm(const TriangleMesh& templ, const Eigen::Matr
 /// Point correspondence error (mm): each subject vertex's closest point on the registered source,
 /// taken back to the template by its triangle and barycentric coordinates, against its true point.
 SampleStats point_error_mm(const TriangleMesh& templ, const Eigen::MatrixXd& deformed, const TriangleMesh& subject,
-                          const Eigen::MatrixXd& true_points) {
+                           const Eigen::MatrixXd& true_points) {
   TriangleMesh registered;
   registered.V = deformed;
   registered.F = templ.F;
   const SurfacePoints found = closest_surface_points(registered, subject.V);
   const Eigen::MatrixXd on_template = evaluate_surface_points(templ.V, templ.F, found);
   std::vector<double> d(static_cast<size_t>(subject.V.rows()));
-  for (Eigen::Index k = 0; k < subject.V.rows(); ++k)
-    d[static_cast<size_t>(k)] = 1000 * (on_template.row(k) - true_points.row(k)).norm();
+  for (Eigen::Index k = 0; k < subject.V.rows(); ++k) d[static_cast<size_t>(k)] = 1000 * (on_template.row(k) - true_points.row(k)).norm();
   return sample_stats(std::move(d));
 }
 
@@ -74,9 +73,8 @@ SampleStats triangle_match_floor_mm(const TriangleMesh& templ, const Eigen::Matr
 
 /// Mean vertex error (mm) of the subject posed by the learned method, with the given correspondence
 /// (subject triangle -> template triangle), against its posed ground truth; -1 without posed truth.
-double pose_transfer_error_mm(const std::shared_ptr<const PoseModel>& model, const std::string& dir,
-                              const nlohmann::json& subject_entry, const TriangleMesh& subject,
-                              const Eigen::VectorXi& template_triangle) {
+double pose_transfer_error_mm(const std::shared_ptr<const PoseModel>& model, const std::string& dir, const nlohmann::json& subject_entry,
+                              const TriangleMesh& subject, const Eigen::VectorXi& template_triangle) {
   SubjectSetupOptions so;
   so.template_triangle = template_triangle;
   const PoseSynthesizer synth(model, subject, so);
@@ -85,8 +83,8 @@ double pose_transfer_error_mm(const std::shared_ptr<const PoseModel>& model, con
   for (const auto& p : subject_entry.value("posed", nlohmann::json::array())) {
     const TriangleMesh truth = read_mesh((fs::path(dir) / p.at("mesh").get<std::string>()).string());
     if (truth.V.rows() != subject.V.rows()) continue;
-    const Eigen::MatrixXd X = synth.pose(read_part_pose((fs::path(dir) / p.at("pose_json").get<std::string>()).string()),
-                                         PoseMethod::kLearned);
+    const Eigen::MatrixXd X =
+        synth.pose(read_part_pose((fs::path(dir) / p.at("pose_json").get<std::string>()).string()), PoseMethod::kLearned);
     sum += (X - truth.V).rowwise().norm().sum();
     count += X.rows();
   }
@@ -290,16 +288,16 @@ RegistrationTable measure_registration_table(const std::string& dir, const Regis
       row.worst_subject_mean_error_mm = *std::max_element(row.subject_mean_error_mm.begin(), row.subject_mean_error_mm.end());
       row.worst_subject_point_mean_mm = *std::max_element(row.subject_point_mean_mm.begin(), row.subject_point_mean_mm.end());
       if (!pose_transfer[m].empty())
-        row.pose_transfer_mm = std::accumulate(pose_transfer[m].begin(), pose_transfer[m].end(), 0.0) /
-                               static_cast<double>(pose_transfer[m].size());
+        row.pose_transfer_mm =
+            std::accumulate(pose_transfer[m].begin(), pose_transfer[m].end(), 0.0) / static_cast<double>(pose_transfer[m].size());
     }
     for (const SampleStats& f : floor) {
       table.triangle_floor_mean_mm += f.mean / static_cast<double>(floor.size());
       table.triangle_floor_p95_mm += f.p95 / static_cast<double>(floor.size());
     }
     if (!pose_transfer_true.empty())
-      table.pose_transfer_true_mm = std::accumulate(pose_transfer_true.begin(), pose_transfer_true.end(), 0.0) /
-                                    static_cast<double>(pose_transfer_true.size());
+      table.pose_transfer_true_mm =
+          std::accumulate(pose_transfer_true.begin(), pose_transfer_true.end(), 0.0) / static_cast<double>(pose_transfer_true.size());
     tables.push_back(std::move(table));
   }
   RegistrationTable result = std::move(tables.front());

@@ -13,30 +13,30 @@
 #include <sstream>
 
 #include "manifest.h"
-#include "report_cache.h"
 #include "posekit/core/data_root.h"
 #include "posekit/core/error.h"
 #include "posekit/core/parallel.h"
 #include "posekit/core/timer.h"
 #include "posekit/customization/photo_evaluation.h"
 #include "posekit/datasets/dataset.h"
+#include "posekit/datasets/subjects.h"
 #include "posekit/deformation/part_pose_estimation.h"
 #include "posekit/deformation/pose_fitting.h"
 #include "posekit/deformation/pose_model.h"
-#include "posekit/deformation/segmentation_calibration.h"
 #include "posekit/deformation/pose_synthesis.h"
+#include "posekit/deformation/segmentation_calibration.h"
 #include "posekit/evaluation/pose_evaluation.h"
 #include "posekit/evaluation/registration_table.h"
 #include "posekit/evaluation/scan_comparison.h"
 #include "posekit/io/atomic_file.h"
 #include "posekit/io/mesh_io.h"
 #include "posekit/io/point_cloud_io.h"
-#include "posekit/datasets/subjects.h"
 #include "posekit/registration/ctffd.h"
 #include "posekit/registration/shape_space.h"
 #include "posekit/shape/body_features.h"
 #include "posekit/shape/layered_representation.h"
 #include "posekit/viewers/viewer.h"
+#include "report_cache.h"
 
 namespace fs = std::filesystem;
 
@@ -91,8 +91,7 @@ struct Document {
     for (const auto& item : items) {
       if (item.is_figure) {
         const Figure& f = item.figure;
-        md << "## " << f.title << "\n\n![" << f.title << "](" << f.file << ")\n\n" << f.caption << "\n\nMade by: `"
-           << f.command << "`\n\n";
+        md << "## " << f.title << "\n\n![" << f.title << "](" << f.file << ")\n\n" << f.caption << "\n\nMade by: `" << f.command << "`\n\n";
       } else {
         const Table& t = item.table;
         md << "## " << t.title << "\n\n|";
@@ -128,9 +127,9 @@ struct Document {
     for (const auto& item : items) {
       if (item.is_figure) {
         const Figure& f = item.figure;
-        h << "<figure><h2>" << html_escape(f.title) << "</h2><a href=\"" << f.file << "\"><img src=\"" << f.file
-          << "\" alt=\"" << html_escape(f.title) << "\"></a><figcaption>" << html_escape(f.caption)
-          << "<br>Made by: <code>" << html_escape(f.command) << "</code></figcaption></figure>\n";
+        h << "<figure><h2>" << html_escape(f.title) << "</h2><a href=\"" << f.file << "\"><img src=\"" << f.file << "\" alt=\""
+          << html_escape(f.title) << "\"></a><figcaption>" << html_escape(f.caption) << "<br>Made by: <code>" << html_escape(f.command)
+          << "</code></figcaption></figure>\n";
       } else {
         const Table& t = item.table;
         h << "<h2>" << html_escape(t.title) << "</h2>\n<table><tr>";
@@ -225,7 +224,8 @@ class ReportWriter {
     if (!o.model_path.empty()) {
       model = std::make_shared<const PoseModel>(read_pose_model(o.model_path));
     } else {
-      const std::string file = cache.path("pose model", dataset_print + "\ncalibration bodies " + std::to_string(o.calibration_bodies), ".pkm");
+      const std::string file =
+          cache.path("pose model", dataset_print + "\ncalibration bodies " + std::to_string(o.calibration_bodies), ".pkm");
       const std::string note_file = file.empty() ? "" : file + ".warning";
       if (cached(file)) {
         model = std::make_shared<const PoseModel>(read_pose_model(file));
@@ -239,7 +239,9 @@ class ReportWriter {
         const std::string note = prior.not_made.empty() ? "" : "segmentation prior: the template alone (" + prior.not_made + ")";
         if (!note.empty()) doc.warnings.push_back(note);
         if (!file.empty()) {
-          if (!note.empty()) write_file_atomically(note_file, [&](std::ostream& out) { out << note; }, false);
+          if (!note.empty())
+            write_file_atomically(
+                note_file, [&](std::ostream& out) { out << note; }, false);
           write_pose_model(file, trained);
         }
         model = std::make_shared<const PoseModel>(std::move(trained));
@@ -296,7 +298,8 @@ class ReportWriter {
     std::string transfer_id;
     double best_bmi = -1;
     for (const auto& s : subjects)
-      if (s.value("gender", "") == "female" && s.value("bmi", 0.0) > best_bmi) best_bmi = s.value("bmi", 0.0), transfer_id = s.value("id", "");
+      if (s.value("gender", "") == "female" && s.value("bmi", 0.0) > best_bmi)
+        best_bmi = s.value("bmi", 0.0), transfer_id = s.value("id", "");
     if (transfer_id.empty() && !subjects.empty()) transfer_id = subjects[0].value("id", "");
     for (const auto& s : subjects) {
       const std::string id = s.value("id", "?");
@@ -319,8 +322,9 @@ class ReportWriter {
       }
       render(panels, plain, "fig3_transferred_poses.png",
              {"", "Figure 3: the same poses transferred to a customized model",
-              "Subject " + transfer_id + " (its own mesh and topology) in the poses of Figure 2: its segmentation and skeleton give "
-              "T^R, the template's T^Q comes through the ct-FFD correspondence (section 3.3.3). Views as in Figure 2.",
+              "Subject " + transfer_id +
+                  " (its own mesh and topology) in the poses of Figure 2: its segmentation and skeleton give "
+                  "T^R, the template's T^Q comes through the ct-FFD correspondence (section 3.3.3). Views as in Figure 2.",
               "posekit pose --model model.pkm --subject " + path_in("subjects/" + transfer_id + "/rest.ply") +
                   " --pose <pose.json> --out posed.ply"});
     }
@@ -340,8 +344,8 @@ class ReportWriter {
           t.data_root = find_data_root("");
           t.bodies = o.customization_bodies;
           t.threads = o.threads > 0 ? o.threads : 2;
-          const std::string file = cache.path("customization model", data_print + "\nbodies " + std::to_string(t.bodies) +
-                                                                         " threads " + std::to_string(t.threads), ".pkc");
+          const std::string file = cache.path(
+              "customization model", data_print + "\nbodies " + std::to_string(t.bodies) + " threads " + std::to_string(t.threads), ".pkc");
           if (cached(file)) {
             photo_model = load_customization_model(file);
             reuse("customization model", file);
@@ -372,8 +376,13 @@ class ReportWriter {
           auto girth = [&](double v) { return r.girths_measured ? fixed(v, 1) : std::string("n/a"); };
           photo_table.rows.push_back({r.id, fixed(r.stature_mm, 1), girth(r.bust_mm), girth(r.waist_mm), girth(r.hip_mm),
                                       fixed(r.surface_mm, 2), fixed(r.seconds, 2)});
-          photo_json.push_back({{"subject", r.id}, {"stature_mm", r.stature_mm}, {"bust_mm", r.bust_mm}, {"waist_mm", r.waist_mm},
-                                {"hip_mm", r.hip_mm}, {"surface_mm", r.surface_mm}, {"seconds", r.seconds}});
+          photo_json.push_back({{"subject", r.id},
+                                {"stature_mm", r.stature_mm},
+                                {"bust_mm", r.bust_mm},
+                                {"waist_mm", r.waist_mm},
+                                {"hip_mm", r.hip_mm},
+                                {"surface_mm", r.surface_mm},
+                                {"seconds", r.seconds}});
         }
         photo_table.rows.push_back({"mean |error|", fixed(ev.mean_abs_stature_mm, 1), fixed(ev.mean_abs_bust_mm, 1),
                                     fixed(ev.mean_abs_waist_mm, 1), fixed(ev.mean_abs_hip_mm, 1), fixed(ev.mean_surface_mm, 2), ""});
@@ -383,10 +392,10 @@ class ReportWriter {
           const std::string id = s.value("id", "?");
           try {
             const auto& ph = s.at("photos");
-            const CustomizedBody body = customize_from_silhouettes(
-                silhouette_from_photo(path_in(ph.at("front").get<std::string>()), "front photo of " + id),
-                silhouette_from_photo(path_in(ph.at("side").get<std::string>()), "side photo of " + id),
-                read_photo_cameras(path_in(ph.at("camera").get<std::string>())), *photo_model);
+            const CustomizedBody body =
+                customize_from_silhouettes(silhouette_from_photo(path_in(ph.at("front").get<std::string>()), "front photo of " + id),
+                                           silhouette_from_photo(path_in(ph.at("side").get<std::string>()), "side photo of " + id),
+                                           read_photo_cameras(path_in(ph.at("camera").get<std::string>())), *photo_model);
             from_photos[id] = body.mesh;
           } catch (const std::exception& e) {
             doc.warnings.push_back("subject " + id + ": not customized from its photos (" + e.what() + ")");
@@ -416,8 +425,9 @@ class ReportWriter {
       v.panel_height = 440;
       render(panels, v, "fig" + std::to_string(number) + "_" + gender + "_from_photos.png",
              {"", "Figure " + std::to_string(number) + ": " + gender + " models customized from photos",
-              "The template customized to every " + gender + " subject from its front and side photos alone (section 3.2), "
-              "in the standard pose.",
+              "The template customized to every " + gender +
+                  " subject from its front and side photos alone (section 3.2), "
+                  "in the standard pose.",
               "posekit customize --front <front.png> --side <side.png> --camera <camera.json> --out body.ply"});
     }
     tick("figures 5 and 6");
@@ -429,8 +439,8 @@ class ReportWriter {
     // Figure 4 and the scan table: the template customized to each subject from its photos (and by
     // ct-FFD from its mesh), against the scan.
     Table scans_table{"Models against scans (rest pose)",
-                      {"subject", "model", "scan to model mean mm", "RMS mm", "95th pct mm", "coverage %", "bust diff cm",
-                       "waist diff cm", "hip diff cm"},
+                      {"subject", "model", "scan to model mean mm", "RMS mm", "95th pct mm", "coverage %", "bust diff cm", "waist diff cm",
+                       "hip diff cm"},
                       {},
                       "Distances from every scan point to the model's surface (exact), outliers beyond 20 mm counted apart. "
                       "Girth differences are model minus scan; ISO 20685-1 allows 9 mm for these large girths, the paper "
@@ -464,8 +474,8 @@ class ReportWriter {
         std::vector<std::pair<std::string, TriangleMesh>> models = {{"subject mesh", rests[id]}};
         if (have_template_rep) {
           TriangleMesh customized = templ;
-          customized.V = ctffd_evaluate(template_param, build_layered_representation(rests[id].V, rests[id].F,
-                                                                                    find_body_features(rests[id].V, rests[id].F)));
+          customized.V = ctffd_evaluate(
+              template_param, build_layered_representation(rests[id].V, rests[id].F, find_body_features(rests[id].V, rests[id].F)));
           models.emplace_back("template customized by ct-FFD", customized);
         }
         if (from_photos.count(id)) models.emplace_back("customized from photos", from_photos[id]);
@@ -483,10 +493,13 @@ class ReportWriter {
             return std::string("n/a");
           };
           scans_table.rows.push_back({id, what, fixed(r.scan_stats.mean_mm, 2), fixed(r.scan_stats.rms_mm, 2),
-                                      fixed(r.scan_stats.p95_mm, 2), fixed(100 * r.coverage, 1), diff("bust"), diff("waist"),
-                                      diff("hip")});
-          scan_json.push_back({{"subject", id}, {"model", what}, {"scan_to_model_mean_mm", r.scan_stats.mean_mm},
-                               {"rms_mm", r.scan_stats.rms_mm}, {"p95_mm", r.scan_stats.p95_mm}, {"coverage", r.coverage}});
+                                      fixed(r.scan_stats.p95_mm, 2), fixed(100 * r.coverage, 1), diff("bust"), diff("waist"), diff("hip")});
+          scan_json.push_back({{"subject", id},
+                               {"model", what},
+                               {"scan_to_model_mean_mm", r.scan_stats.mean_mm},
+                               {"rms_mm", r.scan_stats.rms_mm},
+                               {"p95_mm", r.scan_stats.p95_mm},
+                               {"coverage", r.coverage}});
           if (what == (from_photos.empty() ? "template customized by ct-FFD" : "customized from photos") &&
               customization_panels.size() < 4) {
             ViewPanel p;
@@ -512,10 +525,11 @@ class ReportWriter {
                     "scan data, e.g. the soles). (No photo customization model: see the warnings.)"
                   : "The template customized to each subject from its two photos (section 3.2) coloured by its signed distance "
                     "to the subject's simulated scan (positive: the scan lies outside the model; grey: no scan data, e.g. the soles).",
-              from_photos.empty() ? "posekit register " + path_in("template/rest.ply") +
-                                        " <subject rest.ply> --deformed customized.ply && posekit compare customized.ply <scan.pcd> --png heatmap.png"
-                                  : "posekit customize --front <front.png> --side <side.png> --camera <camera.json> --out customized.ply "
-                                    "&& posekit compare customized.ply <scan.pcd> --png heatmap.png"});
+              from_photos.empty()
+                  ? "posekit register " + path_in("template/rest.ply") +
+                        " <subject rest.ply> --deformed customized.ply && posekit compare customized.ply <scan.pcd> --png heatmap.png"
+                  : "posekit customize --front <front.png> --side <side.png> --camera <camera.json> --out customized.ply "
+                    "&& posekit compare customized.ply <scan.pcd> --png heatmap.png"});
     }
     doc.table(scans_table);
     tick("scans");
@@ -591,34 +605,44 @@ class ReportWriter {
         for (const auto& sc : s.value("scans", nlohmann::json::array()))
           if (sc.value("pose", "") == p.value("pose", ""))
             for (PoseMethod m : {PoseMethod::kLearned, PoseMethod::kLbs})
-              fits.push_back({id, p.value("pose", ""), path_in(sc.at("cloud").get<std::string>()),
-                              path_in(s.at("rest").get<std::string>()), m, {}, ""});
+              fits.push_back({id,
+                              p.value("pose", ""),
+                              path_in(sc.at("cloud").get<std::string>()),
+                              path_in(s.at("rest").get<std::string>()),
+                              m,
+                              {},
+                              ""});
     }
-    const std::string model_print =
-        !cache.enabled() ? "" : o.model_path.empty() ? dataset_print + "\ncalibration bodies " + std::to_string(o.calibration_bodies)
-                                                     : report_detail::binary_fingerprint() + "\n" + report_detail::file_fingerprint(o.model_path);
+    const std::string model_print = !cache.enabled() ? ""
+                                    : o.model_path.empty()
+                                        ? dataset_print + "\ncalibration bodies " + std::to_string(o.calibration_bodies)
+                                        : report_detail::binary_fingerprint() + "\n" + report_detail::file_fingerprint(o.model_path);
     std::atomic<int> fits_reused{0};
-    parallel_for_ranges(static_cast<long>(fits.size()), o.threads > 0 ? std::min(o.threads, 2) : 2, [&](long begin, long end) {
-      for (long k = begin; k < end; ++k) {
-        FitTask& t = fits[static_cast<size_t>(k)];
-        try {
-          const std::string file =
-              cache.path("pose fit", model_print + "\nsubject " + report_detail::file_fingerprint(t.rest_path) +
-                                         "\nscan " + report_detail::file_fingerprint(t.scan_path) + "\nmethod " + pose_method_name(t.method),
-                         ".fit");
-          if (cached(file) && report_detail::read_pose_fit(file, &t.result)) {
-            ++fits_reused;
-            continue;
+    parallel_for_ranges(
+        static_cast<long>(fits.size()), o.threads > 0 ? std::min(o.threads, 2) : 2,
+        [&](long begin, long end) {
+          for (long k = begin; k < end; ++k) {
+            FitTask& t = fits[static_cast<size_t>(k)];
+            try {
+              const std::string file =
+                  cache.path("pose fit",
+                             model_print + "\nsubject " + report_detail::file_fingerprint(t.rest_path) + "\nscan " +
+                                 report_detail::file_fingerprint(t.scan_path) + "\nmethod " + pose_method_name(t.method),
+                             ".fit");
+              if (cached(file) && report_detail::read_pose_fit(file, &t.result)) {
+                ++fits_reused;
+                continue;
+              }
+              PoseFitOptions fo;
+              fo.method = t.method;
+              t.result = fit_pose(*synths.at(t.id), load_scan_m(t.scan_path).P, fo);
+              if (!file.empty()) report_detail::write_pose_fit(file, t.result);
+            } catch (const Error& e) {
+              t.error = e.what();
+            }
           }
-          PoseFitOptions fo;
-          fo.method = t.method;
-          t.result = fit_pose(*synths.at(t.id), load_scan_m(t.scan_path).P, fo);
-          if (!file.empty()) report_detail::write_pose_fit(file, t.result);
-        } catch (const Error& e) {
-          t.error = e.what();
-        }
-      }
-    }, 1);
+        },
+        1);
     if (fits_reused > 0) summary.reused.push_back("pose fits (" + std::to_string(fits_reused) + " of " + std::to_string(fits.size()) + ")");
     return fits;
   }
@@ -665,11 +689,9 @@ class ReportWriter {
             const std::string vertex_error =
                 truth.rows() == V.rows() ? fixed(1000 * (V - truth).rowwise().norm().mean(), 2) : std::string("");
             double angle = rotation_difference(used.root_rotation, part_pose.root_rotation);
-            for (int j = 0; j < kNumJoints; ++j)
-              angle += rotation_difference(used.joint(j), part_pose.joint(j));
-            posed_table.rows.push_back({id, pose, from, pose_method_name(m), fixed(r.scan_stats.mean_mm, 2),
-                                        fixed(r.scan_stats.rms_mm, 2), fixed(r.scan_stats.p95_mm, 2),
-                                        std::to_string(r.scan_stats.outliers), vertex_error,
+            for (int j = 0; j < kNumJoints; ++j) angle += rotation_difference(used.joint(j), part_pose.joint(j));
+            posed_table.rows.push_back({id, pose, from, pose_method_name(m), fixed(r.scan_stats.mean_mm, 2), fixed(r.scan_stats.rms_mm, 2),
+                                        fixed(r.scan_stats.p95_mm, 2), std::to_string(r.scan_stats.outliers), vertex_error,
                                         fixed(angle / (kNumJoints + 1) * 180 / M_PI, 1)});
             if (from == "fit" && m == PoseMethod::kLearned && pose == "reach_forward" && fig9_subjects < 3) {
               ViewPanel a;
@@ -761,12 +783,13 @@ class ReportWriter {
           char when[32];
           std::strftime(when, sizeof when, "%Y-%m-%d %H:%M UTC", std::gmtime(&now));
           const nlohmann::json j = {{"measured", when}, {"table", report_detail::registration_table_to_json(t)}};
-          write_file_atomically(table_file, [&](std::ostream& out) { out << j.dump(1); }, false);
+          write_file_atomically(
+              table_file, [&](std::ostream& out) { out << j.dump(1); }, false);
         }
       }
       Table table{"Table 1: registration time and correspondence accuracy",
-                  {"method", "median s", "min s", "max s", "point error mean mm", "p95 mm", "max mm", "triangle match mean mm",
-                   "p95 mm", "pose transfer mm", "subjects"},
+                  {"method", "median s", "min s", "max s", "point error mean mm", "p95 mm", "max mm", "triangle match mean mm", "p95 mm",
+                   "pose transfer mm", "subjects"},
                   {},
                   "Template (" + std::to_string(t.template_vertices) + " vertices) registered to the subjects (~" +
                       std::to_string(t.mean_subject_vertices) + " vertices, ~" + std::to_string(t.mean_subject_triangles) +
@@ -774,25 +797,33 @@ class ReportWriter {
                       " runs each, single thread. Point error: each subject vertex's closest point on the registered "
                       "template, taken back to the template, against its true point. Triangle match (Eq. 2b): the "
                       "distance on the template between the matched triangle's centroid and the true point of the "
-                      "subject triangle's centroid; the true correspondence itself scores " + fixed(t.triangle_floor_mean_mm, 1) +
-                      " mm mean (" + fixed(t.triangle_floor_p95_mm, 1) + " mm p95) on it. Pose transfer: mean vertex error of the subjects posed by the learned method with "
+                      "subject triangle's centroid; the true correspondence itself scores " +
+                      fixed(t.triangle_floor_mean_mm, 1) + " mm mean (" + fixed(t.triangle_floor_p95_mm, 1) +
+                      " mm p95) on it. Pose transfer: mean vertex error of the subjects posed by the learned method with "
                       "that correspondence against their posed ground truth (with the true correspondence: " +
                       (t.pose_transfer_true_mm >= 0 ? fixed(t.pose_transfer_true_mm, 2) + " mm" : std::string("not measured")) +
                       "). The paper (Matlab, Core i7, 12,428 vertices): ICP 24 s for 1 iteration, 229 s "
-                      "for 6, ct-FFD 5.1 s. Made by: posekit bench registration --dataset " + dir +
+                      "for 6, ct-FFD 5.1 s. Made by: posekit bench registration --dataset " +
+                      dir +
                       (measured_when.empty() ? std::string()
-                                             : ". Timed on " + measured_when + " and reused from the cache (its inputs are "
-                                               "unchanged; posekit report --no-cache times it again)")};
+                                             : ". Timed on " + measured_when +
+                                                   " and reused from the cache (its inputs are "
+                                                   "unchanged; posekit report --no-cache times it again)")};
       nlohmann::ordered_json rows = nlohmann::ordered_json::array();
       for (const auto& r : t.rows) {
         if (r.seconds.empty()) continue;
         table.rows.push_back({r.method, fixed(r.median_s, 3), fixed(r.min_s, 3), fixed(r.max_s, 3), fixed(r.point_mean_mm, 1),
-                              fixed(r.point_p95_mm, 1), fixed(r.point_max_mm, 1), fixed(r.mean_error_mm, 1),
-                              fixed(r.p95_error_mm, 1), r.pose_transfer_mm >= 0 ? fixed(r.pose_transfer_mm, 2) : "",
-                              std::to_string(r.subjects)});
-        rows.push_back({{"method", r.method}, {"median_s", r.median_s}, {"point_mean_mm", r.point_mean_mm},
-                        {"point_p95_mm", r.point_p95_mm}, {"point_max_mm", r.point_max_mm}, {"mean_error_mm", r.mean_error_mm},
-                        {"p95_error_mm", r.p95_error_mm}, {"pose_transfer_mm", r.pose_transfer_mm}, {"subjects", r.subjects}});
+                              fixed(r.point_p95_mm, 1), fixed(r.point_max_mm, 1), fixed(r.mean_error_mm, 1), fixed(r.p95_error_mm, 1),
+                              r.pose_transfer_mm >= 0 ? fixed(r.pose_transfer_mm, 2) : "", std::to_string(r.subjects)});
+        rows.push_back({{"method", r.method},
+                        {"median_s", r.median_s},
+                        {"point_mean_mm", r.point_mean_mm},
+                        {"point_p95_mm", r.point_p95_mm},
+                        {"point_max_mm", r.point_max_mm},
+                        {"mean_error_mm", r.mean_error_mm},
+                        {"p95_error_mm", r.p95_error_mm},
+                        {"pose_transfer_mm", r.pose_transfer_mm},
+                        {"subjects", r.subjects}});
       }
       doc.data["table1"] = rows;
       doc.table(table);
@@ -814,13 +845,15 @@ class ReportWriter {
                       " held-out poses, (b) the subjects in their posed ground truth. Median time per pose (learned): " +
                       fixed(ev.pose_ms_median, 2) + " ms. Made by: posekit eval pose --dataset " + dir};
       nlohmann::ordered_json rows = nlohmann::ordered_json::array();
-      for (auto [set, errors] : {std::pair{"template (held-out poses)", &ev.template_errors},
-                                 std::pair{"customized subjects", &ev.subject_errors}})
+      for (auto [set, errors] :
+           {std::pair{"template (held-out poses)", &ev.template_errors}, std::pair{"customized subjects", &ev.subject_errors}})
         for (const auto& m : *errors) {
-          table.rows.push_back({set, pose_method_name(m.method), fixed(m.all.mean_mm, 2), fixed(m.all.p95_mm, 2),
-                                fixed(m.all.max_mm, 1)});
-          rows.push_back({{"set", set}, {"method", pose_method_name(m.method)}, {"mean_mm", m.all.mean_mm},
-                          {"p95_mm", m.all.p95_mm}, {"max_mm", m.all.max_mm}});
+          table.rows.push_back({set, pose_method_name(m.method), fixed(m.all.mean_mm, 2), fixed(m.all.p95_mm, 2), fixed(m.all.max_mm, 1)});
+          rows.push_back({{"set", set},
+                          {"method", pose_method_name(m.method)},
+                          {"mean_mm", m.all.mean_mm},
+                          {"p95_mm", m.all.p95_mm},
+                          {"max_mm", m.all.max_mm}});
         }
       doc.data["pose_errors"] = rows;
       doc.table(table);
@@ -840,9 +873,10 @@ class ReportWriter {
     doc.data["warnings"] = doc.warnings;
     doc.data["seconds"] = summary.seconds;
     const std::string title = "posekit report: " + dir;
-    const std::string intro = "Figures and tables of Zhu & Mok, Efficient Pose Deformations for Human Models in Customized "
-                              "Sizes and Shapes, regenerated from the dataset in " + dir + " by: " + cmd + " (" +
-                              fixed(summary.seconds, 1) + " s). Lengths in mm unless stated.";
+    const std::string intro =
+        "Figures and tables of Zhu & Mok, Efficient Pose Deformations for Human Models in Customized "
+        "Sizes and Shapes, regenerated from the dataset in " +
+        dir + " by: " + cmd + " (" + fixed(summary.seconds, 1) + " s). Lengths in mm unless stated.";
     const std::string md = doc.markdown(title, intro), html = doc.html(title, intro), json = doc.data.dump(2) + "\n";
     write_file_atomically((fs::path(out_dir) / "report.md").string(), [&](std::ostream& s) { s << md; }, false);
     write_file_atomically((fs::path(out_dir) / "report.json").string(), [&](std::ostream& s) { s << json; }, false);

@@ -70,7 +70,8 @@ std::string file_fingerprint(const std::string& path) {
 std::string binary_fingerprint() {
   Dl_info info{};
   std::string self = "/proc/self/exe";
-  if (dladdr(reinterpret_cast<void*>(&binary_fingerprint), &info) != 0 && info.dli_fname && std::string(info.dli_fname).find('/') != std::string::npos)
+  if (dladdr(reinterpret_cast<void*>(&binary_fingerprint), &info) != 0 && info.dli_fname &&
+      std::string(info.dli_fname).find('/') != std::string::npos)
     self = info.dli_fname;
   std::error_code ec;
   const fs::path resolved = fs::canonical(self, ec);
@@ -78,8 +79,10 @@ std::string binary_fingerprint() {
 }
 
 void write_pose_fit(const std::string& path, const PoseFitResult& fit) {
-  const nlohmann::json head = {{"format", "posekit report pose fit 1"}, {"pose", part_pose_to_json(fit.pose)},
-                               {"vertices", fit.V.rows()}, {"warnings", fit.warnings}};
+  const nlohmann::json head = {{"format", "posekit report pose fit 1"},
+                               {"pose", part_pose_to_json(fit.pose)},
+                               {"vertices", fit.V.rows()},
+                               {"warnings", fit.warnings}};
   const Eigen::Matrix<double, Eigen::Dynamic, 3, Eigen::RowMajor> V = fit.V;
   write_file_atomically(path, [&](std::ostream& out) {
     out << head.dump() << "\n";
@@ -110,20 +113,36 @@ bool read_pose_fit(const std::string& path, PoseFitResult* fit) {
 nlohmann::json registration_table_to_json(const RegistrationTable& t) {
   nlohmann::json rows = nlohmann::json::array();
   for (const auto& r : t.rows)
-    rows.push_back({{"method", r.method}, {"seconds", r.seconds}, {"median_s", r.median_s}, {"min_s", r.min_s},
-                    {"max_s", r.max_s}, {"point_mean_mm", r.point_mean_mm}, {"point_p95_mm", r.point_p95_mm},
-                    {"point_max_mm", r.point_max_mm}, {"worst_subject_point_mean_mm", r.worst_subject_point_mean_mm},
-                    {"subject_point_mean_mm", r.subject_point_mean_mm}, {"mean_error_mm", r.mean_error_mm},
-                    {"p95_error_mm", r.p95_error_mm}, {"worst_subject_mean_error_mm", r.worst_subject_mean_error_mm},
-                    {"subject_mean_error_mm", r.subject_mean_error_mm}, {"pose_transfer_mm", r.pose_transfer_mm},
+    rows.push_back({{"method", r.method},
+                    {"seconds", r.seconds},
+                    {"median_s", r.median_s},
+                    {"min_s", r.min_s},
+                    {"max_s", r.max_s},
+                    {"point_mean_mm", r.point_mean_mm},
+                    {"point_p95_mm", r.point_p95_mm},
+                    {"point_max_mm", r.point_max_mm},
+                    {"worst_subject_point_mean_mm", r.worst_subject_point_mean_mm},
+                    {"subject_point_mean_mm", r.subject_point_mean_mm},
+                    {"mean_error_mm", r.mean_error_mm},
+                    {"p95_error_mm", r.p95_error_mm},
+                    {"worst_subject_mean_error_mm", r.worst_subject_mean_error_mm},
+                    {"subject_mean_error_mm", r.subject_mean_error_mm},
+                    {"pose_transfer_mm", r.pose_transfer_mm},
                     {"subjects", r.subjects}});
   nlohmann::json others = nlohmann::json::array();
   for (const auto& o : t.other_targets) others.push_back(registration_table_to_json(o));
-  return {{"targets", t.targets}, {"template_vertices", t.template_vertices}, {"template_triangles", t.template_triangles},
-          {"mean_subject_vertices", t.mean_subject_vertices}, {"mean_subject_triangles", t.mean_subject_triangles},
-          {"subject_ids", t.subject_ids}, {"triangle_floor_mean_mm", t.triangle_floor_mean_mm},
-          {"triangle_floor_p95_mm", t.triangle_floor_p95_mm}, {"pose_transfer_true_mm", t.pose_transfer_true_mm},
-          {"ctffd_template_seconds", t.ctffd_template_seconds}, {"rows", rows}, {"other_targets", others}};
+  return {{"targets", t.targets},
+          {"template_vertices", t.template_vertices},
+          {"template_triangles", t.template_triangles},
+          {"mean_subject_vertices", t.mean_subject_vertices},
+          {"mean_subject_triangles", t.mean_subject_triangles},
+          {"subject_ids", t.subject_ids},
+          {"triangle_floor_mean_mm", t.triangle_floor_mean_mm},
+          {"triangle_floor_p95_mm", t.triangle_floor_p95_mm},
+          {"pose_transfer_true_mm", t.pose_transfer_true_mm},
+          {"ctffd_template_seconds", t.ctffd_template_seconds},
+          {"rows", rows},
+          {"other_targets", others}};
 }
 
 RegistrationTable registration_table_from_json(const nlohmann::json& j) {

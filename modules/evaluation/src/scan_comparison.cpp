@@ -1,6 +1,5 @@
 #include "posekit/evaluation/scan_comparison.h"
 
-
 #include <algorithm>
 #include <chrono>
 #include <cmath>
@@ -9,11 +8,11 @@
 #include <unordered_map>
 
 #include "posekit/core/closest_point.h"
-#include "posekit/core/parallel.h"
-#include "posekit/core/point_grid.h"
 #include "posekit/core/error.h"
 #include "posekit/core/mesh_geometry.h"
 #include "posekit/core/mesh_validation.h"
+#include "posekit/core/parallel.h"
+#include "posekit/core/point_grid.h"
 #include "posekit/shape/measurements.h"
 
 namespace posekit {
@@ -114,8 +113,8 @@ ScanComparison compare_with_scan(const TriangleMesh& model, const PointCloud& sc
   r.scan_closest_face.resize(scan.P.rows());
   r.scan_to_model.resize(scan.P.rows());
   tree.for_each_closest(scan.P, o.threads, [&](Eigen::Index i, const ClosestHit& h) {
-    const Eigen::RowVector3d n = h.bary[0] * vn.row(model.F(h.face, 0)) + h.bary[1] * vn.row(model.F(h.face, 1)) +
-                                 h.bary[2] * vn.row(model.F(h.face, 2));
+    const Eigen::RowVector3d n =
+        h.bary[0] * vn.row(model.F(h.face, 0)) + h.bary[1] * vn.row(model.F(h.face, 1)) + h.bary[2] * vn.row(model.F(h.face, 2));
     const double side = (scan.P.row(i) - h.point.transpose()).dot(n);
     r.scan_to_model[i] = side < 0 ? -h.distance : h.distance;
     r.scan_closest_face[i] = h.face;
@@ -142,22 +141,25 @@ ScanComparison compare_with_scan(const TriangleMesh& model, const PointCloud& sc
   }
   r.model_to_scan.resize(model.V.rows());
   std::vector<char> uncovered(static_cast<size_t>(model.V.rows()), 0);
-  parallel_for_ranges(model.V.rows(), o.threads, [&](long begin, long end) {
-    for (long v = begin; v < end; ++v) {
-      double sq;
-      // A vertex exactly at the radius still counts as covered, as before.
-      const int nearest = grid.nearest(model.V.row(v).transpose(), &sq, std::nextafter(r.coverage_radius, INFINITY));
-      if (nearest < 0) {  // nothing within the coverage radius
-        r.model_to_scan[v] = std::numeric_limits<double>::quiet_NaN();
-        uncovered[static_cast<size_t>(v)] = 1;
-        continue;
-      }
-      const double d = std::sqrt(sq);
-      const double side = (scan.P.row(nearest) - model.V.row(v)).dot(vn.row(v));
-      // Positive: the scan lies outside the model there (same convention as scan_to_model).
-      r.model_to_scan[v] = side < 0 ? -d : d;
-    }
-  }, 256);
+  parallel_for_ranges(
+      model.V.rows(), o.threads,
+      [&](long begin, long end) {
+        for (long v = begin; v < end; ++v) {
+          double sq;
+          // A vertex exactly at the radius still counts as covered, as before.
+          const int nearest = grid.nearest(model.V.row(v).transpose(), &sq, std::nextafter(r.coverage_radius, INFINITY));
+          if (nearest < 0) {  // nothing within the coverage radius
+            r.model_to_scan[v] = std::numeric_limits<double>::quiet_NaN();
+            uncovered[static_cast<size_t>(v)] = 1;
+            continue;
+          }
+          const double d = std::sqrt(sq);
+          const double side = (scan.P.row(nearest) - model.V.row(v)).dot(vn.row(v));
+          // Positive: the scan lies outside the model there (same convention as scan_to_model).
+          r.model_to_scan[v] = side < 0 ? -d : d;
+        }
+      },
+      256);
   r.uncovered_vertices = std::count(uncovered.begin(), uncovered.end(), 1);
   r.model_to_scan_seconds = since(t);
   t = Clock::now();
@@ -203,22 +205,24 @@ double checked_coverage_radius(const TriangleMesh& model, const ScanPieces& scan
     hi = hi.cwiseMax(P.colwise().maxCoeff());
     if (!automatic_radius) return;
     const PointGrid grid(P);
-    parallel_for_ranges(static_cast<long>(samples.size()), o.threads, [&](long begin, long end) {
-      for (long k = begin; k < end; ++k) {
-        const Eigen::Index own = samples[static_cast<size_t>(k)] - first;
-        const double bound = std::isfinite(sample_sq[static_cast<size_t>(k)])
-                                 ? std::nextafter(std::sqrt(sample_sq[static_cast<size_t>(k)]), INFINITY)
-                                 : std::numeric_limits<double>::infinity();
-        double sq;
-        if (grid.nearest(sample_points.row(k).transpose(), &sq, bound, own >= 0 && own < P.rows() ? static_cast<int>(own) : -1) >= 0 &&
-            sq < sample_sq[static_cast<size_t>(k)])
-          sample_sq[static_cast<size_t>(k)] = sq;
-      }
-    }, 64);
+    parallel_for_ranges(
+        static_cast<long>(samples.size()), o.threads,
+        [&](long begin, long end) {
+          for (long k = begin; k < end; ++k) {
+            const Eigen::Index own = samples[static_cast<size_t>(k)] - first;
+            const double bound = std::isfinite(sample_sq[static_cast<size_t>(k)])
+                                     ? std::nextafter(std::sqrt(sample_sq[static_cast<size_t>(k)]), INFINITY)
+                                     : std::numeric_limits<double>::infinity();
+            double sq;
+            if (grid.nearest(sample_points.row(k).transpose(), &sq, bound, own >= 0 && own < P.rows() ? static_cast<int>(own) : -1) >= 0 &&
+                sq < sample_sq[static_cast<size_t>(k)])
+              sample_sq[static_cast<size_t>(k)] = sq;
+          }
+        },
+        64);
   });
   const BoundingBox mb = bounding_box(model.V);
-  if (const std::string m = unit_mismatch_of_extents((mb.max - mb.min).maxCoeff(), (hi - lo).maxCoeff()); !m.empty())
-    throw InvalidInput(m);
+  if (const std::string m = unit_mismatch_of_extents((mb.max - mb.min).maxCoeff(), (hi - lo).maxCoeff()); !m.empty()) throw InvalidInput(m);
   if (!automatic_radius) return o.coverage_radius;
   std::vector<double> spacing;
   for (double sq : sample_sq)
@@ -252,8 +256,8 @@ ScanComparison compare_with_scan(const TriangleMesh& model, const ScanPieces& sc
   for_each_piece(scan, [&](Eigen::Index first, const Eigen::MatrixXd& P) {
     auto ts = Clock::now();
     tree.for_each_closest(P, o.threads, [&](Eigen::Index i, const ClosestHit& h) {
-      const Eigen::RowVector3d nrm = h.bary[0] * vn.row(model.F(h.face, 0)) + h.bary[1] * vn.row(model.F(h.face, 1)) +
-                                     h.bary[2] * vn.row(model.F(h.face, 2));
+      const Eigen::RowVector3d nrm =
+          h.bary[0] * vn.row(model.F(h.face, 0)) + h.bary[1] * vn.row(model.F(h.face, 1)) + h.bary[2] * vn.row(model.F(h.face, 2));
       const double side = (P.row(i) - h.point.transpose()).dot(nrm);
       r.scan_to_model[first + i] = side < 0 ? -h.distance : h.distance;
     });
@@ -262,18 +266,21 @@ ScanComparison compare_with_scan(const TriangleMesh& model, const ScanPieces& sc
     const PointGrid grid(P);
     r.build_seconds += since(ts);
     ts = Clock::now();
-    parallel_for_ranges(nv, o.threads, [&](long begin, long end) {
-      for (long v = begin; v < end; ++v) {
-        const double known = best_sq[static_cast<size_t>(v)];
-        const double bound = std::isfinite(known) ? std::min(reach, std::nextafter(std::sqrt(known), INFINITY)) : reach;
-        double sq;
-        const int nearest = grid.nearest(model.V.row(v).transpose(), &sq, bound);
-        if (nearest >= 0 && sq < known) {
-          best_sq[static_cast<size_t>(v)] = sq;
-          best_point.row(v) = P.row(nearest);
-        }
-      }
-    }, 256);
+    parallel_for_ranges(
+        nv, o.threads,
+        [&](long begin, long end) {
+          for (long v = begin; v < end; ++v) {
+            const double known = best_sq[static_cast<size_t>(v)];
+            const double bound = std::isfinite(known) ? std::min(reach, std::nextafter(std::sqrt(known), INFINITY)) : reach;
+            double sq;
+            const int nearest = grid.nearest(model.V.row(v).transpose(), &sq, bound);
+            if (nearest >= 0 && sq < known) {
+              best_sq[static_cast<size_t>(v)] = sq;
+              best_point.row(v) = P.row(nearest);
+            }
+          }
+        },
+        256);
     r.model_to_scan_seconds += since(ts);
   });
   t = Clock::now();

@@ -4,18 +4,18 @@
 #include <Eigen/Geometry>
 #include <algorithm>
 #include <array>
-#include <memory>
-#include <set>
 #include <cmath>
 #include <cstdint>
 #include <limits>
+#include <memory>
+#include <set>
 #include <sstream>
 #include <unordered_map>
 
 #include "posekit/core/closest_point.h"
-#include "posekit/core/parallel.h"
 #include "posekit/core/error.h"
 #include "posekit/core/mesh_geometry.h"
+#include "posekit/core/parallel.h"
 #include "posekit/core/point_grid.h"
 #include "posekit/core/timer.h"
 #include "posekit/deformation/rigid_pose.h"
@@ -42,8 +42,8 @@ Eigen::MatrixXd working_cloud(const Eigen::MatrixXd& T, double cell) {
   slot.reserve(1 << 15);
   for (Eigen::Index i = 0; i < T.rows(); ++i) {
     const Eigen::Array3d q = ((T.row(i) - lo) / cell).array().floor();
-    const std::uint64_t key = (static_cast<std::uint64_t>(q.x()) << 42) | (static_cast<std::uint64_t>(q.y()) << 21) |
-                              static_cast<std::uint64_t>(q.z());
+    const std::uint64_t key =
+        (static_cast<std::uint64_t>(q.x()) << 42) | (static_cast<std::uint64_t>(q.y()) << 21) | static_cast<std::uint64_t>(q.z());
     const auto [it, inserted] = slot.try_emplace(key, static_cast<int>(sum.size()));
     if (inserted) sum.emplace_back(Eigen::Vector3d::Zero()), count.push_back(0);
     sum[static_cast<size_t>(it->second)] += T.row(i).transpose();
@@ -77,8 +77,8 @@ std::vector<int> spread_rows(const Eigen::MatrixXd& V, double cell) {
   std::vector<int> rows;
   for (Eigen::Index v = 0; v < V.rows(); ++v) {
     const Eigen::Array3d q = ((V.row(v) - lo) / cell).array().floor();
-    const std::uint64_t key = (static_cast<std::uint64_t>(q.x()) << 42) | (static_cast<std::uint64_t>(q.y()) << 21) |
-                              static_cast<std::uint64_t>(q.z());
+    const std::uint64_t key =
+        (static_cast<std::uint64_t>(q.x()) << 42) | (static_cast<std::uint64_t>(q.y()) << 21) | static_cast<std::uint64_t>(q.z());
     if (taken.emplace(key, 0).second) rows.push_back(static_cast<int>(v));
   }
   return rows;
@@ -177,8 +177,9 @@ class Anatomy {
   }
   void leg(PartPose& p, double side, double hip_flexion, double knee_flexion, double hip_abduction = 0) const {
     const std::string s = side > 0 ? "left_" : "right_";
-    set(p, s + "hip", axis_angle_from_rotation(rotation_from_axis_angle(-hip_flexion * kDeg * Eigen::Vector3d::UnitX()) *
-                                               rotation_from_axis_angle(side * hip_abduction * kDeg * Eigen::Vector3d::UnitZ())));
+    set(p, s + "hip",
+        axis_angle_from_rotation(rotation_from_axis_angle(-hip_flexion * kDeg * Eigen::Vector3d::UnitX()) *
+                                 rotation_from_axis_angle(side * hip_abduction * kDeg * Eigen::Vector3d::UnitZ())));
     set(p, s + "knee", knee_flexion * kDeg * Eigen::Vector3d::UnitX());
   }
   void legs(PartPose& p, double hip_flexion, double knee_flexion) const {
@@ -196,7 +197,8 @@ class Anatomy {
   }
   Eigen::Vector3d elbow(double side, double flexion) const {
     const std::string s = side > 0 ? "left_" : "right_";
-    const Eigen::Vector3d upper = (at(s + "elbow") - at(s + "shoulder")).normalized(), fore = (at(s + "wrist") - at(s + "elbow")).normalized();
+    const Eigen::Vector3d upper = (at(s + "elbow") - at(s + "shoulder")).normalized(),
+                          fore = (at(s + "wrist") - at(s + "elbow")).normalized();
     Eigen::Vector3d hinge = upper.cross(fore);
     // A straight arm at rest has no bend to tell the hinge: the forearm then flexes forward.
     if (hinge.norm() < 0.05) hinge = upper.cross(Eigen::Vector3d::UnitZ());
@@ -204,9 +206,7 @@ class Anatomy {
   }
 
  private:
-  static void set(PartPose& p, const std::string& joint, const Eigen::Vector3d& r) {
-    p.joint(find_joint_index(joint)) = r;
-  }
+  static void set(PartPose& p, const std::string& joint, const Eigen::Vector3d& r) { p.joint(find_joint_index(joint)) = r; }
   Eigen::Vector3d at(const std::string& name) const { return J_.row(find_joint_index(name)).transpose(); }
   const Eigen::MatrixXd& J_;
 };
@@ -217,8 +217,8 @@ class Anatomy {
 /// back or across, each with the elbow straight, at right angles or bent further.
 std::vector<std::array<Eigen::Vector3d, 2>> arm_options(const Eigen::MatrixXd& J, double side) {
   const Anatomy body(J);
-  const std::vector<std::array<double, 2>> shoulders = {{5, 0},   {20, 0},  {45, 0},   {90, 0},   {125, 0}, {125, 30}, {165, 0},
-                                                        {5, 45},  {5, 90},  {20, 45},  {30, 90},  {30, -20}, {40, -15}, {10, 60}, {5, 150}};
+  const std::vector<std::array<double, 2>> shoulders = {{5, 0},  {20, 0},  {45, 0},  {90, 0},   {125, 0},  {125, 30}, {165, 0}, {5, 45},
+                                                        {5, 90}, {20, 45}, {30, 90}, {30, -20}, {40, -15}, {10, 60},  {5, 150}};
   std::vector<std::array<Eigen::Vector3d, 2>> options;
   for (const auto& [abduction, flexion] : shoulders)
     for (const double elbow : {10.0, 45.0, 90.0, 125.0})
@@ -279,11 +279,11 @@ std::vector<LibraryPose> pose_library(const Eigen::MatrixXd& J) {
   add("kneel_sitting_back", "", [&](PartPose& p) { body.legs(p, 60, 150); });
   add("squat", "half", [&](PartPose& p) { body.legs(p, 60, 80), body.spine(p, 10), body.arms(p, 10, 40, 20); });
   for (const double hip : {100.0, 120.0})
-    add("squat", std::to_string(static_cast<int>(hip)), [&](PartPose& p) {
-      body.legs(p, hip, hip + 25), body.spine(p, 20), body.arms(p, 10, 60, 10);
-    });
+    add("squat", std::to_string(static_cast<int>(hip)),
+        [&](PartPose& p) { body.legs(p, hip, hip + 25), body.spine(p, 20), body.arms(p, 10, 60, 10); });
   add("sit_chair", "", [&](PartPose& p) { body.legs(p, 90, 90), body.arm_at_rest_elbow(p, 1, 5, 0), body.arm_at_rest_elbow(p, -1, 5, 0); });
-  add("sit_floor", "", [&](PartPose& p) { body.legs(p, 90, 5), body.arm_at_rest_elbow(p, 1, 20, 0), body.arm_at_rest_elbow(p, -1, 20, 0); });
+  add("sit_floor", "",
+      [&](PartPose& p) { body.legs(p, 90, 5), body.arm_at_rest_elbow(p, 1, 20, 0), body.arm_at_rest_elbow(p, -1, 20, 0); });
   add("bend_forward", "", [&](PartPose& p) {
     p.root_rotation = 40 * kDeg * Eigen::Vector3d::UnitX();  // the pelvis tips forward, the legs stay upright
     body.legs(p, 40, 0), body.spine(p, 25);
@@ -296,10 +296,12 @@ namespace {
 
 /// The largest angle (radians) between two poses' joint rotations and their pelvises' rotations.
 double pose_distance(const PartPose& a, const PartPose& b) {
-  double worst = Eigen::AngleAxisd(rotation_from_axis_angle(a.root_rotation).transpose() * rotation_from_axis_angle(b.root_rotation)).angle();
+  double worst =
+      Eigen::AngleAxisd(rotation_from_axis_angle(a.root_rotation).transpose() * rotation_from_axis_angle(b.root_rotation)).angle();
   for (size_t j = 0; j < a.joint_rotation.size(); ++j)
-    worst = std::max(worst, Eigen::AngleAxisd(rotation_from_axis_angle(a.joint_rotation[j]).transpose() *
-                                              rotation_from_axis_angle(b.joint_rotation[j])).angle());
+    worst = std::max(
+        worst, Eigen::AngleAxisd(rotation_from_axis_angle(a.joint_rotation[j]).transpose() * rotation_from_axis_angle(b.joint_rotation[j]))
+                   .angle());
   return worst;
 }
 
@@ -314,7 +316,8 @@ Eigen::RowVectorXd pose_row(const PartPose& pose) {
 
 PartPose pose_from_row(const Eigen::RowVectorXd& row) {
   if (row.size() != 3 * (1 + kNumJoints))
-    throw InvalidInput("a stored pose has " + std::to_string(row.size()) + " values, " + std::to_string(3 * (1 + kNumJoints)) + " expected");
+    throw InvalidInput("a stored pose has " + std::to_string(row.size()) + " values, " + std::to_string(3 * (1 + kNumJoints)) +
+                       " expected");
   PartPose pose;
   pose.root_rotation = row.head<3>().transpose();
   for (int j = 0; j < kNumJoints; ++j) pose.joint(j) = row.segment<3>(3 + 3 * j).transpose();
@@ -361,16 +364,19 @@ Eigen::MatrixXd shape_jacobian(const BodyModel& model, const PartPose& pose, con
   for (Eigen::Index i = 0; i < n; ++i) A.block<3, 3>(3 * i, K).setIdentity();
   Eigen::MatrixXd X0;
   ShapedBody::skin(model, S.mean, part_transforms(pose, S.joint_mean), rows, &X0);
-  parallel_for_ranges(K, threads, [&](long k0, long k1) {
-    Eigen::MatrixXd Xk;
-    for (long k = k0; k < k1; ++k) {
-      const Eigen::MatrixXd Vk = S.mean + Eigen::Map<const RowMajorX3>(S.basis.col(k).data(), S.vertices(), 3);
-      const Eigen::MatrixXd Jk = S.joint_mean + Eigen::Map<const RowMajorX3>(S.joint_basis.col(k).data(), S.joint_mean.rows(), 3);
-      ShapedBody::skin(model, Vk, part_transforms(pose, Jk), rows, &Xk);
-      Xk -= X0;
-      for (Eigen::Index i = 0; i < n; ++i) A.block(3 * i, k, 3, 1) = Xk.row(i).transpose();
-    }
-  }, 1);
+  parallel_for_ranges(
+      K, threads,
+      [&](long k0, long k1) {
+        Eigen::MatrixXd Xk;
+        for (long k = k0; k < k1; ++k) {
+          const Eigen::MatrixXd Vk = S.mean + Eigen::Map<const RowMajorX3>(S.basis.col(k).data(), S.vertices(), 3);
+          const Eigen::MatrixXd Jk = S.joint_mean + Eigen::Map<const RowMajorX3>(S.joint_basis.col(k).data(), S.joint_mean.rows(), 3);
+          ShapedBody::skin(model, Vk, part_transforms(pose, Jk), rows, &Xk);
+          Xk -= X0;
+          for (Eigen::Index i = 0; i < n; ++i) A.block(3 * i, k, 3, 1) = Xk.row(i).transpose();
+        }
+      },
+      1);
   return A;
 }
 
@@ -383,25 +389,28 @@ VertexTargetPairs mutual_pairs(const Eigen::MatrixXd& X, const Eigen::MatrixXd& 
   const PointGrid body_grid(X, 0.03);
   const Eigen::Index n = X.rows(), target_count = (P.rows() + target_stride - 1) / target_stride;
   std::array<VertexTargetPairs, 2> found;
-  parallel_for_ranges(2, threads, [&](long h0, long h1) {
-    for (long h = h0; h < h1; ++h) {
-      auto& mine = found[static_cast<size_t>(h)];
-      for (Eigen::Index s = h * (target_count + n) / 2; s < (h + 1) * (target_count + n) / 2; ++s) {
-        double sq = 0, back = 0;
-        if (s < target_count) {
-          const Eigen::Index t = s * target_stride;
-          const int i = body_grid.nearest(P.row(t).transpose(), &sq, max_d);
-          if (i >= 0) mine.emplace_back(i, t);
-          continue;
+  parallel_for_ranges(
+      2, threads,
+      [&](long h0, long h1) {
+        for (long h = h0; h < h1; ++h) {
+          auto& mine = found[static_cast<size_t>(h)];
+          for (Eigen::Index s = h * (target_count + n) / 2; s < (h + 1) * (target_count + n) / 2; ++s) {
+            double sq = 0, back = 0;
+            if (s < target_count) {
+              const Eigen::Index t = s * target_stride;
+              const int i = body_grid.nearest(P.row(t).transpose(), &sq, max_d);
+              if (i >= 0) mine.emplace_back(i, t);
+              continue;
+            }
+            const Eigen::Index i = s - target_count;
+            const int t = grid.nearest(X.row(i).transpose(), &sq, max_d);
+            if (t < 0) continue;
+            const int u = body_grid.nearest(P.row(t).transpose(), &back, max_d);
+            if (u >= 0 && (X.row(u) - X.row(i)).norm() < 0.03) mine.emplace_back(i, t);
+          }
         }
-        const Eigen::Index i = s - target_count;
-        const int t = grid.nearest(X.row(i).transpose(), &sq, max_d);
-        if (t < 0) continue;
-        const int u = body_grid.nearest(P.row(t).transpose(), &back, max_d);
-        if (u >= 0 && (X.row(u) - X.row(i)).norm() < 0.03) mine.emplace_back(i, t);
-      }
-    }
-  }, 1);
+      },
+      1);
   VertexTargetPairs pairs = std::move(found[0]);
   pairs.insert(pairs.end(), found[1].begin(), found[1].end());
   return pairs;
@@ -431,42 +440,45 @@ ShapeNormalEquations shape_normal_equations(const Eigen::MatrixXd& A, const Eige
   const auto m = static_cast<Eigen::Index>(pairs.size());
   std::array<ShapeNormalEquations, 2> half;
   const double a = std::sqrt(p2p), b = std::sqrt(1 + p2p) - std::sqrt(p2p);
-  parallel_for_ranges(2, threads, [&](long h0, long h1) {
-    Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor> J(3 * kBlock, unknowns);
-    Eigen::VectorXd r(3 * kBlock);
-    for (long h = h0; h < h1; ++h) {
-      ShapeNormalEquations& mine = half[static_cast<size_t>(h)];
-      mine.H = Eigen::MatrixXd::Zero(unknowns, unknowns), mine.g = Eigen::VectorXd::Zero(unknowns);
-      for (int q = 0; q < kNumParts && with_pose; ++q)
-        mine.H6[static_cast<size_t>(q)].setZero(), mine.b6[static_cast<size_t>(q)].setZero(),
-            mine.C[static_cast<size_t>(q)] = Eigen::MatrixXd::Zero(unknowns, 6);
-      const Eigen::Index end = (h + 1) * m / 2;
-      for (Eigen::Index start = h * m / 2; start < end; start += kBlock) {
-        const Eigen::Index count = std::min(kBlock, end - start);
-        for (Eigen::Index k = 0; k < count; ++k) {
-          const auto [i, t] = pairs[static_cast<size_t>(start + k)];
-          const Eigen::Vector3d x = X.row(i).transpose(), d = x - P.row(t).transpose(), nn = normals.row(i).transpose();
-          const double along = nn.dot(d), w = 1 / (1 + (along * along + p2p * d.squaredNorm()) / (sigma * sigma));
-          const Eigen::Matrix3d Sw = std::sqrt(w) * (a * Eigen::Matrix3d::Identity() + b * nn * nn.transpose());
-          J.middleRows(3 * k, 3).noalias() = Sw * A.middleRows(3 * i, 3);
-          r.segment<3>(3 * k) = Sw * d;
-          mine.weight += w;
-          if (!with_pose) continue;
-          // The twist (t, w) of the vertex's part moves it by t - [x]x w.
-          Eigen::Matrix<double, 3, 6> SJ0;
-          SJ0.leftCols<3>() = Sw;
-          SJ0.rightCols<3>().noalias() = -Sw * cross_product_matrix(x);
-          const size_t q = static_cast<size_t>(part[static_cast<size_t>(i)]);
-          mine.H6[q].noalias() += SJ0.transpose() * SJ0;
-          mine.b6[q].noalias() += SJ0.transpose() * r.segment<3>(3 * k);
-          mine.C[q].noalias() += J.middleRows(3 * k, 3).transpose() * SJ0;
+  parallel_for_ranges(
+      2, threads,
+      [&](long h0, long h1) {
+        Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor> J(3 * kBlock, unknowns);
+        Eigen::VectorXd r(3 * kBlock);
+        for (long h = h0; h < h1; ++h) {
+          ShapeNormalEquations& mine = half[static_cast<size_t>(h)];
+          mine.H = Eigen::MatrixXd::Zero(unknowns, unknowns), mine.g = Eigen::VectorXd::Zero(unknowns);
+          for (int q = 0; q < kNumParts && with_pose; ++q)
+            mine.H6[static_cast<size_t>(q)].setZero(), mine.b6[static_cast<size_t>(q)].setZero(),
+                mine.C[static_cast<size_t>(q)] = Eigen::MatrixXd::Zero(unknowns, 6);
+          const Eigen::Index end = (h + 1) * m / 2;
+          for (Eigen::Index start = h * m / 2; start < end; start += kBlock) {
+            const Eigen::Index count = std::min(kBlock, end - start);
+            for (Eigen::Index k = 0; k < count; ++k) {
+              const auto [i, t] = pairs[static_cast<size_t>(start + k)];
+              const Eigen::Vector3d x = X.row(i).transpose(), d = x - P.row(t).transpose(), nn = normals.row(i).transpose();
+              const double along = nn.dot(d), w = 1 / (1 + (along * along + p2p * d.squaredNorm()) / (sigma * sigma));
+              const Eigen::Matrix3d Sw = std::sqrt(w) * (a * Eigen::Matrix3d::Identity() + b * nn * nn.transpose());
+              J.middleRows(3 * k, 3).noalias() = Sw * A.middleRows(3 * i, 3);
+              r.segment<3>(3 * k) = Sw * d;
+              mine.weight += w;
+              if (!with_pose) continue;
+              // The twist (t, w) of the vertex's part moves it by t - [x]x w.
+              Eigen::Matrix<double, 3, 6> SJ0;
+              SJ0.leftCols<3>() = Sw;
+              SJ0.rightCols<3>().noalias() = -Sw * cross_product_matrix(x);
+              const size_t q = static_cast<size_t>(part[static_cast<size_t>(i)]);
+              mine.H6[q].noalias() += SJ0.transpose() * SJ0;
+              mine.b6[q].noalias() += SJ0.transpose() * r.segment<3>(3 * k);
+              mine.C[q].noalias() += J.middleRows(3 * k, 3).transpose() * SJ0;
+            }
+            const auto Jb = J.topRows(3 * count);
+            mine.H.selfadjointView<Eigen::Lower>().rankUpdate(Jb.transpose());
+            mine.g.noalias() += Jb.transpose() * r.head(3 * count);
+          }
         }
-        const auto Jb = J.topRows(3 * count);
-        mine.H.selfadjointView<Eigen::Lower>().rankUpdate(Jb.transpose());
-        mine.g.noalias() += Jb.transpose() * r.head(3 * count);
-      }
-    }
-  }, 1);
+      },
+      1);
   ShapeNormalEquations sum = std::move(half[0]);
   sum.H += half[1].H, sum.g += half[1].g, sum.weight += half[1].weight;
   for (size_t q = 0; q < kNumParts && with_pose; ++q) sum.H6[q] += half[1].H6[q], sum.b6[q] += half[1].b6[q], sum.C[q] += half[1].C[q];
@@ -509,8 +521,8 @@ void add_pose_unknowns(const ShapedBody& body, const PartPose& pose, const Shape
 /// translation moves too; with `with_pose` every joint's rotation as well (the pose's Jacobian by
 /// parts, as fit_pose's), so that a shape change the pose must follow (wider shoulders, arms hung
 /// from them at another angle) is found in one step instead of in turns.
-Eigen::VectorXd fit_shape(const BodyModel& model, Eigen::VectorXd c, PartPose* pose_io, const Eigen::MatrixXd& P,
-                          const PointGrid& grid, const BodyFitOptions& o, int rounds = 4, bool with_pose = false) {
+Eigen::VectorXd fit_shape(const BodyModel& model, Eigen::VectorXd c, PartPose* pose_io, const Eigen::MatrixXd& P, const PointGrid& grid,
+                          const BodyFitOptions& o, int rounds = 4, bool with_pose = false) {
   PartPose& pose = *pose_io;
   const int K = model.components();
   const std::vector<int> rows = spread_rows(model.space().mean, 0.02);
@@ -524,8 +536,8 @@ Eigen::VectorXd fit_shape(const BodyModel& model, Eigen::VectorXd c, PartPose* p
     const ShapedBody body(model, c);
     body.pose(pose, &full);
     const Eigen::MatrixXd X = full(rows, Eigen::all), normals = vertex_normals(full, model.faces())(rows, Eigen::all);
-    const ShapeNormalEquations e =
-        shape_normal_equations(A, X, normals, P, mutual_pairs(X, P, grid, target_stride, max_d, o.threads), part, with_pose, sigma, p2p, o.threads);
+    const ShapeNormalEquations e = shape_normal_equations(A, X, normals, P, mutual_pairs(X, P, grid, target_stride, max_d, o.threads), part,
+                                                          with_pose, sigma, p2p, o.threads);
     if (e.weight <= 0) break;
     const Eigen::Index N = K + 3 + (with_pose ? kPoseIncrementSize - 3 : 0);
     Eigen::MatrixXd H = Eigen::MatrixXd::Zero(N, N);
@@ -604,7 +616,10 @@ struct SparsePlacements {
 class StartSearch {
  public:
   StartSearch(const BodyModel& model, const ShapedBody& mean_body, const std::vector<UpFrame>& frames, int threads)
-      : model_(model), mean_body_(mean_body), frames_(frames), threads_(threads),
+      : model_(model),
+        mean_body_(mean_body),
+        frames_(frames),
+        threads_(threads),
         sample_rows_(spread_rows(mean_body.rest_vertices(), 0.04)) {
     const std::set<int> legs = {kLeftThigh, kLeftShank, kLeftFoot, kRightThigh, kRightShank, kRightFoot};
     for (size_t i = 0; i < sample_rows_.size(); ++i) {
@@ -628,7 +643,8 @@ class StartSearch {
     sparse->motion_ups.clear();
     if (!motion_poses.empty()) {
       for (const Start& s : starts)
-        if (sparse->motion_ups.size() < 2 && std::find(sparse->motion_ups.begin(), sparse->motion_ups.end(), s.up) == sparse->motion_ups.end())
+        if (sparse->motion_ups.size() < 2 &&
+            std::find(sparse->motion_ups.begin(), sparse->motion_ups.end(), s.up) == sparse->motion_ups.end())
           sparse->motion_ups.push_back(s.up);
       std::vector<Start> more = place_all(motion_poses, sparse->motion_ups, headings);
       starts.insert(starts.end(), more.begin(), more.end());
@@ -642,8 +658,9 @@ class StartSearch {
   /// each with the arms of every library pose on its best three: library_starts keeps the best over
   /// all directions, and a crouch with the back bent had its library poses upside down fill them and
   /// its upright start (a motion pose with the arms forward) cut before its arms were tried.
-  std::vector<Start> with_best_of_every_up(std::vector<Start> starts, const SparsePlacements& sparse, const std::vector<LibraryPose>& library,
-                                           const std::vector<LibraryPose>& motion_poses, int headings, int per_up) const {
+  std::vector<Start> with_best_of_every_up(std::vector<Start> starts, const SparsePlacements& sparse,
+                                           const std::vector<LibraryPose>& library, const std::vector<LibraryPose>& motion_poses,
+                                           int headings, int per_up) const {
     for (size_t u = 0; u < frames_.size(); ++u) {
       std::vector<Start> placed;
       for (const Start& s : sparse.starts)
@@ -674,7 +691,7 @@ class StartSearch {
         legged.push_back(s);
     const Eigen::MatrixXd& J = mean_body_.joint_centres();
     const std::array<std::vector<std::array<Eigen::Vector3d, 2>>, 2> each = {leg_options(J, 1), leg_options(J, -1)},
-                                                                      pairs = {leg_options(J, 1, false), leg_options(J, -1, false)};
+                                                                     pairs = {leg_options(J, 1, false), leg_options(J, -1, false)};
     std::array<std::array<size_t, 3>, 2> joints;
     for (int i = 0; i < 2; ++i) {
       const std::string s = i == 0 ? "left_" : "right_";
@@ -685,36 +702,39 @@ class StartSearch {
       const auto& [hip, knee, ankle] = joints[static_cast<size_t>(side)];
       pose->joint_rotation[hip] = option[0], pose->joint_rotation[knee] = option[1], pose->joint_rotation[ankle].setZero();
     };
-    parallel_for_ranges(static_cast<long>(legged.size()), threads_, [&](long begin, long end) {
-      for (long k = begin; k < end; ++k) {
-        Start& best = legged[static_cast<size_t>(k)];
-        const std::string name = best.name + ", legs searched", kind = best.kind + "+legs";
-        Start pair = place(best.up, best.heading, best.pose, name, kind, true);
-        const PartPose base = best.pose;
-        // The legs move only the sample rows a leg part weighs on: the rest skinned once.
-        Eigen::MatrixXd X, legs_X;
-        ShapedBody::skin(model_, mean_body_.rest_vertices(), mean_body_.part_motions(base), sample_rows_, &X);
-        for (const auto& left : pairs[0])
-          for (const auto& right : pairs[1]) {
-            PartPose pose = base;
-            set_leg(&pose, 0, left), set_leg(&pose, 1, right);
-            ShapedBody::skin(model_, mean_body_.rest_vertices(), mean_body_.part_motions(pose), leg_rows_, &legs_X);
-            for (size_t i = 0; i < leg_sample_.size(); ++i) X.row(leg_sample_[i]) = legs_X.row(static_cast<Eigen::Index>(i));
-            const Start candidate = place_skinned(best.up, best.heading, pose, X, name, kind, true, pair.score);
-            if (candidate.score < pair.score) pair = candidate;
+    parallel_for_ranges(
+        static_cast<long>(legged.size()), threads_,
+        [&](long begin, long end) {
+          for (long k = begin; k < end; ++k) {
+            Start& best = legged[static_cast<size_t>(k)];
+            const std::string name = best.name + ", legs searched", kind = best.kind + "+legs";
+            Start pair = place(best.up, best.heading, best.pose, name, kind, true);
+            const PartPose base = best.pose;
+            // The legs move only the sample rows a leg part weighs on: the rest skinned once.
+            Eigen::MatrixXd X, legs_X;
+            ShapedBody::skin(model_, mean_body_.rest_vertices(), mean_body_.part_motions(base), sample_rows_, &X);
+            for (const auto& left : pairs[0])
+              for (const auto& right : pairs[1]) {
+                PartPose pose = base;
+                set_leg(&pose, 0, left), set_leg(&pose, 1, right);
+                ShapedBody::skin(model_, mean_body_.rest_vertices(), mean_body_.part_motions(pose), leg_rows_, &legs_X);
+                for (size_t i = 0; i < leg_sample_.size(); ++i) X.row(leg_sample_[i]) = legs_X.row(static_cast<Eigen::Index>(i));
+                const Start candidate = place_skinned(best.up, best.heading, pose, X, name, kind, true, pair.score);
+                if (candidate.score < pair.score) pair = candidate;
+              }
+            best = place(best.up, best.heading, pair.pose, name, kind, false);
+            for (const int side : {0, 1}) {
+              const PartPose held = best.pose;
+              for (const auto& option : each[static_cast<size_t>(side)]) {
+                PartPose pose = held;
+                set_leg(&pose, side, option);
+                const Start candidate = place(best.up, best.heading, pose, name, kind, false, best.score);
+                if (candidate.score < best.score) best = candidate;
+              }
+            }
           }
-        best = place(best.up, best.heading, pair.pose, name, kind, false);
-        for (const int side : {0, 1}) {
-          const PartPose held = best.pose;
-          for (const auto& option : each[static_cast<size_t>(side)]) {
-            PartPose pose = held;
-            set_leg(&pose, side, option);
-            const Start candidate = place(best.up, best.heading, pose, name, kind, false, best.score);
-            if (candidate.score < best.score) best = candidate;
-          }
-        }
-      }
-    }, 1);
+        },
+        1);
     starts.insert(starts.end(), legged.begin(), legged.end());
     std::sort(starts.begin(), starts.end(), by_score);
     return starts;
@@ -744,12 +764,15 @@ class StartSearch {
         mixed.push_back(std::move(m));
       }
     }
-    parallel_for_ranges(static_cast<long>(mixed.size()), threads_, [&](long begin, long end) {
-      for (long i = begin; i < end; ++i) {
-        Start& m = mixed[static_cast<size_t>(i)];
-        m = place(m.up, m.heading, m.pose, m.name, m.kind, false);
-      }
-    }, 1);
+    parallel_for_ranges(
+        static_cast<long>(mixed.size()), threads_,
+        [&](long begin, long end) {
+          for (long i = begin; i < end; ++i) {
+            Start& m = mixed[static_cast<size_t>(i)];
+            m = place(m.up, m.heading, m.pose, m.name, m.kind, false);
+          }
+        },
+        1);
     starts.insert(starts.end(), mixed.begin(), mixed.end());
     std::sort(starts.begin(), starts.end(), by_score);
     return starts;
@@ -772,8 +795,9 @@ class StartSearch {
     const Eigen::Vector3d placed = pose.root_translation;
     stand_on(X, frames_[u].coarse_ground, &pose);
     X.rowwise() += (pose.root_translation - placed).transpose();
-    const double score = sparse ? mismatch(every(X, kSparseStride), frames_[u].sparse, *frames_[u].sparse_grid, 0.15, 2 * kCoarseCell, bound)
-                                : mismatch(X, frames_[u].coarse, *frames_[u].coarse_grid, 0.15, kCoarseCell, bound);
+    const double score = sparse
+                             ? mismatch(every(X, kSparseStride), frames_[u].sparse, *frames_[u].sparse_grid, 0.15, 2 * kCoarseCell, bound)
+                             : mismatch(X, frames_[u].coarse, *frames_[u].coarse_grid, 0.15, kCoarseCell, bound);
     return Start{score, u, heading, name, kind, pose};
   }
 
@@ -782,12 +806,15 @@ class StartSearch {
   std::vector<Start> rescored_best(std::vector<Start> starts, int count) const {
     std::sort(starts.begin(), starts.end(), by_score);
     starts.resize(std::min(starts.size(), static_cast<size_t>(std::max(1, count))));
-    parallel_for_ranges(static_cast<long>(starts.size()), threads_, [&](long begin, long end) {
-      for (long k = begin; k < end; ++k) {
-        Start& s = starts[static_cast<size_t>(k)];
-        s = place(s.up, s.heading, s.pose, s.name, s.kind, false);
-      }
-    }, 1);
+    parallel_for_ranges(
+        static_cast<long>(starts.size()), threads_,
+        [&](long begin, long end) {
+          for (long k = begin; k < end; ++k) {
+            Start& s = starts[static_cast<size_t>(k)];
+            s = place(s.up, s.heading, s.pose, s.name, s.kind, false);
+          }
+        },
+        1);
     std::sort(starts.begin(), starts.end(), by_score);
     return starts;
   }
@@ -795,17 +822,20 @@ class StartSearch {
   std::vector<Start> place_all(const std::vector<LibraryPose>& poses, const std::vector<size_t>& ups, int headings) const {
     const long per_up = static_cast<long>(poses.size()) * headings;
     std::vector<Start> placed(ups.size() * static_cast<size_t>(per_up));
-    parallel_for_ranges(static_cast<long>(placed.size()), threads_, [&](long begin, long end) {
-      for (long k = begin; k < end; ++k) {
-        const size_t u = ups[static_cast<size_t>(k / per_up)];
-        const LibraryPose& lib = poses[static_cast<size_t>((k % per_up) / headings)];
-        const int h = static_cast<int>(k % headings);
-        PartPose pose = lib.pose;
-        pose.root_rotation = axis_angle_from_rotation(rotation_from_axis_angle(2 * M_PI * h / headings * Eigen::Vector3d::UnitY()) *
-                                                      rotation_from_axis_angle(pose.root_rotation));
-        placed[static_cast<size_t>(k)] = place(u, h, pose, lib.name, lib.kind, true);
-      }
-    }, 1);
+    parallel_for_ranges(
+        static_cast<long>(placed.size()), threads_,
+        [&](long begin, long end) {
+          for (long k = begin; k < end; ++k) {
+            const size_t u = ups[static_cast<size_t>(k / per_up)];
+            const LibraryPose& lib = poses[static_cast<size_t>((k % per_up) / headings)];
+            const int h = static_cast<int>(k % headings);
+            PartPose pose = lib.pose;
+            pose.root_rotation = axis_angle_from_rotation(rotation_from_axis_angle(2 * M_PI * h / headings * Eigen::Vector3d::UnitY()) *
+                                                          rotation_from_axis_angle(pose.root_rotation));
+            placed[static_cast<size_t>(k)] = place(u, h, pose, lib.name, lib.kind, true);
+          }
+        },
+        1);
     return placed;
   }
 
@@ -869,15 +899,17 @@ void read_off_fit(const BodyModel& model, const Eigen::MatrixXd& W, const BodyFi
   msg.precision(1);
   msg << std::fixed;
   auto reason = [&] { out->reasons.push_back(msg.str()), msg.str(""); };
-  if (out->coverage < o.min_coverage) msg << "only " << 100 * out->coverage << "% of the fitted body lies within 2 cm of the target", reason();
+  if (out->coverage < o.min_coverage)
+    msg << "only " << 100 * out->coverage << "% of the fitted body lies within 2 cm of the target", reason();
   if (out->target_p95 > o.max_target_p95)
     msg << "a twentieth of the target lies over " << 1000 * out->target_p95 << " mm from the fitted body", reason();
   // |c| of a population member follows a chi distribution with K degrees of freedom.
   const double K = static_cast<double>(model.components());
   const double chi_mean = std::sqrt(std::max(0.5, K - 0.5)), chi_sd = std::sqrt(0.5);
   if (out->shape_mahalanobis > chi_mean + o.max_shape_sigma * chi_sd)
-    msg << "the fitted shape lies " << (out->shape_mahalanobis - chi_mean) / chi_sd
-        << " standard deviations outside the population (" << model.space().population << ")", reason();
+    msg << "the fitted shape lies " << (out->shape_mahalanobis - chi_mean) / chi_sd << " standard deviations outside the population ("
+        << model.space().population << ")",
+        reason();
   for (const auto& w : pose_warnings)
     if (w.find("beyond its range of motion") != std::string::npos) out->reasons.push_back(w);
   // A limb or trunk part the target does not show near it: placed wrongly (scans cut heads, hands
@@ -892,7 +924,8 @@ void read_off_fit(const BodyModel& model, const Eigen::MatrixXd& W, const BodyFi
     if (p != kHead && p != kLeftHand && p != kRightHand && p != kLeftFoot && p != kRightFoot && all[static_cast<size_t>(p)] > 0 &&
         seen[static_cast<size_t>(p)] < o.min_part_coverage * all[static_cast<size_t>(p)])
       msg << "only " << 100.0 * seen[static_cast<size_t>(p)] / all[static_cast<size_t>(p)] << "% of the fitted " << part_name(p)
-          << " lies within 3 cm of the target", reason();
+          << " lies within 3 cm of the target",
+          reason();
   // An arm or leg lying along the target's but bent or turned elsewhere (an elbow 8 cm behind the
   // real one) is near the target nearly everywhere, but leaves some of the target's limb unexplained:
   // a twentieth of the whole target hardly notices a forearm. Asked of the target, not of the fitted
@@ -906,9 +939,12 @@ void read_off_fit(const BodyModel& model, const Eigen::MatrixXd& W, const BodyFi
     explained[static_cast<size_t>(part[v])] += d[static_cast<size_t>(i)] <= o.limb_close_distance;
   }
   for (int p : {kLeftUpperArm, kLeftForearm, kRightUpperArm, kRightForearm, kLeftThigh, kLeftShank, kRightThigh, kRightShank})
-    if (labelled[static_cast<size_t>(p)] >= 20 && explained[static_cast<size_t>(p)] < o.min_limb_explained * labelled[static_cast<size_t>(p)])
-      msg << "only " << 100.0 * explained[static_cast<size_t>(p)] / labelled[static_cast<size_t>(p)] << "% of the target nearest the fitted "
-          << part_name(p) << " lies within " << 1000 * o.limb_close_distance << " mm of it (the limb bent or turned elsewhere)", reason();
+    if (labelled[static_cast<size_t>(p)] >= 20 &&
+        explained[static_cast<size_t>(p)] < o.min_limb_explained * labelled[static_cast<size_t>(p)])
+      msg << "only " << 100.0 * explained[static_cast<size_t>(p)] / labelled[static_cast<size_t>(p)]
+          << "% of the target nearest the fitted " << part_name(p) << " lies within " << 1000 * o.limb_close_distance
+          << " mm of it (the limb bent or turned elsewhere)",
+          reason();
   out->warnings = pose_warnings;
   out->confident = out->reasons.empty();
 }
@@ -962,8 +998,8 @@ PartPose limbs_one_by_one(const BodyModel& model, const ShapedBody& mean_body, c
   for (const Limb& limb : {Limb{"shoulder", "elbow", "wrist", true}, Limb{"hip", "knee", "ankle", false}})
     for (const double side : {1.0, -1.0}) {
       const std::string s = side > 0 ? "left_" : "right_";
-      const auto first = static_cast<size_t>(find_joint_index(s + limb.first)), second = static_cast<size_t>(find_joint_index(s + limb.second)),
-                 end = static_cast<size_t>(find_joint_index(s + limb.end));
+      const auto first = static_cast<size_t>(find_joint_index(s + limb.first)),
+                 second = static_cast<size_t>(find_joint_index(s + limb.second)), end = static_cast<size_t>(find_joint_index(s + limb.end));
       std::vector<PartPose> candidates;
       for (const auto& option : limb.arm ? arm_options(mean_body.joint_centres(), side) : leg_options(mean_body.joint_centres(), side)) {
         PartPose& candidate = candidates.emplace_back(pose);
@@ -972,9 +1008,12 @@ PartPose limbs_one_by_one(const BodyModel& model, const ShapedBody& mean_body, c
       }
       // Each scored up to the pose's own score: a candidate that reaches it is not kept.
       std::vector<double> scores(candidates.size());
-      parallel_for_ranges(static_cast<long>(candidates.size()), threads, [&](long begin, long end_) {
-        for (long i = begin; i < end_; ++i) scores[static_cast<size_t>(i)] = score_of(candidates[static_cast<size_t>(i)], score);
-      }, 1);
+      parallel_for_ranges(
+          static_cast<long>(candidates.size()), threads,
+          [&](long begin, long end_) {
+            for (long i = begin; i < end_; ++i) scores[static_cast<size_t>(i)] = score_of(candidates[static_cast<size_t>(i)], score);
+          },
+          1);
       PartPose best = pose;
       for (size_t i = 0; i < candidates.size(); ++i)  // the first best in the options' order
         if (scores[i] < score) score = scores[i], best = candidates[i], *changed = true;
@@ -1025,8 +1064,8 @@ BodyFit fit_body_model(const BodyModel& model, const Eigen::MatrixXd& T, const B
     throw InvalidInput("body fit: the target has " + std::to_string(T.rows()) + " points (at least 100 finite ones needed)");
   const Eigen::MatrixXd W = working_cloud(T, o.working_cell);
   if (W.rows() < 100)
-    throw InvalidInput("body fit: the target covers only " + std::to_string(W.rows()) + " cells of " +
-                       std::to_string(o.working_cell) + " m; is it in metres?");
+    throw InvalidInput("body fit: the target covers only " + std::to_string(W.rows()) + " cells of " + std::to_string(o.working_cell) +
+                       " m; is it in metres?");
   const Eigen::RowVector3d centre = W.colwise().mean();
   const int K = model.components();
   const ShapedBody mean_body(model, Eigen::VectorXd::Zero(K));
@@ -1050,7 +1089,7 @@ BodyFit fit_body_model(const BodyModel& model, const Eigen::MatrixXd& T, const B
   brief.model_samples = 1500;
   brief.refinement_model_samples = 3000;
   brief.max_distance_end = 0.15;
-  brief.refinement_twist_weight = 1;  // as in the final refinement below
+  brief.refinement_twist_weight = 1;                // as in the final refinement below
   brief.stall_window = 5, brief.stall_gain = 1e-3;  // as in fit_shape_and_pose
   const std::vector<int> spread = spread_rows(mean_body.rest_vertices(), 0.02);
   const std::vector<int> coarse_rows = spread_rows(mean_body.rest_vertices(), 0.04);
@@ -1072,12 +1111,15 @@ BodyFit fit_body_model(const BodyModel& model, const Eigen::MatrixXd& T, const B
     for (size_t k = 0; k < starts.size() && static_cast<int>(tried.size() - first) < std::max(1, o.hypotheses_refined); ++k)
       if (std::none_of(tried.begin(), tried.end(), [&](const Start& t) { return same_start(t, starts[k]); })) tried.push_back(starts[k]);
     tried_score.resize(tried.size()), tried_pose.resize(tried.size());
-    parallel_for_ranges(static_cast<long>(tried.size() - first), o.threads, [&](long begin, long end) {
-      for (long i = begin; i < end; ++i) {
-        const auto k = static_cast<size_t>(i) + first;
-        tried_pose[k] = brief_fit(model, frames[tried[k].up].cloud, tried[k].pose, brief, spread, o, &tried_score[k]);
-      }
-    }, 1);
+    parallel_for_ranges(
+        static_cast<long>(tried.size() - first), o.threads,
+        [&](long begin, long end) {
+          for (long i = begin; i < end; ++i) {
+            const auto k = static_cast<size_t>(i) + first;
+            tried_pose[k] = brief_fit(model, frames[tried[k].up].cloud, tried[k].pose, brief, spread, o, &tried_score[k]);
+          }
+        },
+        1);
     // By score (ties in the starts' order: the same choice on any number of threads).
     std::vector<size_t> ranked(tried.size() - first);
     for (size_t k = 0; k < ranked.size(); ++k) ranked[k] = k + first;
@@ -1161,9 +1203,7 @@ BodyFit fit_body_model(const BodyModel& model, const Eigen::MatrixXd& T, const B
     lap("shape and pose");
     return read_off(c, result.V, result.warnings);
   };
-  auto poor_because = [](const Finished& f) {
-    return (f.cut_short ? "fitted briefly: " : "") + f.fit.reasons.front();
-  };
+  auto poor_because = [](const Finished& f) { return (f.cut_short ? "fitted briefly: " : "") + f.fit.reasons.front(); };
   // The best brief fit finished; when that is poor, the runner-up's (an elbow bent where the arm is
   // straight scored best on a tilted A-pose body), kept when it is confident.
   auto finish_best = [&](const std::vector<size_t>& ranked) {
@@ -1171,7 +1211,8 @@ BodyFit fit_body_model(const BodyModel& model, const Eigen::MatrixXd& T, const B
     if (!out.fit.confident && ranked.size() > 1) {
       Finished second = finish_from(ranked[1], false);
       if (second.fit.confident) {
-        second.fit.warnings.push_back("the best start (" + out.fit.start + ") gave a poor fit (" + poor_because(out) + "); the runner-up's is kept");
+        second.fit.warnings.push_back("the best start (" + out.fit.start + ") gave a poor fit (" + poor_because(out) +
+                                      "); the runner-up's is kept");
         out = std::move(second);
       }
     }
@@ -1187,15 +1228,16 @@ BodyFit fit_body_model(const BodyModel& model, const Eigen::MatrixXd& T, const B
   // searched, only now: on bodies that the library's starts fit, starts with the legs searched
   // scored better and fitted worse (a pelvis tipped 10-15 degrees, the hips and back making up).
   if (!out.fit.confident && o.legs_searched > 0) {
-    const std::vector<Start> every_up =
-        search.with_best_of_every_up(library_starts, sparse, library, motion_poses, o.headings, o.starts_rescored / static_cast<int>(frames.size()));
+    const std::vector<Start> every_up = search.with_best_of_every_up(library_starts, sparse, library, motion_poses, o.headings,
+                                                                     o.starts_rescored / static_cast<int>(frames.size()));
     starts = search.with_arms_mixed(search.with_legs_searched(every_up, o.legs_searched), library);
     lap("search");
     const std::vector<size_t> ranked = brief_fits(starts);
     if (!ranked.empty()) {
       Finished legged = finish_best(ranked);
       if (legged.fit.confident) {
-        legged.fit.warnings.push_back("the library's starts gave a poor fit (" + poor_because(out) + "); a start with the legs searched is kept");
+        legged.fit.warnings.push_back("the library's starts gave a poor fit (" + poor_because(out) +
+                                      "); a start with the legs searched is kept");
         out = std::move(legged);
       }
     }

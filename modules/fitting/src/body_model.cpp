@@ -6,16 +6,16 @@
 
 #include "posekit/body/makehuman_model.h"
 #include "posekit/body/parts.h"
-#include "posekit/core/parallel.h"
 #include "posekit/core/error.h"
+#include "posekit/core/parallel.h"
 
 namespace posekit {
 
 BodyModel::BodyModel(ShapeSpace space, const MakeHumanModel& makehuman) : space_(std::move(space)) {
   if (space_.vertices() != makehuman.num_body_vertices || space_.faces != makehuman.body_F)
     throw InvalidInput("body model: the shape space (" + std::to_string(space_.vertices()) +
-                       " vertices) is not of the MakeHuman template's topology (" +
-                       std::to_string(makehuman.num_body_vertices) + " vertices)");
+                       " vertices) is not of the MakeHuman template's topology (" + std::to_string(makehuman.num_body_vertices) +
+                       " vertices)");
   if (!space_.has_joints() || space_.joint_mean.rows() != kNumJoints)
     throw InvalidInput("body model: the shape space does not know the 15 joints (" + space_.population +
                        "); build it with posekit shape-space --ansur (version 2 .pks)");
@@ -62,25 +62,28 @@ void ShapedBody::skin(const BodyModel& model, const Eigen::MatrixXd& V, const Pa
   }
   const auto n = static_cast<Eigen::Index>(rows.empty() ? V.rows() : static_cast<Eigen::Index>(rows.size()));
   X->resize(n, 3);
-  parallel_for_ranges(n, threads, [&](long begin, long end) {
-    for (Eigen::Index i = begin; i < end; ++i) {
-      const int v = rows.empty() ? static_cast<int>(i) : rows[static_cast<size_t>(i)];
-      const auto& weights = model.part_weights()[static_cast<size_t>(v)];
-      const Eigen::Quaterniond& pivot = real[static_cast<size_t>(weights.front().first)];
-      Eigen::Vector4d b0 = Eigen::Vector4d::Zero(), be = Eigen::Vector4d::Zero();
-      for (const auto& [p, w] : weights) {
-        const double sign = real[static_cast<size_t>(p)].coeffs().dot(pivot.coeffs()) < 0 ? -w : w;  // the same hemisphere
-        b0 += sign * real[static_cast<size_t>(p)].coeffs();
-        be += sign * dual[static_cast<size_t>(p)].coeffs();
-      }
-      const double norm = b0.norm();
-      Eigen::Quaterniond q0, qe;
-      q0.coeffs() = b0 / norm;
-      qe.coeffs() = be / norm;
-      const Eigen::Vector3d t = 2 * (qe * q0.conjugate()).vec();
-      X->row(i) = (q0 * Eigen::Vector3d(V.row(v).transpose()) + t).transpose();
-    }
-  }, 2048);  // whole bodies (13,380 vertices) on two threads; the search's samples on one
+  parallel_for_ranges(
+      n, threads,
+      [&](long begin, long end) {
+        for (Eigen::Index i = begin; i < end; ++i) {
+          const int v = rows.empty() ? static_cast<int>(i) : rows[static_cast<size_t>(i)];
+          const auto& weights = model.part_weights()[static_cast<size_t>(v)];
+          const Eigen::Quaterniond& pivot = real[static_cast<size_t>(weights.front().first)];
+          Eigen::Vector4d b0 = Eigen::Vector4d::Zero(), be = Eigen::Vector4d::Zero();
+          for (const auto& [p, w] : weights) {
+            const double sign = real[static_cast<size_t>(p)].coeffs().dot(pivot.coeffs()) < 0 ? -w : w;  // the same hemisphere
+            b0 += sign * real[static_cast<size_t>(p)].coeffs();
+            be += sign * dual[static_cast<size_t>(p)].coeffs();
+          }
+          const double norm = b0.norm();
+          Eigen::Quaterniond q0, qe;
+          q0.coeffs() = b0 / norm;
+          qe.coeffs() = be / norm;
+          const Eigen::Vector3d t = 2 * (qe * q0.conjugate()).vec();
+          X->row(i) = (q0 * Eigen::Vector3d(V.row(v).transpose()) + t).transpose();
+        }
+      },
+      2048);  // whole bodies (13,380 vertices) on two threads; the search's samples on one
 }
 
 void ShapedBody::pose(const PartPose& pose, Eigen::MatrixXd* X) const { skin(model_, V_, part_motions(pose), {}, X, threads_); }

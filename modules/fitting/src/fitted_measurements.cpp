@@ -3,10 +3,10 @@
 #include <Eigen/Geometry>
 #include <algorithm>
 #include <cmath>
+#include <iomanip>
 #include <limits>
 #include <memory>
 #include <set>
-#include <iomanip>
 #include <sstream>
 
 #include "posekit/core/error.h"
@@ -59,11 +59,9 @@ bool girth_posture(const PartPose& fitted, PartPose* posture) {
   for (int part : {kAbdomen, kChest, kLeftThigh, kLeftShank, kRightThigh, kRightShank})
     if (fitted.joint(part - 1).norm() > kStandingJointDeg * M_PI / 180) return false;
   bool own_stance = false;
-  for (int thigh : {kLeftThigh, kRightThigh})
-    own_stance = own_stance || std::abs(fitted.joint(thigh - 1).z()) > kStanceDeg * M_PI / 180;
+  for (int thigh : {kLeftThigh, kRightThigh}) own_stance = own_stance || std::abs(fitted.joint(thigh - 1).z()) > kStanceDeg * M_PI / 180;
   if (own_stance)
-    for (int thigh : {kLeftThigh, kRightThigh})
-      posture->joint(thigh - 1).z() = fitted.joint(thigh - 1).z();
+    for (int thigh : {kLeftThigh, kRightThigh}) posture->joint(thigh - 1).z() = fitted.joint(thigh - 1).z();
   return true;
 }
 
@@ -79,7 +77,8 @@ Eigen::Isometry3d rigid_motion(const Eigen::MatrixXd& rest, const Eigen::MatrixX
 /// The motion of the fitted body near a rest point: Kabsch over its `k` nearest rest vertices.
 Eigen::Isometry3d local_motion(const Eigen::MatrixXd& rest, const Eigen::MatrixXd& posed, const Eigen::Vector3d& p, int k = 40) {
   std::vector<std::pair<double, int>> d(static_cast<size_t>(rest.rows()));
-  for (Eigen::Index v = 0; v < rest.rows(); ++v) d[static_cast<size_t>(v)] = {(rest.row(v).transpose() - p).squaredNorm(), static_cast<int>(v)};
+  for (Eigen::Index v = 0; v < rest.rows(); ++v)
+    d[static_cast<size_t>(v)] = {(rest.row(v).transpose() - p).squaredNorm(), static_cast<int>(v)};
   k = std::min<int>(k, static_cast<int>(d.size()));
   std::partial_sort(d.begin(), d.begin() + k, d.end());
   Eigen::MatrixXd a(k, 3), b(k, 3);
@@ -135,7 +134,8 @@ CarriedSection carry_section(const BodyModel& model, const Eigen::MatrixXd& sour
   std::sort(ring.begin(), ring.end());
   ring.erase(std::unique(ring.begin(), ring.end()), ring.end());
   Eigen::MatrixXd a(static_cast<Eigen::Index>(ring.size()), 3), b(a.rows(), 3);
-  for (size_t i = 0; i < ring.size(); ++i) a.row(static_cast<Eigen::Index>(i)) = source.row(ring[i]), b.row(static_cast<Eigen::Index>(i)) = posed.row(ring[i]);
+  for (size_t i = 0; i < ring.size(); ++i)
+    a.row(static_cast<Eigen::Index>(i)) = source.row(ring[i]), b.row(static_cast<Eigen::Index>(i)) = posed.row(ring[i]);
   const Eigen::Isometry3d m = rigid_motion(a, b);
   s.point = m * g.point;
   s.normal = (m.linear() * g.normal).normalized();
@@ -212,8 +212,7 @@ SectionGirth girth_in_section(const LabelledSurface& surface, const CarriedSecti
   } else {
     const Eigen::MatrixXi& F = surface.F;
     std::vector<Eigen::Index> kept, other;
-    for (Eigen::Index f = 0; f < F.rows(); ++f)
-      (allowed(F(f, 0)) && allowed(F(f, 1)) && allowed(F(f, 2)) ? kept : other).push_back(f);
+    for (Eigen::Index f = 0; f < F.rows(); ++f) (allowed(F(f, 0)) && allowed(F(f, 1)) && allowed(F(f, 2)) ? kept : other).push_back(f);
     for (auto [faces, out_points] : {std::pair{&kept, &pts}, std::pair{&other, &hidden}}) {
       Eigen::MatrixXi KF(static_cast<Eigen::Index>(faces->size()), 3);
       for (size_t k = 0; k < faces->size(); ++k) KF.row(static_cast<Eigen::Index>(k)) = F.row((*faces)[k]);
@@ -225,8 +224,9 @@ SectionGirth girth_in_section(const LabelledSurface& surface, const CarriedSecti
   SectionGirth out;
   const int filled = fill_hidden_sectors(s, hidden, &pts);
   if (filled * 360 / kSectors > kMaxFilledDeg) {
-    out.note = "other parts hide " + std::to_string(filled * 360 / kSectors) + " of its 360 degrees (the pose folds it): a tape over more than " +
-               std::to_string(kMaxFilledDeg) + " of the fitted body would measure the model, not the body";
+    out.note = "other parts hide " + std::to_string(filled * 360 / kSectors) +
+               " of its 360 degrees (the pose folds it): a tape over more than " + std::to_string(kMaxFilledDeg) +
+               " of the fitted body would measure the model, not the body";
     return out;
   }
   Eigen::MatrixXd hull_points;
@@ -259,8 +259,8 @@ std::vector<Landmark> carried_landmarks(const Eigen::MatrixXd& rest, const Eigen
                                         const BodyMeasurements& target) {
   const BodyFeatures& f = fitted.features;
   auto carried = [&](const Eigen::Vector3d& p) { return local_motion(rest, posed, p) * p; };
-  std::vector<Landmark> out = {{"neck_base", carried(f.neck_base)}, {"left_armpit", carried(f.armpit[kLeft])},
-                               {"right_armpit", carried(f.armpit[kRight])}};
+  std::vector<Landmark> out = {
+      {"neck_base", carried(f.neck_base)}, {"left_armpit", carried(f.armpit[kLeft])}, {"right_armpit", carried(f.armpit[kRight])}};
   for (const char* name : {"bust", "underbust", "waist", "hip"})
     if (const Girth* fitted_girth = fitted.find(name); fitted_girth && fitted_girth->measured)
       out.push_back({name, target.find(name)->point});
@@ -339,8 +339,7 @@ Girth girth_on_target(const BodyModel& model, const MeasuredBody& source, const 
 
 }  // namespace
 
-FittedMeasurements measure_by_body_fit(const BodyModel& model, const BodyFit& fit, const Eigen::MatrixXd& T,
-                                       const Eigen::MatrixXi& F) {
+FittedMeasurements measure_by_body_fit(const BodyModel& model, const BodyFit& fit, const Eigen::MatrixXd& T, const Eigen::MatrixXi& F) {
   if (fit.target_part.rows() != T.rows())
     throw InvalidInput("measure_by_body_fit: the fit labels " + std::to_string(fit.target_part.rows()) + " points, the target has " +
                        std::to_string(T.rows()));
@@ -388,7 +387,8 @@ FittedMeasurements measure_by_body_fit(const BodyModel& model, const BodyFit& fi
     const Girth* posture_girth = in_posture ? in_posture->measured.find(rest_girth.name) : nullptr;
     const bool own = posture_girth && posture_girth->measured;
     double as_posed = 0;
-    m.girths.push_back(girth_on_target(model, own ? *in_posture : at_rest, own ? *posture_girth : rest_girth, target, fitted_posed, stands, &as_posed));
+    m.girths.push_back(
+        girth_on_target(model, own ? *in_posture : at_rest, own ? *posture_girth : rest_girth, target, fitted_posed, stands, &as_posed));
     out.as_posed.push_back(as_posed);
   }
   reject_implausible_girths(&m);

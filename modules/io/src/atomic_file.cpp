@@ -211,8 +211,7 @@ void require_output_folder(const std::string& path, bool make_folder) {
   std::error_code ec;
   if (fs::is_directory(folder, ec)) return;
   if (fs::exists(folder, ec)) throw WriteError(path + ": " + folder.string() + " is not a folder");
-  if (!make_folder)
-    throw WriteError(path + ": the folder " + folder.string() + " does not exist (create it first, or pass --mkdir)");
+  if (!make_folder) throw WriteError(path + ": the folder " + folder.string() + " does not exist (create it first, or pass --mkdir)");
   create_folders(folder.string());
 }
 

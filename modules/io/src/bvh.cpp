@@ -1,7 +1,7 @@
 #include "posekit/io/bvh.h"
 
-#include <algorithm>
 #include <Eigen/Geometry>
+#include <algorithm>
 #include <cmath>
 #include <iomanip>
 
@@ -16,19 +16,25 @@ namespace {
 
 const char* channel_name(BvhChannel c) {
   switch (c) {
-    case BvhChannel::kXposition: return "Xposition";
-    case BvhChannel::kYposition: return "Yposition";
-    case BvhChannel::kZposition: return "Zposition";
-    case BvhChannel::kXrotation: return "Xrotation";
-    case BvhChannel::kYrotation: return "Yrotation";
-    case BvhChannel::kZrotation: return "Zrotation";
+    case BvhChannel::kXposition:
+      return "Xposition";
+    case BvhChannel::kYposition:
+      return "Yposition";
+    case BvhChannel::kZposition:
+      return "Zposition";
+    case BvhChannel::kXrotation:
+      return "Xrotation";
+    case BvhChannel::kYrotation:
+      return "Yrotation";
+    case BvhChannel::kZrotation:
+      return "Zrotation";
   }
   return "";
 }
 
 bool parse_channel(std::string_view s, BvhChannel& c) {
-  for (BvhChannel k : {BvhChannel::kXposition, BvhChannel::kYposition, BvhChannel::kZposition,
-                       BvhChannel::kXrotation, BvhChannel::kYrotation, BvhChannel::kZrotation})
+  for (BvhChannel k : {BvhChannel::kXposition, BvhChannel::kYposition, BvhChannel::kZposition, BvhChannel::kXrotation,
+                       BvhChannel::kYrotation, BvhChannel::kZrotation})
     if (s == channel_name(k)) {
       c = k;
       return true;
@@ -36,9 +42,7 @@ bool parse_channel(std::string_view s, BvhChannel& c) {
   return false;
 }
 
-bool is_position(BvhChannel c) {
-  return c == BvhChannel::kXposition || c == BvhChannel::kYposition || c == BvhChannel::kZposition;
-}
+bool is_position(BvhChannel c) { return c == BvhChannel::kXposition || c == BvhChannel::kYposition || c == BvhChannel::kZposition; }
 
 /// Token stream over the whole file (BVH allows braces and values on any line).
 class TokenStream {
@@ -91,8 +95,8 @@ void read_frames(const std::string& path, LineScanner& lines, int channel_count,
     if (tok.empty()) continue;
     if (f == nf) {
       if (static_cast<int>(tok.size()) != channel_count)
-        lines.fail("after the " + std::to_string(nf) + " frames the header declares ('Frames: " + std::to_string(nf) +
-                   "'): a line of " + std::to_string(tok.size()) + " values, expected nothing more");
+        lines.fail("after the " + std::to_string(nf) + " frames the header declares ('Frames: " + std::to_string(nf) + "'): a line of " +
+                   std::to_string(tok.size()) + " values, expected nothing more");
       if (extra++ == 0) first_extra_line = lines.line_number();
       continue;
     }
@@ -107,12 +111,12 @@ void read_frames(const std::string& path, LineScanner& lines, int channel_count,
     ++f;
   }
   if (f < nf)
-    throw IoError(path + ": the header declares " + std::to_string(nf) + " frames ('Frames: " + std::to_string(nf) +
-                  "'), the file has " + std::to_string(f) + " (truncated file)");
+    throw IoError(path + ": the header declares " + std::to_string(nf) + " frames ('Frames: " + std::to_string(nf) + "'), the file has " +
+                  std::to_string(f) + " (truncated file)");
   if (extra > 0)
-    warn(warnings, path + ":" + std::to_string(first_extra_line) + ": " + std::to_string(extra) +
-                       " frame line(s) after the " + std::to_string(nf) + " the header declares ('Frames: " +
-                       std::to_string(nf) + "'): ignored (correct the count to use them)");
+    warn(warnings, path + ":" + std::to_string(first_extra_line) + ": " + std::to_string(extra) + " frame line(s) after the " +
+                       std::to_string(nf) + " the header declares ('Frames: " + std::to_string(nf) +
+                       "'): ignored (correct the count to use them)");
 }
 
 }  // namespace
@@ -129,10 +133,17 @@ Eigen::Matrix3d BvhMotion::local_rotation(int frame, int joint) const {
   for (size_t c = 0; c < j.channels.size(); ++c) {
     const double angle = frames(frame, j.first_channel + static_cast<int>(c)) * M_PI / 180.0;
     switch (j.channels[c]) {
-      case BvhChannel::kXrotation: R = R * Eigen::AngleAxisd(angle, Eigen::Vector3d::UnitX()).toRotationMatrix(); break;
-      case BvhChannel::kYrotation: R = R * Eigen::AngleAxisd(angle, Eigen::Vector3d::UnitY()).toRotationMatrix(); break;
-      case BvhChannel::kZrotation: R = R * Eigen::AngleAxisd(angle, Eigen::Vector3d::UnitZ()).toRotationMatrix(); break;
-      default: break;
+      case BvhChannel::kXrotation:
+        R = R * Eigen::AngleAxisd(angle, Eigen::Vector3d::UnitX()).toRotationMatrix();
+        break;
+      case BvhChannel::kYrotation:
+        R = R * Eigen::AngleAxisd(angle, Eigen::Vector3d::UnitY()).toRotationMatrix();
+        break;
+      case BvhChannel::kZrotation:
+        R = R * Eigen::AngleAxisd(angle, Eigen::Vector3d::UnitZ()).toRotationMatrix();
+        break;
+      default:
+        break;
     }
   }
   return R;
@@ -197,8 +208,7 @@ BvhMotion read_bvh(const std::string& path, Unit unit, std::vector<std::string>*
       for (int c = 0; c < static_cast<int>(n); ++c) {
         BvhChannel ch;
         const std::string_view name = ts.expect("a channel name");
-        if (!parse_channel(name, ch))
-          ts.lines().fail("unknown channel '" + printable(name) + "': expected X/Y/Z position or rotation");
+        if (!parse_channel(name, ch)) ts.lines().fail("unknown channel '" + printable(name) + "': expected X/Y/Z position or rotation");
         joint.channels.push_back(ch);
       }
       channel_count += static_cast<int>(n);
@@ -263,62 +273,68 @@ BvhMotion read_bvh(const std::string& path, Unit unit, std::vector<std::string>*
 
 void write_bvh(const std::string& path, const BvhMotion& motion, Unit unit) {
   const double scale = 1.0 / metres_per_unit(unit);
-  write_file_atomically(path, [&](std::ostream& out) {
-    out << std::setprecision(10) << "HIERARCHY\n";
-    // Children lists once, then a depth-first walk with an explicit stack (no recursion).
-    std::vector<std::vector<int>> children(motion.joints.size());
-    for (size_t k = 0; k < motion.joints.size(); ++k)
-      if (motion.joints[k].parent >= 0) children.at(motion.joints[k].parent).push_back(static_cast<int>(k));
-    struct Visit {
-      int joint;
-      size_t next_child;
-    };
-    auto close = [&](int j, size_t depth) {
-      const std::string pad(std::min<size_t>(depth, 32), '\t');  // readers ignore indentation
-      const BvhJoint& joint = motion.joints[j];
-      if (joint.has_end_site)
-        out << pad << "\tEnd Site\n" << pad << "\t{\n" << pad << "\t\tOFFSET " << joint.end_offset.x() * scale << ' '
-            << joint.end_offset.y() * scale << ' ' << joint.end_offset.z() * scale << '\n' << pad << "\t}\n";
-      out << pad << "}\n";
-    };
-    auto open = [&](int j, size_t depth) {
-      const std::string pad(std::min<size_t>(depth, 32), '\t');  // readers ignore indentation
-      const BvhJoint& joint = motion.joints[j];
-      out << pad << (joint.parent < 0 ? "ROOT " : "JOINT ") << joint.name << "\n" << pad << "{\n";
-      out << pad << "\tOFFSET " << joint.offset.x() * scale << ' ' << joint.offset.y() * scale << ' '
-          << joint.offset.z() * scale << '\n';
-      if (!joint.channels.empty()) {
-        out << pad << "\tCHANNELS " << joint.channels.size();
-        for (BvhChannel c : joint.channels) out << ' ' << channel_name(c);
-        out << '\n';
-      }
-    };
-    for (size_t root = 0; root < motion.joints.size(); ++root) {
-      if (motion.joints[root].parent >= 0) continue;
-      std::vector<Visit> stack{{static_cast<int>(root), 0}};
-      open(static_cast<int>(root), 0);
-      while (!stack.empty()) {
-        Visit& top = stack.back();
-        if (top.next_child < children[top.joint].size()) {
-          const int child = children[top.joint][top.next_child++];
-          open(child, stack.size());
-          stack.push_back({child, 0});
-        } else {
-          close(top.joint, stack.size() - 1);
-          stack.pop_back();
+  write_file_atomically(
+      path,
+      [&](std::ostream& out) {
+        out << std::setprecision(10) << "HIERARCHY\n";
+        // Children lists once, then a depth-first walk with an explicit stack (no recursion).
+        std::vector<std::vector<int>> children(motion.joints.size());
+        for (size_t k = 0; k < motion.joints.size(); ++k)
+          if (motion.joints[k].parent >= 0) children.at(motion.joints[k].parent).push_back(static_cast<int>(k));
+        struct Visit {
+          int joint;
+          size_t next_child;
+        };
+        auto close = [&](int j, size_t depth) {
+          const std::string pad(std::min<size_t>(depth, 32), '\t');  // readers ignore indentation
+          const BvhJoint& joint = motion.joints[j];
+          if (joint.has_end_site)
+            out << pad << "\tEnd Site\n"
+                << pad << "\t{\n"
+                << pad << "\t\tOFFSET " << joint.end_offset.x() * scale << ' ' << joint.end_offset.y() * scale << ' '
+                << joint.end_offset.z() * scale << '\n'
+                << pad << "\t}\n";
+          out << pad << "}\n";
+        };
+        auto open = [&](int j, size_t depth) {
+          const std::string pad(std::min<size_t>(depth, 32), '\t');  // readers ignore indentation
+          const BvhJoint& joint = motion.joints[j];
+          out << pad << (joint.parent < 0 ? "ROOT " : "JOINT ") << joint.name << "\n" << pad << "{\n";
+          out << pad << "\tOFFSET " << joint.offset.x() * scale << ' ' << joint.offset.y() * scale << ' ' << joint.offset.z() * scale
+              << '\n';
+          if (!joint.channels.empty()) {
+            out << pad << "\tCHANNELS " << joint.channels.size();
+            for (BvhChannel c : joint.channels) out << ' ' << channel_name(c);
+            out << '\n';
+          }
+        };
+        for (size_t root = 0; root < motion.joints.size(); ++root) {
+          if (motion.joints[root].parent >= 0) continue;
+          std::vector<Visit> stack{{static_cast<int>(root), 0}};
+          open(static_cast<int>(root), 0);
+          while (!stack.empty()) {
+            Visit& top = stack.back();
+            if (top.next_child < children[top.joint].size()) {
+              const int child = children[top.joint][top.next_child++];
+              open(child, stack.size());
+              stack.push_back({child, 0});
+            } else {
+              close(top.joint, stack.size() - 1);
+              stack.pop_back();
+            }
+          }
         }
-      }
-    }
-    out << "MOTION\nFrames: " << motion.frames.rows() << "\nFrame Time: " << motion.frame_time << '\n';
-    for (Eigen::Index f = 0; f < motion.frames.rows(); ++f) {
-      for (const BvhJoint& joint : motion.joints)
-        for (size_t c = 0; c < joint.channels.size(); ++c) {
-          const double v = motion.frames(f, joint.first_channel + static_cast<int>(c));
-          out << (is_position(joint.channels[c]) ? v * scale : v) << ' ';
+        out << "MOTION\nFrames: " << motion.frames.rows() << "\nFrame Time: " << motion.frame_time << '\n';
+        for (Eigen::Index f = 0; f < motion.frames.rows(); ++f) {
+          for (const BvhJoint& joint : motion.joints)
+            for (size_t c = 0; c < joint.channels.size(); ++c) {
+              const double v = motion.frames(f, joint.first_channel + static_cast<int>(c));
+              out << (is_position(joint.channels[c]) ? v * scale : v) << ' ';
+            }
+          out << '\n';
         }
-      out << '\n';
-    }
-  }, false);
+      },
+      false);
 }
 
 }  // namespace posekit

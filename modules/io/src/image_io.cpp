@@ -9,8 +9,8 @@
 #include <utility>
 
 // jpeglib.h needs size_t and FILE declared first.
-#include <jpeglib.h>
 #include <jerror.h>
+#include <jpeglib.h>
 
 #include "posekit/core/error.h"
 #include "posekit/io/atomic_file.h"
@@ -19,7 +19,9 @@ namespace posekit {
 namespace {
 
 bool is_png(const std::string& b) { return b.size() >= 8 && std::memcmp(b.data(), "\x89PNG\r\n\x1a\n", 8) == 0; }
-bool is_jpeg(const std::string& b) { return b.size() >= 3 && static_cast<unsigned char>(b[0]) == 0xFF && static_cast<unsigned char>(b[1]) == 0xD8; }
+bool is_jpeg(const std::string& b) {
+  return b.size() >= 3 && static_cast<unsigned char>(b[0]) == 0xFF && static_cast<unsigned char>(b[1]) == 0xD8;
+}
 
 // Gray from blue, green, red as OpenCV's cvtColor does it (weights 0.114, 0.587, 0.299 in 14-bit fixed point).
 std::uint8_t gray_of(const std::uint8_t* bgr) {
@@ -40,8 +42,7 @@ Image8 decode_png(const std::string& bytes, ImageColor color, const std::string&
     throw IoError(what + ": PNG of " + std::to_string(w) + " x " + std::to_string(h) + " pixels (at most 2^28 read)");
   }
   std::vector<std::uint8_t> bgra(w * h * 4);
-  if (!png_image_finish_read(&png, nullptr, bgra.data(), 0, nullptr))
-    throw IoError(what + ": corrupt PNG (" + png.message + ")");
+  if (!png_image_finish_read(&png, nullptr, bgra.data(), 0, nullptr)) throw IoError(what + ": corrupt PNG (" + png.message + ")");
   Image8 out;
   out.width = static_cast<int>(w), out.height = static_cast<int>(h);
   out.channels = color == ImageColor::kGray ? 1 : 3;
@@ -81,7 +82,9 @@ int exif_orientation(const jpeg_decompress_struct& info) {
     const bool little = t[0] == 'I' && t[1] == 'I';
     if (!little && !(t[0] == 'M' && t[1] == 'M')) return 1;
     auto u16 = [&](size_t at) -> unsigned { return at + 2 > n ? 0 : little ? t[at] | t[at + 1] << 8 : t[at] << 8 | t[at + 1]; };
-    auto u32 = [&](size_t at) -> size_t { return at + 4 > n ? n : static_cast<size_t>(u16(little ? at : at + 2)) | static_cast<size_t>(u16(little ? at + 2 : at)) << 16; };
+    auto u32 = [&](size_t at) -> size_t {
+      return at + 4 > n ? n : static_cast<size_t>(u16(little ? at : at + 2)) | static_cast<size_t>(u16(little ? at + 2 : at)) << 16;
+    };
     const size_t ifd = u32(4);
     const unsigned entries = u16(ifd);
     for (unsigned k = 0; k < entries; ++k) {
@@ -108,14 +111,29 @@ Image8 oriented(const Image8& in, int orientation) {
     for (int x = 0; x < out.width; ++x) {
       int sx = x, sy = y;
       switch (orientation) {
-        case 2: sx = W - 1 - x; break;
-        case 3: sx = W - 1 - x, sy = H - 1 - y; break;
-        case 4: sy = H - 1 - y; break;
-        case 5: sx = y, sy = x; break;
-        case 6: sx = y, sy = H - 1 - x; break;
-        case 7: sx = W - 1 - y, sy = H - 1 - x; break;
-        case 8: sx = W - 1 - y, sy = x; break;
-        default: break;
+        case 2:
+          sx = W - 1 - x;
+          break;
+        case 3:
+          sx = W - 1 - x, sy = H - 1 - y;
+          break;
+        case 4:
+          sy = H - 1 - y;
+          break;
+        case 5:
+          sx = y, sy = x;
+          break;
+        case 6:
+          sx = y, sy = H - 1 - x;
+          break;
+        case 7:
+          sx = W - 1 - y, sy = H - 1 - x;
+          break;
+        case 8:
+          sx = W - 1 - y, sy = x;
+          break;
+        default:
+          break;
       }
       std::memcpy(&out.pixels[(static_cast<size_t>(y) * out.width + x) * c], &in.pixels[(static_cast<size_t>(sy) * W + sx) * c],
                   static_cast<size_t>(c));
@@ -280,7 +298,8 @@ std::vector<std::uint8_t> encode_jpeg(const Image8& image, int quality) {
 
 void write_png(const std::string& path, const Image8& image) {
   const std::vector<std::uint8_t> png = encode_png(image);
-  write_file_atomically(path, [&](std::ostream& os) { os.write(reinterpret_cast<const char*>(png.data()), static_cast<std::streamsize>(png.size())); });
+  write_file_atomically(
+      path, [&](std::ostream& os) { os.write(reinterpret_cast<const char*>(png.data()), static_cast<std::streamsize>(png.size())); });
 }
 
 }  // namespace posekit

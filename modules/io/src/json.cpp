@@ -37,8 +37,7 @@ nlohmann::json parse_json(const std::string& text, const std::string& context) {
   } catch (const nlohmann::json::exception& e) {
     throw IoError(context + ": not valid JSON (" + e.what() + ")");
   }
-  if (!duplicate.empty())
-    throw InvalidInput(context + ": the key " + duplicate + " (the second would silently replace the first)");
+  if (!duplicate.empty()) throw InvalidInput(context + ": the key " + duplicate + " (the second would silently replace the first)");
   return value;
 }
 

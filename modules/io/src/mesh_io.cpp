@@ -11,11 +11,11 @@
 
 #include "parse_util.h"
 #include "ply_format.h"
-#include "text_mesh_formats.h"
 #include "posekit/core/error.h"
 #include "posekit/core/mesh_geometry.h"
 #include "posekit/core/mesh_validation.h"
 #include "posekit/io/atomic_file.h"
+#include "text_mesh_formats.h"
 
 namespace posekit {
 namespace io_detail {
@@ -36,8 +36,7 @@ long long obj_index(const LineScanner& lines, std::string_view token, long long 
   long long idx = lines.to_int(token, what);
   if (idx < 0) idx = count + idx + 1;  // relative index
   if (idx < 1 || idx > count)
-    lines.fail(std::string(what) + " " + std::string(token) + " out of range 1.." + std::to_string(count) +
-               " (defined so far)");
+    lines.fail(std::string(what) + " " + std::string(token) + " out of range 1.." + std::to_string(count) + " (defined so far)");
   return idx - 1;
 }
 
@@ -46,8 +45,8 @@ long long obj_index(const LineScanner& lines, std::string_view token, long long 
 /// the normals are then dropped with a warning, as texture seams are. Files whose faces name no
 /// normal but that have one `vn` per `v` pair them by order, with a warning.
 void read_obj_normals(const std::string& path, const std::vector<double>& vn, const std::vector<long long>& vertex_vn,
-                      long long corners_with_vn, long long corners_without_vn, long long splits,
-                      std::vector<std::string>* warnings, TriangleMesh* mesh) {
+                      long long corners_with_vn, long long corners_without_vn, long long splits, std::vector<std::string>* warnings,
+                      TriangleMesh* mesh) {
   const Eigen::Index nv = static_cast<Eigen::Index>(vertex_vn.size());
   if (vn.empty()) return;
   if (corners_with_vn == 0) {
@@ -56,8 +55,8 @@ void read_obj_normals(const std::string& path, const std::vector<double>& vn, co
       warn(warnings, path + ": the faces name no normal ('f v//vn'): the " + std::to_string(nv) +
                          " 'vn' lines were paired with the vertices by order");
     } else {
-      warn(warnings, path + ": normals not kept: the faces name none and there are " + std::to_string(vn.size() / 3) +
-                         " 'vn' lines for " + std::to_string(nv) + " vertices");
+      warn(warnings, path + ": normals not kept: the faces name none and there are " + std::to_string(vn.size() / 3) + " 'vn' lines for " +
+                         std::to_string(nv) + " vertices");
     }
     return;
   }
@@ -82,8 +81,7 @@ namespace io_detail {
 
 TriangleMesh read_obj(const std::string& path, double scale, std::vector<std::string>* warnings) {
   const std::string bytes = read_file_bytes(path);
-  if (bytes.find('\0') != std::string::npos)
-    throw IoError(path + ": contains NUL bytes: expected a text OBJ file");
+  if (bytes.find('\0') != std::string::npos) throw IoError(path + ": contains NUL bytes: expected a text OBJ file");
   LineScanner lines(bytes, path);
   std::vector<double> v, vc, vn, vt;
   std::vector<int> tris, groups;
@@ -116,8 +114,7 @@ TriangleMesh read_obj(const std::string& path, double scale, std::vector<std::st
     if (tok.empty()) continue;
     const std::string_view key = tok[0];
     if (key == "v") {
-      if (tok.size() != 4 && tok.size() != 5 && tok.size() != 7)
-        lines.fail("expected 'v x y z [w]' or 'v x y z r g b'");
+      if (tok.size() != 4 && tok.size() != 5 && tok.size() != 7) lines.fail("expected 'v x y z [w]' or 'v x y z r g b'");
       for (int k = 1; k <= 3; ++k) {
         const double x = lines.to_double(tok[k], "a vertex coordinate");
         if (!std::isfinite(x)) lines.fail("non-finite vertex coordinate '" + printable(tok[k]) + "'");
@@ -152,8 +149,7 @@ TriangleMesh read_obj(const std::string& path, double scale, std::vector<std::st
         const std::string_view rest = slash == std::string_view::npos ? std::string_view() : t.substr(slash + 1);
         const size_t second_slash = rest.find('/');
         const std::string_view vt_token = rest.substr(0, second_slash);
-        const std::string_view vn_token =
-            second_slash == std::string_view::npos ? std::string_view() : rest.substr(second_slash + 1);
+        const std::string_view vn_token = second_slash == std::string_view::npos ? std::string_view() : rest.substr(second_slash + 1);
         if (vn_token.empty() || nn == 0) {  // a file without 'vn' lines: its faces' normal indices name nothing
           ++corners_without_vn;
           vn_without_lines += !vn_token.empty();
@@ -163,8 +159,7 @@ TriangleMesh read_obj(const std::string& path, double scale, std::vector<std::st
           const long long ni = obj_index(lines, vn_token, nn, "normal index");
           long long& used = vertex_vn[idx];
           if (used < 0) used = ni;
-          else if (used != ni && (vn[3 * used] != vn[3 * ni] || vn[3 * used + 1] != vn[3 * ni + 1] ||
-                                  vn[3 * used + 2] != vn[3 * ni + 2]))
+          else if (used != ni && (vn[3 * used] != vn[3 * ni] || vn[3 * used + 1] != vn[3 * ni + 1] || vn[3 * used + 2] != vn[3 * ni + 2]))
             ++vn_splits;
         }
         if (vt_token.empty()) {
@@ -193,20 +188,18 @@ TriangleMesh read_obj(const std::string& path, double scale, std::vector<std::st
   const Eigen::Index nv = static_cast<Eigen::Index>(v.size() / 3);
   if (nv == 0) throw IoError(path + ": no vertices ('v' lines) found: expected an OBJ mesh");
   mesh.V = Eigen::Map<Eigen::Matrix<double, Eigen::Dynamic, 3, Eigen::RowMajor>>(v.data(), nv, 3);
-  mesh.F = Eigen::Map<Eigen::Matrix<int, Eigen::Dynamic, 3, Eigen::RowMajor>>(tris.data(),
-                                                                             static_cast<Eigen::Index>(tris.size() / 3), 3);
+  mesh.F = Eigen::Map<Eigen::Matrix<int, Eigen::Dynamic, 3, Eigen::RowMajor>>(tris.data(), static_cast<Eigen::Index>(tris.size() / 3), 3);
   if (vn_without_lines > 0)
-    warn(warnings, path + ": " + std::to_string(vn_without_lines) +
-                       " face corners name a normal ('v//vn') but the file has no 'vn' lines: ignored");
+    warn(warnings,
+         path + ": " + std::to_string(vn_without_lines) + " face corners name a normal ('v//vn') but the file has no 'vn' lines: ignored");
   read_obj_normals(path, vn, vertex_vn, corners_with_vn, corners_without_vn, vn_splits, warnings, &mesh);
   if (vertices_with_colour > 0 && vertices_with_colour < nv)
-    warn(warnings, path + ": vertex colours not kept: only " + std::to_string(vertices_with_colour) + " of " +
-                       std::to_string(nv) + " vertices have one ('v x y z r g b')");
+    warn(warnings, path + ": vertex colours not kept: only " + std::to_string(vertices_with_colour) + " of " + std::to_string(nv) +
+                       " vertices have one ('v x y z r g b')");
   if (vertices_with_colour == nv) {
     mesh.C.resize(nv, 3);
     for (Eigen::Index i = 0; i < nv; ++i)
-      for (int k = 0; k < 3; ++k)
-        mesh.C(i, k) = static_cast<std::uint8_t>(std::clamp(std::lround(vc[3 * i + k] * 255.0), 0L, 255L));
+      for (int k = 0; k < 3; ++k) mesh.C(i, k) = static_cast<std::uint8_t>(std::clamp(std::lround(vc[3 * i + k] * 255.0), 0L, 255L));
   }
   if (!vt.empty()) {
     const bool every_vertex = std::none_of(vertex_vt.begin(), vertex_vt.end(), [](long long t) { return t < 0; });
@@ -271,8 +264,7 @@ TriangleMesh read_off(const std::string& path, double scale) {
   const long long nf = lines.to_int(counts[1], "the face count");
   if (nv <= 0 || nf < 0) lines.fail("implausible counts nv=" + std::to_string(nv) + " nf=" + std::to_string(nf));
   if (static_cast<size_t>(nv) > bytes.size() / 6 + 1 || static_cast<size_t>(nf) > bytes.size() / 8 + 1)
-    lines.fail("the header claims " + std::to_string(nv) + " vertices and " + std::to_string(nf) +
-               " faces, more than the file can hold");
+    lines.fail("the header claims " + std::to_string(nv) + " vertices and " + std::to_string(nf) + " faces, more than the file can hold");
   TriangleMesh mesh;
   mesh.V.resize(nv, 3);
   if (has_normal) mesh.N.resize(nv, 3);
@@ -283,8 +275,8 @@ TriangleMesh read_off(const std::string& path, double scale) {
     // x y z [nx ny nz] [r g b [a]] [u v]
     const size_t need = 3 + (has_normal ? 3 : 0) + (has_color ? 3 : 0) + (has_uv ? 2 : 0);
     if (tok.size() < need)
-      lines.fail("vertex " + std::to_string(i) + ": expected " + std::to_string(need) + " values for '" +
-                 printable(head) + "', got " + std::to_string(tok.size()));
+      lines.fail("vertex " + std::to_string(i) + ": expected " + std::to_string(need) + " values for '" + printable(head) + "', got " +
+                 std::to_string(tok.size()));
     size_t t = 0;
     for (int k = 0; k < 3; ++k) {
       const double x = lines.to_double(tok[t++], "a vertex coordinate");
@@ -305,8 +297,7 @@ TriangleMesh read_off(const std::string& path, double scale) {
     const double unit = color.size() > 0 && color.maxCoeff() > 1.0 ? 1.0 : 255.0;
     mesh.C.resize(nv, 3);
     for (Eigen::Index i = 0; i < nv; ++i)
-      for (int k = 0; k < 3; ++k)
-        mesh.C(i, k) = static_cast<std::uint8_t>(std::clamp(std::lround(color(i, k) * unit), 0L, 255L));
+      for (int k = 0; k < 3; ++k) mesh.C(i, k) = static_cast<std::uint8_t>(std::clamp(std::lround(color(i, k) * unit), 0L, 255L));
   }
   std::vector<int> tris;
   std::vector<int> poly;
@@ -323,79 +314,83 @@ TriangleMesh read_off(const std::string& path, double scale) {
       }
       const long long idx = lines.to_int(tok[t], "a face vertex index");
       if (idx < 0 || idx >= nv)
-        lines.fail("face " + std::to_string(f) + ": vertex index " + std::to_string(idx) + " out of range 0.." +
-                   std::to_string(nv - 1));
+        lines.fail("face " + std::to_string(f) + ": vertex index " + std::to_string(idx) + " out of range 0.." + std::to_string(nv - 1));
       poly.push_back(static_cast<int>(idx));
     }
     // Values after the indices are the face's colour, which posekit does not keep.
     for (size_t k = 1; k + 1 < poly.size(); ++k) tris.insert(tris.end(), {poly[0], poly[k], poly[k + 1]});
   }
-  mesh.F = Eigen::Map<Eigen::Matrix<int, Eigen::Dynamic, 3, Eigen::RowMajor>>(tris.data(),
-                                                                             static_cast<Eigen::Index>(tris.size() / 3), 3);
+  mesh.F = Eigen::Map<Eigen::Matrix<int, Eigen::Dynamic, 3, Eigen::RowMajor>>(tris.data(), static_cast<Eigen::Index>(tris.size() / 3), 3);
   return mesh;
 }
 
 void write_obj(const std::string& path, const TriangleMesh& mesh, double scale) {
   const bool uv = mesh.has_uv(), normals = mesh.has_normals();
-  write_file_atomically(path, [&](std::ostream& out) {
-    out << "# written by posekit\n";
-    for (Eigen::Index i = 0; i < mesh.V.rows(); ++i) {
-      out << 'v';
-      for (int k = 0; k < 3; ++k) out << ' ', put_number(out, mesh.V(i, k), scale);
-      if (mesh.has_colors())
-        for (int k = 0; k < 3; ++k) out << ' ', put_number(out, mesh.C(i, k) / 255.0);
-      out << '\n';
-    }
-    if (uv)
-      for (Eigen::Index i = 0; i < mesh.UV.rows(); ++i) {
-        out << "vt ";
-        put_number(out, mesh.UV(i, 0));
-        out << ' ';
-        put_number(out, mesh.UV(i, 1));
-        out << '\n';
-      }
-    if (normals)
-      for (Eigen::Index i = 0; i < mesh.N.rows(); ++i) {
-        out << "vn";
-        for (int k = 0; k < 3; ++k) out << ' ', put_number(out, mesh.N(i, k));
-        out << '\n';
-      }
-    const bool grouped = mesh.face_group.size() == mesh.F.rows() && !mesh.group_names.empty();
-    int current = -1;
-    for (Eigen::Index f = 0; f < mesh.F.rows(); ++f) {
-      if (grouped && mesh.face_group[f] != current) {
-        current = mesh.face_group[f];
-        out << "g " << mesh.group_names.at(current) << '\n';
-      }
-      out << 'f';
-      for (int c = 0; c < 3; ++c) {
-        const int i = mesh.F(f, c) + 1;
-        out << ' ' << i;
-        if (uv && normals) out << '/' << i << '/' << i;
-        else if (uv) out << '/' << i;
-        else if (normals) out << "//" << i;
-      }
-      out << '\n';
-    }
-  }, false);
+  write_file_atomically(
+      path,
+      [&](std::ostream& out) {
+        out << "# written by posekit\n";
+        for (Eigen::Index i = 0; i < mesh.V.rows(); ++i) {
+          out << 'v';
+          for (int k = 0; k < 3; ++k) out << ' ', put_number(out, mesh.V(i, k), scale);
+          if (mesh.has_colors())
+            for (int k = 0; k < 3; ++k) out << ' ', put_number(out, mesh.C(i, k) / 255.0);
+          out << '\n';
+        }
+        if (uv)
+          for (Eigen::Index i = 0; i < mesh.UV.rows(); ++i) {
+            out << "vt ";
+            put_number(out, mesh.UV(i, 0));
+            out << ' ';
+            put_number(out, mesh.UV(i, 1));
+            out << '\n';
+          }
+        if (normals)
+          for (Eigen::Index i = 0; i < mesh.N.rows(); ++i) {
+            out << "vn";
+            for (int k = 0; k < 3; ++k) out << ' ', put_number(out, mesh.N(i, k));
+            out << '\n';
+          }
+        const bool grouped = mesh.face_group.size() == mesh.F.rows() && !mesh.group_names.empty();
+        int current = -1;
+        for (Eigen::Index f = 0; f < mesh.F.rows(); ++f) {
+          if (grouped && mesh.face_group[f] != current) {
+            current = mesh.face_group[f];
+            out << "g " << mesh.group_names.at(current) << '\n';
+          }
+          out << 'f';
+          for (int c = 0; c < 3; ++c) {
+            const int i = mesh.F(f, c) + 1;
+            out << ' ' << i;
+            if (uv && normals) out << '/' << i << '/' << i;
+            else if (uv) out << '/' << i;
+            else if (normals) out << "//" << i;
+          }
+          out << '\n';
+        }
+      },
+      false);
 }
 
 void write_off(const std::string& path, const TriangleMesh& mesh, double scale) {
   const bool colors = mesh.has_colors(), normals = mesh.has_normals();
-  write_file_atomically(path, [&](std::ostream& out) {
-    out << (colors ? "C" : "") << (normals ? "N" : "") << "OFF\n" << mesh.V.rows() << ' ' << mesh.F.rows() << " 0\n";
-    for (Eigen::Index i = 0; i < mesh.V.rows(); ++i) {
-      for (int k = 0; k < 3; ++k) {
-        if (k) out << ' ';
-        put_number(out, mesh.V(i, k), scale);
-      }
-      if (normals) for (int k = 0; k < 3; ++k) out << ' ', put_number(out, mesh.N(i, k));
-      if (colors) out << ' ' << int(mesh.C(i, 0)) << ' ' << int(mesh.C(i, 1)) << ' ' << int(mesh.C(i, 2)) << " 255";
-      out << '\n';
-    }
-    for (Eigen::Index f = 0; f < mesh.F.rows(); ++f)
-      out << "3 " << mesh.F(f, 0) << ' ' << mesh.F(f, 1) << ' ' << mesh.F(f, 2) << '\n';
-  }, false);
+  write_file_atomically(
+      path,
+      [&](std::ostream& out) {
+        out << (colors ? "C" : "") << (normals ? "N" : "") << "OFF\n" << mesh.V.rows() << ' ' << mesh.F.rows() << " 0\n";
+        for (Eigen::Index i = 0; i < mesh.V.rows(); ++i) {
+          for (int k = 0; k < 3; ++k) {
+            if (k) out << ' ';
+            put_number(out, mesh.V(i, k), scale);
+          }
+          if (normals)
+            for (int k = 0; k < 3; ++k) out << ' ', put_number(out, mesh.N(i, k));
+          if (colors) out << ' ' << int(mesh.C(i, 0)) << ' ' << int(mesh.C(i, 1)) << ' ' << int(mesh.C(i, 2)) << " 255";
+          out << '\n';
+        }
+        for (Eigen::Index f = 0; f < mesh.F.rows(); ++f) out << "3 " << mesh.F(f, 0) << ' ' << mesh.F(f, 1) << ' ' << mesh.F(f, 2) << '\n';
+      },
+      false);
 }
 
 }  // namespace io_detail
@@ -430,8 +425,7 @@ TriangleMesh weld(const std::vector<float>& corners, double scale) {
     if (inserted) v.insert(v.end(), {k.x * scale, k.y * scale, k.z * scale});
     mesh.F(static_cast<Eigen::Index>(c / 3), static_cast<int>(c % 3)) = it->second;
   }
-  mesh.V = Eigen::Map<Eigen::Matrix<double, Eigen::Dynamic, 3, Eigen::RowMajor>>(v.data(),
-                                                                                static_cast<Eigen::Index>(v.size() / 3), 3);
+  mesh.V = Eigen::Map<Eigen::Matrix<double, Eigen::Dynamic, 3, Eigen::RowMajor>>(v.data(), static_cast<Eigen::Index>(v.size() / 3), 3);
   return mesh;
 }
 
@@ -450,8 +444,7 @@ TriangleMesh read_stl(const std::string& path, double scale) {
         for (int k = 0; k < 9; ++k) {
           float x = 0;
           r.read(x);
-          if (!std::isfinite(x))
-            throw IoError(path + ": triangle #" + std::to_string(t) + " has a non-finite coordinate");
+          if (!std::isfinite(x)) throw IoError(path + ": triangle #" + std::to_string(t) + " has a non-finite coordinate");
           corners.push_back(x);
         }
         r.skip(2);
@@ -467,8 +460,7 @@ TriangleMesh read_stl(const std::string& path, double scale) {
     throw IoError(path + ": not an STL file: not ascii (no 'solid' header), and not binary: " +
                   (bytes.size() < 84 ? std::string("shorter than the 84-byte header")
                                      : "the header declares " + std::to_string(n) + " triangles, which take " +
-                                           std::to_string(84 + 50ull * n) + " bytes, the file has " +
-                                           std::to_string(bytes.size())));
+                                           std::to_string(84 + 50ull * n) + " bytes, the file has " + std::to_string(bytes.size())));
   }
   LineScanner lines(bytes, path);
   std::string_view line;
@@ -484,41 +476,43 @@ TriangleMesh read_stl(const std::string& path, double scale) {
     }
   }
   if (corners.empty() || corners.size() % 9 != 0)
-    throw IoError(path + ": ascii STL: expected facets of 3 'vertex' lines, found " +
-                  std::to_string(corners.size() / 3) + " vertices");
+    throw IoError(path + ": ascii STL: expected facets of 3 'vertex' lines, found " + std::to_string(corners.size() / 3) + " vertices");
   return weld(corners, scale);
 }
 
 void write_stl(const std::string& path, const TriangleMesh& mesh, double scale, bool binary) {
   const Eigen::MatrixXd N = face_normals(mesh.V, mesh.F);
-  write_file_atomically(path, [&](std::ostream& out) {
-    if (binary) {
-      char header[80] = {};
-      std::snprintf(header, sizeof(header), "posekit binary STL");
-      out.write(header, 80);
-      const auto n = static_cast<std::uint32_t>(mesh.F.rows());
-      out.write(reinterpret_cast<const char*>(&n), 4);
-      for (Eigen::Index f = 0; f < mesh.F.rows(); ++f) {
-        float rec[12];
-        for (int k = 0; k < 3; ++k) rec[k] = static_cast<float>(N(f, k));
-        for (int c = 0; c < 3; ++c)
-          for (int k = 0; k < 3; ++k) rec[3 + 3 * c + k] = static_cast<float>(mesh.V(mesh.F(f, c), k) * scale);
-        out.write(reinterpret_cast<const char*>(rec), sizeof(rec));
-        const std::uint16_t attr = 0;
-        out.write(reinterpret_cast<const char*>(&attr), 2);
-      }
-    } else {
-      out << "solid posekit\n" << std::setprecision(9);
-      for (Eigen::Index f = 0; f < mesh.F.rows(); ++f) {
-        out << " facet normal " << N(f, 0) << ' ' << N(f, 1) << ' ' << N(f, 2) << "\n  outer loop\n";
-        for (int c = 0; c < 3; ++c)
-          out << "   vertex " << mesh.V(mesh.F(f, c), 0) * scale << ' ' << mesh.V(mesh.F(f, c), 1) * scale << ' '
-              << mesh.V(mesh.F(f, c), 2) * scale << '\n';
-        out << "  endloop\n endfacet\n";
-      }
-      out << "endsolid posekit\n";
-    }
-  }, true);
+  write_file_atomically(
+      path,
+      [&](std::ostream& out) {
+        if (binary) {
+          char header[80] = {};
+          std::snprintf(header, sizeof(header), "posekit binary STL");
+          out.write(header, 80);
+          const auto n = static_cast<std::uint32_t>(mesh.F.rows());
+          out.write(reinterpret_cast<const char*>(&n), 4);
+          for (Eigen::Index f = 0; f < mesh.F.rows(); ++f) {
+            float rec[12];
+            for (int k = 0; k < 3; ++k) rec[k] = static_cast<float>(N(f, k));
+            for (int c = 0; c < 3; ++c)
+              for (int k = 0; k < 3; ++k) rec[3 + 3 * c + k] = static_cast<float>(mesh.V(mesh.F(f, c), k) * scale);
+            out.write(reinterpret_cast<const char*>(rec), sizeof(rec));
+            const std::uint16_t attr = 0;
+            out.write(reinterpret_cast<const char*>(&attr), 2);
+          }
+        } else {
+          out << "solid posekit\n" << std::setprecision(9);
+          for (Eigen::Index f = 0; f < mesh.F.rows(); ++f) {
+            out << " facet normal " << N(f, 0) << ' ' << N(f, 1) << ' ' << N(f, 2) << "\n  outer loop\n";
+            for (int c = 0; c < 3; ++c)
+              out << "   vertex " << mesh.V(mesh.F(f, c), 0) * scale << ' ' << mesh.V(mesh.F(f, c), 1) * scale << ' '
+                  << mesh.V(mesh.F(f, c), 2) * scale << '\n';
+            out << "  endloop\n endfacet\n";
+          }
+          out << "endsolid posekit\n";
+        }
+      },
+      true);
 }
 
 MeshFormat resolve(const std::string& path, MeshFormat format) {
@@ -532,8 +526,7 @@ MeshFormat resolve(const std::string& path, MeshFormat format) {
 }  // namespace
 
 std::vector<std::string> mesh_attributes_lost(const TriangleMesh& mesh, MeshFormat format) {
-  const char* name = format == MeshFormat::kObj ? "OBJ" : format == MeshFormat::kOff ? "OFF"
-                   : format == MeshFormat::kStl ? "STL" : "PLY";
+  const char* name = format == MeshFormat::kObj ? "OBJ" : format == MeshFormat::kOff ? "OFF" : format == MeshFormat::kStl ? "STL" : "PLY";
   std::vector<std::string> lost;
   auto lose = [&](bool has, bool holds, const std::string& what) {
     if (has && !holds) lost.push_back(std::string(name) + " cannot hold " + what + ": not written");
@@ -565,9 +558,15 @@ TriangleMesh read_mesh(const std::string& path, const MeshReadOptions& options) 
   const double scale = metres_per_unit(options.unit);
   TriangleMesh mesh;
   switch (resolve(path, options.format)) {
-    case MeshFormat::kObj: mesh = read_obj(path, scale, options.warnings); break;
-    case MeshFormat::kOff: mesh = read_off(path, scale); break;
-    case MeshFormat::kStl: mesh = read_stl(path, scale); break;
+    case MeshFormat::kObj:
+      mesh = read_obj(path, scale, options.warnings);
+      break;
+    case MeshFormat::kOff:
+      mesh = read_off(path, scale);
+      break;
+    case MeshFormat::kStl:
+      mesh = read_stl(path, scale);
+      break;
     case MeshFormat::kPly: {
       io_detail::PlyContent c = io_detail::read_ply(path, scale, true, options.warnings);
       mesh.V = std::move(c.V);
@@ -579,7 +578,8 @@ TriangleMesh read_mesh(const std::string& path, const MeshReadOptions& options) 
       mesh.face_scalars = std::move(c.face_scalars);
       break;
     }
-    case MeshFormat::kAuto: break;
+    case MeshFormat::kAuto:
+      break;
   }
   if (mesh.F.rows() == 0) throw IoError(path + ": no faces: expected a triangle mesh (read it as a point cloud?)");
   return mesh;
@@ -594,17 +594,28 @@ void write_mesh(const std::string& path, const TriangleMesh& mesh, const MeshWri
   const MeshFormat format = resolve(path, options.format);
   for (std::string& lost : mesh_attributes_lost(mesh, format)) warn(options.warnings, path + ": " + lost);
   switch (format) {
-    case MeshFormat::kObj: write_obj(path, mesh, scale); break;
-    case MeshFormat::kOff: write_off(path, mesh, scale); break;
-    case MeshFormat::kStl: write_stl(path, mesh, scale, options.binary); break;
+    case MeshFormat::kObj:
+      write_obj(path, mesh, scale);
+      break;
+    case MeshFormat::kOff:
+      write_off(path, mesh, scale);
+      break;
+    case MeshFormat::kStl:
+      write_stl(path, mesh, scale, options.binary);
+      break;
     case MeshFormat::kPly: {
-      io_detail::PlyContent c{mesh.V, mesh.has_normals() ? mesh.N : Eigen::MatrixXd(),
-                              mesh.has_colors() ? mesh.C : RowMatrixX3u8(), mesh.has_uv() ? mesh.UV : Eigen::MatrixXd(),
-                              mesh.vertex_scalars, mesh.F, mesh.face_scalars};
+      io_detail::PlyContent c{mesh.V,
+                              mesh.has_normals() ? mesh.N : Eigen::MatrixXd(),
+                              mesh.has_colors() ? mesh.C : RowMatrixX3u8(),
+                              mesh.has_uv() ? mesh.UV : Eigen::MatrixXd(),
+                              mesh.vertex_scalars,
+                              mesh.F,
+                              mesh.face_scalars};
       io_detail::write_ply(path, c, options.binary, scale);
       break;
     }
-    case MeshFormat::kAuto: break;
+    case MeshFormat::kAuto:
+      break;
   }
 }
 

@@ -104,13 +104,10 @@ class LineScanner {
   long line_number() const { return line_; }
   const std::string& file() const { return file_; }
 
-  [[noreturn]] void fail(const std::string& what) const {
-    throw IoError(file_ + ":" + std::to_string(line_) + ": " + what);
-  }
+  [[noreturn]] void fail(const std::string& what) const { throw IoError(file_ + ":" + std::to_string(line_) + ": " + what); }
   double to_double(std::string_view token, const char* what) const {
     double value = 0;
-    if (!parse_double(token, value))
-      fail(std::string("expected a number for ") + what + ", got '" + printable(token) + "'");
+    if (!parse_double(token, value)) fail(std::string("expected a number for ") + what + ", got '" + printable(token) + "'");
     return value;
   }
   long long to_int(std::string_view token, const char* what) const {

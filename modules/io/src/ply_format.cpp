@@ -1,8 +1,8 @@
 #include "ply_format.h"
 
 #include <algorithm>
-#include <cstring>
 #include <cmath>
+#include <cstring>
 #include <iomanip>
 #include <limits>
 #include <map>
@@ -58,14 +58,22 @@ bool read_as_double(ByteReader& r, double& out) {
 
 bool read_binary_value(ByteReader& r, PlyType t, double& out) {
   switch (t) {
-    case PlyType::kInt8: return read_as_double<std::int8_t>(r, out);
-    case PlyType::kUint8: return read_as_double<std::uint8_t>(r, out);
-    case PlyType::kInt16: return read_as_double<std::int16_t>(r, out);
-    case PlyType::kUint16: return read_as_double<std::uint16_t>(r, out);
-    case PlyType::kInt32: return read_as_double<std::int32_t>(r, out);
-    case PlyType::kUint32: return read_as_double<std::uint32_t>(r, out);
-    case PlyType::kFloat32: return read_as_double<float>(r, out);
-    case PlyType::kFloat64: return read_as_double<double>(r, out);
+    case PlyType::kInt8:
+      return read_as_double<std::int8_t>(r, out);
+    case PlyType::kUint8:
+      return read_as_double<std::uint8_t>(r, out);
+    case PlyType::kInt16:
+      return read_as_double<std::int16_t>(r, out);
+    case PlyType::kUint16:
+      return read_as_double<std::uint16_t>(r, out);
+    case PlyType::kInt32:
+      return read_as_double<std::int32_t>(r, out);
+    case PlyType::kUint32:
+      return read_as_double<std::uint32_t>(r, out);
+    case PlyType::kFloat32:
+      return read_as_double<float>(r, out);
+    case PlyType::kFloat64:
+      return read_as_double<double>(r, out);
   }
   return false;
 }
@@ -76,10 +84,18 @@ enum class VertexSlot { kX, kY, kZ, kNx, kNy, kNz, kRed, kGreen, kBlue, kU, kV, 
 /// Bytes one value of `t` takes in a binary file.
 size_t type_size(PlyType t) {
   switch (t) {
-    case PlyType::kInt8: case PlyType::kUint8: return 1;
-    case PlyType::kInt16: case PlyType::kUint16: return 2;
-    case PlyType::kInt32: case PlyType::kUint32: case PlyType::kFloat32: return 4;
-    case PlyType::kFloat64: return 8;
+    case PlyType::kInt8:
+    case PlyType::kUint8:
+      return 1;
+    case PlyType::kInt16:
+    case PlyType::kUint16:
+      return 2;
+    case PlyType::kInt32:
+    case PlyType::kUint32:
+    case PlyType::kFloat32:
+      return 4;
+    case PlyType::kFloat64:
+      return 8;
   }
   return 1;
 }
@@ -92,8 +108,7 @@ class PlyParser {
   PlyContent parse() {
     file_ = std::make_unique<MappedFile>(path_);
     bytes_ = file_->bytes();
-    if (bytes_.size() < 3 || bytes_.compare(0, 3, "ply") != 0)
-      throw IoError(path_ + ": not a PLY file (expected the first line 'ply')");
+    if (bytes_.size() < 3 || bytes_.compare(0, 3, "ply") != 0) throw IoError(path_ + ": not a PLY file (expected the first line 'ply')");
     parse_header();
     check_counts_fit();
     const char* data_begin = bytes_.data() + header_end_;
@@ -111,8 +126,7 @@ class PlyParser {
 
  private:
   [[noreturn]] void fail_element(const PlyElement& e, long long index, const std::string& what) const {
-    throw IoError(path_ + ": element '" + e.name + "' #" + std::to_string(index) + " of " +
-                  std::to_string(e.count) + ": " + what);
+    throw IoError(path_ + ": element '" + e.name + "' #" + std::to_string(index) + " of " + std::to_string(e.count) + ": " + what);
   }
 
   void parse_header() {
@@ -156,15 +170,14 @@ class PlyParser {
           lines.fail("expected 'property <type> <name>' or 'property list <ctype> <type> <name>'");
         }
         for (const auto& other : elements_.back().properties)
-          if (other.name == p.name)
-            lines.fail("property '" + p.name + "' of element '" + elements_.back().name + "' is declared twice");
+          if (other.name == p.name) lines.fail("property '" + p.name + "' of element '" + elements_.back().name + "' is declared twice");
         elements_.back().properties.push_back(std::move(p));
       } else if (tok[0] == "end_header") {
         break;
       } else if (elements_.empty()) {
         // Some exporters write notes such as "Created by ..." without 'comment'.
-        warn(warnings_, path_ + ":" + std::to_string(lines.line_number()) + ": skipped the header line '" +
-                            printable(line) + "' (not a PLY keyword)");
+        warn(warnings_,
+             path_ + ":" + std::to_string(lines.line_number()) + ": skipped the header line '" + printable(line) + "' (not a PLY keyword)");
       } else {
         // After an element a misspelt 'property' would shift every value: refuse it.
         lines.fail("unexpected header keyword '" + printable(tok[0]) + "'");
@@ -186,9 +199,8 @@ class PlyParser {
         record += encoding_ == PlyEncoding::kAscii ? 2.0 : static_cast<double>(type_size(p.is_list ? p.count_type : p.type));
       needed += record * static_cast<double>(e.count);
       if (needed > available)
-        throw IoError(path_ + ": element '" + e.name + "' claims " + std::to_string(e.count) +
-                      " entries, more than the " + std::to_string(bytes_.size() - header_end_) +
-                      " bytes of data can hold (truncated or corrupt file)");
+        throw IoError(path_ + ": element '" + e.name + "' claims " + std::to_string(e.count) + " entries, more than the " +
+                      std::to_string(bytes_.size() - header_end_) + " bytes of data can hold (truncated or corrupt file)");
     }
   }
 
@@ -196,8 +208,7 @@ class PlyParser {
     size_t pos = 0;
     while (true) {
       const size_t hit = bytes_.find("end_header", pos);
-      if (hit == std::string_view::npos || hit > (1u << 20))
-        throw IoError(path_ + ": PLY header has no 'end_header' line");
+      if (hit == std::string_view::npos || hit > (1u << 20)) throw IoError(path_ + ": PLY header has no 'end_header' line");
       size_t eol = bytes_.find('\n', hit);
       if (eol == std::string_view::npos) {
         if (bytes_.size() - hit <= 11) return bytes_.size();  // header only
@@ -227,8 +238,7 @@ class PlyParser {
       slots.push_back(s);
     }
     for (const auto& p : e.properties)
-      if (p.is_list)
-        warn(warnings_, path_ + ": the vertex list property '" + p.name + "' is not kept (posekit keeps scalar properties)");
+      if (p.is_list) warn(warnings_, path_ + ": the vertex list property '" + p.name + "' is not kept (posekit keeps scalar properties)");
     auto has = [&](VertexSlot s) { return std::find(slots.begin(), slots.end(), s) != slots.end(); };
     if (!has(VertexSlot::kX) || !has(VertexSlot::kY) || !has(VertexSlot::kZ))
       throw IoError(path_ + ": element 'vertex' has no x, y, z properties");
@@ -252,22 +262,46 @@ class PlyParser {
     return slots;
   }
 
-  void store_vertex(const PlyElement& e, const std::vector<VertexSlot>& slots, long long v, size_t prop,
-                    double value) {
+  void store_vertex(const PlyElement& e, const std::vector<VertexSlot>& slots, long long v, size_t prop, double value) {
     switch (slots[prop]) {
-      case VertexSlot::kX: out_.V(v, 0) = value * scale_; break;
-      case VertexSlot::kY: out_.V(v, 1) = value * scale_; break;
-      case VertexSlot::kZ: out_.V(v, 2) = value * scale_; break;
-      case VertexSlot::kNx: out_.N(v, 0) = value; break;
-      case VertexSlot::kNy: out_.N(v, 1) = value; break;
-      case VertexSlot::kNz: out_.N(v, 2) = value; break;
-      case VertexSlot::kRed: out_.C(v, 0) = to_color(value, e.properties[prop].type); break;
-      case VertexSlot::kGreen: out_.C(v, 1) = to_color(value, e.properties[prop].type); break;
-      case VertexSlot::kBlue: out_.C(v, 2) = to_color(value, e.properties[prop].type); break;
-      case VertexSlot::kU: out_.UV(v, 0) = value; break;
-      case VertexSlot::kV: out_.UV(v, 1) = value; break;
-      case VertexSlot::kScalar: out_.scalars[e.properties[prop].name][v] = value; break;
-      case VertexSlot::kIgnore: break;
+      case VertexSlot::kX:
+        out_.V(v, 0) = value * scale_;
+        break;
+      case VertexSlot::kY:
+        out_.V(v, 1) = value * scale_;
+        break;
+      case VertexSlot::kZ:
+        out_.V(v, 2) = value * scale_;
+        break;
+      case VertexSlot::kNx:
+        out_.N(v, 0) = value;
+        break;
+      case VertexSlot::kNy:
+        out_.N(v, 1) = value;
+        break;
+      case VertexSlot::kNz:
+        out_.N(v, 2) = value;
+        break;
+      case VertexSlot::kRed:
+        out_.C(v, 0) = to_color(value, e.properties[prop].type);
+        break;
+      case VertexSlot::kGreen:
+        out_.C(v, 1) = to_color(value, e.properties[prop].type);
+        break;
+      case VertexSlot::kBlue:
+        out_.C(v, 2) = to_color(value, e.properties[prop].type);
+        break;
+      case VertexSlot::kU:
+        out_.UV(v, 0) = value;
+        break;
+      case VertexSlot::kV:
+        out_.UV(v, 1) = value;
+        break;
+      case VertexSlot::kScalar:
+        out_.scalars[e.properties[prop].name][v] = value;
+        break;
+      case VertexSlot::kIgnore:
+        break;
     }
   }
 
@@ -278,16 +312,14 @@ class PlyParser {
 
   static int face_list_index(const PlyElement& e) {
     for (size_t i = 0; i < e.properties.size(); ++i)
-      if (e.properties[i].is_list &&
-          (e.properties[i].name == "vertex_indices" || e.properties[i].name == "vertex_index"))
+      if (e.properties[i].is_list && (e.properties[i].name == "vertex_indices" || e.properties[i].name == "vertex_index"))
         return static_cast<int>(i);
     return -1;
   }
 
   /// A list length: a whole number up to a million (a float type may hold NaN or 2.5).
   void check_list_length(const PlyElement& e, long long i, double count) const {
-    if (!(count >= 0 && count <= 1e6) || count != std::floor(count))
-      fail_element(e, i, "implausible list length " + std::to_string(count));
+    if (!(count >= 0 && count <= 1e6) || count != std::floor(count)) fail_element(e, i, "implausible list length " + std::to_string(count));
   }
 
   /// A vertex index read as a number: a whole number (a float type may hold NaN or 2.5).
@@ -312,8 +344,8 @@ class PlyParser {
   /// A face's per-corner texture coordinates (MeshLab's `property list uchar float texcoord`).
   void add_corner_uv(const PlyElement& e, long long f, const std::vector<long long>& poly, const std::vector<double>& uv) {
     if (uv.size() != 2 * poly.size())
-      fail_element(e, f, "texcoord has " + std::to_string(uv.size()) + " values, expected 2 per corner (" +
-                             std::to_string(2 * poly.size()) + ")");
+      fail_element(
+          e, f, "texcoord has " + std::to_string(uv.size()) + " values, expected 2 per corner (" + std::to_string(2 * poly.size()) + ")");
     for (size_t k = 0; k < poly.size(); ++k) corner_uv_.push_back({poly[k], uv[2 * k], uv[2 * k + 1]});
   }
 
@@ -344,15 +376,13 @@ class PlyParser {
       }
     }
     if (!plan.is_vertex && !plan.is_face && e.count > 0)
-      warn(warnings_, path_ + ": element '" + e.name + "' (" + std::to_string(e.count) +
-                          " entries) is not kept: posekit reads 'vertex' and 'face'");
+      warn(warnings_,
+           path_ + ": element '" + e.name + "' (" + std::to_string(e.count) + " entries) is not kept: posekit reads 'vertex' and 'face'");
     return plan;
   }
 
   /// A face's scalar property value, stored per polygon (repeated on its triangles in finish()).
-  void store_face_value(const PlyElement& e, size_t prop, double value) {
-    face_values_[e.properties[prop].name].push_back(value);
-  }
+  void store_face_value(const PlyElement& e, size_t prop, double value) { face_values_[e.properties[prop].name].push_back(value); }
 
   /// A vertex element whose properties are all float or all double in the host's byte order (how
   /// scanners and most tools write clouds), wholly present: read record by record without a check
@@ -372,15 +402,32 @@ class PlyParser {
     for (size_t q = 0; q < k; ++q) {
       factor[q] = 1;
       switch (slots[q]) {
-        case VertexSlot::kX: case VertexSlot::kY: case VertexSlot::kZ:
-          column[q] = out_.V.col(static_cast<int>(slots[q]) - static_cast<int>(VertexSlot::kX)).data(), factor[q] = scale_; break;
-        case VertexSlot::kNx: case VertexSlot::kNy: case VertexSlot::kNz:
-          column[q] = out_.N.col(static_cast<int>(slots[q]) - static_cast<int>(VertexSlot::kNx)).data(); break;
-        case VertexSlot::kU: column[q] = out_.UV.col(0).data(); break;
-        case VertexSlot::kV: column[q] = out_.UV.col(1).data(); break;
-        case VertexSlot::kScalar: column[q] = out_.scalars[e.properties[q].name].data(); break;
-        case VertexSlot::kRed: case VertexSlot::kGreen: case VertexSlot::kBlue: colours = true; break;
-        case VertexSlot::kIgnore: break;
+        case VertexSlot::kX:
+        case VertexSlot::kY:
+        case VertexSlot::kZ:
+          column[q] = out_.V.col(static_cast<int>(slots[q]) - static_cast<int>(VertexSlot::kX)).data(), factor[q] = scale_;
+          break;
+        case VertexSlot::kNx:
+        case VertexSlot::kNy:
+        case VertexSlot::kNz:
+          column[q] = out_.N.col(static_cast<int>(slots[q]) - static_cast<int>(VertexSlot::kNx)).data();
+          break;
+        case VertexSlot::kU:
+          column[q] = out_.UV.col(0).data();
+          break;
+        case VertexSlot::kV:
+          column[q] = out_.UV.col(1).data();
+          break;
+        case VertexSlot::kScalar:
+          column[q] = out_.scalars[e.properties[q].name].data();
+          break;
+        case VertexSlot::kRed:
+        case VertexSlot::kGreen:
+        case VertexSlot::kBlue:
+          colours = true;
+          break;
+        case VertexSlot::kIgnore:
+          break;
       }
     }
     const char* at = r.position();
@@ -412,22 +459,19 @@ class PlyParser {
           const auto& prop = e.properties[p];
           double value = 0;
           if (!prop.is_list) {
-            if (!read_binary_value(r, prop.type, value))
-              fail_element(e, i, "file ends early (truncated binary data)");
+            if (!read_binary_value(r, prop.type, value)) fail_element(e, i, "file ends early (truncated binary data)");
             if (is_vertex) store_vertex(e, slots, i, p, value);
             if (is_face) store_face_value(e, p, value);
             continue;
           }
           double count = 0;
-          if (!read_binary_value(r, prop.count_type, count))
-            fail_element(e, i, "file ends early (truncated binary data)");
+          if (!read_binary_value(r, prop.count_type, count)) fail_element(e, i, "file ends early (truncated binary data)");
           check_list_length(e, i, count);
           const bool keep = is_face && static_cast<int>(p) == list_index;
           const bool keep_uv = is_face && static_cast<int>(p) == plan.texcoord_index;
           if (keep) poly.clear();
           for (long long k = 0; k < static_cast<long long>(count); ++k) {
-            if (!read_binary_value(r, prop.type, value))
-              fail_element(e, i, "file ends early (truncated binary data)");
+            if (!read_binary_value(r, prop.type, value)) fail_element(e, i, "file ends early (truncated binary data)");
             if (keep) poly.push_back(to_index(e, i, value));
             if (keep_uv) uv.push_back(value);
           }
@@ -482,8 +526,9 @@ class PlyParser {
         }
         if (plan.texcoord_index >= 0) add_corner_uv(e, i, poly, uv);
         if (t < tok.size())
-          fail_element(e, i, std::to_string(tok.size() - t) + " more value(s) on the line than the " +
-                                 std::to_string(e.properties.size()) + " properties declared");
+          fail_element(e, i,
+                       std::to_string(tok.size() - t) + " more value(s) on the line than the " + std::to_string(e.properties.size()) +
+                           " properties declared");
       }
     }
   }
@@ -503,8 +548,8 @@ class PlyParser {
       if (e.name == "face") face_element = &e;
     for (size_t t = 0; t < tris_.size(); ++t)
       if (tris_[t] >= out_.V.rows())
-        fail_element(*face_element, tri_face_[t / 3], "vertex index " + std::to_string(tris_[t]) + " out of range 0.." +
-                                                          std::to_string(out_.V.rows() - 1));
+        fail_element(*face_element, tri_face_[t / 3],
+                     "vertex index " + std::to_string(tris_[t]) + " out of range 0.." + std::to_string(out_.V.rows() - 1));
     for (const auto& [name, per_face] : face_values_) {
       Eigen::VectorXd& values = out_.face_scalars[name];
       values.resize(static_cast<Eigen::Index>(tri_face_.size()));
@@ -513,8 +558,7 @@ class PlyParser {
     finish_corner_uv();
     // A PLY without faces is a point cloud, whose reader drops such points instead.
     for (Eigen::Index v = 0; finite_only_ && !tris_.empty() && v < out_.V.rows(); ++v)
-      if (!out_.V.row(v).allFinite())
-        throw IoError(path_ + ": element 'vertex' #" + std::to_string(v) + " has a non-finite coordinate");
+      if (!out_.V.row(v).allFinite()) throw IoError(path_ + ": element 'vertex' #" + std::to_string(v) + " has a non-finite coordinate");
     out_.F.resize(static_cast<Eigen::Index>(tris_.size() / 3), 3);
     for (Eigen::Index f = 0; f < out_.F.rows(); ++f)
       for (int c = 0; c < 3; ++c) out_.F(f, c) = tris_[3 * f + c];
@@ -566,7 +610,7 @@ class PlyParser {
   bool has_colors_ = false;
   bool has_uv_ = false;
   std::vector<int> tris_;
-  std::vector<long long> tri_face_;  ///< the face (polygon) number of each triangle
+  std::vector<long long> tri_face_;                         ///< the face (polygon) number of each triangle
   std::map<std::string, std::vector<double>> face_values_;  ///< per polygon
   std::vector<CornerUv> corner_uv_;
   PlyContent out_;
@@ -603,8 +647,7 @@ void write_ply(const std::string& path, const PlyContent& c, bool binary, double
   const bool little = host_is_little_endian();
   write_file_atomically(path, [&](std::ostream& out) {
     out << "ply\nformat " << (binary ? (little ? "binary_little_endian" : "binary_big_endian") : "ascii")
-        << " 1.0\ncomment written by posekit\nelement vertex " << n
-        << "\nproperty double x\nproperty double y\nproperty double z\n";
+        << " 1.0\ncomment written by posekit\nelement vertex " << n << "\nproperty double x\nproperty double y\nproperty double z\n";
     if (normals) out << "property double nx\nproperty double ny\nproperty double nz\n";
     if (colors) out << "property uchar red\nproperty uchar green\nproperty uchar blue\n";
     if (uv) out << "property double texture_u\nproperty double texture_v\n";
@@ -616,9 +659,12 @@ void write_ply(const std::string& path, const PlyContent& c, bool binary, double
     if (binary) {
       for (Eigen::Index v = 0; v < n; ++v) {
         for (int k = 0; k < 3; ++k) put(out, c.V(v, k) * scale);
-        if (normals) for (int k = 0; k < 3; ++k) put(out, c.N(v, k));
-        if (colors) for (int k = 0; k < 3; ++k) put(out, c.C(v, k));
-        if (uv) for (int k = 0; k < 2; ++k) put(out, c.UV(v, k));
+        if (normals)
+          for (int k = 0; k < 3; ++k) put(out, c.N(v, k));
+        if (colors)
+          for (int k = 0; k < 3; ++k) put(out, c.C(v, k));
+        if (uv)
+          for (int k = 0; k < 2; ++k) put(out, c.UV(v, k));
         for (const auto& kv : c.scalars) put(out, kv.second[v]);
       }
       for (Eigen::Index f = 0; f < c.F.rows(); ++f) {
@@ -632,9 +678,11 @@ void write_ply(const std::string& path, const PlyContent& c, bool binary, double
           if (k) out << ' ';
           put_number(out, c.V(v, k), scale);
         }
-        if (normals) for (int k = 0; k < 3; ++k) out << ' ', put_number(out, c.N(v, k));
+        if (normals)
+          for (int k = 0; k < 3; ++k) out << ' ', put_number(out, c.N(v, k));
         if (colors) out << ' ' << int(c.C(v, 0)) << ' ' << int(c.C(v, 1)) << ' ' << int(c.C(v, 2));
-        if (uv) for (int k = 0; k < 2; ++k) out << ' ', put_number(out, c.UV(v, k));
+        if (uv)
+          for (int k = 0; k < 2; ++k) out << ' ', put_number(out, c.UV(v, k));
         for (const auto& kv : c.scalars) out << ' ', put_number(out, kv.second[v]);
         out << '\n';
       }

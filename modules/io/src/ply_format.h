@@ -22,8 +22,7 @@ struct PlyContent {
 
 /// `scale` multiplies coordinates (file unit -> metres). With `finite_only` a vertex with a NaN or
 /// infinite coordinate is an error (meshes); otherwise it is returned for the caller to drop.
-PlyContent read_ply(const std::string& path, double scale, bool finite_only,
-                    std::vector<std::string>* warnings);
+PlyContent read_ply(const std::string& path, double scale, bool finite_only, std::vector<std::string>* warnings);
 
 /// `scale` multiplies coordinates (metres -> file unit). F may be empty (point cloud).
 void write_ply(const std::string& path, const PlyContent& content, bool binary, double scale);

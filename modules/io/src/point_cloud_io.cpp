@@ -1,6 +1,5 @@
 #include "posekit/io/point_cloud_io.h"
 
-
 #include <algorithm>
 #include <cctype>
 #include <cmath>
@@ -10,9 +9,9 @@
 #include "mapped_file.h"
 #include "parse_util.h"
 #include "ply_format.h"
-#include "text_mesh_formats.h"
 #include "posekit/core/error.h"
 #include "posekit/io/atomic_file.h"
+#include "text_mesh_formats.h"
 
 namespace posekit {
 using namespace io_detail;
@@ -64,20 +63,60 @@ struct PcdField {
 double pcd_value(const char* p, const PcdField& f) {
   switch (f.type) {
     case 'F':
-      if (f.size == 4) { float x; std::memcpy(&x, p, 4); return x; }
-      if (f.size == 8) { double x; std::memcpy(&x, p, 8); return x; }
+      if (f.size == 4) {
+        float x;
+        std::memcpy(&x, p, 4);
+        return x;
+      }
+      if (f.size == 8) {
+        double x;
+        std::memcpy(&x, p, 8);
+        return x;
+      }
       break;
     case 'I':
-      if (f.size == 1) { std::int8_t x; std::memcpy(&x, p, 1); return x; }
-      if (f.size == 2) { std::int16_t x; std::memcpy(&x, p, 2); return x; }
-      if (f.size == 4) { std::int32_t x; std::memcpy(&x, p, 4); return x; }
-      if (f.size == 8) { std::int64_t x; std::memcpy(&x, p, 8); return static_cast<double>(x); }
+      if (f.size == 1) {
+        std::int8_t x;
+        std::memcpy(&x, p, 1);
+        return x;
+      }
+      if (f.size == 2) {
+        std::int16_t x;
+        std::memcpy(&x, p, 2);
+        return x;
+      }
+      if (f.size == 4) {
+        std::int32_t x;
+        std::memcpy(&x, p, 4);
+        return x;
+      }
+      if (f.size == 8) {
+        std::int64_t x;
+        std::memcpy(&x, p, 8);
+        return static_cast<double>(x);
+      }
       break;
     case 'U':
-      if (f.size == 1) { std::uint8_t x; std::memcpy(&x, p, 1); return x; }
-      if (f.size == 2) { std::uint16_t x; std::memcpy(&x, p, 2); return x; }
-      if (f.size == 4) { std::uint32_t x; std::memcpy(&x, p, 4); return x; }
-      if (f.size == 8) { std::uint64_t x; std::memcpy(&x, p, 8); return static_cast<double>(x); }
+      if (f.size == 1) {
+        std::uint8_t x;
+        std::memcpy(&x, p, 1);
+        return x;
+      }
+      if (f.size == 2) {
+        std::uint16_t x;
+        std::memcpy(&x, p, 2);
+        return x;
+      }
+      if (f.size == 4) {
+        std::uint32_t x;
+        std::memcpy(&x, p, 4);
+        return x;
+      }
+      if (f.size == 8) {
+        std::uint64_t x;
+        std::memcpy(&x, p, 8);
+        return static_cast<double>(x);
+      }
       break;
   }
   return 0.0;
@@ -155,12 +194,12 @@ PointCloud read_pcd(const std::string& path, double scale) {
   if (!missing.empty()) throw IoError(path + ": PCD header lacks" + missing + " (or gives a negative value)");
   constexpr long long kMaxSide = 1LL << 31;  // keeps WIDTH x HEIGHT within 64 bits
   if (width > kMaxSide || height > kMaxSide || points > kMaxSide * kMaxSide)
-    throw IoError(path + ": PCD header declares WIDTH " + std::to_string(width) + ", HEIGHT " + std::to_string(height) +
-                  ", POINTS " + std::to_string(points) + ": more points than any file can hold");
+    throw IoError(path + ": PCD header declares WIDTH " + std::to_string(width) + ", HEIGHT " + std::to_string(height) + ", POINTS " +
+                  std::to_string(points) + ": more points than any file can hold");
   if (points < 0) points = width * height;
   if (points != width * height)
-    throw IoError(path + ": PCD header declares POINTS " + std::to_string(points) + " but WIDTH x HEIGHT = " +
-                  std::to_string(width) + " x " + std::to_string(height) + " = " + std::to_string(width * height));
+    throw IoError(path + ": PCD header declares POINTS " + std::to_string(points) + " but WIDTH x HEIGHT = " + std::to_string(width) +
+                  " x " + std::to_string(height) + " = " + std::to_string(width * height));
   int ix = -1, iy = -1, iz = -1, inx = -1, iny = -1, inz = -1, icolor = -1;
   size_t record = 0, values_per_point = 0;
   for (size_t i = 0; i < fields.size(); ++i) {
@@ -182,13 +221,12 @@ PointCloud read_pcd(const std::string& path, double scale) {
   // `record` bytes, an ascii one at least a character and a separator per value.
   const size_t data_start = lines.offset();
   const double available = static_cast<double>(bytes.size() - data_start);
-  const double needed = data == "binary" ? static_cast<double>(record) * static_cast<double>(points)
+  const double needed = data == "binary"  ? static_cast<double>(record) * static_cast<double>(points)
                         : data == "ascii" ? 2.0 * static_cast<double>(values_per_point) * static_cast<double>(points) - 1
                                           : 0.0;
   if (needed > available)
     throw IoError(path + ": the header declares " + std::to_string(points) + " points of " + std::to_string(record) +
-                  " bytes, more than the " + std::to_string(bytes.size() - data_start) +
-                  " bytes of data can hold (truncated file)");
+                  " bytes, more than the " + std::to_string(bytes.size() - data_start) + " bytes of data can hold (truncated file)");
   // Each value read where it lies: the ascii values parsed into values[field][point], binary records
   // and binary_compressed columns decoded in place. Packed colours keep their 32 bits.
   std::vector<std::vector<double>> values;
@@ -215,8 +253,7 @@ PointCloud read_pcd(const std::string& path, double scale) {
         for (int c = 0; c < fields[f].count; ++c, ++t) {
           if (c != 0) continue;
           double v = lines.to_double(tok[t], "a field value");
-          if (is_packed_color(fields[f]) && fields[f].type == 'F' &&
-              tok[t].find_first_of(".eE") != std::string_view::npos) {
+          if (is_packed_color(fields[f]) && fields[f].type == 'F' && tok[t].find_first_of(".eE") != std::string_view::npos) {
             // Older PCL wrote the packed colour as the float with the same bits.
             const float as_float = static_cast<float>(v);
             v = static_cast<double>(packed_color_bits(reinterpret_cast<const char*>(&as_float)));
@@ -235,12 +272,11 @@ PointCloud read_pcd(const std::string& path, double scale) {
     constexpr double kLzfMaxRatio = 264.0 / 3.0;
     if (compressed > bytes.size() - data_start - 8 || uncompressed != record * static_cast<size_t>(points) ||
         static_cast<double>(uncompressed) > kLzfMaxRatio * compressed + 8)
-      throw IoError(path + ": binary_compressed sizes (" + std::to_string(compressed) + " -> " +
-                    std::to_string(uncompressed) + " bytes) do not match the header's " + std::to_string(points) +
-                    " points of " + std::to_string(record) + " bytes (truncated or corrupt)");
+      throw IoError(path + ": binary_compressed sizes (" + std::to_string(compressed) + " -> " + std::to_string(uncompressed) +
+                    " bytes) do not match the header's " + std::to_string(points) + " points of " + std::to_string(record) +
+                    " bytes (truncated or corrupt)");
     raw.resize(uncompressed);
-    if (uncompressed > 0 &&
-        lzf_decompress(bytes.data() + data_start + 8, compressed, raw.data(), uncompressed) != uncompressed)
+    if (uncompressed > 0 && lzf_decompress(bytes.data() + data_start + 8, compressed, raw.data(), uncompressed) != uncompressed)
       throw IoError(path + ": binary_compressed data does not decompress (corrupt)");
     size_t off = 0;
     for (size_t f = 0; f < fields.size(); ++f) {
@@ -262,8 +298,8 @@ PointCloud read_pcd(const std::string& path, double scale) {
   if (icolor >= 0) cloud.C.resize(n, 3);
   for (size_t f = 0; f < fields.size(); ++f) {
     const int fi = static_cast<int>(f);
-    if (fi == ix || fi == iy || fi == iz || fi == inx || fi == iny || fi == inz || fi == icolor ||
-        fields[f].count != 1 || fields[f].name == "_")
+    if (fi == ix || fi == iy || fi == iz || fi == inx || fi == iny || fi == inz || fi == icolor || fields[f].count != 1 ||
+        fields[f].name == "_")
       continue;
     cloud.point_scalars[fields[f].name].resize(n);
   }
@@ -273,11 +309,10 @@ PointCloud read_pcd(const std::string& path, double scale) {
     if (icolor >= 0) {
       const double packed = value(icolor, i);
       if (!(packed >= 0 && packed < 4294967296.0))  // not a packed 0x00RRGGBB: casting it would be undefined
-        throw IoError(path + ": point " + std::to_string(i) + ": colour field '" + fields[static_cast<size_t>(icolor)].name +
-                      "' is " + std::to_string(packed) + ", not a packed 24-bit RGB value");
+        throw IoError(path + ": point " + std::to_string(i) + ": colour field '" + fields[static_cast<size_t>(icolor)].name + "' is " +
+                      std::to_string(packed) + ", not a packed 24-bit RGB value");
       const auto bits = static_cast<std::uint32_t>(packed);
-      cloud.C.row(i) << static_cast<std::uint8_t>(bits >> 16), static_cast<std::uint8_t>(bits >> 8),
-          static_cast<std::uint8_t>(bits);
+      cloud.C.row(i) << static_cast<std::uint8_t>(bits >> 16), static_cast<std::uint8_t>(bits >> 8), static_cast<std::uint8_t>(bits);
     }
   }
   for (size_t f = 0; f < fields.size(); ++f) {
@@ -309,8 +344,18 @@ void write_pcd(const std::string& path, const PointCloud& cloud, double scale, b
   write_file_atomically(path, [&](std::ostream& out) {
     const char* ps = p64 ? " 8" : " 4";
     std::string names = "x y z", sizes = std::string(ps) + ps + ps, types = "F F F", counts = "1 1 1";
-    if (normals) { names += " normal_x normal_y normal_z"; sizes += " 4 4 4"; types += " F F F"; counts += " 1 1 1"; }
-    if (colors) { names += " rgb"; sizes += " 4"; types += " U"; counts += " 1"; }  // packed as PCL 1.13 writes it
+    if (normals) {
+      names += " normal_x normal_y normal_z";
+      sizes += " 4 4 4";
+      types += " F F F";
+      counts += " 1 1 1";
+    }
+    if (colors) {
+      names += " rgb";
+      sizes += " 4";
+      types += " U";
+      counts += " 1";
+    }  // packed as PCL 1.13 writes it
     size_t k = 0;
     for (const auto& kv : cloud.point_scalars) {
       names += " " + kv.first;
@@ -318,9 +363,9 @@ void write_pcd(const std::string& path, const PointCloud& cloud, double scale, b
       types += " F";
       counts += " 1";
     }
-    out << "# .PCD v0.7 - written by posekit\nVERSION 0.7\nFIELDS " << names << "\nSIZE " << sizes.substr(1)
-        << "\nTYPE " << types << "\nCOUNT " << counts << "\nWIDTH " << n << "\nHEIGHT 1\nVIEWPOINT 0 0 0 1 0 0 0\nPOINTS "
-        << n << "\nDATA " << (binary ? "binary" : "ascii") << "\n";
+    out << "# .PCD v0.7 - written by posekit\nVERSION 0.7\nFIELDS " << names << "\nSIZE " << sizes.substr(1) << "\nTYPE " << types
+        << "\nCOUNT " << counts << "\nWIDTH " << n << "\nHEIGHT 1\nVIEWPOINT 0 0 0 1 0 0 0\nPOINTS " << n << "\nDATA "
+        << (binary ? "binary" : "ascii") << "\n";
     std::string rec;
     auto put_value = [&](double v, bool wide) {
       if (binary) {
@@ -337,7 +382,8 @@ void write_pcd(const std::string& path, const PointCloud& cloud, double scale, b
       if (binary) {
         rec.clear();
         for (int c = 0; c < 3; ++c) put_value(cloud.P(i, c) * scale, p64);
-        if (normals) for (int c = 0; c < 3; ++c) put_value(cloud.N(i, c), false);
+        if (normals)
+          for (int c = 0; c < 3; ++c) put_value(cloud.N(i, c), false);
         if (colors) rec.append(reinterpret_cast<const char*>(&bits), 4);
         k = 0;
         for (const auto& kv : cloud.point_scalars) put_value(kv.second[i], s64[k++]);
@@ -350,7 +396,8 @@ void write_pcd(const std::string& path, const PointCloud& cloud, double scale, b
         if (p64) put_number(out, cloud.P(i, c), scale);
         else put_number(out, static_cast<float>(cloud.P(i, c) * scale));
       }
-      if (normals) for (int c = 0; c < 3; ++c) out << ' ', put_number(out, static_cast<float>(cloud.N(i, c)));
+      if (normals)
+        for (int c = 0; c < 3; ++c) out << ' ', put_number(out, static_cast<float>(cloud.N(i, c)));
       if (colors) out << ' ' << bits;
       k = 0;
       for (const auto& kv : cloud.point_scalars) {
@@ -432,8 +479,7 @@ std::vector<Column> guess_columns(const std::vector<double>& v, size_t cols, boo
     return true;
   };
   const bool seventh_constant = cols == 7 && column_is(6, [](double x, double first) { return x == first; });
-  const bool seventh_colour_like =
-      cols == 7 && column_is(6, [](double x, double) { return x >= 0 && x <= 255 && x == std::floor(x); });
+  const bool seventh_colour_like = cols == 7 && column_is(6, [](double x, double) { return x >= 0 && x <= 255 && x == std::floor(x); });
   size_t c = 3;
   std::string said;
   // X Y Z R G B A against PTS's X Y Z I R G B: colours in columns 4-6 and a constant (or, without a
@@ -464,8 +510,8 @@ std::vector<Column> guess_columns(const std::vector<double>& v, size_t cols, boo
     }
   }
   if (!said.empty())
-    warn(warnings, path + ": no header names the columns: read" + said.substr(1) +
-                       " (name them with a first line such as '//X Y Z R G B')");
+    warn(warnings,
+         path + ": no header names the columns: read" + said.substr(1) + " (name them with a first line such as '//X Y Z R G B')");
   return out;
 }
 
@@ -517,8 +563,7 @@ PointCloud read_xyz(const std::string& path, double scale, std::vector<std::stri
   if (values.empty()) throw IoError(path + ": no points: expected lines 'x y z [more columns]'");
   const auto n = static_cast<Eigen::Index>(values.size() / columns);
   if (declared >= 0 && declared != n)
-    throw IoError(path + ": the point count line(s) declare " + std::to_string(declared) + " points, the file has " +
-                  std::to_string(n));
+    throw IoError(path + ": the point count line(s) declare " + std::to_string(declared) + " points, the file has " + std::to_string(n));
   std::vector<Column> kind;
   if (!names.empty()) {
     for (const std::string& name : names) kind.push_back(column_of_name(name));
@@ -546,8 +591,8 @@ PointCloud read_xyz(const std::string& path, double scale, std::vector<std::stri
   if (normals) cloud.N.resize(n, 3);
   if (colors) cloud.C.resize(n, 3);
   for (size_t k = 0; k < columns; ++k) {
-    const bool used = kind[k] != Column::kScalar && (kind[k] <= Column::kZ || (normals && kind[k] <= Column::kNz) ||
-                                                     (colors && kind[k] >= Column::kRed));
+    const bool used =
+        kind[k] != Column::kScalar && (kind[k] <= Column::kZ || (normals && kind[k] <= Column::kNz) || (colors && kind[k] >= Column::kRed));
     if (!used) cloud.point_scalars[names[k].empty() ? "column_" + std::to_string(k + 1) : names[k]].resize(n);
   }
   for (Eigen::Index i = 0; i < n; ++i) {
@@ -566,26 +611,30 @@ PointCloud read_xyz(const std::string& path, double scale, std::vector<std::stri
 }
 
 void write_xyz(const std::string& path, const PointCloud& cloud, double scale) {
-  write_file_atomically(path, [&](std::ostream& out) {
-    const bool normals = cloud.has_normals(), colors = cloud.has_colors();
-    if (normals || colors || !cloud.point_scalars.empty()) {  // name the columns beyond x y z
-      out << "//X Y Z";
-      if (colors) out << " R G B";
-      if (normals) out << " Nx Ny Nz";
-      for (const auto& kv : cloud.point_scalars) out << ' ' << kv.first;
-      out << '\n';
-    }
-    for (Eigen::Index i = 0; i < cloud.size(); ++i) {
-      for (int k = 0; k < 3; ++k) {
-        if (k) out << ' ';
-        put_number(out, cloud.P(i, k), scale);
-      }
-      if (colors) out << ' ' << int(cloud.C(i, 0)) << ' ' << int(cloud.C(i, 1)) << ' ' << int(cloud.C(i, 2));
-      if (normals) for (int k = 0; k < 3; ++k) out << ' ', put_number(out, cloud.N(i, k));
-      for (const auto& kv : cloud.point_scalars) out << ' ', put_number(out, kv.second[i]);
-      out << '\n';
-    }
-  }, false);
+  write_file_atomically(
+      path,
+      [&](std::ostream& out) {
+        const bool normals = cloud.has_normals(), colors = cloud.has_colors();
+        if (normals || colors || !cloud.point_scalars.empty()) {  // name the columns beyond x y z
+          out << "//X Y Z";
+          if (colors) out << " R G B";
+          if (normals) out << " Nx Ny Nz";
+          for (const auto& kv : cloud.point_scalars) out << ' ' << kv.first;
+          out << '\n';
+        }
+        for (Eigen::Index i = 0; i < cloud.size(); ++i) {
+          for (int k = 0; k < 3; ++k) {
+            if (k) out << ' ';
+            put_number(out, cloud.P(i, k), scale);
+          }
+          if (colors) out << ' ' << int(cloud.C(i, 0)) << ' ' << int(cloud.C(i, 1)) << ' ' << int(cloud.C(i, 2));
+          if (normals)
+            for (int k = 0; k < 3; ++k) out << ' ', put_number(out, cloud.N(i, k));
+          for (const auto& kv : cloud.point_scalars) out << ' ', put_number(out, kv.second[i]);
+          out << '\n';
+        }
+      },
+      false);
 }
 
 /// The one rule for every cloud format: points with a NaN or infinite coordinate are dropped
@@ -643,10 +692,18 @@ PointCloud read_point_cloud(const std::string& path, const CloudReadOptions& opt
     cloud.point_scalars = std::move(mesh.vertex_scalars);
   };
   switch (resolve(path, options.format)) {
-    case CloudFormat::kPcd: cloud = read_pcd(path, scale); break;
-    case CloudFormat::kXyz: cloud = read_xyz(path, scale, options.warnings); break;
-    case CloudFormat::kObj: take_mesh_vertices(read_obj(path, scale, nullptr)); break;
-    case CloudFormat::kOff: take_mesh_vertices(read_off(path, scale)); break;
+    case CloudFormat::kPcd:
+      cloud = read_pcd(path, scale);
+      break;
+    case CloudFormat::kXyz:
+      cloud = read_xyz(path, scale, options.warnings);
+      break;
+    case CloudFormat::kObj:
+      take_mesh_vertices(read_obj(path, scale, nullptr));
+      break;
+    case CloudFormat::kOff:
+      take_mesh_vertices(read_off(path, scale));
+      break;
     case CloudFormat::kPly: {
       PlyContent c = read_ply(path, scale, false, options.warnings);
       cloud.P = std::move(c.V);
@@ -656,33 +713,43 @@ PointCloud read_point_cloud(const std::string& path, const CloudReadOptions& opt
       if (c.UV.rows() > 0) cloud.point_scalars["texture_u"] = c.UV.col(0), cloud.point_scalars["texture_v"] = c.UV.col(1);
       break;
     }
-    case CloudFormat::kAuto: break;
+    case CloudFormat::kAuto:
+      break;
   }
   const Eigen::Index read = cloud.size();
   drop_non_finite_points(cloud, path, options.warnings);
   if (cloud.size() == 0)
-    throw IoError(path + ": no points" + (read > 0 ? " with finite coordinates (all " + std::to_string(read) + " are NaN or infinite)"
-                                                   : std::string(": the file holds an empty cloud")));
+    throw IoError(path + ": no points" +
+                  (read > 0 ? " with finite coordinates (all " + std::to_string(read) + " are NaN or infinite)"
+                            : std::string(": the file holds an empty cloud")));
   return cloud;
 }
 
 void write_point_cloud(const std::string& path, const PointCloud& cloud, const CloudWriteOptions& options) {
   if (cloud.P.cols() != 3 && cloud.P.rows() > 0) throw InvalidInput(path + ": expected P #P x 3");
   for (Eigen::Index i = 0; i < cloud.size(); ++i)
-    if (!cloud.P.row(i).allFinite())
-      throw InvalidInput(path + ": point " + std::to_string(i) + " has a non-finite coordinate");
+    if (!cloud.P.row(i).allFinite()) throw InvalidInput(path + ": point " + std::to_string(i) + " has a non-finite coordinate");
   for (const auto& kv : cloud.point_scalars)
     if (kv.second.size() != cloud.size())
       throw InvalidInput(path + ": scalar field '" + kv.first + "' has " + std::to_string(kv.second.size()) +
                          " values, expected one per point");
   const double scale = 1.0 / metres_per_unit(options.unit);
   switch (resolve(path, options.format)) {
-    case CloudFormat::kPcd: write_pcd(path, cloud, scale, options.binary); break;
-    case CloudFormat::kXyz: write_xyz(path, cloud, scale); break;
+    case CloudFormat::kPcd:
+      write_pcd(path, cloud, scale, options.binary);
+      break;
+    case CloudFormat::kXyz:
+      write_xyz(path, cloud, scale);
+      break;
     case CloudFormat::kPly:
-      write_ply(path, PlyContent{cloud.P, cloud.has_normals() ? cloud.N : Eigen::MatrixXd(),
-                                 cloud.has_colors() ? cloud.C : RowMatrixX3u8(), Eigen::MatrixXd(), cloud.point_scalars,
-                                 Eigen::MatrixXi(), {}},
+      write_ply(path,
+                PlyContent{cloud.P,
+                           cloud.has_normals() ? cloud.N : Eigen::MatrixXd(),
+                           cloud.has_colors() ? cloud.C : RowMatrixX3u8(),
+                           Eigen::MatrixXd(),
+                           cloud.point_scalars,
+                           Eigen::MatrixXi(),
+                           {}},
                 options.binary, scale);
       break;
     case CloudFormat::kObj:
@@ -699,7 +766,8 @@ void write_point_cloud(const std::string& path, const PointCloud& cloud, const C
       else write_off(path, points, scale);
       break;
     }
-    case CloudFormat::kAuto: break;
+    case CloudFormat::kAuto:
+      break;
   }
 }
 

@@ -21,10 +21,20 @@ enum class Scalar { kInt8, kUint8, kInt16, kUint16, kInt32, kUint32, kInt64, kUi
 
 int scalar_size(Scalar s) {
   switch (s) {
-    case Scalar::kInt8: case Scalar::kUint8: return 1;
-    case Scalar::kInt16: case Scalar::kUint16: return 2;
-    case Scalar::kInt32: case Scalar::kUint32: case Scalar::kFloat32: return 4;
-    case Scalar::kInt64: case Scalar::kUint64: case Scalar::kFloat64: return 8;
+    case Scalar::kInt8:
+    case Scalar::kUint8:
+      return 1;
+    case Scalar::kInt16:
+    case Scalar::kUint16:
+      return 2;
+    case Scalar::kInt32:
+    case Scalar::kUint32:
+    case Scalar::kFloat32:
+      return 4;
+    case Scalar::kInt64:
+    case Scalar::kUint64:
+    case Scalar::kFloat64:
+      return 8;
   }
   return 1;
 }
@@ -42,16 +52,26 @@ double as_double(const char* p, bool swap) {
 
 double decode(const char* p, Scalar s, bool swap) {
   switch (s) {
-    case Scalar::kInt8: return as_double<std::int8_t>(p, swap);
-    case Scalar::kUint8: return as_double<std::uint8_t>(p, swap);
-    case Scalar::kInt16: return as_double<std::int16_t>(p, swap);
-    case Scalar::kUint16: return as_double<std::uint16_t>(p, swap);
-    case Scalar::kInt32: return as_double<std::int32_t>(p, swap);
-    case Scalar::kUint32: return as_double<std::uint32_t>(p, swap);
-    case Scalar::kInt64: return as_double<std::int64_t>(p, swap);
-    case Scalar::kUint64: return as_double<std::uint64_t>(p, swap);
-    case Scalar::kFloat32: return as_double<float>(p, swap);
-    case Scalar::kFloat64: return as_double<double>(p, swap);
+    case Scalar::kInt8:
+      return as_double<std::int8_t>(p, swap);
+    case Scalar::kUint8:
+      return as_double<std::uint8_t>(p, swap);
+    case Scalar::kInt16:
+      return as_double<std::int16_t>(p, swap);
+    case Scalar::kUint16:
+      return as_double<std::uint16_t>(p, swap);
+    case Scalar::kInt32:
+      return as_double<std::int32_t>(p, swap);
+    case Scalar::kUint32:
+      return as_double<std::uint32_t>(p, swap);
+    case Scalar::kInt64:
+      return as_double<std::int64_t>(p, swap);
+    case Scalar::kUint64:
+      return as_double<std::uint64_t>(p, swap);
+    case Scalar::kFloat32:
+      return as_double<float>(p, swap);
+    case Scalar::kFloat64:
+      return as_double<double>(p, swap);
   }
   return 0;
 }
@@ -210,8 +230,7 @@ struct PointStream::Impl {
         binary = w.size() == 2 && w[1] == "binary";
       }
     }
-    if (!binary || names.empty() || sizes.size() != names.size() || types.size() != names.size() || width < 0 || height < 0)
-      return false;
+    if (!binary || names.empty() || sizes.size() != names.size() || types.size() != names.size() || width < 0 || height < 0) return false;
     if (counts.empty()) counts.assign(names.size(), 1);
     if (counts.size() != names.size() || width > (1LL << 31) || height > (1LL << 31)) return false;
     if (points < 0) points = width * height;
@@ -287,15 +306,15 @@ Eigen::Index PointStream::size() const { return impl_->finite; }
 void PointStream::read(Eigen::Index first, Eigen::Index count, Eigen::MatrixXd* P) const {
   const Impl& s = *impl_;
   if (first < 0 || count < 0 || first + count > s.finite)
-    throw InvalidInput("PointStream::read: points " + std::to_string(first) + " to " + std::to_string(first + count) +
-                       " of " + std::to_string(s.finite));
+    throw InvalidInput("PointStream::read: points " + std::to_string(first) + " to " + std::to_string(first + count) + " of " +
+                       std::to_string(s.finite));
   P->resize(count, 3);
   if (count == 0) return;
   // The record of finite point `first`: its block, then a walk within it.
   long long r = first;
   if (!s.all_finite) {
-    const auto b = static_cast<long long>(std::upper_bound(s.block_start.begin(), s.block_start.end() - 1, first) -
-                                          s.block_start.begin()) - 1;
+    const auto b =
+        static_cast<long long>(std::upper_bound(s.block_start.begin(), s.block_start.end() - 1, first) - s.block_start.begin()) - 1;
     Eigen::Index at = s.block_start[static_cast<size_t>(b)];
     r = b * kBlock;
     while (true) {

@@ -1,10 +1,10 @@
 #include "posekit/population/ansur.h"
 
+#include <algorithm>
 #include <cmath>
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
-#include <algorithm>
 #include <map>
 #include <random>
 #include <sstream>
@@ -133,8 +133,8 @@ std::vector<SurveySubject> sample_survey(const std::vector<SurveySubject>& subje
     const int sex = k % 2;
     const size_t taken = static_cast<size_t>(k / 2);
     if (taken >= by_sex[sex].size())
-      throw InvalidInput("survey sample: " + std::to_string(count) + " subjects need " + std::to_string(taken + 1) + (sex ? " men" : " women") +
-                         ", the survey has " + std::to_string(by_sex[sex].size()));
+      throw InvalidInput("survey sample: " + std::to_string(count) + " subjects need " + std::to_string(taken + 1) +
+                         (sex ? " men" : " women") + ", the survey has " + std::to_string(by_sex[sex].size()));
     out.push_back(subjects[by_sex[sex][taken]]);
   }
   return out;

@@ -43,7 +43,7 @@ double clamp_slider(double v, bool macro) { return std::clamp(v, macro ? 0.0 : -
 /// A macro target's variants as factors of the four fitted sliders (the others fixed per subject),
 /// so that a weight costs a few multiplications, not string comparisons (macro_target_weight's rule).
 struct MacroFactors {
-  double fixed = 1;  ///< the product of the variants of sex, age and ethnic mix
+  double fixed = 1;                          ///< the product of the variants of sex, age and ethnic mix
   std::vector<std::pair<int, int>> sliders;  ///< (slider 0..3, -1 low / 0 middle / 1 high)
 };
 
@@ -79,9 +79,9 @@ double macro_weight(const MacroFactors& f, const double* sliders) {
 
 std::vector<std::string> default_fitted_modifiers() {
   std::vector<std::string> names;
-  for (const char* m : {"neck-circ", "neck-height", "upperarm-circ", "upperarm-length", "lowerarm-length", "frontchest-dist",
-                        "bust-circ", "underbust-circ", "waist-circ", "napetowaist-dist", "waisttohip-dist", "shoulder-dist",
-                        "hips-circ", "upperleg-height", "thigh-circ", "lowerleg-height", "calf-circ"})
+  for (const char* m : {"neck-circ", "neck-height", "upperarm-circ", "upperarm-length", "lowerarm-length", "frontchest-dist", "bust-circ",
+                        "underbust-circ", "waist-circ", "napetowaist-dist", "waisttohip-dist", "shoulder-dist", "hips-circ",
+                        "upperleg-height", "thigh-circ", "lowerleg-height", "calf-circ"})
     names.push_back(std::string("measure/measure-") + m + "-decr|incr");
   names.push_back("buttocks/buttocks-volume-decr|incr");
   names.push_back("torso/torso-scale-horiz-decr|incr");  // without it, women's shoulders stay 10 mm too broad
@@ -123,7 +123,8 @@ const TemplateAnthropometry& SurveyBodyFitter::anthropometry(bool male) const { 
 SurveyValues SurveyBodyFitter::measure(const BodySpec& spec) const {
   const Reduced& r = *reduced_[spec.gender > 0.5];
   Eigen::MatrixXd P = r.base;
-  for (size_t t = 0; t < model_->macro_targets.size(); ++t) add(P, r.macro[t], macro_target_weight(model_->macro_targets[t].variants, spec));
+  for (size_t t = 0; t < model_->macro_targets.size(); ++t)
+    add(P, r.macro[t], macro_target_weight(model_->macro_targets[t].variants, spec));
   for (const auto& [name, value] : spec.modifiers) {
     const auto* mod = model_->find_modifier(name);
     if (!mod) throw InvalidInput("body spec: unknown modifier '" + name + "'");

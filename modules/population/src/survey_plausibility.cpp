@@ -14,9 +14,8 @@ SurveyDistribution survey_distribution(const std::vector<SurveySubject>& subject
   for (int sex = 0; sex < 2; ++sex) {
     const auto& values = d.subjects[sex];
     if (static_cast<int>(values.size()) <= kSurveyMeasureCount)
-      throw InvalidInput("survey distribution: " + std::to_string(values.size()) + (sex ? " men" : " women") +
-                         " in " + d.source + ", too few for the covariance of " + std::to_string(kSurveyMeasureCount) +
-                         " measures");
+      throw InvalidInput("survey distribution: " + std::to_string(values.size()) + (sex ? " men" : " women") + " in " + d.source +
+                         ", too few for the covariance of " + std::to_string(kSurveyMeasureCount) + " measures");
     Eigen::MatrixXd X(values.size(), kSurveyMeasureCount);
     for (size_t i = 0; i < values.size(); ++i)
       for (int m = 0; m < kSurveyMeasureCount; ++m) X(static_cast<Eigen::Index>(i), m) = values[i][m];

@@ -117,8 +117,7 @@ int acromion_vertex(const MakeHumanModel& model, const Eigen::MatrixXd& base, co
                     const char* const shoulders[2], int side) {
   const Eigen::Vector3d shoulder = mean_of(base, rig_joint(model, shoulders[side]));
   const Eigen::Vector3d other = mean_of(base, rig_joint(model, shoulders[1 - side]));
-  const Eigen::Vector3d outward_up =
-      Eigen::Vector3d(shoulder.x() > other.x() ? 1.0 : -1.0, 1.0, 0.0).normalized();
+  const Eigen::Vector3d outward_up = Eigen::Vector3d(shoulder.x() > other.x() ? 1.0 : -1.0, 1.0, 0.0).normalized();
   int best = -1;
   double best_cos = -1;
   for (Eigen::Index i = 0; i < V.rows(); ++i) {

@@ -34,7 +34,6 @@ BandFrame band_frame(const LayeredRepresentation& rep, int tri, const Eigen::Vec
   return f;
 }
 
-
 }  // namespace
 
 CtffdParametrization ctffd_parametrize(const Eigen::MatrixXd& V, const LayeredRepresentation& rep) {
@@ -73,8 +72,8 @@ CtffdParametrization ctffd_parametrize(const Eigen::MatrixXd& V, const LayeredRe
   for (Eigen::Index i = 0; i < V.rows(); ++i) {
     const int t = tri[i];
     const Eigen::Vector3d v = V.row(i).transpose();
-    const Eigen::Vector3d b = clamped_barycentric(v, rep.mesh.V.row(rep.mesh.F(t, 0)), rep.mesh.V.row(rep.mesh.F(t, 1)),
-                                                  rep.mesh.V.row(rep.mesh.F(t, 2)));
+    const Eigen::Vector3d b =
+        clamped_barycentric(v, rep.mesh.V.row(rep.mesh.F(t, 0)), rep.mesh.V.row(rep.mesh.F(t, 1)), rep.mesh.V.row(rep.mesh.F(t, 2)));
     const BandFrame f = band_frame(rep, t, b);
     const Eigen::Vector3d r = f.surface - f.axis;
     const double radius = std::max(r.norm(), 1e-6);
@@ -85,8 +84,7 @@ CtffdParametrization ctffd_parametrize(const Eigen::MatrixXd& V, const LayeredRe
     // the distance beyond the surface in metres, which is not rescaled (a chin far outside a thin
     // neck band would otherwise be thrown forward by the ratio of the two bodies' neck radii).
     const double radial = d.dot(e1);
-    p.offset.row(i) << (radial <= radius ? radial / radius : 1.0 + (radial - radius)), d.dot(e2) / radius,
-        d.dot(e3) / radius;
+    p.offset.row(i) << (radial <= radius ? radial / radius : 1.0 + (radial - radius)), d.dot(e2) / radius, d.dot(e3) / radius;
   }
   return p;
 }
@@ -98,16 +96,18 @@ BodyFeatures torso_levels_in_proportion(BodyFeatures target, const BodyFeatures&
   if (!(ss > 0) || !(ts > 0)) return target;
   const double bottom = target.crotch_y + 0.02, top = std::min(target.armpit[0].y(), target.armpit[1].y()) - 0.02;
   if (!(top > bottom)) return target;
-  for (auto [t, s] : {std::pair{&target.hip_y, source.hip_y}, {&target.waist_y, source.waist_y},
-                      {&target.underbust_y, source.underbust_y}, {&target.bust_y, source.bust_y}})
+  for (auto [t, s] : {std::pair{&target.hip_y, source.hip_y},
+                      {&target.waist_y, source.waist_y},
+                      {&target.underbust_y, source.underbust_y},
+                      {&target.bust_y, source.bust_y}})
     *t = std::clamp(low(target) + ts * (s - low(source)) / ss, bottom, top);
   return target;
 }
 
 Eigen::MatrixXd ctffd_evaluate(const CtffdParametrization& p, const LayeredRepresentation& target) {
   if (target.mesh.F.rows() <= p.triangle.maxCoeff())
-    throw InvalidInput("ctffd_evaluate: the target representation has another topology (" +
-                       std::to_string(target.mesh.F.rows()) + " triangles)");
+    throw InvalidInput("ctffd_evaluate: the target representation has another topology (" + std::to_string(target.mesh.F.rows()) +
+                       " triangles)");
   Eigen::MatrixXd out(p.triangle.size(), 3);
   for (Eigen::Index i = 0; i < p.triangle.size(); ++i) {
     const BandFrame f = band_frame(target, p.triangle[i], p.bary.row(i).transpose());

@@ -31,7 +31,8 @@ NicpResult nonrigid_icp(const TriangleMesh& source, const TriangleMesh& target, 
   if (start && (start->rows() != source.V.rows() || start->cols() != 3))
     throw InvalidInput("NICP: the start positions must be one row of x y z per source vertex");
   for (const NicpLandmark& l : landmarks)
-    if (l.source_face < 0 || l.source_face >= source.F.rows()) throw InvalidInput("NICP: a landmark names a triangle the source does not have");
+    if (l.source_face < 0 || l.source_face >= source.F.rows())
+      throw InvalidInput("NICP: a landmark names a triangle the source does not have");
   const Eigen::Index n = source.V.rows();
   Eigen::MatrixXd P = start ? *start : source.V;
 

@@ -67,11 +67,13 @@ void require_comparable_bodies(const TriangleMesh& source, const TriangleMesh& t
     if (!(e[1] > e[0] && e[1] > e[2]))
       throw InvalidInput(std::string("registration: the ") + name + " does not stand along +Y (extent x, y, z " + text(e) +
                          " between the 1st and 99th percentiles): turn it into posekit's frame first (posekit register "
-                         "detects the up and forward axes, or takes --" + name + "-up/--" + name + "-forward)");
+                         "detects the up and forward axes, or takes --" +
+                         name + "-up/--" + name + "-forward)");
   const double ratio = et[1] / es[1];
   if (!(ratio > 0.5 && ratio < 2.0))
-    throw InvalidInput("registration: the target is " + std::to_string(ratio) + " times the source's height (" +
-                       text(es) + " against " + text(et) + "): the two meshes are in different units; convert one "
+    throw InvalidInput("registration: the target is " + std::to_string(ratio) + " times the source's height (" + text(es) + " against " +
+                       text(et) +
+                       "): the two meshes are in different units; convert one "
                        "(posekit register --unit, or the file's unit)");
 }
 
@@ -99,9 +101,11 @@ std::vector<std::string> implausible_limbs(const BodyFeatures& source, const Bod
       const double relative = limb.ratio / scale;
       if (relative < 0.75 || relative > 1.3) {
         char buf[320];
-        std::snprintf(buf, sizeof buf, "the target's %s%s is %.2f of the source's length (scaled by stature): its joints were "
+        std::snprintf(buf, sizeof buf,
+                      "the target's %s%s is %.2f of the source's length (scaled by stature): its joints were "
                       "found on wrong features (a hole or a cut taken for the limb's end?) and the correspondence there is "
-                      "not to be trusted", s.c_str(), limb.name, relative);
+                      "not to be trusted",
+                      s.c_str(), limb.name, relative);
         out.push_back(buf);
       }
     }
@@ -137,18 +141,24 @@ RegistrationQuality assess_registration(const TriangleMesh& source, const Eigen:
   for (Eigen::Index f = 0; f < source.F.rows(); ++f) q.folded_triangles += before.row(f).dot(after.row(f)) < 0;
   char buf[256];
   if (q.mean_distance_mm > 3 || q.p95_distance_mm > 10) {
-    std::snprintf(buf, sizeof buf, "the registered source lies %.1f mm (p95 %.1f mm) from the target: it does not follow the "
-                  "target's shape, and the correspondence is poor", q.mean_distance_mm, q.p95_distance_mm);
+    std::snprintf(buf, sizeof buf,
+                  "the registered source lies %.1f mm (p95 %.1f mm) from the target: it does not follow the "
+                  "target's shape, and the correspondence is poor",
+                  q.mean_distance_mm, q.p95_distance_mm);
     q.warnings.push_back(buf);
   }
   if (q.target_covered < 0.95) {
-    std::snprintf(buf, sizeof buf, "%.1f%% of the target is farther than 10 mm from the registered source (a part it "
-                  "did not reach: another pose, or something the source does not have)", 100 * (1 - q.target_covered));
+    std::snprintf(buf, sizeof buf,
+                  "%.1f%% of the target is farther than 10 mm from the registered source (a part it "
+                  "did not reach: another pose, or something the source does not have)",
+                  100 * (1 - q.target_covered));
     q.warnings.push_back(buf);
   }
   if (q.normals_agree < 0.95) {
-    std::snprintf(buf, sizeof buf, "%.1f%% of the registered source faces more than 60 degrees away from the target "
-                  "surface it lies on", 100 * (1 - q.normals_agree));
+    std::snprintf(buf, sizeof buf,
+                  "%.1f%% of the registered source faces more than 60 degrees away from the target "
+                  "surface it lies on",
+                  100 * (1 - q.normals_agree));
     q.warnings.push_back(buf);
   }
   if (q.folded_triangles > source.F.rows() / 1000) {
@@ -239,19 +249,21 @@ RegistrationResult register_with(const TriangleMesh& source, const CtffdSource::
       for (const std::string& w : s.features.warnings) r.warnings.push_back("source: " + w);
       for (const std::string& w : ft.warnings) r.warnings.push_back("target: " + w);
       for (std::string& w : implausible_limbs(s.features, ft)) r.warnings.push_back(std::move(w));
-      const LayeredRepresentation rt = build_layered_representation_on_surface(
-          t.surface, torso_levels_in_proportion(ft, s.features), o.points_per_layer, threads);
+      const LayeredRepresentation rt =
+          build_layered_representation_on_surface(t.surface, torso_levels_in_proportion(ft, s.features), o.points_per_layer, threads);
       r.deformed_source = ctffd_evaluate(s.parametrization, rt);
       r.ctffd_seconds = t0.seconds();
     };
     // With a second thread the shape fit's view of the target is made beside it.
     std::unique_ptr<ShapeFitTarget> fit_target;
-    if (o.shape_space && threads > 1) run_beside(threads, [&] { fit_target = std::make_unique<ShapeFitTarget>(target); }, ctffd);
+    if (o.shape_space && threads > 1)
+      run_beside(
+          threads, [&] { fit_target = std::make_unique<ShapeFitTarget>(target); }, ctffd);
     else ctffd();
     if (o.shape_space) {
       if (o.shape_space->vertices() != source.V.rows())
-        throw InvalidInput("registration: the shape space has " + std::to_string(o.shape_space->vertices()) +
-                           " vertices, the source " + std::to_string(source.V.rows()) + ": it must be of the source's topology");
+        throw InvalidInput("registration: the shape space has " + std::to_string(o.shape_space->vertices()) + " vertices, the source " +
+                           std::to_string(source.V.rows()) + ": it must be of the source's topology");
       if (o.shape_space->faces.size() > 0 && o.shape_space->faces != source.F)
         throw InvalidInput("registration: the shape space's triangles are not the source's (same " + std::to_string(source.V.rows()) +
                            " vertices, other connectivity): it must be of the source's topology");
@@ -275,7 +287,8 @@ RegistrationResult register_with(const TriangleMesh& source, const CtffdSource::
         std::snprintf(buf, sizeof buf, "the shape space's best fit lies %.1f mm (median) from the target; ", 1000 * f.median_distance);
         const std::string far = std::to_string(static_cast<int>(std::lround(1000 * o.shape_fit.far_distance)));
         r.warnings.push_back(buf + share(f.far_share, f.start_far_share) + " of it over " + far + " mm away and " +
-                             share(f.uncovered_share, f.start_uncovered_share) + " of the target that far from it: the "
+                             share(f.uncovered_share, f.start_uncovered_share) +
+                             " of the target that far from it: the "
                              "target is not a body the space can say (another pose, a cut, or a shape outside its "
                              "population); ct-FFD's result is kept");
       }
@@ -288,8 +301,8 @@ RegistrationResult register_with(const TriangleMesh& source, const CtffdSource::
     const FoundFeatures fs = found_features(source, 1), ft = found_features(target, 1);
     const LayeredRepresentation rs = build_layered_representation_on_surface(fs.surface, fs.features, 16);
     const LayeredRepresentation rt = build_layered_representation_on_surface(ft.surface, ft.features, 16);
-    r.nicp = nonrigid_icp(source, target, o.nicp,
-                          representation_landmarks(source, rs, rt, o.landmark_layer_stride, o.landmark_point_stride));
+    r.nicp =
+        nonrigid_icp(source, target, o.nicp, representation_landmarks(source, rs, rt, o.landmark_layer_stride, o.landmark_point_stride));
     r.deformed_source = r.nicp.V;
   } else {
     if (o.icp_iterations < 1) throw InvalidInput("ICP needs at least one iteration");
@@ -319,8 +332,9 @@ RegistrationResult register_bodies(const TriangleMesh& source, const TriangleMes
   const Stopwatch t0;
   std::unique_ptr<CtffdSource> prepared;
   FoundFeatures target_features;
-  run_beside(2, [&] { prepared = std::make_unique<CtffdSource>(source, o.points_per_layer); },
-             [&] { target_features = found_features(target, 1); });
+  run_beside(
+      2, [&] { prepared = std::make_unique<CtffdSource>(source, o.points_per_layer); },
+      [&] { target_features = found_features(target, 1); });
   const double before = t0.seconds();
   RegistrationResult r = register_with(source, &prepared->impl(), target, o, &target_features);
   r.seconds += before;

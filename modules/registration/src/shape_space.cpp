@@ -39,8 +39,7 @@ double far_share(const std::vector<double>& d, double limit) {
 /// mean + basis * c read as rows of 3 (c may be shorter than the basis: the rest are 0).
 Eigen::MatrixXd add_components(const Eigen::MatrixXd& mean, const Eigen::MatrixXd& basis, const Eigen::VectorXd& c) {
   if (c.size() > basis.cols())
-    throw InvalidInput("shape space: " + std::to_string(c.size()) + " coefficients for " + std::to_string(basis.cols()) +
-                       " components");
+    throw InvalidInput("shape space: " + std::to_string(c.size()) + " coefficients for " + std::to_string(basis.cols()) + " components");
   const Eigen::VectorXd flat = basis.leftCols(c.size()) * c;
   Eigen::MatrixXd out = mean;
   for (Eigen::Index i = 0; i < out.rows(); ++i) out.row(i) += flat.segment<3>(3 * i).transpose();
@@ -56,8 +55,7 @@ Eigen::MatrixXd ShapeSpace::joints(const Eigen::VectorXd& c) const {
   return add_components(joint_mean, joint_basis, c);
 }
 
-ShapeSpace learn_shape_space(const std::vector<Eigen::MatrixXd>& bodies, double variance_kept, int max_components,
-                             std::string population) {
+ShapeSpace learn_shape_space(const std::vector<Eigen::MatrixXd>& bodies, double variance_kept, int max_components, std::string population) {
   if (bodies.size() < 2) throw InvalidInput("shape space: at least 2 bodies are needed, got " + std::to_string(bodies.size()));
   if (!(variance_kept > 0 && variance_kept <= 1) || max_components < 1)
     throw InvalidInput("shape space: variance_kept must be in (0, 1] and max_components at least 1");
@@ -130,8 +128,8 @@ ShapeFitTarget::ShapeFitTarget(ShapeFitTarget&&) noexcept = default;
 ShapeFitTarget& ShapeFitTarget::operator=(ShapeFitTarget&&) noexcept = default;
 const TriangleMesh& ShapeFitTarget::mesh() const { return impl_->mesh; }
 
-ShapeFitResult fit_shape_space(const ShapeSpace& space, const Eigen::MatrixXi& F, const Eigen::MatrixXd& start,
-                               const TriangleMesh& target, const ShapeFitOptions& o) {
+ShapeFitResult fit_shape_space(const ShapeSpace& space, const Eigen::MatrixXi& F, const Eigen::MatrixXd& start, const TriangleMesh& target,
+                               const ShapeFitOptions& o) {
   return fit_shape_space(space, F, start, ShapeFitTarget(target), o);
 }
 
@@ -184,8 +182,9 @@ ShapeFitResult fit_shape_space(const ShapeSpace& space, const Eigen::MatrixXi& F
   const auto pair_normal = [&](const ClosestPoints& cp, Eigen::Index k, const Eigen::RowVector3d& source_normal) -> Eigen::Vector3d {
     const int f = cp.face[k];
     const Eigen::Vector3d b = cp.bary.row(k).transpose();
-    Eigen::Vector3d normal = (b[0] * target_normals.row(target.F(f, 0)) + b[1] * target_normals.row(target.F(f, 1)) +
-                              b[2] * target_normals.row(target.F(f, 2))).transpose();
+    Eigen::Vector3d normal =
+        (b[0] * target_normals.row(target.F(f, 0)) + b[1] * target_normals.row(target.F(f, 1)) + b[2] * target_normals.row(target.F(f, 2)))
+            .transpose();
     if (!(normal.norm() > 0)) return Eigen::Vector3d::Zero();
     normal.normalize();
     if (cp.distance[k] > o.max_distance || source_normal.dot(normal) < cos_limit || boundary.contains(target.F, f, b))
@@ -234,15 +233,16 @@ ShapeFitResult fit_shape_space(const ShapeSpace& space, const Eigen::MatrixXi& F
     if (!step.allFinite()) break;
     r.coefficients += step.head(K);
     const Eigen::Vector3d omega = step.tail<3>();
-    const Eigen::Matrix3d turn = omega.norm() > 0 ? Eigen::AngleAxisd(omega.norm(), omega.normalized()).toRotationMatrix()
-                                                  : Eigen::Matrix3d::Identity();
+    const Eigen::Matrix3d turn =
+        omega.norm() > 0 ? Eigen::AngleAxisd(omega.norm(), omega.normalized()).toRotationMatrix() : Eigen::Matrix3d::Identity();
     r.rotation = turn * r.rotation;
     r.translation = turn * (r.translation - centroid.transpose()) + centroid.transpose() + step.segment<3>(K);
     if (step.head(K).norm() < o.convergence && step.tail<6>().norm() < 1e-4) break;
   }
 
   r.V = placed(body(r.coefficients));
-  const std::vector<double> fit_distances = distances(tree.closest(rows_of(r.V), o.threads, last_faces.size() == m ? &last_faces : nullptr));
+  const std::vector<double> fit_distances =
+      distances(tree.closest(rows_of(r.V), o.threads, last_faces.size() == m ? &last_faces : nullptr));
   r.median_distance = median(fit_distances);
   // The other way: target points the body leaves uncovered. A limb held otherwise is seen only from
   // here (the space's straight forearm lies near the hip's surface, the target's bent one is bare).
@@ -255,10 +255,10 @@ ShapeFitResult fit_shape_space(const ShapeSpace& space, const Eigen::MatrixXi& F
   r.far_share = far_share(fit_distances, o.far_distance);
   r.uncovered_share = uncovered(r.V);
   // The start's shares only when the fit's own exceed what is allowed beyond them.
-  if (r.far_share > o.max_extra_far_share) r.start_far_share = far_share(distances(tree.closest(rows_of(start), o.threads)), o.far_distance);
+  if (r.far_share > o.max_extra_far_share)
+    r.start_far_share = far_share(distances(tree.closest(rows_of(start), o.threads)), o.far_distance);
   if (r.uncovered_share > o.max_extra_far_share) r.start_uncovered_share = uncovered(start);
-  r.plausible = r.median_distance <= o.max_median_distance &&
-                r.far_share <= std::max(r.start_far_share, 0.0) + o.max_extra_far_share &&
+  r.plausible = r.median_distance <= o.max_median_distance && r.far_share <= std::max(r.start_far_share, 0.0) + o.max_extra_far_share &&
                 r.uncovered_share <= std::max(r.start_uncovered_share, 0.0) + o.max_extra_far_share;
   return r;
 }

@@ -33,7 +33,8 @@ void write_shape_space(const std::string& path, const ShapeSpace& s) {
     throw InvalidInput("write_shape_space: inconsistent space (" + std::to_string(nv) + " vertices, basis " +
                        std::to_string(s.basis.rows()) + " x " + std::to_string(K) + ")");
   if (static_cast<size_t>(s.poses.rows()) != s.pose_names.size())
-    throw InvalidInput("write_shape_space: " + std::to_string(s.poses.rows()) + " poses and " + std::to_string(s.pose_names.size()) + " names");
+    throw InvalidInput("write_shape_space: " + std::to_string(s.poses.rows()) + " poses and " + std::to_string(s.pose_names.size()) +
+                       " names");
   std::ostringstream os(std::ios::binary);
   os.write(kMagic, sizeof(kMagic));
   put(os, kVersion);
@@ -48,7 +49,8 @@ void write_shape_space(const std::string& path, const ShapeSpace& s) {
   for (double v : s.variance_share) put(os, v);
   for (Eigen::Index i = 0; i < nv; ++i)
     for (int c = 0; c < 3; ++c) put(os, s.mean(i, c));
-  for (Eigen::Index k = 0; k < K; ++k) os.write(reinterpret_cast<const char*>(s.basis.col(k).data()), static_cast<std::streamsize>(3 * nv * sizeof(double)));
+  for (Eigen::Index k = 0; k < K; ++k)
+    os.write(reinterpret_cast<const char*>(s.basis.col(k).data()), static_cast<std::streamsize>(3 * nv * sizeof(double)));
   put(os, static_cast<std::uint32_t>(s.joint_mean.rows()));
   for (Eigen::Index j = 0; j < s.joint_mean.rows(); ++j)
     for (int c = 0; c < 3; ++c) put(os, s.joint_mean(j, c));
@@ -86,10 +88,9 @@ ShapeSpace read_shape_space(const std::string& path) {
   const auto text = in.get<std::uint32_t>("the header");
   // Every section's size against the bytes there are, before anything is allocated.
   const double left = static_cast<double>(in.left());
-  if (nv < 3 || K < 1 || K > 100000u || s.bodies < 2 || text > in.left() || 12.0 * nf > left ||
-      24.0 * nv * (1.0 + K) > left)
-    throw IoError(path + ": implausible .pks header (" + std::to_string(nv) + " vertices, " + std::to_string(K) +
-                  " components, " + std::to_string(s.bodies) + " bodies)");
+  if (nv < 3 || K < 1 || K > 100000u || s.bodies < 2 || text > in.left() || 12.0 * nf > left || 24.0 * nv * (1.0 + K) > left)
+    throw IoError(path + ": implausible .pks header (" + std::to_string(nv) + " vertices, " + std::to_string(K) + " components, " +
+                  std::to_string(s.bodies) + " bodies)");
   s.population.resize(text);
   in.values(s.population.data(), text, "the population");
   s.faces.resize(nf, 3);
@@ -97,8 +98,8 @@ ShapeSpace read_shape_space(const std::string& path) {
   in.values(faces.data(), faces.size(), "the triangles");
   for (size_t i = 0; i < faces.size(); ++i) {
     if (faces[i] < 0 || faces[i] >= static_cast<std::int32_t>(nv))
-      throw IoError(path + ": triangle " + std::to_string(i / 3) + " names vertex " + std::to_string(faces[i]) +
-                    ", the space has " + std::to_string(nv));
+      throw IoError(path + ": triangle " + std::to_string(i / 3) + " names vertex " + std::to_string(faces[i]) + ", the space has " +
+                    std::to_string(nv));
     s.faces(static_cast<Eigen::Index>(i / 3), static_cast<Eigen::Index>(i % 3)) = faces[i];
   }
   s.variance_share.resize(K);

@@ -31,7 +31,8 @@ inline TargetBoundary find_boundary(const TriangleMesh& m) {
   b.edge = border_edges(m.F);
   for (Eigen::Index f = 0; f < m.F.rows(); ++f)
     for (int i = 0; i < 3; ++i)
-      if (b.edge[static_cast<size_t>(3 * f + i)]) b.vertex[static_cast<size_t>(m.F(f, i))] = b.vertex[static_cast<size_t>(m.F(f, (i + 1) % 3))] = 1;
+      if (b.edge[static_cast<size_t>(3 * f + i)])
+        b.vertex[static_cast<size_t>(m.F(f, i))] = b.vertex[static_cast<size_t>(m.F(f, (i + 1) % 3))] = 1;
   return b;
 }
 

@@ -19,8 +19,8 @@ BodySegmentation segment_standing_body(const Eigen::MatrixXd& V, const Eigen::Ma
     for (Eigen::Index t = 0; t < labels.size(); ++t)
       if (labels[t] == hand) labels[t] = forearm;
     options.cut_off_parts.push_back(hand);
-    out.notes.push_back(std::string("the ") + (side == kLeft ? "left" : "right") +
-                        " hand is cut off: no triangle is labelled " + part_name(hand) + "; the wrist is the cut's centre");
+    out.notes.push_back(std::string("the ") + (side == kLeft ? "left" : "right") + " hand is cut off: no triangle is labelled " +
+                        part_name(hand) + "; the wrist is the cut's centre");
   }
   out.segmentation = segment_body(V, F, rep, labels);
   if (prior) {

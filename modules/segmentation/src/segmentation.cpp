@@ -26,8 +26,7 @@ Segmentation segment_body(const Eigen::MatrixXd& V, const Eigen::MatrixXi& F, co
   if (F.rows() == 0) throw InvalidInput("segment_body: the mesh has no triangles");
   const CentroidIndex index(rep.mesh.V, rep.mesh.F);
   Segmentation out;
-  const Eigen::VectorXi match =
-      index.match(face_centroids(V, F), face_normals(V, F), options.candidates, &out.normal_failures);
+  const Eigen::VectorXi match = index.match(face_centroids(V, F), face_normals(V, F), options.candidates, &out.normal_failures);
   out.triangle_part.resize(F.rows());
   for (Eigen::Index f = 0; f < F.rows(); ++f) out.triangle_part[f] = rep_labels[match[f]];
   if (options.clean) out.relabelled = clean_part_labels(V, F, &out.triangle_part);
@@ -39,8 +38,8 @@ Segmentation segment_body(const Eigen::MatrixXd& V, const Eigen::MatrixXi& F, co
   return out;
 }
 
-Eigen::VectorXi representation_labels_from_body(const Eigen::MatrixXd& V, const Eigen::MatrixXi& F,
-                                                const Eigen::VectorXi& triangle_part, const LayeredRepresentation& rep) {
+Eigen::VectorXi representation_labels_from_body(const Eigen::MatrixXd& V, const Eigen::MatrixXi& F, const Eigen::VectorXi& triangle_part,
+                                                const LayeredRepresentation& rep) {
   if (triangle_part.size() != F.rows())
     throw InvalidInput("representation_labels_from_body: " + std::to_string(triangle_part.size()) + " labels for " +
                        std::to_string(F.rows()) + " triangles");
@@ -107,8 +106,8 @@ int clean_part_labels(const Eigen::MatrixXd& V, const Eigen::MatrixXi& F, Eigen:
     bool changed = false;
     for (size_t r = 0; r < region_area.size(); ++r) {
       if (main_region[static_cast<size_t>(region_label[r])] == static_cast<int>(r) || border[r].empty()) continue;
-      const auto best = std::max_element(border[r].begin(), border[r].end(),
-                                         [](const auto& a, const auto& b) { return a.second < b.second; });
+      const auto best =
+          std::max_element(border[r].begin(), border[r].end(), [](const auto& a, const auto& b) { return a.second < b.second; });
       new_label[r] = best->first;
       changed = true;
     }
@@ -124,8 +123,7 @@ int clean_part_labels(const Eigen::MatrixXd& V, const Eigen::MatrixXi& F, Eigen:
   return relabelled;
 }
 
-Eigen::VectorXi vertex_labels_from_triangles(const Eigen::MatrixXd& V, const Eigen::MatrixXi& F,
-                                             const Eigen::VectorXi& triangle_part) {
+Eigen::VectorXi vertex_labels_from_triangles(const Eigen::MatrixXd& V, const Eigen::MatrixXi& F, const Eigen::VectorXi& triangle_part) {
   const Eigen::VectorXd area = face_areas(V, F);
   Eigen::MatrixXd votes = Eigen::MatrixXd::Zero(V.rows(), kNumParts);
   for (Eigen::Index f = 0; f < F.rows(); ++f)
@@ -139,8 +137,7 @@ Eigen::VectorXi vertex_labels_from_triangles(const Eigen::MatrixXd& V, const Eig
   return out;
 }
 
-double label_agreement(const Eigen::MatrixXd& V, const Eigen::MatrixXi& F, const Eigen::VectorXi& a,
-                       const Eigen::VectorXi& b) {
+double label_agreement(const Eigen::MatrixXd& V, const Eigen::MatrixXi& F, const Eigen::VectorXi& a, const Eigen::VectorXi& b) {
   if (a.size() != F.rows() || b.size() != F.rows())
     throw InvalidInput("label_agreement: labels do not match the " + std::to_string(F.rows()) + " triangles");
   const Eigen::VectorXd area = face_areas(V, F);
@@ -216,7 +213,8 @@ void smooth_part_borders(const Eigen::MatrixXd& V, const Eigen::MatrixXi& F, dou
 
 double border_roughness(const Eigen::MatrixXd& V, const Eigen::MatrixXi& F, const Eigen::VectorXi& triangle_part) {
   if (triangle_part.size() != F.rows())
-    throw InvalidInput("border_roughness: " + std::to_string(triangle_part.size()) + " labels for " + std::to_string(F.rows()) + " triangles");
+    throw InvalidInput("border_roughness: " + std::to_string(triangle_part.size()) + " labels for " + std::to_string(F.rows()) +
+                       " triangles");
   const Eigen::MatrixXi TT = face_adjacency(F);
   std::vector<std::vector<Eigen::Vector3d>> points(kNumParts);  // border edge midpoints, by child part
   std::vector<double> length(kNumParts, 0.0);

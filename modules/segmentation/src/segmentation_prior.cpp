@@ -51,8 +51,7 @@ void check_prior(const SegmentationPrior& prior, const LayeredRepresentation& re
     for (size_t r = 0; same && r < shape.region.size(); ++r) same = body.shape.region[r].size() == shape.region[r].size();
     if (!same)
       throw InvalidInput("segmentation prior: calibration body " + std::to_string(b) +
-                         " has another representation topology than the body's (" + std::to_string(rep.mesh.F.rows()) +
-                         " triangles)");
+                         " has another representation topology than the body's (" + std::to_string(rep.mesh.F.rows()) + " triangles)");
   }
 }
 
@@ -88,9 +87,8 @@ Eigen::VectorXi representation_regions(const LayeredRepresentation& rep) {
   return out;
 }
 
-CalibrationBody make_calibration_body(const Eigen::MatrixXd& V, const Eigen::MatrixXi& F,
-                                      const Eigen::VectorXi& triangle_part, const Eigen::MatrixXd& joint_centres,
-                                      const LayeredRepresentation& rep) {
+CalibrationBody make_calibration_body(const Eigen::MatrixXd& V, const Eigen::MatrixXi& F, const Eigen::VectorXi& triangle_part,
+                                      const Eigen::MatrixXd& joint_centres, const LayeredRepresentation& rep) {
   CalibrationBody body;
   body.shape = representation_shape(rep);
   body.labels = representation_labels_from_body(V, F, triangle_part, rep).cast<std::uint8_t>();
@@ -133,8 +131,7 @@ Eigen::MatrixXd embed_skeleton(const SegmentationPrior& prior, const LayeredRepr
   const std::vector<int> layer_region = layer_regions(rep);
   std::array<bool, kShapeRegions> is_arm{};
   for (size_t l = 0; l < rep.layers.size(); ++l)
-    if (rep.layers[l].part >= kLeftUpperArm && rep.layers[l].part <= kRightHand)
-      is_arm[static_cast<size_t>(layer_region[l])] = true;
+    if (rep.layers[l].part >= kLeftUpperArm && rep.layers[l].part <= kRightHand) is_arm[static_cast<size_t>(layer_region[l])] = true;
   auto nearest_with_arms = [&](bool arms) {
     return nearest_bodies(prior, prior.neighbours, [&](const CalibrationBody& b) {
       double squared = 0;

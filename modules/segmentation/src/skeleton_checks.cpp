@@ -152,8 +152,7 @@ SkeletonCheck check_skeleton(const Eigen::MatrixXd& V, const Eigen::MatrixXi& F,
     }
     if (!(length > 0)) {
       if (part_area[child] > 0 && part_area[parent] > 0)
-        check.problems.push_back(part_name(child) + " and " + part_name(parent) + " do not touch, so " + joint_name(j) +
-                                 " joins nothing");
+        check.problems.push_back(part_name(child) + " and " + part_name(parent) + " do not touch, so " + joint_name(j) + " joins nothing");
       continue;
     }
     centre /= length;
@@ -167,10 +166,8 @@ SkeletonCheck check_skeleton(const Eigen::MatrixXd& V, const Eigen::MatrixXi& F,
   }
 
   // Left and right limb segments of similar length.
-  const std::array<std::array<const char*, 3>, 4> segments = {{{"upper arm", "shoulder", "elbow"},
-                                                               {"forearm", "elbow", "wrist"},
-                                                               {"thigh", "hip", "knee"},
-                                                               {"shank", "knee", "ankle"}}};
+  const std::array<std::array<const char*, 3>, 4> segments = {
+      {{"upper arm", "shoulder", "elbow"}, {"forearm", "elbow", "wrist"}, {"thigh", "hip", "knee"}, {"shank", "knee", "ankle"}}};
   for (const auto& s : segments) {
     double len[2];
     for (int side = 0; side < 2; ++side) {
@@ -179,8 +176,8 @@ SkeletonCheck check_skeleton(const Eigen::MatrixXd& V, const Eigen::MatrixXi& F,
     }
     const double mean = 0.5 * (len[0] + len[1]);
     if (std::abs(len[0] - len[1]) > options.limb_length_tolerance * mean)
-      check.problems.push_back(std::string("the left and right ") + s[0] + " lengths differ: " + cm(len[0]) + " and " +
-                               cm(len[1]) + " (" + s[1] + " to " + s[2] + ")");
+      check.problems.push_back(std::string("the left and right ") + s[0] + " lengths differ: " + cm(len[0]) + " and " + cm(len[1]) + " (" +
+                               s[1] + " to " + s[2] + ")");
   }
   return check;
 }

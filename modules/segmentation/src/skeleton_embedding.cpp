@@ -101,9 +101,8 @@ Eigen::MatrixXd reconcile_limb_joints(const Eigen::MatrixXd& joints, const BodyF
 
 Eigen::Vector3d typical_torso_fractions() { return Eigen::Vector3d(0.262, 0.495, 1.004); }
 
-Eigen::MatrixXd joint_centres_from_features(const Eigen::MatrixXd& V, const Eigen::MatrixXi& F,
-                                            const Eigen::VectorXi& triangle_part, const LayeredRepresentation& rep,
-                                            const BodyFeatures& f) {
+Eigen::MatrixXd joint_centres_from_features(const Eigen::MatrixXd& V, const Eigen::MatrixXi& F, const Eigen::VectorXi& triangle_part,
+                                            const LayeredRepresentation& rep, const BodyFeatures& f) {
   Eigen::VectorXd weight;
   Eigen::MatrixXd J = border_centres(V, F, triangle_part, &weight);
   const auto [lo, hi] = torso_span(rep);
@@ -136,13 +135,11 @@ Eigen::MatrixXd joint_centres_from_features(const Eigen::MatrixXd& V, const Eige
   return J;
 }
 
-Eigen::MatrixXd joint_centres_from_segmentation(const Eigen::MatrixXd& V, const Eigen::MatrixXi& F,
-                                                const Eigen::VectorXi& triangle_part) {
+Eigen::MatrixXd joint_centres_from_segmentation(const Eigen::MatrixXd& V, const Eigen::MatrixXi& F, const Eigen::VectorXi& triangle_part) {
   Eigen::VectorXd weight;
   const Eigen::MatrixXd J = border_centres(V, F, triangle_part, &weight);
   for (int j = 0; j < kNumJoints; ++j)
-    if (weight[j] <= 0)
-      throw InvalidInput("joint_centres_from_segmentation: the parts of joint '" + joint_name(j) + "' do not touch");
+    if (weight[j] <= 0) throw InvalidInput("joint_centres_from_segmentation: the parts of joint '" + joint_name(j) + "' do not touch");
   return J;
 }
 

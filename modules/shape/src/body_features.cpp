@@ -11,12 +11,12 @@
 #include <utility>
 
 #include "bust_band.h"
-#include "posekit/core/parallel.h"
 #include "posekit/core/error.h"
 #include "posekit/core/mesh_geometry.h"
 #include "posekit/core/mesh_slice.h"
 #include "posekit/core/mesh_topology.h"
 #include "posekit/core/mesh_validation.h"
+#include "posekit/core/parallel.h"
 #include "posekit/core/profile.h"
 #include "posekit/core/triangle_mesh.h"
 
@@ -29,7 +29,7 @@ namespace {
 /// within kThighMaxOffset of the axis; a forearm's is under 60 cm^2) below kJoinedThighsBelow of the height.
 constexpr double kThighMinArea = 0.006, kThighMaxOffset = 0.2, kJoinedThighsBelow = 0.5;
 constexpr double kStraddleRatio = 1.0 / 3;  ///< straddles(): shorter over longer side of the axis
-constexpr double kBustBandStart = 0.62;   ///< of the crotch-to-armpit span
+constexpr double kBustBandStart = 0.62;     ///< of the crotch-to-armpit span
 /// A section within 1 cm of the top wider round than this (m) is a cut, not a crown: a head of 10 cm
 /// radius whose top 2 cm a booth's cameras do not see (a scan's crown) is under 0.38 m round there;
 /// a head cut 5 cm down (an anonymised scan) is over 0.5 m. A mesh's cut is told by its opening.
@@ -39,13 +39,13 @@ constexpr double kCutTopGirth = 0.42;
 /// head is cut, a stature then reported as not measured; the crotch (0.43 to 0.50) is too variable.
 constexpr double kStatureFromArmsSeparate = 0.75;
 constexpr double kCrotchOverStature = 0.465;  ///< the first, rougher estimate, before the arms are found
-constexpr double kArmSectionArea = 1.5e-3;  ///< m^2: a thin adult upper arm's section is over 30 cm^2, an ear under 10
-constexpr int kRefineSteps = 5;  ///< finer sections per step that place the arms' separation (the crotch: 4x)
-constexpr double kArmClearance = 0.005;  ///< m: the arms separate where they stand this clear of the torso
-constexpr int kArmClearanceSections = 8;  ///< sections below the armpit level searched for that clearance
+constexpr double kArmSectionArea = 1.5e-3;    ///< m^2: a thin adult upper arm's section is over 30 cm^2, an ear under 10
+constexpr int kRefineSteps = 5;               ///< finer sections per step that place the arms' separation (the crotch: 4x)
+constexpr double kArmClearance = 0.005;       ///< m: the arms separate where they stand this clear of the torso
+constexpr int kArmClearanceSections = 8;      ///< sections below the armpit level searched for that clearance
 constexpr double kWaistBandStart = 0.33;
 constexpr double kWaistTieTolerance = 0.002;  ///< m of girth
-constexpr double kKneeFraction = 0.563;   ///< knee joint between ankle joint and crotch
+constexpr double kKneeFraction = 0.563;       ///< knee joint between ankle joint and crotch
 /// Knee height = fraction estimate + kKneeTowardHollow (popliteal hollow - fraction estimate) +
 /// kKneeShift (crotch - ankle): least squares on the 240 legs of 120 MakeHuman calibration bodies
 /// (make_calibration_specs(20131122, 120), remeshed): residual 8.4 mm SD, 14 mm before.
@@ -70,7 +70,7 @@ constexpr double kWristBeyondNarrowest = 0.012;  ///< m, toward the hand (horizo
 /// make_calibration_specs(20131122, 80), remeshed, with 5 mm steps; the other components median
 /// under 1 mm). 1 cm steps and the parabola keep the 16 subjects' wrists within 0.83 cm.
 constexpr double kWristBeyondNarrowestSection = 0.005;
-constexpr double kPalmGrowth = 1.15;    ///< the palm: a section this much fuller than the narrowest
+constexpr double kPalmGrowth = 1.15;   ///< the palm: a section this much fuller than the narrowest
 constexpr double kForearmStep = 0.01;  ///< m between perpendicular forearm sections
 /// m: the faces a forearm section is cut from lie this near the segment from the elbow to the hand's
 /// tip (a forearm's radius is 3-5 cm, a palm with the thumb 6-8 cm; the sections' centres stray
@@ -100,10 +100,9 @@ constexpr double kHeadJointFraction = 0.4164, kHeadJointForward = -0.0176;
 struct ShoulderRegression {
   double lateral[6], up[6], forward[6];
 };
-constexpr ShoulderRegression kShoulderFromSection = {
-    {0.0124, 0.7672, 0.0876, -0.3498, -0.3895, -0.5959},
-    {-0.0153, 0.0250, 0.4774, 0.2500, 0.5850, -0.1005},
-    {-0.0141, 0.0955, 0.4973, 0.0592, -0.3034, 0.7831}};
+constexpr ShoulderRegression kShoulderFromSection = {{0.0124, 0.7672, 0.0876, -0.3498, -0.3895, -0.5959},
+                                                     {-0.0153, 0.0250, 0.4774, 0.2500, 0.5850, -0.1005},
+                                                     {-0.0141, 0.0955, 0.4973, 0.0592, -0.3034, 0.7831}};
 
 /// Joint centre minus the section centroid that locates it, as (lateral, up, forward) in metres:
 /// medians over 80 MakeHuman calibration bodies (make_calibration_specs(20131122, 80), not the test
@@ -151,10 +150,8 @@ LoopShape shape_of(const SectionLoop& loop, bool with_girth = false) {
     cz += (P(j, 2) + P(i, 2)) * cross;
   }
   s.area = std::abs(a2) / 2;
-  if (std::abs(a2) > 1e-12)
-    s.centroid = Eigen::Vector3d(cx / (3 * a2), P.col(1).mean(), cz / (3 * a2));
-  else
-    s.centroid = P.colwise().mean().transpose();
+  if (std::abs(a2) > 1e-12) s.centroid = Eigen::Vector3d(cx / (3 * a2), P.col(1).mean(), cz / (3 * a2));
+  else s.centroid = P.colwise().mean().transpose();
   if (with_girth) s.girth = convex_hull_perimeter(P, Eigen::Vector3d::UnitY());
   s.min_x = P.col(0).minCoeff();
   s.max_x = P.col(0).maxCoeff();
@@ -315,15 +312,19 @@ void refine_wrists(const SectionAt& section, BodyFeatures* features, int threads
     return out;
   };
   std::array<Followed, 2> followed;
-  parallel_for_ranges(2, threads == 1 ? 1 : 2, [&](long begin, long end) {
-    for (long side = begin; side < end; ++side) followed[static_cast<size_t>(side)] = follow(static_cast<int>(side));
-  }, 1);
+  parallel_for_ranges(
+      2, threads == 1 ? 1 : 2,
+      [&](long begin, long end) {
+        for (long side = begin; side < end; ++side) followed[static_cast<size_t>(side)] = follow(static_cast<int>(side));
+      },
+      1);
   for (int side : {kLeft, kRight}) {
     const Followed& r = followed[static_cast<size_t>(side)];
     if (!r.tried) continue;
     if (r.palm) f.wrist[side] = r.wrist;
-    else f.warnings.push_back(std::string("could not follow the ") + (side == kLeft ? "left" : "right") +
-                              " forearm to the palm with perpendicular sections: its wrist comes from horizontal sections only");
+    else
+      f.warnings.push_back(std::string("could not follow the ") + (side == kLeft ? "left" : "right") +
+                           " forearm to the palm with perpendicular sections: its wrist comes from horizontal sections only");
   }
   refine_elbows(&f);
 }
@@ -354,7 +355,8 @@ void refine_elbows(BodyFeatures* features) {
     const size_t half = kElbowFitHalfWidth / 2;
     if (best >= 4 + half && best + half + 4 <= end) {
       std::vector<double> t, v;
-      for (size_t k = best - half; k <= best + half; ++k) t.push_back(static_cast<double>(k) - static_cast<double>(best)), v.push_back(cost[k]);
+      for (size_t k = best - half; k <= best + half; ++k)
+        t.push_back(static_cast<double>(k) - static_cast<double>(best)), v.push_back(cost[k]);
       double vertex = 0;
       if (parabola_vertex(t, v, false, &vertex)) at += std::clamp(vertex, -1.0, 1.0);
     }
@@ -367,8 +369,8 @@ void refine_elbows(BodyFeatures* features) {
     const Eigen::Vector3d upper = elbow - f.shoulder[side], lower = f.wrist[side] - elbow;
     const double bend = std::acos(std::clamp(upper.normalized().dot(lower.normalized()), -1.0, 1.0)) * 180 / M_PI;
     // A cut hand leaves that first kink fit (over 80% of the armpit-to-tip axis) short of the forearm.
-    const double kept = f.hand_cut[side] ? 0.0
-                                         : std::clamp((bend - kElbowBendBlend[0]) / (kElbowBendBlend[1] - kElbowBendBlend[0]), 0.0, 1.0);
+    const double kept =
+        f.hand_cut[side] ? 0.0 : std::clamp((bend - kElbowBendBlend[0]) / (kElbowBendBlend[1] - kElbowBendBlend[0]), 0.0, 1.0);
     f.elbow[side] = kept * f.elbow[side] + (1 - kept) * elbow;
   }
 }
@@ -382,20 +384,23 @@ TriangleMesh body_surface(const Eigen::MatrixXd& V, const Eigen::MatrixXi& F, st
   // On a second thread the input's own boundary, in case floating bits are left out (else the
   // body's loops, renumbered, are the input's).
   const bool speculate = input_boundary && threads != 1;
-  parallel_for_ranges(speculate ? 2 : 1, speculate ? 2 : 1, [&](long begin, long end) {
-    for (long task = begin; task < end; ++task) {
-      if (task == 1) {
-        input_loops = boundary_loops(F);
-        continue;
-      }
-      bits = find_floating_bits(V, F);
-      TriangleMesh whole;
-      whole.V = V;
-      whole.F = F;
-      body = extract_faces(whole, bits.keep_face, &vmap);
-      loops = boundary_loops(body.F);
-    }
-  }, 1);
+  parallel_for_ranges(
+      speculate ? 2 : 1, speculate ? 2 : 1,
+      [&](long begin, long end) {
+        for (long task = begin; task < end; ++task) {
+          if (task == 1) {
+            input_loops = boundary_loops(F);
+            continue;
+          }
+          bits = find_floating_bits(V, F);
+          TriangleMesh whole;
+          whole.V = V;
+          whole.F = F;
+          body = extract_faces(whole, bits.keep_face, &vmap);
+          loops = boundary_loops(body.F);
+        }
+      },
+      1);
   if (face_map) {
     face_map->clear();
     for (Eigen::Index f = 0; f < F.rows(); ++f)
@@ -495,11 +500,13 @@ BodyFeatures find_body_features(const Eigen::MatrixXd& V_in, const Eigen::Matrix
     throw InvalidInput("body features: the mesh is " + std::to_string(height) +
                        " m tall along its up axis (posekit's Y): expected a standing human in metres (wrong unit, or up axis?)");
   if (box.extent().z() > height || box.extent().x() > 1.3 * height)
-    throw InvalidInput("body features: the mesh is wider than it is tall along its up axis (posekit's Y): expected a standing body, not a lying one (wrong --up?)");
+    throw InvalidInput(
+        "body features: the mesh is wider than it is tall along its up axis (posekit's Y): expected a standing body, not a lying one "
+        "(wrong --up?)");
   BodyFeatures f = find_body_features(
       horizontal_sections(V, F, kSectionStep, threads),
-      [&](const std::vector<double>& heights) { return slice_mesh_stack(V, F, Eigen::Vector3d::UnitY(), heights, threads); },
-      top_is_cut, threads);
+      [&](const std::vector<double>& heights) { return slice_mesh_stack(V, F, Eigen::Vector3d::UnitY(), heights, threads); }, top_is_cut,
+      threads);
   // A hand cut off (a scan's wrists): the arm ends in an opening as big round as a wrist or
   // forearm (10 to 35 cm) within 5 cm of where it was followed to. The wrist is the cut's centre.
   // A hole in one hand (fingers lost) is no cut wrist: an opening that lies well beyond the other
@@ -525,7 +532,8 @@ BodyFeatures find_body_features(const Eigen::MatrixXd& V_in, const Eigen::Matrix
       }
       f.hand_cut[side] = true;
       f.wrist[side] = centre;
-      f.warnings.push_back(std::string("the ") + name + " hand is cut off (the arm ends in an opening): its wrist is placed at the cut's centre");
+      f.warnings.push_back(std::string("the ") + name +
+                           " hand is cut off (the arm ends in an opening): its wrist is placed at the cut's centre");
     }
   }
   // Forearm sections slice only the faces near each forearm and hand (within kForearmSliceRadius
@@ -550,14 +558,16 @@ BodyFeatures find_body_features(const Eigen::MatrixXd& V_in, const Eigen::Matrix
     whole.F = F;
     arm[side] = extract_faces(whole, kept);
   };
-  refine_wrists([&](const Eigen::Vector3d& point, const Eigen::Vector3d& normal) {
-    const int side = point.x() > f.axis_x ? kLeft : kRight;
-    std::call_once(arm_picked[side], pick_arm, side);
-    const TriangleMesh& part = arm[side];
-    const auto loops = slice_mesh(part.V, part.F, normal, normal.dot(point));
-    const int k = nearest_loop(loops, point);
-    return k < 0 ? SectionLoop{} : loops[static_cast<size_t>(k)];
-  }, &f, threads);
+  refine_wrists(
+      [&](const Eigen::Vector3d& point, const Eigen::Vector3d& normal) {
+        const int side = point.x() > f.axis_x ? kLeft : kRight;
+        std::call_once(arm_picked[side], pick_arm, side);
+        const TriangleMesh& part = arm[side];
+        const auto loops = slice_mesh(part.V, part.F, normal, normal.dot(point));
+        const int k = nearest_loop(loops, point);
+        return k < 0 ? SectionLoop{} : loops[static_cast<size_t>(k)];
+      },
+      &f, threads);
   if (!left_out.empty()) f.warnings.insert(f.warnings.begin(), left_out);
   return f;
 }
@@ -625,14 +635,13 @@ BodyFeatures find_body_features(const SectionStack& st, const HorizontalSections
         if (!st.loops[i][k].closed) continue;
         const LoopShape sh = shape_of(st.loops[i][k]);
         const double d = Eigen::Vector2d(sh.centroid.x() - f.axis_x, sh.centroid.z() - z_track).norm();
-        if (sh.min_x < f.axis_x && sh.max_x > f.axis_x && d < 0.1 && sh.area > best_area)
-          best_area = sh.area, found = static_cast<int>(k);
+        if (sh.min_x < f.axis_x && sh.max_x > f.axis_x && d < 0.1 && sh.area > best_area) best_area = sh.area, found = static_cast<int>(k);
       }
     }
     // The thighs apart above sections that held both: they were joined below (a scan's
     // reconstruction of touching thighs), and the crotch is above this gap between them.
-    if (crotch >= 0 && st.y[i] < f.floor_y + kJoinedThighsBelow * (st.top_y - f.floor_y) &&
-        thighs_apart(st.loops[i], f.axis_x) && thighs_apart(st.loops[i - 1], f.axis_x)) {
+    if (crotch >= 0 && st.y[i] < f.floor_y + kJoinedThighsBelow * (st.top_y - f.floor_y) && thighs_apart(st.loops[i], f.axis_x) &&
+        thighs_apart(st.loops[i - 1], f.axis_x)) {
       joined = true, joined_from = st.y[crotch], joined_to = std::max(st.y[crotch], st.y[i - 2]);
       for (int j = crotch; j < i; ++j) torso[j] = -1;
       crotch = -1;
@@ -649,10 +658,13 @@ BodyFeatures find_body_features(const SectionStack& st, const HorizontalSections
   }
   if (crotch < 0) throw InvalidInput("body features: no section encloses the body axis: could not find the crotch");
   // The torso's girths (convex hulls: most of this function's time on a dense scan), level by level.
-  parallel_for_ranges(n, threads, [&](long begin, long end) {
-    for (long i = begin; i < end; ++i)
-      if (torso[i] >= 0) torso_shape[i].girth = convex_hull_perimeter(st.loops[i][torso[i]].points, Eigen::Vector3d::UnitY());
-  }, 64);
+  parallel_for_ranges(
+      n, threads,
+      [&](long begin, long end) {
+        for (long i = begin; i < end; ++i)
+          if (torso[i] >= 0) torso_shape[i].girth = convex_hull_perimeter(st.loops[i][torso[i]].points, Eigen::Vector3d::UnitY());
+      },
+      64);
   if (joined)
     f.warnings.push_back("crotch: the thighs are joined into one surface below it (" +
                          std::to_string(std::lround(1000 * (joined_from - f.floor_y))) + " to " +
@@ -791,8 +803,7 @@ BodyFeatures find_body_features(const SectionStack& st, const HorizontalSections
         const double g = gap(refine_side[r], sections[r], refine[r]);
         if (g >= 0) profile[refine_side[r]].emplace_back(refine[r], g);
       }
-      for (auto& p : profile)
-        std::sort(p.begin(), p.end(), [](const auto& u, const auto& v) { return u.first > v.first; });
+      for (auto& p : profile) std::sort(p.begin(), p.end(), [](const auto& u, const auto& v) { return u.first > v.first; });
     }
     for (int side : {kLeft, kRight}) {
       const auto& p = profile[side];
@@ -816,10 +827,12 @@ BodyFeatures find_body_features(const SectionStack& st, const HorizontalSections
     f.stature = scale;
     f.crown_y = f.floor_y + scale;
     f.warnings.push_back(std::string("the top of the body is cut (") +
-                         (top_is_cut ? "an opening there" : "a section within 1 cm of the top is " +
-                                                                std::to_string(static_cast<int>(std::lround(top_girth * 100))) + " cm round") +
+                         (top_is_cut ? "an opening there"
+                                     : "a section within 1 cm of the top is " +
+                                           std::to_string(static_cast<int>(std::lround(top_girth * 100))) + " cm round") +
                          ", no crown): the head is missing or partial; stature and crown estimated from the level "
-                         "where the arms separate (" + std::to_string(static_cast<int>(std::lround(scale * 100))) + " cm)");
+                         "where the arms separate (" +
+                         std::to_string(static_cast<int>(std::lround(scale * 100))) + " cm)");
   }
   const int armpit_low = std::min(armpit_level[kLeft], armpit_level[kRight]);
   const int armpit_high = std::max(armpit_level[kLeft], armpit_level[kRight]);
@@ -838,8 +851,9 @@ BodyFeatures find_body_features(const SectionStack& st, const HorizontalSections
   // Neck: the narrowest section between the shoulders and the head; its base is where the girth
   // starts to widen into the shoulders.
   // Below the chin; with the head cut, anywhere up to 1 cm under the cut.
-  const int neck_band_top = f.head_cut ? std::max(level_at(0.95) - static_cast<int>(0.1 / st.step), n - 1 - static_cast<int>(0.01 / st.step))
-                                       : level_at(0.95) - static_cast<int>(0.1 / st.step);
+  const int neck_band_top = f.head_cut
+                                ? std::max(level_at(0.95) - static_cast<int>(0.1 / st.step), n - 1 - static_cast<int>(0.01 / st.step))
+                                : level_at(0.95) - static_cast<int>(0.1 / st.step);
   const int neck = argbest(armpit_high + static_cast<int>(0.05 / st.step), neck_band_top, false);
   if (neck < 0) throw InvalidInput("body features: could not find the neck");
   f.neck_y = st.y[neck];
@@ -857,16 +871,22 @@ BodyFeatures find_body_features(const SectionStack& st, const HorizontalSections
   if (base - 1 >= 0 && girth(base - 1) >= threshold && girth(base - 1) > girth(base))
     widening_y -= st.step * (threshold - girth(base)) / (girth(base - 1) - girth(base));
   const double* w = kNeckJointFromBase;
-  f.neck_joint = Eigen::Vector3d(f.neck_base.x(),
-                                 widening_y + w[0] + w[1] * (f.neck_y - widening_y) + w[2] * (f.crown_y - widening_y) +
-                                     w[3] * (widening_y - f.crotch_y),
-                                 f.neck_base.z() + kNeckJointForward);
+  f.neck_joint = Eigen::Vector3d(
+      f.neck_base.x(),
+      widening_y + w[0] + w[1] * (f.neck_y - widening_y) + w[2] * (f.crown_y - widening_y) + w[3] * (widening_y - f.crotch_y),
+      f.neck_base.z() + kNeckJointForward);
   const double head_y = f.neck_base.y() + kHeadJointFraction * (f.crown_y - f.neck_base.y());
   const int head_level = std::clamp(static_cast<int>(std::lround((head_y - st.y[0]) / st.step)), 0, n - 1);
   Eigen::Vector3d head_centre = f.neck_top;  // over a hole, the nearest closed head section within 2.5 cm
   for (int d = 0; d <= 5; ++d) {
-    if (head_level - d >= 0 && torso[head_level - d] >= 0) { head_centre = torso_shape[head_level - d].centroid; break; }
-    if (head_level + d < n && torso[head_level + d] >= 0) { head_centre = torso_shape[head_level + d].centroid; break; }
+    if (head_level - d >= 0 && torso[head_level - d] >= 0) {
+      head_centre = torso_shape[head_level - d].centroid;
+      break;
+    }
+    if (head_level + d < n && torso[head_level + d] >= 0) {
+      head_centre = torso_shape[head_level + d].centroid;
+      break;
+    }
   }
   f.head_joint = Eigen::Vector3d(head_centre.x(), head_y, head_centre.z() + kHeadJointForward);
 
@@ -955,7 +975,8 @@ BodyFeatures find_body_features(const SectionStack& st, const HorizontalSections
     if (centre >= kElbowFitHalfWidth && centre + kElbowFitHalfWidth < fit_end) {
       std::vector<double> t, v;
       for (size_t k = centre - kElbowFitHalfWidth; k <= centre + kElbowFitHalfWidth; ++k)
-        t.push_back(static_cast<double>(k) - static_cast<double>(centre)), v.push_back(line_error(axis, 0, k) + line_error(axis, k, fit_end));
+        t.push_back(static_cast<double>(k) - static_cast<double>(centre)),
+            v.push_back(line_error(axis, 0, k) + line_error(axis, k, fit_end));
       double vertex = 0;
       if (parabola_vertex(t, v, false, &vertex)) {
         const double half = static_cast<double>(kElbowFitHalfWidth);
@@ -989,14 +1010,15 @@ BodyFeatures find_body_features(const SectionStack& st, const HorizontalSections
       }
       const double mid_z = 0.5 * (lo_z + hi_z);
       const double x[6] = {1.0, width, radius, hi_z - lo_z, outward * (axis[0].x() - f.armpit[side].x()), axis[0].z() - mid_z};
-      auto predict = [&](const double (&w)[6]) {
+      auto predict = [&](const double(&w)[6]) {
         double v = 0;
         for (int k = 0; k < 6; ++k) v += w[k] * x[k];
         return v;
       };
       if (count >= 5)
-        f.shoulder[side] = Eigen::Vector3d(f.armpit[side].x() + outward * predict(kShoulderFromSection.lateral),
-                                           f.armpit[side].y() + predict(kShoulderFromSection.up), mid_z + predict(kShoulderFromSection.forward));
+        f.shoulder[side] =
+            Eigen::Vector3d(f.armpit[side].x() + outward * predict(kShoulderFromSection.lateral),
+                            f.armpit[side].y() + predict(kShoulderFromSection.up), mid_z + predict(kShoulderFromSection.forward));
     }
   }
 
@@ -1042,8 +1064,9 @@ BodyFeatures find_body_features(const SectionStack& st, const HorizontalSections
   }
   f.torso_levels_doubtful = bust == bust_from && better(bust - 1, bust, true);
   if (f.torso_levels_doubtful)
-    f.warnings.push_back("bust: the torso is fullest at the bottom of the bust band and fuller still below it (a belly, or "
-                         "arms merged with the torso in a scan): the bust, underbust and waist levels are doubtful");
+    f.warnings.push_back(
+        "bust: the torso is fullest at the bottom of the bust band and fuller still below it (a belly, or "
+        "arms merged with the torso in a scan): the bust, underbust and waist levels are doubtful");
   if (bust >= 0) f.underbust_y = level_of_extremum(f.bust_y - 0.12, f.bust_y - 0.03, false, &underbust);
   if (bust >= 0) {
     const double waist_from = st.y[std::min(n - 1, crotch + static_cast<int>(kWaistBandStart * span))], waist_to = f.bust_y - 0.05;
@@ -1159,7 +1182,7 @@ BodyFeatures find_body_features(const SectionStack& st, const HorizontalSections
     front = std::max(front, ahead);
     back = std::min(back, ahead);
   }
-  auto regress = [&](const double (&c)[4]) { return c[0] + c[1] * f.stature + c[2] * front + c[3] * back; };
+  auto regress = [&](const double(&c)[4]) { return c[0] + c[1] * f.stature + c[2] * front + c[3] * back; };
   for (int side : {kLeft, kRight}) {
     Eigen::Vector3d hip = f.crotch + (side == kLeft ? 1.0 : -1.0) * regress(kHipLateral) * lateral + regress(kHipForward) * forward;
     hip.y() = f.crotch_y + regress(kHipUp);

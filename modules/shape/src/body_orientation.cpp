@@ -9,25 +9,25 @@
 #include <sstream>
 
 #include "posekit/core/error.h"
-#include "posekit/core/units.h"
 #include "posekit/core/mesh_geometry.h"
 #include "posekit/core/mesh_validation.h"
+#include "posekit/core/units.h"
 
 namespace posekit {
 namespace {
 
 constexpr double kPi = 3.14159265358979323846;
-constexpr double kMinElongation = 1.3;   ///< largest over second spread: below, no long axis
-constexpr double kSlab = 0.03;           ///< of the height: the lowest and highest slabs compared
-constexpr double kSlabRatioCue = 3;      ///< surface in the lowest slab over the highest's, typical
-constexpr double kCentreCue = 0.03;      ///< of the height, the surface's centre above mid-height, typical
-constexpr double kMinUpScore = 0.5;      ///< below, the head end is a guess
-constexpr double kChestBand[2] = {0.55, 0.75};  ///< of the height: where width beats depth
-constexpr double kHipBand[2] = {0.42, 0.55};    ///< of the height: compared with the chest's
-constexpr double kTwistWarning = 8;              ///< degrees between chest and hips said
-constexpr double kMinWidthOverDepth = 1.1;       ///< spreads (SD) of the chest band
+constexpr double kMinElongation = 1.3;                            ///< largest over second spread: below, no long axis
+constexpr double kSlab = 0.03;                                    ///< of the height: the lowest and highest slabs compared
+constexpr double kSlabRatioCue = 3;                               ///< surface in the lowest slab over the highest's, typical
+constexpr double kCentreCue = 0.03;                               ///< of the height, the surface's centre above mid-height, typical
+constexpr double kMinUpScore = 0.5;                               ///< below, the head end is a guess
+constexpr double kChestBand[2] = {0.55, 0.75};                    ///< of the height: where width beats depth
+constexpr double kHipBand[2] = {0.42, 0.55};                      ///< of the height: compared with the chest's
+constexpr double kTwistWarning = 8;                               ///< degrees between chest and hips said
+constexpr double kMinWidthOverDepth = 1.1;                        ///< spreads (SD) of the chest band
 constexpr double kFootBand = 0.04, kShankBand[2] = {0.06, 0.10};  ///< of the height
-constexpr double kFootCue = 0.01;        ///< of the height: the feet's lead over the shanks, to count
+constexpr double kFootCue = 0.01;                                 ///< of the height: the feet's lead over the shanks, to count
 
 /// The axis nearest `d` (signed unit vector) when within `degrees`, else `d` itself.
 Eigen::Vector3d snap_to_axis(const Eigen::Vector3d& d, double degrees) {
@@ -113,8 +113,7 @@ BodyOrientation orientation_from_axes(const Eigen::Vector3d& up_in, const Eigen:
   if (up_in.norm() == 0 || forward_in.norm() == 0) throw InvalidInput("orientation: an axis has zero length");
   const Eigen::Vector3d up = up_in.normalized(), forward = forward_in.normalized();
   if (std::abs(up.dot(forward)) > std::sin(kPi / 180))
-    throw InvalidInput("orientation: up " + axis_name(up) + " and forward " + axis_name(forward) +
-                       " are not perpendicular");
+    throw InvalidInput("orientation: up " + axis_name(up) + " and forward " + axis_name(forward) + " are not perpendicular");
   const Eigen::Vector3d f = (forward - up.dot(forward) * up).normalized();
   BodyOrientation o;
   o.rotation.row(0) = up.cross(f).transpose();  // posekit: X = Y x Z, the subject's left
@@ -123,8 +122,7 @@ BodyOrientation orientation_from_axes(const Eigen::Vector3d& up_in, const Eigen:
   return o;
 }
 
-BodyOrientation detect_body_orientation(const Eigen::MatrixXd& P, const Eigen::VectorXd& weights,
-                                        const OrientationOptions& options) {
+BodyOrientation detect_body_orientation(const Eigen::MatrixXd& P, const Eigen::VectorXd& weights, const OrientationOptions& options) {
   const Eigen::Index n = P.rows();
   if (n < 10 || P.cols() != 3) throw InvalidInput("orientation: too few points to tell a body's orientation");
   if (weights.size() != 0 && weights.size() != n) throw InvalidInput("orientation: one weight per point expected");
@@ -197,9 +195,10 @@ BodyOrientation detect_body_orientation(const Eigen::MatrixXd& P, const Eigen::V
     const double score = slab_cue + centre_cue;
     const int vote = score >= 0 ? 1 : -1;
     if (std::abs(score) < kMinUpScore)
-      o.warnings.push_back("could not tell the head end from the feet (surface in the end slabs " + fixed(bottom / total, 3) +
-                           " and " + fixed(top / total, 3) + " of the whole, its centre " + fixed(centre_h * 100, 1) +
-                           "% of the height from mid-height); assuming " + axis_name(static_cast<double>(vote) * up) + " is up: give --up if not");
+      o.warnings.push_back("could not tell the head end from the feet (surface in the end slabs " + fixed(bottom / total, 3) + " and " +
+                           fixed(top / total, 3) + " of the whole, its centre " + fixed(centre_h * 100, 1) +
+                           "% of the height from mid-height); assuming " + axis_name(static_cast<double>(vote) * up) +
+                           " is up: give --up if not");
     else if (std::abs(slab_cue) > kMinUpScore && std::abs(centre_cue) > kMinUpScore && slab_cue * centre_cue < 0)
       o.warnings.push_back("the head end is uncertain: the feet's surface and the surface's centre disagree; taking " +
                            axis_name(static_cast<double>(vote) * up) + " as up: give --up if wrong");
@@ -223,7 +222,7 @@ BodyOrientation detect_body_orientation(const Eigen::MatrixXd& P, const Eigen::V
     // Left-right is the wider direction of the chest band (shoulders and arms), which the body's
     // features and representation need; a torso twisted on the pelvis turns it away from where the
     // hips and feet face, which is said.
-    auto band_spread = [&](const double (&band)[2], Eigen::Vector3d* depth, double* width_over_depth) {
+    auto band_spread = [&](const double(&band)[2], Eigen::Vector3d* depth, double* width_over_depth) {
       const Band b = band_of(P, w, h, lo + band[0] * height, lo + band[1] * height);
       Eigen::Matrix2d c2 = Eigen::Matrix2d::Zero();
       for (Eigen::Index i = 0; i < n; ++i) {
@@ -267,8 +266,8 @@ BodyOrientation detect_body_orientation(const Eigen::MatrixXd& P, const Eigen::V
       }
     Band shanks;
     if (!feet_side.empty())
-      shanks = band_of(P, w, h, lo + kShankBand[0] * height, lo + kShankBand[1] * height, side,
-                       quantile(feet_side, feet_w, 0.02), quantile(feet_side, feet_w, 0.98));
+      shanks = band_of(P, w, h, lo + kShankBand[0] * height, lo + kShankBand[1] * height, side, quantile(feet_side, feet_w, 0.02),
+                       quantile(feet_side, feet_w, 0.98));
     const double lead = feet.weight > 0 && shanks.weight > 0 ? (feet.mean - shanks.mean).dot(forward) / height : 0;
     if (std::abs(lead) > kFootCue) {
       if (lead < 0) forward = -forward;
@@ -285,8 +284,7 @@ BodyOrientation detect_body_orientation(const Eigen::MatrixXd& P, const Eigen::V
   return result;
 }
 
-BodyOrientation detect_mesh_orientation(const Eigen::MatrixXd& V, const Eigen::MatrixXi& F,
-                                        const OrientationOptions& options) {
+BodyOrientation detect_mesh_orientation(const Eigen::MatrixXd& V, const Eigen::MatrixXi& F, const OrientationOptions& options) {
   if (F.rows() == 0) throw InvalidInput("orientation: the mesh has no faces");
   // Floating bits (a scan's floor patch, a strap) would sway the end slabs and the feet's lead.
   Eigen::VectorXd area = face_areas(V, F);
@@ -342,8 +340,8 @@ BodyOrientation turn_body_to_posekit_frame(std::vector<Eigen::MatrixXd*> turned,
   return orientation;
 }
 
-BodyFrame bring_to_posekit_frame(Eigen::MatrixXd* points, const Eigen::MatrixXi* faces, Eigen::MatrixXd* normals,
-                                 const std::string& unit, const std::string& up, const std::string& forward) {
+BodyFrame bring_to_posekit_frame(Eigen::MatrixXd* points, const Eigen::MatrixXi* faces, Eigen::MatrixXd* normals, const std::string& unit,
+                                 const std::string& up, const std::string& forward) {
   BodyFrame frame = scale_body_to_metres(points, unit);
   frame.orientation = turn_body_to_posekit_frame({points, normals}, *points, faces, up, forward);
   return frame;

@@ -8,9 +8,9 @@
 #include <map>
 
 #include "posekit/body/parts.h"
-#include "posekit/core/parallel.h"
 #include "posekit/core/error.h"
 #include "posekit/core/mesh_slice.h"
+#include "posekit/core/parallel.h"
 #include "posekit/core/triangle_mesh.h"
 
 namespace posekit {
@@ -35,8 +35,8 @@ struct Plane2d {
 
 /// The polygon's points at N equal angles about its area centroid, taking the farthest crossing of
 /// each ray (the envelope of a star-shaped section). Returns the centroid.
-Eigen::Vector3d resample(const std::vector<Eigen::Vector3d>& polygon, const Eigen::Vector3d& normal, const Eigen::Vector3d& front,
-                         int n, Eigen::MatrixXd& out, Eigen::Index first_row) {
+Eigen::Vector3d resample(const std::vector<Eigen::Vector3d>& polygon, const Eigen::Vector3d& normal, const Eigen::Vector3d& front, int n,
+                         Eigen::MatrixXd& out, Eigen::Index first_row) {
   const Eigen::Vector3d side = normal.cross(front);
   Plane2d plane{polygon.front(), front, side};
   std::vector<Eigen::Vector2d> q;
@@ -76,7 +76,8 @@ Eigen::Vector3d resample(const std::vector<Eigen::Vector3d>& polygon, const Eige
 }
 
 /// Convex hull (in the plane) of the given points, counter-clockwise about `normal`.
-std::vector<Eigen::Vector3d> planar_hull(const std::vector<Eigen::Vector3d>& pts, const Eigen::Vector3d& normal, const Eigen::Vector3d& front) {
+std::vector<Eigen::Vector3d> planar_hull(const std::vector<Eigen::Vector3d>& pts, const Eigen::Vector3d& normal,
+                                         const Eigen::Vector3d& front) {
   if (pts.size() < 3) return pts;  // no polygon: the caller reports the degenerate section
   const Eigen::Vector3d side = normal.cross(front);
   std::vector<std::pair<Eigen::Vector2d, size_t>> q;
@@ -124,9 +125,12 @@ class Builder {
     const auto sections = slice_mesh_stack(V_, F_, Eigen::Vector3d::UnitY(), horizontal_heights_, threads_);
     for (size_t i = 0; i < sections.size(); ++i) horizontal_sections_.emplace(horizontal_heights_[i], sections[i]);
     // The two arms' sections side by side (each only reads the surface).
-    parallel_for_ranges(2, threads_ == 1 ? 1 : 2, [&](long begin, long end) {
-      for (long side = begin; side < end; ++side) arm_sections_[side] = arm_sections(static_cast<int>(side));
-    }, 1);
+    parallel_for_ranges(
+        2, threads_ == 1 ? 1 : 2,
+        [&](long begin, long end) {
+          for (long side = begin; side < end; ++side) arm_sections_[side] = arm_sections(static_cast<int>(side));
+        },
+        1);
     return layers();
   }
 
@@ -173,8 +177,8 @@ class Builder {
     const std::vector<SectionLoop>& loops = given ? *given : cached != horizontal_sections_.end() ? cached->second : sliced;
     const int nearest = nearest_loop(loops, centre);
     if (nearest < 0)
-      throw InvalidInput("layered representation: no section of the " + rep_.chain_names[chain] + " at " +
-                         std::to_string(centre.x()) + ", " + std::to_string(centre.y()) + ", " + std::to_string(centre.z()));
+      throw InvalidInput("layered representation: no section of the " + rep_.chain_names[chain] + " at " + std::to_string(centre.x()) +
+                         ", " + std::to_string(centre.y()) + ", " + std::to_string(centre.z()));
     std::vector<Eigen::Vector3d> polygon;
     if (hull_of_nearby) {  // limbs: the nearest loop and its neighbours (fingers), as a tape would go
       const bool one_side = !std::isnan(same_side_of_x);
@@ -198,8 +202,9 @@ class Builder {
       const Eigen::MatrixXd& P = loops[nearest].points;
       for (Eigen::Index r = 0; r < P.rows(); ++r) polygon.push_back(P.row(r).transpose());
     }
-    if (polygon.size() < 3) throw InvalidInput("layered representation: degenerate section of the " + rep_.chain_names[chain] +
-                                              " (is the body standing in the standard pose?)");
+    if (polygon.size() < 3)
+      throw InvalidInput("layered representation: degenerate section of the " + rep_.chain_names[chain] +
+                         " (is the body standing in the standard pose?)");
     const Eigen::Index row = static_cast<Eigen::Index>(rep_.layers.size()) * n_;
     points_.conservativeResize(row + n_, 3);
     RepresentationLayer layer;
@@ -214,7 +219,7 @@ class Builder {
 
   void torso() {
     const double span = std::min(f_.armpit[kLeft].y(), f_.armpit[kRight].y()) - f_.crotch_y;
-    const double keys[] = {f_.crotch_y + 0.01, f_.hip_y, f_.waist_y, f_.underbust_y, f_.bust_y,
+    const double keys[] = {f_.crotch_y + 0.01,        f_.hip_y,        f_.waist_y, f_.underbust_y, f_.bust_y,
                            f_.crotch_y + span - 0.01, f_.neck_base.y()};
     int index = 0;
     for (int s = 0; s < 6; ++s)
@@ -258,8 +263,7 @@ class Builder {
         const Eigen::Vector3d mirror = other[s] + (other[s + 1] - other[s]) * t;
         // Low on a high-arched foot the heel and the ball are separate loops 10-15 cm apart: the
         // foot's layers take both, but never a loop on the other leg's side of the two legs' middle.
-        add_layer(2 + side, c, Eigen::Vector3d::UnitY(), parts[s], true, nullptr, s == 2 ? 0.15 : 0.05,
-                  0.5 * (c.x() + mirror.x()));
+        add_layer(2 + side, c, Eigen::Vector3d::UnitY(), parts[s], true, nullptr, s == 2 ? 0.15 : 0.05, 0.5 * (c.x() + mirror.x()));
       }
   }
 
@@ -301,8 +305,7 @@ class Builder {
   void arm(int side) {
     const std::vector<ArmPlane> planes = arm_planes(side);
     for (size_t k = 0; k < planes.size(); ++k)
-      add_layer(4 + side, planes[k].centre, planes[k].normal, planes[k].part, true,
-                planning_ ? nullptr : &arm_sections_[side].at(k));
+      add_layer(4 + side, planes[k].centre, planes[k].normal, planes[k].part, true, planning_ ? nullptr : &arm_sections_[side].at(k));
   }
 
   TriangleMesh arm_faces(const std::array<Eigen::Vector3d, 4>& keys) const {
@@ -313,8 +316,8 @@ class Builder {
     std::vector<bool> kept_face(static_cast<size_t>(F_.rows()), false);
     for (Eigen::Index f = 0; f < F_.rows(); ++f)
       for (int c = 0; c < 3 && !kept_face[f]; ++c)
-        kept_face[f] = (V_.row(F_(f, c)).transpose().array() >= lo.array()).all() &&
-                       (V_.row(F_(f, c)).transpose().array() <= hi.array()).all();
+        kept_face[f] =
+            (V_.row(F_(f, c)).transpose().array() >= lo.array()).all() && (V_.row(F_(f, c)).transpose().array() <= hi.array()).all();
     TriangleMesh whole;
     whole.V = V_;
     whole.F = F_;
@@ -334,7 +337,8 @@ class Builder {
         layer.insert(layer.end(), 2, static_cast<int>(i));
       }
     }
-    rep_.mesh.F = Eigen::Map<Eigen::Matrix<int, Eigen::Dynamic, 3, Eigen::RowMajor>>(tris.data(), static_cast<Eigen::Index>(tris.size() / 3), 3);
+    rep_.mesh.F =
+        Eigen::Map<Eigen::Matrix<int, Eigen::Dynamic, 3, Eigen::RowMajor>>(tris.data(), static_cast<Eigen::Index>(tris.size() / 3), 3);
     rep_.triangle_part = Eigen::Map<Eigen::VectorXi>(part.data(), static_cast<Eigen::Index>(part.size()));
     rep_.triangle_layer = Eigen::Map<Eigen::VectorXi>(layer.data(), static_cast<Eigen::Index>(layer.size()));
     // Torso and head layers advance along their normals, legs and arms against them: flipping the
@@ -375,8 +379,8 @@ int representation_layer_count() {
   return n;
 }
 
-LayeredRepresentation build_layered_representation_on_surface(const TriangleMesh& surface, const BodyFeatures& f,
-                                                              int points_per_layer, int threads) {
+LayeredRepresentation build_layered_representation_on_surface(const TriangleMesh& surface, const BodyFeatures& f, int points_per_layer,
+                                                              int threads) {
   if (points_per_layer < 8) throw InvalidInput("layered representation: at least 8 points per layer");
   for (int side : {kLeft, kRight})
     if (!f.arm_found[side]) throw InvalidInput("layered representation: an arm was not found (see the features' warnings)");

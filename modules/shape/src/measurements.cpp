@@ -3,14 +3,14 @@
 #include <Eigen/Cholesky>
 #include <Eigen/Geometry>
 #include <algorithm>
-#include <iomanip>
-#include <sstream>
 #include <array>
 #include <cmath>
+#include <iomanip>
 #include <limits>
 #include <map>
-#include <unordered_map>
 #include <numeric>
+#include <sstream>
+#include <unordered_map>
 #include <utility>
 
 #include "bust_band.h"
@@ -24,12 +24,12 @@ using shape_detail::kBustPlateau;
 namespace {
 
 constexpr double kMaxGapDeg = 40.0;
-constexpr double kBustSearch = 0.03;        ///< m each side of the bust level searched for the fullest girth
-constexpr double kBustProfile = 0.04;       ///< m each side of the features' bust level sectioned again
+constexpr double kBustSearch = 0.03;                ///< m each side of the bust level searched for the fullest girth
+constexpr double kBustProfile = 0.04;               ///< m each side of the features' bust level sectioned again
 constexpr double kUnderbustBand[2] = {0.03, 0.12};  ///< m below the bust level: the underbust band
-constexpr double kCrotchArchHalfWidth = 0.015;  ///< m each side of the body axis fitted (crotch_on_smooth_surface)
-constexpr double kClusterCell = 0.008;  ///< m: scan points closer than about this belong to one section
-constexpr double kSparsestBustCell = 0.025;  ///< m: clusters coarser than this join the arms to the chest: no bust
+constexpr double kCrotchArchHalfWidth = 0.015;      ///< m each side of the body axis fitted (crotch_on_smooth_surface)
+constexpr double kClusterCell = 0.008;              ///< m: scan points closer than about this belong to one section
+constexpr double kSparsestBustCell = 0.025;         ///< m: clusters coarser than this join the arms to the chest: no bust
 
 /// A section from scattered planar points (in the plane with normal n): the median radius about
 /// their centroid in each sector, which also removes the scanner's noise; closed when no run of
@@ -101,8 +101,8 @@ std::vector<std::vector<Eigen::Vector3d>> cluster(const std::vector<Eigen::Vecto
 /// The loop of a section through `point` (plane normal `normal`) nearest to the point, on the
 /// smooth surface through the vertices (N: unit vertex normals), so that girths do not depend on
 /// the tessellation.
-SectionLoop mesh_section(const Eigen::MatrixXd& V, const Eigen::MatrixXi& F, const Eigen::MatrixXd& N,
-                         const Eigen::Vector3d& point, const Eigen::Vector3d& normal) {
+SectionLoop mesh_section(const Eigen::MatrixXd& V, const Eigen::MatrixXi& F, const Eigen::MatrixXd& N, const Eigen::Vector3d& point,
+                         const Eigen::Vector3d& normal) {
   const auto loops = slice_smooth_mesh(V, F, N, normal, normal.dot(point));
   const int k = nearest_loop(loops, point);
   return k < 0 ? SectionLoop{} : loops[k];
@@ -115,9 +115,7 @@ SectionLoop mesh_section(const Eigen::MatrixXd& V, const Eigen::MatrixXi& F, con
 struct CloudSlicing {
   double thickness = 0.005, cell = kClusterCell;
 };
-CloudSlicing slicing_for_spacing(double spacing) {
-  return {std::max(0.005, 2.2 * spacing), std::max(kClusterCell, 2.7 * spacing)};
-}
+CloudSlicing slicing_for_spacing(double spacing) { return {std::max(0.005, 2.2 * spacing), std::max(kClusterCell, 2.7 * spacing)}; }
 
 SectionLoop cloud_section(const Eigen::MatrixXd& P, const Eigen::Vector3d& point, const Eigen::Vector3d& normal,
                           const CloudSlicing& slicing) {
@@ -225,18 +223,19 @@ BodyMeasurements measure(const BodyFeatures& f, Section&& section) {
       double x = 0;
       if (!f.arm_found[side] || !arm_x_at(side, g.point.y(), &x)) continue;
       constexpr double kArmRadius = 0.025;  // m: the section reaching this near the arm's axis holds some of it
-      if (side == kLeft ? loop.points.col(0).maxCoeff() > x - kArmRadius : loop.points.col(0).minCoeff() < x + kArmRadius)
-        return true;
+      if (side == kLeft ? loop.points.col(0).maxCoeff() > x - kArmRadius : loop.points.col(0).minCoeff() < x + kArmRadius) return true;
     }
     return false;
   };
-  for (const auto& [name, y] : {std::pair<const char*, double>{"bust", bust_y}, {"underbust", m.features.underbust_y}, {"waist", f.waist_y}}) {
+  for (const auto& [name, y] :
+       {std::pair<const char*, double>{"bust", bust_y}, {"underbust", m.features.underbust_y}, {"waist", f.waist_y}}) {
     if (!f.torso_levels_doubtful) {
       add(name, torso(y), up);
       const bool chest = std::string(name) != "waist";
       if (chest && (f.arm_touches_torso[kLeft] || f.arm_touches_torso[kRight]) && m.girths.back().measured) {
         m.girths.back().measured = false;
-        m.girths.back().note = "the arms touch the torso below the armpits: the chest's section would hold them (hold the arms away from the body)";
+        m.girths.back().note =
+            "the arms touch the torso below the armpits: the chest's section would hold them (hold the arms away from the body)";
       } else if (holds_an_arm(m.girths.back())) {
         m.girths.back().measured = false;
         m.girths.back().note = "an arm touches the torso at this level: its section holds the arm (hold the arms away from the body)";
@@ -319,8 +318,8 @@ void reject_implausible_girths(BodyMeasurements* m) {
       }
     }
   // Anatomical order: the distal or smaller part is thinner than the one it hangs from.
-  const std::pair<const char*, const char*> smaller_than[] = {
-      {"neck", "bust"}, {"neck", "hip"}, {"wrist", "upper_arm"}, {"ankle", "calf"}, {"knee", "thigh"}, {"calf", "thigh"}};
+  const std::pair<const char*, const char*> smaller_than[] = {{"neck", "bust"},  {"neck", "hip"},   {"wrist", "upper_arm"},
+                                                              {"ankle", "calf"}, {"knee", "thigh"}, {"calf", "thigh"}};
   for (const auto& [small, large] : smaller_than) {
     Girth *a = girth(small), *b = girth(large);
     if (!a || !b || !a->measured || !b->measured || a->value < b->value) continue;
@@ -332,7 +331,7 @@ void reject_implausible_girths(BodyMeasurements* m) {
   // A bust section that took in the arms (arms held against the chest, or a model whose arms touch
   // it) is far rounder than the hips: bust / hip is at most 1.13 on the dataset's 16 subjects and
   // the robustness set's 10 shapes (BMI 16 to 35); a photo-customized man came to 1.44.
-  if (Girth *bust = girth("bust"), *hip = girth("hip"); bust && hip && bust->measured && hip->measured && bust->value > 1.35 * hip->value) {
+  if (Girth* bust = girth("bust"), *hip = girth("hip"); bust && hip && bust->measured && hip->measured && bust->value > 1.35 * hip->value) {
     std::ostringstream why;
     why.precision(1);
     why << std::fixed << "is over 1.35 times the hip (" << 100 * hip->value << " cm): the section took in the arms";
@@ -376,7 +375,7 @@ double crotch_on_smooth_surface(const Eigen::MatrixXd& V, const Eigen::MatrixXi&
 }  // namespace
 
 BodyMeasurements measure_body(const Eigen::MatrixXd& V_in, const Eigen::MatrixXi& F_in) {
-  TriangleMesh surface;  // sectioned as the features were
+  TriangleMesh surface;                                       // sectioned as the features were
   BodyFeatures f = find_body_features(V_in, F_in, &surface);  // wrists refined with perpendicular sections
   const Eigen::MatrixXd& V = surface.V;
   const Eigen::MatrixXi& F = surface.F;
@@ -495,8 +494,7 @@ SectionStack sections_of_clean_points(const Eigen::MatrixXd& P, double step, dou
 
 }  // namespace
 
-SectionLoop section_from_planar_points(const std::vector<Eigen::Vector3d>& points, const Eigen::Vector3d& normal,
-                                       double max_gap_deg) {
+SectionLoop section_from_planar_points(const std::vector<Eigen::Vector3d>& points, const Eigen::Vector3d& normal, double max_gap_deg) {
   if (points.empty()) return SectionLoop{};
   return loop_from_points(points, normal.normalized(), max_gap_deg);
 }
@@ -514,7 +512,8 @@ BodyMeasurements measure_point_cloud(const Eigen::MatrixXd& scan) {
   // The unit first: a body in mm read as metres has no neighbours within 2 cm at all.
   const double tall = bounding_box(scan).extent().y();
   if (tall > 500 && tall < 2600)
-    throw InvalidInput("measure: the cloud is " + std::to_string(tall) + " units tall along its up axis (posekit's Y): did you mean --unit mm?");
+    throw InvalidInput("measure: the cloud is " + std::to_string(tall) +
+                       " units tall along its up axis (posekit's Y): did you mean --unit mm?");
   const Eigen::MatrixXd P = drop_isolated_points(scan);
   if (P.rows() < 1000)
     throw InvalidInput("measure: only " + std::to_string(P.rows()) + " of " + std::to_string(scan.rows()) +

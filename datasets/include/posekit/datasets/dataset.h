@@ -12,10 +12,10 @@
 namespace posekit {
 
 struct DatasetOptions {
-  std::string data_root;       ///< MakeHuman assets
+  std::string data_root;  ///< MakeHuman assets
   unsigned seed = 1;
-  bool small = false;          ///< a third of the poses, 2 subjects
-  int subjects = 16;           ///< ignored when small
+  bool small = false;  ///< a third of the poses, 2 subjects
+  int subjects = 16;   ///< ignored when small
   int subject_vertices = 12400;
   double scan_noise_sigma = 0.0015;  ///< m
   double scan_outlier_fraction = 0.001;
@@ -25,7 +25,7 @@ struct DatasetOptions {
   /// with other fractions and linear blend skinning, for a cross-generator test). The anatomical
   /// ones also pose every subject in 8 held-out poses (walk, reach, squat, sit, torso, single joints).
   std::string driving = "rig";
-  bool force = false;          ///< replace an existing output folder
+  bool force = false;  ///< replace an existing output folder
   /// Progress callback: (done, total, what).
   std::function<void(int, int, const std::string&)> progress;
 };
@@ -45,12 +45,12 @@ DatasetSummary make_dataset(const std::string& out_dir, const DatasetOptions& op
 /// A registered pose dataset: meshes sharing one topology, with optional 16-part poses.
 struct PoseDataset {
   std::vector<std::string> names;
-  std::vector<Eigen::MatrixXd> V;      ///< each #V x 3 (m)
-  Eigen::MatrixXi F;                   ///< the shared triangles
+  std::vector<Eigen::MatrixXd> V;  ///< each #V x 3 (m)
+  Eigen::MatrixXi F;               ///< the shared triangles
   std::vector<bool> has_pose;
   std::vector<PartPose> poses;
-  std::vector<bool> test;              ///< held out (from the manifest; all false without one)
-  std::string rest_name;               ///< the rest-pose example (template), if known
+  std::vector<bool> test;  ///< held out (from the manifest; all false without one)
+  std::string rest_name;   ///< the rest-pose example (template), if known
   /// Several people of one topology: per example, the index of its own person's rest example, from
   /// which its deformation is measured (empty: every example is the template's person).
   std::vector<int> rest_of;
@@ -67,8 +67,8 @@ PoseDataset load_pose_dataset(const std::string& dir, Unit unit = Unit::kMetre);
 
 /// Part labels and joint centres of a dataset's template (template/parts.json, template/joints.json).
 struct TemplateAnnotations {
-  Eigen::VectorXi triangle_part;   ///< #F of the pose dataset
-  Eigen::MatrixXd joint_centres;   ///< #joints x 3 (m)
+  Eigen::VectorXi triangle_part;  ///< #F of the pose dataset
+  Eigen::MatrixXd joint_centres;  ///< #joints x 3 (m)
 };
 /// Reads them from a posekit dataset folder; `found` (optional) is false, and the result empty,
 /// when the dataset has no such files. Malformed files throw IoError naming the file.

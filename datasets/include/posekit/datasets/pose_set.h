@@ -11,7 +11,7 @@ namespace posekit {
 struct NamedPose {
   std::string name;  ///< file-name safe, e.g. "left_elbow_flex_105"
   PartPose pose;
-  bool test = false; ///< held out of training
+  bool test = false;  ///< held out of training
 };
 
 /// Anatomical rotation axes of a body's joints in its rest frame, from its joint centres
@@ -26,7 +26,6 @@ JointAxes joint_axes(const Eigen::MatrixXd& joint_centres);
 /// 140, hip flexion to 100, knee flexion to 130, torso bend and twist, head turns, wrists, ankles)
 /// and combinations (walking, reaching, squatting, sitting-like), plus `num_random` random
 /// plausible combinations drawn from `seed`. About a fifth is marked `test`, spread over the kinds.
-std::vector<NamedPose> standard_pose_set(const Eigen::MatrixXd& joint_centres, unsigned seed, int num_random = 10,
-                                         bool small = false);
+std::vector<NamedPose> standard_pose_set(const Eigen::MatrixXd& joint_centres, unsigned seed, int num_random = 10, bool small = false);
 
 }  // namespace posekit

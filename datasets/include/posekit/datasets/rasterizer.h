@@ -12,7 +12,7 @@ namespace posekit {
 
 /// OpenCV-style pinhole camera: x_cam = R x_world + t, looking along +z_cam, x right, y down.
 struct PinholeCamera {
-  int width = 0, height = 0;  ///< pixels
+  int width = 0, height = 0;              ///< pixels
   double fx = 0, fy = 0, cx = 0, cy = 0;  ///< pixels
   Eigen::Matrix3d R = Eigen::Matrix3d::Identity();
   Eigen::Vector3d t = Eigen::Vector3d::Zero();  ///< m
@@ -21,16 +21,16 @@ struct PinholeCamera {
   /// Unit ray direction (world) through pixel coordinates (u, v).
   Eigen::Vector3d ray(double u, double v) const;
   /// A camera at `eye` looking at `target`, `up` roughly up in the image, focal length in pixels.
-  static PinholeCamera look_at(const Eigen::Vector3d& eye, const Eigen::Vector3d& target, const Eigen::Vector3d& up,
-                               int width, int height, double focal_px);
+  static PinholeCamera look_at(const Eigen::Vector3d& eye, const Eigen::Vector3d& target, const Eigen::Vector3d& up, int width, int height,
+                               double focal_px);
 };
 
 struct RenderBuffers {
   int width = 0, height = 0;
-  std::vector<float> depth;          ///< z_cam of the nearest surface (m), +inf where empty
-  std::vector<int> face;             ///< nearest triangle, -1 where empty
-  std::vector<std::uint8_t> gray;    ///< Lambert shading with a headlight on `background`
-  int covered() const;               ///< pixels showing the mesh
+  std::vector<float> depth;        ///< z_cam of the nearest surface (m), +inf where empty
+  std::vector<int> face;           ///< nearest triangle, -1 where empty
+  std::vector<std::uint8_t> gray;  ///< Lambert shading with a headlight on `background`
+  int covered() const;             ///< pixels showing the mesh
 };
 
 /// Rasterizes every triangle in front of the camera (z > 1 cm), nearest wins.

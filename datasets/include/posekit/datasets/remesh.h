@@ -9,8 +9,8 @@ namespace posekit {
 
 /// Where a point lies on a mesh: its triangle and barycentric coordinates (sum 1).
 struct SurfacePoints {
-  Eigen::VectorXi face;  ///< #P triangle indices
-  Eigen::MatrixXd bary;  ///< #P x 3 barycentric coordinates
+  Eigen::VectorXi face;      ///< #P triangle indices
+  Eigen::MatrixXd bary;      ///< #P x 3 barycentric coordinates
   Eigen::VectorXd distance;  ///< #P distance from the query point to the surface (m)
 };
 
@@ -30,11 +30,10 @@ Eigen::MatrixXd evaluate_smooth_surface_points(const Eigen::MatrixXd& V, const E
 /// smooth surface (its closest point on the triangles, moved onto the Phong surface through the
 /// original's vertices: evaluate_smooth_surface_points), so the shape is unchanged. Snapping onto
 /// the flat triangles instead would cut every curve with chords of chords and shrink a thigh's
-/// girth by about 1 mm; a scanner or another modeller samples the body, not its polygons (vertices whose snap would flatten a triangle keep their
-/// decimated position, and where two surfaces touch, e.g. closed lips, coincident vertices move
-/// apart by at most 0.2 mm). `correspondence` (optional) receives the snap: for each new
-/// vertex its triangle of `mesh` and barycentric coordinates. Throws InvalidInput if the result is
-/// not a closed manifold.
+/// girth by about 1 mm; a scanner or another modeller samples the body, not its polygons (vertices whose snap would flatten a triangle keep
+/// their decimated position, and where two surfaces touch, e.g. closed lips, coincident vertices move apart by at most 0.2 mm).
+/// `correspondence` (optional) receives the snap: for each new vertex its triangle of `mesh` and barycentric coordinates. Throws
+/// InvalidInput if the result is not a closed manifold.
 TriangleMesh remesh_body(const TriangleMesh& mesh, int target_vertices, SurfacePoints* correspondence = nullptr);
 
 }  // namespace posekit

@@ -21,14 +21,14 @@ const std::vector<RobustnessVariation>& robustness_variations();
 struct RobustnessOptions {
   std::string data_root;  ///< MakeHuman assets
   unsigned seed = 1;
-  int shapes = 10;        ///< body shapes; each is written in every variation
+  int shapes = 10;  ///< body shapes; each is written in every variation
   /// The shapes' body specs (e.g. MakeHuman fitted to survey subjects, population/survey_fit.h); when
   /// given, `shapes` is their count. Empty: random MakeHuman sliders (make_calibration_specs).
   std::vector<BodySpec> shape_specs;
   std::string shapes_source;  ///< what shape_specs are, for the manifest
   /// Only these variations (names from robustness_variations()); all when empty.
   std::vector<std::string> only;
-  bool force = false;     ///< replace an existing output folder
+  bool force = false;                                          ///< replace an existing output folder
   std::function<void(int, int, const std::string&)> progress;  ///< (done, total, what)
 };
 

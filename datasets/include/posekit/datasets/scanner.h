@@ -11,14 +11,14 @@
 namespace posekit {
 
 struct ScannerOptions {
-  int views_around = 4;                            ///< pillars, at 45, 135, 225, 315 degrees
-  std::vector<double> heights = {0.55, 1.35};      ///< camera heights above the floor (m)
-  double distance = 1.3;                           ///< from the booth axis (m)
-  int width = 480, height = 640;                   ///< pixels per camera
+  int views_around = 4;                        ///< pillars, at 45, 135, 225, 315 degrees
+  std::vector<double> heights = {0.55, 1.35};  ///< camera heights above the floor (m)
+  double distance = 1.3;                       ///< from the booth axis (m)
+  int width = 480, height = 640;               ///< pixels per camera
   double focal_px = 460;
-  double noise_sigma = 0.0015;                     ///< Gaussian noise along the ray (m)
-  double outlier_fraction = 0.001;                 ///< extra points scattered around the subject
-  double min_incidence_cos = 0.15;                 ///< grazing returns below this are dropped
+  double noise_sigma = 0.0015;      ///< Gaussian noise along the ray (m)
+  double outlier_fraction = 0.001;  ///< extra points scattered around the subject
+  double min_incidence_cos = 0.15;  ///< grazing returns below this are dropped
   unsigned seed = 1;
 };
 
@@ -41,6 +41,6 @@ SimulatedScan simulate_scan(const TriangleMesh& mesh, const ScannerOptions& opti
 /// facing partner or the result is not a closed manifold; returns `mesh` unchanged where nothing
 /// interpenetrates.
 TriangleMesh fuse_interpenetrating_surfaces(const TriangleMesh& mesh, const Eigen::AlignedBox3d& region,
-                                             std::vector<int>* face_origin = nullptr);
+                                            std::vector<int>* face_origin = nullptr);
 
 }  // namespace posekit

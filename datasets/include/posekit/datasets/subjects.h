@@ -48,7 +48,7 @@ struct PopulationOptions {
   int count = 300;
   bool local_variation = true;
   std::function<bool(const BodySpec&, const TriangleMesh&)> keep;
-  std::string keep_note;     ///< what `keep` leaves out, for the note
+  std::string keep_note;  ///< what `keep` leaves out, for the note
   int threads = 0;
   std::function<void(int, int)> progress;  ///< (bodies built, total), serialised
 };

@@ -18,8 +18,8 @@ enum class ColourMapKind {
 
 struct ColourMap {
   ColourMapKind kind = ColourMapKind::kSequential;
-  bool automatic = true;         ///< range from the data (diverging: symmetric about zero)
-  double min = 0, max = 10;      ///< fixed range when not automatic
+  bool automatic = true;     ///< range from the data (diverging: symmetric about zero)
+  double min = 0, max = 10;  ///< fixed range when not automatic
   std::string title = "error (mm)";
   std::vector<std::string> categories;  ///< kCategorical: the name of each value 0..n-1
 };
@@ -31,8 +31,8 @@ CameraPreset parse_camera_preset(const std::string& name);  ///< "front", "side"
 /// point cloud overlaid, and a caption.
 struct ViewPanel {
   TriangleMesh mesh;
-  std::string scalar;            ///< vertex scalar to colour by; empty: plain skin colour
-  PointCloud overlay;            ///< drawn as points when not empty
+  std::string scalar;  ///< vertex scalar to colour by; empty: plain skin colour
+  PointCloud overlay;  ///< drawn as points when not empty
   std::string caption;
   CameraPreset camera = CameraPreset::kFront;
 };
@@ -40,9 +40,9 @@ struct ViewPanel {
 struct ViewOptions {
   ColourMap colour_map;
   int panel_width = 480, panel_height = 720;
-  bool colour_bar = true;        ///< shown when any panel has a scalar
+  bool colour_bar = true;  ///< shown when any panel has a scalar
   double point_size = 1.0;
-  std::string title;             ///< window title / figure title
+  std::string title;  ///< window title / figure title
 };
 
 /// Renders the panels side by side off-screen and writes a PNG (atomically). Needs an X display;
@@ -71,8 +71,7 @@ struct ViewerState {
 /// display is available. With `script`, its events are played through VTK's interactor instead
 /// of waiting for the user (a private Xvfb is started when there is no display) and the window
 /// closes after the last one.
-ViewerState show_panels(const std::vector<ViewPanel>& panels, const ViewOptions& options,
-                        const std::vector<ViewerEvent>* script = nullptr);
+ViewerState show_panels(const std::vector<ViewPanel>& panels, const ViewOptions& options, const std::vector<ViewerEvent>* script = nullptr);
 
 /// The range a colour map will use for these values (NaNs ignored).
 std::pair<double, double> colour_range(const ColourMap& map, const std::vector<const Eigen::VectorXd*>& values);

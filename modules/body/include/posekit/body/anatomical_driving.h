@@ -33,11 +33,11 @@ namespace posekit {
 /// turns about it.
 struct AnatomicalDriving {
   std::string name = "anatomical";
-  double girdle_share = 1.0 / 3;      ///< of the shoulder's swing, taken by clavicle + scapula
-  double clavicle_share = 0.5;        ///< of the girdle's part, the clavicle's (the rest: shoulder01)
+  double girdle_share = 1.0 / 3;                            ///< of the shoulder's swing, taken by clavicle + scapula
+  double clavicle_share = 0.5;                              ///< of the girdle's part, the clavicle's (the rest: shoulder01)
   std::array<double, 3> lumbar_swing = {0.35, 0.35, 0.30};  ///< spine05, spine04, spine03
   std::array<double, 3> lumbar_twist = {0.2, 0.3, 0.5};
-  std::array<double, 2> thoracic_swing = {0.5, 0.5};        ///< spine02, spine01
+  std::array<double, 2> thoracic_swing = {0.5, 0.5};  ///< spine02, spine01
   std::array<double, 2> thoracic_twist = {0.5, 0.5};
   std::array<double, 4> neck_swing = {0.3, 0.3, 0.25, 0.15};  ///< neck01, neck02, neck03, head
   std::array<double, 4> neck_twist = {0.1, 0.1, 0.3, 0.5};

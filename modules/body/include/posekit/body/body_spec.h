@@ -6,11 +6,11 @@
 namespace posekit {
 
 struct BodySpec {
-  double gender = 0.5;       ///< 0 female .. 1 male
-  double muscle = 0.5;       ///< 0 .. 1
-  double weight = 0.5;       ///< 0 .. 1
-  double height = 0.5;       ///< 0 .. 1 (0.2 .. 0.8 is a plausible adult range)
-  double proportions = 0.5;  ///< 0 uncommon .. 1 ideal
+  double gender = 0.5;                                             ///< 0 female .. 1 male
+  double muscle = 0.5;                                             ///< 0 .. 1
+  double weight = 0.5;                                             ///< 0 .. 1
+  double height = 0.5;                                             ///< 0 .. 1 (0.2 .. 0.8 is a plausible adult range)
+  double proportions = 0.5;                                        ///< 0 uncommon .. 1 ideal
   double african = 1.0 / 3, asian = 1.0 / 3, caucasian = 1.0 / 3;  ///< normalised to sum 1 when used
   /// Local modifiers by name, e.g. "measure/measure-waist-circ-decr|incr": -1..1 (two-sided) or 0..1.
   std::map<std::string, double> modifiers;

@@ -50,7 +50,6 @@ std::vector<PartPose> retarget_bvh(const BvhMotion& motion, const BvhPartMap& ma
 /// Joint positions of frame `frame` in posekit's frame, scaled to a body with these rest joints
 /// (#BVH joints x 3, about the root's rest position): to check a retargeted pose against the
 /// file's own forward kinematics.
-Eigen::MatrixXd bvh_joints_in_body_frame(const BvhMotion& motion, const BvhPartMap& map, const Eigen::MatrixXd& rest_joints,
-                                         int frame);
+Eigen::MatrixXd bvh_joints_in_body_frame(const BvhMotion& motion, const BvhPartMap& map, const Eigen::MatrixXd& rest_joints, int frame);
 
 }  // namespace posekit

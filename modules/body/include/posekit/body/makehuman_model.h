@@ -21,8 +21,8 @@ struct MorphTarget {
 /// The 163-bone skeleton. Bones are in topological order (parents first).
 struct Rig {
   std::vector<std::string> bone_names;
-  std::vector<int> parent;                       ///< -1 for the root
-  std::vector<std::vector<int>> head_vertices;   ///< base-mesh vertices whose mean is the head
+  std::vector<int> parent;                      ///< -1 for the root
+  std::vector<std::vector<int>> head_vertices;  ///< base-mesh vertices whose mean is the head
   std::vector<std::vector<int>> tail_vertices;
   /// Three joints (as vertex lists) spanning the plane that fixes each bone's roll; empty if none.
   std::vector<std::vector<std::vector<int>>> plane_vertices;
@@ -32,17 +32,17 @@ struct Rig {
 
 struct MakeHumanModel {
   std::string data_root;
-  Eigen::MatrixXd base_V;       ///< all base.obj vertices (skin and helpers), m
-  Eigen::MatrixXi body_F;       ///< skin triangles (group `body`), indices < num_body_vertices
-  int num_body_vertices = 0;    ///< 13,380: the skin vertices are the first ones of base.obj
+  Eigen::MatrixXd base_V;     ///< all base.obj vertices (skin and helpers), m
+  Eigen::MatrixXi body_F;     ///< skin triangles (group `body`), indices < num_body_vertices
+  int num_body_vertices = 0;  ///< 13,380: the skin vertices are the first ones of base.obj
   struct MacroTarget {
-    std::string name;           ///< file path under targets/, e.g. macrodetails/height/...
+    std::string name;                   ///< file path under targets/, e.g. macrodetails/height/...
     std::vector<std::string> variants;  ///< e.g. {"female","young","maxmuscle","averageweight"}
     MorphTarget target;
   };
   std::vector<MacroTarget> macro_targets;
   struct Modifier {
-    std::string name;           ///< "group/target-min|max" or "group/target"
+    std::string name;                  ///< "group/target-min|max" or "group/target"
     int negative = -1, positive = -1;  ///< indices into modifier_targets (-1: none)
     bool two_sided = false;
   };
@@ -61,14 +61,13 @@ enum class MakeHumanParts { kAll, kSkin };
 
 /// Loads a MakeHuman data root (see find_data_root). Throws IoError naming the missing or malformed
 /// file.
-std::shared_ptr<const MakeHumanModel> load_makehuman_model(const std::string& data_root,
-                                                           MakeHumanParts parts = MakeHumanParts::kAll);
+std::shared_ptr<const MakeHumanModel> load_makehuman_model(const std::string& data_root, MakeHumanParts parts = MakeHumanParts::kAll);
 
 /// A shaped body: the skin mesh and the rig's joint positions for that shape.
 struct Body {
-  TriangleMesh mesh;            ///< skin only, #V = 13,380, metres, rest A-pose
-  Eigen::MatrixXd bone_heads;   ///< #bones x 3, m (means of the helper vertex groups)
-  Eigen::MatrixXd bone_tails;   ///< #bones x 3, m
+  TriangleMesh mesh;           ///< skin only, #V = 13,380, metres, rest A-pose
+  Eigen::MatrixXd bone_heads;  ///< #bones x 3, m (means of the helper vertex groups)
+  Eigen::MatrixXd bone_tails;  ///< #bones x 3, m
   /// Rest frame of each bone: columns X, Y (head to tail), Z; Z is the normal of the bone's
   /// rotation plane, so local (bone-space) rotations such as pose units have a fixed meaning.
   std::vector<Eigen::Matrix3d> bone_frames;

@@ -15,9 +15,22 @@ constexpr int kNumParts = 16;
 constexpr int kNumJoints = 15;
 
 enum Part : int {
-  kPelvis, kAbdomen, kChest, kHead,
-  kLeftUpperArm, kLeftForearm, kLeftHand, kRightUpperArm, kRightForearm, kRightHand,
-  kLeftThigh, kLeftShank, kLeftFoot, kRightThigh, kRightShank, kRightFoot
+  kPelvis,
+  kAbdomen,
+  kChest,
+  kHead,
+  kLeftUpperArm,
+  kLeftForearm,
+  kLeftHand,
+  kRightUpperArm,
+  kRightForearm,
+  kRightHand,
+  kLeftThigh,
+  kLeftShank,
+  kLeftFoot,
+  kRightThigh,
+  kRightShank,
+  kRightFoot
 };
 
 /// "pelvis", "abdomen", ..., "right_foot".

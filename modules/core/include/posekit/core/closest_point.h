@@ -17,10 +17,10 @@ Eigen::Vector3d closest_point_on_triangle(const Eigen::Vector3d& p, const Eigen:
 
 /// Closest points of many query points.
 struct ClosestPoints {
-  Eigen::VectorXi face;       ///< #P, the triangle holding the closest point
-  Eigen::MatrixXd point;      ///< #P x 3
-  Eigen::MatrixXd bary;       ///< #P x 3, barycentric coordinates in that triangle
-  Eigen::VectorXd distance;   ///< #P, unsigned (m)
+  Eigen::VectorXi face;      ///< #P, the triangle holding the closest point
+  Eigen::MatrixXd point;     ///< #P x 3
+  Eigen::MatrixXd bary;      ///< #P x 3, barycentric coordinates in that triangle
+  Eigen::VectorXd distance;  ///< #P, unsigned (m)
 };
 
 /// One query's closest point, as TriangleTree::for_each_closest reports it.
@@ -50,8 +50,7 @@ class TriangleTree {
 
   /// The same search as closest(P, ...), without its #P x 3 arrays: `visit(i, hit)` is called once
   /// for every row i, from the worker threads (rows in no particular order, each by one thread).
-  void for_each_closest(const Eigen::MatrixXd& P, int threads,
-                        const std::function<void(Eigen::Index, const ClosestHit&)>& visit,
+  void for_each_closest(const Eigen::MatrixXd& P, int threads, const std::function<void(Eigen::Index, const ClosestHit&)>& visit,
                         const Eigen::VectorXi* start_faces = nullptr) const;
 
  private:

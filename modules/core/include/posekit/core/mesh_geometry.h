@@ -28,8 +28,7 @@ Eigen::Vector3d phong_surface_point(const Eigen::MatrixXd& V, const Eigen::Matri
 
 /// Barycentric coordinates (sum 1, each >= 0) of the point of triangle (a, b, c) nearest to the
 /// projection of p onto its plane, clamped into the triangle. (1, 0, 0) for a degenerate triangle.
-Eigen::Vector3d clamped_barycentric(const Eigen::Vector3d& p, const Eigen::Vector3d& a, const Eigen::Vector3d& b,
-                                    const Eigen::Vector3d& c);
+Eigen::Vector3d clamped_barycentric(const Eigen::Vector3d& p, const Eigen::Vector3d& a, const Eigen::Vector3d& b, const Eigen::Vector3d& c);
 
 /// Axis-aligned bounding box.
 struct BoundingBox {

@@ -12,15 +12,13 @@ struct SectionLoop {
   Eigen::MatrixXd points;
   bool closed = false;
 };
-std::vector<SectionLoop> slice_mesh(const Eigen::MatrixXd& V, const Eigen::MatrixXi& F, const Eigen::Vector3d& normal,
-                                    double offset);
+std::vector<SectionLoop> slice_mesh(const Eigen::MatrixXd& V, const Eigen::MatrixXi& F, const Eigen::Vector3d& normal, double offset);
 
 /// Sections at many parallel planes {normal . x = offsets[i]} in one pass over the faces (each face
 /// only visits the planes its extent spans): result[i] are the loops at offsets[i]. On `threads`
 /// threads (0: the hardware's) for a large mesh, with the same loops to the last bit.
-std::vector<std::vector<SectionLoop>> slice_mesh_stack(const Eigen::MatrixXd& V, const Eigen::MatrixXi& F,
-                                                       const Eigen::Vector3d& normal, const std::vector<double>& offsets,
-                                                       int threads = 1);
+std::vector<std::vector<SectionLoop>> slice_mesh_stack(const Eigen::MatrixXd& V, const Eigen::MatrixXi& F, const Eigen::Vector3d& normal,
+                                                       const std::vector<double>& offsets, int threads = 1);
 
 /// The section of the smooth surface through the mesh's vertices (Phong tessellation with shape
 /// factor 1/2 and the unit vertex normals N): each cut point moved onto that surface, and the
@@ -32,9 +30,8 @@ std::vector<SectionLoop> slice_smooth_mesh(const Eigen::MatrixXd& V, const Eigen
                                            const Eigen::Vector3d& normal, double offset);
 
 /// slice_smooth_mesh at many parallel planes in one pass, as slice_mesh_stack.
-std::vector<std::vector<SectionLoop>> slice_smooth_mesh_stack(const Eigen::MatrixXd& V, const Eigen::MatrixXi& F,
-                                                              const Eigen::MatrixXd& N, const Eigen::Vector3d& normal,
-                                                              const std::vector<double>& offsets);
+std::vector<std::vector<SectionLoop>> slice_smooth_mesh_stack(const Eigen::MatrixXd& V, const Eigen::MatrixXi& F, const Eigen::MatrixXd& N,
+                                                              const Eigen::Vector3d& normal, const std::vector<double>& offsets);
 
 /// Length of a polyline (#P x 3), including the closing segment when `closed`.
 double polyline_length(const Eigen::MatrixXd& points, bool closed);

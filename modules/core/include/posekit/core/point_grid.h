@@ -18,8 +18,8 @@ class PointGrid {
 
   /// Index (a row of P) of the point nearest to p within `max_distance`, and its squared distance;
   /// -1 when there is none. `skip` excludes one row (a point's own index, for its nearest other point).
-  int nearest(const Eigen::Vector3d& p, double* sq_distance,
-              double max_distance = std::numeric_limits<double>::infinity(), int skip = -1) const;
+  int nearest(const Eigen::Vector3d& p, double* sq_distance, double max_distance = std::numeric_limits<double>::infinity(),
+              int skip = -1) const;
 
   double cell() const { return cell_; }
 

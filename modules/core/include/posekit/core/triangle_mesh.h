@@ -12,11 +12,11 @@ namespace posekit {
 
 /// A triangle mesh in metres, Y up, subject facing +Z.
 struct TriangleMesh {
-  Eigen::MatrixXd V;  ///< #V x 3 vertex positions (m)
-  Eigen::MatrixXi F;  ///< #F x 3 vertex indices, counter-clockwise seen from outside
-  Eigen::MatrixXd N;  ///< #V x 3 per-vertex normals, or empty
-  RowMatrixX3u8 C;    ///< #V x 3 per-vertex RGB colours, or empty
-  Eigen::MatrixXd UV; ///< #V x 2 per-vertex texture coordinates, or empty
+  Eigen::MatrixXd V;   ///< #V x 3 vertex positions (m)
+  Eigen::MatrixXi F;   ///< #F x 3 vertex indices, counter-clockwise seen from outside
+  Eigen::MatrixXd N;   ///< #V x 3 per-vertex normals, or empty
+  RowMatrixX3u8 C;     ///< #V x 3 per-vertex RGB colours, or empty
+  Eigen::MatrixXd UV;  ///< #V x 2 per-vertex texture coordinates, or empty
   /// Named per-vertex scalar fields, each of length #V (e.g. "error_mm", "part").
   std::map<std::string, Eigen::VectorXd> vertex_scalars;
   /// Named per-face scalar fields, each of length #F (PLY face properties such as a face colour;
@@ -36,11 +36,9 @@ struct TriangleMesh {
 /// The faces of one group with only the vertices they use, re-indexed; per-vertex attributes follow.
 /// `vertex_map` (optional out) receives, for each new vertex, its index in `mesh`.
 /// Throws InvalidInput when the group does not exist.
-TriangleMesh extract_group(const TriangleMesh& mesh, const std::string& group,
-                           std::vector<int>* vertex_map = nullptr);
+TriangleMesh extract_group(const TriangleMesh& mesh, const std::string& group, std::vector<int>* vertex_map = nullptr);
 
 /// Keeps the faces whose flag is true and the vertices they use (attributes follow).
-TriangleMesh extract_faces(const TriangleMesh& mesh, const std::vector<bool>& keep_face,
-                           std::vector<int>* vertex_map = nullptr);
+TriangleMesh extract_faces(const TriangleMesh& mesh, const std::vector<bool>& keep_face, std::vector<int>* vertex_map = nullptr);
 
 }  // namespace posekit

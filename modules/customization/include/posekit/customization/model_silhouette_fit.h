@@ -54,15 +54,15 @@ struct SilhouetteFit {
   /// Front, side: the outline pairs' RMS distance at the body (robustly weighted), at the last iteration.
   double outline_rms_mm[2] = {0, 0};
   double shape_outline_rms_mm[2] = {0, 0};  ///< the same before the detail offsets
-  double shape_mahalanobis = 0;  ///< |coefficients|
-  double max_offset_mm = 0;      ///< the largest detail offset
+  double shape_mahalanobis = 0;             ///< |coefficients|
+  double max_offset_mm = 0;                 ///< the largest detail offset
   /// The body's turn about the vertical from facing the front camera (degrees, positive: towards its
   /// left); 3 degrees or more is a warning.
   double yaw_degrees = 0;
   int iterations = 0;
   double seconds = 0;
   bool confident = false;
-  std::vector<std::string> reasons;   ///< why the fit is poor (empty when confident)
+  std::vector<std::string> reasons;  ///< why the fit is poor (empty when confident)
   std::vector<std::string> warnings;
 };
 

@@ -14,22 +14,22 @@
 namespace posekit {
 
 struct PhoneSetBody {
-  std::string id;    ///< "ansur-<SubjectId>", "extreme-<what>-<SubjectId>" or the dataset's id
-  std::string kind;  ///< "ansur", "extreme" or "dataset"
+  std::string id;         ///< "ansur-<SubjectId>", "extreme-<what>-<SubjectId>" or the dataset's id
+  std::string kind;       ///< "ansur", "extreme" or "dataset"
   std::string survey_id;  ///< the survey's SubjectId (empty for a dataset's body)
-  TriangleMesh mesh; ///< at rest (A-pose), metres, Y up, facing +Z
-  double bmi = 0;    ///< from the survey's weight and stature (0: not known)
+  TriangleMesh mesh;      ///< at rest (A-pose), metres, Y up, facing +Z
+  double bmi = 0;         ///< from the survey's weight and stature (0: not known)
   bool male = false;
 };
 
 struct PhoneSetOptions {
-  std::string data_root;       ///< MakeHuman data root
-  std::string survey;          ///< ANSUR II's folder (or a survey CSV)
-  int ansur_bodies = 12;       ///< surveyed adults drawn at random, women and men alternately
+  std::string data_root;  ///< MakeHuman data root
+  std::string survey;     ///< ANSUR II's folder (or a survey CSV)
+  int ansur_bodies = 12;  ///< surveyed adults drawn at random, women and men alternately
   /// The survey's extremes added: the heaviest woman and man by BMI, the tallest man, the shortest
   /// woman (each fitted as the others).
   bool extremes = true;
-  std::string dataset_dir;     ///< also the subjects of this dataset (older MakeHuman bodies); empty: none
+  std::string dataset_dir;  ///< also the subjects of this dataset (older MakeHuman bodies); empty: none
   unsigned seed = 46;
 };
 /// The set's bodies. Throws IoError / InvalidInput naming a missing survey or dataset.

@@ -19,16 +19,16 @@ namespace posekit {
 /// 2-D features found by rules on the two silhouettes, in world metres (Y up, facing +Z).
 struct PhotoLandmarks {
   double floor_y = 0, crown_y = 0, stature = 0;
-  double axis_x = 0, axis_z = 0;        ///< the torso's centre line (front: x, side: z at mid-torso)
-  double crotch_y = 0, neck_y = 0;      ///< top of the gap between the legs; narrowest above the shoulders
-  double armpit_y[2] = {0, 0};          ///< top of the gap between the arm and the torso (kLeft, kRight)
+  double axis_x = 0, axis_z = 0;              ///< the torso's centre line (front: x, side: z at mid-torso)
+  double crotch_y = 0, neck_y = 0;            ///< top of the gap between the legs; narrowest above the shoulders
+  double armpit_y[2] = {0, 0};                ///< top of the gap between the arm and the torso (kLeft, kRight)
   double hip_y = 0, waist_y = 0, bust_y = 0;  ///< extremes of the elliptic girth of width and depth
-  Eigen::Vector2d hand_tip[2];          ///< x, y of the lowest point of each arm
+  Eigen::Vector2d hand_tip[2];                ///< x, y of the lowest point of each arm
   /// World heights (low, high) where a forearm held in front of the body hides the torso's front
   /// outline in the side photo.
   std::vector<std::pair<double, double>> side_arm_occlusion;
-  double front_to_side_ratio = 0;       ///< front width over side depth at the hip (a pelvis is wider
-                                        ///< than deep: below 0.95, the photos are swapped)
+  double front_to_side_ratio = 0;  ///< front width over side depth at the hip (a pelvis is wider
+                                   ///< than deep: below 0.95, the photos are swapped)
   /// Everything above and the torso, leg and arm profiles, relative to the floor and the axis: the
   /// input of the learned feature regression.
   Eigen::VectorXd descriptor;
@@ -76,19 +76,19 @@ struct CustomizationModel {
   Eigen::MatrixXd feature_weights;  ///< (#descriptor + 1) x #feature targets
   struct Layer {
     bool use_mlp = false;
-    Eigen::MatrixXd linear;                  ///< (#inputs + 1) x #outputs, on standardised values
-    std::string mlp;                         ///< OpenCV ANN_MLP, serialised
+    Eigen::MatrixXd linear;  ///< (#inputs + 1) x #outputs, on standardised values
+    std::string mlp;         ///< OpenCV ANN_MLP, serialised
     Eigen::VectorXd in_mean, in_scale, out_mean, out_scale;
     double linear_error_mm = 0, mlp_error_mm = 0;  ///< mean point error on the validation bodies
   };
   std::vector<Layer> layers;
-  TriangleMesh template_mesh;               ///< the body deformed by ct-FFD (MakeHuman's default)
+  TriangleMesh template_mesh;  ///< the body deformed by ct-FFD (MakeHuman's default)
   // How it was made.
   int bodies = 0, validation_bodies = 0;
   unsigned seed = 0;
   double training_seconds = 0;
-  std::string population;                   ///< what the population was (and what was left out)
-  double feature_error_mm = 0;              ///< mean joint error of the feature regression (validation)
+  std::string population;       ///< what the population was (and what was left out)
+  double feature_error_mm = 0;  ///< mean joint error of the feature regression (validation)
   /// The training population's 2-D features: mean and spread of each, and the inverse of their
   /// correlation (plus 0.01 on the diagonal); descriptor_limit: the distance (population_distance)
   /// 99.5% of the validation bodies stay under. descriptor_axes: the correlation's 10 principal
@@ -105,11 +105,11 @@ struct CustomizationModel {
 };
 
 struct CustomizationTrainingOptions {
-  std::string data_root;          ///< MakeHuman data root
-  int bodies = 2000;              ///< training population (make_calibration_specs)
-  unsigned seed = 20261124;       ///< the population's seed (the dataset's subjects use another)
+  std::string data_root;     ///< MakeHuman data root
+  int bodies = 2000;         ///< training population (make_calibration_specs)
+  unsigned seed = 20261124;  ///< the population's seed (the dataset's subjects use another)
   double validation_fraction = 0.2;
-  bool mlp = true;                ///< also train the MLPs (else linear only)
+  bool mlp = true;  ///< also train the MLPs (else linear only)
   int mlp_hidden = 20, mlp_iterations = 300;
   int threads = 2;
   /// Each body is turned about the vertical by a uniform angle within +-max_turn_degrees before it
@@ -118,7 +118,7 @@ struct CustomizationTrainingOptions {
   double max_turn_degrees = 0;
   /// Leaves bodies out of the population: return false to leave one out (e.g. the heaviest).
   std::function<bool(int index, double bmi, double gender)> keep;
-  std::string population_note;    ///< recorded in the model (what `keep` does)
+  std::string population_note;  ///< recorded in the model (what `keep` does)
   std::function<void(int done, int total, const std::string& what)> progress;
 };
 
@@ -151,14 +151,14 @@ double population_distance(const CustomizationModel& model, const PhotoLandmarks
 double population_range_excess(const CustomizationModel& model, const PhotoLandmarks& landmarks, int* axis = nullptr);
 
 struct CustomizedBody {
-  TriangleMesh mesh;                       ///< the template deformed by ct-FFD, template topology
-  LayeredRepresentation representation;    ///< predicted from the photos
-  BodyFeatures features;                   ///< predicted from the 2-D features
+  TriangleMesh mesh;                     ///< the template deformed by ct-FFD, template topology
+  LayeredRepresentation representation;  ///< predicted from the photos
+  BodyFeatures features;                 ///< predicted from the 2-D features
   PhotoLandmarks landmarks;
-  double scale = 1;                        ///< applied to meet a stated stature, about scale_origin
+  double scale = 1;                                        ///< applied to meet a stated stature, about scale_origin
   Eigen::Vector3d scale_origin = Eigen::Vector3d::Zero();  ///< on the soles, below the body's axis
-  double population_distance = 0;          ///< of the photos' body from the training population
-  double population_range_excess = 0;      ///< beyond the population's range (population_range_excess)
+  double population_distance = 0;                          ///< of the photos' body from the training population
+  double population_range_excess = 0;                      ///< beyond the population's range (population_range_excess)
   /// The result seen by the two cameras against the silhouettes: intersection over union, the lower
   /// view (photo_agreement).
   double photo_agreement = 0;

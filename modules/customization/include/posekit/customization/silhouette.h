@@ -21,7 +21,7 @@ struct Silhouette {
 };
 
 struct SilhouetteOptions {
-  bool graph_cut = true;         ///< refine the background model's mask with GrabCut
+  bool graph_cut = true;             ///< refine the background model's mask with GrabCut
   double min_area_fraction = 0.005;  ///< below: "no person"
   /// A photo of the empty scene from the same place (same size): the background model is that
   /// photo, for a textured wall or a cluttered room. Empty: modelled from the photo's own frame.

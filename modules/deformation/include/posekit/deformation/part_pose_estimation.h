@@ -16,8 +16,8 @@ struct PartFitOptions {
   /// of the longer part at that joint (largest vertex distance from its joints) starts at weight 0.1
   /// and reaches 1 at twice that distance.
   double joint_zone = 0.2;
-  int robust_iterations = 6;       ///< Cauchy reweighting rounds after the first fit
-  double min_robust_scale = 0.002; ///< m: residuals under this are never down-weighted
+  int robust_iterations = 6;        ///< Cauchy reweighting rounds after the first fit
+  double min_robust_scale = 0.002;  ///< m: residuals under this are never down-weighted
   /// Parts meet at their joints: after the per-part fits, all 16 motions are refined together with
   /// each joint centre carried by parent and child to one place, weighted like this fraction of
   /// the lighter part's vertices (0: independent parts).
@@ -30,15 +30,15 @@ struct PartFitOptions {
 
 /// One example's estimated pose and how well rigid parts explain it.
 struct PartPoseEstimate {
-  PartPose pose;  ///< refined along the chain (PartFitOptions::chain_iterations); else R_parent^T R_child
-  std::array<Eigen::Matrix3d, kNumParts> R;   ///< world rotation of each part
-  std::array<Eigen::Vector3d, kNumParts> t;   ///< x_posed = R x_rest + t
+  PartPose pose;                             ///< refined along the chain (PartFitOptions::chain_iterations); else R_parent^T R_child
+  std::array<Eigen::Matrix3d, kNumParts> R;  ///< world rotation of each part
+  std::array<Eigen::Vector3d, kNumParts> t;  ///< x_posed = R x_rest + t
   /// Per part, the RMS residual (m) of its rigid fit over the vertices away from the joints (weight
   /// of the joint zone 1), and over all its vertices.
   std::array<double, kNumParts> core_rms{}, part_rms{};
   std::array<double, kNumParts> reach{};  ///< m, largest rest distance of a part's vertex from its joints
-  double rms = 0;       ///< m, over every vertex's rigid-fit residual
-  int worst_part = 0;   ///< the part of largest core_rms
+  double rms = 0;                         ///< m, over every vertex's rigid-fit residual
+  int worst_part = 0;                     ///< the part of largest core_rms
 };
 
 /// Fits each of the 16 parts of a rest mesh (per-triangle labels, joints in the rest pose) to a
@@ -61,8 +61,7 @@ class PartPoseEstimator {
   Eigen::VectorXd learn_rigid_cores(const std::vector<const Eigen::MatrixXd*>& examples);
 
  private:
-  void refine_along_chain(const Eigen::MatrixXd& posed_V, const std::array<std::vector<double>, kNumParts>& weights,
-                          PartPose* pose) const;
+  void refine_along_chain(const Eigen::MatrixXd& posed_V, const std::array<std::vector<double>, kNumParts>& weights, PartPose* pose) const;
   void couple_at_joints(const Eigen::MatrixXd& posed_V, const std::array<std::vector<double>, kNumParts>& weights,
                         PartPoseEstimate* estimate) const;
 

@@ -40,10 +40,9 @@ class PoissonSolver {
   /// weighted rest edges (row k: T_k e_0, 0, T_k e_1, 0, T_k e_2, 0 with e_c from
   /// weighted_rest_edges(); the pads must stay 0). `X` is resized
   /// to #V x 3 when needed; nothing else is allocated once the calling thread has solved before.
-  void solve_transformed_edges(const EdgeMatrix& transformed_edges, const RowMatrixX3d& position_targets,
-                               Eigen::MatrixXd* X) const;
-  void solve_transformed_edges(const EdgeMatrix& transformed_edges, const Eigen::VectorXd& anchor_weight,
-                               const Eigen::Matrix3d& R, const Eigen::Vector3d& t, Eigen::MatrixXd* X) const;
+  void solve_transformed_edges(const EdgeMatrix& transformed_edges, const RowMatrixX3d& position_targets, Eigen::MatrixXd* X) const;
+  void solve_transformed_edges(const EdgeMatrix& transformed_edges, const Eigen::VectorXd& anchor_weight, const Eigen::Matrix3d& R,
+                               const Eigen::Vector3d& t, Eigen::MatrixXd* X) const;
 
   /// Low-level form for kernels that assemble the right-hand side themselves (posing): a zeroed
   /// per-thread buffer of #V rows of 4 doubles (x y z, then a pad left 0), 32-byte aligned, in the
@@ -54,8 +53,8 @@ class PoissonSolver {
   double* start_right_hand_side() const;
   const int* factor_corners() const;
   void finish(double* right_hand_side, const RowMatrixX3d& position_targets, Eigen::MatrixXd* X) const;
-  void finish(double* right_hand_side, const Eigen::VectorXd& anchor_weight, const Eigen::Matrix3d& R,
-              const Eigen::Vector3d& t, Eigen::MatrixXd* X) const;
+  void finish(double* right_hand_side, const Eigen::VectorXd& anchor_weight, const Eigen::Matrix3d& R, const Eigen::Vector3d& t,
+              Eigen::MatrixXd* X) const;
 
   bool has_position_weights() const;
   int num_vertices() const;

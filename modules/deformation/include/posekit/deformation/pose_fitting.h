@@ -26,7 +26,7 @@ struct PoseFitOptions {
   /// measured without it.
   int stall_window = 5;
   double stall_gain = 0;
-  int model_samples = 3000;    ///< model vertices and target points matched each way per iteration
+  int model_samples = 3000;  ///< model vertices and target points matched each way per iteration
   /// Model vertices matched per iteration in the final refinement (target points: model_samples):
   /// every vertex of a body of up to this many. Every fourth vertex of a 12.4k-vertex subject, as
   /// while searching, left the fitted joints 3.12 degrees off over the 48 scans of eval fit, every
@@ -98,10 +98,10 @@ double joint_limit_degrees(int joint);
 
 struct PoseFitResult {
   PartPose pose;
-  Eigen::MatrixXd V;              ///< the fitted body (#V x 3, m)
-  Eigen::VectorXd residual;       ///< #V: distance of each fitted vertex to the nearest target point (m)
+  Eigen::MatrixXd V;                       ///< the fitted body (#V x 3, m)
+  Eigen::VectorXd residual;                ///< #V: distance of each fitted vertex to the nearest target point (m)
   double target_mean = 0, target_p95 = 0;  ///< target points to the fitted surface's vertices (m), outliers included
-  double coverage = 0;            ///< fraction of fitted vertices within 1 cm of a target point
+  double coverage = 0;                     ///< fraction of fitted vertices within 1 cm of a target point
   int iterations = 0;
   double seconds = 0;
   std::vector<std::string> warnings;  ///< poor coverage or residual, a joint at its limit

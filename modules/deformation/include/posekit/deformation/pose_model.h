@@ -14,15 +14,15 @@ namespace posekit {
 
 struct PoseDataset;
 
-constexpr int kPoseFeatures = 7;  ///< twists of two joints (3 + 3) and a bias
+constexpr int kPoseFeatures = 7;                      ///< twists of two joints (3 + 3) and a bias
 constexpr int kPoseCoefficients = 9 * kPoseFeatures;  ///< per triangle: each entry of T^Q times each feature
 
 struct PoseModel {
-  Eigen::MatrixXd template_V;          ///< #V x 3 rest pose of the training template (m)
-  Eigen::MatrixXi template_F;          ///< #F x 3
-  Eigen::VectorXi triangle_part;       ///< #F, L(k) of Eq. 1
-  Eigen::MatrixXd joint_centres;       ///< #joints x 3, rest pose
-  Eigen::MatrixXi triangle_joints;     ///< #F x 2, the joints driving each triangle (-1: none)
+  Eigen::MatrixXd template_V;       ///< #V x 3 rest pose of the training template (m)
+  Eigen::MatrixXi template_F;       ///< #F x 3
+  Eigen::VectorXi triangle_part;    ///< #F, L(k) of Eq. 1
+  Eigen::MatrixXd joint_centres;    ///< #joints x 3, rest pose
+  Eigen::MatrixXi triangle_joints;  ///< #F x 2, the joints driving each triangle (-1: none)
   /// #F x 63: row k holds b_k of Eq. 4, entry (m, f) at m * 7 + f, m the row-major index into T^Q,
   /// f the feature [twist_1 (3), twist_2 (3), 1].
   Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor> coefficients;
@@ -30,7 +30,7 @@ struct PoseModel {
   /// offsets), #joints x 27; empty: the joints stay where T^R puts them.
   Eigen::MatrixXd joint_offsets;
   int training_poses = 0;
-  double fit_rms = 0;                  ///< RMS residual of Eq. 5 over all entries and poses
+  double fit_rms = 0;  ///< RMS residual of Eq. 5 over all entries and poses
   /// Labelled bodies that segment and embed the skeleton of a customized model (segmentation_prior.h);
   /// empty: the template alone.
   SegmentationPrior segmentation_prior;
@@ -44,8 +44,8 @@ struct TrainingOptions {
   /// Template labels and joints when the dataset has none (a posekit dataset supplies both).
   Eigen::VectorXi triangle_part;
   Eigen::MatrixXd joint_centres;
-  double pca_energy = 1e-4;            ///< drop twist directions with variance below this fraction
-  double ridge = 1e-4;                 ///< Tikhonov weight on the reduced coefficients
+  double pca_energy = 1e-4;  ///< drop twist directions with variance below this fraction
+  double ridge = 1e-4;       ///< Tikhonov weight on the reduced coefficients
   /// Fix the bias of Eq. 4 to the identity, so that the rest pose reproduces the template exactly;
   /// otherwise the bias is fitted like the other weights.
   bool identity_at_rest = true;

@@ -26,7 +26,7 @@ const char* pose_method_name(PoseMethod method);
 enum class PosePlacement { kParts, kPelvis };
 
 struct SubjectSetupOptions {
-  bool is_template = false;       ///< the subject is the model's own template: identity correspondence
+  bool is_template = false;  ///< the subject is the model's own template: identity correspondence
   /// Where the learned method puts the parts: Eq. 6 gives the surface up to a translation, and a
   /// surface integrated from the pelvis carries every error of the learned T^Q out to the hands and
   /// feet. kParts (default): each part is then moved so that the mean of its rigid core goes where
@@ -46,11 +46,10 @@ struct SubjectSetupOptions {
 
 /// What set-up found out about a subject, for reports.
 struct SubjectSetupInfo {
-  double seconds_representation = 0, seconds_segmentation = 0, seconds_correspondence = 0,
-         seconds_factorisation = 0;
+  double seconds_representation = 0, seconds_segmentation = 0, seconds_correspondence = 0, seconds_factorisation = 0;
   int normal_failures = 0;
-  Eigen::VectorXi triangle_part;    ///< #F
-  Eigen::MatrixXd joint_centres;    ///< #joints x 3
+  Eigen::VectorXi triangle_part;      ///< #F
+  Eigen::MatrixXd joint_centres;      ///< #joints x 3
   Eigen::VectorXi template_triangle;  ///< #F, the corresponding template triangle
   /// What check_skeleton found wrong with the subject's segmentation and joints (empty: none, or
   /// the template itself). Posing goes on; callers show these as warnings.
@@ -63,8 +62,7 @@ class PoseSynthesizer {
  public:
   /// Throws InvalidInput when the subject is not a single closed body mesh or its features cannot be
   /// found, and when `is_template` is set but the mesh is not the model's template.
-  PoseSynthesizer(std::shared_ptr<const PoseModel> model, const TriangleMesh& subject,
-                  const SubjectSetupOptions& options = {});
+  PoseSynthesizer(std::shared_ptr<const PoseModel> model, const TriangleMesh& subject, const SubjectSetupOptions& options = {});
   ~PoseSynthesizer();
   PoseSynthesizer(const PoseSynthesizer&) = delete;
   PoseSynthesizer& operator=(const PoseSynthesizer&) = delete;
@@ -99,7 +97,6 @@ class PoseSynthesizer {
 
 /// Smooth skinning weights (#V x 16, rows sum to 1) diffused from per-vertex part labels by
 /// `iterations` rounds of neighbour averaging.
-Eigen::MatrixXd diffuse_part_weights(const Eigen::MatrixXi& F, const Eigen::VectorXi& vertex_part, int num_vertices,
-                                     int iterations);
+Eigen::MatrixXd diffuse_part_weights(const Eigen::MatrixXi& F, const Eigen::VectorXi& vertex_part, int num_vertices, int iterations);
 
 }  // namespace posekit

@@ -25,8 +25,8 @@ ErrorStats error_stats(const std::vector<double>& distances_m);
 
 struct PoseEvaluationOptions {
   std::vector<PoseMethod> methods = {PoseMethod::kLearned, PoseMethod::kRigid, PoseMethod::kLbs};
-  bool template_poses = true;    ///< (a) held-out poses of the pose dataset
-  bool subjects = true;          ///< (b) posed ground truth of the dataset's subjects
+  bool template_poses = true;  ///< (a) held-out poses of the pose dataset
+  bool subjects = true;        ///< (b) posed ground truth of the dataset's subjects
   std::function<void(int, int, const std::string&)> progress;
 };
 
@@ -39,7 +39,7 @@ struct MethodErrors {
 struct SubjectPoseReport {
   std::string id;
   double setup_seconds = 0;
-  double segmentation_agreement = -1;   ///< area fraction vs ground truth (-1: unknown)
+  double segmentation_agreement = -1;                        ///< area fraction vs ground truth (-1: unknown)
   double joint_error_max_mm = -1, joint_error_mean_mm = -1;  ///< vs the rig's joints (-1: unknown)
   std::vector<MethodErrors> methods;
 };
@@ -57,11 +57,11 @@ std::string pose_type(const std::string& pose_name);
 
 struct PoseEvaluation {
   int test_poses = 0;
-  std::vector<PoseTypeErrors> by_pose_type;      ///< (a) and (b) per kind of pose, in a fixed order
-  std::vector<MethodErrors> template_errors;     ///< (a)
-  std::vector<SubjectPoseReport> subjects;       ///< (b) one per subject
-  std::vector<MethodErrors> subject_errors;      ///< (b) all subjects pooled
-  double pose_ms_median = 0;                     ///< learned method, one pose of one subject
+  std::vector<PoseTypeErrors> by_pose_type;   ///< (a) and (b) per kind of pose, in a fixed order
+  std::vector<MethodErrors> template_errors;  ///< (a)
+  std::vector<SubjectPoseReport> subjects;    ///< (b) one per subject
+  std::vector<MethodErrors> subject_errors;   ///< (b) all subjects pooled
+  double pose_ms_median = 0;                  ///< learned method, one pose of one subject
 };
 
 /// Evaluates `model` on a posekit dataset folder. Throws InvalidInput when the model was trained on
@@ -71,9 +71,9 @@ PoseEvaluation evaluate_poses(const std::string& dataset_dir, std::shared_ptr<co
 
 /// Where train_on_dataset takes each training example's 16-part pose from.
 enum class TrainingPoses {
-  kAuto,      ///< the pose JSONs when every training example has one, else estimated from the meshes
-  kJson,      ///< the pose JSONs; an example without one is an error
-  kEstimate   ///< estimated from the meshes (PartPoseEstimator); JSONs, where present, only check
+  kAuto,     ///< the pose JSONs when every training example has one, else estimated from the meshes
+  kJson,     ///< the pose JSONs; an example without one is an error
+  kEstimate  ///< estimated from the meshes (PartPoseEstimator); JSONs, where present, only check
 };
 TrainingPoses parse_training_poses(const std::string& name);  ///< "auto", "json" or "estimate"
 
@@ -84,8 +84,8 @@ struct DatasetTrainingOptions {
   /// The rest-pose example (the template). Empty: the manifest's, else the first whose pose JSON is
   /// all zero, else one whose name holds "rest" or "template", else the first in name order.
   std::string rest_name;
-  std::string unit = "m";                   ///< m, dm, cm, mm, or auto (from the rest mesh's extent)
-  std::string up = "+Y", forward = "+Z";    ///< file axes of the body, or auto (from the rest mesh)
+  std::string unit = "m";                 ///< m, dm, cm, mm, or auto (from the rest mesh's extent)
+  std::string up = "+Y", forward = "+Z";  ///< file axes of the body, or auto (from the rest mesh)
   PartFitOptions fit;
   /// When set, a rest example without shipped labels takes its parts and joints from this body
   /// model fitted to it (any rest pose) instead of from the rules about its sections; a poor fit
@@ -102,8 +102,8 @@ struct DatasetTrainingOptions {
 struct ExamplePoseFit {
   std::string name;
   bool test = false;
-  double rms_mm = 0;              ///< every vertex against its part's rigid motion
-  double worst_core_rms_mm = 0;   ///< the worst part away from its joints
+  double rms_mm = 0;             ///< every vertex against its part's rigid motion
+  double worst_core_rms_mm = 0;  ///< the worst part away from its joints
   std::string worst_part;
   /// Against the example's pose JSON, where it has one (-1: none): the angle between estimated and
   /// given joint rotations, mean and max over the 15 joints and the root.
@@ -117,10 +117,10 @@ struct ExamplePoseFit {
 struct DatasetTrainingReport {
   std::string rest_name, rest_reason;  ///< the template and why it was chosen
   bool poses_estimated = false;
-  std::string unit, orientation;       ///< as read
-  bool labels_from_dataset = false;    ///< template/parts.json and joints.json, else segmented (Eq. 2)
-  bool labels_from_body_model = false; ///< DatasetTrainingOptions::body_model's fit
-  std::vector<ExamplePoseFit> examples;   ///< every example, when the poses were estimated
+  std::string unit, orientation;         ///< as read
+  bool labels_from_dataset = false;      ///< template/parts.json and joints.json, else segmented (Eq. 2)
+  bool labels_from_body_model = false;   ///< DatasetTrainingOptions::body_model's fit
+  std::vector<ExamplePoseFit> examples;  ///< every example, when the poses were estimated
   std::vector<std::string> warnings;
 };
 
@@ -129,8 +129,8 @@ struct DatasetTrainingReport {
 /// the JSONs or, for a folder of meshes alone, estimated per example from its parts' rigid motions.
 /// Throws InvalidInput when the rest example is unknown, a JSON pose is required but missing, or a
 /// part cannot be fitted.
-PoseModel train_on_dataset(const std::string& dataset_dir, const TrainingOptions& base,
-                           const DatasetTrainingOptions& options, DatasetTrainingReport* report = nullptr);
+PoseModel train_on_dataset(const std::string& dataset_dir, const TrainingOptions& base, const DatasetTrainingOptions& options,
+                           DatasetTrainingReport* report = nullptr);
 PoseModel train_on_dataset(const std::string& dataset_dir, const TrainingOptions& base = {});
 
 /// One posing method on the held-out meshes of a folder: the raw per-vertex error, and the "shape"
@@ -143,9 +143,9 @@ struct FolderMethodErrors {
 };
 
 struct FolderMeshErrors {
-  std::string name, type;               ///< type: pose_type(name)
-  double pose_fit_rms_mm = 0;           ///< the held-out mesh against its parts' rigid motions
-  std::vector<std::string> problems;    ///< pose_estimate_problems of its estimated pose
+  std::string name, type;                          ///< type: pose_type(name)
+  double pose_fit_rms_mm = 0;                      ///< the held-out mesh against its parts' rigid motions
+  std::vector<std::string> problems;               ///< pose_estimate_problems of its estimated pose
   std::vector<double> raw_mean_mm, shape_mean_mm;  ///< per method
 };
 
@@ -169,16 +169,15 @@ struct FolderPoseEvaluation {
 /// estimates each held-out mesh's pose from its vertices (PartPoseEstimator, rigid cores learned on
 /// the training examples), poses the rest example at it with each method and compares vertex by
 /// vertex. Throws InvalidInput when nothing is held out or nothing is left to train on.
-FolderPoseEvaluation evaluate_registered_folder(const std::string& dir, const TrainingOptions& base,
-                                                const DatasetTrainingOptions& options,
+FolderPoseEvaluation evaluate_registered_folder(const std::string& dir, const TrainingOptions& base, const DatasetTrainingOptions& options,
                                                 const std::vector<PoseMethod>& methods = {PoseMethod::kLearned, PoseMethod::kRigid,
                                                                                           PoseMethod::kLbs});
 
 struct PeoplePoseEvaluation {
-  std::vector<std::string> people;                ///< the person folders, in name order
-  std::vector<DatasetTrainingReport> reports;     ///< how each person's folder was read
-  std::vector<FolderPoseEvaluation> per_person;   ///< each person's meshes, the model trained on the others
-  std::vector<FolderMethodErrors> methods;        ///< every person's meshes pooled
+  std::vector<std::string> people;               ///< the person folders, in name order
+  std::vector<DatasetTrainingReport> reports;    ///< how each person's folder was read
+  std::vector<FolderPoseEvaluation> per_person;  ///< each person's meshes, the model trained on the others
+  std::vector<FolderMethodErrors> methods;       ///< every person's meshes pooled
   std::vector<FolderTypeErrors> by_pose_type;
 };
 
@@ -188,8 +187,7 @@ struct PeoplePoseEvaluation {
 /// rest mesh posed by it (the correspondence is the shared topology; this person's own parts and
 /// joints) at each of this person's other meshes' poses estimated from their vertices. Throws
 /// InvalidInput with fewer than two person folders or another topology in one of them.
-PeoplePoseEvaluation evaluate_registered_people(const std::string& dir, const TrainingOptions& base,
-                                                const DatasetTrainingOptions& options,
+PeoplePoseEvaluation evaluate_registered_people(const std::string& dir, const TrainingOptions& base, const DatasetTrainingOptions& options,
                                                 const std::vector<PoseMethod>& methods = {PoseMethod::kLearned, PoseMethod::kRigid,
                                                                                           PoseMethod::kLbs},
                                                 const std::function<void(int, int, const std::string&)>& progress = {});

@@ -16,14 +16,14 @@ struct PopulationOptions;
 
 /// The shape space of a MakeHuman population in its base topology (make_population_bodies, then
 /// learn_shape_space), recording the base triangles: what `--shape-space N` builds.
-ShapeSpace makehuman_shape_space(const MakeHumanModel& model, const PopulationOptions& population,
-                                 double variance_kept = 0.99999, int max_components = 60);
+ShapeSpace makehuman_shape_space(const MakeHumanModel& model, const PopulationOptions& population, double variance_kept = 0.99999,
+                                 int max_components = 60);
 
 struct RegistrationTableOptions {
-  int runs = 5;              ///< timed runs per method and subject
-  int nicp_runs = 1;         ///< timed runs of non-rigid ICP (0: leave it out)
-  int subjects = 0;          ///< first N subjects (0: all)
-  int nicp_subjects = 0;     ///< non-rigid ICP on the first N subjects only (0: all)
+  int runs = 5;           ///< timed runs per method and subject
+  int nicp_runs = 1;      ///< timed runs of non-rigid ICP (0: leave it out)
+  int subjects = 0;       ///< first N subjects (0: all)
+  int nicp_subjects = 0;  ///< non-rigid ICP on the first N subjects only (0: all)
   /// Also register to each subject remeshed to ~6,900 vertices, and to a ~50,000-vertex scan-like
   /// remesh with 25 holes of 2-6 cm (RegistrationTable::other_targets).
   bool other_topologies = false;
@@ -41,19 +41,19 @@ struct RegistrationTableOptions {
 
 struct RegistrationTableRow {
   std::string method;
-  std::vector<double> seconds;                 ///< every timed run
+  std::vector<double> seconds;  ///< every timed run
   double median_s = 0, min_s = 0, max_s = 0;
   /// Point correspondence error: each subject vertex's closest point on the registered template,
   /// taken back to the template at rest, against its true point (mm; mean, p95 and max averaged
   /// over subjects).
   double point_mean_mm = 0, point_p95_mm = 0, point_max_mm = 0;
   double worst_subject_point_mean_mm = 0;
-  std::vector<double> subject_point_mean_mm;   ///< per subject, dataset order
+  std::vector<double> subject_point_mean_mm;  ///< per subject, dataset order
   /// Triangle match error of Eq. 2b: the distance on the template between the centroid of each
   /// subject triangle's matched template triangle and the true point of its centroid (mm).
   double mean_error_mm = 0, p95_error_mm = 0;  ///< averaged over subjects
   double worst_subject_mean_error_mm = 0;
-  std::vector<double> subject_mean_error_mm;   ///< per subject, dataset order
+  std::vector<double> subject_mean_error_mm;  ///< per subject, dataset order
   /// options.model: mean vertex error (mm) of the subjects posed by the learned method with this
   /// correspondence against their posed ground truth, averaged over subjects (-1: not measured).
   double pose_transfer_mm = -1;

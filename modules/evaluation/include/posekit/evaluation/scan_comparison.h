@@ -13,9 +13,9 @@
 namespace posekit {
 
 struct ScanComparisonOptions {
-  double outlier_threshold = 0.02;   ///< m: points farther than this count as outliers, not error
-  double coverage_radius = 0;        ///< m: a vertex with no scan point this close is uncovered; 0: automatic
-  int threads = 0;                   ///< 0: all cores
+  double outlier_threshold = 0.02;  ///< m: points farther than this count as outliers, not error
+  double coverage_radius = 0;       ///< m: a vertex with no scan point this close is uncovered; 0: automatic
+  int threads = 0;                  ///< 0: all cores
 };
 
 /// Statistics of distances, millimetres. Mean, RMS and 95th percentile of |d| over inliers.
@@ -25,14 +25,14 @@ struct DistanceStats {
 };
 
 struct ScanComparison {
-  Eigen::VectorXd scan_to_model;   ///< #P signed distance (m), + outside the model (its outward normal)
+  Eigen::VectorXd scan_to_model;  ///< #P signed distance (m), + outside the model (its outward normal)
   Eigen::VectorXi scan_closest_face;
-  Eigen::VectorXd model_to_scan;   ///< #V signed distance (m) to the nearest scan point; NaN when uncovered
+  Eigen::VectorXd model_to_scan;  ///< #V signed distance (m) to the nearest scan point; NaN when uncovered
   DistanceStats scan_stats, model_stats;
-  double hausdorff_mm = 0;         ///< the larger of the two directions' maxima (covered vertices, all points)
-  double coverage = 0;             ///< fraction of model vertices with scan data near them
+  double hausdorff_mm = 0;  ///< the larger of the two directions' maxima (covered vertices, all points)
+  double coverage = 0;      ///< fraction of model vertices with scan data near them
   long uncovered_vertices = 0;
-  double coverage_radius = 0;      ///< m, as used
+  double coverage_radius = 0;  ///< m, as used
   double seconds = 0;
   /// Seconds per stage: the triangle tree and the scan grid, scan-to-model distances (with signs),
   /// model-to-scan distances (with the coverage radius), statistics.
@@ -64,8 +64,8 @@ ScanComparison compare_with_scan(const TriangleMesh& model, const ScanPieces& sc
 struct GirthDiscrepancy {
   std::string name;
   double model_cm = 0, scan_cm = 0, difference_cm = 0;
-  bool measured = false;           ///< both sides measured
-  double tolerance_mm = 0;         ///< ISO 20685-1: 9 mm large girths, 4 mm small girths and stature
+  bool measured = false;    ///< both sides measured
+  double tolerance_mm = 0;  ///< ISO 20685-1: 9 mm large girths, 4 mm small girths and stature
   std::string note;
 };
 

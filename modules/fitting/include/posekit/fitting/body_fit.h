@@ -49,7 +49,7 @@ struct BodyFitOptions {
   double working_cell = 0.012;
   /// Up directions tried (unit vectors in the target's frame); empty: +-X, +-Y, +-Z.
   std::vector<Eigen::Vector3d> up_candidates;
-  int headings = 8;            ///< headings tried about the up direction for every library pose
+  int headings = 8;  ///< headings tried about the up direction for every library pose
   /// The search scores every start on a sparse sample first, then these best again on a denser one.
   int starts_rescored = 300;
   int hypotheses_refined = 6;  ///< the best-scoring distinct starts that get a brief articulated fit
@@ -88,20 +88,20 @@ struct BodyFitOptions {
 };
 
 struct BodyFit {
-  Eigen::VectorXd coefficients;   ///< K shape coefficients (standard deviations)
-  PartPose pose;                  ///< in the fit frame: the target turned by `to_fit_frame`
+  Eigen::VectorXd coefficients;                                ///< K shape coefficients (standard deviations)
+  PartPose pose;                                               ///< in the fit frame: the target turned by `to_fit_frame`
   Eigen::Matrix3d to_fit_frame = Eigen::Matrix3d::Identity();  ///< target frame -> fit frame (up: +Y)
-  Eigen::Vector3d up = Eigen::Vector3d::UnitY();  ///< the target's up direction found
-  std::string start;              ///< the library pose the fit started from
-  Eigen::MatrixXd V;              ///< the fitted body in the target's frame (#V x 3, template topology)
-  Eigen::MatrixXd joints;         ///< joint centres in the target's frame (#joints x 3)
+  Eigen::Vector3d up = Eigen::Vector3d::UnitY();               ///< the target's up direction found
+  std::string start;                                           ///< the library pose the fit started from
+  Eigen::MatrixXd V;                                           ///< the fitted body in the target's frame (#V x 3, template topology)
+  Eigen::MatrixXd joints;                                      ///< joint centres in the target's frame (#joints x 3)
   /// #T: the part of each target point (the nearest fitted vertex's); -1 for a point over 25 cm from
   /// the fitted body (an outlier, the floor).
   Eigen::VectorXi target_part;
-  Eigen::VectorXd target_distance;  ///< #T: each target point's distance to the nearest fitted vertex (m; infinite beyond 25 cm)
-  double coverage = 0;            ///< of the fitted body's vertices within 2 cm of the target
+  Eigen::VectorXd target_distance;         ///< #T: each target point's distance to the nearest fitted vertex (m; infinite beyond 25 cm)
+  double coverage = 0;                     ///< of the fitted body's vertices within 2 cm of the target
   double target_mean = 0, target_p95 = 0;  ///< the working cloud to the fitted surface (m; 25 cm at most)
-  double shape_mahalanobis = 0;   ///< |c|
+  double shape_mahalanobis = 0;            ///< |c|
   int working_points = 0;
   double seconds = 0;
   /// Seconds of each stage, in order: working cloud, search, brief fits, limbs, shape and pose, read-off.

@@ -36,7 +36,6 @@ struct FittedMeasurements {
 /// Measures the target the fit was made to: T its points (#T x 3, the fit's target frame: a mesh's
 /// vertices or a scan), F its triangles (empty for a scan). fit.target_part must have a row per
 /// point of T. Throws InvalidInput when the fitted body cannot be measured at rest.
-FittedMeasurements measure_by_body_fit(const BodyModel& model, const BodyFit& fit, const Eigen::MatrixXd& T,
-                                       const Eigen::MatrixXi& F);
+FittedMeasurements measure_by_body_fit(const BodyModel& model, const BodyFit& fit, const Eigen::MatrixXd& T, const Eigen::MatrixXi& F);
 
 }  // namespace posekit

@@ -10,8 +10,7 @@ namespace posekit {
 /// the file closed without error; the folder is synced after the rename. A failure leaves nothing
 /// behind. `binary` is kept for callers' clarity (the bytes are written as given on POSIX).
 /// Throws WriteError (an IoError) naming the file and the system's reason (e.g. "No space left on device").
-void write_file_atomically(const std::string& path, const std::function<void(std::ostream&)>& write,
-                           bool binary = true);
+void write_file_atomically(const std::string& path, const std::function<void(std::ostream&)>& write, bool binary = true);
 
 /// True when `name` is a temporary file of write_file_atomically (of any process).
 bool is_atomic_temporary_name(const std::string& name);

@@ -29,7 +29,7 @@ Image8 read_image(const std::string& path, ImageColor color);
 /// [u * reduction, (u + 1) * reduction) x [v * reduction, (v + 1) * reduction).
 struct ReducedImage {
   Image8 image;
-  int reduction = 1;                  ///< 1: decoded at full size
+  int reduction = 1;                    ///< 1: decoded at full size
   int full_width = 0, full_height = 0;  ///< the stored size (EXIF orientation applied)
 };
 

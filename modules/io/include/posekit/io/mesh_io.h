@@ -14,16 +14,16 @@ enum class MeshFormat { kAuto, kObj, kPly, kOff, kStl };
 MeshFormat mesh_format_from_path(const std::string& path);
 
 struct MeshReadOptions {
-  Unit unit = Unit::kMetre;           ///< unit the file is written in; the mesh comes back in metres
+  Unit unit = Unit::kMetre;               ///< unit the file is written in; the mesh comes back in metres
   MeshFormat format = MeshFormat::kAuto;  ///< kAuto: from the extension
   /// Receives what was read with a caveat (texture seams, skipped header lines); nullptr: ignored.
   std::vector<std::string>* warnings = nullptr;
 };
 
 struct MeshWriteOptions {
-  Unit unit = Unit::kMetre;           ///< unit to write coordinates in
+  Unit unit = Unit::kMetre;  ///< unit to write coordinates in
   MeshFormat format = MeshFormat::kAuto;
-  bool binary = true;                 ///< PLY and STL: binary (default) or ascii
+  bool binary = true;  ///< PLY and STL: binary (default) or ascii
   /// Receives one line per attribute the format cannot hold (not written); nullptr: ignored.
   std::vector<std::string>* warnings = nullptr;
 };

@@ -25,7 +25,7 @@ struct CloudReadOptions {
 struct CloudWriteOptions {
   Unit unit = Unit::kMetre;
   CloudFormat format = CloudFormat::kAuto;
-  bool binary = true;        ///< PCD and PLY: binary (default) or ascii
+  bool binary = true;  ///< PCD and PLY: binary (default) or ascii
   /// Receives one line per attribute the format cannot hold (not written); nullptr: ignored.
   std::vector<std::string>* warnings = nullptr;
 };
@@ -41,7 +41,6 @@ PointCloud read_point_cloud(const std::string& path, const CloudReadOptions& opt
 /// Writes a point cloud atomically. PCD coordinates and scalars are float32 where that moves no value
 /// by more than 1 micrometre (resp. 1e-6 of the field's unit), float64 otherwise. XYZ writes a
 /// `//X Y Z ...` header naming the columns when there are more than three. Throws IoError or InvalidInput.
-void write_point_cloud(const std::string& path, const PointCloud& cloud,
-                       const CloudWriteOptions& options = {});
+void write_point_cloud(const std::string& path, const PointCloud& cloud, const CloudWriteOptions& options = {});
 
 }  // namespace posekit

@@ -13,12 +13,12 @@ namespace posekit {
 enum class SurveyMeasure {
   kStature,
   kChestCircumference,
-  kWaistCircumference,     ///< at the omphalion (navel)
+  kWaistCircumference,  ///< at the omphalion (navel)
   kButtockCircumference,
   kThighCircumference,
   kCalfCircumference,
   kNeckCircumference,
-  kBicepsCircumference,    ///< ANSUR's is flexed; a relaxed model arm reads smaller
+  kBicepsCircumference,  ///< ANSUR's is flexed; a relaxed model arm reads smaller
   kCrotchHeight,
   kAcromialHeight,
   kBiacromialBreadth,
@@ -35,7 +35,7 @@ const char* survey_measure_name(SurveyMeasure m);
 bool survey_measure_is_girth(SurveyMeasure m);
 
 struct SurveySubject {
-  std::string id;       ///< SubjectId (or "row N")
+  std::string id;  ///< SubjectId (or "row N")
   bool male = false;
   /// DODRace as recorded (1 white, 2 black, 3 hispanic, 4 asian, 5 native american, 6 pacific
   /// islander, 8 other); 0 when the file has no such column.

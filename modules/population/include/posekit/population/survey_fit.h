@@ -77,7 +77,7 @@ struct PopulationSpaceReport {
   /// For k = 1..K computed: the share of variance the first k keep, and the worst and mean body's
   /// RMS reconstruction error (m).
   std::vector<double> variance_kept, worst_rms, mean_rms;
-  int components = 0;  ///< kept
+  int components = 0;       ///< kept
   int varying_targets = 0;  ///< morph targets whose weight varies over the population (the span's dimension)
 };
 

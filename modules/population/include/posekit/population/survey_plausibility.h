@@ -26,9 +26,9 @@ SurveyDistribution survey_distribution(const std::vector<SurveySubject>& subject
 using SurveyMask = std::array<bool, kSurveyMeasureCount>;  ///< which measures a body has
 
 struct Plausibility {
-  bool male = false;        ///< the sex among whose subjects the body is the less unusual
-  int measures = 0;         ///< how many measures were judged
-  double distance = 0;      ///< Mahalanobis distance from that sex's mean, over the measures given
+  bool male = false;    ///< the sex among whose subjects the body is the less unusual
+  int measures = 0;     ///< how many measures were judged
+  double distance = 0;  ///< Mahalanobis distance from that sex's mean, over the measures given
   /// Share of the survey's subjects of that sex whose own distance (same measures) is larger: 0 means
   /// the body is more unusual than every one of them.
   double more_unusual_share = 0;

@@ -25,9 +25,9 @@ struct TemplateAnthropometry {
   std::vector<int> vertices;
   /// Loops of the girths, in SurveyMeasure order from kChestCircumference to kBicepsCircumference.
   std::array<TapeLoop, 7> loops;
-  std::vector<int> crown, soles;        ///< the highest and lowest vertices of the template (stature)
-  int crotch = -1;                      ///< the crotch point's vertex
-  std::array<int, 2> acromion{-1, -1};  ///< left, right: the shoulder points
+  std::vector<int> crown, soles;                 ///< the highest and lowest vertices of the template (stature)
+  int crotch = -1;                               ///< the crotch point's vertex
+  std::array<int, 2> acromion{-1, -1};           ///< left, right: the shoulder points
   std::array<std::vector<int>, 2> elbow, wrist;  ///< rig joints: vertices whose mean is the joint
 };
 

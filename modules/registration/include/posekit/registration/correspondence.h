@@ -19,8 +19,8 @@ class CentroidIndex {
   /// Among `candidates` nearest; when none agrees in normal the nearest is used and counted in
   /// `normal_failures` (optional). The queries are split over `threads` threads (0: the
   /// hardware's); the answer does not depend on how many.
-  Eigen::VectorXi match(const Eigen::MatrixXd& C, const Eigen::MatrixXd& N, int candidates = 16,
-                        int* normal_failures = nullptr, int threads = 1) const;
+  Eigen::VectorXi match(const Eigen::MatrixXd& C, const Eigen::MatrixXd& N, int candidates = 16, int* normal_failures = nullptr,
+                        int threads = 1) const;
 
  private:
   struct Impl;

@@ -26,25 +26,25 @@ struct NicpOptions {
   /// unit RMS radius; with unit gamma).
   std::vector<double> stiffness = {100, 50, 25, 12, 6, 3, 1.5};
   int max_iterations_per_stiffness = 5;
-  double convergence = 1e-3;         ///< next stiffness when the RMS change of vertex positions is below this (m)
-  double gamma = 1.0;                ///< weight of the translation part in the stiffness term
+  double convergence = 1e-3;  ///< next stiffness when the RMS change of vertex positions is below this (m)
+  double gamma = 1.0;         ///< weight of the translation part in the stiffness term
   /// beta at the first stiffness (landmarks together weigh beta^2 times all data pairs); it falls in
   /// proportion to alpha. 10 measured best of 1, 3, 10, 30 on the 16 dataset subjects.
   double landmark_weight = 10.0;
-  double point_to_point = 0.1;       ///< share of the point-to-point pull in the data term (0: pure point-to-plane)
-  double max_distance = 0.1;         ///< m: pairs farther apart are rejected
-  double max_normal_angle_deg = 60;  ///< pairs whose normals disagree more are rejected
-  bool reject_boundary = true;       ///< reject pairs whose target point is on a hole's border
-  bool align_landmarks_first = true; ///< similarity transform onto the landmarks before the first step
+  double point_to_point = 0.1;        ///< share of the point-to-point pull in the data term (0: pure point-to-plane)
+  double max_distance = 0.1;          ///< m: pairs farther apart are rejected
+  double max_normal_angle_deg = 60;   ///< pairs whose normals disagree more are rejected
+  bool reject_boundary = true;        ///< reject pairs whose target point is on a hole's border
+  bool align_landmarks_first = true;  ///< similarity transform onto the landmarks before the first step
 };
 
 struct NicpResult {
-  Eigen::MatrixXd V;                    ///< #V x 3 deformed source
-  std::vector<double> stiffness;        ///< the schedule run
-  std::vector<int> iterations;          ///< iterations run at each stiffness
+  Eigen::MatrixXd V;              ///< #V x 3 deformed source
+  std::vector<double> stiffness;  ///< the schedule run
+  std::vector<int> iterations;    ///< iterations run at each stiffness
   int solves = 0;
-  double final_mean_distance = 0;       ///< m, over the accepted pairs of the last iteration
-  double accepted_fraction = 0;         ///< of the source vertices, in the last iteration
+  double final_mean_distance = 0;  ///< m, over the accepted pairs of the last iteration
+  double accepted_fraction = 0;    ///< of the source vertices, in the last iteration
   int landmarks = 0;
 };
 

@@ -17,11 +17,11 @@ enum class RegistrationMethod { kCtffd, kIcp, kNicp };
 
 struct RegistrationOptions {
   RegistrationMethod method = RegistrationMethod::kCtffd;
-  int icp_iterations = 6;            ///< PCL IterativeClosestPoint iterations (kIcp)
-  int points_per_layer = 32;         ///< layered representation resolution (kCtffd)
+  int icp_iterations = 6;     ///< PCL IterativeClosestPoint iterations (kIcp)
+  int points_per_layer = 32;  ///< layered representation resolution (kCtffd)
   /// kCtffd: refine ct-FFD's result by a few soft steps of non-rigid ICP (`refinement`) started from it.
   bool refine = false;
-  NicpOptions nicp;                  ///< kNicp: the full schedule, landmarks from the layered representations
+  NicpOptions nicp;  ///< kNicp: the full schedule, landmarks from the layered representations
   NicpOptions refinement = refinement_defaults();
   /// kCtffd: refine ct-FFD's result by fitting this shape space of bodies in the source's topology
   /// (fit_shape_space), before the non-rigid refinement if both are asked. Kept only when the fit
@@ -40,13 +40,13 @@ struct RegistrationOptions {
 };
 
 struct RegistrationResult {
-  Eigen::MatrixXd deformed_source;   ///< #Vs x 3: the source moved onto the target
-  Eigen::VectorXi correspondence;    ///< #Ft: for each target triangle, its source triangle (Eq. 2b/2c)
-  int normal_failures = 0;           ///< target triangles with no source triangle facing the same way
-  double seconds = 0;                ///< wall time of the whole registration
-  double ctffd_seconds = 0;          ///< of which ct-FFD (kCtffd)
-  NicpResult nicp;                   ///< the non-rigid ICP's schedule and last pairs (kNicp, or refine)
-  ShapeFitResult shape_fit;          ///< options.shape_space: the fit (its `better` says whether it was kept)
+  Eigen::MatrixXd deformed_source;  ///< #Vs x 3: the source moved onto the target
+  Eigen::VectorXi correspondence;   ///< #Ft: for each target triangle, its source triangle (Eq. 2b/2c)
+  int normal_failures = 0;          ///< target triangles with no source triangle facing the same way
+  double seconds = 0;               ///< wall time of the whole registration
+  double ctffd_seconds = 0;         ///< of which ct-FFD (kCtffd)
+  NicpResult nicp;                  ///< the non-rigid ICP's schedule and last pairs (kNicp, or refine)
+  ShapeFitResult shape_fit;         ///< options.shape_space: the fit (its `better` says whether it was kept)
   double shape_fit_seconds = 0;
   /// kCtffd: the features' doubts on either body, and limbs whose length between the found joints is
   /// implausible against the source's (a hole or cut taken for a limb's end).
@@ -81,10 +81,10 @@ RegistrationResult register_bodies(const CtffdSource& source, const TriangleMesh
 /// What can be judged of a registration without ground truth.
 struct RegistrationQuality {
   double mean_distance_mm = 0, p95_distance_mm = 0;  ///< registered source vertices to the target surface
-  double target_covered = 0;   ///< share of target vertices within 10 mm of the registered source
-  double normals_agree = 0;    ///< share of registered source vertices facing within 60 degrees of the target there
-  int folded_triangles = 0;    ///< triangles turned over (facing against their own direction on the source)
-  std::vector<std::string> warnings;  ///< what is poor, said plainly
+  double target_covered = 0;                         ///< share of target vertices within 10 mm of the registered source
+  double normals_agree = 0;                          ///< share of registered source vertices facing within 60 degrees of the target there
+  int folded_triangles = 0;                          ///< triangles turned over (facing against their own direction on the source)
+  std::vector<std::string> warnings;                 ///< what is poor, said plainly
 };
 
 /// Distances, coverage, normal agreement and fold-overs of `deformed` (the source's vertices after

@@ -13,7 +13,7 @@
 namespace posekit {
 
 struct ShapeSpace {
-  Eigen::MatrixXd mean;      ///< #V x 3, the population's mean body (m)
+  Eigen::MatrixXd mean;  ///< #V x 3, the population's mean body (m)
   /// 3#V x K: component k (rows x0 y0 z0 x1 ...), scaled by its standard deviation, so a body is
   /// mean + basis * c with c about unit normal.
   Eigen::MatrixXd basis;
@@ -61,10 +61,10 @@ void write_shape_space(const std::string& path, const ShapeSpace& space);
 ShapeSpace read_shape_space(const std::string& path);
 
 struct ShapeFitOptions {
-  int iterations = 8;            ///< closest-point iterations against the target, at most
-  double convergence = 0.01;     ///< stop when the coefficients move less (standard deviations)
-  int vertex_stride = 4;         ///< every n-th source vertex takes part in the fit
-  double max_distance = 0.03;    ///< m: pairs farther apart are rejected
+  int iterations = 8;          ///< closest-point iterations against the target, at most
+  double convergence = 0.01;   ///< stop when the coefficients move less (standard deviations)
+  int vertex_stride = 4;       ///< every n-th source vertex takes part in the fit
+  double max_distance = 0.03;  ///< m: pairs farther apart are rejected
   double max_normal_angle_deg = 60;
   /// Weight of the prior on the coefficients: each unit of standard deviation costs as much as one
   /// pair this far (m) off the target's plane.
@@ -95,7 +95,7 @@ struct ShapeFitResult {
   /// Shares of the target's vertices (about 2,000 sampled) farther than options.far_distance from
   /// the fit, and from the start (-1 as above).
   double uncovered_share = 0, start_uncovered_share = -1;
-  bool plausible = false;        ///< within options.max_median_distance and options.max_extra_far_share
+  bool plausible = false;  ///< within options.max_median_distance and options.max_extra_far_share
 };
 
 /// A target surface made ready for fit_shape_space (its closest-point tree, vertex normals and hole
@@ -121,8 +121,8 @@ class ShapeFitTarget {
 /// then iterations of point-to-plane closest-point pairs (rejected when too far, facing away or on a
 /// hole's border) against a Gaussian prior on the coefficients. Deterministic. Throws InvalidInput
 /// when the sizes do not match.
-ShapeFitResult fit_shape_space(const ShapeSpace& space, const Eigen::MatrixXi& F, const Eigen::MatrixXd& start,
-                               const TriangleMesh& target, const ShapeFitOptions& options = {});
+ShapeFitResult fit_shape_space(const ShapeSpace& space, const Eigen::MatrixXi& F, const Eigen::MatrixXd& start, const TriangleMesh& target,
+                               const ShapeFitOptions& options = {});
 /// The same on a target made ready beforehand.
 ShapeFitResult fit_shape_space(const ShapeSpace& space, const Eigen::MatrixXi& F, const Eigen::MatrixXd& start,
                                const ShapeFitTarget& target, const ShapeFitOptions& options = {});

@@ -42,9 +42,8 @@ RepresentationShape representation_shape(const LayeredRepresentation& rep);
 Eigen::VectorXi representation_regions(const LayeredRepresentation& rep);
 
 /// A labelled body (its triangle labels and #joints x 3 joint centres) and its representation.
-CalibrationBody make_calibration_body(const Eigen::MatrixXd& V, const Eigen::MatrixXi& F,
-                                      const Eigen::VectorXi& triangle_part, const Eigen::MatrixXd& joint_centres,
-                                      const LayeredRepresentation& rep);
+CalibrationBody make_calibration_body(const Eigen::MatrixXd& V, const Eigen::MatrixXi& F, const Eigen::VectorXi& triangle_part,
+                                      const Eigen::MatrixXd& joint_centres, const LayeredRepresentation& rep);
 
 /// Representation labels for a body (input of segment_body): each region's triangles take the
 /// inverse-distance-weighted vote of the prior's `neighbours` bodies nearest in that region's shape.

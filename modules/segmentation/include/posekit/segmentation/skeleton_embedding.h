@@ -11,7 +11,7 @@ namespace posekit {
 
 /// A reference skeleton: the joint centres of a template body expressed in its representation.
 struct SkeletonPrior {
-  CtffdParametrization joints;   ///< the 15 joint centres, parametrised as ct-FFD points
+  CtffdParametrization joints;  ///< the 15 joint centres, parametrised as ct-FFD points
   /// Heights of the lower-back, upper-back and neck joints as fractions of the torso chain, from
   /// the crotch (0) to the neck base (1): on MakeHuman bodies of either sex and any weight these
   /// vary by under 2.5 cm, far less than their position between the waist and hip levels does.
@@ -32,9 +32,8 @@ Eigen::MatrixXd embed_skeleton(const SkeletonPrior& prior, const LayeredRepresen
 /// Joint centres without a prior, from the body's own features (modules/shape) where they are joints
 /// (shoulders, elbows, wrists, hips, knees, ankles), the torso joints at typical fractions of the
 /// crotch to neck-base span on the torso axis; a joint of an arm not found at its parts' border.
-Eigen::MatrixXd joint_centres_from_features(const Eigen::MatrixXd& V, const Eigen::MatrixXi& F,
-                                            const Eigen::VectorXi& triangle_part, const LayeredRepresentation& rep,
-                                            const BodyFeatures& features);
+Eigen::MatrixXd joint_centres_from_features(const Eigen::MatrixXd& V, const Eigen::MatrixXi& F, const Eigen::VectorXi& triangle_part,
+                                            const LayeredRepresentation& rep, const BodyFeatures& features);
 
 /// A prior's skeleton (embed_skeleton) follows the limbs as its labelled bodies held them (the
 /// A-pose). Where this body's limb is held otherwise (feet together, elbows bent or straight) or
@@ -55,7 +54,6 @@ Eigen::Vector3d typical_torso_fractions();
 /// Joint centres without a prior, from the segmentation alone: the centroid of the boundary edges
 /// between each part and its parent (#joints x 3). A joint whose parts share no edge throws
 /// InvalidInput naming it.
-Eigen::MatrixXd joint_centres_from_segmentation(const Eigen::MatrixXd& V, const Eigen::MatrixXi& F,
-                                                const Eigen::VectorXi& triangle_part);
+Eigen::MatrixXd joint_centres_from_segmentation(const Eigen::MatrixXd& V, const Eigen::MatrixXi& F, const Eigen::VectorXi& triangle_part);
 
 }  // namespace posekit

@@ -34,34 +34,34 @@ struct BodyFeatures {
   /// are then estimated from the level where the arms separate (kStatureFromArmsSeparate).
   bool head_cut = false;
   double crown_y = 0, stature = 0;  ///< top of the head (top_y unless head_cut), crown minus soles (m)
-  double axis_x = 0;                           ///< x of the body's sagittal plane
+  double axis_x = 0;                ///< x of the body's sagittal plane
   double crotch_y = 0, hip_y = 0, waist_y = 0, underbust_y = 0, bust_y = 0, neck_y = 0;  ///< levels (m)
-  Eigen::Vector3d crotch = Eigen::Vector3d::Zero();    ///< on the axis, at the lowest torso section's centre
-  double crotch_axis_z = 0;                             ///< z of the axis point the crotch's sections enclose
-  Eigen::Vector3d neck_base = Eigen::Vector3d::Zero();  ///< centre of the neck's lowest section
-  Eigen::Vector3d neck_top = Eigen::Vector3d::Zero();   ///< centre of the neck's narrowest section
-  Eigen::Vector3d neck_joint = Eigen::Vector3d::Zero();  ///< neck joint centre (regressed on the neck's levels)
-  Eigen::Vector3d head_joint = Eigen::Vector3d::Zero();  ///< head joint centre, inside the lower head
+  Eigen::Vector3d crotch = Eigen::Vector3d::Zero();              ///< on the axis, at the lowest torso section's centre
+  double crotch_axis_z = 0;                                      ///< z of the axis point the crotch's sections enclose
+  Eigen::Vector3d neck_base = Eigen::Vector3d::Zero();           ///< centre of the neck's lowest section
+  Eigen::Vector3d neck_top = Eigen::Vector3d::Zero();            ///< centre of the neck's narrowest section
+  Eigen::Vector3d neck_joint = Eigen::Vector3d::Zero();          ///< neck joint centre (regressed on the neck's levels)
+  Eigen::Vector3d head_joint = Eigen::Vector3d::Zero();          ///< head joint centre, inside the lower head
   Eigen::Vector3d armpit[2] = {unset_point(), unset_point()};    ///< armpit surface points
   Eigen::Vector3d shoulder[2] = {unset_point(), unset_point()};  ///< shoulder joint centres
-  double arms_separate_y = 0;                    ///< highest level at which both arms stand 5 mm clear
-                                                 ///< of the torso (between 1 mm sections on meshes,
-                                                 ///< 5 mm on clouds)
-  Eigen::Vector3d elbow[2] = {unset_point(), unset_point()};  ///< joint centres (inside the limb)
+  double arms_separate_y = 0;                                    ///< highest level at which both arms stand 5 mm clear
+                                                                 ///< of the torso (between 1 mm sections on meshes,
+                                                                 ///< 5 mm on clouds)
+  Eigen::Vector3d elbow[2] = {unset_point(), unset_point()};     ///< joint centres (inside the limb)
   Eigen::Vector3d wrist[2] = {unset_point(), unset_point()};
   Eigen::Vector3d knee[2] = {unset_point(), unset_point()};
   Eigen::Vector3d ankle[2] = {unset_point(), unset_point()};
   Eigen::Vector3d hip[2] = {unset_point(), unset_point()};       ///< hip joint centres: the femoral heads, above the crotch
   Eigen::Vector3d hand_tip[2] = {unset_point(), unset_point()};  ///< farthest point of each hand from the shoulder
-  std::vector<Eigen::Vector3d> arm_axis[2];      ///< centroids of the arm's horizontal sections, armpit down
-  bool arm_touches_torso[2] = {false, false};   ///< nowhere clear of the torso just below the armpit
-  bool hand_cut[2] = {false, false};            ///< the arm ends in an opening: wrist = the cut's centre
-  bool arm_found[2] = {true, true};              ///< false: that arm could not be followed (shoulder,
-                                                 ///< elbow, wrist, hand tip are then not valid)
-  bool torso_levels_doubtful = false;           ///< the torso is fuller below the bust band (a belly, or a
-                                                 ///< scan's arms merged with it): bust, underbust and waist
-                                                 ///< levels are not trusted
-  std::vector<std::string> warnings;             ///< features found with doubt
+  std::vector<Eigen::Vector3d> arm_axis[2];                      ///< centroids of the arm's horizontal sections, armpit down
+  bool arm_touches_torso[2] = {false, false};                    ///< nowhere clear of the torso just below the armpit
+  bool hand_cut[2] = {false, false};                             ///< the arm ends in an opening: wrist = the cut's centre
+  bool arm_found[2] = {true, true};                              ///< false: that arm could not be followed (shoulder,
+                                                                 ///< elbow, wrist, hand tip are then not valid)
+  bool torso_levels_doubtful = false;                            ///< the torso is fuller below the bust band (a belly, or a
+                                                                 ///< scan's arms merged with it): bust, underbust and waist
+                                                                 ///< levels are not trusted
+  std::vector<std::string> warnings;                             ///< features found with doubt
 };
 
 /// The surface features are found on: the mesh without floating bits (find_floating_bits: pieces
@@ -78,9 +78,9 @@ TriangleMesh body_surface(const Eigen::MatrixXd& V, const Eigen::MatrixXi& F, st
                           std::vector<int>* vertex_map = nullptr, std::vector<int>* face_map = nullptr,
                           std::vector<std::vector<int>>* input_boundary = nullptr, int threads = 1);
 
-/// Finds the features of a standing human body mesh (its body_surface; what it left out is a warning). Throws InvalidInput naming what failed for
-/// a mesh that is not a standing human (lying, upside-down, arms touching the torso, too small);
-/// an arm that cannot be followed to the hand (a hole in a scan) is flagged in arm_found and warnings.
+/// Finds the features of a standing human body mesh (its body_surface; what it left out is a warning). Throws InvalidInput naming what
+/// failed for a mesh that is not a standing human (lying, upside-down, arms touching the torso, too small); an arm that cannot be followed
+/// to the hand (a hole in a scan) is flagged in arm_found and warnings.
 BodyFeatures find_body_features(const Eigen::MatrixXd& V, const Eigen::MatrixXi& F);
 /// The same, also giving the body_surface the features were found on (build_layered_representation
 /// takes it), on `threads` threads (0: the hardware's) for the sections, the torso's girths and the
@@ -95,8 +95,8 @@ using HorizontalSectionsAt = std::function<std::vector<std::vector<SectionLoop>>
 /// `top_is_cut`: the caller knows the top is an opening (a mesh's boundary there), which the
 /// sections alone tell only when the cut is clean. `threads` (0: the hardware's) share the torso's
 /// girths, with the same result as one.
-BodyFeatures find_body_features(const SectionStack& stack, const HorizontalSectionsAt& sections_at = {},
-                                bool top_is_cut = false, int threads = 1);
+BodyFeatures find_body_features(const SectionStack& stack, const HorizontalSectionsAt& sections_at = {}, bool top_is_cut = false,
+                                int threads = 1);
 
 /// A cross-section of the body through `point` with plane normal `normal` (the loop nearest the point).
 using SectionAt = std::function<SectionLoop(const Eigen::Vector3d& point, const Eigen::Vector3d& normal)>;

@@ -56,15 +56,14 @@ BodyOrientation detect_body_orientation(const Eigen::MatrixXd& P, const Eigen::V
                                         const OrientationOptions& options = {});
 
 /// The same for a mesh: its face centroids weighted by area.
-BodyOrientation detect_mesh_orientation(const Eigen::MatrixXd& V, const Eigen::MatrixXi& F,
-                                        const OrientationOptions& options = {});
+BodyOrientation detect_mesh_orientation(const Eigen::MatrixXd& V, const Eigen::MatrixXi& F, const OrientationOptions& options = {});
 
 /// How a body's points were brought into posekit's frame (metres, Y up, facing +Z).
 struct BodyFrame {
   double metres_per_unit = 1;
-  std::string unit = "m";          ///< m, dm, cm or mm
-  bool unit_detected = false;      ///< from the largest extent, not given
-  double extent = 0;               ///< when detected: the largest extent (stray points aside) in the file's numbers
+  std::string unit = "m";      ///< m, dm, cm or mm
+  bool unit_detected = false;  ///< from the largest extent, not given
+  double extent = 0;           ///< when detected: the largest extent (stray points aside) in the file's numbers
   BodyOrientation orientation;
   /// e.g. "unit mm (detected from the body's largest extent, 1712); up +Z (detected), facing -Y (detected)".
   std::string describe() const;
@@ -77,8 +76,7 @@ struct BodyFrame {
 /// (detected; from the faces when given). Throws InvalidInput when no unit explains the extent or
 /// the orientation cannot be found.
 BodyFrame bring_to_posekit_frame(Eigen::MatrixXd* points, const Eigen::MatrixXi* faces, Eigen::MatrixXd* normals,
-                                 const std::string& unit = "auto", const std::string& up = "auto",
-                                 const std::string& forward = "auto");
+                                 const std::string& unit = "auto", const std::string& up = "auto", const std::string& forward = "auto");
 /// Its two steps: the unit (fills the unit fields of the result), then the axes: the orientation is
 /// detected from `points` (which may be one of `turned`), then every matrix in `turned` is turned.
 BodyFrame scale_body_to_metres(Eigen::MatrixXd* points, const std::string& unit);

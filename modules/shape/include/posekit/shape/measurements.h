@@ -10,16 +10,16 @@
 namespace posekit {
 
 struct Girth {
-  std::string name;     ///< bust, underbust, waist, hip, thigh, knee, calf, ankle, upper_arm, wrist, neck
-  double value = 0;     ///< m (valid when measured)
+  std::string name;  ///< bust, underbust, waist, hip, thigh, knee, calf, ankle, upper_arm, wrist, neck
+  double value = 0;  ///< m (valid when measured)
   bool measured = false;
-  std::string note;     ///< why it was not measured (e.g. a hole in the scan)
-  Eigen::Vector3d point = Eigen::Vector3d::Zero();   ///< where the tape goes round
-  Eigen::Vector3d normal = Eigen::Vector3d::UnitY(); ///< the tape's plane normal
+  std::string note;                                   ///< why it was not measured (e.g. a hole in the scan)
+  Eigen::Vector3d point = Eigen::Vector3d::Zero();    ///< where the tape goes round
+  Eigen::Vector3d normal = Eigen::Vector3d::UnitY();  ///< the tape's plane normal
 };
 
 struct BodyMeasurements {
-  double stature = 0;  ///< m
+  double stature = 0;            ///< m
   bool stature_measured = true;  ///< false when the head is cut: stature is then an estimate
   std::string stature_note;      ///< why it is not measured
   std::vector<Girth> girths;
@@ -52,8 +52,7 @@ SectionStack horizontal_sections_of_points(const Eigen::MatrixXd& P, double step
 /// A scan's section from its points in one slab, projected into the plane (normal n): the median
 /// radius about their centroid in each angular sector (which also removes the scanner's noise);
 /// closed when no run of empty sectors spans more than `max_gap_deg`.
-SectionLoop section_from_planar_points(const std::vector<Eigen::Vector3d>& points, const Eigen::Vector3d& normal,
-                                       double max_gap_deg = 40);
+SectionLoop section_from_planar_points(const std::vector<Eigen::Vector3d>& points, const Eigen::Vector3d& normal, double max_gap_deg = 40);
 /// The slab thickness (m) that cuts whole sections from a scan whose points are `spacing` (m) apart.
 double section_slab_thickness(double spacing);
 
