@@ -3,7 +3,7 @@
 set -euo pipefail
 packages=(build-essential cmake ninja-build ccache git pkg-config
           libeigen3-dev libpcl-dev libflann-dev libvtk9-dev libopencv-dev libpng-dev libjpeg-dev zlib1g-dev libgtest-dev
-          nlohmann-json3-dev libsuitesparse-dev xvfb xauth clang libclang-rt-14-dev
+          nlohmann-json3-dev libsuitesparse-dev xvfb xauth clang clang-format libclang-rt-14-dev
           pybind11-dev python3-dev python3-numpy python3-pytest python3-venv python3-pip python3-build python3-wheel chromium)
 missing=()
 for p in "${packages[@]}"; do

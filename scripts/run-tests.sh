@@ -1,11 +1,13 @@
 #!/usr/bin/env bash
-# Set-up command 2: install what is missing, build, run every test in a release build and the
+# Set-up command 2: install what is missing, check the layout and function sizes, build, run every test in a release build and the
 # Python module's tests (installed by pip into a venv; and the wheel route), install it and build and run examples/ against the installed package, fuzz every
 # file reader and the measuring briefly (POSEKIT_FUZZ_SECONDS per target, default 10; 0 skips; scripts/fuzz.sh runs
 # them for longer), then run every test again under AddressSanitizer + UndefinedBehaviorSanitizer.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 bash scripts/install-deps.sh
+echo "== layout and function sizes (.clang-format, scripts/function-size-allowance.txt)"
+bash scripts/check-style.sh
 export POSEKIT_DATA=${POSEKIT_DATA:-$(cd .. && pwd)/shared/datasets/makehuman}
 jobs=$(nproc 2>/dev/null || echo 2)
 bash scripts/build.sh release
