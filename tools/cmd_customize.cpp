@@ -297,6 +297,107 @@ int customize_robustness(int argc, char** argv) {
 
 }  // namespace
 
+/// The front and side silhouettes from the photos (or masks) given, read side by side: a 12-MP
+/// photo's extraction is a third of the work.
+void read_silhouettes(const ArgParser& args, Silhouette* front, Silhouette* side) {
+  auto extraction = [&](const char* view) {
+    SilhouetteOptions o;
+    if (args.has(std::string(view) + "-background")) o.background_photo = args.get(std::string(view) + "-background");
+    return o;
+  };
+  run_beside(
+      2,
+      [&] {
+        *side = args.has("side-mask") ? read_silhouette_mask(args.get("side-mask"), "side mask")
+                                      : silhouette_from_photo(args.get("side"), "side photo", extraction("side"));
+      },
+      [&] {
+        *front = args.has("front-mask") ? read_silhouette_mask(args.get("front-mask"), "front mask")
+                                        : silhouette_from_photo(args.get("front"), "front photo", extraction("front"));
+      });
+}
+
+/// --debug's figures of a result: the fitted outline over each silhouette (model method) or the
+/// features and layers drawn on them (paper method).
+void write_result_figures(const std::string& dir, bool by_body_model, const Silhouette& front, const Silhouette& side,
+                          const PhotoCameras& cams, const CustomizedBody& body) {
+  const std::filesystem::path folder(dir);
+  if (by_body_model) {
+    const double k = body.scale;  // the fit as it stood in the photos' world
+    TriangleMesh seen = body.mesh;
+    seen.V = ((seen.V.rowwise() - body.scale_origin.transpose()) / k).rowwise() + body.scale_origin.transpose();
+    write_outline_png((folder / "front_outline.png").string(), front, cams.front, seen);
+    write_outline_png((folder / "side_outline.png").string(), side, cams.side, seen);
+  } else {
+    write_photo_features_png((folder / "front_features.png").string(), front, cams.front, body);
+    write_photo_features_png((folder / "side_features.png").string(), side, cams.side, body);
+  }
+}
+
+/// The summary --json prints (and the text summary reads): method, scale, agreement, the paper
+/// method's levels and population distance, warnings, the `times`, and with `measure` the girths.
+nlohmann::ordered_json customization_summary(const CustomizedBody& body, const CustomizationModel& model, const PhotoCameras& cams,
+                                             bool by_body_model, const nlohmann::ordered_json& times, bool measure) {
+  const PhotoLandmarks& L = body.landmarks;
+  nlohmann::ordered_json j;
+  j["method"] = by_body_model ? "model" : "paper";
+  j["stature_photos"] = by_body_model ? body.features.stature : L.stature;
+  j["scale"] = body.scale;
+  if (!by_body_model) {
+    j["population_distance"] = body.population_distance;
+    j["population_limit"] = model.descriptor_limit;
+    j["population_range_excess"] = body.population_range_excess;
+  }
+  j["photo_agreement"] = body.photo_agreement;
+  j["poor"] = body.photo_agreement < kMinPhotoAgreement;
+  if (!by_body_model) {
+    j["levels_y"] = {
+        {"floor", L.floor_y},           {"crotch", L.crotch_y},          {"hip", L.hip_y},   {"waist", L.waist_y}, {"bust", L.bust_y},
+        {"armpit_left", L.armpit_y[0]}, {"armpit_right", L.armpit_y[1]}, {"neck", L.neck_y}, {"crown", L.crown_y}};
+    for (const auto& [lo, hi] : L.side_arm_occlusion) j["side_arm_occlusion_y"].push_back({lo, hi});
+  }
+  j["assumed"] = cams.assumed;
+  j["warnings"] = body.warnings;
+  for (const auto& [key, value] : times.items()) j[key] = value;
+  if (!measure) return j;
+  const BodyMeasurements m = measure_body(body.mesh.V, body.mesh.F);
+  j["stature"] = m.stature;
+  for (const char* name : {"bust", "waist", "hip"}) {
+    const Girth* g = m.find(name);
+    const double level = std::string(name) == "bust"    ? body.features.bust_y
+                         : std::string(name) == "waist" ? body.features.waist_y
+                                                        : body.features.hip_y;
+    j["girths"][name] = {{"mesh", g && g->measured ? nlohmann::json(g->value) : nlohmann::json()}};
+    if (!by_body_model) j["girths"][name]["representation"] = representation_torso_girth(body.representation, level);
+  }
+  return j;
+}
+
+/// The summary as text.
+void print_customization(const nlohmann::ordered_json& j, const CustomizedBody& body, double height, bool by_body_model, bool measure,
+                         const std::string& out) {
+  const PhotoLandmarks& L = body.landmarks;
+  std::cout << std::fixed << std::setprecision(3) << "stature from the photos " << j["stature_photos"].get<double>() << " m";
+  if (height > 0) std::cout << " (scaled by " << std::setprecision(4) << body.scale << " to the stated " << height << " m)";
+  std::cout << "\n";
+  if (!by_body_model)
+    std::cout << std::setprecision(3) << "levels (m): crotch " << L.crotch_y - L.floor_y << ", hip " << L.hip_y - L.floor_y << ", waist "
+              << L.waist_y - L.floor_y << ", bust " << L.bust_y - L.floor_y << ", armpits " << L.armpit_y[0] - L.floor_y << " / "
+              << L.armpit_y[1] - L.floor_y << ", neck " << L.neck_y - L.floor_y << " above the soles\n";
+  if (measure) {
+    std::cout << "girths (m)     mesh" << (by_body_model ? "" : "    representation") << "\n";
+    for (const char* name : {"bust", "waist", "hip"}) {
+      const auto& g = j["girths"][name];
+      std::cout << std::left << std::setw(12) << name << std::right << std::setw(8)
+                << (g["mesh"].is_null() ? std::string("-") : std::to_string(g["mesh"].get<double>()).substr(0, 5));
+      if (!by_body_model) std::cout << std::setw(12) << std::to_string(g["representation"].get<double>()).substr(0, 5);
+      std::cout << "\n";
+    }
+  }
+  std::cout << std::setprecision(2) << "photos to mesh in " << j["seconds"].get<double>() << " s (model loaded in "
+            << j["model_load_seconds"].get<double>() << " s)" << (out.empty() ? "" : "; wrote " + out) << "\n";
+}
+
 int run_customize(int argc, char** argv) {
   if (argc >= 1 && std::string(argv[0]) == "train") return customize_train(argc - 1, argv + 1);
   if (argc >= 1 && std::string(argv[0]) == "eval") return customize_eval(argc - 1, argv + 1);
@@ -347,22 +448,8 @@ int run_customize(int argc, char** argv) {
   std::string no_survey;
   const std::unique_ptr<SurveyDistribution> survey = by_body_model ? load_survey("", &no_survey) : nullptr;
   const auto t0 = std::chrono::steady_clock::now();
-  auto extraction = [&](const char* view) {
-    SilhouetteOptions o;
-    if (args.has(std::string(view) + "-background")) o.background_photo = args.get(std::string(view) + "-background");
-    return o;
-  };
-  Silhouette front, side;  // the two views read side by side (a 12-MP photo's extraction is a third of the work)
-  run_beside(
-      2,
-      [&] {
-        side = args.has("side-mask") ? read_silhouette_mask(args.get("side-mask"), "side mask")
-                                     : silhouette_from_photo(args.get("side"), "side photo", extraction("side"));
-      },
-      [&] {
-        front = args.has("front-mask") ? read_silhouette_mask(args.get("front-mask"), "front mask")
-                                       : silhouette_from_photo(args.get("front"), "front photo", extraction("front"));
-      });
+  Silhouette front, side;
+  read_silhouettes(args, &front, &side);
   const auto t_silhouettes = std::chrono::steady_clock::now();
   const double height = args.has("height") ? args.get_double("height") : 0;
   const PhotoCameras cams = args.has("camera") ? read_photo_cameras(args.get("camera"))
@@ -379,76 +466,17 @@ int run_customize(int argc, char** argv) {
                     : customize_from_silhouettes(front, side, cams, model, height, args.flag_set("accept-poor"));
   const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   for (const auto& w : body.warnings) std::cerr << "posekit customize: warning: " << w << "\n";
-  if (args.has("debug") && by_body_model) {
-    const double k = body.scale;  // the fit as it stood in the photos' world
-    TriangleMesh seen = body.mesh;
-    seen.V = ((seen.V.rowwise() - body.scale_origin.transpose()) / k).rowwise() + body.scale_origin.transpose();
-    write_outline_png((std::filesystem::path(args.get("debug")) / "front_outline.png").string(), front, cams.front, seen);
-    write_outline_png((std::filesystem::path(args.get("debug")) / "side_outline.png").string(), side, cams.side, seen);
-  }
-  if (args.has("debug") && !by_body_model) {
-    write_photo_features_png((std::filesystem::path(args.get("debug")) / "front_features.png").string(), front, cams.front, body);
-    write_photo_features_png((std::filesystem::path(args.get("debug")) / "side_features.png").string(), side, cams.side, body);
-  }
+  if (args.has("debug")) write_result_figures(args.get("debug"), by_body_model, front, side, cams, body);
   if (args.has("out")) write_mesh(args.get("out"), body.mesh, {Unit::kMetre, MeshFormat::kAuto, true, io_warnings()});
-  const PhotoLandmarks& L = body.landmarks;
-  nlohmann::ordered_json j;
-  j["method"] = by_body_model ? "model" : "paper";
-  j["stature_photos"] = by_body_model ? body.features.stature : L.stature;
-  j["scale"] = body.scale;
-  if (!by_body_model) {
-    j["population_distance"] = body.population_distance;
-    j["population_limit"] = model.descriptor_limit;
-    j["population_range_excess"] = body.population_range_excess;
-  }
-  j["photo_agreement"] = body.photo_agreement;
-  j["poor"] = body.photo_agreement < kMinPhotoAgreement;
-  if (!by_body_model) {
-    j["levels_y"] = {
-        {"floor", L.floor_y},           {"crotch", L.crotch_y},          {"hip", L.hip_y},   {"waist", L.waist_y}, {"bust", L.bust_y},
-        {"armpit_left", L.armpit_y[0]}, {"armpit_right", L.armpit_y[1]}, {"neck", L.neck_y}, {"crown", L.crown_y}};
-    for (const auto& [lo, hi] : L.side_arm_occlusion) j["side_arm_occlusion_y"].push_back({lo, hi});
-  }
-  j["assumed"] = cams.assumed;
-  j["warnings"] = body.warnings;
-  j["seconds"] = seconds;
-  j["model_load_seconds"] = std::chrono::duration<double>(t0 - t_load).count();
-  j["silhouette_seconds"] = std::chrono::duration<double>(t_silhouettes - t0).count();
-  if (args.flag_set("measure")) {
-    const BodyMeasurements m = measure_body(body.mesh.V, body.mesh.F);
-    j["stature"] = m.stature;
-    for (const char* name : {"bust", "waist", "hip"}) {
-      const Girth* g = m.find(name);
-      const double level = std::string(name) == "bust"    ? body.features.bust_y
-                           : std::string(name) == "waist" ? body.features.waist_y
-                                                          : body.features.hip_y;
-      j["girths"][name] = {{"mesh", g && g->measured ? nlohmann::json(g->value) : nlohmann::json()}};
-      if (!by_body_model) j["girths"][name]["representation"] = representation_torso_girth(body.representation, level);
-    }
-  }
+  const nlohmann::ordered_json times = {{"seconds", seconds},
+                                        {"model_load_seconds", std::chrono::duration<double>(t0 - t_load).count()},
+                                        {"silhouette_seconds", std::chrono::duration<double>(t_silhouettes - t0).count()}};
+  const nlohmann::ordered_json j = customization_summary(body, model, cams, by_body_model, times, args.flag_set("measure"));
   if (args.flag_set("json")) {
     std::cout << j.dump(2) << "\n";
     return 0;
   }
-  std::cout << std::fixed << std::setprecision(3) << "stature from the photos " << j["stature_photos"].get<double>() << " m";
-  if (height > 0) std::cout << " (scaled by " << std::setprecision(4) << body.scale << " to the stated " << height << " m)";
-  std::cout << "\n";
-  if (!by_body_model)
-    std::cout << std::setprecision(3) << "levels (m): crotch " << L.crotch_y - L.floor_y << ", hip " << L.hip_y - L.floor_y << ", waist "
-              << L.waist_y - L.floor_y << ", bust " << L.bust_y - L.floor_y << ", armpits " << L.armpit_y[0] - L.floor_y << " / "
-              << L.armpit_y[1] - L.floor_y << ", neck " << L.neck_y - L.floor_y << " above the soles\n";
-  if (args.flag_set("measure")) {
-    std::cout << "girths (m)     mesh" << (by_body_model ? "" : "    representation") << "\n";
-    for (const char* name : {"bust", "waist", "hip"}) {
-      const auto& g = j["girths"][name];
-      std::cout << std::left << std::setw(12) << name << std::right << std::setw(8)
-                << (g["mesh"].is_null() ? std::string("-") : std::to_string(g["mesh"].get<double>()).substr(0, 5));
-      if (!by_body_model) std::cout << std::setw(12) << std::to_string(g["representation"].get<double>()).substr(0, 5);
-      std::cout << "\n";
-    }
-  }
-  std::cout << std::setprecision(2) << "photos to mesh in " << seconds << " s (model loaded in " << j["model_load_seconds"].get<double>()
-            << " s)" << (args.has("out") ? "; wrote " + args.get("out") : "") << "\n";
+  print_customization(j, body, height, by_body_model, args.flag_set("measure"), args.has("out") ? args.get("out") : "");
   return 0;
 }
 
