@@ -163,6 +163,53 @@ int info_model(const std::string& path, const std::string& ext, bool json) {
 
 }  // namespace
 
+/// The report of a mesh or point cloud as text.
+void print_geometry_report(const nlohmann::json& report, const std::string& path, Unit unit) {
+  std::cout << std::fixed << std::setprecision(4);
+  std::cout << path << " (" << report["kind"].get<std::string>() << ", coordinates in " << unit_name(unit) << ")\n";
+  if (report["kind"] == "point cloud") {
+    std::cout << "  points:      " << report["points"] << "\n";
+  } else {
+    if (report.contains("groups_triangles")) {
+      std::cout << "  groups:      " << report["groups_triangles"].size() << " (";
+      int shown = 0;
+      for (auto it = report["groups_triangles"].begin(); it != report["groups_triangles"].end() && shown < 6; ++it, ++shown)
+        std::cout << (shown ? ", " : "") << it.key() << ": " << it.value() << " triangles";
+      std::cout << (report["groups_triangles"].size() > 6 ? ", ...)\n" : ")\n");
+    }
+    if (report.contains("group")) std::cout << "  group:       " << report["group"].get<std::string>() << "\n";
+    const auto& v = report["validity"];
+    std::cout << "  vertices:    " << report["vertices"] << "\n  triangles:   " << report["triangles"] << "\n";
+    std::cout << "  validity:    " << (v["usable"].get<bool>() ? "usable" : "NOT usable") << ", "
+              << (v["watertight"].get<bool>() ? "watertight" : "not watertight") << "\n";
+    for (const char* key : {"out_of_range_indices", "non_finite_vertices", "degenerate_faces", "duplicate_faces", "unreferenced_vertices",
+                            "boundary_edges", "boundary_loops", "non_manifold_edges", "components"})
+      std::cout << "    " << key << ": " << v[key] << "\n";
+    std::cout << "  area:        " << report["surface_area_m2"].get<double>() << " m^2\n";
+    if (report.contains("volume_litres")) std::cout << "  volume:      " << report["volume_litres"].get<double>() << " L\n";
+  }
+  std::string kept;
+  for (const auto& [key, what] : {std::pair<const char*, const char*>{"has_normals", "normals"},
+                                  {"has_colors", "colours"},
+                                  {"has_texture_coordinates", "texture coordinates"}})
+    if (report.value(key, false)) kept += std::string(kept.empty() ? "" : ", ") + what;
+  std::cout << "  per vertex:  " << (kept.empty() ? "positions only" : "positions, " + kept) << "\n";
+  if (!report["scalar_fields"].empty()) std::cout << "  scalars:     " << report["scalar_fields"].dump() << "\n";
+  if (report.contains("face_fields") && !report["face_fields"].empty())
+    std::cout << "  face fields: " << report["face_fields"].dump() << "\n";
+  if (report.contains("bounding_box")) {
+    const auto& b = report["bounding_box"];
+    auto d = [&](const char* key, int i) { return b[key][i].get<double>(); };
+    std::cout << "  bbox min:    " << d("min", 0) << " " << d("min", 1) << " " << d("min", 2) << " " << unit_name(unit) << "\n";
+    std::cout << "  bbox max:    " << d("max", 0) << " " << d("max", 1) << " " << d("max", 2) << " " << unit_name(unit) << "\n";
+    std::cout << "  extent:      " << d("extent", 0) << " x " << d("extent", 1) << " x " << d("extent", 2) << " " << unit_name(unit)
+              << "\n";
+  }
+  if (report.contains("orientation_guess_for_a_body"))
+    std::cout << "  as a body:   " << report["orientation_guess_for_a_body"].get<std::string>() << "\n";
+  if (report.contains("warning")) std::cout << "  warning:     " << report["warning"].get<std::string>() << "\n";
+}
+
 int run_info(int argc, char** argv) {
   ArgParser args("info",
                  "Reports what a mesh (OBJ, PLY, OFF, STL) or point cloud (PCD, PLY, XYZ) holds: counts,\n"
@@ -270,49 +317,7 @@ int run_info(int argc, char** argv) {
     print_json(report);
     return 0;
   }
-  std::cout << std::fixed << std::setprecision(4);
-  std::cout << path << " (" << report["kind"].get<std::string>() << ", coordinates in " << unit_name(unit) << ")\n";
-  if (as_cloud) {
-    std::cout << "  points:      " << cloud.size() << "\n";
-  } else {
-    if (report.contains("groups_triangles")) {
-      std::cout << "  groups:      " << report["groups_triangles"].size() << " (";
-      int shown = 0;
-      for (auto it = report["groups_triangles"].begin(); it != report["groups_triangles"].end() && shown < 6; ++it, ++shown)
-        std::cout << (shown ? ", " : "") << it.key() << ": " << it.value() << " triangles";
-      std::cout << (report["groups_triangles"].size() > 6 ? ", ...)\n" : ")\n");
-    }
-    if (report.contains("group")) std::cout << "  group:       " << report["group"].get<std::string>() << "\n";
-    const auto& v = report["validity"];
-    std::cout << "  vertices:    " << report["vertices"] << "\n  triangles:   " << report["triangles"] << "\n";
-    std::cout << "  validity:    " << (v["usable"].get<bool>() ? "usable" : "NOT usable") << ", "
-              << (v["watertight"].get<bool>() ? "watertight" : "not watertight") << "\n";
-    for (const char* key : {"out_of_range_indices", "non_finite_vertices", "degenerate_faces", "duplicate_faces", "unreferenced_vertices",
-                            "boundary_edges", "boundary_loops", "non_manifold_edges", "components"})
-      std::cout << "    " << key << ": " << v[key] << "\n";
-    std::cout << "  area:        " << report["surface_area_m2"].get<double>() << " m^2\n";
-    if (report.contains("volume_litres")) std::cout << "  volume:      " << report["volume_litres"].get<double>() << " L\n";
-  }
-  std::string kept;
-  for (const auto& [key, what] : {std::pair<const char*, const char*>{"has_normals", "normals"},
-                                  {"has_colors", "colours"},
-                                  {"has_texture_coordinates", "texture coordinates"}})
-    if (report.value(key, false)) kept += std::string(kept.empty() ? "" : ", ") + what;
-  std::cout << "  per vertex:  " << (kept.empty() ? "positions only" : "positions, " + kept) << "\n";
-  if (!report["scalar_fields"].empty()) std::cout << "  scalars:     " << report["scalar_fields"].dump() << "\n";
-  if (report.contains("face_fields") && !report["face_fields"].empty())
-    std::cout << "  face fields: " << report["face_fields"].dump() << "\n";
-  if (report.contains("bounding_box")) {
-    const auto& b = report["bounding_box"];
-    auto d = [&](const char* key, int i) { return b[key][i].get<double>(); };
-    std::cout << "  bbox min:    " << d("min", 0) << " " << d("min", 1) << " " << d("min", 2) << " " << unit_name(unit) << "\n";
-    std::cout << "  bbox max:    " << d("max", 0) << " " << d("max", 1) << " " << d("max", 2) << " " << unit_name(unit) << "\n";
-    std::cout << "  extent:      " << d("extent", 0) << " x " << d("extent", 1) << " x " << d("extent", 2) << " " << unit_name(unit)
-              << "\n";
-  }
-  if (report.contains("orientation_guess_for_a_body"))
-    std::cout << "  as a body:   " << report["orientation_guess_for_a_body"].get<std::string>() << "\n";
-  if (report.contains("warning")) std::cout << "  warning:     " << report["warning"].get<std::string>() << "\n";
+  print_geometry_report(report, path, unit);
   return 0;
 }
 
