@@ -44,6 +44,73 @@ ColourMap colour_map_from(const ArgParser& args, ColourMapKind default_kind) {
 
 }  // namespace
 
+/// --out, --scan-out and --png: the model and the scan with their distances, each in its file's own
+/// frame and unit, and the heatmap.
+void write_compared_files(const ArgParser& args, const TriangleMesh& model, const BodyOrientation& model_orientation,
+                          const BodyUnit& model_unit, const PointCloud& scan, const BodyOrientation& scan_orientation,
+                          const BodyUnit& scan_unit, const ScanComparison& r) {
+  if (args.has("out")) {
+    TriangleMesh out = model;  // written in the model file's own frame
+    out.V = in_file_frame(model_orientation, model.V);
+    if (out.has_normals()) out.N = in_file_frame(model_orientation, model.N);
+    out.vertex_scalars["signed_distance_mm"] = 1000 * r.model_to_scan;
+    Eigen::VectorXd covered(model.V.rows());
+    for (Eigen::Index v = 0; v < covered.size(); ++v) covered[v] = std::isfinite(r.model_to_scan[v]) ? 1 : 0;
+    out.vertex_scalars["covered"] = covered;
+    write_mesh(args.get("out"), out, {model_unit.unit, MeshFormat::kAuto, true, io_warnings()});
+  }
+  if (args.has("scan-out")) {
+    PointCloud out = scan;  // in the scan file's own frame
+    out.P = in_file_frame(scan_orientation, scan.P);
+    if (out.has_normals()) out.N = in_file_frame(scan_orientation, scan.N);
+    out.point_scalars["signed_distance_mm"] = 1000 * r.scan_to_model;
+    write_point_cloud(args.get("scan-out"), out, {scan_unit.unit, CloudFormat::kAuto, true, io_warnings()});
+  }
+  if (args.has("png")) {
+    ViewOptions v;
+    v.colour_map = colour_map_from(args, ColourMapKind::kDiverging);
+    v.colour_map.title = "model to scan (mm)";
+    TriangleMesh shown = model;
+    shown.vertex_scalars["signed_distance_mm"] = 1000 * r.model_to_scan;
+    if (v.colour_map.kind == ColourMapKind::kSequential)
+      shown.vertex_scalars["signed_distance_mm"] = shown.vertex_scalars["signed_distance_mm"].cwiseAbs();
+    std::vector<ViewPanel> panels(2);
+    for (int i = 0; i < 2; ++i) {
+      panels[static_cast<size_t>(i)].mesh = shown;
+      panels[static_cast<size_t>(i)].scalar = "signed_distance_mm";
+      panels[static_cast<size_t>(i)].camera = i == 0 ? CameraPreset::kFront : CameraPreset::kBack;
+      panels[static_cast<size_t>(i)].caption = i == 0 ? "front" : "back";
+    }
+    render_panels_png(panels, v, args.get("png"));
+  }
+}
+
+/// The comparison as text: both directions' statistics, coverage, warnings and the girths.
+void print_comparison(const ArgParser& args, Eigen::Index model_vertices, Eigen::Index scan_points, const ScanComparison& r,
+                      const ScanComparisonOptions& o, const std::vector<GirthDiscrepancy>& girths,
+                      const std::vector<std::string>& warnings) {
+  std::cout << std::fixed << std::setprecision(2) << "compared " << args.positionals()[0] << " (" << model_vertices << " vertices) with "
+            << args.positionals()[1] << " (" << scan_points << " points) in " << r.seconds
+            << " s\n\n| direction | mean mm | RMS mm | 95th pct mm | max mm | signed mean mm | outliers (> " << 1000 * o.outlier_threshold
+            << " mm) |\n|---|---|---|---|---|---|---|\n";
+  for (auto [name, s] : {std::pair{"scan to model", &r.scan_stats}, std::pair{"model to scan", &r.model_stats}})
+    std::cout << "| " << name << " | " << s->mean_mm << " | " << s->rms_mm << " | " << s->p95_mm << " | " << s->max_mm << " | "
+              << s->signed_mean_mm << " | " << s->outliers << " |\n";
+  std::cout << "\nHausdorff " << r.hausdorff_mm << " mm; coverage " << std::setprecision(1) << 100 * r.coverage << "% ("
+            << r.uncovered_vertices << " model vertices without scan data within " << 1000 * r.coverage_radius << " mm)\n";
+  for (const auto& w : warnings) std::cout << "\nwarning: " << w << "\n";
+  if (!girths.empty()) {
+    std::cout << "\n| measure | model cm | scan cm | difference cm | ISO 20685-1 tolerance mm | within |\n|---|---|---|---|---|---|\n";
+    for (const auto& d : girths) {
+      std::cout << "| " << d.name << " | ";
+      if (d.measured)
+        std::cout << d.model_cm << " | " << d.scan_cm << " | " << std::showpos << d.difference_cm << std::noshowpos << " | "
+                  << d.tolerance_mm << " | " << (std::abs(d.difference_cm) * 10 <= d.tolerance_mm ? "yes" : "no") << " |\n";
+      else std::cout << "- | - | - | " << d.tolerance_mm << " | " << d.note << " |\n";
+    }
+  }
+}
+
 int run_compare(int argc, char** argv) {
   ArgParser args("compare",
                  "Compares a model mesh with a scan (point cloud or mesh): scan-to-model point-to-triangle distance\n"
@@ -151,40 +218,7 @@ int run_compare(int argc, char** argv) {
     }
   }
 
-  if (args.has("out")) {
-    TriangleMesh out = model;  // written in the model file's own frame
-    out.V = in_file_frame(model_orientation, model.V);
-    if (out.has_normals()) out.N = in_file_frame(model_orientation, model.N);
-    out.vertex_scalars["signed_distance_mm"] = 1000 * r.model_to_scan;
-    Eigen::VectorXd covered(model.V.rows());
-    for (Eigen::Index v = 0; v < covered.size(); ++v) covered[v] = std::isfinite(r.model_to_scan[v]) ? 1 : 0;
-    out.vertex_scalars["covered"] = covered;
-    write_mesh(args.get("out"), out, {model_unit.unit, MeshFormat::kAuto, true, io_warnings()});
-  }
-  if (args.has("scan-out")) {
-    PointCloud out = scan;  // in the scan file's own frame
-    out.P = in_file_frame(scan_orientation, scan.P);
-    if (out.has_normals()) out.N = in_file_frame(scan_orientation, scan.N);
-    out.point_scalars["signed_distance_mm"] = 1000 * r.scan_to_model;
-    write_point_cloud(args.get("scan-out"), out, {scan_unit.unit, CloudFormat::kAuto, true, io_warnings()});
-  }
-  if (args.has("png")) {
-    ViewOptions v;
-    v.colour_map = colour_map_from(args, ColourMapKind::kDiverging);
-    v.colour_map.title = "model to scan (mm)";
-    TriangleMesh shown = model;
-    shown.vertex_scalars["signed_distance_mm"] = 1000 * r.model_to_scan;
-    if (v.colour_map.kind == ColourMapKind::kSequential)
-      shown.vertex_scalars["signed_distance_mm"] = shown.vertex_scalars["signed_distance_mm"].cwiseAbs();
-    std::vector<ViewPanel> panels(2);
-    for (int i = 0; i < 2; ++i) {
-      panels[static_cast<size_t>(i)].mesh = shown;
-      panels[static_cast<size_t>(i)].scalar = "signed_distance_mm";
-      panels[static_cast<size_t>(i)].camera = i == 0 ? CameraPreset::kFront : CameraPreset::kBack;
-      panels[static_cast<size_t>(i)].caption = i == 0 ? "front" : "back";
-    }
-    render_panels_png(panels, v, args.get("png"));
-  }
+  write_compared_files(args, model, model_orientation, model_unit, scan, scan_orientation, scan_unit, r);
 
   nlohmann::ordered_json g = nlohmann::ordered_json::array();
   for (const auto& d : girths)
@@ -219,26 +253,7 @@ int run_compare(int argc, char** argv) {
     print_json(out);
     return 0;
   }
-  std::cout << std::fixed << std::setprecision(2) << "compared " << args.positionals()[0] << " (" << model.V.rows() << " vertices) with "
-            << args.positionals()[1] << " (" << scan_points << " points) in " << r.seconds
-            << " s\n\n| direction | mean mm | RMS mm | 95th pct mm | max mm | signed mean mm | outliers (> " << 1000 * o.outlier_threshold
-            << " mm) |\n|---|---|---|---|---|---|---|\n";
-  for (auto [name, s] : {std::pair{"scan to model", &r.scan_stats}, std::pair{"model to scan", &r.model_stats}})
-    std::cout << "| " << name << " | " << s->mean_mm << " | " << s->rms_mm << " | " << s->p95_mm << " | " << s->max_mm << " | "
-              << s->signed_mean_mm << " | " << s->outliers << " |\n";
-  std::cout << "\nHausdorff " << r.hausdorff_mm << " mm; coverage " << std::setprecision(1) << 100 * r.coverage << "% ("
-            << r.uncovered_vertices << " model vertices without scan data within " << 1000 * r.coverage_radius << " mm)\n";
-  for (const auto& w : warnings) std::cout << "\nwarning: " << w << "\n";
-  if (!girths.empty()) {
-    std::cout << "\n| measure | model cm | scan cm | difference cm | ISO 20685-1 tolerance mm | within |\n|---|---|---|---|---|---|\n";
-    for (const auto& d : girths) {
-      std::cout << "| " << d.name << " | ";
-      if (d.measured)
-        std::cout << d.model_cm << " | " << d.scan_cm << " | " << std::showpos << d.difference_cm << std::noshowpos << " | "
-                  << d.tolerance_mm << " | " << (std::abs(d.difference_cm) * 10 <= d.tolerance_mm ? "yes" : "no") << " |\n";
-      else std::cout << "- | - | - | " << d.tolerance_mm << " | " << d.note << " |\n";
-    }
-  }
+  print_comparison(args, model.V.rows(), scan_points, r, o, girths, warnings);
   return 0;
 }
 
