@@ -220,10 +220,11 @@ Eigen::MatrixXd deformation_gradients(const Eigen::MatrixXd& V0, const Eigen::Ma
   return D;
 }
 
-PoseModel train_pose_model(const PoseDataset& data, const TrainingOptions& options) {
+namespace {
+
+/// The examples train_pose_model learns from (posed, not held out), with the options checked.
+std::vector<int> training_examples(const PoseDataset& data, const TrainingOptions& options) {
   const Eigen::MatrixXi& F = data.F;
-  const int rest = find_rest_example(data);
-  if (rest < 0) throw InvalidInput("train_pose_model: the dataset has no rest-pose example (all joint rotations zero)");
   std::vector<int> examples;
   for (size_t i = 0; i < data.names.size(); ++i) {
     if (!data.has_pose[i] || data.test[i]) continue;
@@ -240,7 +241,34 @@ PoseModel train_pose_model(const PoseDataset& data, const TrainingOptions& optio
     throw InvalidInput("train_pose_model: a template label is outside [0, 16)");
   if (options.joint_centres.rows() != kNumJoints || options.joint_centres.cols() != 3 || !options.joint_centres.allFinite())
     throw InvalidInput("train_pose_model: expected " + std::to_string(kNumJoints) + " x 3 finite joint centres");
+  return examples;
+}
 
+/// The two joints nearest to each triangle among those next to its part (Eq. 4), the nearer first
+/// by index.
+Eigen::MatrixXi nearest_two_joints(const PoseModel& model) {
+  const Eigen::MatrixXi& F = model.template_F;
+  const Eigen::MatrixXd centroids = face_centroids(model.template_V, F);
+  Eigen::MatrixXi triangle_joints = Eigen::MatrixXi::Constant(F.rows(), 2, -1);
+  for (Eigen::Index k = 0; k < F.rows(); ++k) {
+    std::vector<std::pair<double, int>> near;
+    for (int j : joints_of_part(model.triangle_part[k]))
+      near.emplace_back((centroids.row(k) - model.joint_centres.row(j)).squaredNorm(), j);
+    std::sort(near.begin(), near.end());
+    for (size_t n = 0; n < near.size() && n < 2; ++n) triangle_joints(k, static_cast<Eigen::Index>(n)) = near[n].second;
+    if (triangle_joints(k, 1) >= 0 && triangle_joints(k, 1) < triangle_joints(k, 0))
+      std::swap(triangle_joints(k, 0), triangle_joints(k, 1));
+  }
+  return triangle_joints;
+}
+
+}  // namespace
+
+PoseModel train_pose_model(const PoseDataset& data, const TrainingOptions& options) {
+  const Eigen::MatrixXi& F = data.F;
+  const int rest = find_rest_example(data);
+  if (rest < 0) throw InvalidInput("train_pose_model: the dataset has no rest-pose example (all joint rotations zero)");
+  const std::vector<int> examples = training_examples(data, options);
   PoseModel model;
   const Eigen::MatrixXd& V0 = data.V[static_cast<size_t>(rest)];
   model.template_V = V0;
@@ -249,18 +277,7 @@ PoseModel train_pose_model(const PoseDataset& data, const TrainingOptions& optio
   model.joint_centres = options.joint_centres;
   model.training_poses = static_cast<int>(examples.size());
 
-  // The two joints nearest to each triangle among those next to its part (Eq. 4).
-  const Eigen::MatrixXd centroids = face_centroids(V0, F);
-  model.triangle_joints = Eigen::MatrixXi::Constant(F.rows(), 2, -1);
-  for (Eigen::Index k = 0; k < F.rows(); ++k) {
-    std::vector<std::pair<double, int>> near;
-    for (int j : joints_of_part(model.triangle_part[k]))
-      near.emplace_back((centroids.row(k) - model.joint_centres.row(j)).squaredNorm(), j);
-    std::sort(near.begin(), near.end());
-    for (size_t n = 0; n < near.size() && n < 2; ++n) model.triangle_joints(k, static_cast<Eigen::Index>(n)) = near[n].second;
-    if (model.triangle_joints(k, 1) >= 0 && model.triangle_joints(k, 1) < model.triangle_joints(k, 0))
-      std::swap(model.triangle_joints(k, 0), model.triangle_joints(k, 1));
-  }
+  model.triangle_joints = nearest_two_joints(model);  // Eq. 4
 
   // Per joint pair, PCA of the observed twists, then the ridge least-squares operator H that maps
   // a triangle's observed T^Q entries (m x 9) to its reduced coefficients (Eq. 5).
