@@ -6,7 +6,12 @@
 #   run-clang-tidy -p build/release -quiet 'modules/.*\.cpp'
 set -euo pipefail
 cd "$(dirname "$0")/.."
-mapfile -t files < <(git ls-files '*.cpp' '*.h')
+if git rev-parse --is-inside-work-tree > /dev/null 2>&1; then
+  mapfile -t files < <(git ls-files '*.cpp' '*.h')
+else  # an unpacked source tree
+  mapfile -t files < <(find modules datasets tools viewers python examples tests \( -name '*.cpp' -o -name '*.h' \) | sort)
+fi
+[ ${#files[@]} -gt 0 ] || { echo "check-style: no C++ files found" >&2; exit 1; }
 if [ "${1:-}" = "--fix" ]; then
   clang-format -i --style=file "${files[@]}"
   echo "check-style: formatted ${#files[@]} files"

@@ -18,7 +18,7 @@ import re
 import sys
 
 ROOT = pathlib.Path(__file__).resolve().parent.parent
-SOURCES = ("modules", "tools", "viewers", "python", "examples")
+SOURCES = ("modules", "datasets", "tools", "viewers", "python", "examples")
 ALLOWANCE = ROOT / "scripts" / "function-size-allowance.txt"
 NOT_FUNCTIONS = re.compile(r"^\s*(namespace\b|extern\b|struct\b|class\b|enum\b|union\b|template\s*<[^>]*>\s*(struct|class)\b)")
 
