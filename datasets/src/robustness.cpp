@@ -376,10 +376,11 @@ std::vector<BodySpec> robustness_shapes(unsigned seed, int count) { return make_
 
 const std::vector<RobustnessVariation>& robustness_variations() { return kVariations; }
 
-RobustnessSummary make_robustness_set(const std::string& out_dir, const RobustnessOptions& o) {
-  const Stopwatch t0;
-  std::vector<RobustnessVariation> chosen;
-  for (const auto& name : o.only) {
+namespace {
+
+/// The variations asked for (all when `only` is empty); an unknown name is an error naming the known ones.
+std::vector<RobustnessVariation> chosen_variations(const std::vector<std::string>& only) {
+  for (const auto& name : only) {
     auto it = std::find_if(kVariations.begin(), kVariations.end(), [&](const RobustnessVariation& v) { return v.name == name; });
     if (it == kVariations.end()) {
       std::string known;
@@ -387,8 +388,272 @@ RobustnessSummary make_robustness_set(const std::string& out_dir, const Robustne
       throw InvalidInput("robustness set: unknown variation '" + name + "' (known: " + known + ")");
     }
   }
+  std::vector<RobustnessVariation> chosen;
   for (const auto& v : kVariations)
-    if (o.only.empty() || std::find(o.only.begin(), o.only.end(), v.name) != o.only.end()) chosen.push_back(v);
+    if (only.empty() || std::find(only.begin(), only.end(), v.name) != only.end()) chosen.push_back(v);
+  return chosen;
+}
+
+/// One shape of the set and its variations: the rest body, its joints and girths, and the draws
+/// every variation takes in turn from the shape's own generator.
+class ShapeVariations {
+ public:
+  ShapeVariations(const MakeHumanModel& model, const PoseUnits& units, const Eigen::VectorXi& rest_labels, const BodySpec& spec,
+                  unsigned seed, const std::string& id)
+      : model(model),
+        units(units),
+        rest_labels(rest_labels),
+        spec(spec),
+        rng(seed),
+        rest(build_body(model, spec)),
+        J(joint_centres(model.rig, rest)),
+        stats(body_stats(rest.mesh)) {
+    try {
+      rest_girths = measure_makehuman_body(model, rest);
+    } catch (const InvalidInput& e) {
+      throw InvalidInput(std::string("robustness set: shape ") + id + ": the rig cannot measure its rest pose: " + e.what());
+    }
+    apose = sample_of(rest, {});
+  }
+
+  /// The shape under variation `v`, and how it is to be written.
+  Sample vary(const std::string& v, FileForm* file_form) {
+    FileForm& form = *file_form;
+    Sample s;
+    PartPose pose;
+    if (v == "apose") {
+      s = apose;
+    } else if (v == "arms_close") {
+      const double a = (10 + 5 * u(rng)) * kDeg;
+      set_arm_abduction(J, a, &pose);
+      s = posed(pose, {}, {{"arm_abduction_deg", a / kDeg}}, rest);
+      // Arms this close can meet the torso below the bust, where the rig's measurement then
+      // looks for it (2 of 10 shapes: an underbust read as the bust, 7-18 cm short). The torso's
+      // girths are the standing body's with the arms away (ISO 8559-1), which these arms leave.
+      s.girths = rest_girths;
+      s.girth_truth = "rest pose (girths are measured with the arms away, ISO 8559-1)";
+    } else if (v == "elbows_bent") {
+      const double a = 45 * u(rng) * kDeg;
+      set_elbow_flexion(J, a, &pose);
+      s = posed(pose, {}, {{"elbow_flexion_deg", a / kDeg}}, rest);
+    } else if (v == "fists") {
+      s = posed(pose, kFists, {{"fists", true}}, rest);
+    } else if (v == "feet_together") {
+      const double d = 0.10 + 0.03 * u(rng);
+      set_ankle_separation(J, d, &pose);
+      s = posed(pose, {}, {{"ankle_separation_m", d}}, rest);
+    } else if (v == "feet_wide") {
+      const double d = (joint(J, "left_shoulder") - joint(J, "right_shoulder")).norm() * (0.9 + 0.2 * u(rng));
+      set_ankle_separation(J, d, &pose);
+      s = posed(pose, {}, {{"ankle_separation_m", d}}, rest);
+    } else if (v == "thighs_touch") {
+      s = thighs_pressed(0.003);
+    } else if (v == "thighs_fused") {
+      // As a scan's reconstruction joins them: the thighs pressed 1 cm into each other, the
+      // surfaces inside the other removed and the two holes zipped into one seam (on the mesh
+      // subdivided once, so the seam follows the contact curve within about 5 mm).
+      const Sample pressed = thighs_pressed(0.01);
+      s = pressed;
+      std::vector<int> origin;
+      // Between the knees and 2 cm below the crotch, where the thighs meet (the toes and lips that
+      // touch stay as they are, and so does the groin's skin folding into itself).
+      const Eigen::AlignedBox3d thighs(
+          Eigen::Vector3d(-1, std::max(joint(pressed.joints, "left_knee").y(), joint(pressed.joints, "right_knee").y()), -1),
+          Eigen::Vector3d(1, pressed.girths.crotch_height - 0.02, 1));
+      s.mesh = fuse_interpenetrating_surfaces(subdivide_midpoints(pressed.mesh), thighs, &origin);
+      s.triangle_part.resize(s.mesh.F.rows());
+      for (Eigen::Index f = 0; f < s.mesh.F.rows(); ++f) s.triangle_part[f] = pressed.triangle_part[origin[static_cast<size_t>(f)] / 4];
+    } else if (v == "torso_twist") {
+      const double a = (10 + 10 * u(rng)) * kDeg * (u(rng) < 0.5 ? -1 : 1);
+      pose.joint_rotation[find_joint_index("upper_back")] = a * Eigen::Vector3d::UnitY();
+      s = posed(pose, {}, {{"twist_deg", a / kDeg}}, rest);
+    } else if (v == "xup_mm_bent") {
+      const double a = (30 + 10 * u(rng)) * kDeg;
+      set_elbow_flexion(J, a, &pose);
+      set_ankle_separation(J, 0.30, &pose);
+      s = posed(pose, kFists, {{"elbow_flexion_deg", a / kDeg}, {"fists", true}, {"ankle_separation_m", 0.30}}, rest);
+      form.up = "+X";
+      form.forward = "+Z";
+      form.unit = Unit::kMillimetre;
+    } else if (v == "zup") {
+      s = apose;
+      form.up = "+Z";
+      form.forward = "-Y";
+      form.extension = "obj";
+    } else if (v == "facing_back_cm") {
+      s = apose;
+      form.forward = "-Z";
+      form.unit = Unit::kCentimetre;
+    } else if (v == "res_5k") {
+      s = apose;
+      SurfacePoints corr;
+      s.mesh = remesh_body(apose.mesh, 5000, &corr);
+      s.triangle_part.resize(s.mesh.F.rows());
+      for (Eigen::Index f = 0; f < s.mesh.F.rows(); ++f) {
+        const int a = apose.triangle_part[corr.face[s.mesh.F(f, 0)]], b = apose.triangle_part[corr.face[s.mesh.F(f, 1)]],
+                  c = apose.triangle_part[corr.face[s.mesh.F(f, 2)]];
+        s.triangle_part[f] = (b == c) ? b : a;
+      }
+    } else if (v == "res_200k") {
+      s = apose;
+      s.mesh = subdivide_midpoints(subdivide_midpoints(apose.mesh));
+      s.triangle_part.resize(s.mesh.F.rows());
+      for (Eigen::Index f = 0; f < s.mesh.F.rows(); ++f) s.triangle_part[f] = apose.triangle_part[f / 16];
+    } else if (v == "head_cut") {
+      s = apose;
+      cut_head(&s, 0.05 + 0.05 * u(rng));
+    } else if (v == "no_head") {
+      s = apose;
+      const double chin =
+          joint(s.joints, "neck").y() + 0.45 * (rest.bone_heads(model.rig.find_bone("head"), 1) - joint(s.joints, "neck").y());
+      const double top = s.mesh.V.col(1).maxCoeff(), floor = s.mesh.V.col(1).minCoeff();
+      cut_head(&s, (top - chin) / (top - floor));
+    } else if (v == "hands_cut") {
+      s = apose;
+      cut_hands(&s, &rng);
+    } else if (v == "holes") {
+      s = apose;
+      punch_holes(&s, 25, &rng);
+    } else if (v == "noise") {
+      s = apose;
+      add_noise(&s, 0.001, &rng);
+    } else if (v == "components") {
+      s = apose;
+      add_floating_bits(&s, 4, 32, &rng);
+    } else if (v == "scanner") {
+      s = apose;
+      cut_head(&s, 0.05 + 0.05 * u(rng));
+      cut_hands(&s, &rng);
+      open_soles(&s);
+      punch_holes(&s, 25, &rng);
+      add_noise(&s, 0.001, &rng);
+      add_floating_bits(&s, 4, 32, &rng);
+    } else if (v == "scan_cloud") {
+      s = apose;
+      form.scan = true;
+    } else if (const auto kind = pose_kind(pose_kind_of(v), J, rng)) {
+      s = posed(*kind, {}, {{"pose_kind", pose_kind_of(v)}, {"pose", nlohmann::ordered_json::parse(part_pose_to_json(*kind))}}, rest);
+      form.scan = v != pose_kind_of(v);
+      // Girths are the person's in the standing posture (ISO 8559-1): a horizontal tape round a
+      // kneeling or sitting body, or round arms resting on the chest, is no girth of theirs.
+      s.girths = apose.girths;
+      s.girth_truth = "rest pose (girths are measured standing, ISO 8559-1)";
+    }
+    return s;
+  }
+
+  const BodyStats& rest_stats() const { return stats; }
+  std::mt19937& generator() { return rng; }
+
+ private:
+  Sample sample_of(const Body& body, const nlohmann::ordered_json& facts) {
+    Sample s;
+    s.mesh = body.mesh;
+    s.triangle_part = rest_labels;
+    s.joints = joint_centres(model.rig, body);
+    s.facts = facts;
+    try {
+      s.girths = measure_makehuman_body(model, body);
+    } catch (const InvalidInput&) {  // arms never clear of the torso: torso girths from rest
+      s.girths = rest_girths;
+      s.girth_truth = "rest pose (the rig cannot measure this pose)";
+    }
+    return s;
+  }
+  Sample posed(const PartPose& pose, const std::vector<std::pair<std::string, double>>& fingers, const nlohmann::ordered_json& facts,
+               const Body& base) {
+    return sample_of(pose_body(model, units, base, pose, fingers), facts);
+  }
+  /// A heavier version of the shape, feet brought together (20 cm down to 8 cm between the ankles)
+  /// until the thighs press `overlap` (m) into each other 4 cm below the crotch, as on heavy people.
+  Sample thighs_pressed(double overlap) {
+    BodySpec heavy = spec;
+    heavy.weight = std::max(heavy.weight, 0.9);
+    const Body body = build_body(model, heavy);
+    const Eigen::MatrixXd HJ = joint_centres(model.rig, body);
+    Body together;
+    double d = 0.20, gap = 1;
+    PartPose pose;
+    for (double separation = 0.20; separation >= 0.08 - 1e-9; separation -= 0.02) {
+      d = separation;
+      pose = PartPose{};
+      set_ankle_separation(HJ, d, &pose);
+      together = pose_body(model, units, body, pose, {});
+      gap = thigh_gap(model.rig, together, joint_centres(model.rig, together));
+      if (gap < -overlap) break;
+    }
+    const BodyStats heavy_stats = body_stats(body.mesh);
+    Sample pressed =
+        sample_of(together, {{"weight_slider", heavy.weight}, {"bmi", heavy_stats.bmi}, {"ankle_separation_m", d}, {"thigh_gap_m", gap}});
+    if (pressed.girth_truth != "this pose") pressed.girths = measure_makehuman_body(model, body);
+    return pressed;
+  }
+
+  const MakeHumanModel& model;
+  const PoseUnits& units;
+  const Eigen::VectorXi& rest_labels;
+  const BodySpec spec;
+  std::mt19937 rng;
+  std::uniform_real_distribution<double> u{0.0, 1.0};
+  const Body rest;
+  const Eigen::MatrixXd J;
+  const BodyStats stats;
+  Measurements rest_girths;
+  Sample apose;
+};
+
+/// Writes one sample in its form (mesh file or simulated scan) and its truth file; returns the
+/// manifest's entry.
+nlohmann::ordered_json write_sample(const fs::path& tmp, const char* id, const std::string& v, FileForm form, Sample s,
+                                    const BodySpec& spec, const BodyStats& stats, std::mt19937& rng) {
+  const std::string name = std::string(id) + "_" + v;
+  const std::string file = "bodies/" + name + "." + (form.scan ? "ply" : form.extension);
+  const BodyOrientation orientation = orientation_from_axes(parse_axis(form.up), parse_axis(form.forward));
+  // p_posekit = R p_file: rows p_file^T = p_posekit^T R.
+  auto to_file = [&](const Eigen::MatrixXd& P) { return Eigen::MatrixXd(P * orientation.rotation); };
+  if (form.scan) {
+    ScannerOptions so;
+    so.views_around = 8;
+    so.seed = rng();
+    SimulatedScan scan = simulate_scan(s.mesh, so);
+    PointCloud cloud;
+    cloud.P = to_file(scan.cloud.P);
+    write_point_cloud((tmp / file).string(), cloud, {Unit::kMillimetre});
+    s.facts["scan_points"] = cloud.P.rows();
+    form.unit = Unit::kMillimetre;
+  } else {
+    TriangleMesh m;
+    m.V = to_file(s.mesh.V);
+    m.F = s.mesh.F;
+    write_mesh((tmp / file).string(), m, {form.unit});
+  }
+  nlohmann::ordered_json truth;
+  truth["format"] = "posekit robustness truth 1";
+  truth["variation"] = v;
+  truth["shape"] = id;
+  truth["kind"] = form.scan ? "scan" : "mesh";
+  truth["file"] = {{"path", file}, {"unit", unit_name(form.unit)}, {"up", form.up}, {"forward", form.forward}};
+  truth["body"] = {{"gender", spec.gender}, {"weight", spec.weight}, {"bmi", stats.bmi}, {"stature_m", stats.stature_m}};
+  truth["done"] = s.facts;
+  truth["frame"] = "posekit (Y up, facing +Z, left +X), metres";
+  for (int j = 0; j < kNumJoints; ++j) truth["joints"][joint_name(j)] = vec(s.joints.row(j).transpose());
+  const Measurements& g = s.girths;
+  truth["girths"] = {{"bust", g.bust},   {"underbust", g.underbust}, {"waist", g.waist}, {"hip", g.hip},
+                     {"thigh", g.thigh}, {"upper_arm", g.upper_arm}, {"neck", g.neck}};
+  truth["girths_from"] = s.girth_truth;
+  truth["levels_y"] = {{"crotch", g.crotch_height}, {"hip", g.hip_height}, {"waist", g.waist_height}, {"bust", g.bust_height}};
+  if (!form.scan) truth["triangle_part"] = std::vector<int>(s.triangle_part.data(), s.triangle_part.data() + s.triangle_part.size());
+  const std::string truth_file = "truth/" + name + ".json";
+  const std::string text = truth.dump() + "\n";
+  write_file_atomically((tmp / truth_file).string(), [&](std::ostream& os) { os << text; }, false);
+  return {{"name", name}, {"variation", v}, {"shape", id}, {"file", file}, {"truth", truth_file}};
+}
+
+}  // namespace
+
+RobustnessSummary make_robustness_set(const std::string& out_dir, const RobustnessOptions& o) {
+  const Stopwatch t0;
+  const std::vector<RobustnessVariation> chosen = chosen_variations(o.only);
   if (o.shape_specs.empty() && o.shapes < 1) throw InvalidInput("robustness set: at least one shape is needed");
 
   const fs::path out = fs::absolute(out_dir).lexically_normal();
@@ -411,227 +676,13 @@ RobustnessSummary make_robustness_set(const std::string& out_dir, const Robustne
     for (int k = 0; k < shapes; ++k) {
       char id[16];
       std::snprintf(id, sizeof id, "s%02d", k + 1);
-      std::mt19937 rng(o.seed * 1000003u + static_cast<unsigned>(k));
-      std::uniform_real_distribution<double> u(0.0, 1.0);
-      const Body rest = build_body(*model, specs[static_cast<size_t>(k)]);
-      const Eigen::MatrixXd J = joint_centres(model->rig, rest);
-      const BodyStats stats = body_stats(rest.mesh);
-      Measurements rest_girths;
-      try {
-        rest_girths = measure_makehuman_body(*model, rest);
-      } catch (const InvalidInput& e) {
-        throw InvalidInput(std::string("robustness set: shape ") + id + ": the rig cannot measure its rest pose: " + e.what());
-      }
-      auto sample_of = [&](const Body& body, const nlohmann::ordered_json& facts) {
-        Sample s;
-        s.mesh = body.mesh;
-        s.triangle_part = rest_labels;
-        s.joints = joint_centres(model->rig, body);
-        s.facts = facts;
-        try {
-          s.girths = measure_makehuman_body(*model, body);
-        } catch (const InvalidInput&) {  // arms never clear of the torso: torso girths from rest
-          s.girths = rest_girths;
-          s.girth_truth = "rest pose (the rig cannot measure this pose)";
-        }
-        return s;
-      };
-      auto posed = [&](const PartPose& pose, const std::vector<std::pair<std::string, double>>& fingers,
-                       const nlohmann::ordered_json& facts,
-                       const Body& base) { return sample_of(pose_body(*model, units, base, pose, fingers), facts); };
-      // A heavier version of the shape, feet brought together (20 cm down to 8 cm between the ankles)
-      // until the thighs press `overlap` (m) into each other 4 cm below the crotch, as on heavy people.
-      auto thighs_pressed = [&](int shape, double overlap) {
-        BodySpec heavy = specs[static_cast<size_t>(shape)];
-        heavy.weight = std::max(heavy.weight, 0.9);
-        const Body body = build_body(*model, heavy);
-        const Eigen::MatrixXd HJ = joint_centres(model->rig, body);
-        Body together;
-        double d = 0.20, gap = 1;
-        PartPose pose;
-        for (double separation = 0.20; separation >= 0.08 - 1e-9; separation -= 0.02) {
-          d = separation;
-          pose = PartPose{};
-          set_ankle_separation(HJ, d, &pose);
-          together = pose_body(*model, units, body, pose, {});
-          gap = thigh_gap(model->rig, together, joint_centres(model->rig, together));
-          if (gap < -overlap) break;
-        }
-        const BodyStats heavy_stats = body_stats(body.mesh);
-        Sample pressed = sample_of(
-            together, {{"weight_slider", heavy.weight}, {"bmi", heavy_stats.bmi}, {"ankle_separation_m", d}, {"thigh_gap_m", gap}});
-        if (pressed.girth_truth != "this pose") pressed.girths = measure_makehuman_body(*model, body);
-        return pressed;
-      };
-      const Sample apose = sample_of(rest, {});
+      const BodySpec& spec = specs[static_cast<size_t>(k)];
+      ShapeVariations shape(*model, units, rest_labels, spec, o.seed * 1000003u + static_cast<unsigned>(k), id);
       for (const auto& variation : chosen) {
-        const std::string& v = variation.name;
         FileForm form;
-        Sample s;
-        PartPose pose;
-        if (v == "apose") {
-          s = apose;
-        } else if (v == "arms_close") {
-          const double a = (10 + 5 * u(rng)) * kDeg;
-          set_arm_abduction(J, a, &pose);
-          s = posed(pose, {}, {{"arm_abduction_deg", a / kDeg}}, rest);
-          // Arms this close can meet the torso below the bust, where the rig's measurement then
-          // looks for it (2 of 10 shapes: an underbust read as the bust, 7-18 cm short). The torso's
-          // girths are the standing body's with the arms away (ISO 8559-1), which these arms leave.
-          s.girths = rest_girths;
-          s.girth_truth = "rest pose (girths are measured with the arms away, ISO 8559-1)";
-        } else if (v == "elbows_bent") {
-          const double a = 45 * u(rng) * kDeg;
-          set_elbow_flexion(J, a, &pose);
-          s = posed(pose, {}, {{"elbow_flexion_deg", a / kDeg}}, rest);
-        } else if (v == "fists") {
-          s = posed(pose, kFists, {{"fists", true}}, rest);
-        } else if (v == "feet_together") {
-          const double d = 0.10 + 0.03 * u(rng);
-          set_ankle_separation(J, d, &pose);
-          s = posed(pose, {}, {{"ankle_separation_m", d}}, rest);
-        } else if (v == "feet_wide") {
-          const double d = (joint(J, "left_shoulder") - joint(J, "right_shoulder")).norm() * (0.9 + 0.2 * u(rng));
-          set_ankle_separation(J, d, &pose);
-          s = posed(pose, {}, {{"ankle_separation_m", d}}, rest);
-        } else if (v == "thighs_touch") {
-          s = thighs_pressed(k, 0.003);
-        } else if (v == "thighs_fused") {
-          // As a scan's reconstruction joins them: the thighs pressed 1 cm into each other, the
-          // surfaces inside the other removed and the two holes zipped into one seam (on the mesh
-          // subdivided once, so the seam follows the contact curve within about 5 mm).
-          const Sample pressed = thighs_pressed(k, 0.01);
-          s = pressed;
-          std::vector<int> origin;
-          // Between the knees and 2 cm below the crotch, where the thighs meet (the toes and lips that
-          // touch stay as they are, and so does the groin's skin folding into itself).
-          const Eigen::AlignedBox3d thighs(
-              Eigen::Vector3d(-1, std::max(joint(pressed.joints, "left_knee").y(), joint(pressed.joints, "right_knee").y()), -1),
-              Eigen::Vector3d(1, pressed.girths.crotch_height - 0.02, 1));
-          s.mesh = fuse_interpenetrating_surfaces(subdivide_midpoints(pressed.mesh), thighs, &origin);
-          s.triangle_part.resize(s.mesh.F.rows());
-          for (Eigen::Index f = 0; f < s.mesh.F.rows(); ++f) s.triangle_part[f] = pressed.triangle_part[origin[static_cast<size_t>(f)] / 4];
-        } else if (v == "torso_twist") {
-          const double a = (10 + 10 * u(rng)) * kDeg * (u(rng) < 0.5 ? -1 : 1);
-          pose.joint_rotation[find_joint_index("upper_back")] = a * Eigen::Vector3d::UnitY();
-          s = posed(pose, {}, {{"twist_deg", a / kDeg}}, rest);
-        } else if (v == "xup_mm_bent") {
-          const double a = (30 + 10 * u(rng)) * kDeg;
-          set_elbow_flexion(J, a, &pose);
-          set_ankle_separation(J, 0.30, &pose);
-          s = posed(pose, kFists, {{"elbow_flexion_deg", a / kDeg}, {"fists", true}, {"ankle_separation_m", 0.30}}, rest);
-          form.up = "+X";
-          form.forward = "+Z";
-          form.unit = Unit::kMillimetre;
-        } else if (v == "zup") {
-          s = apose;
-          form.up = "+Z";
-          form.forward = "-Y";
-          form.extension = "obj";
-        } else if (v == "facing_back_cm") {
-          s = apose;
-          form.forward = "-Z";
-          form.unit = Unit::kCentimetre;
-        } else if (v == "res_5k") {
-          s = apose;
-          SurfacePoints corr;
-          s.mesh = remesh_body(apose.mesh, 5000, &corr);
-          s.triangle_part.resize(s.mesh.F.rows());
-          for (Eigen::Index f = 0; f < s.mesh.F.rows(); ++f) {
-            const int a = apose.triangle_part[corr.face[s.mesh.F(f, 0)]], b = apose.triangle_part[corr.face[s.mesh.F(f, 1)]],
-                      c = apose.triangle_part[corr.face[s.mesh.F(f, 2)]];
-            s.triangle_part[f] = (b == c) ? b : a;
-          }
-        } else if (v == "res_200k") {
-          s = apose;
-          s.mesh = subdivide_midpoints(subdivide_midpoints(apose.mesh));
-          s.triangle_part.resize(s.mesh.F.rows());
-          for (Eigen::Index f = 0; f < s.mesh.F.rows(); ++f) s.triangle_part[f] = apose.triangle_part[f / 16];
-        } else if (v == "head_cut") {
-          s = apose;
-          cut_head(&s, 0.05 + 0.05 * u(rng));
-        } else if (v == "no_head") {
-          s = apose;
-          const double chin =
-              joint(s.joints, "neck").y() + 0.45 * (rest.bone_heads(model->rig.find_bone("head"), 1) - joint(s.joints, "neck").y());
-          const double top = s.mesh.V.col(1).maxCoeff(), floor = s.mesh.V.col(1).minCoeff();
-          cut_head(&s, (top - chin) / (top - floor));
-        } else if (v == "hands_cut") {
-          s = apose;
-          cut_hands(&s, &rng);
-        } else if (v == "holes") {
-          s = apose;
-          punch_holes(&s, 25, &rng);
-        } else if (v == "noise") {
-          s = apose;
-          add_noise(&s, 0.001, &rng);
-        } else if (v == "components") {
-          s = apose;
-          add_floating_bits(&s, 4, 32, &rng);
-        } else if (v == "scanner") {
-          s = apose;
-          cut_head(&s, 0.05 + 0.05 * u(rng));
-          cut_hands(&s, &rng);
-          open_soles(&s);
-          punch_holes(&s, 25, &rng);
-          add_noise(&s, 0.001, &rng);
-          add_floating_bits(&s, 4, 32, &rng);
-        } else if (v == "scan_cloud") {
-          s = apose;
-          form.scan = true;
-        } else if (const auto kind = pose_kind(pose_kind_of(v), J, rng)) {
-          s = posed(*kind, {}, {{"pose_kind", pose_kind_of(v)}, {"pose", nlohmann::ordered_json::parse(part_pose_to_json(*kind))}}, rest);
-          form.scan = v != pose_kind_of(v);
-          // Girths are the person's in the standing posture (ISO 8559-1): a horizontal tape round a
-          // kneeling or sitting body, or round arms resting on the chest, is no girth of theirs.
-          s.girths = apose.girths;
-          s.girth_truth = "rest pose (girths are measured standing, ISO 8559-1)";
-        }
-        const std::string name = std::string(id) + "_" + v;
-        const std::string file = "bodies/" + name + "." + (form.scan ? "ply" : form.extension);
-        const BodyOrientation orientation = orientation_from_axes(parse_axis(form.up), parse_axis(form.forward));
-        // p_posekit = R p_file: rows p_file^T = p_posekit^T R.
-        auto to_file = [&](const Eigen::MatrixXd& P) { return Eigen::MatrixXd(P * orientation.rotation); };
-        if (form.scan) {
-          ScannerOptions so;
-          so.views_around = 8;
-          so.seed = rng();
-          SimulatedScan scan = simulate_scan(s.mesh, so);
-          PointCloud cloud;
-          cloud.P = to_file(scan.cloud.P);
-          write_point_cloud((tmp / file).string(), cloud, {Unit::kMillimetre});
-          s.facts["scan_points"] = cloud.P.rows();
-          form.unit = Unit::kMillimetre;
-        } else {
-          TriangleMesh m;
-          m.V = to_file(s.mesh.V);
-          m.F = s.mesh.F;
-          write_mesh((tmp / file).string(), m, {form.unit});
-        }
-        nlohmann::ordered_json truth;
-        truth["format"] = "posekit robustness truth 1";
-        truth["variation"] = v;
-        truth["shape"] = id;
-        truth["kind"] = form.scan ? "scan" : "mesh";
-        truth["file"] = {{"path", file}, {"unit", unit_name(form.unit)}, {"up", form.up}, {"forward", form.forward}};
-        truth["body"] = {{"gender", specs[static_cast<size_t>(k)].gender},
-                         {"weight", specs[static_cast<size_t>(k)].weight},
-                         {"bmi", stats.bmi},
-                         {"stature_m", stats.stature_m}};
-        truth["done"] = s.facts;
-        truth["frame"] = "posekit (Y up, facing +Z, left +X), metres";
-        for (int j = 0; j < kNumJoints; ++j) truth["joints"][joint_name(j)] = vec(s.joints.row(j).transpose());
-        const Measurements& g = s.girths;
-        truth["girths"] = {{"bust", g.bust},   {"underbust", g.underbust}, {"waist", g.waist}, {"hip", g.hip},
-                           {"thigh", g.thigh}, {"upper_arm", g.upper_arm}, {"neck", g.neck}};
-        truth["girths_from"] = s.girth_truth;
-        truth["levels_y"] = {{"crotch", g.crotch_height}, {"hip", g.hip_height}, {"waist", g.waist_height}, {"bust", g.bust_height}};
-        if (!form.scan) truth["triangle_part"] = std::vector<int>(s.triangle_part.data(), s.triangle_part.data() + s.triangle_part.size());
-        const std::string truth_file = "truth/" + name + ".json";
-        const std::string text = truth.dump() + "\n";
-        write_file_atomically((tmp / truth_file).string(), [&](std::ostream& os) { os << text; }, false);
-        bodies.push_back({{"name", name}, {"variation", v}, {"shape", id}, {"file", file}, {"truth", truth_file}});
-        if (o.progress) o.progress(++done, total, name);
+        Sample s = shape.vary(variation.name, &form);
+        bodies.push_back(write_sample(tmp, id, variation.name, form, std::move(s), spec, shape.rest_stats(), shape.generator()));
+        if (o.progress) o.progress(++done, total, bodies.back()["name"].get<std::string>());
       }
     }
     nlohmann::ordered_json manifest;
