@@ -123,6 +123,74 @@ std::string measurements_json(const Measurements& m, const BodyStats& st) {
 
 }  // namespace
 
+namespace {
+
+/// The template in rest pose with its 16-part labels, joint centres and spec.
+void write_template(DatasetWriter& w, const Body& templ, const Eigen::VectorXi& vlabels, const Eigen::VectorXi& tlabels,
+                    const Eigen::MatrixXd& joints) {
+  TriangleMesh m = templ.mesh;
+  m.vertex_scalars["part"] = vlabels.cast<double>();
+  w.mesh("template/rest.ply", m, "template", "pose-dataset subject in rest pose, with vertex scalar 'part' (0..15)");
+  nlohmann::ordered_json parts;
+  for (int p = 0; p < kNumParts; ++p) parts["names"].push_back(part_name(p));
+  parts["vertex_part"] = std::vector<int>(vlabels.data(), vlabels.data() + vlabels.size());
+  parts["triangle_part"] = std::vector<int>(tlabels.data(), tlabels.data() + tlabels.size());
+  w.text("template/parts.json", parts.dump() + "\n", "labels", "16-part labels of every template vertex and triangle");
+  nlohmann::ordered_json jj;
+  jj["units"] = "m";
+  for (int j = 0; j < kNumJoints; ++j) jj["joints"][joint_name(j)] = vec(joints.row(j).transpose());
+  w.text("template/joints.json", jj.dump(2) + "\n", "joints", "15 joint centres of the 16-part skeleton, rest pose");
+  w.text("template/spec.json", body_spec_to_json(BodySpec{}), "spec", "MakeHuman body spec of the template");
+}
+
+/// A subject's simulated booth scans, one per pose in `scanned`; returns the manifest's entries.
+nlohmann::ordered_json write_scans(DatasetWriter& w, const DatasetOptions& o, const std::string& id, size_t si,
+                                   const std::vector<std::pair<std::string, TriangleMesh>>& scanned, DatasetSummary* summary) {
+  nlohmann::ordered_json scans = nlohmann::ordered_json::array();
+  for (size_t k = 0; k < scanned.size(); ++k) {
+    ScannerOptions so;
+    so.noise_sigma = o.scan_noise_sigma;
+    so.outlier_fraction = o.scan_outlier_fraction;
+    so.width = 320;
+    so.height = 480;
+    so.focal_px = 345;
+    so.seed = o.seed * 7919u + static_cast<unsigned>(si * 31 + k);
+    const SimulatedScan scan = simulate_scan(scanned[k].second, so);
+    const std::string rel = "scans/" + id + "/" + scanned[k].first + ".pcd";
+    w.cloud(rel, scan.cloud, "simulated scan of " + id + " in '" + scanned[k].first + "' (mm, 8 views, noise along rays)");
+    scans.push_back({{"pose", scanned[k].first},
+                     {"cloud", rel},
+                     {"points", scan.cloud.size()},
+                     {"outliers", scan.outliers},
+                     {"noise_sigma_mm", o.scan_noise_sigma * 1000}});
+    ++summary->scans;
+  }
+  return scans;
+}
+
+/// A subject's front and side photos (and their true masks, and the cameras' file).
+void write_photos(DatasetWriter& w, const std::string& id, const TriangleMesh& rest_mesh, DatasetSummary* summary) {
+  // Photos: front and (left) side at 3 m, perspective, plain background.
+  const double mid = 0.5 * (rest_mesh.V.col(1).maxCoeff() + rest_mesh.V.col(1).minCoeff());
+  const PinholeCamera front =
+      PinholeCamera::look_at(Eigen::Vector3d(0, mid, 3.0), Eigen::Vector3d(0, mid, 0), Eigen::Vector3d::UnitY(), 800, 1200, 1400);
+  const PinholeCamera side =
+      PinholeCamera::look_at(Eigen::Vector3d(3.0, mid, 0), Eigen::Vector3d(0, mid, 0), Eigen::Vector3d::UnitY(), 800, 1200, 1400);
+  std::string cameras = "{\n\"front\": " + camera_to_json(front) + ",\n\"side\": " + camera_to_json(side) + "}\n";
+  for (const auto& [view, cam] : {std::pair<std::string, PinholeCamera>{"front", front}, {"side", side}}) {
+    const RenderBuffers buf = render_mesh(rest_mesh, cam);
+    std::vector<std::uint8_t> mask(buf.face.size());
+    for (size_t k = 0; k < mask.size(); ++k) mask[k] = buf.face[k] >= 0 ? 255 : 0;
+    w.png("photos/" + id + "/" + view + ".png", buf.width, buf.height, buf.gray, "photo", view + " photo of " + id + " (3 m, f = 1400 px)");
+    w.png("photos/" + id + "/" + view + "_mask.png", buf.width, buf.height, mask, "mask",
+          "ground-truth silhouette of the " + view + " photo");
+    summary->photos += 1;
+  }
+  w.text("photos/" + id + "/camera.json", cameras, "camera", "intrinsics and extrinsics of the front and side photos");
+}
+
+}  // namespace
+
 DatasetSummary make_dataset(const std::string& out_dir, const DatasetOptions& o) {
   const Stopwatch t0;
   const fs::path out = fs::absolute(out_dir).lexically_normal();
@@ -153,21 +221,7 @@ DatasetSummary make_dataset(const std::string& out_dir, const DatasetOptions& o)
     const Eigen::VectorXi vlabels = vertex_part_labels(*model);
     const Eigen::VectorXi tlabels = triangle_part_labels(templ.mesh.F, vlabels);
     const Eigen::MatrixXd joints = joint_centres(model->rig, templ);
-    {
-      TriangleMesh m = templ.mesh;
-      m.vertex_scalars["part"] = vlabels.cast<double>();
-      w.mesh("template/rest.ply", m, "template", "pose-dataset subject in rest pose, with vertex scalar 'part' (0..15)");
-      nlohmann::ordered_json parts;
-      for (int p = 0; p < kNumParts; ++p) parts["names"].push_back(part_name(p));
-      parts["vertex_part"] = std::vector<int>(vlabels.data(), vlabels.data() + vlabels.size());
-      parts["triangle_part"] = std::vector<int>(tlabels.data(), tlabels.data() + tlabels.size());
-      w.text("template/parts.json", parts.dump() + "\n", "labels", "16-part labels of every template vertex and triangle");
-      nlohmann::ordered_json jj;
-      jj["units"] = "m";
-      for (int j = 0; j < kNumJoints; ++j) jj["joints"][joint_name(j)] = vec(joints.row(j).transpose());
-      w.text("template/joints.json", jj.dump(2) + "\n", "joints", "15 joint centres of the 16-part skeleton, rest pose");
-      w.text("template/spec.json", body_spec_to_json(BodySpec{}), "spec", "MakeHuman body spec of the template");
-    }
+    write_template(w, templ, vlabels, tlabels, joints);
     // Pose dataset.
     std::vector<NamedPose> poses = standard_pose_set(joints, o.seed, o.small ? 4 : 10, o.small);
     std::vector<std::string> subject_poses(std::begin(kSubjectTestPoses), std::end(kSubjectTestPoses));
@@ -243,43 +297,8 @@ DatasetSummary make_dataset(const std::string& out_dir, const DatasetOptions& o)
         if (std::find(std::begin(kSubjectTestPoses), std::end(kSubjectTestPoses), pose_name) != std::end(kSubjectTestPoses))
           scanned.emplace_back(pname, pm);
       }
-      nlohmann::ordered_json scans = nlohmann::ordered_json::array();
-      for (size_t k = 0; k < scanned.size(); ++k) {
-        ScannerOptions so;
-        so.noise_sigma = o.scan_noise_sigma;
-        so.outlier_fraction = o.scan_outlier_fraction;
-        so.width = 320;
-        so.height = 480;
-        so.focal_px = 345;
-        so.seed = o.seed * 7919u + static_cast<unsigned>(si * 31 + k);
-        const SimulatedScan scan = simulate_scan(scanned[k].second, so);
-        const std::string rel = "scans/" + s.id + "/" + scanned[k].first + ".pcd";
-        w.cloud(rel, scan.cloud, "simulated scan of " + s.id + " in '" + scanned[k].first + "' (mm, 8 views, noise along rays)");
-        scans.push_back({{"pose", scanned[k].first},
-                         {"cloud", rel},
-                         {"points", scan.cloud.size()},
-                         {"outliers", scan.outliers},
-                         {"noise_sigma_mm", o.scan_noise_sigma * 1000}});
-        ++summary.scans;
-      }
-      // Photos: front and (left) side at 3 m, perspective, plain background.
-      const double mid = 0.5 * (rest_mesh.V.col(1).maxCoeff() + rest_mesh.V.col(1).minCoeff());
-      const PinholeCamera front =
-          PinholeCamera::look_at(Eigen::Vector3d(0, mid, 3.0), Eigen::Vector3d(0, mid, 0), Eigen::Vector3d::UnitY(), 800, 1200, 1400);
-      const PinholeCamera side =
-          PinholeCamera::look_at(Eigen::Vector3d(3.0, mid, 0), Eigen::Vector3d(0, mid, 0), Eigen::Vector3d::UnitY(), 800, 1200, 1400);
-      std::string cameras = "{\n\"front\": " + camera_to_json(front) + ",\n\"side\": " + camera_to_json(side) + "}\n";
-      for (const auto& [view, cam] : {std::pair<std::string, PinholeCamera>{"front", front}, {"side", side}}) {
-        const RenderBuffers buf = render_mesh(rest_mesh, cam);
-        std::vector<std::uint8_t> mask(buf.face.size());
-        for (size_t k = 0; k < mask.size(); ++k) mask[k] = buf.face[k] >= 0 ? 255 : 0;
-        w.png("photos/" + s.id + "/" + view + ".png", buf.width, buf.height, buf.gray, "photo",
-              view + " photo of " + s.id + " (3 m, f = 1400 px)");
-        w.png("photos/" + s.id + "/" + view + "_mask.png", buf.width, buf.height, mask, "mask",
-              "ground-truth silhouette of the " + view + " photo");
-        summary.photos += 1;
-      }
-      w.text("photos/" + s.id + "/camera.json", cameras, "camera", "intrinsics and extrinsics of the front and side photos");
+      const nlohmann::ordered_json scans = write_scans(w, o, s.id, si, scanned, &summary);
+      write_photos(w, s.id, rest_mesh, &summary);
       subjects.push_back({{"id", s.id},
                           {"gender", s.female ? "female" : "male"},
                           {"bmi", st.bmi},
