@@ -98,6 +98,41 @@ RegistrationResult register_by_body_model(const TriangleMesh& source, const Tria
 
 }  // namespace
 
+/// The registration's options from the command line, the shape space (if any) checked against the
+/// source's topology.
+RegistrationOptions registration_options(const ArgParser& args, bool by_body_model, const TriangleMesh& source) {
+  RegistrationOptions o;
+  if (!by_body_model) o.method = parse_registration_method(args.get("method"));
+  o.icp_iterations = static_cast<int>(args.get_int("iterations"));
+  o.refine = args.flag_set("refine");
+  if (o.refine && o.method != RegistrationMethod::kCtffd) throw UsageError("--refine applies to --method ctffd or body-model");
+  const long threads = args.get_int("threads");
+  if (threads < 0 || threads > 256) throw UsageError("--threads must be between 0 (all cores) and 256");
+  o.threads = static_cast<int>(threads);
+  for (NicpOptions* n : {&o.nicp, &o.refinement}) {
+    if (args.has("stiffness")) n->stiffness = args.get_double_list("stiffness");
+    if (args.has("steps")) n->max_iterations_per_stiffness = static_cast<int>(args.get_int("steps"));
+    n->landmark_weight = args.get_double("landmark-weight");
+    n->point_to_point = args.get_double("point-to-point");
+    if (n->point_to_point < 0 || n->point_to_point > 1) throw UsageError("--point-to-point must be between 0 and 1");
+    if (n->landmark_weight < 0) throw UsageError("--landmark-weight must not be negative");
+  }
+  const std::string shape_arg = args.get("shape-space");
+  const bool shape_file = is_shape_space_file(shape_arg);
+  if (shape_arg != "0" && (o.method != RegistrationMethod::kCtffd || by_body_model))
+    throw UsageError("--shape-space applies to --method ctffd");
+  o.shape_space = shape_space_option(shape_arg, args.get("shape-space-leave-out"), args.get("data"));
+  if (o.shape_space &&
+      (o.shape_space->vertices() != source.num_vertices() || (o.shape_space->faces.size() > 0 && o.shape_space->faces != source.F)))
+    throw InvalidInput(
+        args.positionals()[0] + ": the shape space " + (shape_file ? shape_arg + " " : std::string()) + "is of another topology (" +
+        std::to_string(o.shape_space->vertices()) + " vertices, " + std::to_string(o.shape_space->faces.rows()) +
+        " triangles; the source has " + std::to_string(source.num_vertices()) + " and " + std::to_string(source.num_faces()) + ")" +
+        (shape_file ? std::string(": register from the mesh the space's bodies were registered to")
+                    : std::string(": MakeHuman's spaces need its base topology, the dataset's template (template/rest.ply)")));
+  return o;
+}
+
 int run_register(int argc, char** argv) {
   ArgParser args("register",
                  "Registers a source body (e.g. the template) to a target body (a customized model) and matches\n"
@@ -157,35 +192,7 @@ int run_register(int argc, char** argv) {
   BodyOrientation source_orientation, target_orientation;
   const TriangleMesh source = read_body(args.positionals()[0], "source-", &source_unit, &source_orientation);
   const TriangleMesh target = read_body(args.positionals()[1], "target-", &target_unit, &target_orientation);
-  RegistrationOptions o;
-  if (!by_body_model) o.method = parse_registration_method(args.get("method"));
-  o.icp_iterations = static_cast<int>(args.get_int("iterations"));
-  o.refine = args.flag_set("refine");
-  if (o.refine && o.method != RegistrationMethod::kCtffd) throw UsageError("--refine applies to --method ctffd or body-model");
-  const long threads = args.get_int("threads");
-  if (threads < 0 || threads > 256) throw UsageError("--threads must be between 0 (all cores) and 256");
-  o.threads = static_cast<int>(threads);
-  for (NicpOptions* n : {&o.nicp, &o.refinement}) {
-    if (args.has("stiffness")) n->stiffness = args.get_double_list("stiffness");
-    if (args.has("steps")) n->max_iterations_per_stiffness = static_cast<int>(args.get_int("steps"));
-    n->landmark_weight = args.get_double("landmark-weight");
-    n->point_to_point = args.get_double("point-to-point");
-    if (n->point_to_point < 0 || n->point_to_point > 1) throw UsageError("--point-to-point must be between 0 and 1");
-    if (n->landmark_weight < 0) throw UsageError("--landmark-weight must not be negative");
-  }
-  const std::string shape_arg = args.get("shape-space");
-  const bool shape_file = is_shape_space_file(shape_arg);
-  if (shape_arg != "0" && (o.method != RegistrationMethod::kCtffd || by_body_model))
-    throw UsageError("--shape-space applies to --method ctffd");
-  o.shape_space = shape_space_option(shape_arg, args.get("shape-space-leave-out"), args.get("data"));
-  if (o.shape_space &&
-      (o.shape_space->vertices() != source.num_vertices() || (o.shape_space->faces.size() > 0 && o.shape_space->faces != source.F)))
-    throw InvalidInput(
-        args.positionals()[0] + ": the shape space " + (shape_file ? shape_arg + " " : std::string()) + "is of another topology (" +
-        std::to_string(o.shape_space->vertices()) + " vertices, " + std::to_string(o.shape_space->faces.rows()) +
-        " triangles; the source has " + std::to_string(source.num_vertices()) + " and " + std::to_string(source.num_faces()) + ")" +
-        (shape_file ? std::string(": register from the mesh the space's bodies were registered to")
-                    : std::string(": MakeHuman's spaces need its base topology, the dataset's template (template/rest.ply)")));
+  const RegistrationOptions o = registration_options(args, by_body_model, source);
   // Folds are judged against the source as the method poses it: the body model's fitted body (a
   // kneeling or Z-up target turns most triangles away from the template's own directions).
   TriangleMesh posed_source = source;
