@@ -23,6 +23,19 @@ fi
 build/examples/measure_scan "$work/ds/subjects/f01/rest.ply" | tee "$work/measure.txt"
 grep -Eq "^ +waist +[0-9]+\.[0-9] cm" "$work/measure.txt"
 build/examples/pose_bvh "$work/model.pkm" "$work/ds/subjects/f01/rest.ply" "$POSEKIT_DATA/poses/benchmark.bvh" "$work/posed" 1
+# A CMU motion (another skeleton): retargeted to the subject's joints by the library.
+cmu_bvh="$POSEKIT_DATA/../motions/cmu/01_01.bvh"
+if [ -f "$cmu_bvh" ]; then
+  build/examples/pose_bvh "$work/model.pkm" "$work/ds/subjects/f01/rest.ply" "$cmu_bvh" "$work/cmu" 2
+  "$prefix/bin/posekit" info "$work/cmu_1.ply" --json | grep -q '"watertight": true'
+fi
+# What a program that only poses a mesh links: posekit's static libraries and the shared ones.
+echo "examples/pose_bvh links posekit:" $(grep -o 'libposekit_[a-z]*\.a' build/examples/CMakeFiles/pose_bvh.dir/link.txt | sort -u | sed 's/libposekit_//; s/\.a//')
+echo "examples/pose_bvh loads:" $(ldd build/examples/pose_bvh | awk '{print $1}' | grep -v -E '^(linux-vdso|/lib64)' | sed 's/\.so.*//' | sort -u)
+if ldd build/examples/pose_bvh | grep -E 'libvtk|libopencv|libpcl'; then
+  echo "examples/pose_bvh links VTK, OpenCV or PCL" >&2
+  exit 1
+fi
 "$prefix/bin/posekit" info "$work/posed_0.ply" --json | grep -q '"watertight": true'
 # Python: the installed module poses a body from numpy arrays.
 (cd "$work" && PYTHONPATH="$prefix/lib/python3/dist-packages" /usr/bin/python3 "$OLDPWD/examples/python/pose_and_measure.py" \

@@ -54,6 +54,15 @@ ArgParser& ArgParser::data_option(const std::string& purpose) {
       "data", "DIR",
       "MakeHuman data root" + (purpose.empty() ? "" : " " + purpose) + " (default: $POSEKIT_DATA, else ../shared/datasets/makehuman)");
 }
+ArgParser& ArgParser::pose_model_option(const std::string& use) {
+  return option("model", "FILE", "trained pose model (.pkm, posekit train)" + (use.empty() ? "" : ": " + use));
+}
+ArgParser& ArgParser::customization_model_option(const std::string& use) {
+  return option("model", "FILE", "customization model (posekit customize train)" + (use.empty() ? "" : ": " + use), "customization.pkc");
+}
+ArgParser& ArgParser::body_model_option(const std::string& use) {
+  return option("body-model", "FILE", "body model (.pks, posekit shape-space --ansur)" + (use.empty() ? "" : ": " + use));
+}
 ArgParser& ArgParser::example(const std::string& line) {
   examples_.push_back(line);
   return *this;

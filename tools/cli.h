@@ -34,6 +34,12 @@ class ArgParser {
   /// --data DIR, the MakeHuman data root (find_data_root: else $POSEKIT_DATA, else
   /// ../shared/datasets/makehuman); `purpose` says what the command reads there ("for the BVH skeleton").
   ArgParser& data_option(const std::string& purpose = "");
+  /// --model FILE, a trained pose model (.pkm, posekit train); `use` says what it does here ("" nothing more).
+  ArgParser& pose_model_option(const std::string& use = "");
+  /// --model FILE, a customization model (posekit customize train), customization.pkc by default.
+  ArgParser& customization_model_option(const std::string& use = "");
+  /// --body-model FILE, a body model (.pks, posekit shape-space --ansur).
+  ArgParser& body_model_option(const std::string& use = "");
   ArgParser& example(const std::string& line);
   /// An option naming a file the command writes: its folder must exist, or --mkdir (added with the
   /// first output) creates it; a typo in a path is an error, not a new folder tree.

@@ -621,7 +621,7 @@ int run_batch_pose(int argc, char** argv) {
           "and summary.csv; set-up and posing times in OUT/run*.json.") +
           kBatchCommon);
   args.option("inputs", "DIR|LIST", "a folder of subject meshes (recursively, in sorted order) or a text file of paths")
-      .option("model", "FILE", "trained model (.pkm, posekit train)")
+      .pose_model_option()
       .option("pose", "FILE", "pose.json (16-part pose) or a motion capture .bvh (any humanoid skeleton, retargeted; see --joint-map)")
       .option("method", "M", "learned (the paper's), rigid (parts only) or lbs (16-part skinning)", "learned")
       .option("frames", "A:B", "BVH frames A to B-1 (default: all)")
@@ -799,12 +799,7 @@ int run_batch_register(int argc, char** argv) {
                                      {"target_triangles", mesh.num_faces()},
                                      {"seconds", r.seconds},
                                      {"normal_failures", r.normal_failures},
-                                     {"quality",
-                                      {{"mean_distance_mm", q.mean_distance_mm},
-                                       {"p95_distance_mm", q.p95_distance_mm},
-                                       {"target_covered", q.target_covered},
-                                       {"normals_agree", q.normals_agree},
-                                       {"folded_triangles", q.folded_triangles}}},
+                                     {"quality", registration_quality_json(q, false)},
                                      {"correspondence", (fs::path("correspondence") / (stem + ".json")).string()}};
     if (o.shape_space) {
       result["shape_space_kept"] = r.shape_fit.plausible;

@@ -32,16 +32,17 @@
 #include "posekit/customization/photo_customization.h"
 #include "posekit/datasets/dataset.h"
 #include "posekit/datasets/remesh.h"
+#include "posekit/deformation/pose_dataset.h"
 #include "posekit/deformation/pose_synthesis.h"
 #include "posekit/deformation/segmentation_calibration.h"
 #include "posekit/evaluation/pose_evaluation.h"
-#include "posekit/evaluation/registration_table.h"
 #include "posekit/evaluation/scan_comparison.h"
 #include "posekit/fitting/fitted_measurements.h"
 #include "posekit/io/atomic_file.h"
 #include "posekit/io/bvh.h"
 #include "posekit/io/mesh_io.h"
 #include "posekit/io/point_cloud_io.h"
+#include "posekit/paper/registration_table.h"
 #include "posekit/registration/registration.h"
 #include "posekit/shape/body_orientation.h"
 #include "posekit/shape/measurements.h"
@@ -226,7 +227,7 @@ int bench_customize(int argc, char** argv) {
                  "two PNG photos (background model + GrabCut), then 2-D features, learned sections and ct-FFD to a\n"
                  "mesh; the model is loaded once. Single thread apart from OpenCV's own.");
   args.option("dataset", "DIR", "dataset folder (posekit dataset make)")
-      .option("model", "FILE", "customization model (posekit customize train)", "customization.pkc")
+      .customization_model_option()
       .option("runs", "R", "timed runs per subject (median over all reported)", "5")
       .flag("json", "machine-readable results on stdout");
   if (!args.parse(argc, argv)) return 0;
@@ -294,7 +295,7 @@ int bench_registration(int argc, char** argv) {
       .option("runs", "R", "timed runs per method and subject", "5")
       .option("subjects", "N", "use only the first N subjects (0: all)", "0")
       .option("nicp-runs", "R", "timed runs of non-rigid ICP (seconds each; 0 leaves it out)", "1")
-      .option("model", "FILE", "a trained model (.pkm): also each correspondence's pose-transfer error on the posed subjects")
+      .pose_model_option("also each correspondence's pose-transfer error on the posed subjects")
       .flag("other-topologies", "also to each subject remeshed to ~6,900 vertices and to a ~50,000-vertex remesh with 25 holes")
       .option("shape-space", "N|FILE",
               "also ct-FFD refined by a shape space of N MakeHuman bodies or a .pks file (posekit "
@@ -408,6 +409,52 @@ int bench_registration(int argc, char** argv) {
   return 0;
 }
 
+/// A motion of `frames` frames: consecutive poses blended (joint by joint, axis-angle), about 10
+/// frames apart, as a capture at a steady rate would sample them.
+std::vector<PartPose> blended_motion(const std::vector<PartPose>& poses, long frames) {
+  std::vector<PartPose> motion(static_cast<size_t>(frames));
+  for (long f = 0; f < frames; ++f) {
+    const double at = static_cast<double>(f) / 10.0;
+    const size_t i = static_cast<size_t>(at) % poses.size(), next = (i + 1) % poses.size();
+    const double w = at - std::floor(at);
+    PartPose& p = motion[static_cast<size_t>(f)];
+    for (int j = 0; j < kNumJoints; ++j) p.joint(j) = (1 - w) * poses[i].joint(j) + w * poses[next].joint(j);
+    p.root_rotation = (1 - w) * poses[i].root_rotation + w * poses[next].root_rotation;
+  }
+  return motion;
+}
+
+/// bench pose's table, from its JSON.
+void print_bench_pose(const nlohmann::ordered_json& out, double prior_seconds, bool per_stage) {
+  // "median | min | max" of a statistic.
+  auto j = [](const nlohmann::ordered_json& o, const char* key) {
+    std::ostringstream row;
+    row << std::fixed << std::setprecision(3) << o[key]["median"].get<double>() << " | " << o[key]["min"].get<double>() << " | "
+        << o[key]["max"].get<double>();
+    return row.str();
+  };
+  std::cout << std::fixed << std::setprecision(3) << "Pose deformation, single thread: " << out["training_poses"] << " training poses, "
+            << out["subjects"] << " subjects of ~" << out["mean_subject_vertices"] << " vertices\n\n"
+            << "| stage | median | min | max |\n|---|---|---|---|\n"
+            << "| training (s) | " << j(out, "train_s") << " |\n"
+            << "| segmentation prior, " << out["segmentation_prior_bodies"] << " bodies, 2 threads (s, once) | " << prior_seconds
+            << " | | |\n"
+            << "| set-up per subject (s) | " << j(out, "setup_s") << " |\n"
+            << "| one pose, learned (ms) | " << j(out, "pose_ms_learned") << " |\n"
+            << "| one pose, rigid (ms) | " << j(out, "pose_ms_rigid") << " |\n"
+            << "| one pose, 16-part LBS (ms) | " << j(out, "pose_ms_lbs") << " |\n"
+            << "| motion of " << out["motion_frames"] << " frames, learned, " << out["motion_threads"] << " threads (s) | "
+            << j(out, "motion_s") << " |\n";
+  if (!out["retarget_s"].is_null())
+    std::cout << "| retargeting those frames from " << out["motion"].get<std::string>() << ", 1 thread (s) | " << j(out, "retarget_s")
+              << " |\n";
+  std::cout << "\npeak RSS " << std::setprecision(0);
+  if (per_stage)
+    std::cout << "training (with the prior) " << out["peak_rss_mib"]["train"].get<double>() << " MiB, set-up and posing "
+              << out["peak_rss_mib"]["pose"].get<double>() << " MiB\n";
+  else std::cout << out["peak_rss_mib"].get<double>() << " MiB (whole run)\n";
+}
+
 int bench_pose(int argc, char** argv) {
   ArgParser args("bench pose",
                  "Speed of the pose deformation pipeline (single thread): training on the dataset's training\n"
@@ -463,17 +510,7 @@ int bench_pose(int argc, char** argv) {
   std::vector<double> setup_s, pose_ms, rigid_ms, lbs_ms, motion_s;
   long vertices = 0;
   int count = 0;
-  // The motion: consecutive dataset poses blended (joint by joint, axis-angle), about 10 frames
-  // apart, as a capture at a steady rate would sample them.
-  std::vector<PartPose> motion(static_cast<size_t>(frame_count));
-  for (long f = 0; f < frame_count; ++f) {
-    const double at = static_cast<double>(f) / 10.0;
-    const size_t i = static_cast<size_t>(at) % data.poses.size(), next = (i + 1) % data.poses.size();
-    const double w = at - std::floor(at);
-    PartPose& p = motion[static_cast<size_t>(f)];
-    for (int j = 0; j < kNumJoints; ++j) p.joint(j) = (1 - w) * data.poses[i].joint(j) + w * data.poses[next].joint(j);
-    p.root_rotation = (1 - w) * data.poses[i].root_rotation + w * data.poses[next].root_rotation;
-  }
+  std::vector<PartPose> motion = blended_motion(data.poses, frame_count);
   Progress subjects_progress("bench pose subjects", static_cast<long>(manifest["subjects"].size()));
   for (const auto& s : manifest["subjects"]) {
     if (limit > 0 && count >= limit) break;
@@ -558,25 +595,7 @@ int bench_pose(int argc, char** argv) {
     print_json(out);
     return 0;
   }
-  std::cout << std::fixed << std::setprecision(3) << "Pose deformation, single thread: " << model->training_poses << " training poses, "
-            << count << " subjects of ~" << out["mean_subject_vertices"] << " vertices\n\n"
-            << "| stage | median | min | max |\n|---|---|---|---|\n"
-            << "| training (s) | " << train.median << " | " << train.min << " | " << train.max << " |\n"
-            << "| segmentation prior, " << prior.bodies << " bodies, 2 threads (s, once) | " << prior.seconds << " | | |\n"
-            << "| set-up per subject (s) | " << setup.median << " | " << setup.min << " | " << setup.max << " |\n"
-            << "| one pose, learned (ms) | " << learned.median << " | " << learned.min << " | " << learned.max << " |\n"
-            << "| one pose, rigid (ms) | " << rigid.median << " | " << rigid.min << " | " << rigid.max << " |\n"
-            << "| one pose, 16-part LBS (ms) | " << lbs.median << " | " << lbs.min << " | " << lbs.max << " |\n"
-            << "| motion of " << frame_count << " frames, learned, " << motion_threads << " threads (s) | " << moving.median << " | "
-            << moving.min << " | " << moving.max << " |\n";
-  if (!retarget_s.empty()) {
-    const Stats rt = stats_of(retarget_s);
-    std::cout << "| retargeting those frames from " << args.get("motion") << ", 1 thread (s) | " << rt.median << " | " << rt.min << " | "
-              << rt.max << " |\n";
-  }
-  std::cout << "\npeak RSS " << std::setprecision(0);
-  if (per_stage) std::cout << "training (with the prior) " << train_peak << " MiB, set-up and posing " << pose_peak << " MiB\n";
-  else std::cout << peak_rss_mib() << " MiB (whole run)\n";
+  print_bench_pose(out, prior.seconds, per_stage);
   return 0;
 }
 
@@ -819,7 +838,7 @@ int bench_fit(int argc, char** argv) {
                  "measuring, the total, and the peak resident memory of that input's runs; median, min and max over\n"
                  "--runs. The body model is loaded once, before (its time is given apart). No peer tool (PCL, Open3D,\n"
                  "CloudCompare) fits a body model, so there is no comparison.");
-  args.option("body-model", "FILE", "the body model (.pks from posekit shape-space --ansur)")
+  args.body_model_option()
       .option("points", "LIST", "the scans' sizes, comma-separated", "1000000,10000000")
       .option("runs", "R", "runs per input", "3")
       .data_option()

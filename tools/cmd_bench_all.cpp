@@ -132,6 +132,114 @@ std::string markdown(const nlohmann::ordered_json& report) {
   return md.str();
 }
 
+struct Spec {
+  std::string name, options;
+  bool needs_dataset;
+};
+
+/// One benchmark (`posekit bench <name> --json`) in its own process: its rows and peak memory, or
+/// why it failed (counted in `failed`).
+nlohmann::ordered_json run_benchmark(const std::string& exe, const Spec& s, const fs::path& out, int* failed) {
+  nlohmann::ordered_json b = {{"name", s.name}, {"options", s.options}};
+  std::cerr << "bench all: " << s.name << " (" << s.options << ")\n";
+  const std::string json_path = (out / ("." + s.name + ".json")).string(), log = (out / (s.name + ".log")).string();
+  const Stopwatch t0;
+  const int status = std::system(
+      (shell_quote(exe) + " bench " + s.name + " " + s.options + " --json >" + shell_quote(json_path) + " 2>" + shell_quote(log)).c_str());
+  b["wall_s"] = t0.seconds();
+  nlohmann::ordered_json result;
+  try {
+    if (status != 0) throw IoError("exit status " + std::to_string(status));
+    result = nlohmann::ordered_json::parse(read_file_bytes(json_path));
+  } catch (const std::exception& e) {
+    b["ok"] = false;
+    b["note"] = std::string("failed (") + e.what() + "; see " + log + ")";
+    ++*failed;
+    std::cerr << "bench all: " << s.name << ": " << b["note"].get<std::string>() << "\n";
+    return b;
+  }
+  fs::remove(json_path);
+  b["ok"] = true;
+  nlohmann::ordered_json rows = nlohmann::ordered_json::array();
+  collect_rows(s.name, "", result, result.value("units", "s"), &rows);
+  b["rows"] = rows;
+  const auto& peak =
+      result.contains("peak_rss_mib") ? result["peak_rss_mib"] : result.value("compare_peak_rss_mib", nlohmann::ordered_json());
+  if (peak.is_number()) {
+    b["peak_rss_mib"] = peak;
+  } else if (peak.is_object()) {
+    double most = 0;
+    for (const auto& [k, v] : peak.items()) most = std::max(most, v.get<double>());
+    b["peak_rss_mib"] = most;
+  }
+  b["result"] = result;
+  return b;
+}
+
+/// batch measure: throughput over the dataset's rest subjects and rest scans on 2 jobs, median of 3
+/// runs (1 when quick).
+nlohmann::ordered_json bench_batch(const std::string& exe, const std::string& dataset, const fs::path& out, bool quick, int* failed) {
+  std::cerr << "bench all: batch\n";
+  nlohmann::ordered_json b = {{"name", "batch"}, {"options", "measure, rest subjects and rest scans of the dataset, --jobs 2"}};
+  const fs::path list = out / ".batch_inputs.txt";
+  long inputs = 0;
+  write_file_atomically(
+      list.string(),
+      [&](std::ostream& os) {
+        for (const char* kind : {"subjects", "scans"}) {
+          if (!fs::is_directory(fs::path(dataset) / kind)) continue;
+          std::vector<std::string> paths;
+          for (const auto& e : fs::directory_iterator(fs::path(dataset) / kind)) {
+            const fs::path rest = e.path() / (std::string(kind) == "subjects" ? "rest.ply" : "rest.pcd");
+            if (fs::is_regular_file(rest)) paths.push_back(rest.string());
+          }
+          std::sort(paths.begin(), paths.end());
+          for (const auto& p : paths) os << p << "\n", ++inputs;
+        }
+      },
+      false);
+  std::vector<double> rate, seconds, peak;
+  std::string note;
+  for (int run = 0; run < (quick ? 1 : 3) && note.empty(); ++run) {
+    const fs::path dir = out / ".batch_run";
+    fs::remove_all(dir);
+    const std::string json_path = (out / ".batch.json").string(), log = (out / "batch.log").string();
+    const int status = std::system((shell_quote(exe) + " batch measure --inputs " + shell_quote(list.string()) + " --out " +
+                                    shell_quote(dir.string()) + " --jobs 2 --json >" + shell_quote(json_path) + " 2>" + shell_quote(log))
+                                       .c_str());
+    try {
+      if (status != 0) throw IoError("exit status " + std::to_string(status));
+      const auto r = nlohmann::ordered_json::parse(read_file_bytes(json_path));
+      rate.push_back(r["inputs_per_second"].get<double>());
+      seconds.push_back(r["seconds"].get<double>());
+      peak.push_back(r["peak_rss_mib"].get<double>());
+    } catch (const std::exception& e) {
+      note = std::string("failed (") + e.what() + "; see " + log + ")";
+    }
+    fs::remove_all(dir);
+    fs::remove(json_path);
+  }
+  fs::remove(list);
+  if (!note.empty() || inputs == 0) {
+    b["ok"] = false;
+    b["note"] = inputs == 0 ? std::string("no rest subjects or scans in the dataset") : note;
+    ++*failed;
+  } else {
+    const Stats r = stats_of(rate), t = stats_of(seconds);
+    b["ok"] = true;
+    b["rows"] = {
+        {{"benchmark", "batch"},
+         {"case", "measure " + std::to_string(inputs) + " meshes and scans, 2 jobs: throughput"},
+         {"unit", "inputs/s"},
+         {"median", r.median},
+         {"min", r.min},
+         {"max", r.max}},
+        {{"benchmark", "batch"}, {"case", "the same: wall time"}, {"unit", "s"}, {"median", t.median}, {"min", t.min}, {"max", t.max}}};
+    b["peak_rss_mib"] = stats_of(peak).max;
+  }
+  return b;
+}
+
 }  // namespace
 
 int bench_all(int argc, char** argv) {
@@ -153,10 +261,6 @@ int bench_all(int argc, char** argv) {
   const std::string dataset = args.has("dataset") ? args.get("dataset") : "";
   if (!dataset.empty() && !fs::is_regular_file(fs::path(dataset) / "manifest.json"))
     throw InvalidInput(dataset + ": not a posekit dataset (no manifest.json; make one with posekit dataset make)");
-  struct Spec {
-    std::string name, options;
-    bool needs_dataset;
-  };
   const std::string ds = shell_quote(dataset);
   const std::vector<Spec> specs = {
       {"io", quick ? "--runs 1 --triangles 100000 --points 100000" : "--runs 5", false},
@@ -198,103 +302,10 @@ int bench_all(int argc, char** argv) {
       report["benchmarks"].push_back(b);
       continue;
     }
-    std::cerr << "bench all: " << s.name << " (" << s.options << ")\n";
-    const std::string json_path = (out / ("." + s.name + ".json")).string(), log = (out / (s.name + ".log")).string();
-    const Stopwatch t0;
-    const int status = std::system(
-        (shell_quote(exe) + " bench " + s.name + " " + s.options + " --json >" + shell_quote(json_path) + " 2>" + shell_quote(log))
-            .c_str());
-    b["wall_s"] = t0.seconds();
-    nlohmann::ordered_json result;
-    try {
-      if (status != 0) throw IoError("exit status " + std::to_string(status));
-      result = nlohmann::ordered_json::parse(read_file_bytes(json_path));
-    } catch (const std::exception& e) {
-      b["ok"] = false;
-      b["note"] = std::string("failed (") + e.what() + "; see " + log + ")";
-      report["benchmarks"].push_back(b);
-      ++failed;
-      std::cerr << "bench all: " << s.name << ": " << b["note"].get<std::string>() << "\n";
-      continue;
-    }
-    fs::remove(json_path);
-    b["ok"] = true;
-    nlohmann::ordered_json rows = nlohmann::ordered_json::array();
-    collect_rows(s.name, "", result, result.value("units", "s"), &rows);
-    b["rows"] = rows;
-    const auto& peak =
-        result.contains("peak_rss_mib") ? result["peak_rss_mib"] : result.value("compare_peak_rss_mib", nlohmann::ordered_json());
-    if (peak.is_number()) {
-      b["peak_rss_mib"] = peak;
-    } else if (peak.is_object()) {
-      double most = 0;
-      for (const auto& [k, v] : peak.items()) most = std::max(most, v.get<double>());
-      b["peak_rss_mib"] = most;
-    }
-    b["result"] = result;
-    report["benchmarks"].push_back(b);
+    report["benchmarks"].push_back(run_benchmark(exe, s, out, &failed));
   }
-  // batch measure: throughput over the dataset's rest subjects and rest scans on 2 jobs, median of 3 runs.
   if (!dataset.empty() && (only.empty() || std::find(only.begin(), only.end(), "batch") != only.end())) {
-    std::cerr << "bench all: batch\n";
-    nlohmann::ordered_json b = {{"name", "batch"}, {"options", "measure, rest subjects and rest scans of the dataset, --jobs 2"}};
-    const fs::path list = out / ".batch_inputs.txt";
-    long inputs = 0;
-    write_file_atomically(
-        list.string(),
-        [&](std::ostream& os) {
-          for (const char* kind : {"subjects", "scans"}) {
-            if (!fs::is_directory(fs::path(dataset) / kind)) continue;
-            std::vector<std::string> paths;
-            for (const auto& e : fs::directory_iterator(fs::path(dataset) / kind)) {
-              const fs::path rest = e.path() / (std::string(kind) == "subjects" ? "rest.ply" : "rest.pcd");
-              if (fs::is_regular_file(rest)) paths.push_back(rest.string());
-            }
-            std::sort(paths.begin(), paths.end());
-            for (const auto& p : paths) os << p << "\n", ++inputs;
-          }
-        },
-        false);
-    std::vector<double> rate, seconds, peak;
-    std::string note;
-    for (int run = 0; run < (quick ? 1 : 3) && note.empty(); ++run) {
-      const fs::path dir = out / ".batch_run";
-      fs::remove_all(dir);
-      const std::string json_path = (out / ".batch.json").string(), log = (out / "batch.log").string();
-      const int status = std::system((shell_quote(exe) + " batch measure --inputs " + shell_quote(list.string()) + " --out " +
-                                      shell_quote(dir.string()) + " --jobs 2 --json >" + shell_quote(json_path) + " 2>" + shell_quote(log))
-                                         .c_str());
-      try {
-        if (status != 0) throw IoError("exit status " + std::to_string(status));
-        const auto r = nlohmann::ordered_json::parse(read_file_bytes(json_path));
-        rate.push_back(r["inputs_per_second"].get<double>());
-        seconds.push_back(r["seconds"].get<double>());
-        peak.push_back(r["peak_rss_mib"].get<double>());
-      } catch (const std::exception& e) {
-        note = std::string("failed (") + e.what() + "; see " + log + ")";
-      }
-      fs::remove_all(dir);
-      fs::remove(json_path);
-    }
-    fs::remove(list);
-    if (!note.empty() || inputs == 0) {
-      b["ok"] = false;
-      b["note"] = inputs == 0 ? std::string("no rest subjects or scans in the dataset") : note;
-      ++failed;
-    } else {
-      const Stats r = stats_of(rate), t = stats_of(seconds);
-      b["ok"] = true;
-      b["rows"] = {
-          {{"benchmark", "batch"},
-           {"case", "measure " + std::to_string(inputs) + " meshes and scans, 2 jobs: throughput"},
-           {"unit", "inputs/s"},
-           {"median", r.median},
-           {"min", r.min},
-           {"max", r.max}},
-          {{"benchmark", "batch"}, {"case", "the same: wall time"}, {"unit", "s"}, {"median", t.median}, {"min", t.min}, {"max", t.max}}};
-      b["peak_rss_mib"] = stats_of(peak).max;
-    }
-    report["benchmarks"].push_back(b);
+    report["benchmarks"].push_back(bench_batch(exe, dataset, out, quick, &failed));
   }
   write_file_atomically((out / "benchmarks.json").string(), [&](std::ostream& os) { os << report.dump(2) << "\n"; }, false);
   const std::string md = markdown(report);

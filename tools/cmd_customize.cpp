@@ -165,7 +165,7 @@ int customize_eval(int argc, char** argv) {
                  "photos do (masks eroded/dilated, stated height off by 1 cm, camera distance off by 20 cm, the\n"
                  "body turned 5 degrees, JPEG and sensor noise).");
   args.option("dataset", "DIR", "dataset folder (posekit dataset make)")
-      .option("model", "FILE", "customization model (posekit customize train)", "customization.pkc")
+      .customization_model_option()
       .option("variation", "V",
               "photos, masks, erode2, dilate2, height+1cm, nearer20cm, farther20cm, turned5, jpeg-noise, camera1.30, camera1.30-aimed, "
               "camera1.00, room, phone, phone-masks, or all",
@@ -173,7 +173,7 @@ int customize_eval(int argc, char** argv) {
       .option("subjects", "A,B", "only these subjects")
       .option("method", "NAME", "paper (section 3.2's rules and learned sections) or model (the body model fitted to the silhouettes)",
               "paper")
-      .option("body-model", "FILE", "--method model: the body model (.pks from posekit shape-space --ansur)")
+      .body_model_option("for --method model")
       .data_option()
       .output("json", "FILE", "write the tables as JSON")
       .output_folder("inputs-out", "DIR", "write each subject's silhouettes and camera file as customized (DIR/VARIATION/ID/)")
@@ -213,8 +213,8 @@ int customize_robustness(int argc, char** argv) {
                  "dataset's (4 x 4 supersampled coverage, two lights, skin of four tones, a floor and a lit wall).\n"
                  "Conditions: masks (the true silhouettes), room (photos), phone (+ blur 0.6 px, noise 2, JPEG\n"
                  "70), turned (+ a turn of up to 5 degrees). Errors against each body's own mesh.");
-  args.option("model", "FILE", "the paper's customization model (posekit customize train)", "customization.pkc")
-      .option("body-model", "FILE", "the body model for --method model (.pks from posekit shape-space --ansur)")
+  args.customization_model_option("the paper's method")
+      .body_model_option("for --method model")
       .option("methods", "LIST", "paper, model or paper,model", "paper,model")
       .option("bodies", "N", "surveyed adults drawn at random", "12")
       .flag("no-extremes", "leave the survey's four extremes out")
@@ -422,11 +422,11 @@ int run_customize(int argc, char** argv) {
       .option("height", "M", "the person's stature (m): scales the body; without --camera, sets the scale")
       .option("distance", "M", "without --camera: camera distance to the person", "3.0")
       .option("focal", "PX", "without --camera: focal length in pixels (default: from the stated height)")
-      .option("model", "FILE", "customization model (posekit customize train)", "customization.pkc")
+      .customization_model_option()
       .option("method", "NAME",
               "paper (section 3.2's rules and learned sections) or model (the body model's shape and pose fitted to both silhouettes)",
               "paper")
-      .option("body-model", "FILE", "--method model: the body model (.pks from posekit shape-space --ansur)")
+      .body_model_option("for --method model")
       .data_option()
       .output("out", "FILE", "customized body mesh (PLY/OBJ/OFF/STL)")
       .output_folder("debug", "DIR", "write the silhouettes and the features drawn on them")

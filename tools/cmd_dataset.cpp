@@ -12,6 +12,7 @@
 #include "posekit/core/error.h"
 #include "posekit/datasets/dataset.h"
 #include "posekit/datasets/robustness.h"
+#include "posekit/deformation/pose_dataset.h"
 #include "posekit/io/atomic_file.h"
 #include "posekit/population/survey_fit.h"
 

@@ -131,8 +131,8 @@ int run_eval_bodies(int argc, char** argv) {
                  "bust, waist and hip girths within the ISO 20685-1 allowable errors (15, 12, 12 mm); then every\n"
                  "failure with its message, and every result returned as good that is far off (silent nonsense).");
   args.option("dataset", "DIR", "a robustness set folder")
-      .option("model", "FILE", "trained model (.pkm) whose segmentation prior labels the bodies (as posekit segment --model)")
-      .option("body-model", "FILE", "fit this body model to every body, meshes and scans (as posekit segment --body-model)")
+      .pose_model_option("its segmentation prior labels the bodies (as posekit segment --model)")
+      .body_model_option("fitted to every body, meshes and scans (as posekit segment --body-model)")
       .data_option("for --body-model")
       .option("variations", "LIST", "only these variations (comma-separated)")
       .output("report", "FILE", "also write the full results as JSON")

@@ -257,7 +257,7 @@ int run_eval(int argc, char** argv) {
                  "its vertices, poses the rest mesh at it with each method and reports the raw error and the shape\n"
                  "error (each part rigidly aligned first), per method, part, kind of pose and mesh.");
   args.option("dataset", "DIR", "a posekit dataset, or with --held-out/--every any folder of registered meshes")
-      .option("model", "FILE", "trained model (default: train on the dataset's training split first)")
+      .pose_model_option("default: train on the dataset's training split first")
       .option("held-out", "A,B,...", "these examples are held out (by file name without extension); the rest is trained on")
       .option("every", "N", "every N-th example in name order (the rest example skipped) is held out")
       .flag("people",

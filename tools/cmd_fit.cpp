@@ -52,21 +52,6 @@ namespace fs = std::filesystem;
 namespace posekit::cli {
 namespace {
 
-nlohmann::ordered_json fit_summary_json(const PoseFitResult& r) {
-  return {{"iterations", r.iterations},
-          {"seconds", r.seconds},
-          {"target_to_body_mm", {{"mean", 1000 * r.target_mean}, {"p95", 1000 * r.target_p95}}},
-          {"coverage_1cm", r.coverage},
-          {"warnings", r.warnings}};
-}
-
-/// Angle (degrees) between two poses' rotations: the root's, then each joint's.
-std::vector<double> joint_angle_errors(const PartPose& a, const PartPose& b) {
-  std::vector<double> out{rotation_difference(a.root_rotation, b.root_rotation) * 180 / M_PI};
-  for (int j = 0; j < kNumJoints; ++j) out.push_back(rotation_difference(a.joint(j), b.joint(j)) * 180 / M_PI);
-  return out;
-}
-
 /// fit --registered: the pose of the subject's own mesh in another pose, from its vertices.
 int fit_registered(const ArgParser& args, const PoseSynthesizer& synth, const TriangleMesh& subject, const BodyOrientation& orientation,
                    const BodyUnit& unit) {
@@ -129,6 +114,14 @@ int fit_registered(const ArgParser& args, const PoseSynthesizer& synth, const Tr
 
 }  // namespace
 
+nlohmann::ordered_json fit_summary_json(const PoseFitResult& r) {
+  return {{"iterations", r.iterations},
+          {"seconds", r.seconds},
+          {"target_to_body_mm", {{"mean", 1000 * r.target_mean}, {"p95", 1000 * r.target_p95}}},
+          {"coverage_1cm", r.coverage},
+          {"warnings", r.warnings}};
+}
+
 int run_fit(int argc, char** argv) {
   ArgParser args("fit",
                  "Finds the 16-part pose (and the global rotation and translation) that makes a body match a\n"
@@ -143,7 +136,7 @@ int run_fit(int argc, char** argv) {
                  "fitted body with its per-vertex distance to the target (PLY scalar 'residual_mm') and a summary.\n"
                  "--start skips the search (e.g. the previous frame's pose). With --body-model, the subject's parts and\n"
                  "joints come from the body model fitted to it (any rest pose, arms close); a poor fit exits with status 3.");
-  args.option("model", "FILE", "trained model (.pkm, posekit train)")
+  args.pose_model_option()
       .option("subject", "FILE", "the body to pose, standing at rest (PLY/OBJ/OFF/STL)")
       .option("target", "FILE", "scan (PCD/PLY/XYZ) or mesh to match, upright")
       .option("unit", "U", "unit of the subject: m, dm, cm, mm or auto", "auto")
@@ -225,96 +218,6 @@ int run_fit(int argc, char** argv) {
     if (v.norm() > 5 * M_PI / 180)
       std::cout << "  " << joint_name(j) << ": " << std::setprecision(0) << v.norm() * 180 / M_PI << " degrees\n";
   }
-  return 0;
-}
-
-int run_eval_fit(int argc, char** argv) {
-  ArgParser args("eval fit",
-                 "posekit fit on a dataset's simulated scans of posed subjects (holes, noise, outliers), against the\n"
-                 "poses and posed meshes that made them: joint angle error, per-vertex error against the true posed\n"
-                 "mesh, target-to-body distance and time, for the learned and the LBS posing in the loop.");
-  args.option("dataset", "DIR", "a posekit dataset")
-      .option("model", "FILE", "trained model (.pkm)")
-      .option("subjects", "N", "the first N subjects (0: all)", "0")
-      .flag("from-truth", "start every fit at the true pose instead of searching: what the objective itself gives")
-      .flag("json", "results as JSON on stdout");
-  if (!args.parse(argc, argv)) return 0;
-  if (!args.has("dataset") || !args.has("model")) throw UsageError("--dataset DIR and --model FILE are required");
-  const bool from_truth = args.flag_set("from-truth");
-  const std::string dir = args.get("dataset");
-  const auto model = std::make_shared<const PoseModel>(read_pose_model(args.get("model")));
-  const auto manifest = nlohmann::json::parse(read_file_bytes(dir + "/manifest.json"));
-  const long limit = args.get_int("subjects");
-  nlohmann::ordered_json rows = nlohmann::ordered_json::array();
-  struct Sums {
-    std::vector<double> angle, vertex, target, seconds;
-  };
-  std::map<std::string, Sums> sums;
-  int done = 0;
-  Progress progress("eval fit", limit > 0 ? limit : static_cast<long>(manifest["subjects"].size()));
-  for (const auto& s : manifest["subjects"]) {
-    if (limit > 0 && done >= limit) break;
-    const std::string id = s["id"];
-    const TriangleMesh subject = load_subject_mesh(dir + "/" + s["rest"].get<std::string>());
-    const PoseSynthesizer synth(model, subject);
-    for (const auto& p : s.value("posed", nlohmann::json::array())) {
-      const std::string pose_name = p["pose"];
-      const std::string scan = dir + "/scans/" + id + "/" + pose_name + ".pcd";
-      if (!fs::is_regular_file(scan)) continue;
-      const PointCloud cloud = load_scan(scan);
-      const PartPose truth = read_part_pose(dir + "/" + p["pose_json"].get<std::string>());
-      const TriangleMesh truth_mesh = read_mesh(dir + "/" + p["mesh"].get<std::string>());
-      for (PoseMethod method : {PoseMethod::kLearned, PoseMethod::kLbs}) {
-        PoseFitOptions o;
-        o.method = method;
-        if (from_truth) o.start = truth;
-        const PoseFitResult r = fit_pose(synth, cloud.P, o);
-        const std::vector<double> angles = joint_angle_errors(r.pose, truth);
-        const double angle_mean = std::accumulate(angles.begin(), angles.end(), 0.0) / static_cast<double>(angles.size());
-        const double angle_max = *std::max_element(angles.begin(), angles.end());
-        nlohmann::ordered_json per_joint = {{"root", angles[0]}};
-        for (int j = 0; j < kNumJoints; ++j) per_joint[joint_name(j)] = angles[static_cast<size_t>(j + 1)];
-        const double vertex = (r.V - truth_mesh.V).rowwise().norm().mean();
-        Sums& a = sums[pose_method_name(method)];
-        a.angle.push_back(angle_mean);
-        a.vertex.push_back(1000 * vertex);
-        a.target.push_back(1000 * r.target_mean);
-        a.seconds.push_back(r.seconds);
-        rows.push_back({{"subject", id},
-                        {"pose", pose_name},
-                        {"method", pose_method_name(method)},
-                        {"joint_angle_error_deg", {{"mean", angle_mean}, {"max", angle_max}, {"per_joint", per_joint}}},
-                        {"vertex_error_mm", 1000 * vertex},
-                        {"fit", fit_summary_json(r)}});
-      }
-    }
-    progress.update(++done);
-  }
-  progress.finish();
-  auto mean = [](const std::vector<double>& v) {
-    double t = 0;
-    for (double x : v) t += x;
-    return v.empty() ? 0.0 : t / static_cast<double>(v.size());
-  };
-  nlohmann::ordered_json summary = nlohmann::ordered_json::object();
-  for (const auto& [method, a] : sums)
-    summary[method] = {{"scans", a.angle.size()},
-                       {"joint_angle_error_deg_mean", mean(a.angle)},
-                       {"vertex_error_mm_mean", mean(a.vertex)},
-                       {"target_to_body_mm_mean", mean(a.target)},
-                       {"seconds_median", stats_of(a.seconds).median},
-                       {"seconds_max", stats_of(a.seconds).max}};
-  if (args.flag_set("json")) {
-    print_json({{"dataset", dir}, {"summary", summary}, {"fits", rows}});
-    return 0;
-  }
-  std::cout << std::fixed << std::setprecision(2)
-            << "| posing in the loop | scans | joint angle error, mean deg | vertex error vs truth, mean mm | scan to body, mean mm | s "
-               "per scan (median / max) |\n"
-               "|---|---|---|---|---|---|\n";
-  for (const auto& [method, a] : sums)
-    std::cout << "| " << method << " | " << a.angle.size() << " | " << mean(a.angle) << " | " << mean(a.vertex) << " | " << mean(a.target)
-              << " | " << stats_of(a.seconds).median << " / " << stats_of(a.seconds).max << " |\n";
   return 0;
 }
 

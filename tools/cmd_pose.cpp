@@ -1,50 +1,20 @@
-// posekit pose and retarget: a subject posed by the learned model (Eq. 3-6), and motions retargeted to the 16-part skeleton.
-#include <Eigen/Geometry>
-#include <algorithm>
+// posekit pose: a subject posed by the learned model (Eq. 3-6) from a pose JSON or a BVH motion.
 #include <filesystem>
 #include <iomanip>
 #include <iostream>
-#include <map>
 #include <memory>
 #include <nlohmann/json.hpp>
-#include <numeric>
 #include <sstream>
 
 #include "cli.h"
 #include "commands.h"
 #include "fitted_input.h"
-#include "posekit/body/makehuman_model.h"
-#include "posekit/body/parts.h"
-#include "posekit/core/data_root.h"
 #include "posekit/core/error.h"
-#include "posekit/core/mesh_geometry.h"
-#include "posekit/core/mesh_validation.h"
-#include "posekit/core/point_grid.h"
 #include "posekit/core/timer.h"
-#include "posekit/datasets/dataset.h"
-#include "posekit/deformation/part_pose_estimation.h"
-#include "posekit/deformation/pose_fitting.h"
 #include "posekit/deformation/pose_model.h"
 #include "posekit/deformation/pose_synthesis.h"
-#include "posekit/deformation/rigid_pose.h"
-#include "posekit/deformation/segmentation_calibration.h"
-#include "posekit/evaluation/pose_evaluation.h"
-#include "posekit/fitting/body_fit.h"
-#include "posekit/fitting/body_model.h"
-#include "posekit/io/atomic_file.h"
-#include "posekit/io/bvh.h"
 #include "posekit/io/mesh_io.h"
-#include "posekit/io/point_cloud_io.h"
-#include "posekit/population/survey_fit.h"
-#include "posekit/registration/shape_space.h"
-#include "posekit/segmentation/body_segmentation.h"
-#include "posekit/segmentation/segmentation.h"
-#include "posekit/segmentation/segmentation_prior.h"
-#include "posekit/segmentation/skeleton_checks.h"
-#include "posekit/segmentation/skeleton_embedding.h"
-#include "posekit/shape/body_features.h"
 #include "posekit/shape/body_orientation.h"
-#include "posekit/shape/layered_representation.h"
 #include "posing_inputs.h"
 
 namespace fs = std::filesystem;
@@ -58,7 +28,7 @@ int run_pose(int argc, char** argv) {
                  "carried over by the ct-FFD correspondence, and one prefactorised solve per pose gives the mesh.\n"
                  "A pose is a 16-part pose JSON or a BVH (one mesh per frame): MakeHuman's skeleton, or any humanoid\n"
                  "skeleton (CMU, Mixamo, ...) retargeted to the subject's joints.");
-  args.option("model", "FILE", "trained model (.pkm, posekit train)")
+  args.pose_model_option()
       .option("subject", "FILE", "the body to pose (PLY/OBJ/OFF/STL), standing; posed meshes come out in its frame")
       .option("pose", "FILE", "pose.json (16-part pose) or motion.bvh")
       .output("out", "FILE", "posed mesh; several BVH frames go to <stem>_0000<ext>, <stem>_0001<ext>, ...")
@@ -133,51 +103,6 @@ int run_pose(int argc, char** argv) {
             << std::setprecision(3) << setup << " s, " << std::setprecision(2) << 1000 * pose_seconds / static_cast<double>(poses.size())
             << " ms per pose, peak RSS " << std::setprecision(0) << peak_rss_mib() << " MiB; wrote " << written.front()
             << (written.size() > 1 ? " ..." : "") << "\n";
-  return 0;
-}
-
-int run_retarget(int argc, char** argv) {
-  ArgParser args("retarget",
-                 "Turns the frames of a humanoid BVH (CMU's namings, Mixamo, generic Hips/Spine/..., any channel\n"
-                 "order and unit, T-pose or A-pose rest) into 16-part pose JSONs, one per frame: the skeleton is\n"
-                 "mapped by names and structure (printed), each part's rest direction turned onto the file's, and\n"
-                 "the file's rotations applied. Poses are made for the default MakeHuman body's joints; `posekit\n"
-                 "pose --pose file.bvh` retargets to the subject's own joints instead.");
-  args.positional("bvh", "motion file (.bvh)")
-      .output_folder("out", "DIR", "folder for <stem>_NNNN.json (created)")
-      .option("frames", "A:B", "frames A to B-1 (default: all)")
-      .option("every", "N", "every N-th frame", "1")
-      .option("joint-map", "FILE", "JSON {\"left_shoulder\": \"<BVH joint>\", ...} for joints the names do not tell")
-      .option("root-motion", "M", "root translation: none, vertical (feet stay down) or all", "vertical")
-      .data_option("for the default body's joints")
-      .flag("json", "summary as JSON on stdout")
-      .example("posekit retarget ../shared/datasets/motions/cmu/01_01.bvh --out poses --every 10");
-  if (!args.parse(argc, argv)) return 0;
-  if (!args.has("out")) throw UsageError("--out DIR is required");
-  const long every = args.get_int("every");
-  if (every < 1) throw UsageError("--every must be at least 1");
-  const auto mh = load_makehuman_model(find_data_root(args.has("data") ? args.get("data") : ""));
-  const Eigen::MatrixXd rest = joint_centres(mh->rig, build_body(*mh, BodySpec{}));
-  const LoadedPoses loaded =
-      load_poses(args.positionals()[0], args.has("frames") ? args.get("frames") : "", args.has("data") ? args.get("data") : "", rest,
-                 args.has("joint-map") ? args.get("joint-map") : "", args.get("root-motion"));
-  for (const auto& note : loaded.notes) std::cerr << "posekit retarget: " << note << "\n";
-  create_folders(args.get("out"));
-  std::vector<std::string> written;
-  for (size_t i = 0; i < loaded.poses.size(); i += static_cast<size_t>(every)) {
-    const std::string path = (fs::path(args.get("out")) / (loaded.names[i] + ".json")).string();
-    validate_part_pose(loaded.poses[i], path);
-    write_file_atomically(path, [&](std::ostream& out) { out << part_pose_to_json(loaded.poses[i]); });
-    written.push_back(path);
-  }
-  nlohmann::ordered_json s = {
-      {"bvh", args.positionals()[0]}, {"frames", loaded.poses.size()}, {"written", written.size()}, {"mapping", loaded.notes}};
-  if (args.flag_set("json")) {
-    print_json(s);
-    return 0;
-  }
-  std::cout << "retargeted " << loaded.poses.size() << " frames of " << args.positionals()[0] << "; wrote " << written.size()
-            << " pose files to " << args.get("out") << "\n";
   return 0;
 }
 

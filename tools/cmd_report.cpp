@@ -6,7 +6,7 @@
 
 #include "cli.h"
 #include "commands.h"
-#include "posekit/evaluation/report.h"
+#include "posekit/paper/report.h"
 
 namespace posekit::cli {
 
@@ -20,7 +20,7 @@ int run_report(int argc, char** argv) {
                  "OUT/index.html and OUT/report.md with the PNGs (off-screen VTK; no display needed).");
   args.option("dataset", "DIR", "a posekit dataset (posekit dataset make)")
       .output_folder("out", "DIR", "report folder (created; report files in it are replaced)", "report")
-      .option("model", "FILE", "trained model (.pkm); default: train on the dataset")
+      .pose_model_option("default: train on the dataset")
       .option("threads", "N", "threads for the scan comparisons (0: all cores)", "0")
       .option("runs", "R", "timed runs per method and subject in Table 1", "3")
       .option("nicp-subjects", "N", "run the slow non-rigid ICP baseline on the first N subjects (0: leave it out)", "2")

@@ -188,7 +188,7 @@ int run_segment(int argc, char** argv) {
                  "axes; a mesh or a scan) and labels and joints are read off the fit. A poor fit exits with status 3\n"
                  "and writes nothing unless --accept-poor.");
   args.positional("mesh", "body mesh (PLY/OBJ/OFF/STL), or with --body-model also a scan's points")
-      .option("model", "FILE", "trained model (.pkm) whose segmentation prior labels the representation")
+      .pose_model_option("its segmentation prior labels the representation")
       .option("unit", "U", "unit of the mesh: m, dm, cm, mm, or auto (its largest extent tells)", "auto")
       .output("out", "FILE", "mesh with vertex scalar 'part' (0..15); PLY keeps it for other tools")
       .output("joints", "FILE", "write the joint centres as JSON")

@@ -1,15 +1,21 @@
 #pragma once
 // One function per `posekit` subcommand; argv excludes the program and subcommand names.
 #include <memory>
+#include <nlohmann/json_fwd.hpp>
 #include <string>
 
 #include "posekit/body/bvh_retarget.h"
 #include "posekit/body/makehuman_model.h"
-#include "posekit/datasets/subjects.h"
+#include "posekit/body/subjects.h"
+#include "posekit/deformation/pose_sequence.h"
 #include "posekit/deformation/pose_synthesis.h"
+#include "posekit/registration/registration.h"
 #include "posekit/registration/shape_space.h"
+#include "posekit/viewers/viewer.h"
 
 namespace posekit::cli {
+class ArgParser;
+
 int run_info(int argc, char** argv);
 int run_convert(int argc, char** argv);
 int run_bench(int argc, char** argv);
@@ -34,16 +40,17 @@ int run_view(int argc, char** argv);
 int run_report(int argc, char** argv);
 int run_batch(int argc, char** argv);
 
-/// The poses of a pose JSON or BVH file for a subject with these rest joint centres (posekit's
-/// frame): a BVH of MakeHuman's skeleton through its rig, any other humanoid BVH retargeted
-/// (map_bvh_skeleton, retarget_bvh). `frames` is "" or "A:B"; `joint_map` a JSON file ("" none);
-/// `root_motion` none, vertical or all; `parsed`: the BVH already read from `path`, or null. Names:
-/// the file's stem, with _NNNN per BVH frame when several.
-struct LoadedPoses {
-  std::vector<std::string> names;
-  std::vector<PartPose> poses;
-  std::vector<std::string> notes;  ///< how a BVH skeleton was mapped
-};
+/// A registration's quality judged without ground truth (assess_registration), for --json and
+/// summaries; its warnings too when `with_warnings`.
+nlohmann::ordered_json registration_quality_json(const RegistrationQuality& quality, bool with_warnings);
+
+/// --colours and --range of compare and view as a colour map; `default_kind` without --colours.
+ColourMap colour_map_from(const ArgParser& args, ColourMapKind default_kind);
+
+/// load_pose_sequence (deformation/pose_sequence.h) with the CLI's options: `frames` "" or "A:B",
+/// `joint_map` a JSON file ("" none), `root_motion` none, vertical or all (UsageError otherwise);
+/// `parsed`: the BVH already read from `path`, or null (read here, its warnings printed).
+using LoadedPoses = PoseSequence;
 LoadedPoses load_poses(const std::string& path, const std::string& frames, const std::string& data_root, const Eigen::MatrixXd& rest_joints,
                        const std::string& joint_map, const std::string& root_motion, const BvhMotion* parsed = nullptr);
 

@@ -31,7 +31,7 @@ std::unique_ptr<SurveyDistribution> load_survey(const std::string& survey_arg, s
 }
 
 void add_body_model_options(ArgParser* args, bool data_option) {
-  args->option("body-model", "FILE", "fit this body model (a shape space with joints: posekit shape-space --ansur)")
+  args->body_model_option("fitted to the body, its parts, joints and pose read off the fit")
       .flag("accept-poor", "with --body-model: give the result of a poor fit too (marked poor; exit status 0)");
   if (data_option) args->data_option("for --body-model");
 }

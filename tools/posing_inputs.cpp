@@ -27,6 +27,7 @@
 #include "posekit/deformation/part_pose_estimation.h"
 #include "posekit/deformation/pose_fitting.h"
 #include "posekit/deformation/pose_model.h"
+#include "posekit/deformation/pose_sequence.h"
 #include "posekit/deformation/pose_synthesis.h"
 #include "posekit/deformation/rigid_pose.h"
 #include "posekit/deformation/segmentation_calibration.h"
@@ -78,66 +79,23 @@ TriangleMesh read_posing_subject(const ArgParser& args, const std::string& comma
 
 LoadedPoses load_poses(const std::string& path, const std::string& frames, const std::string& data_root, const Eigen::MatrixXd& rest_joints,
                        const std::string& joint_map, const std::string& root_motion, const BvhMotion* parsed) {
-  LoadedPoses out;
-  std::string ext = fs::path(path).extension().string();
-  std::transform(ext.begin(), ext.end(), ext.begin(), [](unsigned char c) { return static_cast<char>(std::tolower(c)); });
-  const std::string stem = fs::path(path).stem().string();
-  if (ext != ".bvh") {
-    out.names.push_back(stem);
-    out.poses.push_back(read_part_pose(path));
-    return out;
-  }
-  BvhMotion read;
-  if (!parsed) read = read_bvh(path, Unit::kMetre, io_warnings());
-  const BvhMotion& motion = parsed ? *parsed : read;
-  if (motion.num_frames() == 0) throw InvalidInput(path + ": the motion has no frames");
-  long first = 0, last = motion.num_frames();
-  if (!frames.empty()) {
-    const auto [a, b] = parse_number_pair(frames, ':', "--frames");
-    first = static_cast<long>(a), last = static_cast<long>(b);
-    if (first < 0 || last > motion.num_frames() || first >= last)
-      throw UsageError("--frames " + frames + " is outside the " + std::to_string(motion.num_frames()) + " frames of " + path);
-  }
-  for (long i = first; i < last; ++i) {
-    std::ostringstream name;
-    name << stem << "_" << std::setw(4) << std::setfill('0') << i;
-    out.names.push_back(last - first > 1 ? name.str() : stem);
-  }
-  if (motion.find_joint("upperarm01.L") >= 0) {  // MakeHuman's own skeleton: through its rig, bone by bone
-    const auto mh = load_makehuman_model(find_data_root(data_root));
-    for (long i = first; i < last; ++i)
-      out.poses.push_back(part_pose_from_bone_pose(mh->rig, bone_pose_from_bvh(mh->rig, motion, static_cast<int>(i))));
-    return out;
-  }
-  std::map<std::string, std::string> overrides;
-  if (!joint_map.empty()) {
-    nlohmann::json j;
-    try {
-      j = nlohmann::json::parse(read_file_bytes(joint_map));
-    } catch (const nlohmann::json::exception& e) {
-      throw InvalidInput(joint_map + ": not JSON (" + e.what() + ")");
-    }
-    if (!j.is_object()) throw InvalidInput(joint_map + ": expected an object {\"left_shoulder\": \"<BVH joint>\", ...}");
-    for (const auto& [key, value] : j.items()) {
-      if (!value.is_string()) throw InvalidInput(joint_map + ": the value of '" + key + "' must be a BVH joint name");
-      overrides[key] = value.get<std::string>();
-    }
-  }
-  const BvhPartMap map = map_bvh_skeleton(motion, overrides);
-  RetargetOptions o;
-  o.first = static_cast<int>(first);
-  o.last = static_cast<int>(last);
+  PoseSequenceOptions o;
+  o.data_root = data_root;
   if (root_motion == "none") o.root_motion = RetargetOptions::RootMotion::kNone;
   else if (root_motion == "all") o.root_motion = RetargetOptions::RootMotion::kAll;
   else if (root_motion != "vertical") throw UsageError("--root-motion expects none, vertical or all, got '" + root_motion + "'");
-  out.poses = retarget_bvh(motion, map, rest_joints, o);
-  std::string mapped;
-  for (int p = 0; p < kNumParts; ++p)
-    if (map.joint[p] >= 0)
-      mapped += (mapped.empty() ? "" : ", ") + part_name(p) + "=" + motion.joints[static_cast<size_t>(map.joint[p])].name;
-  out.notes.push_back(path + ": retargeted from its own skeleton (" + mapped + ")");
-  out.notes.insert(out.notes.end(), map.notes.begin(), map.notes.end());
-  return out;
+  if (!joint_map.empty()) o.joint_map = read_bvh_joint_map(joint_map);
+  std::string ext = fs::path(path).extension().string();
+  std::transform(ext.begin(), ext.end(), ext.begin(), [](unsigned char c) { return static_cast<char>(std::tolower(c)); });
+  BvhMotion read;
+  if (ext == ".bvh" && !parsed) read = read_bvh(path, Unit::kMetre, io_warnings()), parsed = &read;
+  if (parsed && !frames.empty() && parsed->num_frames() > 0) {
+    const auto [a, b] = parse_number_pair(frames, ':', "--frames");
+    o.first = static_cast<int>(a), o.last = static_cast<int>(b);
+    if (o.first < 0 || o.last > parsed->num_frames() || o.first >= o.last)
+      throw UsageError("--frames " + frames + " is outside the " + std::to_string(parsed->num_frames()) + " frames of " + path);
+  }
+  return load_pose_sequence(path, rest_joints, o, parsed);
 }
 
 PoseSynthesizer set_up_subject(std::shared_ptr<const PoseModel> model, const TriangleMesh& subject, const std::string& path,
@@ -218,7 +176,7 @@ DatasetTrainingOptions dataset_training_options(const ArgParser& args, std::uniq
   if (dto.unit != "auto") parse_unit(dto.unit);
   dto.up = args.get("up");
   dto.forward = args.get("forward");
-  if (args.has("body-model")) *body_model = load_body_model(args), dto.body_model = body_model->get();
+  if (args.has("body-model")) *body_model = load_body_model(args), dto.label_rest = body_model_labeller(**body_model);
   dto.accept_poor_fit = args.flag_set("accept-poor");
   return dto;
 }

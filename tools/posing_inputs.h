@@ -2,10 +2,12 @@
 // What the posing commands read (pose, fit, batch pose): the subject, and how it is set up.
 #include <iosfwd>
 #include <memory>
+#include <nlohmann/json.hpp>
 #include <string>
 
 #include "cli.h"
 #include "posekit/core/triangle_mesh.h"
+#include "posekit/deformation/pose_fitting.h"
 #include "posekit/deformation/pose_model.h"
 #include "posekit/deformation/pose_synthesis.h"
 #include "posekit/evaluation/pose_evaluation.h"
@@ -30,5 +32,8 @@ DatasetTrainingOptions dataset_training_options(const ArgParser& args, std::uniq
 void report_pose_estimation(const DatasetTrainingReport& r, std::ostream& err, const std::string& command);
 /// --joint-offsets and --smooth.
 TrainingOptions training_options(const ArgParser& args);
+
+/// A pose fit's summary for --json (fit, eval fit).
+nlohmann::ordered_json fit_summary_json(const PoseFitResult& result);
 
 }  // namespace posekit::cli

@@ -9,9 +9,9 @@
 
 #include "posekit/body/makehuman_model.h"
 #include "posekit/core/error.h"
+#include "posekit/core/rasterizer.h"
 #include "posekit/customization/phone_set.h"
 #include "posekit/customization/photo_evaluation.h"
-#include "posekit/datasets/rasterizer.h"
 #include "posekit/io/image_io.h"
 #include "posekit/shape/body_features.h"
 #include "posekit/shape/measurements.h"

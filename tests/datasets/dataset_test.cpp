@@ -1,4 +1,5 @@
 #include "posekit/datasets/dataset.h"
+#include "posekit/deformation/pose_dataset.h"
 
 #include <gtest/gtest.h>
 
@@ -9,13 +10,13 @@
 #include <set>
 #include <sstream>
 
+#include "posekit/body/subjects.h"
 #include "posekit/core/error.h"
 #include "posekit/core/mesh_geometry.h"
 #include "posekit/core/mesh_validation.h"
-#include "posekit/datasets/rasterizer.h"
 #include "posekit/datasets/remesh.h"
-#include "posekit/datasets/subjects.h"
 #include "posekit/io/atomic_file.h"
+#include "posekit/io/image_io.h"
 #include "posekit/io/mesh_io.h"
 #include "testing/makehuman_fixture.h"
 #include "testing/small_dataset.h"

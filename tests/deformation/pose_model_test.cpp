@@ -1,4 +1,5 @@
 #include "posekit/deformation/pose_model.h"
+#include "posekit/deformation/pose_dataset.h"
 
 #include <gtest/gtest.h>
 

@@ -1,4 +1,4 @@
-#include "posekit/evaluation/report.h"
+#include "posekit/paper/report.h"
 
 #include <gtest/gtest.h>
 

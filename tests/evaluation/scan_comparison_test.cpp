@@ -6,11 +6,11 @@
 #include <random>
 
 #include "posekit/body/makehuman_model.h"
+#include "posekit/body/subjects.h"
 #include "posekit/core/closest_point.h"
 #include "posekit/core/error.h"
 #include "posekit/core/mesh_geometry.h"
 #include "posekit/datasets/scanner.h"
-#include "posekit/datasets/subjects.h"
 #include "testing/makehuman_fixture.h"
 #include "testing/test_meshes.h"
 

@@ -12,11 +12,11 @@
 #include <vector>
 
 #include "posekit/body/parts.h"
+#include "posekit/body/subjects.h"
 #include "posekit/core/error.h"
 #include "posekit/core/mesh_geometry.h"
 #include "posekit/datasets/remesh.h"
 #include "posekit/datasets/robustness.h"
-#include "posekit/datasets/subjects.h"
 #include "posekit/io/atomic_file.h"
 #include "posekit/io/checksum.h"
 #include "posekit/io/mesh_io.h"

@@ -6,10 +6,10 @@
 
 #include "posekit/body/parts.h"
 #include "posekit/body/skinning.h"
+#include "posekit/body/subjects.h"
 #include "posekit/core/error.h"
 #include "posekit/core/mesh_geometry.h"
 #include "posekit/datasets/remesh.h"
-#include "posekit/datasets/subjects.h"
 #include "posekit/deformation/segmentation_calibration.h"
 #include "posekit/segmentation/segmentation_prior.h"
 #include "posekit/segmentation/skeleton_embedding.h"

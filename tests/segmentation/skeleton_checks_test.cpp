@@ -3,9 +3,9 @@
 #include <gtest/gtest.h>
 
 #include "posekit/body/parts.h"
+#include "posekit/body/subjects.h"
 #include "posekit/core/error.h"
 #include "posekit/core/mesh_geometry.h"
-#include "posekit/datasets/subjects.h"
 #include "posekit/segmentation/segmentation.h"
 #include "posekit/segmentation/skeleton_embedding.h"
 #include "posekit/shape/body_features.h"

@@ -5,11 +5,11 @@
 
 #include "posekit/body/parts.h"
 #include "posekit/body/skinning.h"
+#include "posekit/body/subjects.h"
 #include "posekit/core/error.h"
 #include "posekit/core/mesh_geometry.h"
 #include "posekit/datasets/remesh.h"
 #include "posekit/datasets/scanner.h"
-#include "posekit/datasets/subjects.h"
 #include "testing/makehuman_fixture.h"
 
 using namespace posekit;

@@ -7,9 +7,9 @@
 #include <set>
 
 #include "posekit/body/parts.h"
+#include "posekit/body/subjects.h"
 #include "posekit/core/triangle_mesh.h"
 #include "posekit/datasets/remesh.h"
-#include "posekit/datasets/subjects.h"
 #include "posekit/shape/body_features.h"
 #include "testing/makehuman_fixture.h"
 

@@ -7,11 +7,11 @@
 #include <filesystem>
 #include <random>
 
+#include "posekit/body/subjects.h"
 #include "posekit/core/error.h"
 #include "posekit/core/mesh_geometry.h"
 #include "posekit/datasets/remesh.h"
 #include "posekit/datasets/scanner.h"
-#include "posekit/datasets/subjects.h"
 #include "posekit/io/atomic_file.h"
 #include "posekit/io/mesh_io.h"
 #include "posekit/io/point_cloud_io.h"

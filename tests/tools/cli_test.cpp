@@ -16,7 +16,7 @@
 
 #include "posekit/body/makehuman_model.h"
 #include "posekit/body/parts.h"
-#include "posekit/datasets/subjects.h"
+#include "posekit/body/subjects.h"
 #include "posekit/io/atomic_file.h"
 #include "posekit/io/bvh.h"
 #include "posekit/io/mesh_io.h"

@@ -11,6 +11,7 @@
 
 #include "posekit/core/error.h"
 #include "posekit/io/atomic_file.h"
+#include "posekit/io/json.h"
 #include "posekit/io/mesh_io.h"
 
 namespace posekit {
@@ -58,21 +59,13 @@ MorphTarget read_target(const std::string& path, int num_vertices) {
   return t;
 }
 
-nlohmann::json read_json(const std::string& path) {
-  try {
-    return nlohmann::json::parse(read_file_bytes(path));
-  } catch (const nlohmann::json::exception& e) {
-    throw IoError(path + ": not valid JSON (" + e.what() + ")");
-  }
-}
-
 void add_target(Eigen::MatrixXd& V, const MorphTarget& t, double w) {
   if (w == 0.0) return;
   for (size_t i = 0; i < t.index.size(); ++i) V.row(t.index[i]) += w * t.delta.row(static_cast<Eigen::Index>(i));
 }
 
 Rig read_rig(const std::string& path, int num_vertices) {
-  const nlohmann::json j = read_json(path);
+  const nlohmann::json j = read_json_file(path);
   if (!j.contains("bones") || !j.contains("joints")) throw IoError(path + ": expected 'bones' and 'joints' (a MakeHuman .mhskel)");
   const auto& bones = j["bones"];
   const auto& joints = j["joints"];
@@ -195,7 +188,7 @@ void load_targets(const fs::path& root, int nv, MakeHumanModel* model) {
   };
   for (const char* file : {"modeling_modifiers.json", "measurement_modifiers.json"}) {
     const std::string path = (root / "modifiers" / file).string();
-    const nlohmann::json groups = read_json(path);
+    const nlohmann::json groups = read_json_file(path);
     for (const auto& g : groups) {
       const std::string group = g.value("group", "");
       for (const auto& m : g.value("modifiers", nlohmann::json::array())) {
@@ -275,7 +268,7 @@ std::shared_ptr<const MakeHumanModel> load_makehuman_model(const std::string& da
 
   model->rig = read_rig((root / "rigs" / "default.mhskel").string(), nv);
   const std::string weights_path = (root / "rigs" / "default_weights.mhw").string();
-  const nlohmann::json wj = read_json(weights_path);
+  const nlohmann::json wj = read_json_file(weights_path);
   if (!wj.contains("weights")) throw IoError(weights_path + ": expected 'weights' (a MakeHuman .mhw)");
   std::vector<Eigen::Triplet<double>> triplets;
   for (auto it = wj["weights"].begin(); it != wj["weights"].end(); ++it) {

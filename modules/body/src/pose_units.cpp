@@ -5,6 +5,7 @@
 
 #include "posekit/core/error.h"
 #include "posekit/io/atomic_file.h"
+#include "posekit/io/json.h"
 
 namespace posekit {
 namespace {
@@ -24,12 +25,7 @@ std::string mirror_bone_name(const std::string& name) {
 }  // namespace
 
 PoseUnits read_pose_units(const std::string& path) {
-  nlohmann::json j;
-  try {
-    j = nlohmann::json::parse(read_file_bytes(path));
-  } catch (const nlohmann::json::exception& e) {
-    throw IoError(path + ": not valid JSON (" + e.what() + ")");
-  }
+  const nlohmann::json j = read_json_file(path);
   if (!j.contains("poses") || !j["poses"].is_object()) throw IoError(path + ": expected 'poses' (MakeHuman pose units)");
   PoseUnits out;
   for (auto u = j["poses"].begin(); u != j["poses"].end(); ++u)

@@ -12,12 +12,12 @@
 
 #include "opencv_calls.h"
 #include "posekit/body/makehuman_model.h"
+#include "posekit/body/subjects.h"
 #include "posekit/core/error.h"
 #include "posekit/core/parallel.h"
 #include "posekit/core/plugin.h"
 #include "posekit/core/timer.h"
 #include "posekit/customization/photo_customization.h"
-#include "posekit/datasets/subjects.h"
 #include "posekit/io/atomic_file.h"
 #include "posekit/io/image_io.h"
 #include "posekit/registration/ctffd.h"

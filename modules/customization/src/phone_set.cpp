@@ -17,8 +17,8 @@
 #include "posekit/core/error.h"
 #include "posekit/core/mesh_geometry.h"
 #include "posekit/core/timer.h"
-#include "posekit/datasets/dataset.h"
 #include "posekit/io/atomic_file.h"
+#include "posekit/io/mesh_io.h"
 #include "posekit/population/ansur.h"
 #include "posekit/population/survey_fit.h"
 #include "posekit/shape/measurements.h"
@@ -136,7 +136,7 @@ std::vector<PhoneSetBody> make_phone_set_bodies(const PhoneSetOptions& o) {
         PhoneSetBody b;
         b.id = s.at("id").get<std::string>(), b.kind = "dataset";
         b.bmi = s.value("bmi", 0.0), b.male = s.value("gender", "") == "male";
-        b.mesh = load_subject_mesh((root / s.at("rest").get<std::string>()).string());
+        b.mesh = read_mesh((root / s.at("rest").get<std::string>()).string());
         out.push_back(std::move(b));
       }
     } catch (const nlohmann::json::exception& e) {

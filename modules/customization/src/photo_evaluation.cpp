@@ -14,9 +14,9 @@
 #include "posekit/core/closest_point.h"
 #include "posekit/core/error.h"
 #include "posekit/core/timer.h"
-#include "posekit/datasets/dataset.h"
 #include "posekit/io/atomic_file.h"
 #include "posekit/io/image_io.h"
+#include "posekit/io/mesh_io.h"
 #include "posekit/shape/measurements.h"
 
 namespace posekit {
@@ -353,7 +353,7 @@ PhotoSubjectResult evaluate_subject(const fs::path& root, const nlohmann::json& 
   VariationInputs in;
   in.cameras = read_photo_cameras((root / photos.at("camera").get<std::string>()).string());
   const Stopwatch t0;
-  in.subject = load_subject_mesh((root / s.at("rest").get<std::string>()).string());
+  in.subject = read_mesh((root / s.at("rest").get<std::string>()).string());
   photograph_subject(root, photos, r.id, variation, &in);
   state_the_stature(variation, truth.at("stature").get<double>(), &in);
   if (!inputs_out.empty()) write_variation_inputs(fs::path(inputs_out) / photo_variation_name(variation) / r.id, in);

@@ -5,11 +5,11 @@
 
 #include "posekit/body/makehuman_model.h"
 #include "posekit/body/parts.h"
+#include "posekit/body/subjects.h"
 #include "posekit/core/data_root.h"
 #include "posekit/core/error.h"
 #include "posekit/core/parallel.h"
 #include "posekit/core/timer.h"
-#include "posekit/datasets/subjects.h"
 #include "posekit/deformation/pose_model.h"
 #include "posekit/shape/body_features.h"
 

@@ -20,6 +20,7 @@
 #include "posekit/fitting/body_fit.h"
 #include "posekit/fitting/fitted_measurements.h"
 #include "posekit/io/atomic_file.h"
+#include "posekit/io/json.h"
 #include "posekit/io/mesh_io.h"
 #include "posekit/io/point_cloud_io.h"
 #include "posekit/segmentation/body_segmentation.h"
@@ -279,12 +280,7 @@ BodyEvaluation evaluate_bodies(const std::string& dir, const BodyEvaluationOptio
   const fs::path manifest_path = root / "manifest.json";
   if (!fs::is_regular_file(manifest_path))
     throw IoError(dir + ": no manifest.json: not a robustness set (make one with posekit dataset make --robustness)");
-  nlohmann::json manifest;
-  try {
-    manifest = nlohmann::json::parse(read_file_bytes(manifest_path.string()));
-  } catch (const nlohmann::json::exception& e) {
-    throw IoError(manifest_path.string() + ": not valid JSON (" + e.what() + ")");
-  }
+  const nlohmann::json manifest = read_json_file(manifest_path.string());
   if (manifest.value("format", "") != "posekit robustness set 1")
     throw IoError(manifest_path.string() + ": format is not 'posekit robustness set 1' (a pose dataset? use posekit eval pose)");
   std::unique_ptr<SegmentationPrior> prior;

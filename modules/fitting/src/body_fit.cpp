@@ -1054,47 +1054,79 @@ PoseFitResult fit_shape_and_pose(const BodyModel& model, const UpFrame& frame, c
   return result;
 }
 
-}  // namespace
-
-BodyFit fit_body_model(const BodyModel& model, const Eigen::MatrixXd& T, const BodyFitOptions& o) {
-  const Stopwatch t0;
-  StageTimer timer;
-  auto lap = [&](const std::string& stage) { timer.lap(stage); };
-  if (T.rows() < 100 || T.cols() != 3 || !T.allFinite())
-    throw InvalidInput("body fit: the target has " + std::to_string(T.rows()) + " points (at least 100 finite ones needed)");
-  const Eigen::MatrixXd W = working_cloud(T, o.working_cell);
-  if (W.rows() < 100)
-    throw InvalidInput("body fit: the target covers only " + std::to_string(W.rows()) + " cells of " + std::to_string(o.working_cell) +
-                       " m; is it in metres?");
-  const Eigen::RowVector3d centre = W.colwise().mean();
-  const int K = model.components();
-  const ShapedBody mean_body(model, Eigen::VectorXd::Zero(K));
-  const std::vector<LibraryPose> library = pose_library(mean_body.joint_centres());
-  std::vector<LibraryPose> motion_poses;  // the model's own, from motion capture
-  const ShapeSpace& space = model.space();
-  for (Eigen::Index p = 0; p < space.poses.rows(); ++p) {
-    const std::string& name = space.pose_names[static_cast<size_t>(p)];
-    motion_poses.push_back({name, name, pose_from_row(space.poses.row(p))});
+/// The stages of fit_body_model over one target (after COLMAP's IncrementalMapper): the working
+/// cloud and its up frames, brief fits of the best starts, and a brief fit finished into the result.
+class BodyFitter {
+ public:
+  BodyFitter(const BodyModel& model, const Eigen::MatrixXd& T, const BodyFitOptions& o)
+      : model_(model), o_(o), mean_body_(model, Eigen::VectorXd::Zero(model.components())) {
+    if (T.rows() < 100 || T.cols() != 3 || !T.allFinite())
+      throw InvalidInput("body fit: the target has " + std::to_string(T.rows()) + " points (at least 100 finite ones needed)");
+    W_ = working_cloud(T, o.working_cell);
+    if (W_.rows() < 100)
+      throw InvalidInput("body fit: the target covers only " + std::to_string(W_.rows()) + " cells of " + std::to_string(o.working_cell) +
+                         " m; is it in metres?");
+    centre_ = W_.colwise().mean();
+    library_ = pose_library(mean_body_.joint_centres());
+    const ShapeSpace& space = model.space();
+    for (Eigen::Index p = 0; p < space.poses.rows(); ++p) {  // the model's own poses, from motion capture
+      const std::string& name = space.pose_names[static_cast<size_t>(p)];
+      motion_poses_.push_back({name, name, pose_from_row(space.poses.row(p))});
+    }
+    ups_ = o.up_candidates;
+    if (ups_.empty())
+      for (int a = 0; a < 3; ++a) ups_.push_back(Eigen::Vector3d::Unit(a)), ups_.push_back(-Eigen::Vector3d::Unit(a));
+    frames_ = up_frames(W_, centre_, ups_);
+    lap("working cloud");
+    brief_.iterations = 20;
+    brief_.model_samples = 1500;
+    brief_.refinement_model_samples = 3000;
+    brief_.max_distance_end = 0.15;
+    brief_.refinement_twist_weight = 1;                 // as in the final refinement
+    brief_.stall_window = 5, brief_.stall_gain = 1e-3;  // as in fit_shape_and_pose
+    spread_ = spread_rows(mean_body_.rest_vertices(), 0.02);
+    coarse_rows_ = spread_rows(mean_body_.rest_vertices(), 0.04);
   }
 
-  std::vector<Eigen::Vector3d> ups = o.up_candidates;
-  if (ups.empty())
-    for (int a = 0; a < 3; ++a) ups.push_back(Eigen::Vector3d::Unit(a)), ups.push_back(-Eigen::Vector3d::Unit(a));
-  const std::vector<UpFrame> frames = up_frames(W, centre, ups);
-  lap("working cloud");
+  BodyFit fit(const Eigen::MatrixXd& T);
 
-  // The best starts, each fitted briefly; the best of those goes on.
-  PoseFitOptions brief;
-  brief.iterations = 20;
-  brief.model_samples = 1500;
-  brief.refinement_model_samples = 3000;
-  brief.max_distance_end = 0.15;
-  brief.refinement_twist_weight = 1;                // as in the final refinement below
-  brief.stall_window = 5, brief.stall_gain = 1e-3;  // as in fit_shape_and_pose
-  const std::vector<int> spread = spread_rows(mean_body.rest_vertices(), 0.02);
-  const std::vector<int> coarse_rows = spread_rows(mean_body.rest_vertices(), 0.04);
-  // Distinct starts only: the same library pose at the next heading, or the same joints reached by
-  // another name (legs of one pose, arms of another), is the same start to a brief fit.
+ private:
+  /// From one brief fit to the result. `from`: the brief fit's index in tried_; `cut_short`: read off
+  /// the brief fit alone (finish_from).
+  struct Finished {
+    BodyFit fit;
+    size_t from = 0;
+    bool cut_short = false;
+  };
+
+  void lap(const std::string& stage) { timer_.lap(stage); }
+  std::vector<size_t> brief_fits(const std::vector<Start>& starts);
+  Finished finish_from(size_t k, bool whole);
+  Finished finish_best(const std::vector<size_t>& ranked);
+  Finished read_off(size_t k, const PartPose& pose, const Eigen::VectorXd& c, const Eigen::MatrixXd& V,
+                    const std::vector<std::string>& warnings);
+  static std::string poor_because(const Finished& f) { return (f.cut_short ? "fitted briefly: " : "") + f.fit.reasons.front(); }
+
+  const BodyModel& model_;
+  const BodyFitOptions& o_;
+  StageTimer timer_;  ///< started first: the working cloud's stage includes the mean body
+  const ShapedBody mean_body_;
+  Eigen::MatrixXd W_;  ///< the working cloud
+  Eigen::RowVector3d centre_;
+  std::vector<LibraryPose> library_, motion_poses_;
+  std::vector<Eigen::Vector3d> ups_;
+  std::vector<UpFrame> frames_;
+  PoseFitOptions brief_;  ///< the brief fits of the best starts; the best of those goes on
+  std::vector<int> spread_, coarse_rows_;
+  std::vector<Start> tried_;  ///< the starts fitted briefly, with their scores and poses
+  std::vector<double> tried_score_;
+  std::vector<PartPose> tried_pose_;
+};
+
+/// Brief fits of the best distinct starts not fitted before, best first. Distinct starts only: the
+/// same library pose at the next heading, or the same joints reached by another name (legs of one
+/// pose, arms of another), is the same start to a brief fit.
+std::vector<size_t> BodyFitter::brief_fits(const std::vector<Start>& starts) {
   auto same_start = [](const Start& a, const Start& b) {
     if (a.up != b.up) return false;
     if (a.kind == b.kind) return true;
@@ -1102,135 +1134,133 @@ BodyFit fit_body_model(const BodyModel& model, const Eigen::MatrixXd& T, const B
       if ((a.pose.joint_rotation[j] - b.pose.joint_rotation[j]).norm() > 1e-9) return false;
     return (a.pose.root_rotation - b.pose.root_rotation).norm() < 1e-9;
   };
-  // Brief fits of the best distinct starts not fitted before, best first.
-  std::vector<Start> tried;
-  std::vector<double> tried_score;
-  std::vector<PartPose> tried_pose;
-  auto brief_fits = [&](const std::vector<Start>& starts) {
-    const size_t first = tried.size();
-    for (size_t k = 0; k < starts.size() && static_cast<int>(tried.size() - first) < std::max(1, o.hypotheses_refined); ++k)
-      if (std::none_of(tried.begin(), tried.end(), [&](const Start& t) { return same_start(t, starts[k]); })) tried.push_back(starts[k]);
-    tried_score.resize(tried.size()), tried_pose.resize(tried.size());
-    parallel_for_ranges(
-        static_cast<long>(tried.size() - first), o.threads,
-        [&](long begin, long end) {
-          for (long i = begin; i < end; ++i) {
-            const auto k = static_cast<size_t>(i) + first;
-            tried_pose[k] = brief_fit(model, frames[tried[k].up].cloud, tried[k].pose, brief, spread, o, &tried_score[k]);
-          }
-        },
-        1);
-    // By score (ties in the starts' order: the same choice on any number of threads).
-    std::vector<size_t> ranked(tried.size() - first);
-    for (size_t k = 0; k < ranked.size(); ++k) ranked[k] = k + first;
-    std::stable_sort(ranked.begin(), ranked.end(), [&](size_t a, size_t b) { return tried_score[a] < tried_score[b]; });
-    lap("brief fits");
-    return ranked;
-  };
-
-  // From one brief fit to the result: the arm step, shape and pose in turn, the final refinement, and
-  // what is read off the fit. `from`: the brief fit's index in `tried`; `cut_short`: read off the
-  // brief fit alone (see below).
-  struct Finished {
-    BodyFit fit;
-    size_t from = 0;
-    bool cut_short = false;
-  };
-  auto finish_from = [&](size_t k, bool whole) {
-    const Start* best = &tried[k];
-    const double best_score = tried_score[k];
-    PartPose pose = tried_pose[k];
-    // The recognised pose: the priors of every later fit pull towards it, not towards standing.
-    PartPose recognised = best->pose;
-    const UpFrame& frame = frames[best->up];
-    if (o.frame_chosen) o.frame_chosen(frame.rotation);
-    const PointGrid grid(frame.cloud, 0.03);
-
-    // Each arm, then each leg, on its own (limbs_one_by_one); kept when its brief fit is better.
-    bool changed = false;
-    const PartPose limbed = limbs_one_by_one(model, mean_body, frame, coarse_rows, pose, o.threads, &changed);
-    if (changed) {
-      PoseFitOptions limbs = brief;
-      limbs.start = limbed;
-      limbs.threads = o.threads;
-      PartPose limbed_recognised = recognised;
-      for (const char* side : {"left_", "right_"})
-        for (const char* joint : {"shoulder", "elbow", "wrist", "hip", "knee", "ankle"}) {
-          const auto j = static_cast<size_t>(find_joint_index(std::string(side) + joint));
-          limbed_recognised.joint_rotation[j] = limbed.joint_rotation[j];
+  const size_t first = tried_.size();
+  for (size_t k = 0; k < starts.size() && static_cast<int>(tried_.size() - first) < std::max(1, o_.hypotheses_refined); ++k)
+    if (std::none_of(tried_.begin(), tried_.end(), [&](const Start& t) { return same_start(t, starts[k]); })) tried_.push_back(starts[k]);
+  tried_score_.resize(tried_.size()), tried_pose_.resize(tried_.size());
+  parallel_for_ranges(
+      static_cast<long>(tried_.size() - first), o_.threads,
+      [&](long begin, long end) {
+        for (long i = begin; i < end; ++i) {
+          const auto k = static_cast<size_t>(i) + first;
+          tried_pose_[k] = brief_fit(model_, frames_[tried_[k].up].cloud, tried_[k].pose, brief_, spread_, o_, &tried_score_[k]);
         }
-      limbs.prior_pose = limbed_recognised;
-      const PoseFitResult r = fit_pose(mean_body, frame.cloud, limbs);
-      const double score = mismatch(r.V(spread, Eigen::all), frame.cloud, grid, 0.15);
-      if (score < best_score) pose = r.pose, recognised = limbed_recognised;
-    }
-    lap("limbs");
+      },
+      1);
+  // By score (ties in the starts' order: the same choice on any number of threads).
+  std::vector<size_t> ranked(tried_.size() - first);
+  for (size_t k = 0; k < ranked.size(); ++k) ranked[k] = k + first;
+  std::stable_sort(ranked.begin(), ranked.end(), [&](size_t a, size_t b) { return tried_score_[a] < tried_score_[b]; });
+  lap("brief fits");
+  return ranked;
+}
 
-    auto read_off = [&](const Eigen::VectorXd& c, const Eigen::MatrixXd& V, const std::vector<std::string>& warnings) {
-      Finished out;
-      out.from = k;
-      BodyFit& fit = out.fit;
-      fit.coefficients = c;
-      fit.pose = pose;
-      fit.to_fit_frame = frame.rotation;
-      fit.up = ups[best->up].normalized();
-      fit.start = best->name;
-      fit.working_points = static_cast<int>(W.rows());
-      // Back to the target's frame: x = R^T y + centre.
-      fit.V = (V * frame.rotation).rowwise() + centre;
-      fit.joints = (ShapedBody(model, c).posed_joints(pose) * frame.rotation).rowwise() + centre;
-      read_off_fit(model, W, o, warnings, &fit);
-      lap("read-off");
-      return out;
-    };
-    // A brief fit that leaves a twentieth of the target over kOutlier from the body is no start for
-    // the shape rounds: over the 3-shape robustness set's and 12 random poses' 152 finishes none of
-    // the 128 confident ones had left more than 13 cm, 19 of the 24 poor ones 25 cm or more, and a
-    // poor finish costs the most (its refinement runs to the end). Such a fit is read off as it is;
-    // a refusal is finished whole at the end.
-    if (!whole) {
-      Eigen::MatrixXd X;
-      mean_body.pose(pose, &X);
-      if (cloud_quantile_to_body(X, frame.cloud, 0.95, kOutlier) >= kOutlier) {
-        Finished cut = read_off(Eigen::VectorXd::Zero(K), X, {});
-        cut.cut_short = true;
-        if (!cut.fit.confident) return cut;
-      }
-    }
+/// What is read off a finished fit (shape c, posed vertices V in the fit's frame), back in the
+/// target's frame.
+BodyFitter::Finished BodyFitter::read_off(size_t k, const PartPose& pose, const Eigen::VectorXd& c, const Eigen::MatrixXd& V,
+                                          const std::vector<std::string>& warnings) {
+  const Start& best = tried_[k];
+  const UpFrame& frame = frames_[best.up];
+  Finished out;
+  out.from = k;
+  BodyFit& fit = out.fit;
+  fit.coefficients = c;
+  fit.pose = pose;
+  fit.to_fit_frame = frame.rotation;
+  fit.up = ups_[best.up].normalized();
+  fit.start = best.name;
+  fit.working_points = static_cast<int>(W_.rows());
+  // Back to the target's frame: x = R^T y + centre.
+  fit.V = (V * frame.rotation).rowwise() + centre_;
+  fit.joints = (ShapedBody(model_, c).posed_joints(pose) * frame.rotation).rowwise() + centre_;
+  read_off_fit(model_, W_, o_, warnings, &fit);
+  lap("read-off");
+  return out;
+}
 
-    Eigen::VectorXd c;
-    const PoseFitResult result = fit_shape_and_pose(model, frame, grid, o, recognised, &pose, &c);
-    lap("shape and pose");
-    return read_off(c, result.V, result.warnings);
-  };
-  auto poor_because = [](const Finished& f) { return (f.cut_short ? "fitted briefly: " : "") + f.fit.reasons.front(); };
-  // The best brief fit finished; when that is poor, the runner-up's (an elbow bent where the arm is
-  // straight scored best on a tilted A-pose body), kept when it is confident.
-  auto finish_best = [&](const std::vector<size_t>& ranked) {
-    Finished out = finish_from(ranked.front(), false);
-    if (!out.fit.confident && ranked.size() > 1) {
-      Finished second = finish_from(ranked[1], false);
-      if (second.fit.confident) {
-        second.fit.warnings.push_back("the best start (" + out.fit.start + ") gave a poor fit (" + poor_because(out) +
-                                      "); the runner-up's is kept");
-        out = std::move(second);
+/// From brief fit k to the result: the arm step, shape and pose in turn, the final refinement, and
+/// what is read off the fit. Without `whole`, a brief fit that leaves much of the target far from
+/// the body is read off as it is (cut short).
+BodyFitter::Finished BodyFitter::finish_from(size_t k, bool whole) {
+  const Start* best = &tried_[k];
+  const double best_score = tried_score_[k];
+  PartPose pose = tried_pose_[k];
+  // The recognised pose: the priors of every later fit pull towards it, not towards standing.
+  PartPose recognised = best->pose;
+  const UpFrame& frame = frames_[best->up];
+  if (o_.frame_chosen) o_.frame_chosen(frame.rotation);
+  const PointGrid grid(frame.cloud, 0.03);
+
+  // Each arm, then each leg, on its own (limbs_one_by_one); kept when its brief fit is better.
+  bool changed = false;
+  const PartPose limbed = limbs_one_by_one(model_, mean_body_, frame, coarse_rows_, pose, o_.threads, &changed);
+  if (changed) {
+    PoseFitOptions limbs = brief_;
+    limbs.start = limbed;
+    limbs.threads = o_.threads;
+    PartPose limbed_recognised = recognised;
+    for (const char* side : {"left_", "right_"})
+      for (const char* joint : {"shoulder", "elbow", "wrist", "hip", "knee", "ankle"}) {
+        const auto j = static_cast<size_t>(find_joint_index(std::string(side) + joint));
+        limbed_recognised.joint_rotation[j] = limbed.joint_rotation[j];
       }
+    limbs.prior_pose = limbed_recognised;
+    const PoseFitResult r = fit_pose(mean_body_, frame.cloud, limbs);
+    const double score = mismatch(r.V(spread_, Eigen::all), frame.cloud, grid, 0.15);
+    if (score < best_score) pose = r.pose, recognised = limbed_recognised;
+  }
+  lap("limbs");
+
+  // A brief fit that leaves a twentieth of the target over kOutlier from the body is no start for
+  // the shape rounds: over the 3-shape robustness set's and 12 random poses' 152 finishes none of
+  // the 128 confident ones had left more than 13 cm, 19 of the 24 poor ones 25 cm or more, and a
+  // poor finish costs the most (its refinement runs to the end). Such a fit is read off as it is;
+  // a refusal is finished whole at the end.
+  if (!whole) {
+    Eigen::MatrixXd X;
+    mean_body_.pose(pose, &X);
+    if (cloud_quantile_to_body(X, frame.cloud, 0.95, kOutlier) >= kOutlier) {
+      Finished cut = read_off(k, pose, Eigen::VectorXd::Zero(model_.components()), X, {});
+      cut.cut_short = true;
+      if (!cut.fit.confident) return cut;
     }
-    return out;
-  };
-  const StartSearch search(model, mean_body, frames, o.threads);
+  }
+
+  Eigen::VectorXd c;
+  const PoseFitResult result = fit_shape_and_pose(model_, frame, grid, o_, recognised, &pose, &c);
+  lap("shape and pose");
+  return read_off(k, pose, c, result.V, result.warnings);
+}
+
+/// The best brief fit finished; when that is poor, the runner-up's (an elbow bent where the arm is
+/// straight scored best on a tilted A-pose body), kept when it is confident.
+BodyFitter::Finished BodyFitter::finish_best(const std::vector<size_t>& ranked) {
+  Finished out = finish_from(ranked.front(), false);
+  if (!out.fit.confident && ranked.size() > 1) {
+    Finished second = finish_from(ranked[1], false);
+    if (second.fit.confident) {
+      second.fit.warnings.push_back("the best start (" + out.fit.start + ") gave a poor fit (" + poor_because(out) +
+                                    "); the runner-up's is kept");
+      out = std::move(second);
+    }
+  }
+  return out;
+}
+
+BodyFit BodyFitter::fit(const Eigen::MatrixXd& T) {
+  const StartSearch search(model_, mean_body_, frames_, o_.threads);
   SparsePlacements sparse;
-  const std::vector<Start> library_starts = search.library_starts(library, motion_poses, o.headings, o.starts_rescored, &sparse);
-  std::vector<Start> starts = search.with_arms_mixed(library_starts, library);
+  const std::vector<Start> library_starts = search.library_starts(library_, motion_poses_, o_.headings, o_.starts_rescored, &sparse);
+  std::vector<Start> starts = search.with_arms_mixed(library_starts, library_);
   lap("search");
   Finished out = finish_best(brief_fits(starts));
   // Still poor: the body may hold its legs as no library pose does. The search again with the legs
   // searched, only now: on bodies that the library's starts fit, starts with the legs searched
   // scored better and fitted worse (a pelvis tipped 10-15 degrees, the hips and back making up).
-  if (!out.fit.confident && o.legs_searched > 0) {
-    const std::vector<Start> every_up = search.with_best_of_every_up(library_starts, sparse, library, motion_poses, o.headings,
-                                                                     o.starts_rescored / static_cast<int>(frames.size()));
-    starts = search.with_arms_mixed(search.with_legs_searched(every_up, o.legs_searched), library);
+  if (!out.fit.confident && o_.legs_searched > 0) {
+    const std::vector<Start> every_up = search.with_best_of_every_up(library_starts, sparse, library_, motion_poses_, o_.headings,
+                                                                     o_.starts_rescored / static_cast<int>(frames_.size()));
+    starts = search.with_arms_mixed(search.with_legs_searched(every_up, o_.legs_searched), library_);
     lap("search");
     const std::vector<size_t> ranked = brief_fits(starts);
     if (!ranked.empty()) {
@@ -1246,11 +1276,20 @@ BodyFit fit_body_model(const BodyModel& model, const Eigen::MatrixXd& T, const B
   if (out.cut_short) out = finish_from(out.from, true);
   // The target's points labelled once, for the fit returned (a dense scan's take the most time).
   BodyFit& fit = out.fit;
-  label_target(model, T, o.threads, &fit);
+  label_target(model_, T, o_.threads, &fit);
   lap("read-off");
-  fit.seconds = t0.seconds();
-  fit.stage_seconds = timer.stages();
+  fit.stage_seconds = timer_.stages();
   return std::move(fit);
+}
+
+}  // namespace
+
+BodyFit fit_body_model(const BodyModel& model, const Eigen::MatrixXd& T, const BodyFitOptions& o) {
+  const Stopwatch t0;
+  BodyFitter fitter(model, T, o);
+  BodyFit fit = fitter.fit(T);
+  fit.seconds = t0.seconds();
+  return fit;
 }
 
 BodyFit fit_body_model_to_mesh(const BodyModel& model, const Eigen::MatrixXd& V, const Eigen::MatrixXi& F, const BodyFitOptions& o) {
@@ -1283,6 +1322,18 @@ Eigen::VectorXi parts_of_every_vertex(const BodyModel& model, const BodyFit& fit
     part[v] = model.vertex_parts()[fitted.nearest(V.row(v).transpose(), &sq)];
   }
   return part;
+}
+
+RestLabeller body_model_labeller(const BodyModel& model) {
+  return [&model](const Eigen::MatrixXd& V, const Eigen::MatrixXi& F) {
+    const BodyFit fit = fit_body_model_to_mesh(model, V, F);
+    RestLabels labels;
+    if (!fit.confident)
+      for (const auto& r : fit.reasons) labels.poor_fit += (labels.poor_fit.empty() ? "" : "; ") + r;
+    labels.triangle_part = triangle_part_labels(F, parts_of_every_vertex(model, fit, V));
+    labels.joint_centres = fit.joints;
+    return labels;
+  };
 }
 
 }  // namespace posekit

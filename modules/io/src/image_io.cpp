@@ -302,4 +302,16 @@ void write_png(const std::string& path, const Image8& image) {
       path, [&](std::ostream& os) { os.write(reinterpret_cast<const char*>(png.data()), static_cast<std::streamsize>(png.size())); });
 }
 
+void write_gray_png(const std::string& path, int width, int height, const std::vector<std::uint8_t>& pixels) {
+  if (static_cast<size_t>(width) * height != pixels.size()) throw InvalidInput(path + ": image size does not match its pixels");
+  write_png(path, Image8{width, height, 1, pixels});
+}
+
+std::vector<std::uint8_t> read_gray_png(const std::string& path, int* width, int* height) {
+  Image8 image = read_image(path, ImageColor::kGray);
+  *width = image.width;
+  *height = image.height;
+  return std::move(image.pixels);
+}
+
 }  // namespace posekit

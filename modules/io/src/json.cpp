@@ -5,6 +5,7 @@
 #include <vector>
 
 #include "posekit/core/error.h"
+#include "posekit/io/atomic_file.h"
 
 namespace posekit {
 
@@ -39,6 +40,15 @@ nlohmann::json parse_json(const std::string& text, const std::string& context) {
   }
   if (!duplicate.empty()) throw InvalidInput(context + ": the key " + duplicate + " (the second would silently replace the first)");
   return value;
+}
+
+nlohmann::json read_json_file(const std::string& path) {
+  const std::string text = read_file_bytes(path);
+  try {
+    return nlohmann::json::parse(text);
+  } catch (const nlohmann::json::exception& e) {
+    throw IoError(path + ": not valid JSON (" + e.what() + ")");
+  }
 }
 
 }  // namespace posekit

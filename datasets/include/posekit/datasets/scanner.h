@@ -5,8 +5,8 @@
 #include <vector>
 
 #include "posekit/core/point_cloud.h"
+#include "posekit/core/rasterizer.h"
 #include "posekit/core/triangle_mesh.h"
-#include "posekit/datasets/rasterizer.h"
 
 namespace posekit {
 

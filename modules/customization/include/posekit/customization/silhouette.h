@@ -6,7 +6,7 @@
 #include <string>
 #include <vector>
 
-#include "posekit/datasets/rasterizer.h"
+#include "posekit/core/rasterizer.h"
 
 namespace posekit {
 

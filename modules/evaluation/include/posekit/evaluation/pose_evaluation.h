@@ -9,6 +9,7 @@
 #include <vector>
 
 #include "posekit/body/parts.h"
+#include "posekit/deformation/dataset_training.h"
 #include "posekit/deformation/part_pose_estimation.h"
 #include "posekit/deformation/pose_model.h"
 #include "posekit/deformation/pose_synthesis.h"
@@ -68,70 +69,6 @@ struct PoseEvaluation {
 /// another template than the dataset's and IoError on unreadable files.
 PoseEvaluation evaluate_poses(const std::string& dataset_dir, std::shared_ptr<const PoseModel> model,
                               const PoseEvaluationOptions& options = {});
-
-/// Where train_on_dataset takes each training example's 16-part pose from.
-enum class TrainingPoses {
-  kAuto,     ///< the pose JSONs when every training example has one, else estimated from the meshes
-  kJson,     ///< the pose JSONs; an example without one is an error
-  kEstimate  ///< estimated from the meshes (PartPoseEstimator); JSONs, where present, only check
-};
-TrainingPoses parse_training_poses(const std::string& name);  ///< "auto", "json" or "estimate"
-
-class BodyModel;
-
-struct DatasetTrainingOptions {
-  TrainingPoses poses = TrainingPoses::kAuto;
-  /// The rest-pose example (the template). Empty: the manifest's, else the first whose pose JSON is
-  /// all zero, else one whose name holds "rest" or "template", else the first in name order.
-  std::string rest_name;
-  std::string unit = "m";                 ///< m, dm, cm, mm, or auto (from the rest mesh's extent)
-  std::string up = "+Y", forward = "+Z";  ///< file axes of the body, or auto (from the rest mesh)
-  PartFitOptions fit;
-  /// When set, a rest example without shipped labels takes its parts and joints from this body
-  /// model fitted to it (any rest pose) instead of from the rules about its sections; a poor fit
-  /// throws BelowConfidence unless `accept_poor_fit` (then it is a warning of the report).
-  const BodyModel* body_model = nullptr;
-  bool accept_poor_fit = false;
-  /// The held-out split, instead of the manifest's: these examples by name, or every N-th example in
-  /// name order with the rest example skipped (0: the manifest's split).
-  std::vector<std::string> held_out;
-  int hold_out_every = 0;
-};
-
-/// How one example's estimated pose fits (millimetres, degrees).
-struct ExamplePoseFit {
-  std::string name;
-  bool test = false;
-  double rms_mm = 0;             ///< every vertex against its part's rigid motion
-  double worst_core_rms_mm = 0;  ///< the worst part away from its joints
-  std::string worst_part;
-  /// Against the example's pose JSON, where it has one (-1: none): the angle between estimated and
-  /// given joint rotations, mean and max over the 15 joints and the root.
-  double joint_error_mean_deg = -1, joint_error_max_deg = -1;
-  std::string worst_joint;
-  std::vector<std::string> problems;  ///< pose_estimate_problems, and the dataset-level check
-  bool left_out = false;              ///< not the rest body posed: not trained on
-  PartPose pose;                      ///< the estimated pose, in posekit's frame (the rest example's: zero)
-};
-
-struct DatasetTrainingReport {
-  std::string rest_name, rest_reason;  ///< the template and why it was chosen
-  bool poses_estimated = false;
-  std::string unit, orientation;         ///< as read
-  bool labels_from_dataset = false;      ///< template/parts.json and joints.json, else segmented (Eq. 2)
-  bool labels_from_body_model = false;   ///< DatasetTrainingOptions::body_model's fit
-  std::vector<ExamplePoseFit> examples;  ///< every example, when the poses were estimated
-  std::vector<std::string> warnings;
-};
-
-/// Trains on the dataset's training split with its template labels and joints (template/parts.json,
-/// template/joints.json) or, without them, the template's own segmentation and skeleton. Poses are
-/// the JSONs or, for a folder of meshes alone, estimated per example from its parts' rigid motions.
-/// Throws InvalidInput when the rest example is unknown, a JSON pose is required but missing, or a
-/// part cannot be fitted.
-PoseModel train_on_dataset(const std::string& dataset_dir, const TrainingOptions& base, const DatasetTrainingOptions& options,
-                           DatasetTrainingReport* report = nullptr);
-PoseModel train_on_dataset(const std::string& dataset_dir, const TrainingOptions& base = {});
 
 /// One posing method on the held-out meshes of a folder: the raw per-vertex error, and the "shape"
 /// error left after each part of the posed body is rigidly aligned (Umeyama, no scale) onto the

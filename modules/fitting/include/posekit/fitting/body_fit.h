@@ -12,6 +12,7 @@
 #include <vector>
 
 #include "posekit/body/parts.h"
+#include "posekit/deformation/dataset_training.h"
 #include "posekit/fitting/body_model.h"
 
 namespace posekit {
@@ -124,5 +125,10 @@ BodyFit fit_body_model_to_mesh(const BodyModel& model, const Eigen::MatrixXd& V,
 /// Every vertex's part for a mesh the fit was made to (V its vertices): the fit's labels, and for the
 /// vertices it left out (floating bits, far points) the nearest fitted vertex's part. #V.
 Eigen::VectorXi parts_of_every_vertex(const BodyModel& model, const BodyFit& fit, const Eigen::MatrixXd& V);
+
+/// Labels for train_on_dataset's rest example (deformation/dataset_training.h) from the body model
+/// fitted to it: its parts (parts_of_every_vertex) and joints; an unconfident fit is a poor labelling
+/// with the fit's reasons. `model` must outlive the labeller.
+RestLabeller body_model_labeller(const BodyModel& model);
 
 }  // namespace posekit

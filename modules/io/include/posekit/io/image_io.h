@@ -51,4 +51,9 @@ std::vector<std::uint8_t> encode_jpeg(const Image8& image, int quality);
 /// Writes a PNG atomically (write_file_atomically).
 void write_png(const std::string& path, const Image8& image);
 
+/// Writes an 8-bit single-channel image as PNG (atomically). Throws IoError.
+void write_gray_png(const std::string& path, int width, int height, const std::vector<std::uint8_t>& pixels);
+/// Reads an 8-bit PNG as gray. Throws IoError naming the file.
+std::vector<std::uint8_t> read_gray_png(const std::string& path, int* width, int* height);
+
 }  // namespace posekit

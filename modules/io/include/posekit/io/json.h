@@ -11,4 +11,8 @@ namespace posekit {
 /// every message. Throws IoError (not JSON) or InvalidInput (a duplicate key, named with its object).
 nlohmann::json parse_json(const std::string& text, const std::string& context);
 
+/// Reads and parses a JSON file (nlohmann's rules). Throws IoError naming `path` when it cannot be
+/// read or is not JSON.
+nlohmann::json read_json_file(const std::string& path);
+
 }  // namespace posekit

@@ -1,4 +1,4 @@
-#include "posekit/evaluation/registration_table.h"
+#include "posekit/paper/registration_table.h"
 
 #include <algorithm>
 #include <filesystem>
@@ -7,17 +7,17 @@
 #include <numeric>
 #include <random>
 
-#include "manifest.h"
 #include "posekit/body/makehuman_model.h"
 #include "posekit/body/parts.h"
+#include "posekit/body/subjects.h"
 #include "posekit/core/error.h"
 #include "posekit/core/mesh_geometry.h"
 #include "posekit/datasets/dataset.h"
 #include "posekit/datasets/remesh.h"
-#include "posekit/datasets/subjects.h"
 #include "posekit/deformation/pose_model.h"
 #include "posekit/deformation/pose_synthesis.h"
 #include "posekit/io/atomic_file.h"
+#include "posekit/io/json.h"
 #include "posekit/io/mesh_io.h"
 #include "posekit/registration/registration.h"
 #include "posekit/registration/shape_space.h"
@@ -159,7 +159,7 @@ ShapeSpace makehuman_shape_space(const MakeHumanModel& model, const PopulationOp
 
 RegistrationTable measure_registration_table(const std::string& dir, const RegistrationTableOptions& o) {
   if (o.runs < 1) throw InvalidInput("registration table: runs must be at least 1");
-  const nlohmann::json manifest = read_dataset_manifest(dir);
+  const nlohmann::json manifest = read_json_file((std::filesystem::path(dir) / "manifest.json").string());
   const TriangleMesh templ = read_mesh((fs::path(dir) / manifest.at("template").at("mesh").get<std::string>()).string());
   struct Method {
     std::string name;

@@ -1,5 +1,6 @@
 #pragma once
-// Customized subjects: MakeHuman bodies in the four BMI classes, with local shape variation, and
+// The population sampler: MakeHuman bodies of random proportions in the four BMI classes, with
+// local shape variation (the evaluation subjects, calibration and shape-space populations), and
 // their ground-truth measurements.
 #include <functional>
 #include <string>

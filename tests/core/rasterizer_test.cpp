@@ -1,4 +1,5 @@
-#include "posekit/datasets/rasterizer.h"
+#include "posekit/core/rasterizer.h"
+#include "posekit/io/image_io.h"
 
 #include <gtest/gtest.h>
 

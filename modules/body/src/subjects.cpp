@@ -1,4 +1,4 @@
-#include "posekit/datasets/subjects.h"
+#include "posekit/body/subjects.h"
 
 #include <Eigen/Geometry>
 #include <algorithm>

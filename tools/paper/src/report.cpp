@@ -1,4 +1,4 @@
-#include "posekit/evaluation/report.h"
+#include "posekit/paper/report.h"
 
 #include <algorithm>
 #include <atomic>
@@ -12,25 +12,26 @@
 #include <optional>
 #include <sstream>
 
-#include "manifest.h"
+#include "posekit/body/subjects.h"
 #include "posekit/core/data_root.h"
 #include "posekit/core/error.h"
 #include "posekit/core/parallel.h"
 #include "posekit/core/timer.h"
 #include "posekit/customization/photo_evaluation.h"
 #include "posekit/datasets/dataset.h"
-#include "posekit/datasets/subjects.h"
 #include "posekit/deformation/part_pose_estimation.h"
+#include "posekit/deformation/pose_dataset.h"
 #include "posekit/deformation/pose_fitting.h"
 #include "posekit/deformation/pose_model.h"
 #include "posekit/deformation/pose_synthesis.h"
 #include "posekit/deformation/segmentation_calibration.h"
 #include "posekit/evaluation/pose_evaluation.h"
-#include "posekit/evaluation/registration_table.h"
 #include "posekit/evaluation/scan_comparison.h"
 #include "posekit/io/atomic_file.h"
+#include "posekit/io/json.h"
 #include "posekit/io/mesh_io.h"
 #include "posekit/io/point_cloud_io.h"
+#include "posekit/paper/registration_table.h"
 #include "posekit/registration/ctffd.h"
 #include "posekit/registration/shape_space.h"
 #include "posekit/shape/body_features.h"
@@ -203,7 +204,12 @@ struct FitTask {
 class ReportWriter {
  public:
   ReportWriter(const std::string& dir, const std::string& out_dir, const ReportOptions& o)
-      : dir(dir), out_dir(out_dir), o(o), manifest(read_dataset_manifest(dir)), subjects(manifest.at("subjects")), cache(o.cache_dir) {
+      : dir(dir),
+        out_dir(out_dir),
+        o(o),
+        manifest(read_json_file((std::filesystem::path(dir) / "manifest.json").string())),
+        subjects(manifest.at("subjects")),
+        cache(o.cache_dir) {
     std::error_code ec;
     fs::create_directories(out_dir, ec);
     if (ec || !fs::is_directory(out_dir)) throw IoError(out_dir + ": cannot create the report folder (" + ec.message() + ")");

@@ -6,7 +6,7 @@
 #include <string>
 
 #include "posekit/deformation/pose_fitting.h"
-#include "posekit/evaluation/registration_table.h"
+#include "posekit/paper/registration_table.h"
 
 namespace posekit::report_detail {
 
