@@ -131,16 +131,25 @@ std::uint32_t packed_color_bits(const char* p) {
   return bits;
 }
 
-PointCloud read_pcd(const std::string& path, double scale) {
-  const io_detail::MappedFile file(path);  // binary data is decoded straight from the map into the columns
-  const std::string_view bytes = file.bytes();
-  LineScanner lines(bytes, path);
+/// A PCD header: its fields (with their offsets in a binary record), point count and DATA kind.
+struct PcdHeader {
+  std::vector<PcdField> fields;
+  long long points = -1;
+  std::string data;  ///< ascii, binary or binary_compressed
+  size_t record = 0, values_per_point = 0;
+};
+
+/// Reads the header up to its DATA line and checks it. Throws IoError naming `path`.
+PcdHeader read_pcd_header(LineScanner& lines, const std::string& path) {
   std::string_view line;
   std::vector<std::string_view> tok;
-  std::vector<PcdField> fields;
-  long long width = -1, height = -1, points = -1;
+  PcdHeader h;
+  std::vector<PcdField>& fields = h.fields;
+  long long& points = h.points;
+  std::string& data = h.data;
+  long long width = -1, height = -1;
+  points = -1;
   bool have_size = false, have_type = false;
-  std::string data;
   while (lines.next(line)) {
     split(line, tok);
     if (tok.empty() || tok[0][0] == '#') continue;
@@ -200,23 +209,43 @@ PointCloud read_pcd(const std::string& path, double scale) {
   if (points != width * height)
     throw IoError(path + ": PCD header declares POINTS " + std::to_string(points) + " but WIDTH x HEIGHT = " + std::to_string(width) +
                   " x " + std::to_string(height) + " = " + std::to_string(width * height));
-  int ix = -1, iy = -1, iz = -1, inx = -1, iny = -1, inz = -1, icolor = -1;
-  size_t record = 0, values_per_point = 0;
-  for (size_t i = 0; i < fields.size(); ++i) {
-    fields[i].offset = record;
-    record += static_cast<size_t>(fields[i].size) * fields[i].count;
-    values_per_point += static_cast<size_t>(fields[i].count);
-    const std::string& n = fields[i].name;
-    if (n == "x") ix = static_cast<int>(i);
-    else if (n == "y") iy = static_cast<int>(i);
-    else if (n == "z") iz = static_cast<int>(i);
-    else if (n == "normal_x") inx = static_cast<int>(i);
-    else if (n == "normal_y") iny = static_cast<int>(i);
-    else if (n == "normal_z") inz = static_cast<int>(i);
-    else if (is_packed_color(fields[i]) && icolor < 0) icolor = static_cast<int>(i);
+  for (PcdField& field : fields) {
+    field.offset = h.record;
+    h.record += static_cast<size_t>(field.size) * field.count;
+    h.values_per_point += static_cast<size_t>(field.count);
   }
-  if (ix < 0 || iy < 0 || iz < 0) throw IoError(path + ": PCD has no x, y, z fields");
-  const bool normals = inx >= 0 && iny >= 0 && inz >= 0;
+  return h;
+}
+
+/// A PCD's values where they lie: ascii ones parsed into ascii[field][point], binary records and
+/// binary_compressed columns decoded in place. Packed colours keep their 32 bits.
+struct PcdValues {
+  const PcdHeader* header = nullptr;
+  std::vector<std::vector<double>> ascii;
+  const char* records = nullptr;  ///< binary: point p's field f at records + p * record + offset
+  std::vector<char> raw;          ///< binary_compressed: field f's column at raw + column[f]
+  std::vector<size_t> column;
+
+  double decode(const char* p, size_t f) const {
+    const PcdField& field = header->fields[f];
+    return is_packed_color(field) ? static_cast<double>(packed_color_bits(p)) : pcd_value(p, field);
+  }
+  double operator()(size_t f, Eigen::Index p) const {
+    const PcdField& field = header->fields[f];
+    if (records) return decode(records + static_cast<size_t>(p) * header->record + field.offset, f);
+    if (!ascii.empty()) return ascii[f][static_cast<size_t>(p)];
+    return decode(raw.data() + column[f] + static_cast<size_t>(p) * static_cast<size_t>(field.size) * field.count, f);
+  }
+};
+
+/// Reads the data after the header, first checking that the header's count fits it.
+PcdValues read_pcd_values(LineScanner& lines, std::string_view bytes, const PcdHeader& h, const std::string& path) {
+  const std::vector<PcdField>& fields = h.fields;
+  const long long points = h.points;
+  const std::string& data = h.data;
+  const size_t record = h.record, values_per_point = h.values_per_point;
+  std::string_view line;
+  std::vector<std::string_view> tok;
   // The header's count must fit the data before anything is allocated for it: a binary point takes
   // `record` bytes, an ascii one at least a character and a separator per value.
   const size_t data_start = lines.offset();
@@ -229,13 +258,12 @@ PointCloud read_pcd(const std::string& path, double scale) {
                   " bytes, more than the " + std::to_string(bytes.size() - data_start) + " bytes of data can hold (truncated file)");
   // Each value read where it lies: the ascii values parsed into values[field][point], binary records
   // and binary_compressed columns decoded in place. Packed colours keep their 32 bits.
-  std::vector<std::vector<double>> values;
-  const char* records = nullptr;  // binary: point p's field f at records + p * record + offset
-  std::vector<char> raw;          // binary_compressed: field f's column at raw + column[f]
-  std::vector<size_t> column(fields.size(), 0);
-  auto decode = [&](const char* p, size_t f) {
-    return is_packed_color(fields[f]) ? static_cast<double>(packed_color_bits(p)) : pcd_value(p, fields[f]);
-  };
+  PcdValues out;
+  out.header = &h;
+  std::vector<std::vector<double>>& values = out.ascii;
+  std::vector<char>& raw = out.raw;
+  std::vector<size_t>& column = out.column;
+  column.assign(fields.size(), 0);
   if (data == "ascii") {
     values.assign(fields.size(), std::vector<double>(static_cast<size_t>(points)));
     for (long long p = 0; p < points; ++p) {
@@ -262,7 +290,7 @@ PointCloud read_pcd(const std::string& path, double scale) {
         }
     }
   } else if (data == "binary") {
-    records = bytes.data() + data_start;
+    out.records = bytes.data() + data_start;
   } else if (data == "binary_compressed") {
     if (bytes.size() - data_start < 8) throw IoError(path + ": binary_compressed data is truncated");
     std::uint32_t compressed = 0, uncompressed = 0;
@@ -286,11 +314,30 @@ PointCloud read_pcd(const std::string& path, double scale) {
   } else {
     throw IoError(path + ": unknown DATA '" + data + "': expected ascii, binary or binary_compressed");
   }
-  auto value = [&](size_t f, Eigen::Index p) {
-    if (records) return decode(records + static_cast<size_t>(p) * record + fields[f].offset, f);
-    if (!values.empty()) return values[f][static_cast<size_t>(p)];
-    return decode(raw.data() + column[f] + static_cast<size_t>(p) * static_cast<size_t>(fields[f].size) * fields[f].count, f);
-  };
+  return out;
+}
+
+PointCloud read_pcd(const std::string& path, double scale) {
+  const io_detail::MappedFile file(path);  // binary data is decoded straight from the map into the columns
+  const std::string_view bytes = file.bytes();
+  LineScanner lines(bytes, path);
+  const PcdHeader header = read_pcd_header(lines, path);
+  const std::vector<PcdField>& fields = header.fields;
+  int ix = -1, iy = -1, iz = -1, inx = -1, iny = -1, inz = -1, icolor = -1;
+  for (size_t i = 0; i < fields.size(); ++i) {
+    const std::string& n = fields[i].name;
+    if (n == "x") ix = static_cast<int>(i);
+    else if (n == "y") iy = static_cast<int>(i);
+    else if (n == "z") iz = static_cast<int>(i);
+    else if (n == "normal_x") inx = static_cast<int>(i);
+    else if (n == "normal_y") iny = static_cast<int>(i);
+    else if (n == "normal_z") inz = static_cast<int>(i);
+    else if (is_packed_color(fields[i]) && icolor < 0) icolor = static_cast<int>(i);
+  }
+  if (ix < 0 || iy < 0 || iz < 0) throw IoError(path + ": PCD has no x, y, z fields");
+  const bool normals = inx >= 0 && iny >= 0 && inz >= 0;
+  const PcdValues value = read_pcd_values(lines, bytes, header, path);
+  const long long points = header.points;
   PointCloud cloud;
   const auto n = static_cast<Eigen::Index>(points);
   cloud.P.resize(n, 3);

@@ -122,6 +122,109 @@ BodyOrientation orientation_from_axes(const Eigen::Vector3d& up_in, const Eigen:
   return o;
 }
 
+namespace {
+
+/// Feet at the bottom: turns `up` (and the heights h, lo, hi along it) end over end when the surface
+/// says the head is at the other end.
+void orient_head_end(const Eigen::MatrixXd& P, const std::vector<double>& w, double total, const Eigen::Vector3d& centre, double height,
+                     Eigen::Vector3d* up, std::vector<double>* h, double* lo, double* hi, std::vector<std::string>* warnings) {
+  // Feet at the bottom: more surface in the lowest slab than in the highest (the crown's dome,
+  // or hands raised). The surface's centre above mid-height: legs are thinner than torso and arms.
+  const double bottom = band_of(P, w, *h, *lo, *lo + kSlab * height).weight;
+  const double top = band_of(P, w, *h, *hi - kSlab * height, *hi + 1e-12 * height).weight;
+  const double centre_h = (centre.dot(*up) - 0.5 * (*lo + *hi)) / height;
+  // Each cue scaled to about 1 on a standing body (feet hold ~3x the crown's surface; the centre
+  // ~3% of the height above mid-height), capped, and summed: a footless scan still has its centre.
+  const double slab_cue = std::clamp(std::log((bottom + 1e-30) / (top + 1e-30)) / std::log(kSlabRatioCue), -2.0, 2.0);
+  const double centre_cue = std::clamp(centre_h / kCentreCue, -2.0, 2.0);
+  const double score = slab_cue + centre_cue;
+  const int vote = score >= 0 ? 1 : -1;
+  if (std::abs(score) < kMinUpScore)
+    warnings->push_back("could not tell the head end from the feet (surface in the end slabs " + fixed(bottom / total, 3) + " and " +
+                        fixed(top / total, 3) + " of the whole, its centre " + fixed(centre_h * 100, 1) +
+                        "% of the height from mid-height); assuming " + axis_name(static_cast<double>(vote) * *up) +
+                        " is up: give --up if not");
+  else if (std::abs(slab_cue) > kMinUpScore && std::abs(centre_cue) > kMinUpScore && slab_cue * centre_cue < 0)
+    warnings->push_back("the head end is uncertain: the feet's surface and the surface's centre disagree; taking " +
+                        axis_name(static_cast<double>(vote) * *up) + " as up: give --up if wrong");
+  if (vote < 0) {
+    *up = -*up;
+    for (double& v : *h) v = -v;
+    std::swap(*lo, *hi);
+    *lo = -*lo;
+    *hi = -*hi;
+  }
+}
+
+/// Forward, perpendicular to `up`: the chest band's narrower direction (left-right is its wider one),
+/// snapped to the nearest file axis, and pointing where the feet point ahead of the shanks.
+Eigen::Vector3d detect_forward(const Eigen::MatrixXd& P, const std::vector<double>& w, const std::vector<double>& h, double lo,
+                               double height, const Eigen::Vector3d& up, const OrientationOptions& options,
+                               std::vector<std::string>* warnings) {
+  const Eigen::Index n = P.rows();
+  const Eigen::Vector3d e1 = up.unitOrthogonal(), e2 = up.cross(e1);
+  Eigen::Vector3d forward;
+  // Left-right is the wider direction of the chest band (shoulders and arms), which the body's
+  // features and representation need; a torso twisted on the pelvis turns it away from where the
+  // hips and feet face, which is said.
+  auto band_spread = [&](const double(&band)[2], Eigen::Vector3d* depth, double* width_over_depth) {
+    const Band b = band_of(P, w, h, lo + band[0] * height, lo + band[1] * height);
+    Eigen::Matrix2d c2 = Eigen::Matrix2d::Zero();
+    for (Eigen::Index i = 0; i < n; ++i) {
+      const double hv = h[static_cast<size_t>(i)];
+      if (hv < lo + band[0] * height || hv >= lo + band[1] * height) continue;
+      const Eigen::Vector3d d = P.row(i).transpose() - b.mean;
+      const Eigen::Vector2d q(d.dot(e1), d.dot(e2));
+      c2 += w[static_cast<size_t>(i)] * q * q.transpose();
+    }
+    const Eigen::SelfAdjointEigenSolver<Eigen::Matrix2d> pca2(c2);
+    const Eigen::Vector2d spread2 = pca2.eigenvalues().cwiseMax(0).cwiseSqrt();
+    const Eigen::Vector2d d2 = pca2.eigenvectors().col(0);
+    *depth = (d2[0] * e1 + d2[1] * e2).normalized();
+    *width_over_depth = spread2[1] / (spread2[0] + 1e-30);
+  };
+  double ratio = 0, hip_ratio = 0;
+  Eigen::Vector3d hip_forward;
+  band_spread(kChestBand, &forward, &ratio);
+  band_spread(kHipBand, &hip_forward, &hip_ratio);
+  if (!(ratio > kMinWidthOverDepth))
+    warnings->push_back("could not tell side from front: the chest band is about as deep as it is wide (" + fixed(ratio, 2) +
+                        "); give --forward");
+  const double twist = std::acos(std::min(1.0, std::abs(forward.dot(hip_forward)))) * 180 / kPi;
+  if (ratio > kMinWidthOverDepth && hip_ratio > kMinWidthOverDepth && twist > kTwistWarning)
+    warnings->push_back("the chest is turned " + fixed(twist, 0) +
+                        " degrees from the hips (a twisted torso): posekit's frame follows the chest; give --forward for the hips'");
+  // Snap to the file's axis nearest in the horizontal plane.
+  const Eigen::Vector3d snapped = snap_to_axis(forward, options.forward_snap_degrees);
+  if (std::abs(snapped.dot(up)) < 1e-9) forward = snapped;
+
+  // Front from back: the feet point forward of the shanks above them (toes far ahead, heels just
+  // behind). Only shank samples within the feet's sideways span count: a raised foot is elsewhere.
+  const Eigen::Vector3d side = up.cross(forward);
+  const Band feet = band_of(P, w, h, lo, lo + kFootBand * height);
+  std::vector<double> feet_side, feet_w;
+  for (Eigen::Index i = 0; i < n; ++i)
+    if (h[static_cast<size_t>(i)] < lo + kFootBand * height) {
+      feet_side.push_back(P.row(i).dot(side));
+      feet_w.push_back(w[static_cast<size_t>(i)]);
+    }
+  Band shanks;
+  if (!feet_side.empty())
+    shanks = band_of(P, w, h, lo + kShankBand[0] * height, lo + kShankBand[1] * height, side, quantile(feet_side, feet_w, 0.02),
+                     quantile(feet_side, feet_w, 0.98));
+  const double lead = feet.weight > 0 && shanks.weight > 0 ? (feet.mean - shanks.mean).dot(forward) / height : 0;
+  if (std::abs(lead) > kFootCue) {
+    if (lead < 0) forward = -forward;
+  } else {
+    if (forward.z() + 1e-9 * forward.x() < 0) forward = -forward;
+    warnings->push_back("could not tell front from back (no feet pointing forward of the shanks); assuming the body faces " +
+                        axis_name(forward) + ": give --forward if not");
+  }
+  return forward;
+}
+
+}  // namespace
+
 BodyOrientation detect_body_orientation(const Eigen::MatrixXd& P, const Eigen::VectorXd& weights, const OrientationOptions& options) {
   const Eigen::Index n = P.rows();
   if (n < 10 || P.cols() != 3) throw InvalidInput("orientation: too few points to tell a body's orientation");
@@ -182,100 +285,16 @@ BodyOrientation detect_body_orientation(const Eigen::MatrixXd& P, const Eigen::V
   const double height = hi - lo;
   if (!(height > 0)) throw InvalidInput("orientation: the body is flat along its long axis");
 
-  if (o.up_detected) {
-    // Feet at the bottom: more surface in the lowest slab than in the highest (the crown's dome,
-    // or hands raised). The surface's centre above mid-height: legs are thinner than torso and arms.
-    const double bottom = band_of(P, w, h, lo, lo + kSlab * height).weight;
-    const double top = band_of(P, w, h, hi - kSlab * height, hi + 1e-12 * height).weight;
-    const double centre_h = (centre.dot(up) - 0.5 * (lo + hi)) / height;
-    // Each cue scaled to about 1 on a standing body (feet hold ~3x the crown's surface; the centre
-    // ~3% of the height above mid-height), capped, and summed: a footless scan still has its centre.
-    const double slab_cue = std::clamp(std::log((bottom + 1e-30) / (top + 1e-30)) / std::log(kSlabRatioCue), -2.0, 2.0);
-    const double centre_cue = std::clamp(centre_h / kCentreCue, -2.0, 2.0);
-    const double score = slab_cue + centre_cue;
-    const int vote = score >= 0 ? 1 : -1;
-    if (std::abs(score) < kMinUpScore)
-      o.warnings.push_back("could not tell the head end from the feet (surface in the end slabs " + fixed(bottom / total, 3) + " and " +
-                           fixed(top / total, 3) + " of the whole, its centre " + fixed(centre_h * 100, 1) +
-                           "% of the height from mid-height); assuming " + axis_name(static_cast<double>(vote) * up) +
-                           " is up: give --up if not");
-    else if (std::abs(slab_cue) > kMinUpScore && std::abs(centre_cue) > kMinUpScore && slab_cue * centre_cue < 0)
-      o.warnings.push_back("the head end is uncertain: the feet's surface and the surface's centre disagree; taking " +
-                           axis_name(static_cast<double>(vote) * up) + " as up: give --up if wrong");
-    if (vote < 0) {
-      up = -up;
-      for (double& v : h) v = -v;
-      std::swap(lo, hi);
-      lo = -lo;
-      hi = -hi;
-    }
-  }
+  if (o.up_detected) orient_head_end(P, w, total, centre, height, &up, &h, &lo, &hi, &o.warnings);
 
-  // The horizontal plane's basis, and the chest band's wider direction: the subject's left-right.
-  Eigen::Vector3d e1 = up.unitOrthogonal(), e2 = up.cross(e1);
   Eigen::Vector3d forward;
   if (options.forward.norm() > 0) {
     forward = options.forward.normalized();
     if (std::abs(forward.dot(up)) > std::sin(kPi / 180))
       throw InvalidInput("orientation: forward " + axis_name(forward) + " is not perpendicular to up " + axis_name(up));
   } else {
-    // Left-right is the wider direction of the chest band (shoulders and arms), which the body's
-    // features and representation need; a torso twisted on the pelvis turns it away from where the
-    // hips and feet face, which is said.
-    auto band_spread = [&](const double(&band)[2], Eigen::Vector3d* depth, double* width_over_depth) {
-      const Band b = band_of(P, w, h, lo + band[0] * height, lo + band[1] * height);
-      Eigen::Matrix2d c2 = Eigen::Matrix2d::Zero();
-      for (Eigen::Index i = 0; i < n; ++i) {
-        const double hv = h[static_cast<size_t>(i)];
-        if (hv < lo + band[0] * height || hv >= lo + band[1] * height) continue;
-        const Eigen::Vector3d d = P.row(i).transpose() - b.mean;
-        const Eigen::Vector2d q(d.dot(e1), d.dot(e2));
-        c2 += w[static_cast<size_t>(i)] * q * q.transpose();
-      }
-      const Eigen::SelfAdjointEigenSolver<Eigen::Matrix2d> pca2(c2);
-      const Eigen::Vector2d spread2 = pca2.eigenvalues().cwiseMax(0).cwiseSqrt();
-      const Eigen::Vector2d d2 = pca2.eigenvectors().col(0);
-      *depth = (d2[0] * e1 + d2[1] * e2).normalized();
-      *width_over_depth = spread2[1] / (spread2[0] + 1e-30);
-    };
-    double ratio = 0, hip_ratio = 0;
-    Eigen::Vector3d hip_forward;
-    band_spread(kChestBand, &forward, &ratio);
-    band_spread(kHipBand, &hip_forward, &hip_ratio);
-    if (!(ratio > kMinWidthOverDepth))
-      o.warnings.push_back("could not tell side from front: the chest band is about as deep as it is wide (" + fixed(ratio, 2) +
-                           "); give --forward");
-    const double twist = std::acos(std::min(1.0, std::abs(forward.dot(hip_forward)))) * 180 / kPi;
-    if (ratio > kMinWidthOverDepth && hip_ratio > kMinWidthOverDepth && twist > kTwistWarning)
-      o.warnings.push_back("the chest is turned " + fixed(twist, 0) +
-                           " degrees from the hips (a twisted torso): posekit's frame follows the chest; give --forward for the hips'");
-    // Snap to the file's axis nearest in the horizontal plane.
-    const Eigen::Vector3d snapped = snap_to_axis(forward, options.forward_snap_degrees);
-    if (std::abs(snapped.dot(up)) < 1e-9) forward = snapped;
+    forward = detect_forward(P, w, h, lo, height, up, options, &o.warnings);
     o.forward_detected = true;
-
-    // Front from back: the feet point forward of the shanks above them (toes far ahead, heels just
-    // behind). Only shank samples within the feet's sideways span count: a raised foot is elsewhere.
-    const Eigen::Vector3d side = up.cross(forward);
-    const Band feet = band_of(P, w, h, lo, lo + kFootBand * height);
-    std::vector<double> feet_side, feet_w;
-    for (Eigen::Index i = 0; i < n; ++i)
-      if (h[static_cast<size_t>(i)] < lo + kFootBand * height) {
-        feet_side.push_back(P.row(i).dot(side));
-        feet_w.push_back(w[static_cast<size_t>(i)]);
-      }
-    Band shanks;
-    if (!feet_side.empty())
-      shanks = band_of(P, w, h, lo + kShankBand[0] * height, lo + kShankBand[1] * height, side, quantile(feet_side, feet_w, 0.02),
-                       quantile(feet_side, feet_w, 0.98));
-    const double lead = feet.weight > 0 && shanks.weight > 0 ? (feet.mean - shanks.mean).dot(forward) / height : 0;
-    if (std::abs(lead) > kFootCue) {
-      if (lead < 0) forward = -forward;
-    } else {
-      if (forward.z() + 1e-9 * forward.x() < 0) forward = -forward;
-      o.warnings.push_back("could not tell front from back (no feet pointing forward of the shanks); assuming the body faces " +
-                           axis_name(forward) + ": give --forward if not");
-    }
   }
   BodyOrientation result = orientation_from_axes(up, forward);
   result.up_detected = o.up_detected;
