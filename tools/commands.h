@@ -33,6 +33,7 @@ int run_retarget(int argc, char** argv);
 int run_segment(int argc, char** argv);
 int run_eval(int argc, char** argv);
 int run_eval_fit(int argc, char** argv);
+int run_dev(int argc, char** argv);
 int run_fit(int argc, char** argv);
 int run_eval_bodies(int argc, char** argv);
 int run_compare(int argc, char** argv);

@@ -36,6 +36,7 @@ const Command kCommands[] = {
     {"report", posekit::cli::run_report, "the paper's figures and tables from a dataset, as HTML + Markdown"},
     {"dataset", posekit::cli::run_dataset, "generate the evaluation dataset, or check one"},
     {"batch", posekit::cli::run_batch, "measure, compare or pose many bodies on several cores or machines (shards), with a CSV summary"},
+    {"dev", posekit::cli::run_dev, "for posekit's developers: dev calibrate refits the body features' fitted constants"},
     {"bench", posekit::cli::run_bench, "benchmarks with medians over several runs; bench all: one table"},
 };
 

@@ -11,6 +11,7 @@
 #include <utility>
 
 #include "bust_band.h"
+#include "feature_constants.h"
 #include "posekit/core/error.h"
 #include "posekit/core/mesh_geometry.h"
 #include "posekit/core/mesh_slice.h"
@@ -23,6 +24,7 @@
 namespace posekit {
 using shape_detail::kBustBelowArmpits;
 using shape_detail::kBustPlateau;
+using namespace shape_detail::fitted;
 namespace {
 
 /// A gap between joined thighs (thighs_apart): two thigh sections (at least kThighMinArea, centroids
@@ -44,13 +46,8 @@ constexpr int kRefineSteps = 5;               ///< finer sections per step that 
 constexpr double kArmClearance = 0.005;       ///< m: the arms separate where they stand this clear of the torso
 constexpr int kArmClearanceSections = 8;      ///< sections below the armpit level searched for that clearance
 constexpr double kWaistBandStart = 0.33;
-constexpr double kWaistTieTolerance = 0.002;  ///< m of girth
-constexpr double kKneeFraction = 0.563;       ///< knee joint between ankle joint and crotch
-/// Knee height = fraction estimate + kKneeTowardHollow (popliteal hollow - fraction estimate) +
-/// kKneeShift (crotch - ankle): least squares on the 240 legs of 120 MakeHuman calibration bodies
-/// (make_calibration_specs(20131122, 120), remeshed): residual 8.4 mm SD, 14 mm before.
-constexpr double kKneeTowardHollow = 0.6459;
-constexpr double kKneeShift = -0.0336;
+constexpr double kWaistTieTolerance = 0.002;    ///< m of girth
+constexpr double kKneeFraction = 0.563;         ///< knee joint between ankle joint and crotch
 constexpr double kWristBand[2] = {0.48, 0.68};  ///< wrist between elbow and hand tip
 /// refine_elbows: where the elbow lies without a kink to tell, as the fraction shoulder-elbow /
 /// (shoulder-elbow + elbow-wrist) of the joint distances, and the fit error (m RMS) one metre away
@@ -77,32 +74,11 @@ constexpr double kForearmStep = 0.01;  ///< m between perpendicular forearm sect
 /// a few cm from that segment where the wrist bends).
 constexpr double kForearmSliceRadius = 0.15;
 
-/// Neck joint height above the level b where the neck's girth reaches 1.25 times its narrowest
-/// (placed between sections): a linear regression on (1, narrowest neck level - b, crown - b,
-/// b - crotch), in metres. A constant offset above b was 7.8 mm SD and biased by sex (the women's
-/// joints too high, the men's too low), since the shoulders' slope into the neck differs.
-/// Least squares on 100 calibration bodies (make_calibration_specs(20131122, 100), remeshed; not
-/// the test subjects): residual 4.1 mm SD, 8.8 mm at most; on the 16 subjects 4.2 mm RMS.
-constexpr double kNeckJointFromBase[4] = {-0.0813, -0.1808, 0.6473, -0.1134};
 /// Neck joint depth = neck base centroid + kNeckJointForward; head joint at kHeadJointFraction of
 /// the way from the neck base up to the crown, kHeadJointForward from the head section's centroid
 /// there: medians over 100 calibration bodies (remeshed; not the test subjects), SD 4.4 mm (neck
 /// depth) and 4.6 and 4.2 mm (head height and depth).
-constexpr double kNeckJointForward = -0.0079;
 constexpr double kHeadJointFraction = 0.4164, kHeadJointForward = -0.0176;
-
-/// Shoulder joint centre from the torso section 1.5 arm radii above the armpit: a linear regression
-/// on (1, lateral width of the section beyond the armpit, arm radius at the armpit, front-to-back
-/// depth of that lateral part, the arm's top centroid lateral of the armpit and forward of the
-/// part's mid-depth), all in metres. Gives the joint lateral of the armpit, above it, and forward of
-/// the mid-depth. Least squares on the 224 arms of 112 MakeHuman calibration bodies
-/// (make_calibration_specs(20131122, 120), remeshed; not the test subjects): median error 4.4 mm.
-struct ShoulderRegression {
-  double lateral[6], up[6], forward[6];
-};
-constexpr ShoulderRegression kShoulderFromSection = {{0.0124, 0.7672, 0.0876, -0.3498, -0.3895, -0.5959},
-                                                     {-0.0153, 0.0250, 0.4774, 0.2500, 0.5850, -0.1005},
-                                                     {-0.0141, 0.0955, 0.4973, 0.0592, -0.3034, 0.7831}};
 
 /// Joint centre minus the section centroid that locates it, as (lateral, up, forward) in metres:
 /// medians over 80 MakeHuman calibration bodies (make_calibration_specs(20131122, 80), not the test
@@ -111,20 +87,36 @@ constexpr ShoulderRegression kShoulderFromSection = {{0.0124, 0.7672, 0.0876, -0
 /// parabola's vertex on the 99 left arms found of make_calibration_specs(20131122, 100), remeshed.
 constexpr double kElbowOffset[3] = {-0.0098, 0.0119, -0.0224};
 constexpr double kWristOffset[3] = {0.008, -0.005, 0.013};
-constexpr double kKneeOffset[3] = {0.002, 0.0, 0.006};
-/// Hip joint centre (the femoral head; 7-10 cm above the crotch in adults) relative to the crotch,
-/// in the pelvis's frame (lateral along the line between the thighs' centres kHipProbe of the
-/// stature below the crotch, forward, up): each a linear regression on (1, stature, front, back), the
-/// last two the forward extent of the torso section at kHipLevel of the stature above the crotch,
-/// from the crotch. Least squares on the upperleg01 heads (MakeHuman's femoral heads) of
-/// make_calibration_specs(7, 200), not the test subjects; on make_calibration_specs(99, 150) the
-/// error is 2.8 (up), 2.9 (lateral) and 3.3 mm (forward) RMS, against 4.8, 9.1 and 5.1 mm for a
-/// constant offset (biased by sex, as the pelvis is). The thighs' own pose does not enter.
-constexpr double kHipProbe = 0.06, kHipLevel = 0.046;
-constexpr double kHipUp[4] = {0.0210, 0.0259, -0.1390, -0.2188};
-constexpr double kHipLateral[4] = {0.0257, 0.0369, 0.2421, 0.0750};
-constexpr double kHipForward[4] = {-0.0036, -0.0145, -0.1536, -0.1877};
-constexpr double kAnkleOffset[3] = {-0.004, -0.002, -0.009};
+
+/// FeatureRegressors' records, each at the regression it stands for (nothing without a record).
+void record_neck(const BodyFeatures& f, double widening_y, FeatureRegressors* r) {
+  if (!r) return;
+  r->neck = true;
+  r->neck_inputs = {1.0, f.neck_y - widening_y, f.crown_y - widening_y, widening_y - f.crotch_y};
+  r->neck_widening_y = widening_y;
+  r->neck_base = f.neck_base;
+}
+void record_shoulder(int side, const double (&inputs)[6], const Eigen::Vector3d& origin, FeatureRegressors* r) {
+  if (!r) return;
+  r->shoulder[side] = true;
+  std::copy(inputs, inputs + 6, r->shoulder_inputs[side].begin());
+  r->shoulder_origin[side] = origin;
+}
+void record_leg(int side, double fraction_y, double hollow_y, double leg_length, const Eigen::Vector3d& knee_point,
+                const Eigen::Vector3d& ankle_point, FeatureRegressors* r) {
+  if (!r) return;
+  r->leg[side] = true;
+  r->knee_fraction_y[side] = fraction_y, r->knee_hollow_y[side] = hollow_y, r->leg_length[side] = leg_length;
+  r->knee_point[side] = knee_point, r->ankle_point[side] = ankle_point;
+}
+void record_hips(const BodyFeatures& f, double front, double back, const Eigen::Vector3d& lateral, const Eigen::Vector3d& forward,
+                 FeatureRegressors* r) {
+  if (!r) return;
+  r->hips = true;
+  r->hip_inputs = {1.0, f.stature, front, back};
+  r->crotch = Eigen::Vector3d(f.crotch.x(), f.crotch_y, f.crotch.z());
+  r->hip_lateral = lateral, r->hip_forward = forward;
+}
 
 /// A calibrated offset on the given side (the subject's left is +X).
 Eigen::Vector3d offset_on(const double (&offset)[3], int side) {
@@ -470,7 +462,8 @@ BodyFeatures find_body_features(const Eigen::MatrixXd& V_in, const Eigen::Matrix
   return find_body_features(V_in, F_in, nullptr);
 }
 
-BodyFeatures find_body_features(const Eigen::MatrixXd& V_in, const Eigen::MatrixXi& F_in, TriangleMesh* surface_out, int threads) {
+BodyFeatures find_body_features(const Eigen::MatrixXd& V_in, const Eigen::MatrixXi& F_in, TriangleMesh* surface_out, int threads,
+                                FeatureRegressors* regressors) {
   std::string left_out;
   TriangleMesh owned;
   TriangleMesh& surface = surface_out ? *surface_out : owned;
@@ -506,7 +499,7 @@ BodyFeatures find_body_features(const Eigen::MatrixXd& V_in, const Eigen::Matrix
   BodyFeatures f = find_body_features(
       horizontal_sections(V, F, kSectionStep, threads),
       [&](const std::vector<double>& heights) { return slice_mesh_stack(V, F, Eigen::Vector3d::UnitY(), heights, threads); }, top_is_cut,
-      threads);
+      threads, regressors);
   // A hand cut off (a scan's wrists): the arm ends in an opening as big round as a wrist or
   // forearm (10 to 35 cm) within 5 cm of where it was followed to. The wrist is the cut's centre.
   // A hole in one hand (fingers lost) is no cut wrist: an opening that lies well beyond the other
@@ -572,7 +565,8 @@ BodyFeatures find_body_features(const Eigen::MatrixXd& V_in, const Eigen::Matrix
   return f;
 }
 
-BodyFeatures find_body_features(const SectionStack& st, const HorizontalSectionsAt& sections_at, bool top_is_cut, int threads) {
+BodyFeatures find_body_features(const SectionStack& st, const HorizontalSectionsAt& sections_at, bool top_is_cut, int threads,
+                                FeatureRegressors* regressors) {
   BodyFeatures f;
   f.floor_y = st.floor_y;
   f.top_y = f.crown_y = st.top_y;
@@ -875,6 +869,7 @@ BodyFeatures find_body_features(const SectionStack& st, const HorizontalSections
       f.neck_base.x(),
       widening_y + w[0] + w[1] * (f.neck_y - widening_y) + w[2] * (f.crown_y - widening_y) + w[3] * (widening_y - f.crotch_y),
       f.neck_base.z() + kNeckJointForward);
+  record_neck(f, widening_y, regressors);
   const double head_y = f.neck_base.y() + kHeadJointFraction * (f.crown_y - f.neck_base.y());
   const int head_level = std::clamp(static_cast<int>(std::lround((head_y - st.y[0]) / st.step)), 0, n - 1);
   Eigen::Vector3d head_centre = f.neck_top;  // over a hole, the nearest closed head section within 2.5 cm
@@ -1019,6 +1014,7 @@ BodyFeatures find_body_features(const SectionStack& st, const HorizontalSections
         f.shoulder[side] =
             Eigen::Vector3d(f.armpit[side].x() + outward * predict(kShoulderFromSection.lateral),
                             f.armpit[side].y() + predict(kShoulderFromSection.up), mid_z + predict(kShoulderFromSection.forward));
+      if (count >= 5) record_shoulder(side, x, Eigen::Vector3d(f.armpit[side].x(), f.armpit[side].y(), mid_z), regressors);
     }
   }
 
@@ -1160,6 +1156,7 @@ BodyFeatures find_body_features(const SectionStack& st, const HorizontalSections
     const size_t knee = index_of_height(knee_y);
     f.ankle[side] = axis[ankle] + offset_on(kAnkleOffset, side);
     f.knee[side] = Eigen::Vector3d(axis[knee].x(), knee_y, axis[knee].z()) + offset_on(kKneeOffset, side);  // even over a hole
+    record_leg(side, fraction_y, hollow_y, leg_length, Eigen::Vector3d(axis[knee].x(), knee_y, axis[knee].z()), axis[ankle], regressors);
     probe[side] = axis[index_of_height(f.crotch_y - kHipProbe * f.stature)];
   }
   // Hips, in the pelvis's own frame: lateral along the line between the thigh probes (a torso
@@ -1183,6 +1180,7 @@ BodyFeatures find_body_features(const SectionStack& st, const HorizontalSections
     back = std::min(back, ahead);
   }
   auto regress = [&](const double(&c)[4]) { return c[0] + c[1] * f.stature + c[2] * front + c[3] * back; };
+  record_hips(f, front, back, lateral, forward, regressors);
   for (int side : {kLeft, kRight}) {
     Eigen::Vector3d hip = f.crotch + (side == kLeft ? 1.0 : -1.0) * regress(kHipLateral) * lateral + regress(kHipForward) * forward;
     hip.y() = f.crotch_y + regress(kHipUp);

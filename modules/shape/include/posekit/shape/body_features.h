@@ -2,6 +2,7 @@
 // Anatomical features of a standing body (A-pose, Y up, facing +Z, metres) found from its geometry
 // alone: horizontal sections, their loops, girths and centroids. Works for any topology.
 #include <Eigen/Core>
+#include <array>
 #include <functional>
 #include <limits>
 #include <string>
@@ -78,6 +79,27 @@ TriangleMesh body_surface(const Eigen::MatrixXd& V, const Eigen::MatrixXi& F, st
                           std::vector<int>* vertex_map = nullptr, std::vector<int>* face_map = nullptr,
                           std::vector<std::vector<int>>* input_boundary = nullptr, int threads = 1);
 
+/// What the fitted regressions of find_body_features saw on one body (side kLeft, kRight): each
+/// regression's inputs and the point each offset is added to, to refit those constants against a
+/// rig's joints (feature_calibration.h, `posekit dev calibrate`). What was not found is not recorded.
+struct FeatureRegressors {
+  bool neck = false;
+  std::array<double, 4> neck_inputs{};  ///< (1, narrowest neck level - b, crown - b, b - crotch)
+  double neck_widening_y = 0;           ///< b: where the neck's girth reaches 1.25 times its narrowest
+  Eigen::Vector3d neck_base = Eigen::Vector3d::Zero();
+  bool shoulder[2] = {false, false};
+  std::array<double, 6> shoulder_inputs[2] = {};  ///< the section above the armpit (kShoulderFromSection's inputs)
+  /// (armpit x, armpit y, the section's mid-depth z): the regression's lateral, up and forward start here.
+  Eigen::Vector3d shoulder_origin[2] = {Eigen::Vector3d::Zero(), Eigen::Vector3d::Zero()};
+  bool leg[2] = {false, false};
+  double knee_fraction_y[2] = {0, 0}, knee_hollow_y[2] = {0, 0}, leg_length[2] = {0, 0};
+  Eigen::Vector3d knee_point[2] = {Eigen::Vector3d::Zero(), Eigen::Vector3d::Zero()};   ///< before its offset
+  Eigen::Vector3d ankle_point[2] = {Eigen::Vector3d::Zero(), Eigen::Vector3d::Zero()};  ///< before its offset
+  bool hips = false;
+  std::array<double, 4> hip_inputs{};  ///< (1, stature, front, back)
+  Eigen::Vector3d crotch = Eigen::Vector3d::Zero(), hip_lateral = Eigen::Vector3d::UnitX(), hip_forward = Eigen::Vector3d::UnitZ();
+};
+
 /// Finds the features of a standing human body mesh (its body_surface; what it left out is a warning). Throws InvalidInput naming what
 /// failed for a mesh that is not a standing human (lying, upside-down, arms touching the torso, too small); an arm that cannot be followed
 /// to the hand (a hole in a scan) is flagged in arm_found and warnings.
@@ -85,7 +107,9 @@ BodyFeatures find_body_features(const Eigen::MatrixXd& V, const Eigen::MatrixXi&
 /// The same, also giving the body_surface the features were found on (build_layered_representation
 /// takes it), on `threads` threads (0: the hardware's) for the sections, the torso's girths and the
 /// two forearms, with the same result as on one.
-BodyFeatures find_body_features(const Eigen::MatrixXd& V, const Eigen::MatrixXi& F, TriangleMesh* surface, int threads = 1);
+/// `regressors` (optional) receives what the fitted regressions saw.
+BodyFeatures find_body_features(const Eigen::MatrixXd& V, const Eigen::MatrixXi& F, TriangleMesh* surface, int threads = 1,
+                                FeatureRegressors* regressors = nullptr);
 
 /// Horizontal sections at the given heights (one loop list per height), for finer levels than a stack's.
 using HorizontalSectionsAt = std::function<std::vector<std::vector<SectionLoop>>(const std::vector<double>& heights)>;
@@ -96,7 +120,7 @@ using HorizontalSectionsAt = std::function<std::vector<std::vector<SectionLoop>>
 /// sections alone tell only when the cut is clean. `threads` (0: the hardware's) share the torso's
 /// girths, with the same result as one.
 BodyFeatures find_body_features(const SectionStack& stack, const HorizontalSectionsAt& sections_at = {}, bool top_is_cut = false,
-                                int threads = 1);
+                                int threads = 1, FeatureRegressors* regressors = nullptr);
 
 /// A cross-section of the body through `point` with plane normal `normal` (the loop nearest the point).
 using SectionAt = std::function<SectionLoop(const Eigen::Vector3d& point, const Eigen::Vector3d& normal)>;
