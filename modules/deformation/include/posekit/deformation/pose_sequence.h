@@ -13,8 +13,8 @@
 namespace posekit {
 
 struct PoseSequenceOptions {
-  int first = 0, last = -1;  ///< a BVH's frames [first, last); -1: to the end
-  std::string data_root;     ///< MakeHuman's assets, for a BVH of its skeleton ("": find_data_root's default)
+  int first = 0, last = -1;                      ///< a BVH's frames [first, last); -1: to the end
+  std::string data_root;                         ///< MakeHuman's assets, for a BVH of its skeleton ("": find_data_root's default)
   std::map<std::string, std::string> joint_map;  ///< map_bvh_skeleton's overrides (read_bvh_joint_map)
   RetargetOptions::RootMotion root_motion = RetargetOptions::RootMotion::kVertical;
 };
