@@ -23,6 +23,7 @@ std::vector<FeatureCalibrationSample> make_feature_calibration_samples(const Mak
     const Body body = build_body(model, specs[k]);
     FeatureCalibrationSample& s = samples[k];
     s.joints = joint_centres(model.rig, body);
+    s.head = body.bone_heads.row(model.rig.find_bone("head")).transpose();
     try {
       const TriangleMesh mesh = o.remesh_vertices > 0 ? remesh_body(body.mesh, o.remesh_vertices) : body.mesh;
       find_body_features(mesh.V, mesh.F, nullptr, 1, &s.regressors);

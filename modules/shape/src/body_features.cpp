@@ -49,44 +49,22 @@ constexpr double kWaistBandStart = 0.33;
 constexpr double kWaistTieTolerance = 0.002;    ///< m of girth
 constexpr double kKneeFraction = 0.563;         ///< knee joint between ankle joint and crotch
 constexpr double kWristBand[2] = {0.48, 0.68};  ///< wrist between elbow and hand tip
-/// refine_elbows: where the elbow lies without a kink to tell, as the fraction shoulder-elbow /
-/// (shoulder-elbow + elbow-wrist) of the joint distances, and the fit error (m RMS) one metre away
-/// from there costs. 0.52 is the mean of the MakeHuman rig on 10 varied shapes (0.48 to 0.555);
-/// Winter's segment lengths (upper arm 0.186, forearm 0.146 of the stature) give 0.56 for real
-/// adults. The weight makes 10 cm off the prior cost 5 mm RMS: a 20-degree bend's kink outweighs it.
-constexpr double kElbowPathFraction = 0.52, kElbowPriorWeight = 0.05;
 /// refine_elbows: bend (degrees between upper arm and forearm) from which the first elbow estimate
 /// starts to be kept, and is kept whole. Its kink is sure at MakeHuman's rest pose (36-47 degrees);
 /// it drifts along nearly straight arms (6-17 cm off at 5-30 degrees).
 constexpr double kElbowBendBlend[2] = {32, 42};
+/// refine_elbows: the fit error (m RMS) an elbow one metre from kElbowPathFraction's place costs:
+/// 10 cm off costs 5 mm RMS, so a 20-degree bend's kink outweighs it.
+constexpr double kElbowPriorWeight = 0.05;
 constexpr size_t kElbowFitHalfWidth = 6;         ///< arm sections each side of the kink in the elbow's fit
 constexpr double kPalmFrom = 0.55;               ///< the palm lies beyond this fraction
 constexpr double kWristBeyondNarrowest = 0.012;  ///< m, toward the hand (horizontal sections)
-/// refine_wrists: the joint lies this far (m) beyond the centre of the narrowest perpendicular
-/// forearm section (median over the 148 arms found of 80 calibration bodies,
-/// make_calibration_specs(20131122, 80), remeshed, with 5 mm steps; the other components median
-/// under 1 mm). 1 cm steps and the parabola keep the 16 subjects' wrists within 0.83 cm.
-constexpr double kWristBeyondNarrowestSection = 0.005;
-constexpr double kPalmGrowth = 1.15;   ///< the palm: a section this much fuller than the narrowest
-constexpr double kForearmStep = 0.01;  ///< m between perpendicular forearm sections
+constexpr double kPalmGrowth = 1.15;             ///< the palm: a section this much fuller than the narrowest
+constexpr double kForearmStep = 0.01;            ///< m between perpendicular forearm sections
 /// m: the faces a forearm section is cut from lie this near the segment from the elbow to the hand's
 /// tip (a forearm's radius is 3-5 cm, a palm with the thumb 6-8 cm; the sections' centres stray
 /// a few cm from that segment where the wrist bends).
 constexpr double kForearmSliceRadius = 0.15;
-
-/// Neck joint depth = neck base centroid + kNeckJointForward; head joint at kHeadJointFraction of
-/// the way from the neck base up to the crown, kHeadJointForward from the head section's centroid
-/// there: medians over 100 calibration bodies (remeshed; not the test subjects), SD 4.4 mm (neck
-/// depth) and 4.6 and 4.2 mm (head height and depth).
-constexpr double kHeadJointFraction = 0.4164, kHeadJointForward = -0.0176;
-
-/// Joint centre minus the section centroid that locates it, as (lateral, up, forward) in metres:
-/// medians over 80 MakeHuman calibration bodies (make_calibration_specs(20131122, 80), not the test
-/// subjects), remeshed. The elbow and knee joints lie behind the limb's centre line, the wrist in
-/// front of it, the ankle behind and inside the narrowest shank section. The elbow's is from the
-/// parabola's vertex on the 99 left arms found of make_calibration_specs(20131122, 100), remeshed.
-constexpr double kElbowOffset[3] = {-0.0098, 0.0119, -0.0224};
-constexpr double kWristOffset[3] = {0.008, -0.005, 0.013};
 
 /// FeatureRegressors' records, each at the regression it stands for (nothing without a record).
 void record_neck(const BodyFeatures& f, double widening_y, FeatureRegressors* r) {
@@ -95,6 +73,11 @@ void record_neck(const BodyFeatures& f, double widening_y, FeatureRegressors* r)
   r->neck_inputs = {1.0, f.neck_y - widening_y, f.crown_y - widening_y, widening_y - f.crotch_y};
   r->neck_widening_y = widening_y;
   r->neck_base = f.neck_base;
+}
+void record_arm(int side, const Eigen::Vector3d& elbow_point, const Eigen::Vector3d& wrist_point, FeatureRegressors* r) {
+  if (!r) return;
+  r->arm[side] = true;
+  r->elbow_point[side] = elbow_point, r->wrist_point[side] = wrist_point;
 }
 void record_shoulder(int side, const double (&inputs)[6], const Eigen::Vector3d& origin, FeatureRegressors* r) {
   if (!r) return;
@@ -262,12 +245,17 @@ SectionStack horizontal_sections(const Eigen::MatrixXd& V, const Eigen::MatrixXi
   return s;
 }
 
-void refine_wrists(const SectionAt& section, BodyFeatures* features, int threads) {
+namespace {
+void refine_elbows(BodyFeatures* features);
+}  // namespace
+
+void refine_wrists(const SectionAt& section, BodyFeatures* features, int threads, FeatureRegressors* regressors) {
   BodyFeatures& f = *features;
   // Each side's forearm followed from f as it is; the results are applied side by side afterwards.
   struct Followed {
     bool tried = false, palm = false;
     Eigen::Vector3d wrist = Eigen::Vector3d::Zero();
+    Eigen::Vector3d narrowest = Eigen::Vector3d::Zero(), direction = Eigen::Vector3d::Zero();  ///< for the record
   };
   auto follow = [&](int side) {
     Followed out;
@@ -301,6 +289,7 @@ void refine_wrists(const SectionAt& section, BodyFeatures* features, int threads
       if (curvature > 1e-12) shift = std::clamp(0.5 * (a - c) / curvature, -0.5, 0.5) * kForearmStep;
     }
     out.wrist = centres[narrowest] + (shift + kWristBeyondNarrowestSection) * dirs[narrowest];
+    out.narrowest = centres[narrowest] + shift * dirs[narrowest], out.direction = dirs[narrowest];
     return out;
   };
   std::array<Followed, 2> followed;
@@ -314,13 +303,22 @@ void refine_wrists(const SectionAt& section, BodyFeatures* features, int threads
     const Followed& r = followed[static_cast<size_t>(side)];
     if (!r.tried) continue;
     if (r.palm) f.wrist[side] = r.wrist;
-    else
+    if (r.palm && regressors)
+      regressors->forearm[side] = true, regressors->narrowest_forearm[side] = r.narrowest,
+      regressors->forearm_direction[side] = r.direction;
+    if (!r.palm)
       f.warnings.push_back(std::string("could not follow the ") + (side == kLeft ? "left" : "right") +
                            " forearm to the palm with perpendicular sections: its wrist comes from horizontal sections only");
   }
   refine_elbows(&f);
 }
 
+namespace {
+
+/// Re-places each found elbow of a nearly straight arm: at the kink of a two-line fit to the arm
+/// axis between the shoulder and the wrist, where the fit's RMS error plus a prior on where between
+/// shoulder and wrist the elbow lies (kElbowPathFraction, kElbowPriorWeight) is least. A clearly
+/// bent arm (over 42 degrees) keeps its elbow; between 32 and 42 degrees the two blend.
 void refine_elbows(BodyFeatures* features) {
   BodyFeatures& f = *features;
   for (int side : {kLeft, kRight}) {
@@ -366,6 +364,8 @@ void refine_elbows(BodyFeatures* features) {
     f.elbow[side] = kept * f.elbow[side] + (1 - kept) * elbow;
   }
 }
+
+}  // namespace
 
 TriangleMesh body_surface(const Eigen::MatrixXd& V, const Eigen::MatrixXi& F, std::string* note, std::vector<int>* vertex_map,
                           std::vector<int>* face_map, std::vector<std::vector<int>>* input_boundary, int threads) {
@@ -560,7 +560,7 @@ BodyFeatures find_body_features(const Eigen::MatrixXd& V_in, const Eigen::Matrix
         const int k = nearest_loop(loops, point);
         return k < 0 ? SectionLoop{} : loops[static_cast<size_t>(k)];
       },
-      &f, threads);
+      &f, threads, regressors);
   if (!left_out.empty()) f.warnings.insert(f.warnings.begin(), left_out);
   return f;
 }
@@ -884,6 +884,7 @@ BodyFeatures find_body_features(const SectionStack& st, const HorizontalSections
     }
   }
   f.head_joint = Eigen::Vector3d(head_centre.x(), head_y, head_centre.z() + kHeadJointForward);
+  if (regressors) regressors->head = true, regressors->crown_y = f.crown_y, regressors->head_centre = head_centre;
 
   // Arms: follow each arm's loop down from the armpit; centroids trace the limb axis.
   for (int side : {kLeft, kRight}) {
@@ -984,6 +985,7 @@ BodyFeatures find_body_features(const SectionStack& st, const HorizontalSections
     // Wrist joint: just distal of the narrowest forearm section.
     const Eigen::Vector3d forearm = (axis[wrist] - axis[elbow]).normalized();
     f.wrist[side] = axis[wrist] + kWristBeyondNarrowest * forearm + offset_on(kWristOffset, side);
+    record_arm(side, elbow_point, axis[wrist] + kWristBeyondNarrowest * forearm, regressors);
     // Shoulder joint: regressed (kShoulderFromSection) on the torso section 1.5 arm radii above the
     // armpit; without a closed section there, the arm's top centroid.
     const double radius = std::sqrt(area[0] / M_PI);

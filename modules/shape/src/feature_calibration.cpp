@@ -63,7 +63,7 @@ double median(std::vector<double> v) {
 RefitConstant median_offset(const std::string& name, const std::string& what, const double (&shipped)[3],
                             const std::vector<Eigen::Vector3d>& offsets) {
   RefitConstant c;
-  c.name = name, c.what = what, c.median = true;
+  c.name = name, c.what = what, c.fit = "median";
   c.shipped.assign(shipped, shipped + 3);
   c.samples = static_cast<int>(offsets.size());
   if (offsets.empty()) throw InvalidInput("calibration: no samples for " + name);
@@ -81,6 +81,22 @@ RefitConstant median_offset(const std::string& name, const std::string& what, co
   return c;
 }
 
+/// A scalar's median, with the RMS error of what it places: (value - constant) * scale each.
+RefitConstant scalar_median(const std::string& name, const std::string& what, double shipped, const std::vector<double>& values,
+                            const std::vector<double>& scales) {
+  RefitConstant c;
+  c.name = name, c.what = what, c.fit = "median";
+  c.shipped = {shipped};
+  c.samples = static_cast<int>(values.size());
+  if (values.empty()) throw InvalidInput("calibration: no samples for " + name);
+  c.refit = {median(values)};
+  std::vector<double> r_old, r_new;
+  for (size_t i = 0; i < values.size(); ++i)
+    r_old.push_back((values[i] - shipped) * scales[i]), r_new.push_back((values[i] - c.refit[0]) * scales[i]);
+  c.shipped_rms_mm = rms_mm(r_old), c.refit_rms_mm = rms_mm(r_new);
+  return c;
+}
+
 Eigen::Vector3d joint(const FeatureCalibrationSample& s, const std::string& name) {
   return s.joints.row(find_joint_index(name)).transpose();
 }
@@ -89,8 +105,8 @@ Eigen::Vector3d joint(const FeatureCalibrationSample& s, const std::string& name
 
 std::vector<RefitConstant> refit_feature_constants(const std::vector<FeatureCalibrationSample>& samples) {
   Rows neck, shoulder[3], knee, hip[3];
-  std::vector<double> neck_forward;
-  std::vector<Eigen::Vector3d> knee_offsets, ankle_offsets;
+  std::vector<double> neck_forward, head_fraction, head_span, head_forward, beyond_narrowest, path_fraction, path_length;
+  std::vector<Eigen::Vector3d> knee_offsets, ankle_offsets, elbow_offsets, wrist_offsets;
   for (const FeatureCalibrationSample& s : samples) {
     if (s.joints.rows() != kNumJoints || s.joints.cols() != 3)
       throw InvalidInput("calibration: a sample has " + std::to_string(s.joints.rows()) + " joints, expected " +
@@ -101,6 +117,11 @@ std::vector<RefitConstant> refit_feature_constants(const std::vector<FeatureCali
       neck.add(r.neck_inputs.data(), 4, truth.y() - r.neck_widening_y);
       neck_forward.push_back(truth.z() - r.neck_base.z());
     }
+    if (r.neck && r.head) {
+      head_span.push_back(r.crown_y - r.neck_base.y());
+      head_fraction.push_back((s.head.y() - r.neck_base.y()) / head_span.back());
+      head_forward.push_back(s.head.z() - r.head_centre.z());
+    }
     for (int side : {kLeft, kRight}) {
       const std::string prefix = side == kLeft ? "left_" : "right_";
       const double outward = side == kLeft ? 1.0 : -1.0;
@@ -108,6 +129,18 @@ std::vector<RefitConstant> refit_feature_constants(const std::vector<FeatureCali
         const Eigen::Vector3d d = joint(s, prefix + "shoulder") - r.shoulder_origin[side];
         const double values[3] = {outward * d.x(), d.y(), d.z()};
         for (int k = 0; k < 3; ++k) shoulder[k].add(r.shoulder_inputs[side].data(), 6, values[k]);
+      }
+      if (r.arm[side]) {
+        const Eigen::Vector3d de = joint(s, prefix + "elbow") - r.elbow_point[side], dw = joint(s, prefix + "wrist") - r.wrist_point[side];
+        elbow_offsets.emplace_back(outward * de.x(), de.y(), de.z());
+        wrist_offsets.emplace_back(outward * dw.x(), dw.y(), dw.z());
+      }
+      if (r.forearm[side])
+        beyond_narrowest.push_back((joint(s, prefix + "wrist") - r.narrowest_forearm[side]).dot(r.forearm_direction[side]));
+      {
+        const Eigen::Vector3d sh = joint(s, prefix + "shoulder"), el = joint(s, prefix + "elbow"), wr = joint(s, prefix + "wrist");
+        const double length = (el - sh).norm() + (wr - el).norm();
+        if (length > 1e-6) path_length.push_back(length), path_fraction.push_back((el - sh).norm() / length);
       }
       if (r.leg[side]) {
         const Eigen::Vector3d knee_truth = joint(s, prefix + "knee"), ankle_truth = joint(s, prefix + "ankle");
@@ -132,6 +165,28 @@ std::vector<RefitConstant> refit_feature_constants(const std::vector<FeatureCali
     for (double z : neck_forward) offsets.emplace_back(0, 0, z);
     RefitConstant c = median_offset("kNeckJointForward", "neck joint depth from the neck base's centroid", shipped, offsets);
     c.shipped = {kNeckJointForward}, c.refit = {c.refit[2]};
+    out.push_back(c);
+  }
+  if (!head_fraction.empty()) {
+    out.push_back(scalar_median("kHeadJointFraction", "head joint height, as a fraction of the neck base to the crown", kHeadJointFraction,
+                                head_fraction, head_span));
+    out.push_back(scalar_median("kHeadJointForward", "head joint depth from the head section's centroid", kHeadJointForward, head_forward,
+                                std::vector<double>(head_forward.size(), 1.0)));
+  }
+  out.push_back(median_offset("kElbowOffset", "elbow joint from the arm axis's kink", kElbowOffset, elbow_offsets));
+  out.push_back(
+      median_offset("kWristOffset", "wrist joint from beyond the narrowest horizontal forearm section", kWristOffset, wrist_offsets));
+  out.push_back(scalar_median("kWristBeyondNarrowestSection", "wrist joint beyond the narrowest perpendicular forearm section",
+                              kWristBeyondNarrowestSection, beyond_narrowest, std::vector<double>(beyond_narrowest.size(), 1.0)));
+  if (!path_fraction.empty()) {
+    // The rig's own proportion, averaged (a prior, not a regression): the error is along the arm.
+    RefitConstant c = scalar_median("kElbowPathFraction", "elbow's fraction of the shoulder-elbow-wrist path (the mean)",
+                                    kElbowPathFraction, path_fraction, path_length);
+    double mean = 0;
+    for (double v : path_fraction) mean += v / static_cast<double>(path_fraction.size());
+    std::vector<double> r_new;
+    for (size_t i = 0; i < path_fraction.size(); ++i) r_new.push_back((path_fraction[i] - mean) * path_length[i]);
+    c.refit = {mean}, c.refit_rms_mm = rms_mm(r_new), c.fit = "mean";
     out.push_back(c);
   }
   const char* axes[3] = {"lateral", "up", "forward"};

@@ -15,8 +15,34 @@ namespace fitted {
 /// Least squares on 100 calibration bodies (make_calibration_specs(20131122, 100), remeshed; not
 /// the test subjects): residual 4.1 mm SD, 8.8 mm at most; on the 16 subjects 4.2 mm RMS.
 constexpr double kNeckJointFromBase[4] = {-0.0813, -0.1808, 0.6473, -0.1134};
-/// Neck joint depth = neck base centroid + kNeckJointForward (its median; see kHeadJointFraction).
+/// Neck joint depth = neck base centroid + kNeckJointForward; head joint at kHeadJointFraction of
+/// the way from the neck base up to the crown, kHeadJointForward from the head section's centroid
+/// there: medians over 100 calibration bodies (remeshed; not the test subjects), SD 4.4 mm (neck
+/// depth) and 4.6 and 4.2 mm (head height and depth).
 constexpr double kNeckJointForward = -0.0079;
+constexpr double kHeadJointFraction = 0.4164, kHeadJointForward = -0.0176;
+
+/// Joint centre minus the section centroid that locates it, as (lateral, up, forward) in metres:
+/// medians over 80 MakeHuman calibration bodies (make_calibration_specs(20131122, 80), not the test
+/// subjects), remeshed. The elbow and knee joints lie behind the limb's centre line, the wrist in
+/// front of it, the ankle behind and inside the narrowest shank section. The elbow's is from the
+/// parabola's vertex on the 99 left arms found of make_calibration_specs(20131122, 100), remeshed.
+constexpr double kElbowOffset[3] = {-0.0098, 0.0119, -0.0224};
+constexpr double kWristOffset[3] = {0.008, -0.005, 0.013};
+
+/// refine_wrists: the joint lies this far (m) beyond the centre of the narrowest perpendicular
+/// forearm section (median over the 148 arms found of 80 calibration bodies,
+/// make_calibration_specs(20131122, 80), remeshed, with 5 mm steps; the other components median
+/// under 1 mm). 1 cm steps and the parabola keep the 16 subjects' wrists within 0.83 cm.
+constexpr double kWristBeyondNarrowestSection = 0.005;
+
+/// refine_elbows: where the elbow lies without a kink to tell, as the fraction shoulder-elbow /
+/// (shoulder-elbow + elbow-wrist) of the joint distances (kElbowPriorWeight, in body_features.cpp,
+/// is what one metre away from there costs). 0.52 is the mean of the MakeHuman rig on 10 varied shapes (0.48 to 0.555; on
+/// make_calibration_specs(20131122, 120), `posekit dev calibrate`: 0.510); Winter's segment lengths
+/// (upper arm 0.186, forearm 0.146 of the stature) give 0.56 for real adults, so it stays a prior
+/// between the two, not refitted to MakeHuman.
+constexpr double kElbowPathFraction = 0.52;
 
 /// Shoulder joint centre from the torso section 1.5 arm radii above the armpit: a linear regression
 /// on (1, lateral width of the section beyond the armpit, arm radius at the armpit, front-to-back

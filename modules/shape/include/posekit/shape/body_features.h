@@ -87,6 +87,19 @@ struct FeatureRegressors {
   std::array<double, 4> neck_inputs{};  ///< (1, narrowest neck level - b, crown - b, b - crotch)
   double neck_widening_y = 0;           ///< b: where the neck's girth reaches 1.25 times its narrowest
   Eigen::Vector3d neck_base = Eigen::Vector3d::Zero();
+  bool head = false;
+  double crown_y = 0;
+  Eigen::Vector3d head_centre = Eigen::Vector3d::Zero();  ///< the head section's centroid at the head joint's level
+  bool arm[2] = {false, false};
+  /// The elbow's parabola vertex on the arm's axis and the wrist's point beyond the narrowest
+  /// horizontal section, before their offsets.
+  Eigen::Vector3d elbow_point[2] = {Eigen::Vector3d::Zero(), Eigen::Vector3d::Zero()};
+  Eigen::Vector3d wrist_point[2] = {Eigen::Vector3d::Zero(), Eigen::Vector3d::Zero()};
+  bool forearm[2] = {false, false};
+  /// refine_wrists: the narrowest perpendicular forearm section's centre (between sections) and the
+  /// forearm's direction there.
+  Eigen::Vector3d narrowest_forearm[2] = {Eigen::Vector3d::Zero(), Eigen::Vector3d::Zero()};
+  Eigen::Vector3d forearm_direction[2] = {Eigen::Vector3d::UnitX(), -Eigen::Vector3d::UnitX()};
   bool shoulder[2] = {false, false};
   std::array<double, 6> shoulder_inputs[2] = {};  ///< the section above the armpit (kShoulderFromSection's inputs)
   /// (armpit x, armpit y, the section's mid-depth z): the regression's lateral, up and forward start here.
@@ -131,13 +144,7 @@ using SectionAt = std::function<SectionLoop(const Eigen::Vector3d& point, const 
 /// cannot be followed keeps its estimate from horizontal sections, with a warning. Then re-places
 /// the elbows between the shoulders and the wrists found (refine_elbows). With `threads` other
 /// than 1 the two forearms are followed at once (`section` is then called from two threads), with
-/// the same result.
-void refine_wrists(const SectionAt& section, BodyFeatures* features, int threads = 1);
-
-/// Re-places each found elbow of a nearly straight arm: at the kink of a two-line fit to the arm
-/// axis between the shoulder and the wrist, where the fit's RMS error plus a prior on where between
-/// shoulder and wrist the elbow lies (kElbowPathFraction, kElbowPriorWeight) is least. A clearly
-/// bent arm (over 42 degrees) keeps its elbow; between 32 and 42 degrees the two blend.
-void refine_elbows(BodyFeatures* features);
+/// the same result. `regressors` (optional) receives the narrowest sections.
+void refine_wrists(const SectionAt& section, BodyFeatures* features, int threads = 1, FeatureRegressors* regressors = nullptr);
 
 }  // namespace posekit

@@ -1,6 +1,7 @@
 #pragma once
 // The constants of find_body_features fitted to a population (the neck, shoulder, knee and hip
-// joints' regressions and the knee and ankle offsets), refitted from bodies whose joints are known:
+// joints' regressions, the joints' offsets from the points that locate them, the head's and
+// wrist's placements, the elbow's path fraction), refitted from bodies whose joints are known:
 // what `posekit dev calibrate` prints and a test checks the shipped values against.
 #include <Eigen/Core>
 #include <string>
@@ -15,18 +16,19 @@ namespace posekit {
 struct FeatureCalibrationSample {
   FeatureRegressors regressors;
   Eigen::MatrixXd joints;
+  Eigen::Vector3d head = Eigen::Vector3d::Zero();  ///< the head joint (MakeHuman's head bone), above the neck joint
 };
 
-/// A constant as shipped and as refitted: by least squares (a regression's coefficients) or as the
-/// median (an offset). The RMS errors are those of what it places (a joint coordinate, or the joint's
+/// A constant as shipped and as refitted: by least squares (a regression's coefficients), as the
+/// median (an offset) or the mean (a proportion). The RMS errors are those of what it places (a joint coordinate, or the joint's
 /// distance from its point plus the offset) over the samples, in millimetres.
 struct RefitConstant {
   std::string name;  ///< the C++ constant, e.g. "kHipUp" or "kShoulderFromSection.lateral"
   std::string what;  ///< what it predicts
   std::vector<double> shipped, refit;
   double shipped_rms_mm = 0, refit_rms_mm = 0;
-  int samples = 0;  ///< rows of the fit (a side counts once per body)
-  bool median = false;
+  int samples = 0;                    ///< rows of the fit (a side counts once per body)
+  std::string fit = "least squares";  ///< or "median" (offsets), "mean" (a proportion of the rig)
 };
 
 /// Refits every constant from the samples (each one from the samples that recorded its part).
