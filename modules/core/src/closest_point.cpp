@@ -60,7 +60,12 @@ std::uint32_t spread_bits(std::uint32_t x) {
 
 }  // namespace
 
-std::vector<int> morton_order(const Eigen::MatrixXd& P, std::vector<std::uint32_t>* sorted_codes) {
+namespace {
+
+/// Rows of P (#P x 3) in Morton (Z-curve) order of a 1024^3 grid over their box, by a radix sort:
+/// points near each other in space come near each other in the order, so queries made in it start
+/// from a tight bound and touch warm memory. `sorted_codes` (optional) receives their codes, ascending.
+std::vector<int> morton_order(const Eigen::MatrixXd& P, std::vector<std::uint32_t>* sorted_codes = nullptr) {
   const Eigen::Index n = P.rows();
   std::vector<int> out(static_cast<size_t>(n));
   std::iota(out.begin(), out.end(), 0);
@@ -91,6 +96,8 @@ std::vector<int> morton_order(const Eigen::MatrixXd& P, std::vector<std::uint32_
   if (sorted_codes) *sorted_codes = std::move(code);
   return out;
 }
+
+}  // namespace
 
 struct TriangleTree::Impl {
   struct Node {

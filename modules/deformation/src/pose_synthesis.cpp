@@ -45,6 +45,10 @@ const char* pose_method_name(PoseMethod method) {
   return "?";
 }
 
+namespace {
+
+/// Smooth skinning weights (#V x 16, rows sum to 1) diffused from per-vertex part labels by
+/// `iterations` rounds of neighbour averaging.
 Eigen::MatrixXd diffuse_part_weights(const Eigen::MatrixXi& F, const Eigen::VectorXi& vertex_part, int num_vertices, int iterations) {
   const Eigen::MatrixXi E = unique_edges(F);
   Eigen::VectorXd degree = Eigen::VectorXd::Zero(num_vertices);
@@ -67,6 +71,8 @@ Eigen::MatrixXd diffuse_part_weights(const Eigen::MatrixXi& F, const Eigen::Vect
   for (int v = 0; v < num_vertices; ++v) W.row(v) /= W.row(v).sum();
   return W;
 }
+
+}  // namespace
 
 struct PoseSynthesizer::Impl {
   std::shared_ptr<const PoseModel> model;

@@ -63,6 +63,10 @@ struct Accumulator {
 
 }  // namespace
 
+namespace {
+
+/// The kind of a pose by its name: "walk", "reach", "squat" (squats, lunge), "sit", "torso",
+/// "combined" (random, guard, t_pose) or "single joint".
 std::string pose_type(const std::string& name) {
   auto starts = [&](const char* prefix) { return name.rfind(prefix, 0) == 0; };
   if (starts("walk")) return "walk";
@@ -73,6 +77,8 @@ std::string pose_type(const std::string& name) {
   if (starts("random") || starts("guard") || starts("t_pose")) return "combined";
   return "single joint";
 }
+
+}  // namespace
 
 PoseEvaluation evaluate_poses(const std::string& dir, std::shared_ptr<const PoseModel> model, const PoseEvaluationOptions& options) {
   PoseEvaluation out;

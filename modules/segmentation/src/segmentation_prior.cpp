@@ -80,12 +80,17 @@ RepresentationShape representation_shape(const LayeredRepresentation& rep) {
   return out;
 }
 
+namespace {
+
+/// Region of each representation triangle (#rep triangles, values in [0, kShapeRegions)).
 Eigen::VectorXi representation_regions(const LayeredRepresentation& rep) {
   const std::vector<int> region = layer_regions(rep);
   Eigen::VectorXi out(rep.triangle_layer.size());
   for (Eigen::Index t = 0; t < out.size(); ++t) out[t] = region[static_cast<size_t>(rep.triangle_layer[t])];
   return out;
 }
+
+}  // namespace
 
 CalibrationBody make_calibration_body(const Eigen::MatrixXd& V, const Eigen::MatrixXi& F, const Eigen::VectorXi& triangle_part,
                                       const Eigen::MatrixXd& joint_centres, const LayeredRepresentation& rep) {

@@ -9,6 +9,9 @@
 
 namespace posekit {
 
+namespace {
+
+/// Heights (m) of the first and last torso layers of a representation: crotch and neck base.
 std::pair<double, double> torso_span(const LayeredRepresentation& rep) {
   double lo = 0, hi = 0;
   bool found = false;
@@ -21,6 +24,8 @@ std::pair<double, double> torso_span(const LayeredRepresentation& rep) {
   if (!found || !(hi > lo)) throw InvalidInput("torso_span: the representation has no torso chain");
   return {lo, hi};
 }
+
+}  // namespace
 
 SkeletonPrior make_skeleton_prior(const Eigen::MatrixXd& template_joints, const LayeredRepresentation& template_rep) {
   if (template_joints.rows() != kNumJoints || template_joints.cols() != 3)

@@ -58,9 +58,4 @@ class TriangleTree {
   std::unique_ptr<Impl> impl_;
 };
 
-/// Rows of P (#P x 3) in Morton (Z-curve) order of a 1024^3 grid over their box, by a radix sort:
-/// points near each other in space come near each other in the order, so queries made in it start
-/// from a tight bound and touch warm memory. `sorted_codes` (optional) receives their codes, ascending.
-std::vector<int> morton_order(const Eigen::MatrixXd& P, std::vector<std::uint32_t>* sorted_codes = nullptr);
-
 }  // namespace posekit

@@ -95,8 +95,4 @@ class PoseSynthesizer {
   std::unique_ptr<Impl> impl_;
 };
 
-/// Smooth skinning weights (#V x 16, rows sum to 1) diffused from per-vertex part labels by
-/// `iterations` rounds of neighbour averaging.
-Eigen::MatrixXd diffuse_part_weights(const Eigen::MatrixXi& F, const Eigen::VectorXi& vertex_part, int num_vertices, int iterations);
-
 }  // namespace posekit

@@ -52,10 +52,6 @@ struct PoseTypeErrors {
   std::vector<double> template_mean_mm, subject_mean_mm;  ///< per method, as in the options
 };
 
-/// The kind of a pose by its name: "walk", "reach", "squat" (squats, lunge), "sit", "torso",
-/// "combined" (random, guard, t_pose) or "single joint".
-std::string pose_type(const std::string& pose_name);
-
 struct PoseEvaluation {
   int test_poses = 0;
   std::vector<PoseTypeErrors> by_pose_type;   ///< (a) and (b) per kind of pose, in a fixed order

@@ -38,9 +38,6 @@ struct SegmentationPrior {
 
 RepresentationShape representation_shape(const LayeredRepresentation& rep);
 
-/// Region of each representation triangle (#rep triangles, values in [0, kShapeRegions)).
-Eigen::VectorXi representation_regions(const LayeredRepresentation& rep);
-
 /// A labelled body (its triangle labels and #joints x 3 joint centres) and its representation.
 CalibrationBody make_calibration_body(const Eigen::MatrixXd& V, const Eigen::MatrixXi& F, const Eigen::VectorXi& triangle_part,
                                       const Eigen::MatrixXd& joint_centres, const LayeredRepresentation& rep);

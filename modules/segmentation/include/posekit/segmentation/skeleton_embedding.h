@@ -18,9 +18,6 @@ struct SkeletonPrior {
   Eigen::Vector3d torso_fraction = Eigen::Vector3d::Zero();
 };
 
-/// Heights (m) of the first and last torso layers of a representation: crotch and neck base.
-std::pair<double, double> torso_span(const LayeredRepresentation& rep);
-
 /// Parametrises a template's joint centres (#joints x 3) in its representation.
 SkeletonPrior make_skeleton_prior(const Eigen::MatrixXd& template_joints, const LayeredRepresentation& template_rep);
 
