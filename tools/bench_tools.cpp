@@ -12,14 +12,14 @@
 #include <vector>
 
 #include "posekit/core/mesh_geometry.h"
+#include "posekit/core/timer.h"
 #include "posekit/io/atomic_file.h"
 
 namespace posekit::cli {
 
 ProcessRun run_process(const std::string& command, const std::string& log) {
-  using Clock = std::chrono::steady_clock;
   const std::string line = command + " >" + log + " 2>&1";
-  const auto t0 = Clock::now();
+  const Stopwatch t0;
   const pid_t pid = fork();
   if (pid == 0) {
     execl("/bin/sh", "sh", "-c", line.c_str(), static_cast<char*>(nullptr));
@@ -30,7 +30,7 @@ ProcessRun run_process(const std::string& command, const std::string& log) {
   int status = 0;
   struct rusage usage {};
   if (wait4(pid, &status, 0, &usage) != pid) return r;
-  const double seconds = std::chrono::duration<double>(Clock::now() - t0).count();
+  const double seconds = t0.seconds();
   if (WIFEXITED(status) && WEXITSTATUS(status) == 0) r.seconds = seconds;
   r.peak_mib = static_cast<double>(usage.ru_maxrss) / 1024.0;
   return r;

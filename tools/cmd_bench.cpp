@@ -29,6 +29,7 @@
 #include "posekit/core/mesh_geometry.h"
 #include "posekit/core/mesh_topology.h"
 #include "posekit/core/parallel.h"
+#include "posekit/core/timer.h"
 #include "posekit/customization/photo_customization.h"
 #include "posekit/datasets/dataset.h"
 #include "posekit/datasets/remesh.h"
@@ -74,9 +75,9 @@ Stats time_runs(int runs, const std::string& label, F&& body) {
   std::vector<double> seconds;
   Progress progress(label, runs);
   for (int r = 0; r < runs; ++r) {
-    const auto t0 = Clock::now();
+    const Stopwatch t0;
     body();
-    seconds.push_back(std::chrono::duration<double>(Clock::now() - t0).count());
+    seconds.push_back(t0.seconds());
     progress.update(r + 1);
   }
   progress.finish();
@@ -174,9 +175,9 @@ int bench_body(int argc, char** argv) {
   if (!args.parse(argc, argv)) return 0;
   const int runs = static_cast<int>(args.get_int("runs"));
   if (runs < 1) throw UsageError("--runs must be at least 1");
-  const auto t0 = Clock::now();
+  const Stopwatch t0;
   const auto model = load_makehuman_model(find_data_root(args.get("data")));
-  const double load_s = std::chrono::duration<double>(Clock::now() - t0).count();
+  const double load_s = t0.seconds();
   BodySpec spec;
   spec.gender = 0.8;
   spec.weight = 0.7;
@@ -200,10 +201,10 @@ int bench_body(int argc, char** argv) {
     const Eigen::MatrixXd D = dual_quaternion_skinning(body.mesh.V, model->weights, T);
     const auto d = Clock::now();
     checksum += U(0, 0) + D(0, 0);
-    build_s.push_back(std::chrono::duration<double>(b - a).count());
-    lbs_s.push_back(std::chrono::duration<double>(c - b).count());
-    dqs_s.push_back(std::chrono::duration<double>(d - c).count());
-    total_s.push_back(std::chrono::duration<double>(c - a).count());
+    build_s.push_back(seconds_between(a, b));
+    lbs_s.push_back(seconds_between(b, c));
+    dqs_s.push_back(seconds_between(c, d));
+    total_s.push_back(seconds_between(a, c));
     progress.update(r + 1);
   }
   progress.finish();
@@ -234,9 +235,9 @@ int bench_customize(int argc, char** argv) {
   if (!args.has("dataset")) throw UsageError("bench customize needs --dataset DIR");
   const int runs = static_cast<int>(args.get_int("runs"));
   if (runs < 1) throw UsageError("--runs must be at least 1");
-  const auto t0 = Clock::now();
+  const Stopwatch t0;
   const CustomizationModel model = load_customization_model(args.get("model"));
-  const double load_s = std::chrono::duration<double>(Clock::now() - t0).count();
+  const double load_s = t0.seconds();
   const std::filesystem::path root(args.get("dataset"));
   std::ifstream in(root / "manifest.json");
   if (!in) throw IoError("cannot open " + (root / "manifest.json").string());
@@ -256,9 +257,9 @@ int bench_customize(int argc, char** argv) {
       const CustomizedBody body = customize_from_silhouettes(front, side, cams, model);
       const auto c = Clock::now();
       if (body.mesh.V.rows() == 0) throw InvalidInput("bench customize: empty result");
-      sil_s.push_back(std::chrono::duration<double>(b - a).count());
-      body_s.push_back(std::chrono::duration<double>(c - b).count());
-      total_s.push_back(std::chrono::duration<double>(c - a).count());
+      sil_s.push_back(seconds_between(a, b));
+      body_s.push_back(seconds_between(b, c));
+      total_s.push_back(seconds_between(a, c));
       progress.update(++done);
     }
   }
@@ -493,9 +494,9 @@ int bench_pose(int argc, char** argv) {
   const bool per_stage = reset_peak_rss();
   Progress progress("bench pose", runs);
   for (int r = 0; r < runs; ++r) {
-    const auto t0 = Clock::now();
+    const Stopwatch t0;
     model = std::make_shared<const PoseModel>(train_on_dataset(dir));
-    train_s.push_back(std::chrono::duration<double>(Clock::now() - t0).count());
+    train_s.push_back(t0.seconds());
     progress.update(r + 1);
   }
   progress.finish();
@@ -518,18 +519,18 @@ int bench_pose(int argc, char** argv) {
     vertices += subject.num_vertices();
     std::unique_ptr<PoseSynthesizer> synth;
     for (int r = 0; r < runs; ++r) {
-      const auto t0 = Clock::now();
+      const Stopwatch t0;
       synth = std::make_unique<PoseSynthesizer>(model, subject);
-      setup_s.push_back(std::chrono::duration<double>(Clock::now() - t0).count());
+      setup_s.push_back(t0.seconds());
     }
     // Each method over its own run of poses, as a user posing a motion with it would.
     for (auto [method, out] :
          {std::pair{PoseMethod::kLearned, &pose_ms}, std::pair{PoseMethod::kRigid, &rigid_ms}, std::pair{PoseMethod::kLbs, &lbs_ms}})
       for (int i = 0; i < pose_count; ++i) {
         const PartPose& pose = data.poses[static_cast<size_t>(i) % data.poses.size()];
-        const auto t0 = Clock::now();
+        const Stopwatch t0;
         const Eigen::MatrixXd X = synth->pose(pose, method);
-        out->push_back(1000 * std::chrono::duration<double>(Clock::now() - t0).count());
+        out->push_back(1000 * t0.seconds());
         if (!X.allFinite()) throw InvalidInput("posing produced a non-finite vertex");
       }
     if (count == 0 && args.has("motion")) {
@@ -538,9 +539,9 @@ int bench_pose(int argc, char** argv) {
       RetargetOptions ro;
       ro.last = static_cast<int>(std::min<long>(frame_count, capture.num_frames()));
       for (int r = 0; r < runs; ++r) {
-        const auto t0 = Clock::now();
+        const Stopwatch t0;
         motion = retarget_bvh(capture, map, synth->info().joint_centres, ro);
-        retarget_s.push_back(std::chrono::duration<double>(Clock::now() - t0).count());
+        retarget_s.push_back(t0.seconds());
       }
       while (static_cast<long>(motion.size()) < frame_count) motion.push_back(motion[motion.size() % static_cast<size_t>(ro.last)]);
     }
@@ -548,7 +549,7 @@ int bench_pose(int argc, char** argv) {
       for (int r = 0; r < runs; ++r) {
         // Each thread poses its share of the frames into its own buffer, as a player or exporter would.
         std::atomic<long> non_finite{0};
-        const auto t0 = Clock::now();
+        const Stopwatch t0;
         parallel_for_ranges(
             frame_count, motion_threads,
             [&](long begin, long end) {
@@ -559,7 +560,7 @@ int bench_pose(int argc, char** argv) {
               }
             },
             1);
-        motion_s.push_back(std::chrono::duration<double>(Clock::now() - t0).count());
+        motion_s.push_back(t0.seconds());
         if (non_finite > 0) throw InvalidInput("posing the motion produced non-finite vertices");
       }
     ++count;
@@ -601,9 +602,9 @@ int bench_pose(int argc, char** argv) {
 
 /// Wall seconds of a shell command (its output to `log`); -1 when it fails.
 double timed_command(const std::string& command, const std::string& log) {
-  const auto t0 = Clock::now();
+  const Stopwatch t0;
   const int status = std::system((command + " >" + log + " 2>&1").c_str());
-  const double seconds = std::chrono::duration<double>(Clock::now() - t0).count();
+  const double seconds = t0.seconds();
   return status == 0 ? seconds : -1;
 }
 
@@ -789,10 +790,10 @@ int bench_measure(int argc, char** argv) {
       last[kind] = kind == 0 ? measure_body(in.mesh.V, in.mesh.F) : measure_point_cloud(in.cloud.P);
       auto t3 = Clock::now();
       Stage& s = stages[kind];
-      s.read.push_back(std::chrono::duration<double>(t1 - t0).count());
-      s.orient.push_back(std::chrono::duration<double>(t2 - t1).count());
-      s.measure.push_back(std::chrono::duration<double>(t3 - t2).count());
-      s.total.push_back(std::chrono::duration<double>(t3 - t0).count());
+      s.read.push_back(seconds_between(t0, t1));
+      s.orient.push_back(seconds_between(t1, t2));
+      s.measure.push_back(seconds_between(t2, t3));
+      s.total.push_back(seconds_between(t0, t3));
       progress.update(2L * k + kind + 1);
     }
   progress.finish();
@@ -861,9 +862,9 @@ int bench_fit(int argc, char** argv) {
       throw UsageError("--points: each scan needs a whole number of at least 1000 points, not '" + item + "'");
     sizes.push_back(n);
   }
-  auto t_load = Clock::now();
+  const Stopwatch t_load;
   const std::unique_ptr<BodyModel> body_model = load_body_model(args);
-  const double load_seconds = std::chrono::duration<double>(Clock::now() - t_load).count();
+  const double load_seconds = t_load.seconds();
   const auto makehuman = load_makehuman_model(find_data_root(args.get("data")));
   const Body body = build_body(*makehuman, BodySpec{});
   ScratchDir dir;
@@ -896,10 +897,10 @@ int bench_fit(int argc, char** argv) {
       const auto t2 = Clock::now();
       const FittedMeasurements fm = measure_by_body_fit(*body_model, fit, T, in.is_cloud ? Eigen::MatrixXi() : in.mesh.F);
       const auto t3 = Clock::now();
-      t.read.push_back(std::chrono::duration<double>(t1 - t0).count());
-      t.fit.push_back(std::chrono::duration<double>(t2 - t1).count());
-      t.measure.push_back(std::chrono::duration<double>(t3 - t2).count());
-      t.total.push_back(std::chrono::duration<double>(t3 - t0).count());
+      t.read.push_back(seconds_between(t0, t1));
+      t.fit.push_back(seconds_between(t1, t2));
+      t.measure.push_back(seconds_between(t2, t3));
+      t.total.push_back(seconds_between(t0, t3));
       for (const auto& [stage, seconds] : fit.stage_seconds) {
         auto it = std::find_if(t.stages.begin(), t.stages.end(), [&](const auto& e) { return e.first == stage; });
         if (it == t.stages.end()) it = t.stages.insert(t.stages.end(), {stage, {}});
@@ -982,10 +983,10 @@ int bench_compare(int argc, char** argv) {
   write_point_cloud(dir + "/scan.ply", scan);
   std::vector<double> load;
   for (int k = 0; k < runs; ++k) {
-    const auto t0 = Clock::now();
+    const Stopwatch t0;
     (void)read_point_cloud(dir + "/scan.ply");
     (void)read_mesh(dir + "/model.ply");
-    load.push_back(std::chrono::duration<double>(Clock::now() - t0).count());
+    load.push_back(t0.seconds());
   }
   ScanComparisonOptions o;
   o.threads = static_cast<int>(args.get_int("threads"));
@@ -994,9 +995,9 @@ int bench_compare(int argc, char** argv) {
   const bool compare_peak_only = reset_peak_rss();  // the peak of the comparison, not of making the scan
   Progress progress("bench compare", runs);
   for (int k = 0; k < runs; ++k) {
-    const auto t0 = Clock::now();
+    const Stopwatch t0;
     r = compare_with_scan(body.mesh, scan, o);
-    seconds.push_back(std::chrono::duration<double>(Clock::now() - t0).count());
+    seconds.push_back(t0.seconds());
     build.push_back(r.build_seconds);
     s2m.push_back(r.scan_to_model_seconds);
     m2s.push_back(r.model_to_scan_seconds);

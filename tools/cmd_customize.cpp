@@ -15,6 +15,7 @@
 #include "posekit/core/data_root.h"
 #include "posekit/core/error.h"
 #include "posekit/core/parallel.h"
+#include "posekit/core/timer.h"
 #include "posekit/customization/model_silhouette_fit.h"
 #include "posekit/customization/phone_set.h"
 #include "posekit/customization/photo_evaluation.h"
@@ -464,13 +465,13 @@ int run_customize(int argc, char** argv) {
   const CustomizedBody body =
       by_body_model ? customize_by_body_model(*body_model, front, side, cams, height, args.flag_set("accept-poor"), {}, survey.get())
                     : customize_from_silhouettes(front, side, cams, model, height, args.flag_set("accept-poor"));
-  const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  const double seconds = seconds_between(t0, std::chrono::steady_clock::now());
   for (const auto& w : body.warnings) std::cerr << "posekit customize: warning: " << w << "\n";
   if (args.has("debug")) write_result_figures(args.get("debug"), by_body_model, front, side, cams, body);
   if (args.has("out")) write_mesh(args.get("out"), body.mesh, {Unit::kMetre, MeshFormat::kAuto, true, io_warnings()});
   const nlohmann::ordered_json times = {{"seconds", seconds},
-                                        {"model_load_seconds", std::chrono::duration<double>(t0 - t_load).count()},
-                                        {"silhouette_seconds", std::chrono::duration<double>(t_silhouettes - t0).count()}};
+                                        {"model_load_seconds", seconds_between(t_load, t0)},
+                                        {"silhouette_seconds", seconds_between(t0, t_silhouettes)}};
   const nlohmann::ordered_json j = customization_summary(body, model, cams, by_body_model, times, args.flag_set("measure"));
   if (args.flag_set("json")) {
     std::cout << j.dump(2) << "\n";

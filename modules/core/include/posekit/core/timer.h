@@ -17,6 +17,11 @@ class Stopwatch {
   std::chrono::steady_clock::time_point start_ = std::chrono::steady_clock::now();
 };
 
+/// Seconds from `from` to `to` (time points of stages timed in a row).
+inline double seconds_between(std::chrono::steady_clock::time_point from, std::chrono::steady_clock::time_point to) {
+  return std::chrono::duration<double>(to - from).count();
+}
+
 /// Seconds per named stage, in the order the stages first ended: lap(stage) charges the time since
 /// the last lap (or since it was made) to `stage`, added up over a stage's repeats.
 class StageTimer {
