@@ -11,6 +11,7 @@
 #include <sstream>
 #include <thread>
 
+#include "batch.h"
 #include "cli.h"
 #include "commands.h"
 #include "posekit/body/makehuman_model.h"
@@ -34,8 +35,8 @@
 #include "posekit/shape/measurements.h"
 
 namespace posekit::cli {
+namespace batch {
 namespace fs = std::filesystem;
-namespace {
 
 const char* const kGirthNames[] = {"bust", "underbust", "waist", "hip", "thigh", "knee", "calf", "ankle", "upper_arm", "wrist", "neck"};
 
@@ -104,15 +105,6 @@ bool same_content(const nlohmann::ordered_json& a, const nlohmann::ordered_json&
   return true;
 }
 
-/// A body file read quietly into posekit's frame (Y up, facing +Z) and metres: the unit from
-/// `unit_option` or the body's extent, the orientation detected.
-struct PreparedBody {
-  BodyInput in;
-  Unit unit = Unit::kMetre;
-  BodyOrientation orientation;
-  std::vector<std::string> warnings;
-};
-
 PreparedBody prepare_body(const std::string& path, const std::string& unit_option) {
   PreparedBody b;
   b.in = read_body_input(path, Unit::kMetre, &b.warnings);
@@ -135,22 +127,6 @@ PreparedBody prepare_body(const std::string& path, const std::string& unit_optio
   b.warnings.insert(b.warnings.end(), b.orientation.warnings.begin(), b.orientation.warnings.end());
   return b;
 }
-
-/// One batch command: what it does to an input, the settings its results depend on (a result made
-/// with other settings is made again), and its columns in summary.csv.
-struct BatchColumn {
-  std::string header;
-  std::function<std::string(const nlohmann::ordered_json&)> value;  ///< of a successful result
-};
-struct BatchJob {
-  std::string command;
-  nlohmann::ordered_json settings;
-  /// The result fields of one input; `stem` names its extra output files. Throws on failure.
-  std::function<nlohmann::ordered_json(const std::string& input, const std::string& stem)> process;
-  std::vector<BatchColumn> columns;
-  /// The files an input reads (its content key); empty: the input itself.
-  std::function<std::vector<std::string>(const std::string& input)> files;
-};
 
 nlohmann::ordered_json measure_one(const std::string& path) {
   PreparedBody b = prepare_body(path, "auto");
@@ -252,14 +228,6 @@ std::uint32_t list_checksum(const std::vector<std::string>& inputs) {
   return crc;
 }
 
-/// The options every batch command shares.
-void add_batch_options(ArgParser* args) {
-  args->output_folder("out", "DIR", "output folder (created; its parent must exist unless --mkdir; shared by all shards)")
-      .option("jobs", "N", "inputs processed at once (default: the number of cores)")
-      .option("shard", "I/N", "only the inputs I, I+N, I+2N, ... (0 <= I < N)", "0/1")
-      .flag("json", "the run's statistics as JSON on stdout");
-}
-
 const char* const kBatchCommon =
     " A bad input never stops the batch: it is listed with\n"
     "its message. Resumable: an input whose result exists (made with the same settings, and\n"
@@ -268,6 +236,14 @@ const char* const kBatchCommon =
     "collection over machines that share OUT; 'posekit batch merge --out OUT' then joins the shards'\n"
     "summaries into the one an unsharded run writes. Throughput and peak memory go to OUT/run*.json\n"
     "and stdout. Exit status 1 when any input failed.";
+
+/// The options every batch command shares.
+void add_batch_options(ArgParser* args) {
+  args->output_folder("out", "DIR", "output folder (created; its parent must exist unless --mkdir; shared by all shards)")
+      .option("jobs", "N", "inputs processed at once (default: the number of cores)")
+      .option("shard", "I/N", "only the inputs I, I+N, I+2N, ... (0 <= I < N)", "0/1")
+      .flag("json", "the run's statistics as JSON on stdout");
+}
 
 /// Runs `job` over the shard's inputs on --jobs threads: results/<name>.json per input, the summary,
 /// run*.json. Returns the exit status.
@@ -422,465 +398,10 @@ int run_batch_measure(int argc, char** argv) {
   return run_batch_job(args, job, list_inputs(args.get("inputs")));
 }
 
-/// "MODEL SCAN" (separated by a tab, a comma or spaces) or, with a shared model, "SCAN".
-std::pair<std::string, std::string> model_and_scan(const std::string& line, const std::string& shared_model) {
-  if (!shared_model.empty()) return {shared_model, line};
-  size_t cut = line.find('\t');
-  if (cut == std::string::npos) cut = line.find(',');
-  if (cut == std::string::npos) cut = line.find(' ');
-  if (cut == std::string::npos)
-    throw InvalidInput("'" + line + "': expected a model and a scan on the line (MODEL SCAN), or give --model for all scans");
-  const size_t scan_start = line.find_first_not_of(" \t,", cut);
-  if (scan_start == std::string::npos) throw InvalidInput("'" + line + "': no scan after the model");
-  return {line.substr(0, cut), line.substr(scan_start)};
-}
-
-nlohmann::ordered_json distance_stats_json(const DistanceStats& s) {
-  return {{"mean_mm", s.mean_mm}, {"rms_mm", s.rms_mm},    {"p95_mm", s.p95_mm}, {"max_mm", s.max_mm}, {"signed_mean_mm", s.signed_mean_mm},
-          {"count", s.count},     {"outliers", s.outliers}};
-}
-
-std::vector<BatchColumn> compare_columns(bool measure) {
-  auto stat = [](const char* direction, const char* key) {
-    return [direction, key](const nlohmann::ordered_json& r) { return number(r[direction][key], 3); };
-  };
-  std::vector<BatchColumn> columns = {{"model", [](const auto& r) { return r["model"].template get<std::string>(); }},
-                                      {"scan", [](const auto& r) { return r["scan"].template get<std::string>(); }},
-                                      {"scan_points", [](const auto& r) { return std::to_string(r["scan_points"].template get<long>()); }},
-                                      {"scan_to_model_mean_mm", stat("scan_to_model", "mean_mm")},
-                                      {"scan_to_model_rms_mm", stat("scan_to_model", "rms_mm")},
-                                      {"scan_to_model_p95_mm", stat("scan_to_model", "p95_mm")},
-                                      {"model_to_scan_mean_mm", stat("model_to_scan", "mean_mm")},
-                                      {"model_to_scan_p95_mm", stat("model_to_scan", "p95_mm")},
-                                      {"hausdorff_mm", [](const auto& r) { return number(r["hausdorff_mm"], 3); }},
-                                      {"coverage", [](const auto& r) { return number(r["coverage"], 4); }}};
-  if (measure)
-    for (const char* g : {"stature", "bust", "waist", "hip"})
-      columns.push_back({std::string(g) + "_difference_cm", [g](const auto& r) {
-                           if (!r.contains("girths") || !r["girths"].contains(g)) return std::string();
-                           const auto& d = r["girths"][g];
-                           return d.value("measured", false) ? number(d["difference_cm"], 2) : std::string();
-                         }});
-  return columns;
-}
-
-std::vector<BatchColumn> pose_columns() {
-  return {{"unit", [](const auto& r) { return r["unit"].template get<std::string>(); }},
-          {"up", [](const auto& r) { return r["up"].template get<std::string>(); }},
-          {"forward", [](const auto& r) { return r["forward"].template get<std::string>(); }},
-          {"vertices", [](const auto& r) { return std::to_string(r["vertices"].template get<long>()); }},
-          {"poses", [](const auto& r) { return std::to_string(r["poses"].template get<long>()); }},
-          {"first_file", [](const auto& r) { return r["files"].empty() ? std::string() : r["files"][0].template get<std::string>(); }}};
-}
-
-std::vector<BatchColumn> register_columns() {
-  auto quality = [](const char* key, int digits) {
-    return [key, digits](const nlohmann::ordered_json& r) { return number(r["quality"][key], digits); };
-  };
-  return {{"unit", [](const auto& r) { return r["unit"].template get<std::string>(); }},
-          {"target_triangles", [](const auto& r) { return std::to_string(r["target_triangles"].template get<long>()); }},
-          {"seconds", [](const auto& r) { return number(r["seconds"], 4); }},
-          {"mean_distance_mm", quality("mean_distance_mm", 2)},
-          {"p95_distance_mm", quality("p95_distance_mm", 2)},
-          {"target_covered", quality("target_covered", 4)},
-          {"normals_agree", quality("normals_agree", 4)},
-          {"folded_triangles", [](const auto& r) { return std::to_string(r["quality"]["folded_triangles"].template get<long>()); }},
-          {"shape_space_kept", [](const auto& r) {
-             return r.contains("shape_space_kept") ? std::string(r["shape_space_kept"].template get<bool>() ? "1" : "0") : std::string();
-           }}};
-}
-
-/// The summary columns of a command run with these settings (for merge).
-std::vector<BatchColumn> columns_of(const std::string& command, const nlohmann::ordered_json& settings) {
-  if (command == "measure") return measure_columns();
-  if (command == "register") return register_columns();
-  if (command == "compare") return compare_columns(settings.value("measure", false));
-  if (command == "pose") return pose_columns();
-  throw InvalidInput("a batch summary of an unknown command '" + command + "'");
-}
-
-int run_batch_compare(int argc, char** argv) {
-  ArgParser args("batch compare",
-                 std::string("Compares many models with their scans (posekit compare, one pair per input): the distances\n"
-                             "both ways in mm, coverage and, with --measure, the girth discrepancies with ISO 20685-1\n"
-                             "tolerances. Units come from each body's extent and orientations are detected. One result per\n"
-                             "pair in OUT/results, OUT/summary.json and summary.csv; --heatmaps adds each model with its\n"
-                             "signed_distance_mm scalar in OUT/heatmaps (PLY, in the model file's frame and unit).") +
-                     kBatchCommon);
-  args.option("inputs", "DIR|LIST",
-              "a text file of pairs, one per line: MODEL SCAN (separated by a tab, a comma or a space); with "
-              "--model, a folder or list of scans")
-      .option("model", "FILE", "one model for every scan (e.g. a person's body against the scans of a session)")
-      .option("threshold", "MM", "points beyond this distance are outliers, counted apart", "20")
-      .option("coverage", "MM", "a vertex with no scan point this close is uncovered (0: 4x scan spacing, >= 10)", "0")
-      .flag("measure", "also measure both and report the girth discrepancies (cm)")
-      .flag("heatmaps", "write each model with its signed distances (OUT/heatmaps/<input>.ply)");
-  add_batch_options(&args);
-  args.example("posekit batch compare --inputs pairs.txt --out compared --measure")
-      .example("posekit batch compare --model f01_customized.ply --inputs scans/f01/ --out f01_vs_scans --heatmaps");
-  if (!args.parse(argc, argv)) return 0;
-  if (!args.has("inputs") || !args.has("out")) throw UsageError("--inputs and --out are required");
-  const std::string shared_model = args.has("model") ? args.get("model") : "";
-  if (shared_model.empty() && fs::is_directory(args.get("inputs")))
-    throw UsageError("--inputs " + args.get("inputs") + " is a folder of scans: give --model, or a list of MODEL SCAN pairs");
-  ScanComparisonOptions o;
-  o.outlier_threshold = args.get_double("threshold") / 1000;
-  o.coverage_radius = args.get_double("coverage") / 1000;
-  o.threads = 1;  // one pair per job
-  if (!(o.outlier_threshold > 0)) throw UsageError("--threshold must be positive");
-  const bool measure = args.flag_set("measure"), heatmaps = args.flag_set("heatmaps");
-  const fs::path heatmap_dir = fs::path(args.get("out")) / "heatmaps";
-  if (heatmaps) create_folders(heatmap_dir.string());
-  BatchJob job;
-  job.command = "compare";
-  job.settings = {{"model", shared_model},
-                  {"threshold_mm", 1000 * o.outlier_threshold},
-                  {"coverage_mm", 1000 * o.coverage_radius},
-                  {"measure", measure},
-                  {"heatmaps", heatmaps}};
-  job.files = [&](const std::string& input) {
-    const auto [model_path, scan_path] = model_and_scan(input, shared_model);
-    return std::vector<std::string>{model_path, scan_path};
-  };
-  job.process = [&](const std::string& input, const std::string& stem) {
-    const auto [model_path, scan_path] = model_and_scan(input, shared_model);
-    PreparedBody model = prepare_body(model_path, "auto");
-    if (model.in.is_cloud) throw InvalidInput(model_path + ": the model must be a mesh (triangles); this file has only points");
-    PreparedBody scan = prepare_body(scan_path, "auto");
-    PointCloud cloud = scan.in.cloud;
-    if (!scan.in.is_cloud) cloud.P = scan.in.mesh.V;
-    if (cloud.P.rows() == 0) throw InvalidInput(scan_path + ": the scan has no points");
-    ScanComparison c;
-    try {
-      c = compare_with_scan(model.in.mesh, cloud, o);
-    } catch (const InvalidInput& e) {
-      throw InvalidInput(scan_path + " against " + model_path + ": " + e.what());
-    }
-    nlohmann::ordered_json r = {{"model", model_path},
-                                {"scan", scan_path},
-                                {"model_unit", unit_name(model.unit)},
-                                {"scan_unit", unit_name(scan.unit)},
-                                {"scan_points", cloud.P.rows()},
-                                {"model_vertices", model.in.mesh.V.rows()},
-                                {"scan_to_model", distance_stats_json(c.scan_stats)},
-                                {"model_to_scan", distance_stats_json(c.model_stats)},
-                                {"hausdorff_mm", c.hausdorff_mm},
-                                {"coverage", c.coverage}};
-    std::vector<std::string> warnings = model.warnings;
-    warnings.insert(warnings.end(), scan.warnings.begin(), scan.warnings.end());
-    if (measure) {
-      try {
-        for (const auto& d : girth_discrepancies(model.in.mesh, cloud)) {
-          nlohmann::ordered_json g = {{"measured", d.measured}, {"iso20685_tolerance_mm", d.tolerance_mm}};
-          if (d.measured) g["difference_cm"] = d.difference_cm, g["within_tolerance"] = std::abs(d.difference_cm) * 10 <= d.tolerance_mm;
-          else g["note"] = d.note;
-          r["girths"][d.name] = g;
-        }
-      } catch (const InvalidInput& e) {
-        warnings.push_back(std::string("girths not compared: ") + e.what());
-      }
-    }
-    if (heatmaps) {
-      TriangleMesh shown = model.in.mesh;
-      shown.V = in_file_frame(model.orientation, model.in.mesh.V);
-      if (shown.has_normals()) shown.N = in_file_frame(model.orientation, model.in.mesh.N);
-      shown.vertex_scalars["signed_distance_mm"] = 1000 * c.model_to_scan;
-      const std::string path = (heatmap_dir / (stem + ".ply")).string();
-      std::vector<std::string> io;
-      write_mesh(path, shown, {model.unit, MeshFormat::kPly, true, &io});
-      r["heatmap"] = (fs::path("heatmaps") / (stem + ".ply")).string();  // relative to OUT
-      warnings.insert(warnings.end(), io.begin(), io.end());
-    }
-    r["warnings"] = warnings;
-    return r;
-  };
-  job.columns = compare_columns(measure);
-  std::vector<std::string> inputs;
-  if (!shared_model.empty()) {
-    inputs = list_inputs(args.get("inputs"));
-  } else {
-    std::istringstream lines(read_file_bytes(args.get("inputs")));
-    for (std::string line; std::getline(lines, line);) {
-      while (!line.empty() && (line.back() == '\r' || line.back() == ' ')) line.pop_back();
-      if (!line.empty() && line[0] != '#') inputs.push_back(line);
-    }
-    if (inputs.empty()) throw InvalidInput(args.get("inputs") + ": no MODEL SCAN pairs");
-  }
-  return run_batch_job(args, job, inputs);
-}
-
-int run_batch_pose(int argc, char** argv) {
-  ArgParser args(
-      "batch pose",
-      std::string(
-          "Poses many bodies with one trained model (posekit pose): each subject mesh is segmented and\n"
-          "set up once, then put into every pose of --pose (a pose JSON, or the frames of a BVH: MakeHuman's\n"
-          "skeleton, or any humanoid one retargeted to each subject's joints). The posed meshes go to OUT/posed/<input>/<pose>.<format> "
-          "(listed relative to OUT), in\n"
-          "the subject file's frame and unit, with the vertex scalar 'part'. One result per subject in OUT/results, OUT/summary.json\n"
-          "and summary.csv; set-up and posing times in OUT/run*.json.") +
-          kBatchCommon);
-  args.option("inputs", "DIR|LIST", "a folder of subject meshes (recursively, in sorted order) or a text file of paths")
-      .pose_model_option()
-      .option("pose", "FILE", "pose.json (16-part pose) or a motion capture .bvh (any humanoid skeleton, retargeted; see --joint-map)")
-      .option("method", "M", "learned (the paper's), rigid (parts only) or lbs (16-part skinning)", "learned")
-      .option("frames", "A:B", "BVH frames A to B-1 (default: all)")
-      .option("format", "EXT", "posed mesh format: ply, obj or off", "ply")
-      .data_option("for the BVH skeleton")
-      .option("joint-map", "FILE", "JSON {\"left_shoulder\": \"<BVH joint>\", ...} for BVH joints the names do not tell")
-      .option("root-motion", "M", "a retargeted BVH's root translation: none, vertical (feet stay down) or all", "vertical");
-  add_batch_options(&args);
-  args.example("posekit batch pose --inputs subjects.txt --model model.pkm --pose squat.json --out posed --jobs 2");
-  if (!args.parse(argc, argv)) return 0;
-  for (const char* required : {"inputs", "model", "pose", "out"})
-    if (!args.has(required)) throw UsageError(std::string("--") + required + " is required");
-  const std::string format = args.get("format");
-  if (format != "ply" && format != "obj" && format != "off") throw UsageError("--format expects ply, obj or off, got '" + format + "'");
-  const PoseMethod method = parse_pose_method(args.get("method"));
-  const auto model = std::make_shared<const PoseModel>(read_pose_model(args.get("model")));
-  const std::uint32_t model_crc = file_crc32(args.get("model"));  // a retrained model redoes every subject
-  const std::string pose_path = args.get("pose");
-  const std::string frames = args.has("frames") ? args.get("frames") : "", data = args.has("data") ? args.get("data") : "";
-  const std::string joint_map = args.has("joint-map") ? args.get("joint-map") : "", root_motion = args.get("root-motion");
-  // Pose JSONs and MakeHuman's BVHs are the same for every subject: loaded once. Other BVHs are
-  // retargeted to each subject's own joints.
-  std::string ext = fs::path(pose_path).extension().string();
-  std::transform(ext.begin(), ext.end(), ext.begin(), [](unsigned char c) { return static_cast<char>(std::tolower(c)); });
-  BvhMotion motion;
-  if (ext == ".bvh") motion = read_bvh(pose_path, Unit::kMetre, io_warnings());
-  const bool per_subject = ext == ".bvh" && motion.find_joint("upperarm01.L") < 0;
-  LoadedPoses shared;
-  if (!per_subject) shared = load_poses(pose_path, frames, data, Eigen::MatrixXd(), "", root_motion, ext == ".bvh" ? &motion : nullptr);
-  else
-    (void)load_poses(pose_path, frames, data, Eigen::MatrixXd::Zero(kNumJoints, 3), joint_map, root_motion,
-                     &motion);  // bad input fails once, not per subject
-  const fs::path posed_dir = fs::path(args.get("out")) / "posed";
-  std::mutex timing_mutex;
-  std::vector<double> setup_seconds, pose_ms;
-  BatchJob job;
-  job.command = "pose";
-  job.settings = {
-      {"model", args.get("model")}, {"model_checksum", model_crc},        {"pose", pose_path}, {"frames", frames}, {"joint_map", joint_map},
-      {"root_motion", root_motion}, {"method", pose_method_name(method)}, {"format", format}};
-  job.process = [&](const std::string& input, const std::string& stem) {
-    PreparedBody subject = prepare_body(input, "auto");
-    if (subject.in.is_cloud) throw InvalidInput(input + ": the subject must be a mesh (triangles); this file has only points");
-    const TriangleMesh& mesh = subject.in.mesh;
-    const MeshReport report = validate_mesh(mesh);
-    if (report.components != 1)
-      throw InvalidInput(input + ": the subject mesh has " + std::to_string(report.components) +
-                         " connected components; posing needs one connected body");
-    std::vector<std::string> warnings = subject.warnings;
-    if (report.boundary_loops > 0) warnings.push_back(std::to_string(report.boundary_loops) + " holes: features near them may be off");
-    const Stopwatch t0;
-    const PoseSynthesizer synth = set_up_subject(model, mesh, input);
-    const double setup = t0.seconds();
-    for (const auto& problem : synth.info().skeleton_problems) warnings.push_back("the skeleton looks wrong: " + problem);
-    const fs::path dir = posed_dir / stem;
-    create_folders(dir.string());
-    TriangleMesh posed;
-    posed.F = mesh.F;
-    posed.vertex_scalars["part"] = vertex_labels_from_triangles(mesh.V, mesh.F, synth.info().triangle_part).cast<double>();
-    nlohmann::ordered_json files = nlohmann::ordered_json::array();
-    const Stopwatch t1;
-    const LoadedPoses own =
-        per_subject ? load_poses(pose_path, frames, data, synth.info().joint_centres, joint_map, root_motion, &motion) : LoadedPoses{};
-    const LoadedPoses& poses = per_subject ? own : shared;
-    for (size_t k = 0; k < poses.poses.size(); ++k) {
-      const std::string& name = poses.names[k];
-      const PartPose& pose = poses.poses[k];
-      synth.pose(pose, method, &posed.V);
-      if (!subject.orientation.is_identity()) posed.V = in_file_frame(subject.orientation, posed.V);
-      const std::string path = (dir / (name + "." + format)).string();
-      std::vector<std::string> io;
-      write_mesh(path, posed, {subject.unit, MeshFormat::kAuto, true, &io});
-      warnings.insert(warnings.end(), io.begin(), io.end());
-      files.push_back((fs::path("posed") / stem / (name + "." + format)).string());  // relative to OUT: the summary moves with it
-    }
-    const double posing = t1.seconds();
-    {
-      std::lock_guard<std::mutex> lock(timing_mutex);
-      setup_seconds.push_back(setup);
-      pose_ms.push_back(1000 * posing / static_cast<double>(poses.poses.size()));
-    }
-    nlohmann::ordered_json r = {{"unit", unit_name(subject.unit)},
-                                {"up", axis_name(subject.orientation.up())},
-                                {"forward", axis_name(subject.orientation.forward())},
-                                {"vertices", mesh.V.rows()},
-                                {"poses", poses.poses.size()},
-                                {"normal_failures", synth.info().normal_failures},
-                                {"files", files},
-                                {"warnings", warnings}};
-    return r;
-  };
-  job.columns = pose_columns();
-  const int status = run_batch_job(args, job, list_inputs(args.get("inputs")));
-  if (!setup_seconds.empty() && !args.flag_set("json")) {
-    const Stats s = stats_of(setup_seconds), p = stats_of(pose_ms);
-    std::cout << "  per subject: set-up median " << std::setprecision(3) << s.median << " s (" << s.min << " to " << s.max
-              << "), posing median " << std::setprecision(2) << p.median << " ms per pose\n";
-  }
-  return status;
-}
-
-int run_batch_register(int argc, char** argv) {
-  ArgParser args("batch register",
-                 std::string("Registers one source body (e.g. the dataset's template) to many targets (posekit register):\n"
-                             "the source's side of ct-FFD and the shape space are made once and shared by the jobs. Per\n"
-                             "target: OUT/correspondence/<input>.json (each target triangle's source triangle, Eq. 2b/2c),\n"
-                             "with --deformed the source on the target (OUT/deformed/<input>.ply, in the target file's frame\n"
-                             "and unit), and the quality judged without ground truth in the summary. Units and\n"
-                             "orientations are detected.") +
-                     kBatchCommon);
-  args.option("source", "FILE", "the source mesh registered to every target")
-      .option("inputs", "DIR|LIST", "a folder of target meshes (recursively, in sorted order) or a text file of paths")
-      .option("method", "M", "ctffd, icp or nicp", "ctffd")
-      .option("shape-space", "N|FILE", "ctffd: refine by a shape space of N MakeHuman bodies or a .pks file (0: not)", "0")
-      .data_option("for --shape-space N")
-      .flag("refine", "ctffd: refine by soft non-rigid ICP steps")
-      .flag("deformed", "also write the source deformed onto each target");
-  add_batch_options(&args);
-  args.example("posekit batch register --source dataset/template/rest.ply --inputs scans/ --shape-space makehuman300.pks --out registered");
-  if (!args.parse(argc, argv)) return 0;
-  for (const char* required : {"source", "inputs", "out"})
-    if (!args.has(required)) throw UsageError(std::string("--") + required + " is required");
-  RegistrationOptions o;
-  o.method = parse_registration_method(args.get("method"));
-  o.refine = args.flag_set("refine");
-  const std::string shape_arg = args.get("shape-space");
-  if ((o.refine || shape_arg != "0") && o.method != RegistrationMethod::kCtffd)
-    throw UsageError("--refine and --shape-space apply to --method ctffd");
-  PreparedBody source = prepare_body(args.get("source"), "auto");
-  if (source.in.is_cloud) throw InvalidInput(args.get("source") + ": the source must be a mesh (triangles); this file has only points");
-  for (const std::string& w : source.warnings) std::cerr << "posekit batch register: " << args.get("source") << ": " << w << "\n";
-  const TriangleMesh& source_mesh = source.in.mesh;
-  o.shape_space = shape_space_option(shape_arg, "none", args.has("data") ? args.get("data") : "");
-  if (o.shape_space && (o.shape_space->vertices() != source_mesh.num_vertices() ||
-                        (o.shape_space->faces.size() > 0 && o.shape_space->faces != source_mesh.F)))
-    throw InvalidInput(args.get("source") + ": the shape space is of another topology (" + std::to_string(o.shape_space->vertices()) +
-                       " vertices; the source has " + std::to_string(source_mesh.num_vertices()) + ")");
-  std::unique_ptr<const CtffdSource> prepared;
-  if (o.method == RegistrationMethod::kCtffd) prepared = std::make_unique<const CtffdSource>(source_mesh, o.points_per_layer);
-  const std::uint32_t space_crc = is_shape_space_file(shape_arg) ? file_crc32(shape_arg) : 0;
-  const fs::path out = args.get("out"), corr_dir = out / "correspondence", deformed_dir = out / "deformed";
-  const bool deformed = args.flag_set("deformed");
-  create_folders(corr_dir.string());
-  if (deformed) create_folders(deformed_dir.string());
-  BatchJob job;
-  job.command = "register";
-  // A changed source or space file redoes every target.
-  job.settings = {{"source", args.get("source")},
-                  {"source_checksum", file_crc32(args.get("source"))},
-                  {"method", args.get("method")},
-                  {"shape_space", shape_arg},
-                  {"shape_space_checksum", space_crc},
-                  {"refine", o.refine},
-                  {"deformed", deformed}};
-  job.process = [&](const std::string& input, const std::string& stem) {
-    PreparedBody target = prepare_body(input, "auto");
-    if (target.in.is_cloud) throw InvalidInput(input + ": register needs a mesh (triangles); this file has only points");
-    const TriangleMesh& mesh = target.in.mesh;
-    const RegistrationResult r = prepared ? register_bodies(*prepared, mesh, o) : register_bodies(source_mesh, mesh, o);
-    const RegistrationQuality q = assess_registration(source_mesh, r.deformed_source, mesh);
-    nlohmann::json corr = {
-        {"source", args.get("source")},
-        {"target", input},
-        {"method", args.get("method")},
-        {"meaning", "target_to_source[k] is the source triangle matched to target triangle k"},
-        {"target_to_source", std::vector<int>(r.correspondence.data(), r.correspondence.data() + r.correspondence.size())}};
-    const std::string text = corr.dump() + "\n";
-    write_file_atomically((corr_dir / (stem + ".json")).string(), [&](std::ostream& os) { os << text; }, false);
-    std::vector<std::string> warnings = target.warnings;
-    for (const std::string& w : r.warnings) warnings.push_back(w);
-    for (const std::string& w : q.warnings) warnings.push_back(w);
-    nlohmann::ordered_json result = {{"unit", unit_name(target.unit)},
-                                     {"up", axis_name(target.orientation.up())},
-                                     {"forward", axis_name(target.orientation.forward())},
-                                     {"target_triangles", mesh.num_faces()},
-                                     {"seconds", r.seconds},
-                                     {"normal_failures", r.normal_failures},
-                                     {"quality", registration_quality_json(q, false)},
-                                     {"correspondence", (fs::path("correspondence") / (stem + ".json")).string()}};
-    if (o.shape_space) {
-      result["shape_space_kept"] = r.shape_fit.plausible;
-      result["shape_space_median_distance_mm"] = 1000 * r.shape_fit.median_distance;
-    }
-    if (deformed) {
-      TriangleMesh d;
-      d.V = in_file_frame(target.orientation, r.deformed_source);
-      d.F = source_mesh.F;
-      std::vector<std::string> io;
-      write_mesh((deformed_dir / (stem + ".ply")).string(), d, {target.unit, MeshFormat::kPly, true, &io});
-      warnings.insert(warnings.end(), io.begin(), io.end());
-      result["deformed"] = (fs::path("deformed") / (stem + ".ply")).string();
-    }
-    result["warnings"] = warnings;
-    return result;
-  };
-  job.columns = register_columns();
-  return run_batch_job(args, job, list_inputs(args.get("inputs")));
-}
-
-int run_batch_merge(int argc, char** argv) {
-  ArgParser args("batch merge",
-                 "Joins the summaries of a sharded batch run (OUT/summary.shard-I-of-N.json, every I from 0 to N-1)\n"
-                 "into OUT/summary.json and summary.csv, the files one unsharded run over the same inputs writes.");
-  args.option("out", "DIR", "the batch's output folder").example("posekit batch merge --out measured");
-  if (!args.parse(argc, argv)) return 0;
-  if (!args.has("out")) throw UsageError("--out is required");
-  const fs::path out = args.get("out");
-  if (!fs::is_directory(out)) throw InvalidInput(out.string() + ": no such folder (the --out of the sharded batch runs)");
-  std::vector<fs::path> parts;
-  for (const auto& e : fs::directory_iterator(out)) {
-    const std::string name = e.path().filename().string();
-    if (name.rfind("summary.shard-", 0) == 0 && e.path().extension() == ".json") parts.push_back(e.path());
-  }
-  if (parts.empty()) throw InvalidInput(out.string() + ": no shard summaries (summary.shard-I-of-N.json) to merge");
-  long shards = -1;
-  nlohmann::ordered_json first;
-  std::vector<bool> seen;
-  std::vector<nlohmann::ordered_json> rows;
-  for (const auto& p : parts) {
-    const auto s = nlohmann::ordered_json::parse(read_file_bytes(p.string()));
-    if (shards < 0) {
-      shards = s["shards"].get<long>();
-      first = s;
-      seen.assign(static_cast<size_t>(shards), false);
-    }
-    if (s["shards"].get<long>() != shards || s["inputs_checksum"] != first["inputs_checksum"] || s["command"] != first["command"] ||
-        s.value("settings", nlohmann::ordered_json()) != first.value("settings", nlohmann::ordered_json()))
-      throw InvalidInput(p.string() + ": a shard of another run (other inputs, shard count or command) than " + parts.front().string());
-    seen[static_cast<size_t>(s["shard"].get<long>())] = true;
-    for (const auto& r : s["results"]) rows.push_back(r);
-  }
-  std::string missing;
-  for (long i = 0; i < shards; ++i)
-    if (!seen[static_cast<size_t>(i)]) missing += (missing.empty() ? "" : ", ") + std::to_string(i);
-  if (!missing.empty()) throw InvalidInput(out.string() + ": shards " + missing + " of " + std::to_string(shards) + " have no summary yet");
-  std::sort(rows.begin(), rows.end(),
-            [](const auto& a, const auto& b) { return a["index"].template get<long>() < b["index"].template get<long>(); });
-  long failed = 0;
-  for (const auto& r : rows) failed += !r["ok"].get<bool>();
-  nlohmann::ordered_json summary;
-  summary["command"] = first["command"];
-  summary["settings"] = first.value("settings", nlohmann::ordered_json::object());
-  summary["inputs_total"] = first["inputs_total"];
-  summary["inputs_checksum"] = first["inputs_checksum"];
-  summary["shard"] = 0;
-  summary["shards"] = 1;
-  summary["inputs"] = rows.size();
-  summary["ok"] = static_cast<long>(rows.size()) - failed;
-  summary["failed"] = failed;
-  summary["results"] = rows;
-  write_summary(out, "summary", summary, columns_of(summary["command"].get<std::string>(), summary["settings"]));
-  std::cout << "batch merge: " << shards << " shards, " << rows.size() << " inputs (" << failed << " failed) -> "
-            << (out / "summary.csv").string() << "\n";
-  return 0;
-}
-
-}  // namespace
+}  // namespace batch
 
 int run_batch(int argc, char** argv) {
+  using namespace batch;
   const std::string sub = argc >= 1 ? argv[0] : "";
   if (sub == "measure") return run_batch_measure(argc - 1, argv + 1);
   if (sub == "compare") return run_batch_compare(argc - 1, argv + 1);

@@ -14,6 +14,7 @@
 #include "posekit/deformation/pose_model.h"
 #include "posekit/deformation/pose_synthesis.h"
 #include "posekit/io/mesh_io.h"
+#include "posekit/segmentation/segmentation.h"
 #include "posekit/shape/body_orientation.h"
 #include "posing_inputs.h"
 

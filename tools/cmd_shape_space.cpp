@@ -15,8 +15,10 @@
 #include "posekit/core/data_root.h"
 #include "posekit/core/error.h"
 #include "posekit/core/timer.h"
+#include "posekit/fitting/body_fit.h"
 #include "posekit/io/atomic_file.h"
 #include "posekit/io/mesh_io.h"
+#include "posekit/population/makehuman_shape_space.h"
 #include "posekit/registration/shape_space.h"
 
 namespace posekit::cli {

@@ -19,6 +19,7 @@
 #include "posekit/io/atomic_file.h"
 #include "posekit/io/json.h"
 #include "posekit/io/mesh_io.h"
+#include "posekit/population/makehuman_shape_space.h"
 #include "posekit/registration/registration.h"
 #include "posekit/registration/shape_space.h"
 
@@ -147,15 +148,6 @@ Target remeshed_target(const TriangleMesh& subject, const Eigen::MatrixXd& true_
 }
 
 }  // namespace
-
-ShapeSpace makehuman_shape_space(const MakeHumanModel& model, const PopulationOptions& population, double variance_kept,
-                                 int max_components) {
-  std::string note;
-  const std::vector<Eigen::MatrixXd> bodies = make_population_bodies(model, population, &note);
-  ShapeSpace space = learn_shape_space(bodies, variance_kept, max_components, note);
-  space.faces = model.body_F;
-  return space;
-}
 
 RegistrationTable measure_registration_table(const std::string& dir, const RegistrationTableOptions& o) {
   if (o.runs < 1) throw InvalidInput("registration table: runs must be at least 1");

@@ -32,6 +32,7 @@
 #include "posekit/io/mesh_io.h"
 #include "posekit/io/point_cloud_io.h"
 #include "posekit/paper/registration_table.h"
+#include "posekit/population/makehuman_shape_space.h"
 #include "posekit/registration/ctffd.h"
 #include "posekit/registration/shape_space.h"
 #include "posekit/shape/body_features.h"

@@ -14,11 +14,6 @@ struct ShapeSpace;
 struct MakeHumanModel;
 struct PopulationOptions;
 
-/// The shape space of a MakeHuman population in its base topology (make_population_bodies, then
-/// learn_shape_space), recording the base triangles: what `--shape-space N` builds.
-ShapeSpace makehuman_shape_space(const MakeHumanModel& model, const PopulationOptions& population, double variance_kept = 0.99999,
-                                 int max_components = 60);
-
 struct RegistrationTableOptions {
   int runs = 5;           ///< timed runs per method and subject
   int nicp_runs = 1;      ///< timed runs of non-rigid ICP (0: leave it out)
