@@ -13,6 +13,7 @@
 #include "posekit/core/error.h"
 #include "posekit/core/timer.h"
 #include "posekit/datasets/calibration_bodies.h"
+#include "posekit/segmentation/skeleton_embedding.h"
 #include "posekit/shape/feature_calibration.h"
 
 namespace posekit::cli {
@@ -53,7 +54,8 @@ int run_calibrate(int argc, char** argv) {
   std::vector<std::string> skipped;
   const std::vector<FeatureCalibrationSample> samples = make_feature_calibration_samples(*model, o, &skipped);
   progress.finish();
-  const std::vector<RefitConstant> constants = refit_feature_constants(samples);
+  std::vector<RefitConstant> constants = refit_feature_constants(samples);
+  constants.push_back(refit_typical_torso_fractions(samples));
   std::vector<std::string> worse;
   for (const RefitConstant& c : constants)
     if (c.fit != "mean" && c.shipped_rms_mm > c.refit_rms_mm + tolerance) worse.push_back(c.name);  // a mean is a prior

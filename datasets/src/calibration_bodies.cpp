@@ -7,6 +7,7 @@
 #include "posekit/core/error.h"
 #include "posekit/core/parallel.h"
 #include "posekit/datasets/remesh.h"
+#include "posekit/shape/layered_representation.h"
 
 namespace posekit {
 
@@ -26,7 +27,13 @@ std::vector<FeatureCalibrationSample> make_feature_calibration_samples(const Mak
     s.head = body.bone_heads.row(model.rig.find_bone("head")).transpose();
     try {
       const TriangleMesh mesh = o.remesh_vertices > 0 ? remesh_body(body.mesh, o.remesh_vertices) : body.mesh;
-      find_body_features(mesh.V, mesh.F, nullptr, 1, &s.regressors);
+      const BodyFeatures features = find_body_features(mesh.V, mesh.F, nullptr, 1, &s.regressors);
+      const LayeredRepresentation rep = build_layered_representation(mesh.V, mesh.F, features);
+      for (const RepresentationLayer& layer : rep.layers) {
+        if (layer.chain != 0) continue;  // the torso
+        if (!s.torso) s.torso_low = layer.centre.y();
+        s.torso_high = layer.centre.y(), s.torso = true;
+      }
     } catch (const InvalidInput& e) {
       why[k] = "body " + std::to_string(k) + " of make_calibration_specs(" + std::to_string(o.seed) + ", " + std::to_string(o.count) +
                "): " + e.what();

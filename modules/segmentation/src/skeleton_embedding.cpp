@@ -1,5 +1,6 @@
 #include "posekit/segmentation/skeleton_embedding.h"
 
+#include <algorithm>
 #include <cmath>
 #include <string>
 
@@ -104,7 +105,38 @@ Eigen::MatrixXd reconcile_limb_joints(const Eigen::MatrixXd& joints, const BodyF
   return J;
 }
 
-Eigen::Vector3d typical_torso_fractions() { return Eigen::Vector3d(0.262, 0.495, 1.004); }
+Eigen::Vector3d typical_torso_fractions() { return Eigen::Vector3d(0.245, 0.490, 1.006); }
+
+RefitConstant refit_typical_torso_fractions(const std::vector<FeatureCalibrationSample>& samples) {
+  const char* joints[3] = {"lower_back", "upper_back", "neck"};
+  const Eigen::Vector3d shipped = typical_torso_fractions();
+  RefitConstant c;
+  c.name = "typical_torso_fractions";
+  c.what = "lower back, upper back and neck joint heights as fractions of the torso span";
+  c.fit = "median";
+  c.shipped.assign(shipped.data(), shipped.data() + 3);
+  std::vector<double> fraction[3], span;
+  for (const FeatureCalibrationSample& s : samples) {
+    if (!s.torso || !(s.torso_high > s.torso_low)) continue;
+    span.push_back(s.torso_high - s.torso_low);
+    for (int j = 0; j < 3; ++j) fraction[j].push_back((s.joints(find_joint_index(joints[j]), 1) - s.torso_low) / span.back());
+  }
+  c.samples = static_cast<int>(span.size());
+  if (span.empty()) throw InvalidInput("calibration: no torso spans for typical_torso_fractions");
+  double old_sum = 0, new_sum = 0;
+  for (int j = 0; j < 3; ++j) {
+    std::vector<double> v = fraction[j];
+    std::nth_element(v.begin(), v.begin() + static_cast<long>(v.size() / 2), v.end());
+    c.refit.push_back(v[v.size() / 2]);
+    for (size_t i = 0; i < span.size(); ++i) {
+      old_sum += std::pow((fraction[j][i] - shipped[j]) * span[i], 2);
+      new_sum += std::pow((fraction[j][i] - c.refit[static_cast<size_t>(j)]) * span[i], 2);
+    }
+  }
+  const double n = 3.0 * static_cast<double>(span.size());
+  c.shipped_rms_mm = 1000 * std::sqrt(old_sum / n), c.refit_rms_mm = 1000 * std::sqrt(new_sum / n);
+  return c;
+}
 
 Eigen::MatrixXd joint_centres_from_features(const Eigen::MatrixXd& V, const Eigen::MatrixXi& F, const Eigen::VectorXi& triangle_part,
                                             const LayeredRepresentation& rep, const BodyFeatures& f) {

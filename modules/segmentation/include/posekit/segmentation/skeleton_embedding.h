@@ -5,6 +5,7 @@
 
 #include "posekit/registration/ctffd.h"
 #include "posekit/shape/body_features.h"
+#include "posekit/shape/feature_calibration.h"
 #include "posekit/shape/layered_representation.h"
 
 namespace posekit {
@@ -45,8 +46,13 @@ Eigen::MatrixXd reconcile_limb_joints(const Eigen::MatrixXd& joints, const BodyF
                                       std::vector<std::string>* replaced = nullptr);
 
 /// Typical torso joint heights as fractions of the crotch (0) to neck-base (1) span: lower back,
-/// upper back, neck; measured on the MakeHuman rig over 17 bodies of both sexes, BMI 16 to 35.
+/// upper back, neck: the MakeHuman rig's medians over make_calibration_specs(20131122, 120), remeshed
+/// (`posekit dev calibrate`; the first values, from 17 bodies, 0.262, 0.495 and 1.004, placed the
+/// joints 12.4 mm RMS off against 10.6).
 Eigen::Vector3d typical_torso_fractions();
+/// typical_torso_fractions refitted (medians) from calibration bodies' rig joints and torso spans
+/// (shape/feature_calibration.h), with the RMS error of the joint heights they place.
+RefitConstant refit_typical_torso_fractions(const std::vector<FeatureCalibrationSample>& samples);
 
 /// Joint centres without a prior, from the segmentation alone: the centroid of the boundary edges
 /// between each part and its parent (#joints x 3). A joint whose parts share no edge throws

@@ -17,6 +17,10 @@ struct FeatureCalibrationSample {
   FeatureRegressors regressors;
   Eigen::MatrixXd joints;
   Eigen::Vector3d head = Eigen::Vector3d::Zero();  ///< the head joint (MakeHuman's head bone), above the neck joint
+  /// The heights of the first and last torso layers of its layered representation (crotch and neck
+  /// base: what typical_torso_fractions, segmentation/skeleton_embedding.h, are fractions of).
+  bool torso = false;
+  double torso_low = 0, torso_high = 0;
 };
 
 /// A constant as shipped and as refitted: by least squares (a regression's coefficients), as the
