@@ -10,6 +10,7 @@
 #include <random>
 #include <sstream>
 
+#include "customization_detail.h"
 #include "opencv_calls.h"
 #include "posekit/body/makehuman_model.h"
 #include "posekit/body/subjects.h"

@@ -12,6 +12,7 @@
 #include <sstream>
 #include <unordered_map>
 
+#include "customization_detail.h"
 #include "posekit/core/error.h"
 #include "posekit/core/mesh_geometry.h"
 #include "posekit/core/parallel.h"

@@ -9,6 +9,7 @@
 #include <nlohmann/json.hpp>
 #include <random>
 
+#include "customization_detail.h"
 #include "named_values.h"
 #include "opencv_calls.h"
 #include "photo_degradation.h"

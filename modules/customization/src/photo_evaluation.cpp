@@ -8,6 +8,7 @@
 #include <nlohmann/json.hpp>
 #include <tuple>
 
+#include "customization_detail.h"
 #include "named_values.h"
 #include "opencv_calls.h"
 #include "photo_degradation.h"

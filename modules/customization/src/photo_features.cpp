@@ -4,6 +4,7 @@
 #include <limits>
 #include <sstream>
 
+#include "customization_detail.h"
 #include "posekit/core/error.h"
 #include "posekit/customization/photo_customization.h"
 

@@ -49,9 +49,6 @@ ArmChains arm_chains(const BodyFeatures& features);
 /// legs, arms touching the torso, a side view given as front).
 PhotoLandmarks find_photo_landmarks(const Silhouette& front, const Silhouette& side, const PhotoCameras& cameras,
                                     const ArmChains* arms = nullptr);
-/// The entries of PhotoLandmarks::descriptor read off one arm (kLeft or kRight): its armpit level
-/// and its profile.
-std::vector<int> descriptor_arm_entries(int side);
 
 /// Half extents of a layer's section seen in the photos: along the layer's side axis in the front
 /// photo, along its front axis in the side photo (arms: not seen, -1), and the box centre.
@@ -173,13 +170,6 @@ double photo_agreement(const TriangleMesh& mesh, const Silhouette& silhouette, c
 /// every photo variation of `customize eval` score 0.90-0.97 (the 600-row rendering loses fingers);
 /// the wrecks seen score under 0.1. 0.8 is an outline about 4% of the body's height off all round.
 constexpr double kMinPhotoAgreement = 0.8;
-
-/// A result whose photo_agreement is under kMinPhotoAgreement: BelowConfidence naming it, or with
-/// accept_poor a warning.
-void check_photo_agreement(CustomizedBody* body, bool accept_poor);
-/// stated > 0: scales the body (mesh and representation) to that stature about its soles below
-/// axis_xz (x, z), noting a camera file that disagrees by over 2 cm.
-void scale_to_stated_stature(CustomizedBody* body, const PhotoCameras& cameras, double stated, const Eigen::Vector2d& axis_xz);
 
 /// Customizes the template to the person in the two silhouettes. stated_stature > 0: the result is
 /// scaled about the soles to it, and a camera file that disagrees with it by over 2 cm is a warning.

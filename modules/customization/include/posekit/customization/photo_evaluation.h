@@ -61,9 +61,6 @@ struct PhotoEvaluation {
   int within_2cm = 0;         ///< subjects with bust, waist and hip within 2 cm
 };
 
-/// Fills an evaluation's counts and means from its subjects' results.
-void summarise_photo_evaluation(PhotoEvaluation* evaluation);
-
 /// Customizes every subject of a dataset (its manifest) from its photos under `variation`.
 /// `ids`: only these subjects (empty: all). `inputs_out` (non-empty): each subject's silhouettes and
 /// camera file as customized are written to inputs_out/<variation>/<id>/ (front_mask.png,
