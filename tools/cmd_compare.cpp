@@ -54,17 +54,18 @@ void write_compared_files(const ArgParser& args, const TriangleMesh& model, cons
     out.V = in_file_frame(model_orientation, model.V);
     if (out.has_normals()) out.N = in_file_frame(model_orientation, model.N);
     out.vertex_scalars["signed_distance_mm"] = 1000 * r.model_to_scan;
-    Eigen::VectorXd covered(model.V.rows());
-    for (Eigen::Index v = 0; v < covered.size(); ++v) covered[v] = std::isfinite(r.model_to_scan[v]) ? 1 : 0;
-    out.vertex_scalars["covered"] = covered;
-    write_mesh(args.get("out"), out, {model_unit.unit, MeshFormat::kAuto, true, io_warnings()});
+    // "coverage", not "covered": CloudCompare reads a property whose name holds "red" as the red channel.
+    Eigen::VectorXd coverage(model.V.rows());
+    for (Eigen::Index v = 0; v < coverage.size(); ++v) coverage[v] = std::isfinite(r.model_to_scan[v]) ? 1 : 0;
+    out.vertex_scalars["coverage"] = coverage;
+    write_mesh(args.get("out"), out, {model_unit.unit, MeshFormat::kAuto, true, io_warnings(), args.flag_set("double")});
   }
   if (args.has("scan-out")) {
     PointCloud out = scan;  // in the scan file's own frame
     out.P = in_file_frame(scan_orientation, scan.P);
     if (out.has_normals()) out.N = in_file_frame(scan_orientation, scan.N);
     out.point_scalars["signed_distance_mm"] = 1000 * r.scan_to_model;
-    write_point_cloud(args.get("scan-out"), out, {scan_unit.unit, CloudFormat::kAuto, true, io_warnings()});
+    write_point_cloud(args.get("scan-out"), out, {scan_unit.unit, CloudFormat::kAuto, true, io_warnings(), args.flag_set("double")});
   }
   if (args.has("png")) {
     ViewOptions v;
@@ -129,11 +130,14 @@ int run_compare(int argc, char** argv) {
       .option("threshold", "MM", "points beyond this distance are outliers, counted apart", "20")
       .option("coverage", "MM", "a vertex with no scan point this close is uncovered (0: 4x scan spacing, >= 10)", "0")
       .option("threads", "N", "threads (0: all cores)", "0")
-      .output("out", "FILE", "the model with vertex scalars signed_distance_mm (NaN: uncovered) and covered (0/1)")
+      .output("out", "FILE",
+              "the model with vertex scalars signed_distance_mm (NaN: uncovered) and coverage (0/1), as float32 "
+              "PLY properties scalar_<name> (CloudCompare's names)")
       .output("scan-out", "FILE", "the scan with point scalar signed_distance_mm (PLY/PCD)")
       .output("png", "FILE", "heatmap of the model's error, front and back (off-screen VTK)")
       .option("range", "MIN:MAX", "colour range in mm (default: automatic)")
       .option("colours", "KIND", "diverging (signed) or sequential (|error|)", "diverging")
+      .flag("double", "write --out/--scan-out as float64 (default: float32 where it keeps the values)")
       .flag("measure", "also measure both and print the girth discrepancies (cm) with ISO 20685-1 tolerances")
       .flag("json", "results as JSON on stdout")
       .example("posekit compare out/dataset/subjects/f01/rest.ply out/dataset/scans/f01/rest.pcd --measure --png f01.png");

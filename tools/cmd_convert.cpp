@@ -22,6 +22,7 @@ int run_convert(int argc, char** argv) {
       .option("to-unit", "U", "unit of the output: m, dm, cm, mm", "m")
       .option("group", "NAME", "keep only this OBJ group of a mesh")
       .flag("ascii", "write PLY/PCD/STL as text instead of binary")
+      .flag("double", "write PLY/PCD coordinates and fields as float64 (default: float32 where it keeps them to 1 um)")
       .example("posekit convert base.obj body.ply --group body --from-unit dm --to-unit m")
       .example("posekit convert scan.pcd scan.xyz --from-unit mm --to-unit mm");
   if (!args.parse(argc, argv)) return 0;
@@ -34,7 +35,7 @@ int run_convert(int argc, char** argv) {
     if (args.has("group")) throw InvalidInput(in + " is a point cloud: it has no groups for --group");
     if (mesh_format_from_path(out) == MeshFormat::kStl)
       throw InvalidInput(in + " is a point cloud: STL holds triangles only; write .pcd, .ply, .xyz, .obj or .off");
-    write_point_cloud(out, input.cloud, {to, CloudFormat::kAuto, binary, io_warnings()});
+    write_point_cloud(out, input.cloud, {to, CloudFormat::kAuto, binary, io_warnings(), args.flag_set("double")});
     flush_warnings();
     std::cerr << "wrote " << out << ": " << input.cloud.size() << " points (" << unit_name(to) << ")\n";
     return 0;
@@ -49,12 +50,12 @@ int run_convert(int argc, char** argv) {
     cloud.point_scalars = mesh.vertex_scalars;
     for (const auto& kv : mesh.face_scalars)
       io_warnings()->push_back(out + ": a point cloud cannot hold the face field " + kv.first + ": not written");
-    write_point_cloud(out, cloud, {to, CloudFormat::kAuto, binary, io_warnings()});
+    write_point_cloud(out, cloud, {to, CloudFormat::kAuto, binary, io_warnings(), args.flag_set("double")});
     flush_warnings();
     std::cerr << "wrote " << out << ": " << cloud.size() << " points (" << unit_name(to) << ")\n";
     return 0;
   }
-  write_mesh(out, mesh, {to, MeshFormat::kAuto, binary, io_warnings()});
+  write_mesh(out, mesh, {to, MeshFormat::kAuto, binary, io_warnings(), args.flag_set("double")});
   flush_warnings();
   std::cerr << "wrote " << out << ": " << mesh.num_vertices() << " vertices, " << mesh.num_faces() << " triangles (" << unit_name(to)
             << ")\n";

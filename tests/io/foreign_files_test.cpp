@@ -295,7 +295,7 @@ TEST(Obj, TextureCoordinatesSurvivePlyToObjToPly) {
   write_mesh(dir.file("c.ply"), read_mesh(dir.file("b.obj")));
   const TriangleMesh r = read_mesh(dir.file("c.ply"));
   ASSERT_TRUE(r.has_uv());
-  EXPECT_LT((r.UV - m.UV).cwiseAbs().maxCoeff(), 1e-15);
+  EXPECT_LT((r.UV - m.UV).cwiseAbs().maxCoeff(), 1e-7);  // float32 in PLY
 }
 
 TEST(Obj, UvSeamsAreReportedNotSilentlyMerged) {

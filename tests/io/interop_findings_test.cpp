@@ -6,6 +6,7 @@
 
 #include <csignal>
 #include <filesystem>
+#include <fstream>
 #include <string>
 #include <vector>
 
@@ -15,6 +16,7 @@
 #include "posekit/io/mesh_io.h"
 #include "posekit/io/point_cloud_io.h"
 #include "testing/temp_dir.h"
+#include "testing/test_meshes.h"
 
 namespace posekit {
 namespace {
@@ -162,6 +164,55 @@ TEST(InteropFindings, PlyFacePropertiesAreKeptAndWrittenBack) {
   std::vector<std::string> warnings;
   write_mesh(dir.file("faces.obj"), mesh, {Unit::kMetre, MeshFormat::kAuto, true, &warnings});
   EXPECT_TRUE(any_contains(warnings, "OBJ cannot hold the face field(s) blue, green, quality, red")) << joined(warnings);
+}
+
+/// The PLY header's lines, up to end_header.
+std::string ply_header(const std::string& path) {
+  std::ifstream in(path, std::ios::binary);
+  std::string header, line;
+  while (std::getline(in, line) && line != "end_header") header += line + "\n";
+  return header;
+}
+
+TEST(InteropFindings, PlyFieldsAreFloatsNamedAsCloudCompareKeepsThem) {
+  test::TempDir dir;
+  TriangleMesh m = test::icosphere(1);
+  const Eigen::Index n = m.V.rows();
+  m.vertex_scalars["signed_distance_mm"] = Eigen::VectorXd::LinSpaced(n, -12.5, 30.25);
+  m.vertex_scalars["covered"] = Eigen::VectorXd::Ones(n);
+  m.vertex_scalars["vertex_id"] = Eigen::VectorXd::LinSpaced(n, 0, static_cast<double>(n - 1)).array() + 16777216.0;  // beyond 2^24
+  write_mesh(dir.file("m.ply"), m);
+  const std::string header = ply_header(dir.file("m.ply"));
+  // CloudCompare's command line keeps only scalar_* properties; float32 where it holds the values.
+  EXPECT_NE(header.find("property float x\n"), std::string::npos) << header;
+  EXPECT_NE(header.find("property float scalar_signed_distance_mm\n"), std::string::npos) << header;
+  EXPECT_NE(header.find("property float scalar_covered\n"), std::string::npos) << header;
+  EXPECT_NE(header.find("property double scalar_vertex_id\n"), std::string::npos) << header;  // 16777217 is not a float
+  const TriangleMesh back = read_mesh(dir.file("m.ply"));
+  EXPECT_EQ(back.vertex_scalars.at("vertex_id"), m.vertex_scalars.at("vertex_id"));
+  EXPECT_EQ(back.vertex_scalars.at("covered"), m.vertex_scalars.at("covered"));
+  EXPECT_LE((back.vertex_scalars.at("signed_distance_mm") - m.vertex_scalars.at("signed_distance_mm")).cwiseAbs().maxCoeff(), 31 * 1e-7);
+
+  // Coordinates that float32 would move by over a micrometre (a survey's easting) stay double.
+  PointCloud far;
+  far.P = m.V.rowwise() + Eigen::RowVector3d(500000.0, 0, 0);
+  write_point_cloud(dir.file("far.ply"), far);
+  EXPECT_NE(ply_header(dir.file("far.ply")).find("property double x\n"), std::string::npos);
+  EXPECT_EQ(read_point_cloud(dir.file("far.ply")).P, far.P);
+
+  // Asked for, doubles everywhere.
+  MeshWriteOptions wide;
+  wide.double_precision = true;
+  write_mesh(dir.file("wide.ply"), m, wide);
+  EXPECT_EQ(ply_header(dir.file("wide.ply")).find("property float"), std::string::npos);
+
+  // A file CloudCompare wrote: its scalar_ fields come back by their own names.
+  dir.write("cc.ply",
+            "ply\nformat ascii 1.0\nelement vertex 2\nproperty float x\nproperty float y\nproperty float z\n"
+            "property float scalar_Intensity\nproperty float C2M_signed_distances\nend_header\n0 0 0 7 0.5\n1 0 0 8 -0.5\n");
+  const PointCloud cc = read_point_cloud(dir.file("cc.ply"));
+  EXPECT_EQ(cc.point_scalars.count("Intensity"), 1u);
+  EXPECT_EQ(cc.point_scalars.count("C2M_signed_distances"), 1u);
 }
 
 TEST(InteropFindings, PlyPerCornerTexcoordBecomesVertexUvOrAWarningAtSeams) {

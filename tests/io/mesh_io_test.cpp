@@ -62,7 +62,7 @@ TEST_P(MeshRoundTrip, PreservesGeometry) {
 
 INSTANTIATE_TEST_SUITE_P(Formats, MeshRoundTrip,
                          ::testing::Values(FormatCase{"m.obj", false, 1e-15}, FormatCase{"m.off", false, 1e-15},
-                                           FormatCase{"a.ply", false, 1e-15}, FormatCase{"b.ply", true, 0.0},
+                                           FormatCase{"a.ply", false, 1e-6}, FormatCase{"b.ply", true, 1e-6},
                                            FormatCase{"b.stl", true, 1e-7}, FormatCase{"a.stl", false, 1e-7}),
                          [](const auto& info) {
                            std::string n = info.param.file;
@@ -79,10 +79,10 @@ TEST(MeshIo, PlyKeepsNormalsColoursAndScalarFieldsAsciiAndBinary) {
     const TriangleMesh r = read_mesh(path);
     ASSERT_TRUE(r.has_normals());
     ASSERT_TRUE(r.has_colors());
-    EXPECT_LE((r.N - m.N).cwiseAbs().maxCoeff(), 1e-15);
+    EXPECT_LE((r.N - m.N).cwiseAbs().maxCoeff(), 1e-7);  // float32
     EXPECT_EQ(r.C, m.C);
     ASSERT_EQ(r.vertex_scalars.size(), 2u);
-    EXPECT_LE((r.vertex_scalars.at("error_mm") - m.vertex_scalars.at("error_mm")).cwiseAbs().maxCoeff(), 1e-15);
+    EXPECT_LE((r.vertex_scalars.at("error_mm") - m.vertex_scalars.at("error_mm")).cwiseAbs().maxCoeff(), 12.25 * 1e-7);
     EXPECT_EQ(r.vertex_scalars.at("part"), m.vertex_scalars.at("part"));
   }
 }

@@ -69,10 +69,14 @@ TEST(RoundTripProperty, EveryMeshFormatKeepsEveryFieldItCanHold) {
   test::TempDir dir;
   for (unsigned seed = 1; seed <= 5; ++seed) {
     const TriangleMesh m = random_mesh(40 + 17 * static_cast<int>(seed), seed);
-    for (const std::string name : {"a.ply", "b.ply", "c.obj", "d.off", "e.stl", "f.stl"}) {
-      const bool ascii = name == "b.ply" || name == "f.stl";
+    for (const std::string name : {"a.ply", "b.ply", "c.obj", "d.off", "e.stl", "f.stl", "g.ply", "h.ply"}) {
+      const bool ascii = name == "b.ply" || name == "f.stl" || name == "h.ply";
+      const bool wide = name == "g.ply" || name == "h.ply";  // double_precision: exact
       const std::string path = dir.file(std::to_string(seed) + name);
-      write_mesh(path, m, {Unit::kMetre, MeshFormat::kAuto, !ascii});
+      MeshWriteOptions options;
+      options.binary = !ascii;
+      options.double_precision = wide;
+      write_mesh(path, m, options);
       std::vector<std::string> warnings;
       const TriangleMesh r = read_mesh(path, {Unit::kMetre, MeshFormat::kAuto, &warnings});
       const std::string what = path;
@@ -84,14 +88,21 @@ TEST(RoundTripProperty, EveryMeshFormatKeepsEveryFieldItCanHold) {
           for (int c = 0; c < 3; ++c) EXPECT_LE((r.V.row(r.F(f, c)) - m.V.row(m.F(f, c))).norm(), 1e-6) << what << " face " << f;
         continue;
       }
-      expect_near(r.V, m.V, 0, what + " V");
+      // PLY stores float32 by default: coordinates within a micrometre, fields to float32's precision
+      // (whole-number fields exactly); OBJ, OFF and a double_precision PLY keep doubles exactly.
+      const bool float32 = name.find(".ply") != std::string::npos && !wide;
+      expect_near(r.V, m.V, float32 ? 1e-6 : 0, what + " V");
       EXPECT_TRUE(r.F == m.F) << what;
-      expect_near(r.N, m.N, 0, what + " N");
+      expect_near(r.N, m.N, float32 ? 1e-7 : 0, what + " N");
       EXPECT_TRUE(r.C == m.C) << what;
-      if (name.find(".off") == std::string::npos) expect_near(r.UV, m.UV, 0, what + " UV");
-      if (name.find(".ply") != std::string::npos) {
+      if (name.find(".off") == std::string::npos) expect_near(r.UV, m.UV, float32 ? 1e-7 : 0, what + " UV");
+      if (name.find(".ply") != std::string::npos && wide) {
         EXPECT_EQ(r.vertex_scalars, m.vertex_scalars) << what;
         EXPECT_EQ(r.face_scalars, m.face_scalars) << what;
+      } else if (float32) {
+        EXPECT_EQ(r.vertex_scalars.at("part"), m.vertex_scalars.at("part")) << what;
+        expect_near(r.vertex_scalars.at("error_mm"), m.vertex_scalars.at("error_mm"), 30 * 1e-7, what + " error_mm");
+        expect_near(r.face_scalars.at("quality"), m.face_scalars.at("quality"), 1e-7, what + " quality");
       }
       if (name.find(".obj") != std::string::npos) {
         // Groups are numbered in the order faces name them: compare each face's group name.
@@ -108,17 +119,21 @@ TEST(RoundTripProperty, EveryCloudFormatKeepsEveryFieldItCanHold) {
   test::TempDir dir;
   for (unsigned seed = 1; seed <= 5; ++seed) {
     const PointCloud c = random_cloud(30 + 11 * static_cast<int>(seed), seed);
-    for (const std::string name : {"a.pcd", "b.pcd", "c.ply", "d.ply", "e.xyz"}) {
+    for (const std::string name : {"a.pcd", "b.pcd", "c.ply", "d.ply", "e.xyz", "f.ply", "g.pcd"}) {
       const bool ascii = name == "b.pcd" || name == "d.ply";
+      const bool wide = name == "f.ply" || name == "g.pcd";  // double_precision: exact
       const std::string path = dir.file(std::to_string(seed) + name);
-      write_point_cloud(path, c, {Unit::kMetre, CloudFormat::kAuto, !ascii});
+      CloudWriteOptions options;
+      options.binary = !ascii;
+      options.double_precision = wide;
+      write_point_cloud(path, c, options);
       std::vector<std::string> warnings;
       const PointCloud r = read_point_cloud(path, {Unit::kMetre, CloudFormat::kAuto, &warnings});
       const std::string what = path;
       EXPECT_TRUE(warnings.empty()) << what << ": " << warnings.front();
-      // PCD stores float32 where that moves no coordinate by over a micrometre and no field by over
-      // a millionth of its largest value; the other formats keep doubles exactly.
-      const bool pcd = name.find(".pcd") != std::string::npos;
+      // PLY and PCD store float32 where that moves no coordinate by over a micrometre and keeps a
+      // field to float32's precision; XYZ and double_precision keep doubles exactly.
+      const bool pcd = name.find(".xyz") == std::string::npos && !wide;
       expect_near(r.P, c.P, pcd ? 1e-6 : 0, what + " P");
       expect_near(r.N, c.N, pcd ? 1e-6 : 0, what + " N");
       EXPECT_TRUE(r.C == c.C) << what;

@@ -6,6 +6,7 @@
 #include <array>
 #include <cmath>
 #include <cstdio>
+#include <cstdlib>
 #include <filesystem>
 #include <fstream>
 #include <iterator>
@@ -13,6 +14,7 @@
 #include <random>
 #include <sstream>
 #include <string>
+#include <vector>
 
 #include "posekit/body/makehuman_model.h"
 #include "posekit/body/parts.h"
@@ -698,13 +700,53 @@ TEST(Cli, BatchCompareAgreesWithCompareAndWritesHeatmaps) {
   EXPECT_EQ(run("batch compare --inputs " + dir.file("scans") + " --out " + dir.file("e")).code, 2);
 }
 
+namespace {
+
+bool have_program(const std::string& name) { return std::system(("command -v " + name + " > /dev/null 2>&1").c_str()) == 0; }
+
+/// The file's vertex fields as CloudCompare's command line (ASCII export of the vertices, header line)
+/// and Open3D's tensor reader see them, where those tools are installed: every field a scalar field,
+/// none taken for a colour.
+void expect_fields_open_in_other_tools(const test::TempDir& dir, const std::string& ply, const std::vector<std::string>& fields) {
+  if (have_program("CloudCompare")) {
+    const std::string asc = dir.file("cloudcompare.asc");
+    const std::string command = "QT_QPA_PLATFORM=offscreen CloudCompare -SILENT -NO_TIMESTAMP -AUTO_SAVE OFF -O " + ply +
+                                " -EXTRACT_VERTICES -C_EXPORT_FMT ASC -ADD_HEADER -SAVE_CLOUDS FILE " + asc + " > " +
+                                dir.file("cloudcompare.log") + " 2>&1";
+    std::system(command.c_str());
+    // A point cloud file has no mesh to extract vertices from: saved as it is.
+    if (!std::filesystem::exists(asc))
+      std::system(("QT_QPA_PLATFORM=offscreen CloudCompare -SILENT -NO_TIMESTAMP -AUTO_SAVE OFF -O " + ply +
+                   " -C_EXPORT_FMT ASC -ADD_HEADER -SAVE_CLOUDS FILE " + asc + " > /dev/null 2>&1")
+                      .c_str());
+    std::ifstream in(asc);
+    std::string header;
+    std::getline(in, header);
+    for (const std::string& f : fields) EXPECT_NE(header.find(" " + f), std::string::npos) << ply << ": CloudCompare read " << header;
+    EXPECT_EQ(header.find(" R G B"), std::string::npos) << ply << ": CloudCompare took a field for a colour: " << header;
+    std::filesystem::remove(asc);
+  }
+  if (std::system("/usr/bin/python3 -c 'import open3d' > /dev/null 2>&1") == 0) {
+    const std::string out = dir.file("open3d.txt");
+    std::system(("/usr/bin/python3 -c \"import open3d as o3d, sys; c = o3d.t.io.read_point_cloud(sys.argv[1]); "
+                 "print(' '.join(sorted(k for k in c.point if k != 'positions')))\" " +
+                 ply + " > " + out + " 2>&1")
+                    .c_str());
+    std::ifstream in(out);
+    const std::string names((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+    for (const std::string& f : fields) EXPECT_NE(names.find("scalar_" + f), std::string::npos) << ply << ": Open3D read " << names;
+  }
+}
+
+}  // namespace
+
 TEST(Cli, CompareMeasureAndView) {
   ASSERT_FALSE(test::test_data_root().empty());
   test::TempDir dir;
   const std::string ds = test::small_dataset().root;  // `dataset make` itself: TrainPoseSegmentAndEval
   const std::string subject = ds + "/subjects/m01/rest.ply", scan = ds + "/scans/m01/rest.pcd";
-  CommandResult r =
-      run("compare " + subject + " " + scan + " --measure --json --out " + dir.file("err.ply") + " --png " + dir.file("err.png"));
+  CommandResult r = run("compare " + subject + " " + scan + " --measure --json --out " + dir.file("err.ply") + " --scan-out " +
+                        dir.file("scan_err.ply") + " --png " + dir.file("err.png"));
   ASSERT_EQ(r.code, 0) << r.out;
   const auto j = nlohmann::json::parse(r.out);
   EXPECT_EQ(j["units"], "mm");
@@ -733,12 +775,14 @@ TEST(Cli, CompareMeasureAndView) {
   EXPECT_EQ(run("measure " + subject + " --survey " + dir.file("no-survey.csv")).code, 1);
   const TriangleMesh err = read_mesh(dir.file("err.ply"));
   EXPECT_EQ(err.vertex_scalars.count("signed_distance_mm"), 1u);
-  EXPECT_EQ(err.vertex_scalars.count("covered"), 1u);
+  EXPECT_EQ(err.vertex_scalars.count("coverage"), 1u);
   EXPECT_TRUE(std::filesystem::is_regular_file(dir.file("err.png")));
+  expect_fields_open_in_other_tools(dir, dir.file("err.ply"), {"signed_distance_mm", "coverage"});
+  expect_fields_open_in_other_tools(dir, dir.file("scan_err.ply"), {"signed_distance_mm"});
 
   // The viewer off-screen, with the scan overlaid, two meshes side by side.
-  r = run("view " + dir.file("err.ply") + "," + subject + " --scalar covered --scan " + scan + " --png " + dir.file("v.png"));
-  EXPECT_EQ(r.code, 1);  // the second mesh has no 'covered' scalar: a clear error
+  r = run("view " + dir.file("err.ply") + "," + subject + " --scalar coverage --scan " + scan + " --png " + dir.file("v.png"));
+  EXPECT_EQ(r.code, 1);  // the second mesh has no 'coverage' scalar: a clear error
   r = run("view " + dir.file("err.ply") + " --scalar signed_distance_mm --colours diverging --range -5:5 --camera back --scan " + scan +
           " --png " + dir.file("v.png"));
   ASSERT_EQ(r.code, 0) << r.out;

@@ -611,7 +611,7 @@ void write_mesh(const std::string& path, const TriangleMesh& mesh, const MeshWri
                               mesh.vertex_scalars,
                               mesh.F,
                               mesh.face_scalars};
-      io_detail::write_ply(path, c, options.binary, scale);
+      io_detail::write_ply(path, c, options.binary, scale, options.double_precision);
       break;
     }
     case MeshFormat::kAuto:

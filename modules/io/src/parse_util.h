@@ -5,10 +5,13 @@
 #include <cmath>
 #include <cstdint>
 #include <cstring>
+#include <limits>
 #include <ostream>
 #include <string>
 #include <string_view>
 #include <vector>
+
+#include <Eigen/Core>
 
 #include "posekit/core/error.h"
 
@@ -70,6 +73,35 @@ inline void put_number(std::ostream& out, float value) {
   char buf[32];
   const auto r = std::to_chars(buf, buf + sizeof(buf), value);
   out.write(buf, r.ptr - buf);
+}
+
+/// True when float32 holds coordinates to `tolerance` (in the file's unit): none moves by more.
+template <typename Values>
+bool float_keeps_coordinates(const Values& values, double scale, double tolerance) {
+  for (Eigen::Index i = 0; i < values.size(); ++i) {
+    const double v = values(i) * scale;
+    if (std::abs(v - static_cast<double>(static_cast<float>(v))) > tolerance) return false;
+  }
+  return true;
+}
+
+/// True when float32 holds a scalar field: its seven significant digits are more than any
+/// measurement carries, so only a finite value out of float32's normal range, or a field of whole
+/// numbers (labels, indices) with one that float32 cannot hold exactly, needs float64.
+template <typename Values>
+bool float_keeps_field(const Values& values) {
+  bool whole = true;
+  for (Eigen::Index i = 0; i < values.size(); ++i) {
+    const double v = values(i);
+    if (!std::isfinite(v)) continue;
+    const double a = std::abs(v);
+    if (a > std::numeric_limits<float>::max() || (a > 0 && a < std::numeric_limits<float>::min())) return false;
+    whole = whole && v == std::floor(v);
+  }
+  if (whole)
+    for (Eigen::Index i = 0; i < values.size(); ++i)
+      if (std::isfinite(values(i)) && static_cast<double>(static_cast<float>(values(i))) != values(i)) return false;
+  return true;
 }
 
 /// Appends a reader's or writer's warning where the caller asked for them (nullptr: nowhere).

@@ -623,19 +623,52 @@ void put(std::ostream& out, T value) {
 
 }  // namespace
 
-PlyContent read_ply(const std::string& path, double scale, bool finite_only, std::vector<std::string>* warnings) {
-  return PlyParser(path, scale, finite_only, warnings).parse();
+std::string ply_scalar_property(const std::string& field) { return field == "alpha" ? field : "scalar_" + field; }
+
+std::string ply_scalar_field(const std::string& property) {
+  const std::string prefix = "scalar_";
+  return property.size() > prefix.size() && property.compare(0, prefix.size(), prefix) == 0 ? property.substr(prefix.size()) : property;
 }
 
-void write_ply(const std::string& path, const PlyContent& c, bool binary, double scale) {
-  const Eigen::Index n = c.V.rows();
-  const bool normals = c.N.rows() == n && n > 0;
-  const bool colors = c.C.rows() == n && n > 0;
-  const bool uv = c.UV.rows() == n && c.UV.cols() == 2 && n > 0;
+PlyContent read_ply(const std::string& path, double scale, bool finite_only, std::vector<std::string>* warnings) {
+  PlyContent c = PlyParser(path, scale, finite_only, warnings).parse();
+  std::map<std::string, Eigen::VectorXd> fields;
+  for (auto& [property, values] : c.scalars) {
+    const std::string field = ply_scalar_field(property);
+    fields[field != property && c.scalars.count(field) ? property : field] = std::move(values);
+  }
+  c.scalars = std::move(fields);
+  return c;
+}
+
+namespace {
+
+/// One column of the vertex or face records (a column of a column-major matrix, or a field), stored
+/// as float32 or float64.
+struct PlyColumn {
+  std::string name;
+  const double* values;
+  double scale;
+  bool wide;
+};
+
+void put_column_value(std::ostream& out, const PlyColumn& c, Eigen::Index i, bool binary, bool first) {
+  const double v = c.values[i] * c.scale;
+  if (binary) {
+    if (c.wide) put(out, v);
+    else put(out, static_cast<float>(v));
+    return;
+  }
+  if (!first) out << ' ';
+  if (c.wide) put_number(out, c.values[i], c.scale);
+  else put_number(out, static_cast<float>(v));
+}
+
+void check_ply_fields(const std::string& path, const PlyContent& c) {
   for (const auto& [name, values] : c.scalars)
-    if (values.size() != n)
+    if (values.size() != c.V.rows())
       throw InvalidInput(path + ": scalar field '" + name + "' has " + std::to_string(values.size()) +
-                         " values, expected one per vertex (" + std::to_string(n) + ")");
+                         " values, expected one per vertex (" + std::to_string(c.V.rows()) + ")");
   for (const auto& [name, values] : c.face_scalars) {
     if (values.size() != c.F.rows())
       throw InvalidInput(path + ": face field '" + name + "' has " + std::to_string(values.size()) +
@@ -643,54 +676,59 @@ void write_ply(const std::string& path, const PlyContent& c, bool binary, double
     if (name.empty() || name == "vertex_indices" || name.find_first_of(" \t\n") != std::string::npos)
       throw InvalidInput(path + ": face field name '" + name + "' must be non-empty without blanks");
   }
-  const std::map<std::string, Eigen::VectorXd>& face_scalars = c.face_scalars;
+}
+
+}  // namespace
+
+void write_ply(const std::string& path, const PlyContent& c, bool binary, double scale, bool all_double) {
+  check_ply_fields(path, c);
+  const Eigen::Index n = c.V.rows();
+  const bool colors = c.C.rows() == n && n > 0;
+  std::vector<PlyColumn> vertex_columns;
+  const bool p64 = all_double || !float_keeps_coordinates(c.V.reshaped(), scale, 1e-6 * scale);
+  for (int k = 0; k < 3; ++k) vertex_columns.push_back({std::string(1, "xyz"[k]), c.V.data() + k * n, scale, p64});
+  if (c.N.rows() == n && n > 0) {
+    const bool wide = all_double || !float_keeps_field(c.N.reshaped());
+    for (int k = 0; k < 3; ++k) vertex_columns.push_back({std::string("n") + "xyz"[k], c.N.data() + k * n, 1.0, wide});
+  }
+  if (c.UV.rows() == n && c.UV.cols() == 2 && n > 0) {
+    const bool wide = all_double || !float_keeps_field(c.UV.reshaped());
+    vertex_columns.push_back({"texture_u", c.UV.data(), 1.0, wide});
+    vertex_columns.push_back({"texture_v", c.UV.data() + n, 1.0, wide});
+  }
+  for (const auto& [name, values] : c.scalars)
+    vertex_columns.push_back({ply_scalar_property(name), values.data(), 1.0, all_double || !float_keeps_field(values)});
+  std::vector<PlyColumn> face_columns;
+  for (const auto& [name, values] : c.face_scalars)
+    face_columns.push_back({name, values.data(), 1.0, all_double || !float_keeps_field(values)});
+
   const bool little = host_is_little_endian();
   write_file_atomically(path, [&](std::ostream& out) {
     out << "ply\nformat " << (binary ? (little ? "binary_little_endian" : "binary_big_endian") : "ascii")
-        << " 1.0\ncomment written by posekit\nelement vertex " << n << "\nproperty double x\nproperty double y\nproperty double z\n";
-    if (normals) out << "property double nx\nproperty double ny\nproperty double nz\n";
+        << " 1.0\ncomment written by posekit\nelement vertex " << n << "\n";
+    for (const PlyColumn& column : vertex_columns) out << "property " << (column.wide ? "double " : "float ") << column.name << "\n";
     if (colors) out << "property uchar red\nproperty uchar green\nproperty uchar blue\n";
-    if (uv) out << "property double texture_u\nproperty double texture_v\n";
-    for (const auto& kv : c.scalars) out << "property double " << kv.first << "\n";
-    if (c.F.rows() > 0) out << "element face " << c.F.rows() << "\nproperty list uchar int vertex_indices\n";
-    if (c.F.rows() > 0)
-      for (const auto& kv : face_scalars) out << "property double " << kv.first << "\n";
+    if (c.F.rows() > 0) {
+      out << "element face " << c.F.rows() << "\nproperty list uchar int vertex_indices\n";
+      for (const PlyColumn& column : face_columns) out << "property " << (column.wide ? "double " : "float ") << column.name << "\n";
+    }
     out << "end_header\n";
-    if (binary) {
-      for (Eigen::Index v = 0; v < n; ++v) {
-        for (int k = 0; k < 3; ++k) put(out, c.V(v, k) * scale);
-        if (normals)
-          for (int k = 0; k < 3; ++k) put(out, c.N(v, k));
-        if (colors)
-          for (int k = 0; k < 3; ++k) put(out, c.C(v, k));
-        if (uv)
-          for (int k = 0; k < 2; ++k) put(out, c.UV(v, k));
-        for (const auto& kv : c.scalars) put(out, kv.second[v]);
-      }
-      for (Eigen::Index f = 0; f < c.F.rows(); ++f) {
+    for (Eigen::Index v = 0; v < n; ++v) {
+      for (size_t k = 0; k < vertex_columns.size(); ++k) put_column_value(out, vertex_columns[k], v, binary, k == 0);
+      if (colors && binary)
+        for (int j = 0; j < 3; ++j) put(out, c.C(v, j));
+      if (colors && !binary) out << ' ' << int(c.C(v, 0)) << ' ' << int(c.C(v, 1)) << ' ' << int(c.C(v, 2));
+      if (!binary) out << '\n';
+    }
+    for (Eigen::Index f = 0; f < c.F.rows(); ++f) {
+      if (binary) {
         put<std::uint8_t>(out, 3);
         for (int k = 0; k < 3; ++k) put<std::int32_t>(out, c.F(f, k));
-        for (const auto& kv : face_scalars) put(out, kv.second[f]);
-      }
-    } else {
-      for (Eigen::Index v = 0; v < n; ++v) {
-        for (int k = 0; k < 3; ++k) {
-          if (k) out << ' ';
-          put_number(out, c.V(v, k), scale);
-        }
-        if (normals)
-          for (int k = 0; k < 3; ++k) out << ' ', put_number(out, c.N(v, k));
-        if (colors) out << ' ' << int(c.C(v, 0)) << ' ' << int(c.C(v, 1)) << ' ' << int(c.C(v, 2));
-        if (uv)
-          for (int k = 0; k < 2; ++k) out << ' ', put_number(out, c.UV(v, k));
-        for (const auto& kv : c.scalars) out << ' ', put_number(out, kv.second[v]);
-        out << '\n';
-      }
-      for (Eigen::Index f = 0; f < c.F.rows(); ++f) {
+      } else {
         out << "3 " << c.F(f, 0) << ' ' << c.F(f, 1) << ' ' << c.F(f, 2);
-        for (const auto& kv : face_scalars) out << ' ', put_number(out, kv.second[f]);
-        out << '\n';
       }
+      for (const PlyColumn& column : face_columns) put_column_value(out, column, f, binary, false);
+      if (!binary) out << '\n';
     }
   });
 }

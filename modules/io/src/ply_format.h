@@ -24,7 +24,13 @@ struct PlyContent {
 /// infinite coordinate is an error (meshes); otherwise it is returned for the caller to drop.
 PlyContent read_ply(const std::string& path, double scale, bool finite_only, std::vector<std::string>* warnings);
 
-/// `scale` multiplies coordinates (metres -> file unit). F may be empty (point cloud).
-void write_ply(const std::string& path, const PlyContent& content, bool binary, double scale);
+/// `scale` multiplies coordinates (metres -> file unit). F may be empty (point cloud). Each column is
+/// float32 where that keeps its values (parse_util.h), or float64 everywhere with `all_double`.
+/// Vertex scalars are written as `scalar_<name>` (CloudCompare keeps only those), alpha as itself.
+void write_ply(const std::string& path, const PlyContent& content, bool binary, double scale, bool all_double);
+
+/// The name a vertex scalar field is written under, and the one it is read back as.
+std::string ply_scalar_property(const std::string& field);
+std::string ply_scalar_field(const std::string& property);
 
 }  // namespace posekit::io_detail

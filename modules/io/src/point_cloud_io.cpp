@@ -370,30 +370,20 @@ PointCloud read_pcd(const std::string& path, double scale) {
   return cloud;
 }
 
-/// True when storing every value as float32 moves none by more than `tolerance`.
-template <typename Values>
-bool float_is_enough(const Values& values, double scale, double tolerance) {
-  for (Eigen::Index i = 0; i < values.size(); ++i) {
-    const double v = values(i) * scale;
-    if (std::abs(v - static_cast<double>(static_cast<float>(v))) > tolerance) return false;
-  }
-  return true;
-}
-
-void write_pcd(const std::string& path, const PointCloud& cloud, double scale, bool binary) {
+void write_pcd(const std::string& path, const PointCloud& cloud, double scale, bool binary, bool all_double) {
   const Eigen::Index n = cloud.size();
   const bool normals = cloud.has_normals();
   const bool colors = cloud.has_colors();
   // Coordinates as float32 only where that moves no point by more than 1 micrometre.
-  const bool p64 = !float_is_enough(cloud.P.reshaped(), scale, 1e-6 * scale);
+  const bool p64 = all_double || !float_keeps_coordinates(cloud.P.reshaped(), scale, 1e-6 * scale);
   std::vector<bool> s64;
-  for (const auto& kv : cloud.point_scalars) s64.push_back(!float_is_enough(kv.second, 1.0, 1e-6));
+  for (const auto& kv : cloud.point_scalars) s64.push_back(all_double || !float_keeps_field(kv.second));
   write_file_atomically(path, [&](std::ostream& out) {
     const char* ps = p64 ? " 8" : " 4";
     std::string names = "x y z", sizes = std::string(ps) + ps + ps, types = "F F F", counts = "1 1 1";
     if (normals) {
       names += " normal_x normal_y normal_z";
-      sizes += " 4 4 4";
+      sizes += all_double ? " 8 8 8" : " 4 4 4";
       types += " F F F";
       counts += " 1 1 1";
     }
@@ -430,7 +420,7 @@ void write_pcd(const std::string& path, const PointCloud& cloud, double scale, b
         rec.clear();
         for (int c = 0; c < 3; ++c) put_value(cloud.P(i, c) * scale, p64);
         if (normals)
-          for (int c = 0; c < 3; ++c) put_value(cloud.N(i, c), false);
+          for (int c = 0; c < 3; ++c) put_value(cloud.N(i, c), all_double);
         if (colors) rec.append(reinterpret_cast<const char*>(&bits), 4);
         k = 0;
         for (const auto& kv : cloud.point_scalars) put_value(kv.second[i], s64[k++]);
@@ -444,7 +434,11 @@ void write_pcd(const std::string& path, const PointCloud& cloud, double scale, b
         else put_number(out, static_cast<float>(cloud.P(i, c) * scale));
       }
       if (normals)
-        for (int c = 0; c < 3; ++c) out << ' ', put_number(out, static_cast<float>(cloud.N(i, c)));
+        for (int c = 0; c < 3; ++c) {
+          out << ' ';
+          if (all_double) put_number(out, cloud.N(i, c));
+          else put_number(out, static_cast<float>(cloud.N(i, c)));
+        }
       if (colors) out << ' ' << bits;
       k = 0;
       for (const auto& kv : cloud.point_scalars) {
@@ -783,7 +777,7 @@ void write_point_cloud(const std::string& path, const PointCloud& cloud, const C
   const double scale = 1.0 / metres_per_unit(options.unit);
   switch (resolve(path, options.format)) {
     case CloudFormat::kPcd:
-      write_pcd(path, cloud, scale, options.binary);
+      write_pcd(path, cloud, scale, options.binary, options.double_precision);
       break;
     case CloudFormat::kXyz:
       write_xyz(path, cloud, scale);
@@ -797,7 +791,7 @@ void write_point_cloud(const std::string& path, const PointCloud& cloud, const C
                            cloud.point_scalars,
                            Eigen::MatrixXi(),
                            {}},
-                options.binary, scale);
+                options.binary, scale, options.double_precision);
       break;
     case CloudFormat::kObj:
     case CloudFormat::kOff: {

@@ -26,6 +26,9 @@ struct MeshWriteOptions {
   bool binary = true;  ///< PLY and STL: binary (default) or ascii
   /// Receives one line per attribute the format cannot hold (not written); nullptr: ignored.
   std::vector<std::string>* warnings = nullptr;
+  /// PLY stores float32 wherever it keeps the values (coordinates to 1 micrometre; fields
+  /// unless out of float32's range or whole numbers it cannot hold), float64 otherwise; true: float64.
+  bool double_precision = false;
 };
 
 /// Reads a mesh; polygons are fan-triangulated. Kept: OBJ groups (face_group), normals (OBJ: through
@@ -39,7 +42,8 @@ struct MeshWriteOptions {
 TriangleMesh read_mesh(const std::string& path, const MeshReadOptions& options = {});
 
 /// Writes a mesh (to a temporary file, renamed when complete). PLY keeps normals, colours, texture
-/// coordinates and scalar fields; OBJ normals, colours, texture coordinates and groups; OFF normals
+/// coordinates and scalar fields (vertex fields named `scalar_<name>`, as CloudCompare names and
+/// keeps them; read_mesh drops the prefix again); OBJ normals, colours, texture coordinates and groups; OFF normals
 /// and colours; STL geometry only. What the format cannot hold goes to options.warnings.
 /// Throws IoError (unwritable path, unknown extension) or InvalidInput (unusable mesh).
 void write_mesh(const std::string& path, const TriangleMesh& mesh, const MeshWriteOptions& options = {});

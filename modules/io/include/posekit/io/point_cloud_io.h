@@ -28,6 +28,9 @@ struct CloudWriteOptions {
   bool binary = true;  ///< PCD and PLY: binary (default) or ascii
   /// Receives one line per attribute the format cannot hold (not written); nullptr: ignored.
   std::vector<std::string>* warnings = nullptr;
+  /// PLY and PCD store float32 wherever it keeps the values (coordinates to 1 micrometre; fields
+  /// unless out of float32's range or whole numbers it cannot hold), float64 otherwise; true: float64.
+  bool double_precision = false;
 };
 
 /// Reads a point cloud: positions, and normals, RGB colours and scalar fields where the file has
@@ -38,8 +41,9 @@ struct CloudWriteOptions {
 /// every use of a cloud needs one. Throws IoError naming the file and element.
 PointCloud read_point_cloud(const std::string& path, const CloudReadOptions& options = {});
 
-/// Writes a point cloud atomically. PCD coordinates and scalars are float32 where that moves no value
-/// by more than 1 micrometre (resp. 1e-6 of the field's unit), float64 otherwise. XYZ writes a
+/// Writes a point cloud atomically, in float32 or float64 as options.double_precision says. PLY
+/// names the scalar fields `scalar_<name>` (CloudCompare's names; read_point_cloud drops the prefix
+/// again), PCD by their names. XYZ writes a
 /// `//X Y Z ...` header naming the columns when there are more than three. Throws IoError or InvalidInput.
 void write_point_cloud(const std::string& path, const PointCloud& cloud, const CloudWriteOptions& options = {});
 
