@@ -84,8 +84,8 @@ def segment(V: numpy.ndarray, F: numpy.ndarray, model: PoseModel = ..., checked:
 def train(dataset: str, calibration_bodies: int = ..., data_root: str = ...) -> PoseModel:
     """Trains a pose model on a posekit dataset's training split (as posekit train), with a segmentation prior of `calibration_bodies` MakeHuman bodies (0: the template alone)."""
 
-def write_mesh(path: str | os.PathLike[str], V: numpy.ndarray, F: numpy.ndarray, normals: Any = ..., colors: Any = ..., scalars: dict[str, numpy.ndarray] = ...) -> None:
-    """Writes a mesh (format from the extension), atomically, with per-vertex normals, uint8 RGB colors and named scalar fields where the format holds them (PLY all of them)."""
+def write_mesh(path: str | os.PathLike[str], V: numpy.ndarray, F: numpy.ndarray, normals: Any = ..., colors: Any = ..., scalars: dict[str, numpy.ndarray] = ..., double_precision: bool = ...) -> None:
+    """Writes a mesh (format from the extension), atomically, with per-vertex normals, uint8 RGB colors and named scalar fields where the format holds them (PLY all of them, as float32 properties scalar_<name> that CloudCompare keeps; double_precision=True: float64)."""
 
-def write_point_cloud(path: str | os.PathLike[str], P: numpy.ndarray, normals: Any = ..., scalars: dict[str, numpy.ndarray] = ...) -> None:
-    """Writes a point cloud (format from the extension), atomically, with normals and named scalar fields where the format holds them."""
+def write_point_cloud(path: str | os.PathLike[str], P: numpy.ndarray, normals: Any = ..., scalars: dict[str, numpy.ndarray] = ..., double_precision: bool = ...) -> None:
+    """Writes a point cloud (format from the extension), atomically, with normals and named scalar fields where the format holds them (float32 where it keeps the values; double_precision=True: float64)."""

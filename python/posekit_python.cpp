@@ -165,13 +165,8 @@ class Subject {
   std::unique_ptr<PoseSynthesizer> synth_;
 };
 
-}  // namespace
-
-PYBIND11_MODULE(posekit, m) {
-  m.doc() =
-      "posekit: customize, pose and validate human body models (Zhu & Mok). Arrays are numpy; "
-      "lengths in metres, bodies Y up and facing +Z.";
-  m.attr("__version__") = posekit::version();
+/// posekit's errors as Python exceptions; the joint and part names.
+void bind_errors_and_names(py::module_& m) {
   // Error (a RuntimeError); InvalidInput is also a ValueError, IoError also an OSError.
   py::object type = py::module_::import("builtins").attr("type");
   auto make_class = [&](const char* name, py::tuple bases, const char* doc) {
@@ -208,7 +203,10 @@ PYBIND11_MODULE(posekit, m) {
     for (int p = 0; p < kNumParts; ++p) names.push_back(part_name(p));
     return names;
   }();
+}
 
+/// Reading and writing meshes and point clouds.
+void bind_files(py::module_& m) {
   // Paths are str or pathlib.Path. With fields=True the readers also give what else the file holds.
   m.def(
       "read_mesh",
@@ -230,7 +228,8 @@ PYBIND11_MODULE(posekit, m) {
   m.def(
       "write_mesh",
       [](const std::filesystem::path& path, const Eigen::Ref<const Vertices>& V, const Eigen::Ref<const Faces>& F,
-         const py::object& normals, const py::object& colors, const std::map<std::string, Eigen::VectorXd>& scalars) {
+         const py::object& normals, const py::object& colors, const std::map<std::string, Eigen::VectorXd>& scalars,
+         bool double_precision) {
         TriangleMesh mesh = mesh_of(V, F);
         if (!normals.is_none()) mesh.N = normals.cast<Eigen::MatrixXd>();
         if (!colors.is_none()) mesh.C = colors.cast<Eigen::Matrix<std::uint8_t, Eigen::Dynamic, 3, Eigen::RowMajor>>();
@@ -244,12 +243,15 @@ PYBIND11_MODULE(posekit, m) {
                                std::to_string(mesh.V.rows()) + " vertices");
           mesh.vertex_scalars[name] = values;
         }
-        write_mesh(path.string(), mesh);
+        MeshWriteOptions options;
+        options.double_precision = double_precision;
+        write_mesh(path.string(), mesh, options);
       },
       py::arg("path"), py::arg("V"), py::arg("F"), py::arg("normals") = py::none(), py::arg("colors") = py::none(),
-      py::arg("scalars") = std::map<std::string, Eigen::VectorXd>{},
+      py::arg("scalars") = std::map<std::string, Eigen::VectorXd>{}, py::arg("double_precision") = false,
       "Writes a mesh (format from the extension), atomically, with per-vertex normals, uint8 RGB colors and named "
-      "scalar fields where the format holds them (PLY all of them).");
+      "scalar fields where the format holds them (PLY all of them, as float32 properties scalar_<name> that "
+      "CloudCompare keeps; double_precision=True: float64).");
   m.def(
       "read_point_cloud",
       [](const std::filesystem::path& path, bool fields) -> py::object {
@@ -268,7 +270,7 @@ PYBIND11_MODULE(posekit, m) {
   m.def(
       "write_point_cloud",
       [](const std::filesystem::path& path, const Eigen::Ref<const Vertices>& P, const py::object& normals,
-         const std::map<std::string, Eigen::VectorXd>& scalars) {
+         const std::map<std::string, Eigen::VectorXd>& scalars, bool double_precision) {
         PointCloud c;
         c.P = P;
         if (!normals.is_none()) c.N = normals.cast<Eigen::MatrixXd>();
@@ -280,12 +282,18 @@ PYBIND11_MODULE(posekit, m) {
                                std::to_string(c.P.rows()) + " points");
           c.point_scalars[name] = values;
         }
-        write_point_cloud(path.string(), c);
+        CloudWriteOptions options;
+        options.double_precision = double_precision;
+        write_point_cloud(path.string(), c, options);
       },
       py::arg("path"), py::arg("P"), py::arg("normals") = py::none(), py::arg("scalars") = std::map<std::string, Eigen::VectorXd>{},
+      py::arg("double_precision") = false,
       "Writes a point cloud (format from the extension), atomically, with normals and named scalar fields where the "
-      "format holds them.");
+      "format holds them (float32 where it keeps the values; double_precision=True: float64).");
+}
 
+/// Measuring, segmenting, registering and comparing bodies.
+void bind_body_functions(py::module_& m) {
   m.def(
       "measure",
       [](const Eigen::Ref<const Vertices>& V, const py::object& F, const std::string& unit, const std::string& up,
@@ -312,43 +320,6 @@ PYBIND11_MODULE(posekit, m) {
       "...) or 'auto' (detected). Values in metres; each girth's 'point' in the caller's unit and axes. Returns "
       "{'stature', 'stature_measured', 'stature_note', 'girths': {name: {'value', 'measured', 'note', 'point'}}, "
       "'warnings', 'frame': {'unit', 'unit_detected', 'up', 'forward', 'description'}}.");
-
-  py::class_<PoseModel, std::shared_ptr<PoseModel>>(m, "PoseModel", "A trained pose model (Eq. 3-5; posekit train)")
-      .def_static(
-          "load", [](const std::filesystem::path& path) { return std::make_shared<PoseModel>(read_pose_model(path.string())); },
-          py::arg("path"), "Reads a .pkm model file (posekit train), checksum checked.")
-      .def(
-          "save", [](const PoseModel& model, const std::filesystem::path& path) { write_pose_model(path.string(), model); },
-          py::arg("path"), "Writes the model as a .pkm file, atomically.")
-      .def(py::pickle([](const PoseModel& model) { return py::bytes(pose_model_bytes(model)); },
-                      [](const py::bytes& state) {
-                        return std::make_shared<PoseModel>(pose_model_from_bytes(std::string(state), "a pickled PoseModel"));
-                      }))
-      .def_readonly("training_poses", &PoseModel::training_poses, "How many posed examples Eq. 5 was fitted to.")
-      .def_readonly("fit_rms", &PoseModel::fit_rms, "RMS residual of Eq. 5 over the training examples' T^Q entries.")
-      .def_property_readonly(
-          "template", [](const PoseModel& model) { return py::make_tuple(rows(model.template_V), Faces(model.template_F)); },
-          "The training template at rest: (V #V x 3 in metres, F #F x 3).")
-      .def_property_readonly(
-          "calibration_bodies", [](const PoseModel& model) { return model.segmentation_prior.bodies.size(); },
-          "Bodies in the segmentation prior (0: the template alone).");
-
-  m.def(
-      "train",
-      [](const std::string& dataset, int calibration_bodies, const std::string& data_root) {
-        py::gil_scoped_release release;
-        auto model = std::make_shared<PoseModel>(train_on_dataset(dataset));
-        if (calibration_bodies > 0) {
-          CalibrationOptions o;
-          o.bodies = calibration_bodies;
-          const PriorReport report = add_segmentation_prior(model.get(), data_root, o);
-          if (!report.not_made.empty()) throw InvalidInput("segmentation prior not made: " + report.not_made);
-        }
-        return model;
-      },
-      py::arg("dataset"), py::arg("calibration_bodies") = 128, py::arg("data_root") = "",
-      "Trains a pose model on a posekit dataset's training split (as posekit train), with a segmentation "
-      "prior of `calibration_bodies` MakeHuman bodies (0: the template alone).");
 
   m.def(
       "segment",
@@ -456,6 +427,46 @@ PYBIND11_MODULE(posekit, m) {
       "Distances between a body mesh and a scan (both m; outlier_threshold m): every distance out is in mm, its key "
       "says so: signed 'scan_to_model_mm' per scan point and 'model_to_scan_mm' per vertex (NaN where uncovered), "
       "their statistics, 'hausdorff_mm', and 'coverage' (a fraction).");
+}
+
+/// Pose models and subjects prepared for posing.
+void bind_posing(py::module_& m) {
+  py::class_<PoseModel, std::shared_ptr<PoseModel>>(m, "PoseModel", "A trained pose model (Eq. 3-5; posekit train)")
+      .def_static(
+          "load", [](const std::filesystem::path& path) { return std::make_shared<PoseModel>(read_pose_model(path.string())); },
+          py::arg("path"), "Reads a .pkm model file (posekit train), checksum checked.")
+      .def(
+          "save", [](const PoseModel& model, const std::filesystem::path& path) { write_pose_model(path.string(), model); },
+          py::arg("path"), "Writes the model as a .pkm file, atomically.")
+      .def(py::pickle([](const PoseModel& model) { return py::bytes(pose_model_bytes(model)); },
+                      [](const py::bytes& state) {
+                        return std::make_shared<PoseModel>(pose_model_from_bytes(std::string(state), "a pickled PoseModel"));
+                      }))
+      .def_readonly("training_poses", &PoseModel::training_poses, "How many posed examples Eq. 5 was fitted to.")
+      .def_readonly("fit_rms", &PoseModel::fit_rms, "RMS residual of Eq. 5 over the training examples' T^Q entries.")
+      .def_property_readonly(
+          "template", [](const PoseModel& model) { return py::make_tuple(rows(model.template_V), Faces(model.template_F)); },
+          "The training template at rest: (V #V x 3 in metres, F #F x 3).")
+      .def_property_readonly(
+          "calibration_bodies", [](const PoseModel& model) { return model.segmentation_prior.bodies.size(); },
+          "Bodies in the segmentation prior (0: the template alone).");
+
+  m.def(
+      "train",
+      [](const std::string& dataset, int calibration_bodies, const std::string& data_root) {
+        py::gil_scoped_release release;
+        auto model = std::make_shared<PoseModel>(train_on_dataset(dataset));
+        if (calibration_bodies > 0) {
+          CalibrationOptions o;
+          o.bodies = calibration_bodies;
+          const PriorReport report = add_segmentation_prior(model.get(), data_root, o);
+          if (!report.not_made.empty()) throw InvalidInput("segmentation prior not made: " + report.not_made);
+        }
+        return model;
+      },
+      py::arg("dataset"), py::arg("calibration_bodies") = 128, py::arg("data_root") = "",
+      "Trains a pose model on a posekit dataset's training split (as posekit train), with a segmentation "
+      "prior of `calibration_bodies` MakeHuman bodies (0: the template alone).");
 
   py::class_<Subject>(m, "Subject",
                       "A customized body prepared for posing with a model (segmentation, skeleton, "
@@ -560,4 +571,17 @@ PYBIND11_MODULE(posekit, m) {
       .def_property_readonly(
           "skeleton_problems", [](const Subject& s) { return s.info().skeleton_problems; },
           "What the skeleton checks found wrong (empty: nothing); also given as warnings.");
+}
+
+}  // namespace
+
+PYBIND11_MODULE(posekit, m) {
+  m.doc() =
+      "posekit: customize, pose and validate human body models (Zhu & Mok). Arrays are numpy; "
+      "lengths in metres, bodies Y up and facing +Z.";
+  m.attr("__version__") = posekit::version();
+  bind_errors_and_names(m);
+  bind_files(m);
+  bind_posing(m);  // before the functions that take a PoseModel, for their signatures
+  bind_body_functions(m);
 }
