@@ -50,8 +50,8 @@ class Subject:
         """The 15 joint centres at rest (15 x 3, joint_names order), in the body's own unit and axes."""
     def pose(self, pose: Any, method: str = ...) -> numpy.ndarray:
         """The posed vertices (#V x 3) for joint rotations (axis-angle, radians, relative to the parent part, as posekit's pose JSON): a 15 x 3 array in joint_names order, a dict {joint name: rotation}, a pose file's path (str or pathlib.Path) or its JSON as loaded (with 'joints' and the root's rotation and translation). method: learned, rigid or lbs."""
-    def pose_batch(self, poses: numpy.ndarray, method: str = ..., threads: int = ...) -> numpy.ndarray:
-        """Poses a k x 15 x 3 array of poses on `threads` threads (0: all cores): k x #V x 3."""
+    def pose_batch(self, poses: Any, method: str = ..., threads: int = ...) -> numpy.ndarray:
+        """Poses several poses on `threads` threads (0: all cores): k x #V x 3. poses: a k x 15 x 3 array of joint rotations, or a list of anything pose() takes (read_poses()' poses, with their root motion)."""
     @property
     def skeleton_problems(self) -> list[str]:
         """What the skeleton checks found wrong (empty: nothing); also given as warnings."""
@@ -69,11 +69,17 @@ def measure(V: numpy.ndarray, F: Any = ..., unit: str = ..., up: str = ..., forw
 
 part_names: list[str]
 
+def read_bvh(path: str | os.PathLike[str]) -> dict:
+    """Reads a BVH motion: {'joints': [{'name', 'parent' (index, -1 for the root), 'offset' (m), 'channels', 'first_channel'}], 'frame_time' (s), 'frames' (#frames x #channels; positions in metres, rotations in degrees)}. Offsets and positions are read as metres, as the CLI reads them."""
+
 def read_mesh(path: str | os.PathLike[str], fields: bool = ...) -> Any:
     """Reads a PLY, OBJ, OFF or STL mesh: (V #V x 3, F #F x 3), in the file's unit; with fields=True (V, F, {'normals', 'colors' (uint8 RGB), 'uv', 'vertex_scalars': {name: #V}, 'face_scalars': {name: #F}}), empty where the file has none."""
 
 def read_point_cloud(path: str | os.PathLike[str], fields: bool = ...) -> Any:
     """Reads a point cloud (PLY, PCD, XYZ): #P x 3, in the file's unit; with fields=True (P, {'normals', 'colors', 'scalars': {name: #P}})."""
+
+def read_poses(path: str | os.PathLike[str], subject: Subject = ..., frames: Any = ..., joint_map: Any = ..., root_motion: str = ..., data_root: str = ...) -> dict:
+    """The poses of a pose JSON or a BVH of any humanoid skeleton, as `posekit pose --pose FILE` (with subject: retargeted to the subject's own joints) and `posekit retarget` (without: to the default MakeHuman body's) make them: {'poses': [pose JSON dicts with 'name', 'joints', 'root_rotation', 'root_translation'], 'notes': how the skeleton was mapped}. frames: (first, last) of a BVH, last excluded; joint_map: {posekit joint: BVH joint} or a JSON file of it; root_motion: none, vertical (feet stay down) or all. Each pose goes to Subject.pose() or, all of them, to Subject.pose_batch()."""
 
 def register(source_V: numpy.ndarray, source_F: numpy.ndarray, target_V: numpy.ndarray, target_F: numpy.ndarray, method: str = ..., shape_space: str = ..., threads: int = ...) -> dict:
     """Registers source to target (ctffd, icp or nicp) and matches triangles by nearest centroid. shape_space: a .pks file (posekit shape-space) in the source's topology refining ct-FFD; threads: ct-FFD's (0: all cores; the same result to rounding). Returns {'deformed_source', 'correspondence' (for each target triangle its source triangle), 'normal_failures', 'seconds', 'shape_space_kept' (the fit was plausible and used), 'warnings'}."""

@@ -12,15 +12,20 @@
 #include <memory>
 #include <thread>
 
+#include "posekit/body/makehuman_model.h"
 #include "posekit/body/parts.h"
+#include "posekit/core/data_root.h"
 #include "posekit/core/error.h"
 #include "posekit/core/point_cloud.h"
 #include "posekit/core/triangle_mesh.h"
 #include "posekit/deformation/pose_model.h"
+#include "posekit/deformation/pose_sequence.h"
 #include "posekit/deformation/pose_synthesis.h"
+#include "posekit/deformation/rigid_pose.h"
 #include "posekit/deformation/segmentation_calibration.h"
 #include "posekit/evaluation/pose_evaluation.h"
 #include "posekit/evaluation/scan_comparison.h"
+#include "posekit/io/bvh.h"
 #include "posekit/io/mesh_io.h"
 #include "posekit/io/point_cloud_io.h"
 #include "posekit/registration/registration.h"
@@ -119,6 +124,27 @@ PartPose part_pose_of(const py::object& pose) {
   for (const auto& r : p.joint_rotation)
     if (!r.allFinite()) throw InvalidInput("a pose holds a NaN or infinite rotation");
   return p;
+}
+
+/// Several poses: a k x 15 x 3 array of joint rotations, or a sequence of what part_pose_of takes.
+std::vector<PartPose> part_poses_of(const py::object& poses) {
+  std::vector<PartPose> list;
+  if (py::isinstance<py::array>(poses)) {
+    const auto a = poses.cast<py::array_t<double, py::array::c_style | py::array::forcecast>>();
+    if (a.ndim() != 3 || a.shape(1) != kNumJoints || a.shape(2) != 3)
+      throw InvalidInput("poses: expected a k x 15 x 3 array of joint rotations or a list of poses");
+    auto r = a.unchecked<3>();
+    list.resize(static_cast<size_t>(a.shape(0)));
+    for (py::ssize_t i = 0; i < a.shape(0); ++i)
+      for (int j = 0; j < kNumJoints; ++j) {
+        list[static_cast<size_t>(i)].joint(j) = Eigen::Vector3d(r(i, j, 0), r(i, j, 1), r(i, j, 2));
+        if (!list[static_cast<size_t>(i)].joint(j).allFinite())
+          throw InvalidInput("pose " + std::to_string(i) + " holds a NaN or infinite rotation");
+      }
+    return list;
+  }
+  for (const py::handle& pose : poses) list.push_back(part_pose_of(py::reinterpret_borrow<py::object>(pose)));
+  return list;
 }
 
 /// A customized body ready for posing (PoseSynthesizer): set-up once, then pose() per pose.
@@ -504,17 +530,8 @@ void bind_posing(py::module_& m) {
           "translation). method: learned, rigid or lbs.")
       .def(
           "pose_batch",
-          [](const Subject& s, const py::array_t<double>& poses, const std::string& method, int threads) {
-            if (poses.ndim() != 3 || poses.shape(1) != kNumJoints || poses.shape(2) != 3)
-              throw InvalidInput("pose_batch expects a k x 15 x 3 array of joint rotations");
-            std::vector<PartPose> list(static_cast<size_t>(poses.shape(0)));
-            auto r = poses.unchecked<3>();
-            for (py::ssize_t i = 0; i < poses.shape(0); ++i)
-              for (int j = 0; j < kNumJoints; ++j) {
-                list[static_cast<size_t>(i)].joint(j) = Eigen::Vector3d(r(i, j, 0), r(i, j, 1), r(i, j, 2));
-                if (!list[static_cast<size_t>(i)].joint(j).allFinite())
-                  throw InvalidInput("pose " + std::to_string(i) + " holds a NaN or infinite rotation");
-              }
+          [](const Subject& s, const py::object& poses, const std::string& method, int threads) {
+            const std::vector<PartPose> list = part_poses_of(poses);
             const PoseMethod how = parse_pose_method(method);
             std::vector<Vertices> posed;
             {
@@ -530,7 +547,8 @@ void bind_posing(py::module_& m) {
             return out;
           },
           py::arg("poses"), py::arg("method") = "learned", py::arg("threads") = 0,
-          "Poses a k x 15 x 3 array of poses on `threads` threads (0: all cores): k x #V x 3.")
+          "Poses several poses on `threads` threads (0: all cores): k x #V x 3. poses: a k x 15 x 3 array of joint "
+          "rotations, or a list of anything pose() takes (read_poses()' poses, with their root motion).")
       .def_property_readonly(
           "triangle_part", [](const Subject& s) { return Eigen::VectorXi(s.info().triangle_part); },
           "The part of each triangle (#F, indices into part_names).")
@@ -573,6 +591,98 @@ void bind_posing(py::module_& m) {
           "What the skeleton checks found wrong (empty: nothing); also given as warnings.");
 }
 
+const char* bvh_channel_name(BvhChannel c) {
+  static const char* names[] = {"Xposition", "Yposition", "Zposition", "Xrotation", "Yrotation", "Zrotation"};
+  return names[static_cast<int>(c)];
+}
+
+/// read_poses' options as the CLI's --frames, --joint-map and --root-motion give them.
+PoseSequenceOptions pose_sequence_options(const py::object& frames, const py::object& joint_map, const std::string& root_motion,
+                                          const std::string& data_root) {
+  PoseSequenceOptions o;
+  o.data_root = data_root;
+  if (root_motion == "none") o.root_motion = RetargetOptions::RootMotion::kNone;
+  else if (root_motion == "all") o.root_motion = RetargetOptions::RootMotion::kAll;
+  else if (root_motion != "vertical") throw InvalidInput("root_motion: expected 'none', 'vertical' or 'all', got '" + root_motion + "'");
+  if (!frames.is_none()) {
+    const auto range = frames.cast<std::pair<int, int>>();
+    o.first = range.first, o.last = range.second;
+  }
+  const py::object path_like = py::module_::import("os").attr("PathLike");
+  if (py::isinstance<py::str>(joint_map) || py::isinstance(joint_map, path_like))
+    o.joint_map = read_bvh_joint_map(py::str(py::module_::import("os").attr("fspath")(joint_map)).cast<std::string>());
+  else if (!joint_map.is_none()) o.joint_map = joint_map.cast<std::map<std::string, std::string>>();
+  return o;
+}
+
+/// BVH reading and retargeting, the library functions `posekit pose --pose x.bvh` and `posekit retarget` call.
+void bind_motion(py::module_& m) {
+  m.def(
+      "read_bvh",
+      [](const std::filesystem::path& path) {
+        const BvhMotion motion = read_bvh(path.string());
+        py::list joints;
+        for (const BvhJoint& j : motion.joints) {
+          py::dict d;
+          d["name"] = j.name;
+          d["parent"] = j.parent;
+          d["offset"] = Eigen::Vector3d(j.offset);
+          py::list channels;
+          for (BvhChannel c : j.channels) channels.append(bvh_channel_name(c));
+          d["channels"] = channels;
+          d["first_channel"] = j.first_channel;
+          joints.append(d);
+        }
+        py::dict out;
+        out["joints"] = joints;
+        out["frame_time"] = motion.frame_time;
+        out["frames"] = Eigen::MatrixXd(motion.frames);
+        return out;
+      },
+      py::arg("path"),
+      "Reads a BVH motion: {'joints': [{'name', 'parent' (index, -1 for the root), 'offset' (m), 'channels', "
+      "'first_channel'}], 'frame_time' (s), 'frames' (#frames x #channels; positions in metres, rotations in "
+      "degrees)}. Offsets and positions are read as metres, as the CLI reads them.");
+  m.def(
+      "read_poses",
+      [](const std::filesystem::path& path, const Subject* subject, const py::object& frames, const py::object& joint_map,
+         const std::string& root_motion, const std::string& data_root) {
+        const PoseSequenceOptions options = pose_sequence_options(frames, joint_map, root_motion, data_root);
+        PoseSequence sequence;
+        {
+          py::gil_scoped_release release;
+          Eigen::MatrixXd rest_joints;
+          if (subject) {
+            rest_joints = subject->info().joint_centres;
+          } else {
+            const auto mh = load_makehuman_model(find_data_root(data_root));
+            rest_joints = joint_centres(mh->rig, build_body(*mh, BodySpec{}));
+          }
+          sequence = load_pose_sequence(path.string(), rest_joints, options);
+        }
+        const py::object loads = py::module_::import("json").attr("loads");
+        py::list poses;
+        for (size_t i = 0; i < sequence.poses.size(); ++i) {
+          validate_part_pose(sequence.poses[i], path.string());
+          py::dict pose = loads(part_pose_to_json(sequence.poses[i]));
+          pose["name"] = sequence.names[i];
+          poses.append(pose);
+        }
+        py::dict out;
+        out["poses"] = poses;
+        out["notes"] = sequence.notes;
+        return out;
+      },
+      py::arg("path"), py::arg("subject") = nullptr, py::arg("frames") = py::none(), py::arg("joint_map") = py::none(),
+      py::arg("root_motion") = "vertical", py::arg("data_root") = "",
+      "The poses of a pose JSON or a BVH of any humanoid skeleton, as `posekit pose --pose FILE` (with subject: "
+      "retargeted to the subject's own joints) and `posekit retarget` (without: to the default MakeHuman body's) "
+      "make them: {'poses': [pose JSON dicts with 'name', 'joints', 'root_rotation', 'root_translation'], "
+      "'notes': how the skeleton was mapped}. frames: (first, last) of a BVH, last excluded; joint_map: "
+      "{posekit joint: BVH joint} or a JSON file of it; root_motion: none, vertical (feet stay down) or all. "
+      "Each pose goes to Subject.pose() or, all of them, to Subject.pose_batch().");
+}
+
 }  // namespace
 
 PYBIND11_MODULE(posekit, m) {
@@ -584,4 +694,5 @@ PYBIND11_MODULE(posekit, m) {
   bind_files(m);
   bind_posing(m);  // before the functions that take a PoseModel, for their signatures
   bind_body_functions(m);
+  bind_motion(m);
 }

@@ -3,6 +3,7 @@ every bound function, and its error path."""
 import json
 import pickle
 import os
+import pathlib
 import shutil
 import subprocess
 import threading
@@ -238,3 +239,42 @@ def test_pose_a_subject(dataset, f01, model):
         subject.pose_batch(np.zeros((2, 15)))
     with pytest.raises(posekit.InvalidInput):
         posekit.Subject(model, V[:100], F[:10])
+
+
+def _motions_dir():
+    data = os.environ.get("POSEKIT_DATA") or str(pathlib.Path(__file__).resolve().parents[3] / "shared" / "datasets" / "makehuman")
+    return pathlib.Path(data).parent / "motions"
+
+
+def test_bvh_in_python_is_the_clis(tmp_path, dataset, model):
+    """read_poses + Subject.pose_batch against `posekit pose --pose x.bvh`, and read_poses without a
+    subject against `posekit retarget`: the same library functions, the same results."""
+    cli = os.environ.get("POSEKIT_CLI") or shutil.which("posekit")
+    bvh = _motions_dir() / "cmu" / "01_01.bvh"
+    rest = dataset / "subjects" / "f01" / "rest.ply"
+    model.save(tmp_path / "m.pkm")
+    subprocess.run([cli, "pose", "--model", str(tmp_path / "m.pkm"), "--subject", str(rest), "--pose", str(bvh), "--frames", "100:104",
+                    "--out", str(tmp_path / "p.ply")], check=True, capture_output=True)
+    subject = posekit.Subject(model, *posekit.read_mesh(rest))
+    sequence = posekit.read_poses(bvh, subject=subject, frames=(100, 104))
+    assert [p["name"] for p in sequence["poses"]] == ["01_01_0100", "01_01_0101", "01_01_0102", "01_01_0103"]
+    assert any("pelvis=Hips" in note for note in sequence["notes"]), sequence["notes"]
+    posed = subject.pose_batch(sequence["poses"], threads=2)
+    # The walk's root motion came through: a root translation per frame, the body moved by it.
+    assert sequence["poses"][3]["root_translation"] != sequence["poses"][0]["root_translation"]
+    assert np.abs(posed[3].mean(axis=0) - posed[0].mean(axis=0)).max() > 3e-4
+    for i in range(4):
+        by_cli, _ = posekit.read_mesh(tmp_path / f"p_{i:04d}.ply")
+        assert np.abs(by_cli - posed[i]).max() < 2e-6  # the CLI's file holds float32 coordinates
+        assert np.abs(subject.pose(sequence["poses"][i]) - posed[i]).max() < 1e-9
+    # Without a subject: the default body's joints, as `posekit retarget` writes them.
+    subprocess.run([cli, "retarget", str(bvh), "--frames", "100:102", "--out", str(tmp_path / "json")], check=True, capture_output=True)
+    default = posekit.read_poses(bvh, frames=(100, 102))["poses"]
+    for pose in default:
+        written = json.loads((tmp_path / "json" / (pose["name"] + ".json")).read_text())
+        assert {k: v for k, v in pose.items() if k != "name"} == written
+    assert posekit.read_bvh(bvh)["frames"].shape[0] > 104
+    with pytest.raises(posekit.InvalidInput, match="root_motion"):
+        posekit.read_poses(bvh, subject=subject, frames=(0, 2), root_motion="sideways")
+    with pytest.raises(posekit.Error, match="frames"):
+        posekit.read_poses(bvh, subject=subject, frames=(0, 100000))
