@@ -198,11 +198,11 @@ int run_fit(int argc, char** argv) {
   if (args.has("pose-out")) write_part_pose(args.get("pose-out"), r.pose);
   if (args.has("out")) {
     TriangleMesh fitted = subject;
-    fitted.V = r.V * target_to_fit;  // back in the target's axes, to overlay the scan
+    fitted.V = r.V * target_to_fit;  // back in the target's axes and unit, to overlay the scan
     fitted.N.resize(0, 3);
     fitted.vertex_scalars["residual_mm"] = 1000 * r.residual;
     fitted.vertex_scalars["part"] = synth.vertex_parts().cast<double>();
-    write_mesh(args.get("out"), fitted);
+    write_mesh(args.get("out"), fitted, {target_unit.unit, MeshFormat::kAuto, true, io_warnings()});
   }
   nlohmann::ordered_json s = fit_summary_json(r);
   s["pose"] = nlohmann::json::parse(part_pose_to_json(r.pose));
