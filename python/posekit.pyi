@@ -6,6 +6,19 @@ import numpy
 
 __version__: str
 
+class BelowConfidence(Error):
+    """A result posekit computed but does not trust (the CLI's exit status 3); the message gives the reasons."""
+
+class BodyModel:
+    """posekit's body model: a shape space of real proportions (posekit shape-space --ansur) on the MakeHuman template with its 16 parts and skeleton, posed by skinning; fitted to any body, it gives the parts, joints and pose (the CLI's --body-model)."""
+    def __init__(self, path: Any, data_root: str = ...) -> None:
+        """Reads a .pks body model (version 2, with joints) and the MakeHuman rig it is posed by (data_root: $POSEKIT_DATA, else ../shared/datasets/makehuman)."""
+    @property
+    def components(self) -> int:
+        """Shape components (standard deviations)."""
+    def fit(self, V: numpy.ndarray, F: Any = ..., unit: str = ..., up: str = ..., accept_poor: bool = ...) -> dict:
+        """Fits the body model to a body: a mesh (V, F) or a scan's points (V), in any unit, any axes (up: an axis such as '+Z' to try only it), any pose. Returns {'V', 'F' (the fitted body, template topology, in the input's unit and axes), 'joints' (15 x 3), 'vertex_part' (the template's), 'target_part' (the part of each input point, -1 far from the body), 'target_distance_mm', 'coefficients', 'pose' (in the fit frame: the input turned by 'to_fit_frame'), 'up', 'start', 'coverage', 'target_to_body_mm', 'shape_mahalanobis', 'confident', 'reasons', 'warnings', 'seconds', 'frame'}. A poor fit raises BelowConfidence with its reasons unless accept_poor."""
+
 class Error(RuntimeError):
     """Any posekit error."""
 
@@ -42,6 +55,8 @@ class Subject:
     @property
     def faces(self) -> numpy.ndarray:
         """The body's triangles (#F x 3)."""
+    def fit(self, target: numpy.ndarray, faces: Any = ..., unit: str = ..., up: str = ..., method: str = ..., iterations: int = ..., start: Any = ..., registered: bool = ...) -> dict:
+        """The pose that makes the subject match a target (posekit fit): target points (#T x 3, a scan or a mesh's vertices with `faces`) in any unit and axes, its vertical detected (or `up`), its heading fitted; `start`: a pose to refine from instead of searching. registered=True: the target is the subject's own mesh posed (same vertices, the subject's unit and axes) and the pose comes from the correspondences (fit --registered). Returns {'pose' (pose JSON dict), 'V' (the fitted body in the target's unit and axes), 'residual_mm' (#V), 'target_to_body_mm' {'mean', 'p95'}, 'coverage_1cm', 'iterations', 'seconds', 'warnings'}; registered: {'pose', 'V', 'posed_to_target_mm', 'rigid_parts_rms_mm', 'part_core_rms_mm', 'worst_part', 'warnings'}."""
     @property
     def frame(self) -> dict:
         """How the body was read: {'unit', 'unit_detected', 'up', 'forward', 'description'}."""
@@ -61,6 +76,9 @@ class Subject:
 
 def compare(V: numpy.ndarray, F: numpy.ndarray, scan: numpy.ndarray, outlier_threshold: float = ...) -> dict:
     """Distances between a body mesh and a scan (both m; outlier_threshold m): every distance out is in mm, its key says so: signed 'scan_to_model_mm' per scan point and 'model_to_scan_mm' per vertex (NaN where uncovered), their statistics, 'hausdorff_mm', and 'coverage' (a fraction)."""
+
+def customize(front: Any, side: Any, camera: Any = ..., height: float = ..., method: str = ..., model: Any = ..., masks: bool = ..., front_background: Any = ..., side_background: Any = ..., distance: float = ..., focal: float = ..., accept_poor: bool = ..., data_root: str = ...) -> dict:
+    """A body from a front and a side photo (posekit customize): front, side: photo paths (PNG/JPEG), or silhouettes with masks=True; camera: the camera file, or height (m) with distance (m) and focal (px, 0: from the height); method 'paper' (model: a .pkc of posekit customize train) or 'model' (model: a BodyModel; plausibility judged against ANSUR II when found beside the data root); front_background/side_background: photos of the empty scene. Returns {'V', 'F' (metres, Y up, facing +Z), 'photo_agreement', 'scale', 'assumed', 'warnings', 'method'}. A result unlike the photos raises BelowConfidence unless accept_poor."""
 
 joint_names: list[str]
 

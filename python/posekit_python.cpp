@@ -7,17 +7,21 @@
 #include <pybind11/stl.h>
 #include <pybind11/stl/filesystem.h>
 
+#include <Eigen/Geometry>
 #include <algorithm>
 #include <filesystem>
 #include <memory>
 #include <thread>
 
+#include "binding_helpers.h"
 #include "posekit/body/makehuman_model.h"
 #include "posekit/body/parts.h"
 #include "posekit/core/data_root.h"
 #include "posekit/core/error.h"
 #include "posekit/core/point_cloud.h"
 #include "posekit/core/triangle_mesh.h"
+#include "posekit/deformation/part_pose_estimation.h"
+#include "posekit/deformation/pose_fitting.h"
 #include "posekit/deformation/pose_model.h"
 #include "posekit/deformation/pose_sequence.h"
 #include "posekit/deformation/pose_synthesis.h"
@@ -40,38 +44,9 @@
 
 namespace py = pybind11;
 using namespace posekit;
+using namespace posekit::python;
 
 namespace {
-
-using Vertices = Eigen::Matrix<double, Eigen::Dynamic, 3, Eigen::RowMajor>;
-using Faces = Eigen::Matrix<int, Eigen::Dynamic, 3, Eigen::RowMajor>;
-
-TriangleMesh mesh_of(const Eigen::Ref<const Vertices>& V, const Eigen::Ref<const Faces>& F) {
-  TriangleMesh m;
-  m.V = V;
-  m.F = F;
-  if (m.F.size() > 0 && (m.F.minCoeff() < 0 || m.F.maxCoeff() >= m.V.rows()))
-    throw InvalidInput("faces refer to vertex " + std::to_string(m.F.minCoeff() < 0 ? m.F.minCoeff() : m.F.maxCoeff()) + ", outside the " +
-                       std::to_string(m.V.rows()) + " vertices");
-  return m;
-}
-
-Vertices rows(const Eigen::MatrixXd& M) { return M; }
-
-/// Points in the caller's unit and axes from posekit's frame (metres, Y up, facing +Z).
-Vertices in_callers_frame(const BodyFrame& frame, const Eigen::MatrixXd& P) {
-  return P * frame.orientation.rotation / frame.metres_per_unit;
-}
-
-py::dict frame_dict(const BodyFrame& frame) {
-  py::dict out;
-  out["unit"] = frame.unit;
-  out["unit_detected"] = frame.unit_detected;
-  out["up"] = axis_name(frame.orientation.up());
-  out["forward"] = axis_name(frame.orientation.forward());
-  out["description"] = frame.describe();
-  return out;
-}
 
 py::dict measurements_dict(const BodyMeasurements& m) {
   py::dict girths;
@@ -182,6 +157,7 @@ class Subject {
   const BodyFrame& frame() const { return frame_; }
   const std::shared_ptr<const PoseModel>& model() const { return model_; }
   const Eigen::MatrixXd& rest() const { return rest_; }  ///< in posekit's frame
+  const PoseSynthesizer& synthesizer() const { return *synth_; }
 
  private:
   Eigen::MatrixXi faces_;
@@ -208,6 +184,9 @@ void bind_errors_and_names(py::module_& m) {
                                                      "Input that is not what the function needs (the message says what and why).");
   static const py::handle io_class = make_class("IoError", py::make_tuple(error_class, py::handle(PyExc_OSError)),
                                                 "A file that cannot be read or written (the message names it).");
+  static const py::handle below_class =
+      make_class("BelowConfidence", py::make_tuple(error_class),
+                 "A result posekit computed but does not trust (the CLI's exit status 3); the message gives the reasons.");
   py::register_exception_translator([](std::exception_ptr p) {
     try {
       if (p) std::rethrow_exception(p);
@@ -215,6 +194,8 @@ void bind_errors_and_names(py::module_& m) {
       PyErr_SetString(invalid_class.ptr(), e.what());
     } catch (const IoError& e) {
       PyErr_SetString(io_class.ptr(), e.what());
+    } catch (const BelowConfidence& e) {
+      PyErr_SetString(below_class.ptr(), e.what());
     } catch (const Error& e) {
       PyErr_SetString(error_class.ptr(), e.what());
     }
@@ -456,6 +437,69 @@ void bind_body_functions(py::module_& m) {
 }
 
 /// Pose models and subjects prepared for posing.
+/// Subject.fit: posekit fit (articulated ICP from a search), or fit --registered (the known
+/// correspondences), with the CLI's frames: the target's unit detected and its vertical turned to +Y.
+py::dict fit_subject(const Subject& s, const Eigen::Ref<const Vertices>& target, const py::object& faces, const std::string& unit,
+                     const std::string& up, const std::string& method, int iterations, const py::object& start, bool registered) {
+  const PoseMethod how = parse_pose_method(method);
+  py::dict out;
+  if (registered) {
+    if (target.rows() != s.rest().rows())
+      throw InvalidInput("fit(registered=True) needs the subject's own vertices posed (" + std::to_string(s.rest().rows()) +
+                         " rows); the target has " + std::to_string(target.rows()));
+    // The subject's unit and axes apply to its registered copy too.
+    const Eigen::MatrixXd T = Eigen::MatrixXd(target) * s.frame().metres_per_unit * s.frame().orientation.rotation.transpose();
+    PartPoseEstimate e;
+    Eigen::MatrixXd X;
+    {
+      py::gil_scoped_release release;
+      const PartPoseEstimator estimator(s.rest(), s.faces(), s.info().triangle_part, s.info().joint_centres);
+      e = estimator.estimate(T);
+      X = s.synthesizer().pose(e.pose, how);
+    }
+    const Eigen::VectorXd error = (X - T).rowwise().norm();
+    py::dict parts;
+    for (int p = 0; p < kNumParts; ++p) parts[py::str(part_name(p))] = 1000 * e.core_rms[static_cast<size_t>(p)];
+    out["pose"] = pose_dict(e.pose);
+    out["V"] = in_callers_frame(s.frame(), X);
+    out["posed_to_target_mm"] = py::dict(py::arg("mean") = 1000 * error.mean(), py::arg("max") = 1000 * error.maxCoeff());
+    out["rigid_parts_rms_mm"] = 1000 * e.rms;
+    out["part_core_rms_mm"] = parts;
+    out["worst_part"] = part_name(e.worst_part);
+    out["warnings"] = pose_estimate_problems(e);
+    return out;
+  }
+  Eigen::MatrixXd T = target;
+  const Eigen::MatrixXi F = faces.is_none() ? Eigen::MatrixXi() : Eigen::MatrixXi(faces.cast<Faces>());
+  PoseFitOptions o;
+  o.method = how;
+  o.iterations = iterations;
+  if (iterations < 1) throw InvalidInput("fit: iterations must be at least 1");
+  if (!start.is_none()) o.start = part_pose_of(start);
+  PoseFitResult r;
+  Eigen::Matrix3d to_fit = Eigen::Matrix3d::Identity();
+  BodyFrame frame;
+  {
+    py::gil_scoped_release release;
+    frame = scale_body_to_metres(&T, unit);
+    // Only the vertical matters: the fit finds the heading itself.
+    const Eigen::Vector3d vertical = up != "auto" ? parse_axis(up)
+                                     : F.rows()   ? detect_mesh_orientation(T, F).up()
+                                                  : detect_body_orientation(T).up();
+    to_fit = Eigen::Quaterniond::FromTwoVectors(vertical.normalized(), Eigen::Vector3d::UnitY()).toRotationMatrix();
+    r = fit_pose(s.synthesizer(), (T * to_fit.transpose()).eval(), o);
+  }
+  out["pose"] = pose_dict(r.pose);
+  out["V"] = rows(r.V * to_fit / frame.metres_per_unit);  // the target's axes and unit
+  out["residual_mm"] = Eigen::VectorXd(1000 * r.residual);
+  out["target_to_body_mm"] = py::dict(py::arg("mean") = 1000 * r.target_mean, py::arg("p95") = 1000 * r.target_p95);
+  out["coverage_1cm"] = r.coverage;
+  out["iterations"] = r.iterations;
+  out["seconds"] = r.seconds;
+  out["warnings"] = r.warnings;
+  return out;
+}
+
 void bind_posing(py::module_& m) {
   py::class_<PoseModel, std::shared_ptr<PoseModel>>(m, "PoseModel", "A trained pose model (Eq. 3-5; posekit train)")
       .def_static(
@@ -549,6 +593,16 @@ void bind_posing(py::module_& m) {
           py::arg("poses"), py::arg("method") = "learned", py::arg("threads") = 0,
           "Poses several poses on `threads` threads (0: all cores): k x #V x 3. poses: a k x 15 x 3 array of joint "
           "rotations, or a list of anything pose() takes (read_poses()' poses, with their root motion).")
+      .def("fit", &fit_subject, py::arg("target"), py::arg("faces") = py::none(), py::arg("unit") = "auto", py::arg("up") = "auto",
+           py::arg("method") = "learned", py::arg("iterations") = 100, py::arg("start") = py::none(), py::arg("registered") = false,
+           "The pose that makes the subject match a target (posekit fit): target points (#T x 3, a scan or a mesh's "
+           "vertices with `faces`) in any unit and axes, its vertical detected (or `up`), its heading fitted; "
+           "`start`: a pose to refine from instead of searching. registered=True: the target is the subject's own "
+           "mesh posed (same vertices, the subject's unit and axes) and the pose comes from the correspondences "
+           "(fit --registered). Returns {'pose' (pose JSON dict), 'V' (the fitted body in the target's unit and "
+           "axes), 'residual_mm' (#V), 'target_to_body_mm' {'mean', 'p95'}, 'coverage_1cm', 'iterations', "
+           "'seconds', 'warnings'}; registered: {'pose', 'V', 'posed_to_target_mm', 'rigid_parts_rms_mm', "
+           "'part_core_rms_mm', 'worst_part', 'warnings'}.")
       .def_property_readonly(
           "triangle_part", [](const Subject& s) { return Eigen::VectorXi(s.info().triangle_part); },
           "The part of each triangle (#F, indices into part_names).")
@@ -660,11 +714,10 @@ void bind_motion(py::module_& m) {
           }
           sequence = load_pose_sequence(path.string(), rest_joints, options);
         }
-        const py::object loads = py::module_::import("json").attr("loads");
         py::list poses;
         for (size_t i = 0; i < sequence.poses.size(); ++i) {
           validate_part_pose(sequence.poses[i], path.string());
-          py::dict pose = loads(part_pose_to_json(sequence.poses[i]));
+          py::dict pose = pose_dict(sequence.poses[i]);
           pose["name"] = sequence.names[i];
           poses.append(pose);
         }
@@ -695,4 +748,5 @@ PYBIND11_MODULE(posekit, m) {
   bind_posing(m);  // before the functions that take a PoseModel, for their signatures
   bind_body_functions(m);
   bind_motion(m);
+  bind_photos_and_body_model(m);
 }

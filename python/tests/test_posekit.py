@@ -278,3 +278,78 @@ def test_bvh_in_python_is_the_clis(tmp_path, dataset, model):
         posekit.read_poses(bvh, subject=subject, frames=(0, 2), root_motion="sideways")
     with pytest.raises(posekit.Error, match="frames"):
         posekit.read_poses(bvh, subject=subject, frames=(0, 100000))
+
+
+def test_fit_a_subject_to_a_scan_and_to_its_registered_mesh_as_the_cli(tmp_path, dataset, model):
+    cli = os.environ.get("POSEKIT_CLI") or shutil.which("posekit")
+    rest = dataset / "subjects" / "f01" / "rest.ply"
+    scan = dataset / "scans" / "f01" / "squat_half.pcd"
+    model.save(tmp_path / "m.pkm")
+    subject = posekit.Subject(model, *posekit.read_mesh(rest))
+    by_cli = json.loads(subprocess.run([cli, "fit", "--model", str(tmp_path / "m.pkm"), "--subject", str(rest), "--target", str(scan),
+                                        "--json"], check=True, capture_output=True, text=True).stdout)
+    points = posekit.read_point_cloud(scan)  # millimetres: the unit is detected as the CLI detects it
+    fit = subject.fit(points)
+    assert fit["pose"]["joints"] == by_cli["pose"]["joints"] and fit["iterations"] == by_cli["iterations"]
+    assert fit["target_to_body_mm"]["mean"] == pytest.approx(by_cli["target_to_body_mm"]["mean"], abs=1e-9)
+    assert fit["V"].shape == (subject.faces.max() + 1, 3) and np.abs(fit["V"]).max() > 100  # in the scan's millimetres
+    # The subject's own mesh posed: the pose from the correspondences, as fit --registered.
+    posed = dataset / "subjects" / "f01" / "posed" / "squat_half.ply"
+    by_cli = json.loads(subprocess.run([cli, "fit", "--registered", "--model", str(tmp_path / "m.pkm"), "--subject", str(rest),
+                                        "--target", str(posed), "--json"], check=True, capture_output=True, text=True).stdout)
+    registered = subject.fit(posekit.read_mesh(posed)[0], registered=True)
+    assert registered["pose"]["joints"] == by_cli["pose"]["joints"]
+    assert registered["posed_to_target_mm"]["mean"] == pytest.approx(by_cli["posed_to_target_mm"]["mean"], abs=1e-9)
+    with pytest.raises(posekit.InvalidInput, match="registered"):
+        subject.fit(points[:100], registered=True)
+
+
+@pytest.fixture(scope="session")
+def body_model_file(tmp_path_factory):
+    """A small body model: 40 ANSUR II subjects, the built-in pose library (about a second)."""
+    cli = os.environ.get("POSEKIT_CLI") or shutil.which("posekit")
+    out = tmp_path_factory.mktemp("bm") / "a40.pks"
+    subprocess.run([cli, "shape-space", "--ansur", "--subjects", "40", "--motions", "none", "--out", str(out)], check=True,
+                   capture_output=True)
+    return out
+
+
+def test_body_model_fit_gives_the_clis_parts_and_joints_in_any_frame(tmp_path, dataset, body_model_file):
+    cli = os.environ.get("POSEKIT_CLI") or shutil.which("posekit")
+    rest = dataset / "subjects" / "f01" / "rest.ply"
+    subprocess.run([cli, "segment", str(rest), "--body-model", str(body_model_file), "--joints", str(tmp_path / "j.json")], check=True,
+                   capture_output=True)
+    by_cli = json.loads((tmp_path / "j.json").read_text())["joints"]
+    model = posekit.BodyModel(body_model_file)
+    assert model.components > 5
+    V, F = posekit.read_mesh(rest)
+    fit = model.fit(V, F)
+    assert fit["confident"] and fit["target_part"].shape == (V.shape[0],) and fit["target_part"].min() >= 0
+    joints = np.array([by_cli[name] for name in posekit.joint_names])
+    assert np.abs(fit["joints"] - joints).max() < 1e-9
+    # The same body in millimetres, Z up: the joints come back in its unit and axes.
+    to_file = np.array([[1, 0, 0], [0, 0, -1], [0, 1, 0]], dtype=float)
+    z_up = model.fit(1000.0 * V @ to_file.T, F)
+    assert z_up["frame"]["unit"] == "mm"
+    assert np.abs(z_up["joints"] - 1000.0 * joints @ to_file.T).max() < 15  # mm: another start, the same body
+    with pytest.raises(posekit.BelowConfidence, match="poor"):
+        box = np.random.default_rng(1).uniform(size=(3000, 3)) * [0.5, 1.7, 0.3]  # a standing box, no body
+        model.fit(box)
+
+
+def test_customize_by_the_body_model_as_the_cli(tmp_path, dataset, body_model_file):
+    cli = os.environ.get("POSEKIT_CLI") or shutil.which("posekit")
+    photos = dataset / "photos" / "f01"
+    subprocess.run([cli, "customize", "--method", "model", "--body-model", str(body_model_file), "--front", str(photos / "front.png"),
+                    "--side", str(photos / "side.png"), "--camera", str(photos / "camera.json"), "--out", str(tmp_path / "cli.ply")],
+                   check=True, capture_output=True)
+    body = posekit.customize(photos / "front.png", photos / "side.png", camera=photos / "camera.json", method="model",
+                             model=posekit.BodyModel(body_model_file))
+    by_cli, faces = posekit.read_mesh(tmp_path / "cli.ply")
+    assert np.array_equal(body["F"], faces)
+    assert np.abs(body["V"] - by_cli).max() < 2e-6  # the CLI's file holds float32
+    assert body["photo_agreement"] > 0.8
+    with pytest.raises(posekit.InvalidInput, match="BodyModel"):
+        posekit.customize(photos / "front.png", photos / "side.png", camera=photos / "camera.json", method="model")
+    with pytest.raises(posekit.InvalidInput, match="height"):
+        posekit.customize(photos / "front.png", photos / "side.png", method="paper", model="x.pkc")
