@@ -24,21 +24,7 @@ std::pair<double, double> colour_range(const ColourMap& map, const std::vector<c
     if (!(map.max > map.min)) throw InvalidInput("colour range: the maximum must exceed the minimum");
     return {map.min, map.max};
   }
-  std::vector<double> finite;
-  for (const auto* v : values)
-    for (Eigen::Index i = 0; i < v->size(); ++i)
-      if (std::isfinite((*v)[i])) finite.push_back((*v)[i]);
-  if (finite.empty()) return {0.0, 1.0};
-  // Robust: the 1st and 99th percentiles, so that a few outliers do not wash the map out.
-  std::sort(finite.begin(), finite.end());
-  const double lo = finite[static_cast<size_t>(0.01 * static_cast<double>(finite.size() - 1))];
-  const double hi = finite[static_cast<size_t>(0.99 * static_cast<double>(finite.size() - 1))];
-  if (map.kind == ColourMapKind::kDiverging) {
-    const double m = std::max({std::abs(lo), std::abs(hi), 1e-9});
-    return {-m, m};
-  }
-  const double low = std::min(lo, 0.0);
-  return {low, std::max(hi, low + 1e-9)};
+  return heatmap_range(map.kind, values);
 }
 
 void render_panels_png(const std::vector<ViewPanel>& panels, const ViewOptions& options, const std::string& png_path) {

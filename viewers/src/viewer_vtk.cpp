@@ -127,20 +127,8 @@ class Display {
 
 vtkSmartPointer<vtkColorTransferFunction> make_colours(ColourMapKind kind, double lo, double hi) {
   auto f = vtkSmartPointer<vtkColorTransferFunction>::New();
-  if (kind == ColourMapKind::kDiverging) {
-    f->SetColorSpaceToDiverging();
-    f->AddRGBPoint(lo, 0.230, 0.299, 0.754);
-    f->AddRGBPoint(0.5 * (lo + hi), 0.865, 0.865, 0.865);
-    f->AddRGBPoint(hi, 0.706, 0.016, 0.150);
-  } else {
-    f->SetColorSpaceToRGB();
-    const double d = hi - lo;
-    f->AddRGBPoint(lo, 0.19, 0.21, 0.58);
-    f->AddRGBPoint(lo + 0.25 * d, 0.16, 0.60, 0.85);
-    f->AddRGBPoint(lo + 0.5 * d, 0.55, 0.85, 0.55);
-    f->AddRGBPoint(lo + 0.75 * d, 0.99, 0.80, 0.20);
-    f->AddRGBPoint(hi, 0.85, 0.08, 0.08);
-  }
+  f->SetColorSpaceToRGB();
+  for (const ColourStop& stop : colour_map_stops(kind)) f->AddRGBPoint(lo + stop.at * (hi - lo), stop.rgb.x(), stop.rgb.y(), stop.rgb.z());
   return f;
 }
 

@@ -164,13 +164,11 @@ TriangleMesh with_scalar(TriangleMesh mesh, const std::string& name, const Eigen
 }
 
 /// A pose not in the pose dataset: a wave with the right arm while stepping forward on the left.
-/// A fixed, symmetric signed-distance colour map (mm) for the heatmap figures.
-ColourMap signed_error_map(double range_mm) {
+/// The signed-distance colour map (mm) of the heatmap figures: symmetric, over the 95th percentile
+/// of the figure's |distances| (heatmap_range), zero green.
+ColourMap signed_error_map() {
   ColourMap map;
   map.kind = ColourMapKind::kDiverging;
-  map.automatic = false;
-  map.min = -range_mm;
-  map.max = range_mm;
   map.title = "model to scan (mm)";
   return map;
 }
@@ -523,7 +521,7 @@ class ReportWriter {
     doc.data["scans"] = scan_json;
     if (!customization_panels.empty()) {
       ViewOptions v = plain;
-      v.colour_map = signed_error_map(30);
+      v.colour_map = signed_error_map();
       render(customization_panels, v, "fig4_customization_vs_scan.png",
              {"", "Figure 4: customized models against scans",
               from_photos.empty()
@@ -733,7 +731,7 @@ class ReportWriter {
       ViewOptions v = plain;
       v.panel_width = 260;
       v.panel_height = 480;
-      v.colour_map = signed_error_map(20);
+      v.colour_map = signed_error_map();
       render(fig9, v, "fig9_posed_vs_scans.png",
              {"", "Figure 9: posed models beside their scans",
               "Subjects in 'reach_forward' posed by the learned method in the pose fitted to their scan (no markers, no "

@@ -5,20 +5,15 @@
 #include <string>
 #include <vector>
 
+#include "posekit/core/colour_map.h"
 #include "posekit/core/point_cloud.h"
 #include "posekit/core/triangle_mesh.h"
 
 namespace posekit {
 
-enum class ColourMapKind {
-  kSequential,  ///< blue (low) through cyan and yellow to red (high): unsigned errors
-  kDiverging,   ///< blue (negative), white (zero), red (positive): signed errors
-  kCategorical  ///< one colour per integer value 0..n-1, a legend naming each (labels, e.g. parts)
-};
-
 struct ColourMap {
   ColourMapKind kind = ColourMapKind::kSequential;
-  bool automatic = true;     ///< range from the data (diverging: symmetric about zero)
+  bool automatic = true;     ///< range from the data (heatmap_range: its 95th percentile)
   double min = 0, max = 10;  ///< fixed range when not automatic
   std::string title = "error (mm)";
   std::vector<std::string> categories;  ///< kCategorical: the name of each value 0..n-1
@@ -73,7 +68,7 @@ struct ViewerState {
 /// closes after the last one.
 ViewerState show_panels(const std::vector<ViewPanel>& panels, const ViewOptions& options, const std::vector<ViewerEvent>* script = nullptr);
 
-/// The range a colour map will use for these values (NaNs ignored).
+/// The range a colour map will use for these values (NaNs ignored): fixed, or heatmap_range's.
 std::pair<double, double> colour_range(const ColourMap& map, const std::vector<const Eigen::VectorXd*>& values);
 
 }  // namespace posekit
