@@ -44,6 +44,14 @@ ColourMap colour_map_from(const ArgParser& args, ColourMapKind default_kind) {
   return map;
 }
 
+RowMatrixX3u8 heatmap_from(const ArgParser& args, const Eigen::VectorXd& values, ColourMapKind default_kind) {
+  const ColourMap map = colour_map_from(args, default_kind);
+  if (map.kind == ColourMapKind::kCategorical) throw UsageError("--colours categorical colours labels, not a heatmap");
+  const Eigen::VectorXd shown = map.kind == ColourMapKind::kSequential ? Eigen::VectorXd(values.cwiseAbs()) : values;
+  const auto [lo, hi] = map.automatic ? heatmap_range(map.kind, {&shown}) : std::make_pair(map.min, map.max);
+  return heatmap_colours(shown, map.kind, lo, hi);
+}
+
 /// --out, --scan-out and --png: the model and the scan with their distances, each in its file's own
 /// frame and unit, and the heatmap.
 void write_compared_files(const ArgParser& args, const TriangleMesh& model, const BodyOrientation& model_orientation,
@@ -58,7 +66,15 @@ void write_compared_files(const ArgParser& args, const TriangleMesh& model, cons
     Eigen::VectorXd coverage(model.V.rows());
     for (Eigen::Index v = 0; v < coverage.size(); ++v) coverage[v] = std::isfinite(r.model_to_scan[v]) ? 1 : 0;
     out.vertex_scalars["coverage"] = coverage;
-    write_mesh(args.get("out"), out, {model_unit.unit, MeshFormat::kAuto, true, io_warnings(), args.flag_set("double")});
+    if (mesh_format_from_path(args.get("out")) == MeshFormat::kGlb) {
+      // glTF is metres, Y up, facing +Z: posekit's own frame. The heatmap as vertex colours.
+      out.V = model.V;
+      out.N = model.has_normals() ? model.N : Eigen::MatrixXd();
+      out.C = heatmap_from(args, 1000 * r.model_to_scan, ColourMapKind::kDiverging);
+      write_mesh(args.get("out"), out, {Unit::kMetre, MeshFormat::kGlb, true, io_warnings()});
+    } else {
+      write_mesh(args.get("out"), out, {model_unit.unit, MeshFormat::kAuto, true, io_warnings(), args.flag_set("double")});
+    }
   }
   if (args.has("scan-out")) {
     PointCloud out = scan;  // in the scan file's own frame
@@ -132,7 +148,8 @@ int run_compare(int argc, char** argv) {
       .option("threads", "N", "threads (0: all cores)", "0")
       .output("out", "FILE",
               "the model with vertex scalars signed_distance_mm (NaN: uncovered) and coverage (0/1), as float32 "
-              "PLY properties scalar_<name> (CloudCompare's names)")
+              "PLY properties scalar_<name> (CloudCompare's names); .glb: glTF 2.0 (metres, Y up) with the heatmap (--colours, "
+              "--range) as vertex colours")
       .output("scan-out", "FILE", "the scan with point scalar signed_distance_mm (PLY/PCD)")
       .output("png", "FILE", "heatmap of the model's error, front and back (off-screen VTK)")
       .option("range", "MIN:MAX", "colour range in mm (default: automatic)")

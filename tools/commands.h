@@ -47,6 +47,8 @@ nlohmann::ordered_json registration_quality_json(const RegistrationQuality& qual
 
 /// --colours and --range of compare and view as a colour map; `default_kind` without --colours.
 ColourMap colour_map_from(const ArgParser& args, ColourMapKind default_kind);
+/// Heatmap colours of `values` by --colours and --range (default: heatmap_range, the 95th percentile).
+RowMatrixX3u8 heatmap_from(const ArgParser& args, const Eigen::VectorXd& values, ColourMapKind default_kind);
 
 /// load_pose_sequence (deformation/pose_sequence.h) with the CLI's options: `frames` "" or "A:B",
 /// `joint_map` a JSON file ("" none), `root_motion` none, vertical or all (UsageError otherwise);

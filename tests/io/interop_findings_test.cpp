@@ -5,8 +5,12 @@
 #include <unistd.h>
 
 #include <csignal>
+#include <cstdint>
+#include <cstring>
 #include <filesystem>
 #include <fstream>
+#include <iterator>
+#include <nlohmann/json.hpp>
 #include <string>
 #include <vector>
 
@@ -353,6 +357,92 @@ TEST(InteropFindings, AFailedWriteNamesTheSystemsReasonAndLeavesNothing) {
   EXPECT_FALSE(fs::exists(dir.file("no")));
   require_output_folder(dir.file("no/such/x.ply"), true);
   EXPECT_TRUE(fs::is_directory(dir.file("no/such")));
+}
+
+/// A .glb's JSON and binary chunks, read as the format says (little-endian headers).
+struct Glb {
+  nlohmann::json json;
+  std::string bin;
+  template <typename T>
+  std::vector<T> values(int accessor) const {
+    const auto& a = json["accessors"][static_cast<size_t>(accessor)];
+    const auto& view = json["bufferViews"][a["bufferView"].get<size_t>()];
+    std::vector<T> out(view["byteLength"].get<size_t>() / sizeof(T));
+    std::memcpy(out.data(), bin.data() + view["byteOffset"].get<size_t>(), out.size() * sizeof(T));
+    return out;
+  }
+};
+
+Glb read_glb(const std::string& path) {
+  std::ifstream in(path, std::ios::binary);
+  const std::string bytes((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  auto u32 = [&](size_t at) {
+    std::uint32_t v;
+    std::memcpy(&v, bytes.data() + at, 4);
+    return v;
+  };
+  EXPECT_EQ(bytes.substr(0, 4), "glTF");
+  EXPECT_EQ(u32(4), 2u);
+  EXPECT_EQ(u32(8), bytes.size());
+  const std::uint32_t json_length = u32(12);
+  EXPECT_EQ(bytes.substr(16, 4), "JSON");
+  EXPECT_EQ(json_length % 4, 0u);
+  Glb glb;
+  glb.json = nlohmann::json::parse(bytes.substr(20, json_length));
+  const size_t bin_at = 20 + json_length;
+  EXPECT_EQ(bytes.substr(bin_at + 4, 4), std::string("BIN\0", 4));
+  glb.bin = bytes.substr(bin_at + 8, u32(bin_at));
+  return glb;
+}
+
+TEST(InteropFindings, GltfBinaryHoldsTheMeshColoursAndFieldsAsTheFormatSays) {
+  test::TempDir dir;
+  TriangleMesh m = test::icosphere(1, 0.5);
+  const Eigen::Index n = m.V.rows();
+  m.N = m.V.rowwise().normalized();
+  m.C = RowMatrixX3u8::Constant(n, 3, 40);
+  m.C.col(0).setConstant(200);
+  m.UV = Eigen::MatrixXd::Constant(n, 2, 0.25);
+  m.vertex_scalars["signed_distance_mm"] = Eigen::VectorXd::LinSpaced(n, -3, 4);
+  m.face_scalars["quality"] = Eigen::VectorXd::Ones(m.F.rows());
+  std::vector<std::string> warnings;
+  MeshWriteOptions o;
+  o.unit = Unit::kMillimetre;
+  o.warnings = &warnings;
+  write_mesh(dir.file("m.glb"), m, o);
+  EXPECT_TRUE(any_contains(warnings, "glTF is in metres")) << joined(warnings);
+  EXPECT_TRUE(any_contains(warnings, "glTF cannot hold the face field(s) quality")) << joined(warnings);
+  const Glb glb = read_glb(dir.file("m.glb"));
+  EXPECT_EQ(glb.json["asset"]["version"], "2.0");
+  const auto& primitive = glb.json["meshes"][0]["primitives"][0];
+  EXPECT_EQ(primitive["mode"], 4);
+  const auto& attributes = primitive["attributes"];
+  for (const char* a : {"POSITION", "NORMAL", "COLOR_0", "TEXCOORD_0", "_SIGNED_DISTANCE_MM"})
+    ASSERT_TRUE(attributes.contains(a)) << a << ": " << attributes.dump();
+  const std::vector<float> p = glb.values<float>(attributes["POSITION"]);
+  ASSERT_EQ(p.size(), static_cast<size_t>(3 * n));
+  for (Eigen::Index v = 0; v < n; ++v)
+    for (int k = 0; k < 3; ++k) EXPECT_EQ(p[static_cast<size_t>(3 * v + k)], static_cast<float>(m.V(v, k)));  // metres
+  const auto& position = glb.json["accessors"][attributes["POSITION"].get<size_t>()];
+  EXPECT_NEAR(position["max"][1].get<double>(), m.V.col(1).maxCoeff(), 1e-6);
+  EXPECT_NEAR(position["min"][1].get<double>(), m.V.col(1).minCoeff(), 1e-6);
+  const std::vector<std::uint8_t> c = glb.values<std::uint8_t>(attributes["COLOR_0"]);
+  EXPECT_EQ(int(c[0]), 200);
+  EXPECT_EQ(int(c[1]), 40);
+  EXPECT_EQ(int(c[3]), 255);                                         // RGBA: every attribute element 4-byte aligned
+  EXPECT_EQ(glb.values<float>(attributes["TEXCOORD_0"])[1], 0.75f);  // glTF's v runs down
+  EXPECT_EQ(glb.values<float>(attributes["_SIGNED_DISTANCE_MM"])[0], -3.0f);
+  const std::vector<std::uint32_t> indices = glb.values<std::uint32_t>(primitive["indices"]);
+  ASSERT_EQ(indices.size(), static_cast<size_t>(3 * m.F.rows()));
+  EXPECT_EQ(indices[4], static_cast<std::uint32_t>(m.F(1, 1)));
+  for (const auto& view : glb.json["bufferViews"]) EXPECT_EQ(view["byteOffset"].get<size_t>() % 4, 0u);
+  // Written, not read: reading names what to do.
+  try {
+    read_mesh(dir.file("m.glb"));
+    ADD_FAILURE() << "a .glb was read";
+  } catch (const IoError& e) {
+    EXPECT_NE(std::string(e.what()).find("does not read it"), std::string::npos) << e.what();
+  }
 }
 
 }  // namespace

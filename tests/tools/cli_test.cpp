@@ -779,6 +779,26 @@ TEST(Cli, CompareMeasureAndView) {
   EXPECT_TRUE(std::filesystem::is_regular_file(dir.file("err.png")));
   expect_fields_open_in_other_tools(dir, dir.file("err.ply"), {"signed_distance_mm", "coverage"});
   expect_fields_open_in_other_tools(dir, dir.file("scan_err.ply"), {"signed_distance_mm"});
+  // The heatmap as glTF vertex colours, for viewers that show colours and not fields.
+  r = run("convert " + dir.file("err.ply") + " " + dir.file("err.glb") + " --heatmap signed_distance_mm", true);
+  ASSERT_EQ(r.code, 0) << r.out;
+  {
+    std::ifstream glb(dir.file("err.glb"), std::ios::binary);
+    std::string magic(4, ' ');
+    glb.read(magic.data(), 4);
+    EXPECT_EQ(magic, "glTF");
+  }
+  if (std::system("/usr/bin/python3 -c 'import open3d' > /dev/null 2>&1") == 0) {
+    const std::string check =
+        "/usr/bin/python3 -c \"import open3d as o3d, sys; m = o3d.io.read_triangle_mesh(sys.argv[1]); "
+        "print(len(m.vertices), len(m.triangles), m.has_vertex_colors())\" " +
+        dir.file("err.glb") + " > " + dir.file("glb.txt") + " 2>&1";
+    EXPECT_EQ(std::system(check.c_str()), 0);
+    std::ifstream in(dir.file("glb.txt"));
+    std::string read((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+    EXPECT_NE(read.find(std::to_string(err.V.rows()) + " " + std::to_string(err.F.rows()) + " True"), std::string::npos) << read;
+  }
+  EXPECT_EQ(run("convert " + dir.file("err.ply") + " " + dir.file("x.glb") + " --heatmap nope").code, 1);
 
   // The viewer off-screen, with the scan overlaid, two meshes side by side.
   r = run("view " + dir.file("err.ply") + "," + subject + " --scalar coverage --scan " + scan + " --png " + dir.file("v.png"));

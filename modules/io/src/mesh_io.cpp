@@ -9,6 +9,7 @@
 #include <map>
 #include <unordered_map>
 
+#include "gltf_format.h"
 #include "parse_util.h"
 #include "ply_format.h"
 #include "posekit/core/error.h"
@@ -519,14 +520,19 @@ MeshFormat resolve(const std::string& path, MeshFormat format) {
   if (format != MeshFormat::kAuto) return format;
   const MeshFormat f = mesh_format_from_path(path);
   if (f == MeshFormat::kAuto)
-    throw IoError(path + ": unknown mesh extension '" + lower_extension(path) + "': expected .obj, .ply, .off or .stl");
+    throw IoError(path + ": unknown mesh extension '" + lower_extension(path) +
+                  "': expected .obj, .ply, .off, .stl or (written only) .glb");
   return f;
 }
 
 }  // namespace
 
 std::vector<std::string> mesh_attributes_lost(const TriangleMesh& mesh, MeshFormat format) {
-  const char* name = format == MeshFormat::kObj ? "OBJ" : format == MeshFormat::kOff ? "OFF" : format == MeshFormat::kStl ? "STL" : "PLY";
+  const char* name = format == MeshFormat::kObj   ? "OBJ"
+                     : format == MeshFormat::kOff ? "OFF"
+                     : format == MeshFormat::kStl ? "STL"
+                     : format == MeshFormat::kGlb ? "glTF"
+                                                  : "PLY";
   std::vector<std::string> lost;
   auto lose = [&](bool has, bool holds, const std::string& what) {
     if (has && !holds) lost.push_back(std::string(name) + " cannot hold " + what + ": not written");
@@ -534,12 +540,13 @@ std::vector<std::string> mesh_attributes_lost(const TriangleMesh& mesh, MeshForm
   std::string scalars;
   for (const auto& kv : mesh.vertex_scalars) scalars += (scalars.empty() ? "" : ", ") + kv.first;
   const bool grouped = mesh.face_group.size() == mesh.F.rows() && !mesh.group_names.empty();
-  lose(!scalars.empty(), format == MeshFormat::kPly, "the vertex scalar field(s) " + scalars + " (PLY can)");
+  lose(!scalars.empty(), format == MeshFormat::kPly || format == MeshFormat::kGlb, "the vertex scalar field(s) " + scalars + " (PLY can)");
   std::string face_fields;
   for (const auto& kv : mesh.face_scalars) face_fields += (face_fields.empty() ? "" : ", ") + kv.first;
   lose(!face_fields.empty(), format == MeshFormat::kPly, "the face field(s) " + face_fields + " (PLY can)");
   lose(grouped, format == MeshFormat::kObj, "face groups (OBJ can)");
-  lose(mesh.has_uv(), format == MeshFormat::kObj || format == MeshFormat::kPly, "texture coordinates (OBJ and PLY can)");
+  lose(mesh.has_uv(), format == MeshFormat::kObj || format == MeshFormat::kPly || format == MeshFormat::kGlb,
+       "texture coordinates (OBJ and PLY can)");
   lose(mesh.has_colors(), format != MeshFormat::kStl, "vertex colours (PLY, OBJ and OFF can)");
   lose(mesh.has_normals(), format != MeshFormat::kStl, "vertex normals (PLY, OBJ and OFF can)");
   return lost;
@@ -551,6 +558,7 @@ MeshFormat mesh_format_from_path(const std::string& path) {
   if (ext == ".ply") return MeshFormat::kPly;
   if (ext == ".off") return MeshFormat::kOff;
   if (ext == ".stl") return MeshFormat::kStl;
+  if (ext == ".glb") return MeshFormat::kGlb;
   return MeshFormat::kAuto;
 }
 
@@ -578,6 +586,8 @@ TriangleMesh read_mesh(const std::string& path, const MeshReadOptions& options) 
       mesh.face_scalars = std::move(c.face_scalars);
       break;
     }
+    case MeshFormat::kGlb:
+      throw IoError(path + ": posekit writes glTF (.glb) but does not read it: convert it to PLY or OBJ with another tool");
     case MeshFormat::kAuto:
       break;
   }
@@ -614,6 +624,11 @@ void write_mesh(const std::string& path, const TriangleMesh& mesh, const MeshWri
       io_detail::write_ply(path, c, options.binary, scale, options.double_precision);
       break;
     }
+    case MeshFormat::kGlb:
+      if (options.unit != Unit::kMetre)
+        warn(options.warnings, path + ": glTF is in metres (the format says so): written in metres, not " + unit_name(options.unit));
+      io_detail::write_glb(path, mesh, 1.0);
+      break;
     case MeshFormat::kAuto:
       break;
   }

@@ -8,9 +8,9 @@
 
 namespace posekit {
 
-enum class MeshFormat { kAuto, kObj, kPly, kOff, kStl };
+enum class MeshFormat { kAuto, kObj, kPly, kOff, kStl, kGlb };  ///< kGlb: binary glTF 2.0, written only
 
-/// Format from a file name's extension (.obj .ply .off .stl, any case); kAuto when unknown.
+/// Format from a file name's extension (.obj .ply .off .stl .glb, any case); kAuto when unknown.
 MeshFormat mesh_format_from_path(const std::string& path);
 
 struct MeshReadOptions {
@@ -43,9 +43,10 @@ TriangleMesh read_mesh(const std::string& path, const MeshReadOptions& options =
 
 /// Writes a mesh (to a temporary file, renamed when complete). PLY keeps normals, colours, texture
 /// coordinates and scalar fields (vertex fields named `scalar_<name>`, as CloudCompare names and
-/// keeps them; read_mesh drops the prefix again); OBJ normals, colours, texture coordinates and groups; OFF normals
-/// and colours; STL geometry only. What the format cannot hold goes to options.warnings.
-/// Throws IoError (unwritable path, unknown extension) or InvalidInput (unusable mesh).
+/// keeps them; read_mesh drops the prefix again); glTF (.glb, always in metres: another options.unit
+/// is a warning) normals, colours, texture coordinates and vertex fields (attributes `_<NAME>`); OBJ normals, colours, texture coordinates
+/// and groups; OFF normals and colours; STL geometry only. What the format cannot hold goes to options.warnings. Throws IoError (unwritable
+/// path, unknown extension) or InvalidInput (unusable mesh).
 void write_mesh(const std::string& path, const TriangleMesh& mesh, const MeshWriteOptions& options = {});
 
 /// What `format` cannot hold of `mesh`, one line each (empty when nothing is lost).
