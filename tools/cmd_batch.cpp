@@ -108,22 +108,12 @@ bool same_content(const nlohmann::ordered_json& a, const nlohmann::ordered_json&
 PreparedBody prepare_body(const std::string& path, const std::string& unit_option) {
   PreparedBody b;
   b.in = read_body_input(path, Unit::kMetre, &b.warnings);
+  // The library's one rule (bring_to_posekit_frame), as measure, the Python module and its Dask recipe read bodies.
   Eigen::MatrixXd& P = b.in.is_cloud ? b.in.cloud.P : b.in.mesh.V;
-  if (unit_option == "auto") {
-    const double extent = robust_largest_extent(P);
-    if (!guess_body_unit(extent, &b.unit))
-      throw InvalidInput(path + ": its largest extent is " + std::to_string(extent) +
-                         " units, which no unit (m, dm, cm, mm) makes a body; give the unit");
-  } else {
-    b.unit = parse_unit(unit_option);
-  }
-  P *= metres_per_unit(b.unit);
-  b.orientation = b.in.is_cloud ? detect_body_orientation(P) : detect_mesh_orientation(b.in.mesh.V, b.in.mesh.F);
-  if (!b.orientation.is_identity()) {
-    P = (P * b.orientation.rotation.transpose()).eval();
-    Eigen::MatrixXd& N = b.in.is_cloud ? b.in.cloud.N : b.in.mesh.N;
-    if (N.rows() > 0) N = (N * b.orientation.rotation.transpose()).eval();
-  }
+  Eigen::MatrixXd& N = b.in.is_cloud ? b.in.cloud.N : b.in.mesh.N;
+  const BodyFrame frame = bring_to_posekit_frame(&P, b.in.is_cloud ? nullptr : &b.in.mesh.F, &N, unit_option, "auto", "auto");
+  b.unit = parse_unit(frame.unit);
+  b.orientation = frame.orientation;
   b.warnings.insert(b.warnings.end(), b.orientation.warnings.begin(), b.orientation.warnings.end());
   return b;
 }
