@@ -80,6 +80,8 @@ def compare(V: numpy.ndarray, F: numpy.ndarray, scan: numpy.ndarray, outlier_thr
 def customize(front: Any, side: Any, camera: Any = ..., height: float = ..., method: str = ..., model: Any = ..., masks: bool = ..., front_background: Any = ..., side_background: Any = ..., distance: float = ..., focal: float = ..., accept_poor: bool = ..., data_root: str = ...) -> dict:
     """A body from a front and a side photo (posekit customize): front, side: photo paths (PNG/JPEG), or silhouettes with masks=True; camera: the camera file, or height (m) with distance (m) and focal (px, 0: from the height); method 'paper' (model: a .pkc of posekit customize train) or 'model' (model: a BodyModel; plausibility judged against ANSUR II when found beside the data root); front_background/side_background: photos of the empty scene. Returns {'V', 'F' (metres, Y up, facing +Z), 'photo_agreement', 'scale', 'assumed', 'warnings', 'method'}. A result unlike the photos raises BelowConfidence unless accept_poor."""
 
+girth_names: list[str]
+
 joint_names: list[str]
 
 def measure(V: numpy.ndarray, F: Any = ..., unit: str = ..., up: str = ..., forward: str = ...) -> dict:
@@ -91,7 +93,7 @@ def read_bvh(path: str | os.PathLike[str]) -> dict:
     """Reads a BVH motion: {'joints': [{'name', 'parent' (index, -1 for the root), 'offset' (m), 'channels', 'first_channel'}], 'frame_time' (s), 'frames' (#frames x #channels; positions in metres, rotations in degrees)}. Offsets and positions are read as metres, as the CLI reads them."""
 
 def read_mesh(path: str | os.PathLike[str], fields: bool = ...) -> Any:
-    """Reads a PLY, OBJ, OFF or STL mesh: (V #V x 3, F #F x 3), in the file's unit; with fields=True (V, F, {'normals', 'colors' (uint8 RGB), 'uv', 'vertex_scalars': {name: #V}, 'face_scalars': {name: #F}}), empty where the file has none."""
+    """Reads a PLY, OBJ, OFF or STL mesh: (V #V x 3, F #F x 3), in the file's unit (what was read with a caveat: Python warnings); with fields=True (V, F, {'normals', 'colors' (uint8 RGB), 'uv', 'vertex_scalars': {name: #V}, 'face_scalars': {name: #F}}), empty where the file has none."""
 
 def read_point_cloud(path: str | os.PathLike[str], fields: bool = ...) -> Any:
     """Reads a point cloud (PLY, PCD, XYZ): #P x 3, in the file's unit; with fields=True (P, {'normals', 'colors', 'scalars': {name: #P}})."""

@@ -48,6 +48,13 @@ using namespace posekit::python;
 
 namespace {
 
+/// What the CLI prints as warnings, as Python warnings ("who: what").
+void warn_each(const std::string& who, const std::vector<std::string>& warnings) {
+  if (warnings.empty()) return;
+  const py::object warn = py::module_::import("warnings").attr("warn");
+  for (const auto& w : warnings) warn(who + ": " + w);
+}
+
 py::dict measurements_dict(const BodyMeasurements& m) {
   py::dict girths;
   for (const Girth& g : m.girths) {
@@ -205,6 +212,7 @@ void bind_errors_and_names(py::module_& m) {
     for (int j = 0; j < kNumJoints; ++j) names.push_back(joint_name(j));
     return names;
   }();
+  m.attr("girth_names") = girth_names();
   m.attr("part_names") = [] {
     std::vector<std::string> names;
     for (int p = 0; p < kNumParts; ++p) names.push_back(part_name(p));
@@ -218,7 +226,9 @@ void bind_files(py::module_& m) {
   m.def(
       "read_mesh",
       [](const std::filesystem::path& path, bool fields) -> py::object {
-        const TriangleMesh mesh = read_mesh(path.string());
+        std::vector<std::string> warnings;
+        const TriangleMesh mesh = read_mesh(path.string(), {Unit::kMetre, MeshFormat::kAuto, &warnings});
+        warn_each("posekit.read_mesh", warnings);
         if (!fields) return py::make_tuple(rows(mesh.V), Faces(mesh.F));
         py::dict extra;
         extra["normals"] = rows(mesh.has_normals() ? mesh.N : Eigen::MatrixXd(0, 3));
@@ -229,7 +239,8 @@ void bind_files(py::module_& m) {
         return py::make_tuple(rows(mesh.V), Faces(mesh.F), extra);
       },
       py::arg("path"), py::arg("fields") = false,
-      "Reads a PLY, OBJ, OFF or STL mesh: (V #V x 3, F #F x 3), in the file's unit; with fields=True (V, F, "
+      "Reads a PLY, OBJ, OFF or STL mesh: (V #V x 3, F #F x 3), in the file's unit (what was read with a caveat: "
+      "Python warnings); with fields=True (V, F, "
       "{'normals', 'colors' (uint8 RGB), 'uv', 'vertex_scalars': {name: #V}, 'face_scalars': {name: #F}}), empty "
       "where the file has none.");
   m.def(
@@ -262,7 +273,9 @@ void bind_files(py::module_& m) {
   m.def(
       "read_point_cloud",
       [](const std::filesystem::path& path, bool fields) -> py::object {
-        const PointCloud cloud = read_point_cloud(path.string());
+        std::vector<std::string> warnings;
+        const PointCloud cloud = read_point_cloud(path.string(), {Unit::kMetre, CloudFormat::kAuto, &warnings});
+        warn_each("posekit.read_point_cloud", warnings);
         if (!fields) return py::cast(rows(cloud.P));
         py::dict extra;
         extra["normals"] = rows(cloud.has_normals() ? cloud.N : Eigen::MatrixXd(0, 3));

@@ -38,8 +38,6 @@ namespace posekit::cli {
 namespace batch {
 namespace fs = std::filesystem;
 
-const char* const kGirthNames[] = {"bust", "underbust", "waist", "hip", "thigh", "knee", "calf", "ankle", "upper_arm", "wrist", "neck"};
-
 bool is_body_file(const fs::path& p) {
   std::string ext = p.extension().string();
   std::transform(ext.begin(), ext.end(), ext.begin(), [](unsigned char c) { return static_cast<char>(std::tolower(c)); });
@@ -189,8 +187,8 @@ std::vector<BatchColumn> measure_columns() {
       {"forward", [](const auto& r) { return r["forward"].template get<std::string>(); }},
       {"stature_m", [](const auto& r) { return number(r["stature"], 6); }},
       {"stature_measured", [](const auto& r) { return std::string(r["stature_measured"].template get<bool>() ? "1" : "0"); }}};
-  for (const char* g : kGirthNames)
-    c.push_back({std::string(g) + "_m", [g](const auto& r) {
+  for (const std::string& g : girth_names())
+    c.push_back({g + "_m", [g](const auto& r) {
                    const auto& girth = r["girths"][g];
                    return girth["measured"].template get<bool>() ? number(girth["value"], 6) : std::string();
                  }});

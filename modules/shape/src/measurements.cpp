@@ -19,6 +19,12 @@
 #include "posekit/core/profile.h"
 
 namespace posekit {
+
+const std::vector<std::string>& girth_names() {
+  static const std::vector<std::string> names = {"bust", "underbust", "waist",     "hip",   "thigh", "knee",
+                                                 "calf", "ankle",     "upper_arm", "wrist", "neck"};
+  return names;
+}
 using shape_detail::kBustBelowArmpits;
 using shape_detail::kBustPlateau;
 namespace {

@@ -18,6 +18,10 @@ struct Girth {
   Eigen::Vector3d normal = Eigen::Vector3d::UnitY();  ///< the tape's plane normal
 };
 
+/// The girths' names in the order measurements give them: bust, underbust, waist, hip, thigh, knee,
+/// calf, ankle, upper_arm, wrist, neck.
+const std::vector<std::string>& girth_names();
+
 struct BodyMeasurements {
   double stature = 0;            ///< m
   bool stature_measured = true;  ///< false when the head is cut: stature is then an estimate
