@@ -4,7 +4,8 @@ set -euo pipefail
 packages=(build-essential cmake ninja-build ccache git pkg-config
           libeigen3-dev libpcl-dev libflann-dev libvtk9-dev libopencv-dev libpng-dev libjpeg-dev zlib1g-dev libgtest-dev
           nlohmann-json3-dev libsuitesparse-dev xvfb xauth clang clang-format libclang-rt-14-dev
-          pybind11-dev python3-dev python3-numpy python3-pytest python3-venv python3-pip python3-build python3-wheel chromium)
+          pybind11-dev python3-dev python3-numpy python3-pytest python3-venv python3-pip python3-build python3-wheel chromium
+          python3-distributed python3-pandas)
 missing=()
 for p in "${packages[@]}"; do
   dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed" || missing+=("$p")

@@ -14,25 +14,6 @@ import pytest
 import posekit
 
 
-@pytest.fixture(scope="session")
-def dataset(tmp_path_factory):
-    cli = os.environ.get("POSEKIT_CLI") or shutil.which("posekit")
-    assert cli, "set POSEKIT_CLI to the posekit executable"
-    out = tmp_path_factory.mktemp("data") / "ds"
-    subprocess.run([cli, "dataset", "make", "--small", "--out", str(out)], check=True, capture_output=True)
-    return out
-
-
-@pytest.fixture(scope="session")
-def model(dataset):
-    return posekit.train(str(dataset), calibration_bodies=8)
-
-
-@pytest.fixture(scope="session")
-def f01(dataset):
-    return posekit.read_mesh(str(dataset / "subjects" / "f01" / "rest.ply"))
-
-
 def test_version_and_names():
     assert posekit.__version__.count(".") == 2
     assert len(posekit.joint_names) == 15 and posekit.joint_names[0] == "lower_back"
@@ -302,16 +283,6 @@ def test_fit_a_subject_to_a_scan_and_to_its_registered_mesh_as_the_cli(tmp_path,
     assert registered["posed_to_target_mm"]["mean"] == pytest.approx(by_cli["posed_to_target_mm"]["mean"], abs=1e-9)
     with pytest.raises(posekit.InvalidInput, match="registered"):
         subject.fit(points[:100], registered=True)
-
-
-@pytest.fixture(scope="session")
-def body_model_file(tmp_path_factory):
-    """A small body model: 40 ANSUR II subjects, the built-in pose library (about a second)."""
-    cli = os.environ.get("POSEKIT_CLI") or shutil.which("posekit")
-    out = tmp_path_factory.mktemp("bm") / "a40.pks"
-    subprocess.run([cli, "shape-space", "--ansur", "--subjects", "40", "--motions", "none", "--out", str(out)], check=True,
-                   capture_output=True)
-    return out
 
 
 def test_body_model_fit_gives_the_clis_parts_and_joints_in_any_frame(tmp_path, dataset, body_model_file):
