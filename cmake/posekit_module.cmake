@@ -19,6 +19,10 @@ function(posekit_add_module name)
           ARCHIVE DESTINATION ${CMAKE_INSTALL_LIBDIR} LIBRARY DESTINATION ${CMAKE_INSTALL_LIBDIR})
   install(DIRECTORY ${CMAKE_CURRENT_SOURCE_DIR}/include/ DESTINATION ${CMAKE_INSTALL_INCLUDEDIR})
   set_property(GLOBAL APPEND PROPERTY POSEKIT_MODULES ${name})
+  # For the per-module pkg-config files and the package's per-component dependencies.
+  set_property(GLOBAL PROPERTY POSEKIT_MODULE_DEPS_${name} ${ARG_DEPS})
+  set_property(GLOBAL PROPERTY POSEKIT_MODULE_PUBLIC_LIBS_${name} Eigen3::Eigen ${ARG_PUBLIC_LIBS})
+  set_property(GLOBAL PROPERTY POSEKIT_MODULE_PRIVATE_LIBS_${name} ${ARG_PRIVATE_LIBS})
 endfunction()
 
 # posekit_add_test(<module> [SHARED_DATASET] SOURCES ... LIBS ...): one gtest binary per module,

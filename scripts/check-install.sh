@@ -54,4 +54,44 @@ export PKG_CONFIG_PATH="$prefix/lib/pkgconfig"
 # shellcheck disable=SC2046
 g++ -std=c++17 "$work/pc.cpp" -o "$work/pc" $(pkg-config --cflags posekit) $(pkg-config --libs --static posekit)
 "$work/pc" "$work/ds/subjects/f01/rest.ply"
+# One program per exported target, each found as a component of its own (find_package(posekit
+# COMPONENTS <module>): that component's packages only) and linked again by its pkg-config file
+# (posekit-<module>.pc, --static): every static library and third-party library a module needs is
+# named by both. The calls are linked, not run.
+consumers=$work/consumers
+mkdir -p "$consumers"
+declare -A call=(
+  [core]='#include "posekit/core/units.h"|posekit::parse_unit(argv[1]);'
+  [io]='#include "posekit/io/mesh_io.h"|posekit::read_mesh(argv[1]);'
+  [body]='#include "posekit/body/makehuman_model.h"|posekit::load_makehuman_model(argv[1]);'
+  [shape]='#include "posekit/shape/measurements.h"|posekit::measure_body(Eigen::MatrixXd(), Eigen::MatrixXi());'
+  [registration]='#include "posekit/registration/registration.h"|posekit::register_bodies(posekit::TriangleMesh(), posekit::TriangleMesh());'
+  [segmentation]='#include "posekit/segmentation/segmentation.h"|posekit::segment_body(Eigen::MatrixXd(), Eigen::MatrixXi(), posekit::LayeredRepresentation());'
+  [deformation]='#include "posekit/deformation/dataset_training.h"|posekit::train_on_dataset(argv[1]);'
+  [datasets]='#include "posekit/datasets/dataset.h"|posekit::make_dataset(argv[1], posekit::DatasetOptions());'
+  [customization]='#include "posekit/customization/photo_customization.h"|posekit::customize_from_silhouettes(posekit::silhouette_from_photo(argv[1], "f"), posekit::silhouette_from_photo(argv[2], "s"), posekit::read_photo_cameras(argv[3]), posekit::load_customization_model(argv[4]));'
+  [fitting]='#include "posekit/fitting/body_fit.h"|posekit::fit_body_model(posekit::BodyModel(posekit::read_shape_space(argv[1]), *posekit::load_makehuman_model(argv[2])), Eigen::MatrixXd());'
+  [evaluation]='#include "posekit/evaluation/body_evaluation.h"|posekit::evaluate_bodies(argv[1]);'
+  [population]='#include "posekit/population/ansur.h"|posekit::read_survey(argv[1]);'
+  [viewers]='#include "posekit/viewers/viewer.h"|posekit::render_panels_png({}, posekit::ViewOptions(), argv[1]);'
+)
+modules=$(grep -o 'set(posekit_MODULES [a-z ]*)' "$prefix/lib/cmake/posekit/posekitConfig.cmake" | sed 's/set(posekit_MODULES //; s/)//')
+printf 'cmake_minimum_required(VERSION 3.16)\nproject(posekit_consumers CXX)\nset(CMAKE_CXX_STANDARD 17)\n' > "$consumers/CMakeLists.txt"
+for m in $modules; do
+  [ -n "${call[$m]:-}" ] || { echo "check-install: no consumer program for the exported target posekit::$m: add one" >&2; exit 1; }
+  mkdir -p "$consumers/$m"
+  { echo "${call[$m]%%|*}"; echo '#include <iostream>'
+    echo "int main(int argc, char** argv) { if (argc > 99) { ${call[$m]#*|} } std::cout << \"posekit::$m linked\\n\"; }"; } > "$consumers/$m/main.cpp"
+  printf 'find_package(posekit 0.2 REQUIRED COMPONENTS %s)\nadd_executable(use_%s main.cpp)\ntarget_link_libraries(use_%s PRIVATE posekit::%s)\n' "$m" "$m" "$m" "$m" > "$consumers/$m/CMakeLists.txt"
+  echo "add_subdirectory($m)" >> "$consumers/CMakeLists.txt"
+done
+cmake -S "$consumers" -B "$consumers/build" -DCMAKE_PREFIX_PATH="$prefix" -DCMAKE_BUILD_TYPE=Release > /dev/null
+cmake --build "$consumers/build" -j"$(nproc 2>/dev/null || echo 2)" > /dev/null
+for m in $modules; do
+  "$consumers/build/$m/use_$m"
+  # shellcheck disable=SC2046
+  g++ "$consumers/build/$m/CMakeFiles/use_$m.dir/main.cpp.o" -o "$consumers/pc_$m" $(pkg-config --libs --static posekit-$m)
+  "$consumers/pc_$m" > /dev/null
+done
+echo "consumers: $(echo $modules | wc -w) exported targets, each linked by find_package(posekit COMPONENTS <it>) and by pkg-config --static posekit-<it>"
 echo "== install check: find_package and pkg-config consumers built and ran"
