@@ -9,6 +9,7 @@
 #include "posekit/core/error.h"
 #include "posekit/io/mesh_io.h"
 #include "posekit/viewers/viewer.h"
+#include "posekit/viewers/web_viewer.h"
 
 namespace posekit::cli {
 
@@ -17,7 +18,9 @@ int run_view(int argc, char** argv) {
                  "Shows meshes coloured by a vertex scalar (e.g. signed_distance_mm from posekit compare) in a VTK\n"
                  "window: drag to rotate, wheel to zoom, click a vertex to print its value, 's' toggles the scan,\n"
                  "'c' cycles front/side/back. With --png renders off-screen instead (no display needed: a private\n"
-                 "Xvfb is started when DISPLAY is unset). Several meshes are shown side by side.");
+                 "Xvfb is started when DISPLAY is unset). With --html writes an interactive page instead (three.js,\n"
+                 "WebGL: opens offline in any browser, from file://, its scripts beside it). Several meshes are\n"
+                 "shown side by side.");
   args.positional("mesh", "mesh(es) to show; separate several with commas")
       .option("scalar", "NAME", "vertex scalar to colour by (default: none, plain skin)")
       .option("scan", "FILE", "a point cloud to overlay (PCD/PLY/XYZ)")
@@ -25,12 +28,14 @@ int run_view(int argc, char** argv) {
       .option("unit", "U", "unit of the meshes", "m")
       .option("camera", "C", "front, side or back", "front")
       .output("png", "FILE", "render off-screen to this PNG and exit")
+      .output("html", "FILE", "write an interactive web page (three.js) and exit; three.min.js and the data go beside it")
       .option("size", "WxH", "size of each panel in pixels", "480x720")
       .option("range", "MIN:MAX", "colour range (default: automatic)")
       .option("colours", "KIND", "diverging, sequential or categorical (labels; default for the scalar 'part')")
       .option("title", "TEXT", "colour bar title (default: the scalar's name, with its unit)")
       .example("posekit view f01_errors.ply --scalar signed_distance_mm --colours diverging --png f01.png")
-      .example("posekit view parts.ply --scalar part --png parts.png");
+      .example("posekit view parts.ply --scalar part --png parts.png")
+      .example("posekit view f01_errors.ply --scalar signed_distance_mm --colours diverging --html f01/errors.html");
   if (!args.parse(argc, argv)) return 0;
   ViewOptions v;
   const std::string scalar = args.has("scalar") ? args.get("scalar") : "";
@@ -73,6 +78,12 @@ int run_view(int argc, char** argv) {
     }
     if (comma == std::string::npos) break;
     start = comma + 1;
+  }
+  if (args.has("html")) {
+    v.title = args.has("title") ? args.get("title") : panels.front().caption;
+    write_web_page(args.get("html"), panels, v);
+    std::cout << "wrote " << args.get("html") << " (open it in a browser; its scripts are beside it)\n";
+    if (!args.has("png")) return 0;
   }
   if (args.has("png")) {
     render_panels_png(panels, v, args.get("png"));

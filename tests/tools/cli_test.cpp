@@ -11,6 +11,7 @@
 #include <fstream>
 #include <iterator>
 #include <nlohmann/json.hpp>
+#include <optional>
 #include <random>
 #include <sstream>
 #include <string>
@@ -21,6 +22,7 @@
 #include "posekit/body/subjects.h"
 #include "posekit/io/atomic_file.h"
 #include "posekit/io/bvh.h"
+#include "posekit/io/image_io.h"
 #include "posekit/io/mesh_io.h"
 #include "posekit/io/point_cloud_io.h"
 #include "posekit/shape/body_orientation.h"
@@ -738,6 +740,41 @@ void expect_fields_open_in_other_tools(const test::TempDir& dir, const std::stri
   }
 }
 
+/// A page as headless Chromium (software WebGL) shows it from file://: the body tag after its
+/// scripts ran (the web viewer writes data-posekit-viewers and data-posekit-errors there) and a
+/// screenshot. Empty when Chromium is not installed.
+struct BrowserView {
+  std::string body;
+  Image8 screenshot;
+};
+std::optional<BrowserView> open_in_chromium(const test::TempDir& dir, const std::string& html) {
+  if (!have_program("chromium")) return std::nullopt;
+  const std::string chromium =
+      "timeout 120 chromium --headless --no-sandbox --disable-gpu --enable-unsafe-swiftshader --use-angle=swiftshader "
+      "--window-size=1200,1400 --virtual-time-budget=20000 ";
+  const std::string url = "file://" + std::filesystem::absolute(html).string();
+  BrowserView view;
+  EXPECT_EQ(std::system((chromium + "--dump-dom " + url + " > " + dir.file("dom.html") + " 2> " + dir.file("chromium.log")).c_str()), 0);
+  const std::string dom = read_file_bytes(dir.file("dom.html"));
+  const size_t at = dom.find("<body");
+  view.body = at == std::string::npos ? dom.substr(0, 300) : dom.substr(at, dom.find('>', at) - at + 1);
+  const std::string png = dir.file("screenshot.png");
+  EXPECT_EQ(std::system((chromium + "--screenshot=" + png + " " + url + " >> " + dir.file("chromium.log") + " 2>&1").c_str()), 0);
+  if (std::filesystem::exists(png)) view.screenshot = read_image(png, ImageColor::kBgr);
+  return view;
+}
+
+/// Share of the screenshot's pixels that are neither page white nor grey text: what WebGL drew.
+double coloured_share(const Image8& image) {
+  if (image.pixels.empty()) return 0;
+  size_t coloured = 0;
+  for (size_t i = 0; i + 2 < image.pixels.size(); i += 3) {
+    const int b = image.pixels[i], g = image.pixels[i + 1], r = image.pixels[i + 2];
+    coloured += std::max({r, g, b}) - std::min({r, g, b}) > 40;
+  }
+  return static_cast<double>(coloured) / static_cast<double>(image.pixels.size() / 3);
+}
+
 }  // namespace
 
 TEST(Cli, CompareMeasureAndView) {
@@ -799,6 +836,19 @@ TEST(Cli, CompareMeasureAndView) {
     EXPECT_NE(read.find(std::to_string(err.V.rows()) + " " + std::to_string(err.F.rows()) + " True"), std::string::npos) << read;
   }
   EXPECT_EQ(run("convert " + dir.file("err.ply") + " " + dir.file("x.glb") + " --heatmap nope").code, 1);
+  // An interactive page (three.js): it renders in a browser from file://, without errors.
+  r = run(
+      "view " + dir.file("err.ply") + " --scalar signed_distance_mm --colours diverging --html " + dir.file("web/err.html") + " --mkdir",
+      true);
+  ASSERT_EQ(r.code, 0) << r.out;
+  for (const char* f : {"web/three.min.js", "web/three.LICENSE", "web/posekit_viewer.js", "web/err_data.js"})
+    EXPECT_TRUE(std::filesystem::is_regular_file(dir.file(f))) << f;
+  if (const auto page = open_in_chromium(dir, dir.file("web/err.html"))) {
+    EXPECT_NE(page->body.find("data-posekit-viewers=\"ok 1\""), std::string::npos)
+        << page->body << read_file_bytes(dir.file("chromium.log"));
+    EXPECT_EQ(page->body.find("data-posekit-errors"), std::string::npos) << page->body;
+    EXPECT_GT(coloured_share(page->screenshot), 0.02) << "a blank canvas";  // the body's heatmap
+  }
 
   // The viewer off-screen, with the scan overlaid, two meshes side by side.
   r = run("view " + dir.file("err.ply") + "," + subject + " --scalar coverage --scan " + scan + " --png " + dir.file("v.png"));
@@ -963,6 +1013,16 @@ TEST(Cli, Report) {
   ASSERT_EQ(r.code, 0) << r.out;
   EXPECT_TRUE(std::filesystem::is_regular_file(dir.file("report/index.html")));
   EXPECT_NE(r.out.find("peak RSS"), std::string::npos) << r.out;
+  // Each figure also in 3-D: it renders offline in a browser, every figure, no console errors.
+  const std::string index = read_file_bytes(dir.file("report/index.html"));
+  size_t figures = 0;
+  for (size_t at = index.find("data-posekit-figure="); at != std::string::npos; at = index.find("data-posekit-figure=", at + 1)) ++figures;
+  EXPECT_GE(figures, 4u) << "interactive figures in index.html";
+  if (const auto page = open_in_chromium(dir, dir.file("report/index.html"))) {
+    EXPECT_NE(page->body.find("data-posekit-viewers=\"ok " + std::to_string(figures) + "\""), std::string::npos) << page->body;
+    EXPECT_EQ(page->body.find("data-posekit-errors"), std::string::npos) << page->body;
+    EXPECT_GT(coloured_share(page->screenshot), 0.005) << "the first screen shows no figure";
+  }
   EXPECT_NE(r.out.find("posekit report: stages (s): model "), std::string::npos) << r.out;
   EXPECT_EQ(r.out.find("posekit report: reused"), std::string::npos) << r.out;
   const auto first = nlohmann::json::parse(read_file_bytes(dir.file("report/report.json")));

@@ -22,6 +22,15 @@ const std::vector<ColourStop>& colour_map_stops(ColourMapKind kind) {
   return kind == ColourMapKind::kDiverging ? diverging : sequential;
 }
 
+Eigen::Vector3d category_colour(size_t i) {
+  static const double kPalette[16][3] = {{0.90, 0.60, 0.00}, {0.34, 0.71, 0.91}, {0.00, 0.62, 0.45}, {0.94, 0.89, 0.26},
+                                         {0.00, 0.45, 0.70}, {0.84, 0.37, 0.00}, {0.80, 0.47, 0.65}, {0.55, 0.34, 0.16},
+                                         {0.60, 0.60, 0.60}, {0.20, 0.20, 0.55}, {0.65, 0.85, 0.35}, {0.75, 0.10, 0.20},
+                                         {0.45, 0.25, 0.60}, {0.10, 0.40, 0.25}, {1.00, 0.70, 0.75}, {0.30, 0.30, 0.30}};
+  const double* c = kPalette[i % 16];
+  return Eigen::Vector3d(c[0], c[1], c[2]);
+}
+
 Eigen::Vector3d colour_at(ColourMapKind kind, double t) {
   const std::vector<ColourStop>& stops = colour_map_stops(kind);
   t = std::clamp(std::isfinite(t) ? t : 0.5, 0.0, 1.0);

@@ -38,6 +38,7 @@
 #include "posekit/shape/body_features.h"
 #include "posekit/shape/layered_representation.h"
 #include "posekit/viewers/viewer.h"
+#include "posekit/viewers/web_viewer.h"
 #include "report_cache.h"
 
 namespace fs = std::filesystem;
@@ -71,6 +72,7 @@ struct Table {
 
 struct Figure {
   std::string file, title, caption, command;
+  std::string web;  ///< the interactive figure's HTML (web_viewer.h), or empty
 };
 
 /// The report under construction: figures, tables and warnings in reading order.
@@ -117,6 +119,8 @@ struct Document {
     return md.str();
   }
 
+  bool interactive = false;  ///< the web viewer's assets are in the report folder
+
   std::string html(const std::string& title, const std::string& intro) const {
     std::ostringstream h;
     h << "<!DOCTYPE html>\n<html lang=\"en\"><head><meta charset=\"utf-8\"><title>" << html_escape(title)
@@ -124,13 +128,16 @@ struct Document {
          "img{max-width:100%;border:1px solid #ddd}figure{margin:2em 0}figcaption{margin-top:.5em}"
          "code{background:#f4f4f4;padding:.1em .3em}table{border-collapse:collapse;margin:1em 0}"
          "td,th{border:1px solid #ccc;padding:.25em .6em;text-align:right}th{background:#f0f0f0}"
-         "td:first-child,th:first-child{text-align:left}.warn{color:#a40}</style></head><body>\n<h1>"
-      << html_escape(title) << "</h1>\n<p>" << html_escape(intro) << "</p>\n";
+         "td:first-child,th:first-child{text-align:left}.warn{color:#a40}</style>\n"
+      << (interactive ? web_viewer_head() : std::string()) << "</head><body>\n<h1>" << html_escape(title) << "</h1>\n<p>"
+      << html_escape(intro) << "</p>\n";
     for (const auto& item : items) {
       if (item.is_figure) {
         const Figure& f = item.figure;
         h << "<figure><h2>" << html_escape(f.title) << "</h2><a href=\"" << f.file << "\"><img src=\"" << f.file << "\" alt=\""
-          << html_escape(f.title) << "\"></a><figcaption>" << html_escape(f.caption) << "<br>Made by: <code>" << html_escape(f.command)
+          << html_escape(f.title) << "\"></a>";
+        if (!f.web.empty()) h << "<details open><summary>In 3-D (drag to turn, wheel to zoom)</summary>" << f.web << "</details>";
+        h << "<figcaption>" << html_escape(f.caption) << "<br>Made by: <code>" << html_escape(f.command)
           << "</code></figcaption></figure>\n";
       } else {
         const Table& t = item.table;
@@ -222,6 +229,12 @@ class ReportWriter {
     plain.panel_width = 300;
     plain.panel_height = 520;
     co.threads = o.threads;
+    try {  // the interactive figures' scripts (three.js from npm at build time)
+      write_web_viewer_assets(out_dir);
+      doc.interactive = true;
+    } catch (const Error& e) {
+      doc.warnings.push_back(std::string("no interactive figures: ") + e.what());
+    }
   }
 
   /// The pose model: given, reused from the cache, or trained on the dataset (with its segmentation prior).
@@ -912,6 +925,11 @@ class ReportWriter {
       render_panels_png(panels, v, (fs::path(out_dir) / file).string());
       f.file = file;
       summary.files.push_back(file);
+      if (doc.interactive) {
+        const std::string id = fs::path(file).stem().string();
+        f.web = write_web_figure(out_dir, id, panels, v);
+        summary.files.push_back(id + ".js");
+      }
       doc.figure(std::move(f));
     } catch (const Error& e) {
       doc.warnings.push_back(f.title + ": not made (" + e.what() + ")");

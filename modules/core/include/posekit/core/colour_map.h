@@ -30,6 +30,9 @@ const std::vector<ColourStop>& colour_map_stops(ColourMapKind kind);
 /// The colour at t in [0, 1] (clamped) of a sequential or diverging map.
 Eigen::Vector3d colour_at(ColourMapKind kind, double t);
 
+/// Distinct colours for categories (labels such as parts), cycled beyond 16, RGB in [0, 1].
+Eigen::Vector3d category_colour(size_t i);
+
 /// The default range of a heatmap of these values (NaNs ignored), from the data's 95th percentile:
 /// diverging, +-(95th percentile of |value|); sequential, [min(5th percentile, 0), 95th percentile].
 /// A few outliers then neither wash the map out nor hide small errors; values beyond it saturate.
