@@ -38,6 +38,7 @@
 #include <vtkVariant.h>
 #include <vtkWindowToImageFilter.h>
 
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
@@ -46,6 +47,7 @@
 #include <memory>
 #include <sstream>
 #include <string>
+#include <vector>
 
 #include "posekit/core/error.h"
 #include "posekit/core/plugin.h"
@@ -203,10 +205,22 @@ vtkSmartPointer<vtkPolyData> cloud_polydata(const PointCloud& cloud, size_t max_
   return poly;
 }
 
-/// Frames the mesh (not the overlay, whose outliers may lie far away) from a preset direction.
-void place_camera(vtkRenderer* renderer, vtkActor* mesh, CameraPreset preset, double aspect) {
+/// The box of the points without their outliers (the 1st to 99th percentile on each axis).
+void robust_bounds(const Eigen::MatrixXd& P, double bounds[6]) {
+  for (int k = 0; k < 3; ++k) {
+    std::vector<double> v(P.col(k).data(), P.col(k).data() + P.rows());
+    std::sort(v.begin(), v.end());
+    bounds[2 * k] = v[static_cast<size_t>(0.01 * static_cast<double>(v.size() - 1))];
+    bounds[2 * k + 1] = v[static_cast<size_t>(0.99 * static_cast<double>(v.size() - 1))];
+  }
+}
+
+/// Frames the mesh (not the overlay, whose outliers may lie far away) from a preset direction; a
+/// panel of points alone (a scan) by their box without outliers.
+void place_camera(vtkRenderer* renderer, const ViewPanel& panel, vtkActor* mesh, CameraPreset preset, double aspect) {
   double bounds[6];
-  mesh->GetBounds(bounds);
+  if (mesh) mesh->GetBounds(bounds);
+  else robust_bounds(panel.overlay.P, bounds);
   renderer->ResetCamera(bounds);
   vtkCamera* camera = renderer->GetActiveCamera();
   double focal[3];
@@ -235,7 +249,8 @@ Scene build_scene(const std::vector<ViewPanel>& panels, const ViewOptions& o) {
   if (panels.empty()) throw InvalidInput("viewer: nothing to show");
   std::vector<const Eigen::VectorXd*> values;
   for (const auto& p : panels) {
-    if (p.mesh.V.rows() == 0 || p.mesh.F.rows() == 0) throw InvalidInput("viewer: panel '" + p.caption + "' has an empty mesh");
+    if ((p.mesh.V.rows() == 0 || p.mesh.F.rows() == 0) && p.overlay.size() == 0)
+      throw InvalidInput("viewer: panel '" + p.caption + "' has neither a mesh nor points");
     if (!p.mesh.V.allFinite()) throw InvalidInput("viewer: panel '" + p.caption + "' has a non-finite vertex");
     if (p.scalar.empty()) continue;
     const auto it = p.mesh.vertex_scalars.find(p.scalar);
@@ -269,35 +284,40 @@ Scene build_scene(const std::vector<ViewPanel>& panels, const ViewOptions& o) {
     lights->AddLightsToRenderer(renderer);
     const double x0 = static_cast<double>(i) * o.panel_width / width, x1 = static_cast<double>(i + 1) * o.panel_width / width;
     renderer->SetViewport(x0, 0, x1, 1);
-    vtkNew<vtkPolyDataNormals> normals;
-    normals->SetInputData(to_polydata(p.mesh, p.scalar));
-    normals->SplittingOff();
-    normals->ConsistencyOff();
-    auto mapper = vtkSmartPointer<vtkPolyDataMapper>::New();
-    mapper->SetInputConnection(normals->GetOutputPort());
-    auto actor = vtkSmartPointer<vtkActor>::New();
-    actor->SetMapper(mapper);
-    if (p.scalar.empty()) {
-      mapper->ScalarVisibilityOff();
-      actor->GetProperty()->SetColor(0.87, 0.74, 0.64);
-    } else {
-      mapper->SetLookupTable(lookup);
-      mapper->SetScalarRange(lo, hi);
-      mapper->SetScalarModeToUsePointData();
-      mapper->ScalarVisibilityOn();
-      // Labels are not interpolated (half-way between two parts is no part).
-      mapper->SetInterpolateScalarsBeforeMapping(o.colour_map.kind != ColourMapKind::kCategorical);
-      mapper->SetColorModeToMapScalars();
+    vtkSmartPointer<vtkActor> actor;  // none in a panel of points alone
+    if (p.mesh.F.rows() > 0) {
+      vtkNew<vtkPolyDataNormals> normals;
+      normals->SetInputData(to_polydata(p.mesh, p.scalar));
+      normals->SplittingOff();
+      normals->ConsistencyOff();
+      auto mapper = vtkSmartPointer<vtkPolyDataMapper>::New();
+      mapper->SetInputConnection(normals->GetOutputPort());
+      actor = vtkSmartPointer<vtkActor>::New();
+      actor->SetMapper(mapper);
+      if (p.scalar.empty()) {
+        mapper->ScalarVisibilityOff();
+        actor->GetProperty()->SetColor(0.87, 0.74, 0.64);
+      } else {
+        mapper->SetLookupTable(lookup);
+        mapper->SetScalarRange(lo, hi);
+        mapper->SetScalarModeToUsePointData();
+        mapper->ScalarVisibilityOn();
+        // Labels are not interpolated (half-way between two parts is no part).
+        mapper->SetInterpolateScalarsBeforeMapping(o.colour_map.kind != ColourMapKind::kCategorical);
+        mapper->SetColorModeToMapScalars();
+      }
+      actor->GetProperty()->SetSpecular(0.15);
+      renderer->AddActor(actor);
     }
-    actor->GetProperty()->SetSpecular(0.15);
-    renderer->AddActor(actor);
     scene.mesh_actors.push_back(actor);
     if (p.overlay.size() > 0) {
       auto cmapper = vtkSmartPointer<vtkPolyDataMapper>::New();
       cmapper->SetInputData(cloud_polydata(p.overlay, 80000));
       auto cactor = vtkSmartPointer<vtkActor>::New();
       cactor->SetMapper(cmapper);
-      cactor->GetProperty()->SetColor(0.15, 0.15, 0.2);
+      // Over a body, light and fine, so that the body stays readable; alone, darker.
+      if (actor) cactor->GetProperty()->SetColor(0.45, 0.47, 0.55);
+      else cactor->GetProperty()->SetColor(0.2, 0.22, 0.3);
       cactor->GetProperty()->SetPointSize(static_cast<float>(o.point_size));
       renderer->AddActor(cactor);
       scene.overlay_actors.push_back(cactor);
@@ -307,7 +327,7 @@ Scene build_scene(const std::vector<ViewPanel>& panels, const ViewOptions& o) {
     if (!p.caption.empty()) {
       auto text = vtkSmartPointer<vtkTextActor>::New();
       text->SetInput(p.caption.c_str());
-      text->GetTextProperty()->SetFontSize(18);
+      text->GetTextProperty()->SetFontSize(std::clamp(o.panel_width / 11, 10, 18));  // narrow panels: smaller captions
       text->GetTextProperty()->SetColor(0.1, 0.1, 0.1);
       text->GetTextProperty()->SetJustificationToCentered();
       text->GetTextProperty()->SetVerticalJustificationToTop();
@@ -315,7 +335,7 @@ Scene build_scene(const std::vector<ViewPanel>& panels, const ViewOptions& o) {
       text->GetPositionCoordinate()->SetValue(0.5, 0.97);
       renderer->AddActor2D(text);
     }
-    place_camera(renderer, actor, p.camera, static_cast<double>(o.panel_width) / o.panel_height);
+    place_camera(renderer, p, actor, p.camera, static_cast<double>(o.panel_width) / o.panel_height);
     scene.window->AddRenderer(renderer);
     scene.renderers.push_back(renderer);
     scene.panels.push_back(&p);
@@ -379,6 +399,7 @@ class PickingStyle : public vtkInteractorStyleTrackballCamera {
       vtkNew<vtkCellPicker> picker;
       picker->SetTolerance(0.0005);
       picker->PickFromListOn();
+      if (!scene->mesh_actors[i]) continue;  // points alone
       picker->AddPickList(scene->mesh_actors[i]);
       if (!picker->Pick(pos[0], pos[1], 0, scene->renderers[i]) || picker->GetPointId() < 0) continue;
       const ViewPanel& p = *scene->panels[i];
@@ -407,7 +428,7 @@ class PickingStyle : public vtkInteractorStyleTrackballCamera {
       preset = (preset + 1) % 3;
       state->camera = static_cast<CameraPreset>(preset);
       for (size_t i = 0; i < scene->renderers.size(); ++i)
-        place_camera(scene->renderers[i], scene->mesh_actors[i], static_cast<CameraPreset>(preset), scene->aspect);
+        place_camera(scene->renderers[i], *scene->panels[i], scene->mesh_actors[i], static_cast<CameraPreset>(preset), scene->aspect);
       this->Interactor->Render();
       return;
     }

@@ -52,6 +52,13 @@ constexpr const char* kViewerScript = R"JS((function () {
     const scene = new THREE.Scene(), group = new THREE.Group(), geometries = [];
     scene.add(group);
     for (const p of figure.panels) {
+      if (p.points) {  // light and fine over a body, darker alone (a scan)
+        const pg = new THREE.BufferGeometry();
+        pg.setAttribute('position', new THREE.BufferAttribute(floats(p.points), 3));
+        group.add(new THREE.Points(pg, new THREE.PointsMaterial(p.positions ? {color: 0x737888, size: 0.0025, transparent: true, opacity: 0.5}
+                                                                              : {color: 0x333a4c, size: 0.003})));
+      }
+      if (!p.positions) { geometries.push(null); continue; }
       const g = new THREE.BufferGeometry();
       g.setAttribute('position', new THREE.BufferAttribute(floats(p.positions), 3));
       g.setAttribute('color', new THREE.BufferAttribute(bytes(p.colours), 3, true));
@@ -62,11 +69,6 @@ constexpr const char* kViewerScript = R"JS((function () {
       geometries.push(g);
       g.computeVertexNormals();
       group.add(new THREE.Mesh(g, new THREE.MeshLambertMaterial({vertexColors: true, side: THREE.DoubleSide})));
-      if (p.points) {
-        const pg = new THREE.BufferGeometry();
-        pg.setAttribute('position', new THREE.BufferAttribute(floats(p.points), 3));
-        group.add(new THREE.Points(pg, new THREE.PointsMaterial({color: 0x404040, size: 0.0025, transparent: true, opacity: 0.5})));
-      }
     }
     scene.add(new THREE.HemisphereLight(0xffffff, 0x707070, 0.55));
     const key = new THREE.DirectionalLight(0xffffff, 0.6), fill = new THREE.DirectionalLight(0xffffff, 0.2);
@@ -174,6 +176,19 @@ std::string triangles_json(const std::vector<ViewPanel>& panels, size_t i) {
          (wide ? base64(full.data(), full.size() * 4) : base64(narrow.data(), narrow.size() * 2)) + "\"";
 }
 
+/// The box a panel's body takes (of its points alone, without their outliers, when it has no mesh).
+std::pair<Eigen::Vector3d, Eigen::Vector3d> panel_box(const ViewPanel& p) {
+  if (p.mesh.F.rows() > 0) return {p.mesh.V.colwise().minCoeff().transpose(), p.mesh.V.colwise().maxCoeff().transpose()};
+  Eigen::Vector3d lo, hi;
+  for (int k = 0; k < 3; ++k) {
+    std::vector<double> v(p.overlay.P.col(k).data(), p.overlay.P.col(k).data() + p.overlay.P.rows());
+    std::sort(v.begin(), v.end());
+    lo[k] = v[static_cast<size_t>(0.01 * static_cast<double>(v.size() - 1))];
+    hi[k] = v[static_cast<size_t>(0.99 * static_cast<double>(v.size() - 1))];
+  }
+  return {lo, hi};
+}
+
 /// The panel's vertex colours as the PNG figures have them.
 RowMatrixX3u8 panel_colours(const ViewPanel& panel, const ColourMap& map, double lo, double hi) {
   const Eigen::Index n = panel.mesh.V.rows();
@@ -259,15 +274,18 @@ std::string write_web_figure(const std::string& dir, const std::string& id, cons
   if (panels.empty()) throw InvalidInput("web figure " + id + ": no panels");
   std::vector<const Eigen::VectorXd*> values;
   for (const ViewPanel& p : panels) {
-    if (p.mesh.V.rows() == 0 || p.mesh.F.rows() == 0) throw InvalidInput("web figure " + id + ": an empty mesh");
+    if ((p.mesh.V.rows() == 0 || p.mesh.F.rows() == 0) && p.overlay.size() == 0)
+      throw InvalidInput("web figure " + id + ": an empty panel");
     const auto it = p.mesh.vertex_scalars.find(p.scalar);
     if (!p.scalar.empty() && it != p.mesh.vertex_scalars.end()) values.push_back(&it->second);
   }
   const auto [lo, hi] = colour_range(options.colour_map, values);
   // Panels side by side, a body's width and a half apart, each turned to its preset's side.
   double spacing = 0;
-  for (const ViewPanel& p : panels)
-    spacing = std::max(spacing, 1.5 * (p.mesh.V.colwise().maxCoeff() - p.mesh.V.colwise().minCoeff()).maxCoeff() / 2);
+  for (const ViewPanel& p : panels) {
+    const auto [lo_corner, hi_corner] = panel_box(p);
+    spacing = std::max(spacing, 1.5 * (hi_corner - lo_corner).maxCoeff() / 2);
+  }
   std::ostringstream js;
   js << "(window.posekitFigures = window.posekitFigures || []).push({\"id\": " << json_string(id)
      << ", \"aspect\": " << static_cast<double>(options.panel_height) / (options.panel_width * static_cast<double>(panels.size()))
@@ -275,12 +293,15 @@ std::string write_web_figure(const std::string& dir, const std::string& id, cons
   for (size_t i = 0; i < panels.size(); ++i) {
     const ViewPanel& p = panels[i];
     const Eigen::Matrix3d R = preset_turn(p.camera);
-    const Eigen::Vector3d centre = 0.5 * (p.mesh.V.colwise().maxCoeff() + p.mesh.V.colwise().minCoeff()).transpose();
+    const auto [lo_corner, hi_corner] = panel_box(p);
+    const Eigen::Vector3d centre = 0.5 * (lo_corner + hi_corner);
     const Eigen::Vector3d offset = Eigen::Vector3d(spacing * static_cast<double>(i), 0, 0) - R * Eigen::Vector3d(centre.x(), 0, centre.z());
-    const RowMatrixX3u8 colours = panel_colours(p, options.colour_map, lo, hi);
-    const Eigen::Matrix<std::uint8_t, Eigen::Dynamic, 3, Eigen::RowMajor> rgb = colours;
-    js << (i ? ", " : "") << "{\"caption\": " << json_string(p.caption) << ", \"positions\": \"" << float_rows(p.mesh.V, R, offset, 1)
-       << "\", \"colours\": \"" << base64(rgb.data(), static_cast<size_t>(rgb.size())) << "\", " << triangles_json(panels, i);
+    js << (i ? ", " : "") << "{\"caption\": " << json_string(p.caption);
+    if (p.mesh.F.rows() > 0) {
+      const Eigen::Matrix<std::uint8_t, Eigen::Dynamic, 3, Eigen::RowMajor> rgb = panel_colours(p, options.colour_map, lo, hi);
+      js << ", \"positions\": \"" << float_rows(p.mesh.V, R, offset, 1) << "\", \"colours\": \""
+         << base64(rgb.data(), static_cast<size_t>(rgb.size())) << "\", " << triangles_json(panels, i);
+    }
     if (p.overlay.size() > 0)
       js << ", \"points\": \"" << float_rows(p.overlay.P, R, offset, std::max<Eigen::Index>(1, (p.overlay.size() + 59999) / 60000)) << "\"";
     js << "}";

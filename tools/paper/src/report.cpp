@@ -1,6 +1,7 @@
 #include "posekit/paper/report.h"
 
 #include <algorithm>
+#include <array>
 #include <atomic>
 #include <cmath>
 #include <ctime>
@@ -553,60 +554,93 @@ class ReportWriter {
     tick("scans");
   }
 
-  /// Figure 7: all female and all male subjects in the standard pose.
-  void figure7() {
-    // Figure 7: all female and all male subjects in the standard pose.
-    for (const char* gender : {"female", "male"}) {
-      std::vector<ViewPanel> panels;
-      for (const auto& s : subjects) {
-        if (s.value("gender", "") != gender || !rests.count(s.value("id", ""))) continue;
-        ViewPanel p;
-        p.mesh = rests[s.value("id", "")];
-        p.caption = s.value("id", "") + " BMI " + fixed(s.value("bmi", 0.0), 1);
-        panels.push_back(std::move(p));
-      }
-      if (panels.empty()) continue;
-      ViewOptions v = plain;
-      v.panel_width = 220;
-      v.panel_height = 440;
-      render(panels, v, std::string("fig7_") + gender + "_subjects.png",
-             {"", std::string("Figure 7: all ") + gender + " subjects in the standard pose",
-              "The customized " + std::string(gender) + " subjects of the dataset, two per BMI class, each in its own topology.",
-              "posekit dataset make --out " + dir + " (subjects/<id>/rest.ply)"});
+  /// The poses of Figures 7 and 8: the dataset's held-out poses of the subjects and the pose
+  /// dataset's two most bent poses (the largest joint rotation, on two different joints).
+  std::vector<std::pair<std::string, PartPose>> dynamic_poses() {
+    std::vector<std::pair<std::string, PartPose>> poses;
+    for (const auto& s : subjects) {
+      for (const auto& p : s.value("posed", nlohmann::json::array()))
+        poses.emplace_back(p.value("pose", ""), read_part_pose(path_in(p.at("pose_json").get<std::string>())));
+      if (!poses.empty()) break;
     }
-    tick("figure 7");
+    struct Bent {
+      double angle;
+      int joint;
+      std::string name;
+      PartPose pose;
+    };
+    std::vector<Bent> bent;
+    for (const auto& p : manifest.value("pose_dataset", nlohmann::json::object()).value("poses", nlohmann::json::array())) {
+      const PartPose pose = read_part_pose(path_in(p.at("pose").get<std::string>()));
+      Bent b{0, -1, p.value("name", ""), pose};
+      for (int j = 0; j < kNumJoints; ++j)
+        if (pose.joint(j).norm() > b.angle) b.angle = pose.joint(j).norm(), b.joint = j;
+      bent.push_back(b);
+    }
+    std::sort(bent.begin(), bent.end(), [](const Bent& a, const Bent& b) { return a.angle > b.angle; });
+    int first_joint = -1;
+    for (const Bent& b : bent) {
+      if (b.joint < 0 || b.joint == first_joint) continue;
+      poses.emplace_back(b.name, b.pose);
+      if (first_joint >= 0) break;
+      first_joint = b.joint;
+    }
+    return poses;
   }
 
-  /// Figure 8: every subject posed by our method in one held-out pose.
-  void figure8() {
-    // Figure 8: every subject posed by our method in one held-out pose.
-    const std::string pose8 = "squat_half";
+  /// Two subjects of a sex with a posable model: its lowest and highest BMI (the paper's Figure 9:
+  /// two women), others when there are fewer.
+  std::vector<std::string> two_subjects(const std::string& gender) {
+    std::vector<std::pair<double, std::string>> of_sex, others;
+    for (const auto& s : subjects) {
+      const std::string id = s.value("id", "");
+      if (!synths.count(id)) continue;
+      (s.value("gender", "") == gender ? of_sex : others).emplace_back(s.value("bmi", 0.0), id);
+    }
+    std::sort(of_sex.begin(), of_sex.end());
+    std::vector<std::string> ids;
+    if (!of_sex.empty()) ids.push_back(of_sex.front().second);
+    if (of_sex.size() > 1) ids.push_back(of_sex.back().second);
+    for (size_t k = 0; ids.size() < 2 && k < others.size(); ++k) ids.push_back(others[k].second);
+    return ids;
+  }
+
+  /// Figures 7 and 8 (the paper's "dynamic deformed female / male models"): two subjects of each sex
+  /// posed by the learned method in the held-out poses and the two most bent poses of the pose
+  /// dataset ("even in poses with maximum bending angles").
+  void figures7and8() {
+    const std::vector<std::pair<std::string, PartPose>> poses = dynamic_poses();
+    int number = 7;
     for (const char* gender : {"female", "male"}) {
       std::vector<ViewPanel> panels;
-      for (const auto& s : subjects) {
-        const std::string id = s.value("id", "");
-        if (s.value("gender", "") != gender || !synths.count(id)) continue;
-        for (const auto& p : s.value("posed", nlohmann::json::array())) {
-          if (p.value("pose", "") != pose8) continue;
+      std::string names;
+      for (const std::string& id : two_subjects(gender)) {
+        for (const auto& [name, pose] : poses) {
           ViewPanel panel;
           panel.mesh = rests[id];
-          panel.mesh.V = synths[id]->pose(read_part_pose(path_in(p.at("pose_json").get<std::string>())));
-          panel.caption = id;
+          panel.mesh.V = synths[id]->pose(pose);
+          panel.caption = id + " " + name;
+          panel.camera = view_showing_motion(rests[id].V, panel.mesh.V);
           panels.push_back(std::move(panel));
         }
+        names += (names.empty() ? "" : " and ") + id;
       }
+      const std::string n = std::to_string(number++);
       if (panels.empty()) continue;
+      std::string pose_names;
+      for (const auto& [name, pose] : poses) pose_names += (pose_names.empty() ? "" : ", ") + name;
       ViewOptions v = plain;
-      v.panel_width = 220;
-      v.panel_height = 440;
-      for (auto& p : panels) p.camera = CameraPreset::kSide;
-      render(panels, v, std::string("fig8_") + gender + "_posed.png",
-             {"", std::string("Figure 8: posed ") + gender + " subjects",
-              "Every " + std::string(gender) + " subject put into the held-out pose '" + pose8 +
-                  "' by the learned method, seen from the side.",
-              "posekit pose --model model.pkm --subject <rest.ply> --pose <subject>/posed/" + pose8 + ".json --out posed.ply"});
+      v.panel_width = 160;
+      v.panel_height = 400;
+      render(panels, v, "fig" + n + "_" + gender + "_poses.png",
+             {"", "Figure " + n + ": dynamic deformed " + gender + " models",
+              "Two " + std::string(gender) + " subjects (" + names +
+                  ": the lowest and highest BMI) posed by the learned method (Eq. 5-6) in " + pose_names +
+                  ": the held-out poses and the pose dataset's two most bent poses, as the paper shows them \"even in poses " +
+                  "with maximum bending angles\". A pose that moves mostly towards the camera is seen from the side.",
+              "posekit pose --model model.pkm --subject <rest.ply> --pose <pose.json> --out posed.ply"});
     }
-    tick("figure 8");
+    tick("figures 7 and 8");
   }
 
   /// The poses of the posed scans fitted, two at a time (each is single-threaded and its own; the
@@ -679,8 +713,9 @@ class ReportWriter {
                       "(posekit fit: no markers, no joint angles); 'dataset': the pose's own joint rotations. Vertex error: "
                       "mean distance to the true posed mesh; joint angle error: mean over the root and 15 joints against "
                       "the dataset's pose."};
-    std::vector<ViewPanel> fig9;
-    int fig9_subjects = 0;
+    std::map<std::pair<std::string, std::string>, std::array<double, 6>> summary_of;  // sums and count per (pose from, method)
+    std::vector<ViewPanel> fig9, fig9_heat;
+    const std::vector<std::string> fig9_ids = two_subjects("female");
     const std::vector<FitTask> fits = fit_posed_scans();
     auto fit_of = [&](const std::string& id, const std::string& pose, PoseMethod m) -> const FitTask& {
       for (const FitTask& t : fits)
@@ -708,23 +743,33 @@ class ReportWriter {
                 truth.rows() == V.rows() ? fixed(1000 * (V - truth).rowwise().norm().mean(), 2) : std::string("");
             double angle = rotation_difference(used.root_rotation, part_pose.root_rotation);
             for (int j = 0; j < kNumJoints; ++j) angle += rotation_difference(used.joint(j), part_pose.joint(j));
+            auto& sums = summary_of[{from, pose_method_name(m)}];
+            sums[0] += r.scan_stats.mean_mm, sums[1] += r.scan_stats.rms_mm, sums[2] += r.scan_stats.p95_mm;
+            sums[3] += truth.rows() == V.rows() ? 1000 * (V - truth).rowwise().norm().mean() : 0;
+            sums[4] += angle / (kNumJoints + 1) * 180 / M_PI, sums[5] += 1;
             posed_table.rows.push_back({id, pose, from, pose_method_name(m), fixed(r.scan_stats.mean_mm, 2), fixed(r.scan_stats.rms_mm, 2),
                                         fixed(r.scan_stats.p95_mm, 2), std::to_string(r.scan_stats.outliers), vertex_error,
                                         fixed(angle / (kNumJoints + 1) * 180 / M_PI, 1)});
-            if (from == "fit" && m == PoseMethod::kLearned && pose == "reach_forward" && fig9_subjects < 3) {
-              ViewPanel a;
-              a.mesh = posed;
-              a.overlay = scan;
-              a.caption = id + " fitted + scan";
-              a.camera = CameraPreset::kSide;
-              ViewPanel b;
-              b.mesh = with_scalar(posed, "model_to_scan_mm", 1000 * r.model_to_scan);
-              b.scalar = "model_to_scan_mm";
-              b.caption = id + " vs scan";
-              b.camera = CameraPreset::kSide;
-              fig9.push_back(std::move(a));
-              fig9.push_back(std::move(b));
-              ++fig9_subjects;
+            // Figure 9 as the paper composes it: two women in three poses, the posed model beside its
+            // scan, each readable; the distances in a figure of their own.
+            if (from == "fit" && m == PoseMethod::kLearned && pose != "rest" &&
+                std::find(fig9_ids.begin(), fig9_ids.end(), id) != fig9_ids.end()) {
+              ViewPanel model_panel;
+              model_panel.mesh = posed;
+              model_panel.caption = id + " " + pose;
+              model_panel.camera = view_showing_motion(rests[id].V, posed.V);
+              ViewPanel scan_panel;
+              scan_panel.overlay = scan;
+              scan_panel.caption = "its scan";
+              scan_panel.camera = model_panel.camera;
+              ViewPanel heat;
+              heat.mesh = with_scalar(posed, "model_to_scan_mm", 1000 * r.model_to_scan);
+              heat.scalar = "model_to_scan_mm";
+              heat.caption = id + " " + pose;
+              heat.camera = model_panel.camera;
+              fig9.push_back(std::move(model_panel));
+              fig9.push_back(std::move(scan_panel));
+              fig9_heat.push_back(std::move(heat));
             }
           };
           for (PoseMethod m : {PoseMethod::kLearned, PoseMethod::kLbs}) {
@@ -742,16 +787,36 @@ class ReportWriter {
     }
     if (!fig9.empty()) {
       ViewOptions v = plain;
-      v.panel_width = 260;
-      v.panel_height = 480;
-      v.colour_map = signed_error_map();
+      v.panel_width = 150;
+      v.panel_height = 400;
+      v.point_size = 1.0;
       render(fig9, v, "fig9_posed_vs_scans.png",
-             {"", "Figure 9: posed models beside their scans",
-              "Subjects in 'reach_forward' posed by the learned method in the pose fitted to their scan (no markers, no "
-              "joint angles), with the scan overlaid (dark points), and the model coloured by its signed distance to it.",
-              "posekit fit --model model.pkm --subject <rest.ply> --target <subject>/reach_forward.pcd --out fitted.ply && "
-              "posekit compare fitted.ply <subject>/reach_forward.pcd --png heatmap.png"});
+             {"", "Figure 9: posed models and their scans",
+              "Two subjects in the scanned poses: each model posed by the learned method in the pose fitted to the scan "
+              "(posekit fit: no markers, no joint angles), beside the scan itself (the simulated scanner's points).",
+              "posekit fit --model model.pkm --subject <rest.ply> --target <subject>/<pose>.pcd --out fitted.ply"});
+      ViewOptions h = plain;
+      h.panel_width = 200;
+      h.panel_height = 440;
+      h.colour_map = signed_error_map();
+      render(fig9_heat, h, "fig9b_distances_to_scans.png",
+             {"", "Figure 9b: the models of Figure 9 against their scans",
+              "The same posed models coloured by their signed distance to the scan (positive: the scan lies outside the "
+              "model; grey: no scan data nearby), on the scale of the data's 95th percentile.",
+              "posekit compare fitted.ply <subject>/<pose>.pcd --png heatmap.png"});
     }
+    Table overview{"Posed models against posed scans: summary",
+                   {"pose from", "method", "cases", "scan to model mean mm", "RMS mm", "95th pct mm", "vertex error vs truth mm",
+                    "joint angle error deg"},
+                   {},
+                   "Means over every subject and scanned pose of the table below (one row per subject, pose, pose source and "
+                   "method)."};
+    for (const auto& [key, sums] : summary_of) {
+      const double n = std::max(sums[5], 1.0);
+      overview.rows.push_back({key.first, key.second, std::to_string(static_cast<int>(sums[5])), fixed(sums[0] / n, 2),
+                               fixed(sums[1] / n, 2), fixed(sums[2] / n, 2), fixed(sums[3] / n, 2), fixed(sums[4] / n, 1)});
+    }
+    if (!overview.rows.empty()) doc.table(overview);
     doc.table(posed_table);
     tick("figure 9");
   }
@@ -945,7 +1010,7 @@ class ReportWriter {
   std::string cmd;
   Document doc;
   ReportSummary summary;
-  const int total_steps = 11;
+  const int total_steps = 10;
   int step = 0;
   Stopwatch stage_clock;
   const report_detail::ResultCache cache;
@@ -971,8 +1036,7 @@ ReportSummary write_report(const std::string& dir, const std::string& out_dir, c
   report.customization_from_photos();
   report.figures5_and_6();
   report.scans_and_figure4();
-  report.figure7();
-  report.figure8();
+  report.figures7and8();
   report.figure9();
   report.table1();
   report.pose_accuracy();
