@@ -85,7 +85,7 @@ girth_names: list[str]
 joint_names: list[str]
 
 def measure(V: numpy.ndarray, F: Any = ..., unit: str = ..., up: str = ..., forward: str = ...) -> dict:
-    """Stature and girths of a standing body: a mesh (V, F) or, without F, a scan's points, in any unit and axes as the CLI reads them: unit m, dm, cm, mm or 'auto' (the largest extent tells), up and forward axes ('+Z', '-y', ...) or 'auto' (detected). Values in metres; each girth's 'point' in the caller's unit and axes. Returns {'stature', 'stature_measured', 'stature_note', 'girths': {name: {'value', 'measured', 'note', 'point'}}, 'warnings', 'frame': {'unit', 'unit_detected', 'up', 'forward', 'description'}}."""
+    """Stature and girths of a standing body: a mesh (V, F) or, without F, a scan's points, in any unit and axes as the CLI reads them: unit m, dm, cm, mm or 'auto' (the largest extent tells), up and forward axes ('+Z', '-y', ...) or 'auto' (detected). Values in metres; each girth's 'point' and 'tape' (its path, a closed polyline, #K x 3; empty when not measured) in the caller's unit and axes. Returns {'stature', 'stature_measured', 'stature_note', 'girths': {name: {'value', 'measured', 'note', 'point', 'tape'}}, 'warnings', 'frame': {'unit', 'unit_detected', 'up', 'forward', 'description'}}."""
 
 part_names: list[str]
 

@@ -63,6 +63,7 @@ py::dict measurements_dict(const BodyMeasurements& m) {
     d["measured"] = g.measured;
     d["note"] = g.note;
     d["point"] = Eigen::Vector3d(g.point);
+    d["tape"] = Vertices(g.tape.rows() ? Eigen::MatrixXd(g.tape) : Eigen::MatrixXd(0, 3));
     girths[py::str(g.name)] = d;
   }
   py::dict out;
@@ -328,7 +329,10 @@ void bind_body_functions(py::module_& m) {
           frame = bring_to_posekit_frame(is_mesh ? &mesh.V : &points, is_mesh ? &mesh.F : nullptr, nullptr, unit, up, forward);
           result = is_mesh ? measure_body(mesh.V, mesh.F) : measure_point_cloud(points);
         }
-        for (Girth& g : result.girths) g.point = in_callers_frame(frame, g.point.transpose()).transpose();
+        for (Girth& g : result.girths) {
+          g.point = in_callers_frame(frame, g.point.transpose()).transpose();
+          if (g.tape.rows()) g.tape = in_callers_frame(frame, g.tape);
+        }
         py::dict out = measurements_dict(result);
         for (const auto& w : frame.orientation.warnings) out["warnings"].cast<py::list>().append(w);
         out["frame"] = frame_dict(frame);
@@ -337,8 +341,9 @@ void bind_body_functions(py::module_& m) {
       py::arg("V"), py::arg("F") = py::none(), py::arg("unit") = "auto", py::arg("up") = "auto", py::arg("forward") = "auto",
       "Stature and girths of a standing body: a mesh (V, F) or, without F, a scan's points, in any unit and axes as "
       "the CLI reads them: unit m, dm, cm, mm or 'auto' (the largest extent tells), up and forward axes ('+Z', '-y', "
-      "...) or 'auto' (detected). Values in metres; each girth's 'point' in the caller's unit and axes. Returns "
-      "{'stature', 'stature_measured', 'stature_note', 'girths': {name: {'value', 'measured', 'note', 'point'}}, "
+      "...) or 'auto' (detected). Values in metres; each girth's 'point' and 'tape' (its path, a closed polyline, "
+      "#K x 3; empty when not measured) in the caller's unit and axes. Returns "
+      "{'stature', 'stature_measured', 'stature_note', 'girths': {name: {'value', 'measured', 'note', 'point', 'tape'}}, "
       "'warnings', 'frame': {'unit', 'unit_detected', 'up', 'forward', 'description'}}.");
 
   m.def(

@@ -2,6 +2,8 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <filesystem>
+#include <functional>
 #include <future>
 #include <iomanip>
 #include <iostream>
@@ -15,6 +17,7 @@
 #include "posekit/core/data_root.h"
 #include "posekit/core/error.h"
 #include "posekit/fitting/fitted_measurements.h"
+#include "posekit/io/atomic_file.h"
 #include "posekit/io/mesh_io.h"
 #include "posekit/io/point_cloud_io.h"
 #include "posekit/population/survey_plausibility.h"
@@ -109,6 +112,50 @@ nlohmann::ordered_json rule_based_cross_check(const RuleMeasurement& rule, const
 
 /// measure --body-model: the body model fitted to the body; landmark levels from the fitted body,
 /// girths on the body's own surface with the arms and the other leg left out by the fit's labels.
+/// --contours FILE: each measured girth's tape path (a closed polyline) for other tools to draw over
+/// the body: OBJ (one object per girth, `l` closing on its first corner) or JSON, by the extension;
+/// `to_output` takes posekit's metres to the output's frame, `unit` the output's unit.
+void write_contours(const std::string& path, const BodyMeasurements& m,
+                    const std::function<Eigen::Vector3d(const Eigen::Vector3d&)>& to_output, Unit unit) {
+  std::string ext = std::filesystem::path(path).extension().string();
+  std::transform(ext.begin(), ext.end(), ext.begin(), [](unsigned char c) { return static_cast<char>(std::tolower(c)); });
+  if (ext != ".obj" && ext != ".json") throw UsageError("--contours " + path + ": expected a .obj or .json file");
+  const double scale = 1.0 / metres_per_unit(unit);
+  int written = 0;
+  for (const Girth& g : m.girths) written += g.measured && g.tape.rows() >= 3;
+  if (written == 0) throw InvalidInput("--contours: no girth was measured, so there is no tape line to write");
+  write_file_atomically(path, [&](std::ostream& out) {
+    if (ext == ".json") {
+      nlohmann::ordered_json j = {{"unit", unit_name(unit)}, {"girths", nlohmann::ordered_json::object()}};
+      for (const Girth& g : m.girths) {
+        if (!g.measured || g.tape.rows() < 3) continue;
+        nlohmann::ordered_json points = nlohmann::ordered_json::array();
+        for (Eigen::Index k = 0; k < g.tape.rows(); ++k) {
+          const Eigen::Vector3d p = scale * to_output(g.tape.row(k).transpose());
+          points.push_back({p.x(), p.y(), p.z()});
+        }
+        j["girths"][g.name] = {{"value_m", g.value}, {"closed", true}, {"points", points}};
+      }
+      out << j.dump(1) << "\n";
+      return;
+    }
+    out << "# posekit measure: each girth's tape path, a closed polyline, in " << unit_name(unit) << "\n";
+    int next = 1;
+    for (const Girth& g : m.girths) {
+      if (!g.measured || g.tape.rows() < 3) continue;
+      out << "o " << g.name << "\n# " << g.name << " " << 100 * g.value << " cm\n";
+      for (Eigen::Index k = 0; k < g.tape.rows(); ++k) {
+        const Eigen::Vector3d p = scale * to_output(g.tape.row(k).transpose());
+        out << "v " << p.x() << " " << p.y() << " " << p.z() << "\n";
+      }
+      out << "l";
+      for (Eigen::Index k = 0; k < g.tape.rows(); ++k) out << " " << next + k;
+      out << " " << next << "\n";
+      next += static_cast<int>(g.tape.rows());
+    }
+  });
+}
+
 int measure_by_body_model(const ArgParser& args, const SurveyDistribution* survey, const std::string& no_survey) {
   const std::string path = args.positionals()[0];
   if (args.get("frame") != "input")
@@ -144,6 +191,9 @@ int measure_by_body_model(const ArgParser& args, const SurveyDistribution* surve
   const Clock::time_point t_cross = Clock::now();
   const BodyMeasurements& m = fm.target;
   std::vector<std::string> warnings;
+  if (args.has("contours"))  // the fit works in the file's frame, in metres
+    write_contours(
+        args.get("contours"), m, [](const Eigen::Vector3d& p) { return p; }, unit.unit);
 
   nlohmann::ordered_json cross = {{"ran", false}, {"why", "--no-cross-check"}};
   if (cross_check) {
@@ -236,10 +286,12 @@ int run_measure(int argc, char** argv) {
               "judge the proportions against this survey (ANSUR II's folder or a CSV in its columns; "
               "default: $POSEKIT_ANSUR, else ansur2 beside the data root, skipped when absent)")
       .flag("no-cross-check", "with --body-model: skip the rule-based measurement it is compared with")
+      .output("contours", "FILE", "write each girth's tape path (a closed polyline) as OBJ lines or JSON, in the file's axes and unit")
       .example("posekit measure subjects/f01/rest.ply")
       .example("posekit measure scans/f01/rest.pcd --json")
       .example("posekit measure registration_x_up.ply --up +X --forward -Z")
-      .example("posekit measure scan_arms_close.ply --body-model ansur.pks");
+      .example("posekit measure scan_arms_close.ply --body-model ansur.pks")
+      .example("posekit measure subjects/f01/rest.ply --contours f01_tapes.obj");
   add_body_model_options(&args);
   add_orientation_options(&args);
   if (!args.parse(argc, argv)) return 0;
@@ -267,6 +319,10 @@ int run_measure(int argc, char** argv) {
   if (survey && given_count >= 2) plausibility = std::make_unique<Plausibility>(judge_plausibility(*survey, survey_values, given));
   std::vector<std::string> warnings = f.warnings;
   if (plausibility && !plausibility_warning(*plausibility).empty()) warnings.push_back(plausibility_warning(*plausibility));
+  if (args.has("contours"))  // as the other points: the file's axes and unit (--frame input) or posekit's frame in metres
+    write_contours(
+        args.get("contours"), m, [&](const Eigen::Vector3d& p) { return Eigen::Vector3d(in_file_frame(shown, p)); },
+        frame == "input" ? unit.unit : Unit::kMetre);
   if (args.flag_set("json")) {
     nlohmann::ordered_json j;
     j["file"] = path;

@@ -74,6 +74,11 @@ def test_measure_a_mesh_and_its_scan(dataset, f01):
     assert z_up["frame"]["up"] == "+Z" and z_up["frame"]["forward"] == "-Y", z_up["frame"]
     for name in ("bust", "waist", "hip"):
         assert z_up["girths"][name]["value"] == pytest.approx(m["girths"][name]["value"], abs=1e-6), name
+        # The tape's path: a closed polyline as long as the girth, in the caller's unit and axes.
+        tape = z_up["girths"][name]["tape"]
+        assert tape.shape[1] == 3 and tape.shape[0] >= 8
+        length = np.linalg.norm(tape - np.roll(tape, 1, axis=0), axis=1).sum()
+        assert length == pytest.approx(1000.0 * m["girths"][name]["value"], rel=1e-9), name
         # the girth's point comes back in the caller's unit and axes
         assert np.abs(np.array(z_up["girths"][name]["point"]) - 1000.0 * to_file @ np.array(m["girths"][name]["point"])).max() < 1e-3
     given = posekit.measure(1000.0 * V @ to_file.T, F, unit="mm", up="+Z", forward="-Y")

@@ -45,6 +45,14 @@ TEST(MeshSlice, HullPerimeterBridgesConcavities) {
   Eigen::MatrixXd P(5, 3);  // a square with one point pushed inward
   P << 0, 0, 0, 1, 0, 0, 0.5, 0, 0.5, 1, 0, 1, 0, 0, 1;
   EXPECT_NEAR(convex_hull_perimeter(P, Eigen::Vector3d::UnitY()), 4.0, 1e-12);
+  // The tape's path: the four corners in order round the square, in its plane, the inner point left out.
+  P.col(1).setConstant(0.7);
+  const Eigen::MatrixXd tape = convex_hull_loop(P, Eigen::Vector3d::UnitY());
+  ASSERT_EQ(tape.rows(), 4);
+  EXPECT_NEAR(polyline_length(tape, true), 4.0, 1e-12);
+  EXPECT_NEAR(tape.col(1).minCoeff(), 0.7, 1e-12);
+  EXPECT_NEAR(tape.col(1).maxCoeff(), 0.7, 1e-12);
+  for (Eigen::Index k = 0; k < 4; ++k) EXPECT_NE(tape.row(k), Eigen::RowVector3d(0.5, 0.7, 0.5));
 }
 
 TEST(MeshSlice, HullPerimeterDoesNotDependOnThePointsOrderToTheBit) {

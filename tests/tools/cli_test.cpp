@@ -810,6 +810,34 @@ TEST(Cli, CompareMeasureAndView) {
   EXPECT_GT(plausibility["more_unusual_share"].get<double>(), 0.001) << plausibility.dump();
   EXPECT_EQ(r.out.find("rarer than 1 in 1,000"), std::string::npos);
   EXPECT_EQ(run("measure " + subject + " --survey " + dir.file("no-survey.csv")).code, 1);
+  // Each girth's tape path: a closed polyline whose length is the girth, as OBJ lines and as JSON.
+  r = run("measure " + subject + " --contours " + dir.file("tapes.json"), true);
+  ASSERT_EQ(r.code, 0) << r.out;
+  const auto tapes = nlohmann::json::parse(read_file_bytes(dir.file("tapes.json")));
+  const auto measured = nlohmann::json::parse(run("measure " + subject + " --json").out)["girths"];
+  int tape_count = 0;
+  for (const auto& [name, tape] : tapes["girths"].items()) {
+    const auto& pts = tape["points"];
+    double length = 0;
+    for (size_t k = 0; k < pts.size(); ++k) {
+      const auto& a = pts[k];
+      const auto& b = pts[(k + 1) % pts.size()];
+      length += std::hypot(a[0].get<double>() - b[0].get<double>(), a[1].get<double>() - b[1].get<double>(),
+                           a[2].get<double>() - b[2].get<double>());
+    }
+    EXPECT_NEAR(length, measured[name]["value"].get<double>(), 1e-9) << name;
+    ++tape_count;
+  }
+  EXPECT_GE(tape_count, 10);
+  ASSERT_EQ(run("measure " + subject + " --contours " + dir.file("tapes.obj")).code, 0);
+  const std::string obj = read_file_bytes(dir.file("tapes.obj"));
+  EXPECT_NE(obj.find("o waist\n"), std::string::npos);
+  EXPECT_EQ(read_point_cloud(dir.file("tapes.obj")).size(), [&] {
+    size_t n = 0;
+    for (const auto& [name, tape] : tapes["girths"].items()) n += tape["points"].size();
+    return n;
+  }());
+  EXPECT_EQ(run("measure " + subject + " --contours " + dir.file("tapes.txt")).code, 2);
   const TriangleMesh err = read_mesh(dir.file("err.ply"));
   EXPECT_EQ(err.vertex_scalars.count("signed_distance_mm"), 1u);
   EXPECT_EQ(err.vertex_scalars.count("coverage"), 1u);

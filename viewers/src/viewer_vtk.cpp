@@ -324,6 +324,28 @@ Scene build_scene(const std::vector<ViewPanel>& panels, const ViewOptions& o) {
     } else {
       scene.overlay_actors.push_back(nullptr);
     }
+    if (!p.lines.empty()) {  // closed polylines (tape paths), dark red, over the surface
+      auto points = vtkSmartPointer<vtkPoints>::New();
+      auto cells = vtkSmartPointer<vtkCellArray>::New();
+      for (const Eigen::MatrixXd& line : p.lines) {
+        if (line.rows() < 2) continue;
+        cells->InsertNextCell(static_cast<int>(line.rows()) + 1);
+        const vtkIdType first = points->GetNumberOfPoints();
+        for (Eigen::Index k = 0; k < line.rows(); ++k) cells->InsertCellPoint(points->InsertNextPoint(line(k, 0), line(k, 1), line(k, 2)));
+        cells->InsertCellPoint(first);
+      }
+      auto poly = vtkSmartPointer<vtkPolyData>::New();
+      poly->SetPoints(points);
+      poly->SetLines(cells);
+      auto lmapper = vtkSmartPointer<vtkPolyDataMapper>::New();
+      lmapper->SetInputData(poly);
+      auto lactor = vtkSmartPointer<vtkActor>::New();
+      lactor->SetMapper(lmapper);
+      lactor->GetProperty()->SetColor(0.65, 0.05, 0.1);
+      lactor->GetProperty()->SetLineWidth(2.5);
+      lactor->GetProperty()->LightingOff();
+      renderer->AddActor(lactor);
+    }
     if (!p.caption.empty()) {
       auto text = vtkSmartPointer<vtkTextActor>::New();
       text->SetInput(p.caption.c_str());

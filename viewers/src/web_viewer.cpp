@@ -58,6 +58,11 @@ constexpr const char* kViewerScript = R"JS((function () {
         group.add(new THREE.Points(pg, new THREE.PointsMaterial(p.positions ? {color: 0x737888, size: 0.0025, transparent: true, opacity: 0.5}
                                                                               : {color: 0x333a4c, size: 0.003})));
       }
+      for (const line of p.lines || []) {  // closed polylines (tape paths), dark red
+        const lg = new THREE.BufferGeometry();
+        lg.setAttribute('position', new THREE.BufferAttribute(floats(line), 3));
+        group.add(new THREE.LineLoop(lg, new THREE.LineBasicMaterial({color: 0xa60d1a})));
+      }
       if (!p.positions) { geometries.push(null); continue; }
       const g = new THREE.BufferGeometry();
       g.setAttribute('position', new THREE.BufferAttribute(floats(p.positions), 3));
@@ -301,6 +306,11 @@ std::string write_web_figure(const std::string& dir, const std::string& id, cons
       const Eigen::Matrix<std::uint8_t, Eigen::Dynamic, 3, Eigen::RowMajor> rgb = panel_colours(p, options.colour_map, lo, hi);
       js << ", \"positions\": \"" << float_rows(p.mesh.V, R, offset, 1) << "\", \"colours\": \""
          << base64(rgb.data(), static_cast<size_t>(rgb.size())) << "\", " << triangles_json(panels, i);
+    }
+    if (!p.lines.empty()) {
+      js << ", \"lines\": [";
+      for (size_t k = 0; k < p.lines.size(); ++k) js << (k ? ", " : "") << "\"" << float_rows(p.lines[k], R, offset, 1) << "\"";
+      js << "]";
     }
     if (p.overlay.size() > 0)
       js << ", \"points\": \"" << float_rows(p.overlay.P, R, offset, std::max<Eigen::Index>(1, (p.overlay.size() + 59999) / 60000)) << "\"";

@@ -301,10 +301,11 @@ void sort_by_runs(std::vector<T>& v, const Less& less) {
 
 }  // namespace
 
-double convex_hull_perimeter(const Eigen::MatrixXd& P, const Eigen::Vector3d& normal) {
-  if (P.rows() < 2) return 0.0;
-  const Eigen::Vector3d n = normal.normalized();
-  const Eigen::Vector3d u = n.unitOrthogonal(), w = n.cross(u);
+namespace {
+
+/// The convex hull of points in a plane (normal n), in the plane's coordinates along u and w: its
+/// corners in order, the first repeated at the end (Andrew's monotone chain).
+std::vector<Eigen::Vector2d> plane_hull(const Eigen::MatrixXd& P, const Eigen::Vector3d& u, const Eigen::Vector3d& w) {
   std::vector<Eigen::Vector2d> q(static_cast<size_t>(P.rows()));
   for (Eigen::Index i = 0; i < P.rows(); ++i) q[i] = Eigen::Vector2d(P.row(i).dot(u), P.row(i).dot(w));
   sort_by_runs(q, [](const Eigen::Vector2d& a, const Eigen::Vector2d& b) { return a.x() != b.x() ? a.x() < b.x() : a.y() < b.y(); });
@@ -313,7 +314,7 @@ double convex_hull_perimeter(const Eigen::MatrixXd& P, const Eigen::Vector3d& no
   };
   std::vector<Eigen::Vector2d> hull(2 * q.size());
   size_t k = 0;
-  for (size_t i = 0; i < q.size(); ++i) {  // Andrew's monotone chain
+  for (size_t i = 0; i < q.size(); ++i) {
     while (k >= 2 && cross(hull[k - 2], hull[k - 1], q[i]) <= 0) --k;
     hull[k++] = q[i];
   }
@@ -321,9 +322,32 @@ double convex_hull_perimeter(const Eigen::MatrixXd& P, const Eigen::Vector3d& no
     while (k >= t && cross(hull[k - 2], hull[k - 1], q[i]) <= 0) --k;
     hull[k++] = q[i];
   }
+  hull.resize(k);
+  return hull;
+}
+
+}  // namespace
+
+double convex_hull_perimeter(const Eigen::MatrixXd& P, const Eigen::Vector3d& normal) {
+  if (P.rows() < 2) return 0.0;
+  const Eigen::Vector3d n = normal.normalized();
+  const Eigen::Vector3d u = n.unitOrthogonal(), w = n.cross(u);
+  const std::vector<Eigen::Vector2d> hull = plane_hull(P, u, w);
   double perimeter = 0;
-  for (size_t i = 1; i < k; ++i) perimeter += (hull[i] - hull[i - 1]).norm();
+  for (size_t i = 1; i < hull.size(); ++i) perimeter += (hull[i] - hull[i - 1]).norm();
   return perimeter;
+}
+
+Eigen::MatrixXd convex_hull_loop(const Eigen::MatrixXd& P, const Eigen::Vector3d& normal) {
+  if (P.rows() < 2) return Eigen::MatrixXd(0, 3);
+  const Eigen::Vector3d n = normal.normalized();
+  const Eigen::Vector3d u = n.unitOrthogonal(), w = n.cross(u);
+  const std::vector<Eigen::Vector2d> hull = plane_hull(P, u, w);
+  const double height = (P * n).mean();  // the section's plane
+  Eigen::MatrixXd loop(static_cast<Eigen::Index>(hull.size()) - 1, 3);
+  for (Eigen::Index i = 0; i < loop.rows(); ++i)
+    loop.row(i) = (hull[static_cast<size_t>(i)].x() * u + hull[static_cast<size_t>(i)].y() * w + height * n).transpose();
+  return loop;
 }
 
 int nearest_loop(const std::vector<SectionLoop>& loops, const Eigen::Vector3d& point) {

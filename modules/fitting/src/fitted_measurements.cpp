@@ -192,6 +192,7 @@ struct SectionGirth {
   bool measured = false;
   double value = 0;
   std::string note;
+  Eigen::MatrixXd tape;  ///< the hull the tape follows
 };
 
 /// The girth of a surface in a carried section: its points of the girth's parts near the fitted
@@ -249,6 +250,7 @@ SectionGirth girth_in_section(const LabelledSurface& surface, const CarriedSecti
     out.note = "the tape passes over the fitted body where another part hides the surface (" + std::to_string(filled * 360 / kSectors) +
                " degrees of the section)";
   out.value = convex_hull_perimeter(hull_points, s.normal);
+  out.tape = convex_hull_loop(hull_points, s.normal);
   out.measured = true;
   return out;
 }
@@ -332,6 +334,7 @@ Girth girth_on_target(const BodyModel& model, const MeasuredBody& source, const 
     return g;
   }
   g.value = on_target.value - (on_fitted.value - reference.value);
+  g.tape = on_target.tape;  // where the tape went on the target, as posed
   g.note = on_target.note;
   g.measured = true;
   return g;

@@ -170,6 +170,7 @@ BodyMeasurements measure(const BodyFeatures& f, Section&& section) {
       g.note = "the legs touch at this level: one section holds both (or the scan does not see the gap between them)";
     } else {
       g.value = convex_hull_perimeter(loop.points, g.normal);
+      g.tape = convex_hull_loop(loop.points, g.normal);
       g.measured = true;
     }
     m.girths.push_back(g);
@@ -240,10 +241,12 @@ BodyMeasurements measure(const BodyFeatures& f, Section&& section) {
       const bool chest = std::string(name) != "waist";
       if (chest && (f.arm_touches_torso[kLeft] || f.arm_touches_torso[kRight]) && m.girths.back().measured) {
         m.girths.back().measured = false;
+        m.girths.back().tape.resize(0, 3);
         m.girths.back().note =
             "the arms touch the torso below the armpits: the chest's section would hold them (hold the arms away from the body)";
       } else if (holds_an_arm(m.girths.back())) {
         m.girths.back().measured = false;
+        m.girths.back().tape.resize(0, 3);
         m.girths.back().note = "an arm touches the torso at this level: its section holds the arm (hold the arms away from the body)";
       }
       continue;
@@ -287,6 +290,7 @@ BodyMeasurements measure(const BodyFeatures& f, Section&& section) {
   add("neck", f.neck_joint + (f.head_joint - f.neck_joint) / 3.0, f.head_joint - f.neck_joint);
   if (f.head_cut) {
     m.girths.back().measured = false;
+    m.girths.back().tape.resize(0, 3);
     m.girths.back().note = "the head is cut off: the neck's tape level hangs on the head joint, which needs the whole head";
     m.stature_measured = false;
     m.stature_note = "the head is cut off: stature estimated from the level where the arms separate";
@@ -308,6 +312,7 @@ void reject_implausible_girths(BodyMeasurements* m) {
     note.precision(1);
     note << std::fixed << "rejected as implausible: " << 100 * g->value << " cm " << why;
     g->measured = false;
+    g->tape.resize(0, 3);
     g->note = note.str();
   };
   // A limb or the neck is never as big round as 0.6 of the stature, a torso girth never 1.5 times it.
@@ -545,6 +550,7 @@ BodyMeasurements measure_point_cloud(const Eigen::MatrixXd& scan) {
     for (Girth& g : m.girths) {
       if ((g.name != "bust" && g.name != "underbust") || !g.measured || !too_sparse) continue;  // the underbust hangs from the bust
       g.measured = false;
+      g.tape.resize(0, 3);
       g.note = why.str() + ", so the arms cannot be told from the chest";
     }
     if (!too_sparse) m.features.warnings.push_back(why.str() + "; the bust and underbust may come out up to 1.5 cm short");

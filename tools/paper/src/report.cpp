@@ -38,6 +38,7 @@
 #include "posekit/registration/shape_space.h"
 #include "posekit/shape/body_features.h"
 #include "posekit/shape/layered_representation.h"
+#include "posekit/shape/measurements.h"
 #include "posekit/viewers/viewer.h"
 #include "posekit/viewers/web_viewer.h"
 #include "report_cache.h"
@@ -551,7 +552,50 @@ class ReportWriter {
                     "&& posekit compare customized.ply <scan.pcd> --png heatmap.png"});
     }
     doc.table(scans_table);
+    girth_figure();
     tick("scans");
+  }
+
+  /// Where the girths' tapes go (measure --contours): a woman and a man, front and side.
+  void girth_figure() {
+    std::vector<ViewPanel> panels;
+    for (const char* gender : {"female", "male"})
+      for (const auto& s : subjects) {
+        const std::string id = s.value("id", "");
+        if (s.value("gender", "") != gender || !rests.count(id)) continue;
+        try {
+          const BodyMeasurements m = measure_body(rests[id].V, rests[id].F);
+          ViewPanel p;
+          p.mesh = rests[id];
+          for (const Girth& g : m.girths) {
+            if (!g.measured) continue;
+            // Drawn 3 mm outside the surface, where its hull touches the body, so that the surface does not hide it.
+            const Eigen::RowVector3d centre = g.tape.colwise().mean();
+            Eigen::MatrixXd shown = g.tape;
+            for (Eigen::Index k = 0; k < shown.rows(); ++k)
+              shown.row(k) = centre + (g.tape.row(k) - centre) * (1 + 0.003 / std::max(1e-3, (g.tape.row(k) - centre).norm()));
+            p.lines.push_back(shown);
+          }
+          for (CameraPreset c : {CameraPreset::kFront, CameraPreset::kSide}) {
+            p.camera = c;
+            p.caption = id + (c == CameraPreset::kFront ? " front" : " side");
+            panels.push_back(p);
+          }
+        } catch (const Error& e) {
+          doc.warnings.push_back("subject " + id + ": not measured (" + e.what() + ")");
+        }
+        break;
+      }
+    if (panels.empty()) return;
+    ViewOptions v = plain;
+    v.panel_width = 220;
+    v.panel_height = 480;
+    render(panels, v, "girths_tape_paths.png",
+           {"", "Girths: where the tape goes",
+            "The girths posekit measures (bust, underbust, waist, hip, thigh, knee, calf, ankle, upper arm, wrist, neck) on a "
+            "woman and a man of the dataset: each the convex hull of the body's section, as a tape stretched round it (drawn 3 "
+            "mm outside the surface).",
+            "posekit measure <rest.ply> --contours tapes.obj"});
   }
 
   /// The poses of Figures 7 and 8: the dataset's held-out poses of the subjects and the pose

@@ -26,8 +26,9 @@ CameraPreset parse_camera_preset(const std::string& name);  ///< "front", "side"
 /// point cloud overlaid, and a caption.
 struct ViewPanel {
   TriangleMesh mesh;
-  std::string scalar;  ///< vertex scalar to colour by; empty: plain skin colour
-  PointCloud overlay;  ///< drawn as points when not empty
+  std::string scalar;                  ///< vertex scalar to colour by; empty: plain skin colour
+  PointCloud overlay;                  ///< drawn as points when not empty
+  std::vector<Eigen::MatrixXd> lines;  ///< closed polylines (#K x 3 each) drawn over the mesh, e.g. girths' tape paths
   std::string caption;
   CameraPreset camera = CameraPreset::kFront;
 };

@@ -39,6 +39,9 @@ double polyline_length(const Eigen::MatrixXd& points, bool closed);
 /// Perimeter of the convex hull of points lying in a plane with the given normal: a tape measure
 /// stretched around the section (#P x 3 points, m).
 double convex_hull_perimeter(const Eigen::MatrixXd& points, const Eigen::Vector3d& normal);
+/// That hull itself, the tape's path: its corners in order round the section (#K x 3, not repeated at
+/// the end), in the points' plane.
+Eigen::MatrixXd convex_hull_loop(const Eigen::MatrixXd& points, const Eigen::Vector3d& normal);
 
 /// Distance between two loops of a section (the nearest points of their polylines, closing
 /// segments included for closed loops): e.g. the gap between an arm and the torso. Throws

@@ -16,6 +16,9 @@ struct Girth {
   std::string note;                                   ///< why it was not measured (e.g. a hole in the scan)
   Eigen::Vector3d point = Eigen::Vector3d::Zero();    ///< where the tape goes round
   Eigen::Vector3d normal = Eigen::Vector3d::UnitY();  ///< the tape's plane normal
+  /// The tape's path where measured: the section's convex hull, a closed polyline (#K x 3, m, the
+  /// first corner not repeated); empty otherwise.
+  Eigen::MatrixXd tape;
 };
 
 /// The girths' names in the order measurements give them: bust, underbust, waist, hip, thigh, knee,
