@@ -1,7 +1,17 @@
 #!/usr/bin/env bash
 # Set-up command 1: install what is missing, build, run the main job on the default data.
+#   bash scripts/run-main.sh          the short job (about a minute after the build): a body, a
+#                                     measurement, a pose, a comparison with a scan, a small report
+#   bash scripts/run-main.sh --full   the paper's whole evaluation: the 16-subject dataset, every
+#                                     model trained, the full report (about 8 minutes after the build)
 set -euo pipefail
 cd "$(dirname "$0")/.."
+full=0
+case "${1:-}" in
+  --full) full=1 ;;
+  "") ;;
+  *) echo "usage: bash scripts/run-main.sh [--full]" >&2; exit 2 ;;
+esac
 bash scripts/install-deps.sh
 bash scripts/build.sh release posekit
 data=${POSEKIT_DATA:-$(cd .. && pwd)/shared/datasets/makehuman}
@@ -9,6 +19,36 @@ export POSEKIT_DATA=$data
 posekit=build/release/bin/posekit
 out=out
 mkdir -p "$out"
+
+if [ "$full" = 0 ]; then
+  start=$SECONDS
+  echo "== a body from sliders, with its 16-part labels and joints (MakeHuman's CC0 assets in $data)"
+  "$posekit" body --gender 1 --weight 0.8 --height 0.55 --labels --joints "$out/quick_body_joints.json" --out "$out/quick_body.ply"
+  echo "== a small evaluation dataset: a template in 31 poses, two customized subjects with ground truth and scans"
+  "$posekit" dataset make --small --out "$out/quick" --force > /dev/null
+  echo "== measurements of a subject, from its mesh and from its simulated scan (truth: $out/quick/subjects/f01/measurements.json)"
+  "$posekit" measure "$out/quick/subjects/f01/rest.ply" --contours "$out/quick_f01_tapes.obj"
+  "$posekit" measure "$out/quick/scans/f01/rest.pcd"
+  echo "== pose deformation: learn T^Q (Eq. 3-5), pose the subject in a held-out pose and along real motion capture"
+  "$posekit" train --dataset "$out/quick" --calibration-bodies 16 --out "$out/quick.pkm"
+  "$posekit" pose --model "$out/quick.pkm" --subject "$out/quick/subjects/f01/rest.ply" \
+    --pose "$out/quick/subjects/f01/posed/squat_half.json" --out "$out/quick_f01_squat_half.ply"
+  cmu=$(dirname "$data")/motions/cmu/01_01.bvh
+  if [ -f "$cmu" ]; then
+    "$posekit" pose --model "$out/quick.pkm" --subject "$out/quick/subjects/f01/rest.ply" --pose "$cmu" --frames 0:240 \
+      --out "$out/quick_walk/frame.ply" --mkdir
+  fi
+  echo "== the posed subject against a scan of the person in that pose: distances, girths, heatmap, glTF"
+  "$posekit" compare "$out/quick_f01_squat_half.ply" "$out/quick/scans/f01/squat_half.pcd" --measure \
+    --png "$out/quick_f01_squat_half.png" --out "$out/quick_f01_squat_half.glb"
+  echo "== a small report: the paper's figures and tables on the small dataset"
+  "$posekit" report --dataset "$out/quick" --model "$out/quick.pkm" --out "$out/quick_report" --runs 1 --nicp-subjects 0 \
+    --customization-bodies 30
+  echo "== done in $((SECONDS - start)) s after the build: open $out/quick_report/index.html"
+  echo "== the paper's whole evaluation (16 subjects, every model, the full report): bash scripts/run-main.sh --full"
+  exit 0
+fi
+
 echo "== the MakeHuman base mesh (skin group) from $data"
 "$posekit" info "$data/3dobjs/base.obj" --unit dm --group body
 echo "== a body from sliders, with its 16-part labels and joint centres"
