@@ -245,6 +245,58 @@ struct Scene {
   double aspect = 1;
 };
 
+/// A panel's mesh, coloured by its scalar through the lookup table or plain skin; null for a panel
+/// of points alone.
+vtkSmartPointer<vtkActor> mesh_actor(const ViewPanel& p, const ColourMap& map, vtkLookupTable* lookup, double lo, double hi) {
+  if (p.mesh.F.rows() == 0) return nullptr;
+  vtkNew<vtkPolyDataNormals> normals;
+  normals->SetInputData(to_polydata(p.mesh, p.scalar));
+  normals->SplittingOff();
+  normals->ConsistencyOff();
+  auto mapper = vtkSmartPointer<vtkPolyDataMapper>::New();
+  mapper->SetInputConnection(normals->GetOutputPort());
+  auto actor = vtkSmartPointer<vtkActor>::New();
+  actor->SetMapper(mapper);
+  if (p.scalar.empty()) {
+    mapper->ScalarVisibilityOff();
+    actor->GetProperty()->SetColor(0.87, 0.74, 0.64);
+  } else {
+    mapper->SetLookupTable(lookup);
+    mapper->SetScalarRange(lo, hi);
+    mapper->SetScalarModeToUsePointData();
+    mapper->ScalarVisibilityOn();
+    // Labels are not interpolated (half-way between two parts is no part).
+    mapper->SetInterpolateScalarsBeforeMapping(map.kind != ColourMapKind::kCategorical);
+    mapper->SetColorModeToMapScalars();
+  }
+  actor->GetProperty()->SetSpecular(0.15);
+  return actor;
+}
+
+/// Closed polylines (tape paths), dark red, over the surface.
+vtkSmartPointer<vtkActor> lines_actor(const std::vector<Eigen::MatrixXd>& lines) {
+  auto points = vtkSmartPointer<vtkPoints>::New();
+  auto cells = vtkSmartPointer<vtkCellArray>::New();
+  for (const Eigen::MatrixXd& line : lines) {
+    if (line.rows() < 2) continue;
+    cells->InsertNextCell(static_cast<int>(line.rows()) + 1);
+    const vtkIdType first = points->GetNumberOfPoints();
+    for (Eigen::Index k = 0; k < line.rows(); ++k) cells->InsertCellPoint(points->InsertNextPoint(line(k, 0), line(k, 1), line(k, 2)));
+    cells->InsertCellPoint(first);
+  }
+  auto poly = vtkSmartPointer<vtkPolyData>::New();
+  poly->SetPoints(points);
+  poly->SetLines(cells);
+  auto mapper = vtkSmartPointer<vtkPolyDataMapper>::New();
+  mapper->SetInputData(poly);
+  auto actor = vtkSmartPointer<vtkActor>::New();
+  actor->SetMapper(mapper);
+  actor->GetProperty()->SetColor(0.65, 0.05, 0.1);
+  actor->GetProperty()->SetLineWidth(2.5);
+  actor->GetProperty()->LightingOff();
+  return actor;
+}
+
 Scene build_scene(const std::vector<ViewPanel>& panels, const ViewOptions& o) {
   if (panels.empty()) throw InvalidInput("viewer: nothing to show");
   std::vector<const Eigen::VectorXd*> values;
@@ -284,31 +336,8 @@ Scene build_scene(const std::vector<ViewPanel>& panels, const ViewOptions& o) {
     lights->AddLightsToRenderer(renderer);
     const double x0 = static_cast<double>(i) * o.panel_width / width, x1 = static_cast<double>(i + 1) * o.panel_width / width;
     renderer->SetViewport(x0, 0, x1, 1);
-    vtkSmartPointer<vtkActor> actor;  // none in a panel of points alone
-    if (p.mesh.F.rows() > 0) {
-      vtkNew<vtkPolyDataNormals> normals;
-      normals->SetInputData(to_polydata(p.mesh, p.scalar));
-      normals->SplittingOff();
-      normals->ConsistencyOff();
-      auto mapper = vtkSmartPointer<vtkPolyDataMapper>::New();
-      mapper->SetInputConnection(normals->GetOutputPort());
-      actor = vtkSmartPointer<vtkActor>::New();
-      actor->SetMapper(mapper);
-      if (p.scalar.empty()) {
-        mapper->ScalarVisibilityOff();
-        actor->GetProperty()->SetColor(0.87, 0.74, 0.64);
-      } else {
-        mapper->SetLookupTable(lookup);
-        mapper->SetScalarRange(lo, hi);
-        mapper->SetScalarModeToUsePointData();
-        mapper->ScalarVisibilityOn();
-        // Labels are not interpolated (half-way between two parts is no part).
-        mapper->SetInterpolateScalarsBeforeMapping(o.colour_map.kind != ColourMapKind::kCategorical);
-        mapper->SetColorModeToMapScalars();
-      }
-      actor->GetProperty()->SetSpecular(0.15);
-      renderer->AddActor(actor);
-    }
+    const vtkSmartPointer<vtkActor> actor = mesh_actor(p, o.colour_map, lookup, lo, hi);  // none for points alone
+    if (actor) renderer->AddActor(actor);
     scene.mesh_actors.push_back(actor);
     if (p.overlay.size() > 0) {
       auto cmapper = vtkSmartPointer<vtkPolyDataMapper>::New();
@@ -324,28 +353,7 @@ Scene build_scene(const std::vector<ViewPanel>& panels, const ViewOptions& o) {
     } else {
       scene.overlay_actors.push_back(nullptr);
     }
-    if (!p.lines.empty()) {  // closed polylines (tape paths), dark red, over the surface
-      auto points = vtkSmartPointer<vtkPoints>::New();
-      auto cells = vtkSmartPointer<vtkCellArray>::New();
-      for (const Eigen::MatrixXd& line : p.lines) {
-        if (line.rows() < 2) continue;
-        cells->InsertNextCell(static_cast<int>(line.rows()) + 1);
-        const vtkIdType first = points->GetNumberOfPoints();
-        for (Eigen::Index k = 0; k < line.rows(); ++k) cells->InsertCellPoint(points->InsertNextPoint(line(k, 0), line(k, 1), line(k, 2)));
-        cells->InsertCellPoint(first);
-      }
-      auto poly = vtkSmartPointer<vtkPolyData>::New();
-      poly->SetPoints(points);
-      poly->SetLines(cells);
-      auto lmapper = vtkSmartPointer<vtkPolyDataMapper>::New();
-      lmapper->SetInputData(poly);
-      auto lactor = vtkSmartPointer<vtkActor>::New();
-      lactor->SetMapper(lmapper);
-      lactor->GetProperty()->SetColor(0.65, 0.05, 0.1);
-      lactor->GetProperty()->SetLineWidth(2.5);
-      lactor->GetProperty()->LightingOff();
-      renderer->AddActor(lactor);
-    }
+    if (!p.lines.empty()) renderer->AddActor(lines_actor(p.lines));
     if (!p.caption.empty()) {
       auto text = vtkSmartPointer<vtkTextActor>::New();
       text->SetInput(p.caption.c_str());

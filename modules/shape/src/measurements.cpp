@@ -146,6 +146,13 @@ SectionLoop cloud_section(const Eigen::MatrixXd& P, const Eigen::Vector3d& point
   return loop_from_points(clusters[best], n, kMaxGapDeg);
 }
 
+/// A girth found but not to be trusted: not measured, no tape, and why.
+void not_measured(Girth* g, const std::string& why) {
+  g->measured = false;
+  g->tape.resize(0, 3);
+  g->note = why;
+}
+
 template <typename Section>
 BodyMeasurements measure(const BodyFeatures& f, Section&& section) {
   BodyMeasurements m;
@@ -240,14 +247,11 @@ BodyMeasurements measure(const BodyFeatures& f, Section&& section) {
       add(name, torso(y), up);
       const bool chest = std::string(name) != "waist";
       if (chest && (f.arm_touches_torso[kLeft] || f.arm_touches_torso[kRight]) && m.girths.back().measured) {
-        m.girths.back().measured = false;
-        m.girths.back().tape.resize(0, 3);
-        m.girths.back().note =
-            "the arms touch the torso below the armpits: the chest's section would hold them (hold the arms away from the body)";
+        not_measured(&m.girths.back(),
+                     "the arms touch the torso below the armpits: the chest's section would hold them (hold the arms away from the body)");
       } else if (holds_an_arm(m.girths.back())) {
-        m.girths.back().measured = false;
-        m.girths.back().tape.resize(0, 3);
-        m.girths.back().note = "an arm touches the torso at this level: its section holds the arm (hold the arms away from the body)";
+        not_measured(&m.girths.back(),
+                     "an arm touches the torso at this level: its section holds the arm (hold the arms away from the body)");
       }
       continue;
     }
@@ -289,9 +293,7 @@ BodyMeasurements measure(const BodyFeatures& f, Section&& section) {
   // Neck: perpendicular to the neck axis (neck joint to head joint), a third of the way up.
   add("neck", f.neck_joint + (f.head_joint - f.neck_joint) / 3.0, f.head_joint - f.neck_joint);
   if (f.head_cut) {
-    m.girths.back().measured = false;
-    m.girths.back().tape.resize(0, 3);
-    m.girths.back().note = "the head is cut off: the neck's tape level hangs on the head joint, which needs the whole head";
+    not_measured(&m.girths.back(), "the head is cut off: the neck's tape level hangs on the head joint, which needs the whole head");
     m.stature_measured = false;
     m.stature_note = "the head is cut off: stature estimated from the level where the arms separate";
   }
