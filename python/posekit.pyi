@@ -110,6 +110,9 @@ def segment(V: numpy.ndarray, F: numpy.ndarray, model: PoseModel = ..., checked:
 def train(dataset: str, calibration_bodies: int = ..., data_root: str = ...) -> PoseModel:
     """Trains a pose model on a posekit dataset's training split (as posekit train), with a segmentation prior of `calibration_bodies` MakeHuman bodies (0: the template alone)."""
 
+def validate(V: numpy.ndarray, F: numpy.ndarray) -> dict:
+    """The mesh's defects, as posekit info reports them: {'vertices', 'faces', 'out_of_range_indices', 'non_finite_vertices', 'degenerate_faces', 'duplicate_faces', 'unreferenced_vertices', 'boundary_edges', 'non_manifold_edges', 'boundary_loops', 'components', 'watertight', 'usable' (indices in range, coordinates finite), 'surface_area' and 'signed_volume' (in the mesh's unit squared and cubed)}."""
+
 def write_mesh(path: str | os.PathLike[str], V: numpy.ndarray, F: numpy.ndarray, normals: Any = ..., colors: Any = ..., scalars: dict[str, numpy.ndarray] = ..., double_precision: bool = ...) -> None:
     """Writes a mesh (format from the extension), atomically, with per-vertex normals, uint8 RGB colors and named scalar fields where the format holds them (PLY all of them, as float32 properties scalar_<name> that CloudCompare keeps; double_precision=True: float64)."""
 

@@ -18,6 +18,7 @@
 #include "posekit/body/parts.h"
 #include "posekit/core/data_root.h"
 #include "posekit/core/error.h"
+#include "posekit/core/mesh_validation.h"
 #include "posekit/core/point_cloud.h"
 #include "posekit/core/triangle_mesh.h"
 #include "posekit/deformation/part_pose_estimation.h"
@@ -315,6 +316,33 @@ void bind_files(py::module_& m) {
 
 /// Measuring, segmenting, registering and comparing bodies.
 void bind_body_functions(py::module_& m) {
+  m.def(
+      "validate",
+      [](const Eigen::Ref<const Vertices>& V, const Eigen::Ref<const Faces>& F) {
+        TriangleMesh mesh;  // not mesh_of: a bad index is counted here, not raised
+        mesh.V = V;
+        mesh.F = F;
+        MeshReport r;
+        {
+          py::gil_scoped_release release;
+          r = validate_mesh(mesh);
+        }
+        py::dict out;
+        out["vertices"] = r.num_vertices, out["faces"] = r.num_faces;
+        out["out_of_range_indices"] = r.out_of_range_indices, out["non_finite_vertices"] = r.non_finite_vertices;
+        out["degenerate_faces"] = r.degenerate_faces, out["duplicate_faces"] = r.duplicate_faces;
+        out["unreferenced_vertices"] = r.unreferenced_vertices, out["boundary_edges"] = r.boundary_edges;
+        out["non_manifold_edges"] = r.non_manifold_edges, out["boundary_loops"] = r.boundary_loops;
+        out["components"] = r.components, out["watertight"] = r.watertight, out["usable"] = r.usable();
+        out["surface_area"] = r.surface_area, out["signed_volume"] = r.signed_volume;
+        return out;
+      },
+      py::arg("V"), py::arg("F"),
+      "The mesh's defects, as posekit info reports them: {'vertices', 'faces', 'out_of_range_indices', "
+      "'non_finite_vertices', 'degenerate_faces', 'duplicate_faces', 'unreferenced_vertices', 'boundary_edges', "
+      "'non_manifold_edges', 'boundary_loops', 'components', 'watertight', 'usable' (indices in range, coordinates "
+      "finite), 'surface_area' and 'signed_volume' (in the mesh's unit squared and cubed)}.");
+
   m.def(
       "measure",
       [](const Eigen::Ref<const Vertices>& V, const py::object& F, const std::string& unit, const std::string& up,

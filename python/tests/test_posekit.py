@@ -54,6 +54,17 @@ def test_meshes_and_clouds_round_trip(tmp_path, f01):
         posekit.write_mesh(tmp_path / "g.ply", V, F, scalars={"error_mm": np.zeros(3)})
 
 
+def test_validate_counts_a_meshs_defects_as_info_does(f01):
+    V, F = f01
+    report = posekit.validate(V, F)
+    assert report["usable"] and report["watertight"] and report["components"] == 1, report
+    assert report["vertices"] == V.shape[0] and report["surface_area"] > 1.0  # m^2
+    broken = F.copy()
+    broken[0, 0] = V.shape[0] + 5  # out of range: counted, not raised
+    bad = posekit.validate(V, np.vstack([broken, F[:1]]))
+    assert not bad["usable"] and bad["out_of_range_indices"] == 1 and bad["duplicate_faces"] == 0
+
+
 def test_measure_a_mesh_and_its_scan(dataset, f01):
     V, F = f01
     truth = json.loads((dataset / "subjects" / "f01" / "measurements.json").read_text())

@@ -185,6 +185,7 @@ TEST(InteropFindings, PlyFieldsAreFloatsNamedAsCloudCompareKeepsThem) {
   m.vertex_scalars["signed_distance_mm"] = Eigen::VectorXd::LinSpaced(n, -12.5, 30.25);
   m.vertex_scalars["covered"] = Eigen::VectorXd::Ones(n);
   m.vertex_scalars["vertex_id"] = Eigen::VectorXd::LinSpaced(n, 0, static_cast<double>(n - 1)).array() + 16777216.0;  // beyond 2^24
+  m.vertex_scalars["gps_time"] = Eigen::VectorXd::LinSpaced(n, 1.7e9, 1.7e9 + 60.5);  // large values that vary little
   write_mesh(dir.file("m.ply"), m);
   const std::string header = ply_header(dir.file("m.ply"));
   // CloudCompare's command line keeps only scalar_* properties; float32 where it holds the values.
@@ -192,6 +193,7 @@ TEST(InteropFindings, PlyFieldsAreFloatsNamedAsCloudCompareKeepsThem) {
   EXPECT_NE(header.find("property float scalar_signed_distance_mm\n"), std::string::npos) << header;
   EXPECT_NE(header.find("property float scalar_covered\n"), std::string::npos) << header;
   EXPECT_NE(header.find("property double scalar_vertex_id\n"), std::string::npos) << header;  // 16777217 is not a float
+  EXPECT_NE(header.find("property double scalar_gps_time\n"), std::string::npos) << header;   // float32: 128 s steps
   const TriangleMesh back = read_mesh(dir.file("m.ply"));
   EXPECT_EQ(back.vertex_scalars.at("vertex_id"), m.vertex_scalars.at("vertex_id"));
   EXPECT_EQ(back.vertex_scalars.at("covered"), m.vertex_scalars.at("covered"));

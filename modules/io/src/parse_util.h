@@ -85,22 +85,26 @@ bool float_keeps_coordinates(const Values& values, double scale, double toleranc
   return true;
 }
 
-/// True when float32 holds a scalar field: its seven significant digits are more than any
-/// measurement carries, so only a finite value out of float32's normal range, or a field of whole
-/// numbers (labels, indices) with one that float32 cannot hold exactly, needs float64.
+/// True when float32 holds a scalar field: no finite value moves by more than a millionth of the
+/// field's spread (max - min), none leaves float32's normal range, and a field of whole numbers
+/// (labels, indices) keeps every value exactly. A distance in mm or a normal keeps all that matters;
+/// a field of large values that vary little (a scanner's GPS time, 1.7e9 s give or take a minute)
+/// stays float64.
 template <typename Values>
 bool float_keeps_field(const Values& values) {
   bool whole = true;
+  double lo = std::numeric_limits<double>::infinity(), hi = -lo;
   for (Eigen::Index i = 0; i < values.size(); ++i) {
     const double v = values(i);
     if (!std::isfinite(v)) continue;
     const double a = std::abs(v);
     if (a > std::numeric_limits<float>::max() || (a > 0 && a < std::numeric_limits<float>::min())) return false;
     whole = whole && v == std::floor(v);
+    lo = std::min(lo, v), hi = std::max(hi, v);
   }
-  if (whole)
-    for (Eigen::Index i = 0; i < values.size(); ++i)
-      if (std::isfinite(values(i)) && static_cast<double>(static_cast<float>(values(i))) != values(i)) return false;
+  const double tolerance = whole || !(hi > lo) ? 0.0 : 1e-6 * (hi - lo);
+  for (Eigen::Index i = 0; i < values.size(); ++i)
+    if (std::isfinite(values(i)) && std::abs(static_cast<double>(static_cast<float>(values(i))) - values(i)) > tolerance) return false;
   return true;
 }
 

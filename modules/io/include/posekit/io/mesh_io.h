@@ -26,8 +26,8 @@ struct MeshWriteOptions {
   bool binary = true;  ///< PLY and STL: binary (default) or ascii
   /// Receives one line per attribute the format cannot hold (not written); nullptr: ignored.
   std::vector<std::string>* warnings = nullptr;
-  /// PLY stores float32 wherever it keeps the values (coordinates to 1 micrometre; fields
-  /// unless out of float32's range or whole numbers it cannot hold), float64 otherwise; true: float64.
+  /// PLY stores float32 wherever it keeps the values (coordinates to 1 micrometre, fields to a
+  /// millionth of their spread, whole numbers exactly), float64 otherwise; true: float64 throughout.
   bool double_precision = false;
 };
 

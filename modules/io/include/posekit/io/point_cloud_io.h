@@ -28,8 +28,8 @@ struct CloudWriteOptions {
   bool binary = true;  ///< PCD and PLY: binary (default) or ascii
   /// Receives one line per attribute the format cannot hold (not written); nullptr: ignored.
   std::vector<std::string>* warnings = nullptr;
-  /// PLY and PCD store float32 wherever it keeps the values (coordinates to 1 micrometre; fields
-  /// unless out of float32's range or whole numbers it cannot hold), float64 otherwise; true: float64.
+  /// PLY and PCD store float32 wherever it keeps the values (coordinates to 1 micrometre, fields to a
+  /// millionth of their spread, whole numbers exactly), float64 otherwise; true: float64 throughout.
   bool double_precision = false;
 };
 
