@@ -315,7 +315,8 @@ void bind_files(py::module_& m) {
 }
 
 /// Measuring, segmenting, registering and comparing bodies.
-void bind_body_functions(py::module_& m) {
+/// Checking a mesh as posekit info does.
+void bind_validation(py::module_& m) {
   m.def(
       "validate",
       [](const Eigen::Ref<const Vertices>& V, const Eigen::Ref<const Faces>& F) {
@@ -342,7 +343,9 @@ void bind_body_functions(py::module_& m) {
       "'non_finite_vertices', 'degenerate_faces', 'duplicate_faces', 'unreferenced_vertices', 'boundary_edges', "
       "'non_manifold_edges', 'boundary_loops', 'components', 'watertight', 'usable' (indices in range, coordinates "
       "finite), 'surface_area' and 'signed_volume' (in the mesh's unit squared and cubed)}.");
+}
 
+void bind_body_functions(py::module_& m) {
   m.def(
       "measure",
       [](const Eigen::Ref<const Vertices>& V, const py::object& F, const std::string& unit, const std::string& up,
@@ -793,6 +796,7 @@ PYBIND11_MODULE(posekit, m) {
   bind_files(m);
   bind_posing(m);  // before the functions that take a PoseModel, for their signatures
   bind_body_functions(m);
+  bind_validation(m);
   bind_motion(m);
   bind_photos_and_body_model(m);
 }
