@@ -1,7 +1,7 @@
 #!/usr/bin/env bash
 # Set-up command 2: install what is missing, check the layout and function sizes, build, run every test in a release build and the
 # Python module's tests (installed by pip into a venv; and the wheel route), install it and build and run examples/ against the installed package, fuzz every
-# file reader and the measuring briefly (POSEKIT_FUZZ_SECONDS per target, default 8; 0 skips; scripts/fuzz.sh runs
+# file reader and the measuring briefly (POSEKIT_FUZZ_SECONDS per target, default 5; 0 skips; scripts/fuzz.sh runs
 # them for longer), then run every test again under AddressSanitizer + UndefinedBehaviorSanitizer.
 set -euo pipefail
 cd "$(dirname "$0")/.."
@@ -17,7 +17,7 @@ echo "== Python module: pip install . into a venv (its tests run against it), an
 bash scripts/check-python-install.sh
 echo "== install, and examples/ built against the installed package"
 bash scripts/check-install.sh
-fuzz_seconds=${POSEKIT_FUZZ_SECONDS:-8}
+fuzz_seconds=${POSEKIT_FUZZ_SECONDS:-5}
 if [ "$fuzz_seconds" -gt 0 ]; then
   echo "== fuzzing every file reader and the measuring for ${fuzz_seconds} s each (libFuzzer, AddressSanitizer + UndefinedBehaviorSanitizer)"
   bash scripts/fuzz.sh "$fuzz_seconds"
