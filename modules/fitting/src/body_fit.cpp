@@ -84,24 +84,44 @@ std::vector<int> spread_rows(const Eigen::MatrixXd& V, double cell) {
   return rows;
 }
 
+/// Rows of a body that score how well it explains a cloud: the hands last, after `scored` rows. A
+/// hand is in the body's grid (the target's hands want a body near them) but is not charged for
+/// lying where the target has nothing: scanners cut hands, and a short, heavy body (1.54 m) whose
+/// hands were cut scored a forearm folded onto the belly, hand hidden, above its true pose.
+struct ScoreRows {
+  std::vector<int> rows;
+  Eigen::Index scored = 0;
+};
+
+ScoreRows hands_last(const std::vector<int>& rows, const Eigen::VectorXi& vertex_part) {
+  ScoreRows out;
+  std::vector<int> hands;
+  for (int r : rows) (vertex_part[r] == kLeftHand || vertex_part[r] == kRightHand ? hands : out.rows).push_back(r);
+  out.scored = static_cast<Eigen::Index>(out.rows.size());
+  out.rows.insert(out.rows.end(), hands.begin(), hands.end());
+  return out;
+}
+
 /// Rows 0, s, 2s, ... of a matrix.
 Eigen::MatrixXd every(const Eigen::MatrixXd& P, Eigen::Index stride) {
   return P(Eigen::seq(0, P.rows() - 1, std::max<Eigen::Index>(1, stride)), Eigen::all);
 }
 
 /// How badly a posed body explains a cloud: the mean of each point's distance to the other set,
-/// capped at `cap`, both ways. `cell`: the body grid's (a sparse sample searches faster in larger
-/// cells: fewer empty ones between a misplaced limb and the cloud). A search for the best of many
-/// passes the best so far as `bound`: once the partial sums reach it (they only grow) the placement
-/// cannot win and a value >= bound is returned; below it the value is exact.
+/// capped at `cap`, both ways (the body's first `scored` rows to the cloud; all: -1). `cell`: the
+/// body grid's (a sparse sample searches faster in larger cells: fewer empty ones between a
+/// misplaced limb and the cloud). A search for the best of many passes the best so far as `bound`:
+/// once the partial sums reach it (they only grow) the placement cannot win and a value >= bound is
+/// returned; below it the value is exact.
 double mismatch(const Eigen::MatrixXd& body, const Eigen::MatrixXd& cloud, const PointGrid& cloud_grid, double cap, double cell = 0.03,
-                double bound = std::numeric_limits<double>::infinity()) {
-  const auto body_n = static_cast<double>(std::max<Eigen::Index>(1, body.rows()));
+                double bound = std::numeric_limits<double>::infinity(), Eigen::Index scored = -1) {
+  const Eigen::Index body_scored = scored < 0 ? body.rows() : std::min(scored, body.rows());
+  const auto body_n = static_cast<double>(std::max<Eigen::Index>(1, body_scored));
   const auto cloud_n = static_cast<double>(std::max<Eigen::Index>(1, cloud.rows()));
   constexpr Eigen::Index kCheckEvery = 16;
   // Body to cloud first: the cloud's grid is built already, the body's only when it is needed.
   double back = 0;
-  for (Eigen::Index v = 0; v < body.rows(); ++v) {
+  for (Eigen::Index v = 0; v < body_scored; ++v) {
     double sq = 0;
     back += cloud_grid.nearest(body.row(v).transpose(), &sq, cap) >= 0 ? std::sqrt(sq) : cap;
     if (v % kCheckEvery == kCheckEvery - 1 && back / body_n >= bound) return back / body_n;
@@ -956,7 +976,7 @@ namespace {
 /// A brief articulated fit from `start` (its prior pulling towards it) on one thread; *score: the
 /// fitted body's mismatch over the rows `spread`.
 PartPose brief_fit(const BodyModel& model, const Eigen::MatrixXd& cloud, const PartPose& start, const PoseFitOptions& brief,
-                   const std::vector<int>& spread, const BodyFitOptions& o, double* score) {
+                   const ScoreRows& spread, const BodyFitOptions& o, double* score) {
   const Eigen::VectorXd zero = Eigen::VectorXd::Zero(model.components());
   PoseFitOptions mine = brief;
   mine.start = mine.prior_pose = start;
@@ -974,7 +994,7 @@ PartPose brief_fit(const BodyModel& model, const Eigen::MatrixXd& cloud, const P
   const Eigen::VectorXd c = fit_shape(model, zero, &shaped_pose, cloud, grid, one_thread, 2);
   Eigen::MatrixXd X;
   ShapedBody(model, c).pose(shaped_pose, &X);
-  *score = mismatch(X(spread, Eigen::all), cloud, grid, 0.15);
+  *score = mismatch(X(spread.rows, Eigen::all), cloud, grid, 0.15, 0.03, std::numeric_limits<double>::infinity(), spread.scored);
   return r.pose;
 }
 
@@ -982,12 +1002,12 @@ PartPose brief_fit(const BodyModel& model, const Eigen::MatrixXd& cloud, const P
 /// on the coarse samples, the best kept limb by limb. Arms are where whole-body starts miss most (hands
 /// on hips, arms crossed) and the options of two arms multiply; a library pose's legs go together, a
 /// person's need not. `changed`: whether any limb moved.
-PartPose limbs_one_by_one(const BodyModel& model, const ShapedBody& mean_body, const UpFrame& frame, const std::vector<int>& coarse_rows,
+PartPose limbs_one_by_one(const BodyModel& model, const ShapedBody& mean_body, const UpFrame& frame, const ScoreRows& coarse_rows,
                           PartPose pose, int threads, bool* changed) {
   auto score_of = [&](const PartPose& p, double bound) {
     Eigen::MatrixXd X;
-    ShapedBody::skin(model, mean_body.rest_vertices(), mean_body.part_motions(p), coarse_rows, &X);
-    return mismatch(X, frame.coarse, *frame.coarse_grid, 0.15, kCoarseCell, bound);
+    ShapedBody::skin(model, mean_body.rest_vertices(), mean_body.part_motions(p), coarse_rows.rows, &X);
+    return mismatch(X, frame.coarse, *frame.coarse_grid, 0.15, kCoarseCell, bound, coarse_rows.scored);
   };
   double score = score_of(pose, std::numeric_limits<double>::infinity());
   *changed = false;
@@ -1084,8 +1104,8 @@ class BodyFitter {
     brief_.max_distance_end = 0.15;
     brief_.refinement_twist_weight = 1;                 // as in the final refinement
     brief_.stall_window = 5, brief_.stall_gain = 1e-3;  // as in fit_shape_and_pose
-    spread_ = spread_rows(mean_body_.rest_vertices(), 0.02);
-    coarse_rows_ = spread_rows(mean_body_.rest_vertices(), 0.04);
+    spread_ = hands_last(spread_rows(mean_body_.rest_vertices(), 0.02), model.vertex_parts());
+    coarse_rows_ = hands_last(spread_rows(mean_body_.rest_vertices(), 0.04), model.vertex_parts());
   }
 
   BodyFit fit(const Eigen::MatrixXd& T);
@@ -1117,7 +1137,7 @@ class BodyFitter {
   std::vector<Eigen::Vector3d> ups_;
   std::vector<UpFrame> frames_;
   PoseFitOptions brief_;  ///< the brief fits of the best starts; the best of those goes on
-  std::vector<int> spread_, coarse_rows_;
+  ScoreRows spread_, coarse_rows_;
   std::vector<Start> tried_;  ///< the starts fitted briefly, with their scores and poses
   std::vector<double> tried_score_;
   std::vector<PartPose> tried_pose_;
@@ -1206,7 +1226,8 @@ BodyFitter::Finished BodyFitter::finish_from(size_t k, bool whole) {
       }
     limbs.prior_pose = limbed_recognised;
     const PoseFitResult r = fit_pose(mean_body_, frame.cloud, limbs);
-    const double score = mismatch(r.V(spread_, Eigen::all), frame.cloud, grid, 0.15);
+    const double score =
+        mismatch(r.V(spread_.rows, Eigen::all), frame.cloud, grid, 0.15, 0.03, std::numeric_limits<double>::infinity(), spread_.scored);
     if (score < best_score) pose = r.pose, recognised = limbed_recognised;
   }
   lap("limbs");
