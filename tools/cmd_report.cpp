@@ -21,6 +21,7 @@ int run_report(int argc, char** argv) {
   args.option("dataset", "DIR", "a posekit dataset (posekit dataset make)")
       .output_folder("out", "DIR", "report folder (created; report files in it are replaced)", "report")
       .pose_model_option("default: train on the dataset")
+      .option("calibration-bodies", "N", "segmentation prior of a pose model trained here: MakeHuman bodies (0: the template alone)", "128")
       .option("threads", "N", "threads for the scan comparisons (0: all cores)", "0")
       .option("runs", "R", "timed runs per method and subject in Table 1", "3")
       .option("nicp-subjects", "N", "run the slow non-rigid ICP baseline on the first N subjects (0: leave it out)", "2")
@@ -42,6 +43,8 @@ int run_report(int argc, char** argv) {
   ReportOptions o;
   o.model_path = args.has("model") ? args.get("model") : "";
   o.threads = static_cast<int>(args.get_int("threads"));
+  o.calibration_bodies = static_cast<int>(args.get_int("calibration-bodies"));
+  if (o.calibration_bodies < 0) throw UsageError("--calibration-bodies must not be negative");
   o.registration_runs = static_cast<int>(args.get_int("runs"));
   o.nicp_subjects = args.flag_set("full-table") ? std::numeric_limits<int>::max() : static_cast<int>(args.get_int("nicp-subjects"));
   if (!args.flag_set("no-cache")) o.cache_dir = args.has("cache") ? args.get("cache") : args.get("out") + "/.cache";

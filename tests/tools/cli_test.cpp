@@ -30,12 +30,16 @@
 #include "testing/small_dataset.h"
 #include "testing/temp_dir.h"
 #include "testing/test_meshes.h"
+#include "tools/browser_check.h"
 #include "tools/cli_runner.h"
 
 using namespace posekit;
 
 namespace {
+using test::coloured_share;
 using test::CommandResult;
+using test::have_program;
+using test::open_in_chromium;
 CommandResult run(const std::string& args, bool merge_stderr = false) { return test::run_posekit(args, merge_stderr); }
 }  // namespace
 
@@ -704,8 +708,6 @@ TEST(Cli, BatchCompareAgreesWithCompareAndWritesHeatmaps) {
 
 namespace {
 
-bool have_program(const std::string& name) { return std::system(("command -v " + name + " > /dev/null 2>&1").c_str()) == 0; }
-
 /// The file's vertex fields as CloudCompare's command line (ASCII export of the vertices, header line)
 /// and Open3D's tensor reader see them, where those tools are installed: every field a scalar field,
 /// none taken for a colour.
@@ -738,41 +740,6 @@ void expect_fields_open_in_other_tools(const test::TempDir& dir, const std::stri
     const std::string names((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
     for (const std::string& f : fields) EXPECT_NE(names.find("scalar_" + f), std::string::npos) << ply << ": Open3D read " << names;
   }
-}
-
-/// A page as headless Chromium (software WebGL) shows it from file://: the body tag after its
-/// scripts ran (the web viewer writes data-posekit-viewers and data-posekit-errors there) and a
-/// screenshot. Empty when Chromium is not installed.
-struct BrowserView {
-  std::string body;
-  Image8 screenshot;
-};
-std::optional<BrowserView> open_in_chromium(const test::TempDir& dir, const std::string& html) {
-  if (!have_program("chromium")) return std::nullopt;
-  const std::string chromium =
-      "timeout 120 chromium --headless --no-sandbox --disable-gpu --enable-unsafe-swiftshader --use-angle=swiftshader "
-      "--window-size=1200,1400 --virtual-time-budget=20000 ";
-  const std::string url = "file://" + std::filesystem::absolute(html).string();
-  BrowserView view;
-  EXPECT_EQ(std::system((chromium + "--dump-dom " + url + " > " + dir.file("dom.html") + " 2> " + dir.file("chromium.log")).c_str()), 0);
-  const std::string dom = read_file_bytes(dir.file("dom.html"));
-  const size_t at = dom.find("<body");
-  view.body = at == std::string::npos ? dom.substr(0, 300) : dom.substr(at, dom.find('>', at) - at + 1);
-  const std::string png = dir.file("screenshot.png");
-  EXPECT_EQ(std::system((chromium + "--screenshot=" + png + " " + url + " >> " + dir.file("chromium.log") + " 2>&1").c_str()), 0);
-  if (std::filesystem::exists(png)) view.screenshot = read_image(png, ImageColor::kBgr);
-  return view;
-}
-
-/// Share of the screenshot's pixels that are neither page white nor grey text: what WebGL drew.
-double coloured_share(const Image8& image) {
-  if (image.pixels.empty()) return 0;
-  size_t coloured = 0;
-  for (size_t i = 0; i + 2 < image.pixels.size(); i += 3) {
-    const int b = image.pixels[i], g = image.pixels[i + 1], r = image.pixels[i + 2];
-    coloured += std::max({r, g, b}) - std::min({r, g, b}) > 40;
-  }
-  return static_cast<double>(coloured) / static_cast<double>(image.pixels.size() / 3);
 }
 
 }  // namespace
@@ -1031,41 +998,6 @@ TEST(Cli, CustomizeNamesWhatIsMissing) {
 }
 
 // The report through the CLI (the sanitizer pass leaves it out: Report.* runs the same report in process).
-TEST(Cli, Report) {
-  ASSERT_FALSE(test::test_data_root().empty());
-  test::TempDir dir;
-  const std::string ds = test::small_dataset().root;
-  const std::string command =
-      "report --dataset " + ds + " --out " + dir.file("report") + " --runs 1 --nicp-subjects 0 --customization-bodies 30";
-  const CommandResult r = run(command, true);
-  ASSERT_EQ(r.code, 0) << r.out;
-  EXPECT_TRUE(std::filesystem::is_regular_file(dir.file("report/index.html")));
-  EXPECT_NE(r.out.find("peak RSS"), std::string::npos) << r.out;
-  // Each figure also in 3-D: it renders offline in a browser, every figure, no console errors.
-  const std::string index = read_file_bytes(dir.file("report/index.html"));
-  size_t figures = 0;
-  for (size_t at = index.find("data-posekit-figure="); at != std::string::npos; at = index.find("data-posekit-figure=", at + 1)) ++figures;
-  EXPECT_GE(figures, 4u) << "interactive figures in index.html";
-  if (const auto page = open_in_chromium(dir, dir.file("report/index.html"))) {
-    EXPECT_NE(page->body.find("data-posekit-viewers=\"ok " + std::to_string(figures) + "\""), std::string::npos) << page->body;
-    EXPECT_EQ(page->body.find("data-posekit-errors"), std::string::npos) << page->body;
-    EXPECT_GT(coloured_share(page->screenshot), 0.005) << "the first screen shows no figure";
-  }
-  EXPECT_NE(r.out.find("posekit report: stages (s): model "), std::string::npos) << r.out;
-  EXPECT_EQ(r.out.find("posekit report: reused"), std::string::npos) << r.out;
-  const auto first = nlohmann::json::parse(read_file_bytes(dir.file("report/report.json")));
-  // Again with nothing changed: the trained models and Table 1 come from the cache, the same numbers.
-  const CommandResult again = run(command, true);
-  ASSERT_EQ(again.code, 0) << again.out;
-  for (const char* what : {"reused pose model", "reused customization model", "reused pose fits", "reused shape space", "reused Table 1"})
-    EXPECT_NE(again.out.find(std::string("posekit report: ") + what), std::string::npos) << what << "\n" << again.out;
-  const auto second = nlohmann::json::parse(read_file_bytes(dir.file("report/report.json")));
-  EXPECT_EQ(second["table1"], first["table1"]);
-  EXPECT_EQ(second["pose_errors"], first["pose_errors"]);
-  EXPECT_EQ(second["reused_from_cache"].size(), 5u);
-  EXPECT_LT(second["seconds"].get<double>(), first["seconds"].get<double>());
-}
-
 TEST(Cli, RegisterRefinesByAShapeSpaceOnlyFromTheTemplatesTopology) {
   ASSERT_FALSE(test::test_data_root().empty());
   const std::string ds = test::small_dataset().root;
