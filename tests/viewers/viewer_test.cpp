@@ -229,3 +229,16 @@ TEST(Viewer, InteractiveWindowPicksAVertexAndTogglesOverlayAndCamera) {
   const std::vector<ViewerEvent> miss = {{Kind::kClick, 0.02, 0.98, 0}};
   EXPECT_TRUE(show_panels({panel}, o, &miss).picks.empty());
 }
+
+// A scan's stray points do not widen the box a panel of points is framed by.
+TEST(Viewer, APanelOfPointsIsFramedWithoutItsStrays) {
+  Eigen::MatrixXd P(1001, 3);
+  for (int i = 0; i < 1000; ++i) P.row(i) << 0.001 * i, 2 * 0.001 * i, -0.001 * i;
+  P.row(1000) << 50, -50, 50;  // one stray, far away
+  const auto [lo, hi] = robust_box(P);
+  EXPECT_NEAR(lo.x(), 0.010, 1e-9);
+  EXPECT_NEAR(hi.x(), 0.990, 1e-9);
+  EXPECT_NEAR(hi.y(), 1.978, 1e-9);  // the stray is the lowest y: the 99th percentile is one step lower
+  EXPECT_NEAR(lo.z(), -0.989, 1e-9);
+  EXPECT_THROW(robust_box(Eigen::MatrixXd(0, 3)), InvalidInput);
+}

@@ -2,11 +2,24 @@
 
 #include <algorithm>
 #include <cmath>
+#include <vector>
 
 #include "posekit/core/error.h"
 #include "posekit/core/plugin.h"
 
 namespace posekit {
+
+std::pair<Eigen::Vector3d, Eigen::Vector3d> robust_box(const Eigen::MatrixXd& P) {
+  if (P.rows() == 0 || P.cols() != 3) throw InvalidInput("robust_box: expected a non-empty #P x 3 set of points");
+  Eigen::Vector3d lo, hi;
+  for (int k = 0; k < 3; ++k) {
+    std::vector<double> v(P.col(k).data(), P.col(k).data() + P.rows());
+    std::sort(v.begin(), v.end());
+    lo[k] = v[static_cast<size_t>(0.01 * static_cast<double>(v.size() - 1))];
+    hi[k] = v[static_cast<size_t>(0.99 * static_cast<double>(v.size() - 1))];
+  }
+  return {lo, hi};
+}
 
 CameraPreset parse_camera_preset(const std::string& name) {
   if (name == "front") return CameraPreset::kFront;

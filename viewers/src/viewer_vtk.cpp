@@ -207,12 +207,8 @@ vtkSmartPointer<vtkPolyData> cloud_polydata(const PointCloud& cloud, size_t max_
 
 /// The box of the points without their outliers (the 1st to 99th percentile on each axis).
 void robust_bounds(const Eigen::MatrixXd& P, double bounds[6]) {
-  for (int k = 0; k < 3; ++k) {
-    std::vector<double> v(P.col(k).data(), P.col(k).data() + P.rows());
-    std::sort(v.begin(), v.end());
-    bounds[2 * k] = v[static_cast<size_t>(0.01 * static_cast<double>(v.size() - 1))];
-    bounds[2 * k + 1] = v[static_cast<size_t>(0.99 * static_cast<double>(v.size() - 1))];
-  }
+  const auto [lo, hi] = robust_box(P);
+  for (int k = 0; k < 3; ++k) bounds[2 * k] = lo[k], bounds[2 * k + 1] = hi[k];
 }
 
 /// Frames the mesh (not the overlay, whose outliers may lie far away) from a preset direction; a

@@ -184,14 +184,7 @@ std::string triangles_json(const std::vector<ViewPanel>& panels, size_t i) {
 /// The box a panel's body takes (of its points alone, without their outliers, when it has no mesh).
 std::pair<Eigen::Vector3d, Eigen::Vector3d> panel_box(const ViewPanel& p) {
   if (p.mesh.F.rows() > 0) return {p.mesh.V.colwise().minCoeff().transpose(), p.mesh.V.colwise().maxCoeff().transpose()};
-  Eigen::Vector3d lo, hi;
-  for (int k = 0; k < 3; ++k) {
-    std::vector<double> v(p.overlay.P.col(k).data(), p.overlay.P.col(k).data() + p.overlay.P.rows());
-    std::sort(v.begin(), v.end());
-    lo[k] = v[static_cast<size_t>(0.01 * static_cast<double>(v.size() - 1))];
-    hi[k] = v[static_cast<size_t>(0.99 * static_cast<double>(v.size() - 1))];
-  }
-  return {lo, hi};
+  return robust_box(p.overlay.P);
 }
 
 /// The panel's vertex colours as the PNG figures have them.

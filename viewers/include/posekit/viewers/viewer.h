@@ -3,6 +3,7 @@
 // several meshes side by side, a labelled colour bar in mm. VTK stays inside src/.
 #include <Eigen/Core>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "posekit/core/colour_map.h"
@@ -32,6 +33,10 @@ struct ViewPanel {
   std::string caption;
   CameraPreset camera = CameraPreset::kFront;
 };
+
+/// The box of a panel's points without their outliers (a scan's strays): each axis from its 1st to its
+/// 99th percentile. Both viewers frame a panel of points alone by it. Throws InvalidInput when P is empty.
+std::pair<Eigen::Vector3d, Eigen::Vector3d> robust_box(const Eigen::MatrixXd& P);
 
 struct ViewOptions {
   ColourMap colour_map;
