@@ -11,6 +11,10 @@ namespace posekit::test {
 
 bool have_program(const std::string& name);
 
+/// Whether the tests open posekit's files in other programs (CloudCompare, Open3D, Chromium): in
+/// the release pass. The sanitizer pass checks posekit's own memory, not other programs' reading.
+bool other_programs_checked();
+
 /// A page as headless Chromium (software WebGL) shows it from file://: the body tag after its
 /// scripts ran (the web viewer writes data-posekit-viewers and data-posekit-errors there) and a
 /// screenshot. Empty when Chromium is not installed.
