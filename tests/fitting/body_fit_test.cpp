@@ -10,6 +10,7 @@
 #include "posekit/body/skinning.h"
 #include "posekit/core/closest_point.h"
 #include "posekit/core/error.h"
+#include "posekit/core/point_grid.h"
 #include "posekit/customization/model_silhouette_fit.h"
 #include "posekit/fitting/body_fit.h"
 #include "posekit/fitting/fitted_measurements.h"
@@ -380,4 +381,59 @@ TEST(BodyFit, FittedToTwoSilhouettesFromAPhoneAtChestHeight) {
       sack.mask[static_cast<size_t>(v) * sack.width + u] = x * x + y * y <= 1 ? 255 : 0;
     }
   EXPECT_THROW(customize_by_body_model(*pop.model, sack, sack, cams), BelowConfidence);
+}
+
+namespace {
+
+/// n points on the side of the cylinder of radius r from a to b (a golden-angle spiral).
+Eigen::MatrixXd cylinder(const Eigen::Vector3d& a, const Eigen::Vector3d& b, double r, int n) {
+  const Eigen::Vector3d axis = (b - a).normalized();
+  const Eigen::Vector3d u = axis.unitOrthogonal(), w = axis.cross(u);
+  Eigen::MatrixXd P(n, 3);
+  for (int i = 0; i < n; ++i) {
+    const double t = (i + 0.5) / n, phi = 2.399963 * i;
+    P.row(i) = (a + t * (b - a) + r * (std::cos(phi) * u + std::sin(phi) * w)).transpose();
+  }
+  return P;
+}
+
+Eigen::MatrixXd stacked(const std::vector<Eigen::MatrixXd>& parts) {
+  Eigen::Index rows = 0;
+  for (const auto& p : parts) rows += p.rows();
+  Eigen::MatrixXd out(rows, 3);
+  rows = 0;
+  for (const auto& p : parts) out.middleRows(rows, p.rows()) = p, rows += p.rows();
+  return out;
+}
+
+}  // namespace
+
+// A start whose arms differ from the target's: stood on it by the boxes' centres it lies beside the
+// target's trunk, by the median points near it, and centred on the cloud on it.
+TEST(BodyFit, AStartWithOtherArmsIsStoodOnTheTrunk) {
+  using V = Eigen::Vector3d;
+  const std::vector<Eigen::MatrixXd> trunk = {
+      cylinder(V(0, 0, 0), V(0, 0.6, 0), 0.15, 900), cylinder(V(0, 0.6, 0), V(0, 0.85, 0), 0.09, 200),
+      cylinder(V(0.09, 0, 0), V(0.09, -0.85, 0), 0.07, 400), cylinder(V(-0.09, 0, 0), V(-0.09, -0.85, 0), 0.07, 400)};
+  // The target's arms hang; the start's left arm is half raised to the side and its right arm forward.
+  std::vector<Eigen::MatrixXd> target_parts = trunk, start_parts = trunk;
+  target_parts.push_back(cylinder(V(0.21, 0.55, 0), V(0.21, -0.05, 0), 0.045, 200));
+  target_parts.push_back(cylinder(V(-0.21, 0.55, 0), V(-0.21, -0.05, 0), 0.045, 200));
+  start_parts.push_back(cylinder(V(0.2, 0.5, 0), V(0.6, 0.15, 0), 0.045, 200));
+  start_parts.push_back(cylinder(V(-0.21, 0.5, 0.05), V(-0.21, 0.15, 0.45), 0.045, 200));
+  const Eigen::RowVector3d where(0.4, 1.0, -0.3);
+  const Eigen::MatrixXd target = stacked(target_parts).rowwise() + where;
+  Eigen::MatrixXd start = stacked(start_parts);
+  auto box_centre = [](const Eigen::MatrixXd& P) { return Eigen::RowVector3d(0.5 * (P.colwise().minCoeff() + P.colwise().maxCoeff())); };
+  Eigen::RowVector3d by_boxes = box_centre(target) - box_centre(start);
+  by_boxes.y() = target.col(1).minCoeff() - start.col(1).minCoeff();
+  const Eigen::RowVector3d stood = stand_on_cloud(start, target);
+  start.rowwise() += stood;
+  const PointGrid grid(target, 0.075);
+  const Eigen::RowVector3d centred = stood + centre_on_cloud(target, grid, 0.15, 0.075, 3, &start);
+  std::printf("the trunk off by %.1f mm stood on the boxes' centres, %.1f mm on the medians, %.1f mm centred\n",
+              1000 * (by_boxes - where).norm(), 1000 * (stood - where).norm(), 1000 * (centred - where).norm());
+  EXPECT_GT((by_boxes - where).norm(), 0.2);
+  EXPECT_LT((stood - where).norm(), 0.03);
+  EXPECT_LT((centred - where).norm(), 0.01);
 }

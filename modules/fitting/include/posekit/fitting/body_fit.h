@@ -39,6 +39,22 @@ std::vector<LibraryPose> pose_library(const Eigen::MatrixXd& rest_joints);
 std::vector<LibraryPose> distinct_motion_poses(const std::vector<LibraryPose>& frames, const std::vector<LibraryPose>& library,
                                                int max_poses = 40, double min_degrees = 30);
 
+class PointGrid;
+
+/// The move that stands a body (its points X, Y up) on a cloud as the search stands its starts: its
+/// lowest point on the cloud's floor (the 0.5% quantile of its heights) and, across, its median point
+/// over the cloud's (each axis's median). A box's centre follows the limbs: a body with one arm half
+/// raised and the other forward stood 25 cm beside a body with its arms hanging.
+Eigen::RowVector3d stand_on_cloud(const Eigen::MatrixXd& X, const Eigen::MatrixXd& cloud);
+
+/// Centres a body placed on a cloud: moves its points X by the median offset, on each axis, between
+/// them and the cloud's within `cap` (m), both ways (each body point to its nearest cloud point, each
+/// cloud point's nearest body point to it), again while it moves over a centimetre, `rounds` times at
+/// most. Returns the whole move. Unlike the bounding boxes' centres, the limbs that differ do not
+/// decide it. `cloud_grid`: the cloud's; `cell`: the body grid's.
+Eigen::RowVector3d centre_on_cloud(const Eigen::MatrixXd& cloud, const PointGrid& cloud_grid, double cap, double cell, int rounds,
+                                   Eigen::MatrixXd* X);
+
 /// A pose as a shape space stores it (ShapeSpace::poses: pelvis rotation, then each joint's), and back.
 Eigen::RowVectorXd pose_row(const PartPose& pose);
 PartPose pose_from_row(const Eigen::RowVectorXd& row);
