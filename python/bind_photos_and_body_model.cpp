@@ -58,6 +58,7 @@ py::dict body_fit_dict(const BodyModel& model, const BodyFit& fit, const BodyFra
   out["confident"] = fit.confident;
   out["reasons"] = fit.reasons;
   out["warnings"] = fit.warnings;
+  out["guessed_joints"] = joint_names_where(fit.joint_guessed);
   out["seconds"] = fit.seconds;
   out["frame"] = frame_dict(frame);
   return out;
@@ -163,7 +164,8 @@ void bind_photos_and_body_model(py::module_& m) {
            "in the input's unit and axes), 'joints' (15 x 3), 'vertex_part' (the template's), 'target_part' (the "
            "part of each input point, -1 far from the body), 'target_distance_mm', 'coefficients', 'pose' (in the "
            "fit frame: the input turned by 'to_fit_frame'), 'up', 'start', 'coverage', 'target_to_body_mm', "
-           "'shape_mahalanobis', 'confident', 'reasons', 'warnings', 'seconds', 'frame'}. A poor fit raises "
+           "'shape_mahalanobis', 'confident', 'reasons', 'warnings', 'guessed_joints' (their parts unseen: cut off or "
+           "hidden), 'seconds', 'frame'}. A poor fit raises "
            "BelowConfidence with its reasons unless accept_poor.");
   m.def("customize", &customize, py::arg("front"), py::arg("side"), py::arg("camera") = py::none(), py::arg("height") = 0.0,
         py::arg("method") = "paper", py::arg("model") = py::none(), py::arg("masks") = false, py::arg("front_background") = py::none(),

@@ -17,7 +17,7 @@ class BodyModel:
     def components(self) -> int:
         """Shape components (standard deviations)."""
     def fit(self, V: numpy.ndarray, F: Any = ..., unit: str = ..., up: str = ..., accept_poor: bool = ...) -> dict:
-        """Fits the body model to a body: a mesh (V, F) or a scan's points (V), in any unit, any axes (up: an axis such as '+Z' to try only it), any pose. Returns {'V', 'F' (the fitted body, template topology, in the input's unit and axes), 'joints' (15 x 3), 'vertex_part' (the template's), 'target_part' (the part of each input point, -1 far from the body), 'target_distance_mm', 'coefficients', 'pose' (in the fit frame: the input turned by 'to_fit_frame'), 'up', 'start', 'coverage', 'target_to_body_mm', 'shape_mahalanobis', 'confident', 'reasons', 'warnings', 'seconds', 'frame'}. A poor fit raises BelowConfidence with its reasons unless accept_poor."""
+        """Fits the body model to a body: a mesh (V, F) or a scan's points (V), in any unit, any axes (up: an axis such as '+Z' to try only it), any pose. Returns {'V', 'F' (the fitted body, template topology, in the input's unit and axes), 'joints' (15 x 3), 'vertex_part' (the template's), 'target_part' (the part of each input point, -1 far from the body), 'target_distance_mm', 'coefficients', 'pose' (in the fit frame: the input turned by 'to_fit_frame'), 'up', 'start', 'coverage', 'target_to_body_mm', 'shape_mahalanobis', 'confident', 'reasons', 'warnings', 'guessed_joints' (their parts unseen: cut off or hidden), 'seconds', 'frame'}. A poor fit raises BelowConfidence with its reasons unless accept_poor."""
 
 class Error(RuntimeError):
     """Any posekit error."""

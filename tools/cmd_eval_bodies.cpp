@@ -197,6 +197,7 @@ int run_eval_bodies(int argc, char** argv) {
       j["joint_error_mean_mm"] = 1000 * b.joint_error_mean;
       j["worst_joint"] = b.worst_joint;
       for (const auto& [name, e] : b.joint_error) j["joint_error_mm"][name] = 1000 * e;
+      if (b.by_body_model) j["guessed_joints"] = b.guessed_joints;
     }
     for (const auto& [name, e] : b.girth_error) j["girth_error_mm"][name] = 1000 * e;
     for (const auto& [name, note] : b.girth_not_measured) j["girth_not_measured"][name] = note;

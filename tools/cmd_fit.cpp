@@ -119,6 +119,7 @@ nlohmann::ordered_json fit_summary_json(const PoseFitResult& r) {
           {"seconds", r.seconds},
           {"target_to_body_mm", {{"mean", 1000 * r.target_mean}, {"p95", 1000 * r.target_p95}}},
           {"coverage_1cm", r.coverage},
+          {"guessed_joints", joint_names_where(r.joint_guessed)},
           {"warnings", r.warnings}};
 }
 

@@ -219,9 +219,10 @@ int measure_by_body_model(const ArgParser& args, const SurveyDistribution* surve
     j["units"] = "m";
     j["file_unit"] = {{"unit", unit_name(unit.unit)}, {"detected", unit.detected}, {"largest_extent", unit.extent}};
     j["frame"] = "input";
-    j["fit"] = {{"confident", fit.confident}, {"reasons", fit.reasons},   {"start", fit.start},
-                {"up", vec(fit.up)},          {"coverage", fit.coverage}, {"target_p95_mm", 1000 * fit.target_p95},
-                {"seconds", fit.seconds}};
+    j["fit"] = {{"confident", fit.confident}, {"reasons", fit.reasons},
+                {"start", fit.start},         {"up", vec(fit.up)},
+                {"coverage", fit.coverage},   {"target_p95_mm", 1000 * fit.target_p95},
+                {"seconds", fit.seconds},     {"guessed_joints", joint_names_where(fit.joint_guessed)}};
     for (const auto& [stage, seconds] : fit.stage_seconds) j["fit"]["stage_seconds"][stage] = seconds;
     j["stature"] = m.stature;
     j["stature_note"] = m.stature_note;

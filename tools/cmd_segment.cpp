@@ -134,6 +134,7 @@ int segment_by_body_model(const ArgParser& args) {
                                     {"working_points", fit.working_points},
                                     {"seconds", fit.seconds},
                                     {"joints", joints},
+                                    {"guessed_joints", joint_names_where(fit.joint_guessed)},
                                     {"pose_fit_frame", pose},
                                     {"cross_check", cross},
                                     {"disagreements", disagreements}};
@@ -156,7 +157,11 @@ int segment_by_body_model(const ArgParser& args) {
     write_mesh(args.get("fitted"), fitted, {unit.unit, MeshFormat::kAuto, true, io_warnings()});
   }
   if (args.has("joints")) {
-    nlohmann::ordered_json jj = {{"units", "m"}, {"frame", "input"}, {"confident", fit.confident}, {"joints", joints}};
+    nlohmann::ordered_json jj = {{"units", "m"},
+                                 {"frame", "input"},
+                                 {"confident", fit.confident},
+                                 {"joints", joints},
+                                 {"guessed", joint_names_where(fit.joint_guessed)}};
     const std::string text = jj.dump(2) + "\n";
     write_file_atomically(
         args.get("joints"), [&](std::ostream& o) { o << text; }, false);

@@ -435,7 +435,11 @@ TEST(PoseFitting, WarnsWhenTheTargetDoesNotShowAPart) {
   for (const auto& w : fit.warnings) wrists += w.find("wrist' is held at its rest rotation") != std::string::npos;
   EXPECT_EQ(wrists, 2);
   for (const char* name : {"left_wrist", "right_wrist"}) EXPECT_LT(fit.pose.joint(find_joint_index(name)).norm() * 180 / M_PI, 1.0) << name;
-  EXPECT_TRUE(fit_pose(synth, truth_mesh.V).warnings.empty());
+  // And said where a program reads it: the two wrists, and no other joint, are guessed.
+  EXPECT_EQ(joint_names_where(fit.joint_guessed), (std::vector<std::string>{"left_wrist", "right_wrist"}));
+  const PoseFitResult whole = fit_pose(synth, truth_mesh.V);
+  EXPECT_TRUE(whole.warnings.empty());
+  EXPECT_TRUE(joint_names_where(whole.joint_guessed).empty());
 }
 
 TEST(PoseFitting, StaysAtADeepSquatThatItPosesExactly) {

@@ -61,6 +61,28 @@ TEST(RobustnessSet, RealDataFailuresAreMeasuredSegmentedOrNamedNeverSilent) {
   }
 }
 
+TEST(RobustnessSet, AJointTheFitSaysItGuessedIsNotSilentAndAnotherStillIs) {
+  // A scanner cut the hands: the fit held the wrists and said so; a wrist 80 mm off is then no
+  // silent result, an elbow 60 mm off still is.
+  BodyResult r;
+  r.by_body_model = r.segmented = r.orientation_right = r.unit_right = true;
+  for (int j = 0; j < kNumJoints; ++j) r.joint_error[joint_name(j)] = 0.01;
+  r.joint_error["left_wrist"] = 0.08;
+  r.segmentation_agreement = 0.99;
+  BodyResult unsaid = r;
+  flag_silent_nonsense(true, &unsaid);
+  ASSERT_EQ(unsaid.silent_nonsense.size(), 1u);
+  EXPECT_NE(unsaid.silent_nonsense[0].find("left_wrist 80 mm off"), std::string::npos) << unsaid.silent_nonsense[0];
+  r.guessed_joints = {"left_wrist", "right_wrist"};
+  BodyResult said = r;
+  flag_silent_nonsense(true, &said);
+  EXPECT_TRUE(said.silent_nonsense.empty());
+  r.joint_error["left_elbow"] = 0.06;
+  flag_silent_nonsense(true, &r);
+  ASSERT_EQ(r.silent_nonsense.size(), 1u);
+  EXPECT_NE(r.silent_nonsense[0].find("left_elbow 60 mm off"), std::string::npos) << r.silent_nonsense[0];
+}
+
 Eigen::Vector3d truth_joint(const nlohmann::json& truth, const std::string& name) {
   const auto& j = truth["joints"][name];
   return Eigen::Vector3d(j[0], j[1], j[2]);

@@ -48,6 +48,13 @@ int mirror_part(int part) {
   return part;
 }
 const std::string& joint_name(int joint) { return kJointNames.at(joint); }
+
+std::vector<std::string> joint_names_where(const std::array<bool, kNumJoints>& flags) {
+  std::vector<std::string> names;
+  for (int j = 0; j < kNumJoints; ++j)
+    if (flags[static_cast<size_t>(j)]) names.push_back(joint_name(j));
+  return names;
+}
 int find_joint_index(const std::string& name) {
   for (int j = 0; j < kNumJoints; ++j)
     if (kJointNames[j] == name) return j;

@@ -244,6 +244,7 @@ class PoseFitter {
           out->warnings.push_back(msg.str()), msg.str("");
     for (int c = 1; c < kNumParts; ++c) {
       const size_t q = static_cast<size_t>(c);
+      out->joint_guessed[q - 1] = unseen(c);
       if (unseen(c))
         msg << std::fixed << "only " << 100.0 * part_covered[q] / part_vertices[q] << "% of the " << part_name(c)
             << " lies within 1 cm of the target (cut off or hidden?): joint '" << joint_name(c - 1)

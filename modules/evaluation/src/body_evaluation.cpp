@@ -42,26 +42,6 @@ constexpr double kSilentJoint = 0.05, kSilentAgreement = 0.80, kSilentGirth = 0.
 
 Eigen::Vector3d vec3(const nlohmann::json& j) { return Eigen::Vector3d(j[0].get<double>(), j[1].get<double>(), j[2].get<double>()); }
 
-/// One body through unit, orientation, measurement and segmentation, compared with its truth.
-/// What a user would take for good and is not (`unwarned`: the orientation came without a warning).
-void flag_silent_nonsense(bool unwarned, BodyResult* result) {
-  BodyResult& r = *result;
-  if (!r.orientation_right && (r.measured || (r.segmented && !r.by_body_model)) && unwarned)
-    r.silent_nonsense.push_back("orientation " + r.orientation + " is wrong, without a warning");
-  const std::string passed = r.by_body_model ? "the body model's fit was confident" : "skeleton passed its checks";
-  if (r.segmented && r.joint_error_max > kSilentJoint)
-    r.silent_nonsense.push_back(passed + " with the " + r.worst_joint + " " +
-                                std::to_string(static_cast<int>(std::lround(r.joint_error_max * 1000))) + " mm off");
-  if (r.segmented && r.segmentation_agreement < kSilentAgreement)
-    r.silent_nonsense.push_back((r.by_body_model ? passed + "," : std::string("segmentation passed its checks")) +
-                                " agreeing with the rig on only " +
-                                std::to_string(static_cast<int>(std::lround(100 * r.segmentation_agreement))) + "% of the area");
-  for (const auto& [name, e] : r.girth_error)
-    if (std::abs(e) > kSilentGirth)
-      r.silent_nonsense.push_back(name + " girth returned as measured " + std::to_string(static_cast<int>(std::lround(e * 1000))) +
-                                  " mm off");
-}
-
 /// The body model's fit of a body in the file's frame (metres) against the truth: labels (meshes),
 /// joints and, where the truth has its pose, joint angles.
 void evaluate_fit(const BodyFit& fit, const nlohmann::json& truth, const TriangleMesh* mesh, const Eigen::Matrix3d& file_to_posekit,
@@ -92,6 +72,7 @@ void evaluate_fit(const BodyFit& fit, const nlohmann::json& truth, const Triangl
     const Eigen::Vector3d rig = file_to_posekit.transpose() * vec3(truth.at("joints").at(joint_name(j)));
     const double e = (fit.joints.row(j).transpose() - rig).norm();
     r->joint_error[joint_name(j)] = e;
+    if (fit.joint_guessed[static_cast<size_t>(j)]) r->guessed_joints.push_back(joint_name(j));
     r->joint_error_mean += e / kNumJoints;
     if (e > r->joint_error_max) r->joint_error_max = e, r->worst_joint = joint_name(j);
   }
@@ -267,6 +248,30 @@ BodyResult evaluate_body(const fs::path& dir, const nlohmann::json& entry, const
 }
 
 }  // namespace
+
+void flag_silent_nonsense(bool unwarned, BodyResult* result) {
+  BodyResult& r = *result;
+  if (!r.orientation_right && (r.measured || (r.segmented && !r.by_body_model)) && unwarned)
+    r.silent_nonsense.push_back("orientation " + r.orientation + " is wrong, without a warning");
+  const std::string passed = r.by_body_model ? "the body model's fit was confident" : "skeleton passed its checks";
+  // A joint the fit says it guessed (its part cut off or hidden) is not returned as good.
+  std::string worst;
+  double worst_error = 0;
+  for (const auto& [name, e] : r.joint_error)
+    if (e > worst_error && std::find(r.guessed_joints.begin(), r.guessed_joints.end(), name) == r.guessed_joints.end())
+      worst = name, worst_error = e;
+  if (r.segmented && worst_error > kSilentJoint)
+    r.silent_nonsense.push_back(passed + " with the " + worst + " " + std::to_string(static_cast<int>(std::lround(worst_error * 1000))) +
+                                " mm off");
+  if (r.segmented && r.segmentation_agreement < kSilentAgreement)
+    r.silent_nonsense.push_back((r.by_body_model ? passed + "," : std::string("segmentation passed its checks")) +
+                                " agreeing with the rig on only " +
+                                std::to_string(static_cast<int>(std::lround(100 * r.segmentation_agreement))) + "% of the area");
+  for (const auto& [name, e] : r.girth_error)
+    if (std::abs(e) > kSilentGirth)
+      r.silent_nonsense.push_back(name + " girth returned as measured " + std::to_string(static_cast<int>(std::lround(e * 1000))) +
+                                  " mm off");
+}
 
 double iso_allowable_girth_error(const std::string& girth) {
   if (girth == "bust") return 0.015;

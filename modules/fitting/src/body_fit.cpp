@@ -1192,7 +1192,7 @@ class BodyFitter {
   Finished finish_from(size_t k, bool whole);
   Finished finish_best(const std::vector<size_t>& ranked);
   Finished read_off(size_t k, const PartPose& pose, const Eigen::VectorXd& c, const Eigen::MatrixXd& V,
-                    const std::vector<std::string>& warnings);
+                    const std::vector<std::string>& warnings, const std::array<bool, kNumJoints>& guessed);
   static std::string poor_because(const Finished& f) { return (f.cut_short ? "fitted briefly: " : "") + f.fit.reasons.front(); }
 
   const BodyModel& model_;
@@ -1246,7 +1246,7 @@ std::vector<size_t> BodyFitter::brief_fits(const std::vector<Start>& starts) {
 /// What is read off a finished fit (shape c, posed vertices V in the fit's frame), back in the
 /// target's frame.
 BodyFitter::Finished BodyFitter::read_off(size_t k, const PartPose& pose, const Eigen::VectorXd& c, const Eigen::MatrixXd& V,
-                                          const std::vector<std::string>& warnings) {
+                                          const std::vector<std::string>& warnings, const std::array<bool, kNumJoints>& guessed) {
   const Start& best = tried_[k];
   const UpFrame& frame = frames_[best.up];
   Finished out;
@@ -1261,6 +1261,7 @@ BodyFitter::Finished BodyFitter::read_off(size_t k, const PartPose& pose, const 
   // Back to the target's frame: x = R^T y + centre.
   fit.V = (V * frame.rotation).rowwise() + centre_;
   fit.joints = (ShapedBody(model_, c).posed_joints(pose) * frame.rotation).rowwise() + centre_;
+  fit.joint_guessed = guessed;
   read_off_fit(model_, W_, o_, warnings, &fit);
   lap("read-off");
   return out;
@@ -1309,7 +1310,7 @@ BodyFitter::Finished BodyFitter::finish_from(size_t k, bool whole) {
     Eigen::MatrixXd X;
     mean_body_.pose(pose, &X);
     if (cloud_quantile_to_body(X, frame.cloud, 0.95, kOutlier) >= kOutlier) {
-      Finished cut = read_off(k, pose, Eigen::VectorXd::Zero(model_.components()), X, {});
+      Finished cut = read_off(k, pose, Eigen::VectorXd::Zero(model_.components()), X, {}, {});
       cut.cut_short = true;
       if (!cut.fit.confident) return cut;
     }
@@ -1318,7 +1319,7 @@ BodyFitter::Finished BodyFitter::finish_from(size_t k, bool whole) {
   Eigen::VectorXd c;
   const PoseFitResult result = fit_shape_and_pose(model_, frame, grid, o_, recognised, &pose, &c);
   lap("shape and pose");
-  return read_off(k, pose, c, result.V, result.warnings);
+  return read_off(k, pose, c, result.V, result.warnings, result.joint_guessed);
 }
 
 /// The best brief fit finished; when that is poor, the runner-up's (an elbow bent where the arm is

@@ -42,6 +42,8 @@ int mirror_part(int part);
 /// Joint j connects part j+1 to its parent; its name ("lower_back", "upper_back", "neck",
 /// "left_shoulder", "left_elbow", "left_wrist", ..., "right_ankle").
 const std::string& joint_name(int joint);
+/// The names of the joints whose flag is set, in joint order.
+std::vector<std::string> joint_names_where(const std::array<bool, kNumJoints>& flags);
 /// Index of a joint by name, -1 when unknown.
 int find_joint_index(const std::string& name);
 

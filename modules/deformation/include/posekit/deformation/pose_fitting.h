@@ -4,6 +4,7 @@
 // (issue 18, part 2). To compare a posed model with a posed scan (Figure 9 of Zhu & Mok) the scan's
 // pose must be known; the paper picked markers by hand.
 #include <Eigen/Core>
+#include <array>
 #include <optional>
 #include <string>
 #include <vector>
@@ -105,6 +106,9 @@ struct PoseFitResult {
   int iterations = 0;
   double seconds = 0;
   std::vector<std::string> warnings;  ///< poor coverage or residual, a joint at its limit
+  /// Joints whose part (the one each moves) the target does not show (cut off or hidden, see the
+  /// warnings): their rotations come from the priors, their centres from the parts before them.
+  std::array<bool, kNumJoints> joint_guessed{};
 };
 
 /// Fits `synth`'s subject to target points T (#T x 3, m, Y up; any heading). No markers: the rest

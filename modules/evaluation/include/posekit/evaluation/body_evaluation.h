@@ -34,6 +34,7 @@ struct BodyResult {
   double joint_error_mean = std::numeric_limits<double>::quiet_NaN();        ///< m
   std::string worst_joint;
   std::map<std::string, double> joint_error;  ///< joint name -> m
+  std::vector<std::string> guessed_joints;    ///< joints the body model's fit says it guessed (their part unseen)
   /// With a body model: the fit labelled and placed the joints (meshes and scans alike); the mean
   /// angle (radians) between each fitted joint rotation and the truth's, where the truth has a pose.
   bool by_body_model = false;
@@ -42,8 +43,9 @@ struct BodyResult {
   std::string fit_start;                                          ///< the library pose the fit started from
   double fit_seconds = std::numeric_limits<double>::quiet_NaN();  ///< the body model fit's own time (s)
   double seconds = 0;                                             ///< the body's whole evaluation: reading, fit, measuring
-  /// A result returned as good that is far from the truth (orientation, joints over 5 cm, agreement
-  /// under 80%, a girth off by more than 5 cm): what a user would not notice. Filled by evaluate_bodies.
+  /// A result returned as good that is far from the truth (orientation, joints over 5 cm but those
+  /// the fit says it guessed, agreement under 80%, a girth off by more than 5 cm): what a user would
+  /// not notice. Filled by evaluate_bodies.
   std::vector<std::string> silent_nonsense;
 };
 
@@ -63,6 +65,11 @@ struct BodyEvaluation {
 };
 
 /// Evaluates every body of a robustness set folder. Throws IoError for a folder that is not one.
+/// Fills result->silent_nonsense: what a user would take for good and is not (`unwarned`: the
+/// orientation came without a warning). A joint the body model's fit says it guessed is not
+/// counted: the fit said so.
+void flag_silent_nonsense(bool unwarned, BodyResult* result);
+
 BodyEvaluation evaluate_bodies(const std::string& dir, const BodyEvaluationOptions& options = {});
 
 }  // namespace posekit

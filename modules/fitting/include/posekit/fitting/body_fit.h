@@ -6,6 +6,7 @@
 // joint limits) alternates with the shape coefficients' least squares. Parts, joints and pose are
 // read off the fitted model, with a confidence and its reasons.
 #include <Eigen/Core>
+#include <array>
 #include <functional>
 #include <string>
 #include <utility>
@@ -112,6 +113,9 @@ struct BodyFit {
   std::string start;                                           ///< the library pose the fit started from
   Eigen::MatrixXd V;                                           ///< the fitted body in the target's frame (#V x 3, template topology)
   Eigen::MatrixXd joints;                                      ///< joint centres in the target's frame (#joints x 3)
+  /// Joints whose part the target does not show (a scanner's cut hands, an arm hidden): the fit
+  /// guessed them from the priors and the parts before them, and `warnings` says so.
+  std::array<bool, kNumJoints> joint_guessed{};
   /// #T: the part of each target point (the nearest fitted vertex's); -1 for a point over 25 cm from
   /// the fitted body (an outlier, the floor).
   Eigen::VectorXi target_part;
