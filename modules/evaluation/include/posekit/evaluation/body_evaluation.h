@@ -64,12 +64,12 @@ struct BodyEvaluation {
   double seconds = 0;
 };
 
-/// Evaluates every body of a robustness set folder. Throws IoError for a folder that is not one.
 /// Fills result->silent_nonsense: what a user would take for good and is not (`unwarned`: the
 /// orientation came without a warning). A joint the body model's fit says it guessed is not
 /// counted: the fit said so.
 void flag_silent_nonsense(bool unwarned, BodyResult* result);
 
+/// Evaluates every body of a robustness set folder. Throws IoError for a folder that is not one.
 BodyEvaluation evaluate_bodies(const std::string& dir, const BodyEvaluationOptions& options = {});
 
 }  // namespace posekit
