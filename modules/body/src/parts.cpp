@@ -1,8 +1,10 @@
 #include "posekit/body/parts.h"
 
 #include <Eigen/Geometry>
+#include <algorithm>
 #include <cmath>
 #include <nlohmann/json.hpp>
+#include <numeric>
 
 #include "posekit/core/error.h"
 #include "posekit/io/atomic_file.h"
@@ -88,6 +90,27 @@ Eigen::VectorXi vertex_part_labels(const MakeHumanModel& model) {
     labels[v] = static_cast<int>(std::max_element(sum.begin(), sum.end()) - sum.begin());
   }
   return labels;
+}
+
+std::vector<std::vector<std::pair<int, double>>> vertex_part_weights(const MakeHumanModel& model) {
+  const std::vector<int> parts = bone_parts(model.rig);
+  const auto& W = model.weights;
+  std::vector<std::vector<std::pair<int, double>>> out(static_cast<size_t>(W.rows()));
+  for (Eigen::Index v = 0; v < W.rows(); ++v) {
+    std::array<double, kNumParts> sum{};
+    for (Eigen::SparseMatrix<double, Eigen::RowMajor>::InnerIterator it(W, v); it; ++it)
+      sum[static_cast<size_t>(parts[static_cast<size_t>(it.col())])] += it.value();
+    const double total = std::accumulate(sum.begin(), sum.end(), 0.0);
+    auto& pw = out[static_cast<size_t>(v)];
+    for (int p = 0; p < kNumParts; ++p)
+      if (sum[static_cast<size_t>(p)] > 1e-4 * total) pw.emplace_back(p, sum[static_cast<size_t>(p)]);
+    double kept = 0;
+    for (const auto& entry : pw) kept += entry.second;
+    if (kept <= 0) pw = {{static_cast<int>(std::max_element(sum.begin(), sum.end()) - sum.begin()), 1.0}};
+    else
+      for (auto& entry : pw) entry.second /= kept;
+  }
+  return out;
 }
 
 Eigen::VectorXi triangle_part_labels(const Eigen::MatrixXi& F, const Eigen::VectorXi& vl) {

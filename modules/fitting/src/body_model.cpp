@@ -1,6 +1,7 @@
 #include "posekit/fitting/body_model.h"
 
 #include <Eigen/Geometry>
+#include <algorithm>
 #include <array>
 #include <string>
 
@@ -19,29 +20,12 @@ BodyModel::BodyModel(ShapeSpace space, const MakeHumanModel& makehuman) : space_
   if (!space_.has_joints() || space_.joint_mean.rows() != kNumJoints)
     throw InvalidInput("body model: the shape space does not know the 15 joints (" + space_.population +
                        "); build it with posekit shape-space --ansur (version 2 .pks)");
-  const std::vector<int> bone_part = bone_parts(makehuman.rig);
-  const auto& W = makehuman.weights;
-  part_weights_.resize(static_cast<size_t>(W.rows()));
-  vertex_part_.resize(W.rows());
-  for (Eigen::Index v = 0; v < W.rows(); ++v) {
-    std::array<double, kNumParts> sum{};
-    for (Eigen::SparseMatrix<double, Eigen::RowMajor>::InnerIterator it(W, v); it; ++it)
-      sum[static_cast<size_t>(bone_part[static_cast<size_t>(it.col())])] += it.value();
-    double total = 0;
-    int best = 0;
-    for (int p = 0; p < kNumParts; ++p) {
-      total += sum[static_cast<size_t>(p)];
-      if (sum[static_cast<size_t>(p)] > sum[static_cast<size_t>(best)]) best = p;
-    }
-    vertex_part_[v] = best;
-    auto& pw = part_weights_[static_cast<size_t>(v)];
-    for (int p = 0; p < kNumParts; ++p)
-      if (sum[static_cast<size_t>(p)] > 1e-4 * total) pw.emplace_back(p, sum[static_cast<size_t>(p)]);
-    double kept = 0;
-    for (const auto& [p, w] : pw) kept += w;
-    if (kept <= 0) pw = {{best, 1.0}};
-    else
-      for (auto& pw_entry : pw) pw_entry.second /= kept;
+  part_weights_ = vertex_part_weights(makehuman);
+  vertex_part_.resize(static_cast<Eigen::Index>(part_weights_.size()));
+  for (size_t v = 0; v < part_weights_.size(); ++v) {
+    const auto& pw = part_weights_[v];
+    vertex_part_[static_cast<Eigen::Index>(v)] =
+        std::max_element(pw.begin(), pw.end(), [](const auto& a, const auto& b) { return a.second < b.second; })->first;
   }
 }
 

@@ -4,6 +4,7 @@
 #include <Eigen/Core>
 #include <array>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "posekit/body/makehuman_model.h"
@@ -54,6 +55,9 @@ std::array<int, kNumParts> part_root_bones(const Rig& rig);
 
 /// Per-vertex part labels from the skinning weights (largest summed weight per part), #V.
 Eigen::VectorXi vertex_part_labels(const MakeHumanModel& model);
+/// Each vertex's parts and their weights (summing to 1): the rig's bone weights summed by part, parts
+/// under 1e-4 of the vertex's total left out. #V lists of (part, weight).
+std::vector<std::vector<std::pair<int, double>>> vertex_part_weights(const MakeHumanModel& model);
 /// Per-triangle labels: the label most of its three vertices carry (ties: the first vertex's), #F.
 Eigen::VectorXi triangle_part_labels(const Eigen::MatrixXi& F, const Eigen::VectorXi& vertex_labels);
 
