@@ -144,8 +144,10 @@ ShapeFitResult fit_shape_space(const ShapeSpace& space, const Eigen::MatrixXi& F
     throw InvalidInput("shape-space fit: iterations >= 0, vertex_stride >= 1, max_distance > 0 and prior_distance > 0 expected");
   ShapeFitResult r;
   const double prior = o.prior_distance * o.prior_distance;
-  // Component k's squared norm (sigma_k^2 (n - 1) / (n - 1) of a unit vector): the columns are orthogonal.
-  const Eigen::VectorXd column_norms2 = space.basis.colwise().squaredNorm().transpose();
+  // The columns' Gram matrix: diagonal for principal components alone, not with components added to
+  // them (the body model's limb segments).
+  Eigen::MatrixXd gram = Eigen::MatrixXd::Zero(K, K);
+  gram.selfadjointView<Eigen::Lower>().rankUpdate(space.basis.transpose());
   const auto body = [&](const Eigen::VectorXd& c) -> Eigen::MatrixXd { return space.mean + unflatten(space.basis * c); };
   const auto placed = [&](const Eigen::MatrixXd& X) -> Eigen::MatrixXd {
     return (X * r.rotation.transpose()).rowwise() + r.translation.transpose();
@@ -160,7 +162,9 @@ ShapeFitResult fit_shape_space(const ShapeSpace& space, const Eigen::MatrixXi& F
     const Eigen::MatrixXd local = ((start.rowwise() - r.translation.transpose()) * r.rotation) - space.mean;
     // Each vertex weighs as a pair; the prior as in the surface fit, scaled to the whole body.
     const double w = prior * static_cast<double>(nv) / static_cast<double>((nv + o.vertex_stride - 1) / o.vertex_stride);
-    r.coefficients = (space.basis.transpose() * flatten(local)).cwiseQuotient(column_norms2 + Eigen::VectorXd::Constant(K, w));
+    Eigen::MatrixXd regularised = gram;
+    regularised.diagonal().array() += w;
+    r.coefficients = regularised.selfadjointView<Eigen::Lower>().ldlt().solve(space.basis.transpose() * flatten(local));
   }
 
   std::vector<Eigen::Index> sample;
