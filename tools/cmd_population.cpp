@@ -12,6 +12,7 @@
 #include "posekit/core/data_root.h"
 #include "posekit/core/error.h"
 #include "posekit/io/atomic_file.h"
+#include "posekit/population/limb_segments.h"
 #include "posekit/population/survey_fit.h"
 
 namespace posekit::cli {
@@ -86,6 +87,10 @@ void print_residual_table(const nlohmann::ordered_json& summary) {
   std::cout << "\nComponents: " << summary["components"].get<int>() << " keep " << std::setprecision(4)
             << 100 * summary["variance_kept"].get<double>() << "% of the variance; every body within " << std::setprecision(2)
             << summary["worst_rms_mm"].get<double>() << " mm RMS (mean " << summary["mean_rms_mm"].get<double>() << " mm)\n";
+  std::cout << "Limb segment components (each segment's spread at the same 12 measurements and sex, mm):";
+  for (const auto& [name, sd] : summary["limb_segment_spread_mm"].items())
+    std::cout << " " << name << " " << (sd.is_null() ? std::string("not measured") : std::to_string(sd.get<double>()).substr(0, 4));
+  std::cout << "\n";
   std::cout.unsetf(std::ios::fixed);
 }
 
@@ -129,8 +134,14 @@ ShapeSpace survey_shape_space(const std::string& survey_arg, const std::string& 
                                  std::filesystem::path(survey_path).filename().string() + " (" + std::to_string(men) + " men, " +
                                  std::to_string(subjects.size() - men) + " women; 12 measurements)";
   ShapeSpace space = population_shape_space(*model, specs, population, po, &report);
+  // How the limbs divide: from every subject of the survey (the split leaves the fitted 12 alone).
+  const std::array<double, kLimbSegmentCount> spread = limb_segment_spread(all);
+  add_limb_segment_components(*model, spread, &space);
 
   nlohmann::ordered_json summary = fit_summary(survey_path, subjects, fits, report);
+  for (int k = 0; k < kLimbSegmentCount; ++k)
+    summary["limb_segment_spread_mm"][limb_segment_name(static_cast<LimbSegment>(k))] =
+        std::isfinite(spread[k]) ? nlohmann::json(std::round(1e4 * spread[k]) / 10.0) : nlohmann::json(nullptr);
   if (!residuals_path.empty()) {
     nlohmann::ordered_json out = summary;
     for (size_t i = 0; i < fits.size(); ++i) {

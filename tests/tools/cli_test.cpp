@@ -1034,8 +1034,15 @@ TEST(Cli, ShapeSpaceOfBodiesFittedToAnsurII) {
   EXPECT_GT(fits["women"].get<int>(), 10);  // spread through both files
   for (const auto& [name, stats] : fits["residuals"].items())
     for (const char* sex : {"men", "women"}) EXPECT_LT(stats[sex]["mae_mm"].get<double>(), 8.0) << name << " " << sex;
+  // The principal components, then one per limb segment: its spread at the same 12 measurements, a
+  // few millimetres in ANSUR II.
   const auto& curve = fits["components_curve"];
-  ASSERT_EQ(curve.size(), summary["components"].get<size_t>());
+  ASSERT_EQ(fits["limb_segment_spread_mm"].size(), 4u);  // upper arm, forearm, thigh, shank
+  ASSERT_EQ(curve.size() + 4, summary["components"].get<size_t>());
+  for (const auto& [segment, spread] : fits["limb_segment_spread_mm"].items()) {
+    EXPECT_GT(spread.get<double>(), 3.0) << segment;
+    EXPECT_LT(spread.get<double>(), 25.0) << segment;
+  }
   EXPECT_LE(curve.back()["worst_rms_mm"].get<double>(), 1.0);
   // A subject's sliders make a body: posekit body --spec takes them as they are.
   dir.write("spec.json", fits["fits"][3]["spec"].dump());

@@ -34,6 +34,19 @@ constexpr MeasureRow kMeasures[kSurveyMeasureCount] = {
     {"sleeveoutseam", "sleeve_outseam", false},
 };
 
+/// ANSUR II's columns for a limb segment: its length, or the difference of two heights.
+struct SegmentColumns {
+  const char* name;
+  const char* upper;
+  const char* lower;  ///< nullptr: `upper` is the length itself
+};
+constexpr SegmentColumns kSegments[kLimbSegmentCount] = {
+    {"upper_arm", "acromionradialelength", nullptr},
+    {"forearm", "radialestylionlength", nullptr},
+    {"thigh", "trochanterionheight", "lateralfemoralepicondyleheight"},
+    {"shank", "lateralfemoralepicondyleheight", "lateralmalleolusheight"},
+};
+
 std::vector<std::string> split_csv_line(std::string line) {
   if (!line.empty() && line.back() == '\r') line.pop_back();
   std::vector<std::string> fields;
@@ -54,6 +67,7 @@ std::string lower(std::string s) {
 const char* survey_column(SurveyMeasure m) { return kMeasures[static_cast<int>(m)].column; }
 const char* survey_measure_name(SurveyMeasure m) { return kMeasures[static_cast<int>(m)].name; }
 bool survey_measure_is_girth(SurveyMeasure m) { return kMeasures[static_cast<int>(m)].girth; }
+const char* limb_segment_name(LimbSegment s) { return kSegments[static_cast<int>(s)].name; }
 
 std::vector<SurveySubject> read_survey_csv(const std::string& path) {
   std::ifstream in(path, std::ios::binary);
@@ -77,6 +91,12 @@ std::vector<SurveySubject> read_survey_csv(const std::string& path) {
   const int sex_column = find("gender") >= 0 ? find("gender") : find("sex");
   if (sex_column < 0) throw InvalidInput(path + ": no column 'Gender' (Male/Female) or 'sex' (M/F)");
   const int id_column = find("subjectid"), race_column = find("dodrace"), weight_column = find("weightkg");
+  std::array<std::array<int, 2>, kLimbSegmentCount> segment_column{};
+  bool has_segments = true;
+  for (int k = 0; k < kLimbSegmentCount; ++k) {
+    segment_column[k] = {find(kSegments[k].upper), kSegments[k].lower ? find(kSegments[k].lower) : -2};
+    has_segments = has_segments && segment_column[k][0] >= 0 && segment_column[k][1] != -1;
+  }
 
   std::vector<SurveySubject> subjects;
   for (int line_number = 2; std::getline(in, line); ++line_number) {
@@ -105,6 +125,12 @@ std::vector<SurveySubject> read_survey_csv(const std::string& path) {
       throw InvalidInput(where + ": stature " + f[measure_column[0]] + " is not an adult's in millimetres (expected 500-2600)");
     if (race_column >= 0) s.race = static_cast<int>(number(race_column));
     if (weight_column >= 0) s.weight_kg = number(weight_column) / 10.0;
+    for (int k = 0; has_segments && k < kLimbSegmentCount; ++k) {
+      const double upper = number(segment_column[k][0]), lower = segment_column[k][1] >= 0 ? number(segment_column[k][1]) : 0;
+      if (upper <= lower)
+        throw InvalidInput(where + ": column '" + header[segment_column[k][0]] + "' is not above '" + header[segment_column[k][1]] + "'");
+      s.segments[k] = (upper - lower) / 1000.0;
+    }
     subjects.push_back(std::move(s));
   }
   if (subjects.empty()) throw InvalidInput(path + ": a header but no subjects");

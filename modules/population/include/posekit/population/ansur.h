@@ -2,6 +2,7 @@
 // Reading an ANSUR II-style anthropometric survey: one subject per CSV row, the survey's column
 // names (Gordon et al. 2014, Natick/TR-15/007), lengths and girths in millimetres.
 #include <array>
+#include <limits>
 #include <string>
 #include <vector>
 
@@ -34,6 +35,15 @@ const char* survey_measure_name(SurveyMeasure m);
 /// True for circumferences, false for heights, breadths and lengths.
 bool survey_measure_is_girth(SurveyMeasure m);
 
+/// Limb segments a survey measures between landmarks besides the 12 fitted measurements (ANSUR II:
+/// acromion-radiale and radiale-stylion lengths; the thigh and shank as differences of the
+/// trochanterion, lateral femoral epicondyle and lateral malleolus heights). They say how a limb
+/// divides into its segments, which the 12 leave open.
+enum class LimbSegment { kUpperArm, kForearm, kThigh, kShank };
+constexpr int kLimbSegmentCount = 4;
+/// "upper_arm", "forearm", "thigh", "shank".
+const char* limb_segment_name(LimbSegment s);
+
 struct SurveySubject {
   std::string id;  ///< SubjectId (or "row N")
   bool male = false;
@@ -42,11 +52,17 @@ struct SurveySubject {
   int race = 0;
   double weight_kg = 0;  ///< 0 when not recorded
   SurveyValues values{};
+  /// m, in LimbSegment order; NaN where the survey lacks the columns.
+  std::array<double, kLimbSegmentCount> segments{kNaN, kNaN, kNaN, kNaN};
+
+ private:
+  static constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
 };
 
 /// Reads one survey CSV: a header row naming the columns, then one subject per row. Needs the columns
 /// of every SurveyMeasure and a sex column (`Gender`: Male/Female, or `sex`: M/F), reads `SubjectId`,
-/// `DODRace` and `weightkg` (tenths of a kg) when present. Millimetres become metres. Throws IoError
+/// `DODRace` and `weightkg` (tenths of a kg) when present, and the limb segments' columns when all
+/// are present. Millimetres become metres. Throws IoError
 /// for an unreadable file, InvalidInput naming the file, line and column for a missing column, a
 /// row of another length, a value that is not a positive number or a stature outside 500-2600 mm
 /// (another unit).
