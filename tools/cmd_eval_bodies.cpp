@@ -3,6 +3,7 @@
 #include <cmath>
 #include <iomanip>
 #include <iostream>
+#include <map>
 #include <memory>
 #include <nlohmann/json.hpp>
 #include <sstream>
@@ -42,6 +43,8 @@ struct Tally {
   /// angle: the mean joint-angle error of each body whose result was returned (a refused fit gives no
   /// pose; refusals count in `segmented` and the bars); angle_all: of every body.
   std::vector<double> joint_max, agreement, roughness, truth_roughness, angle, angle_all;
+  /// |fitted minus rig| joint-to-joint lengths (m) of the segmented bodies, by kind of segment (both sides).
+  std::map<std::string, std::vector<double>> segment_length_error;
   void add(const BodyResult& b) {
     ++bodies;
     // Bodies that get parts and joints: meshes, and scans too when the body model is fitted.
@@ -61,6 +64,9 @@ struct Tally {
             b.joint_error_max <= kJointBar;
     silent += !b.silent_nonsense.empty();
     if (parted) joint_max.push_back(b.joint_error_max), agreement.push_back(b.segmentation_agreement);
+    if (b.segmented)
+      for (const auto& [part, e] : b.segment_length_error)
+        segment_length_error[part.substr(part.find('_') + 1)].push_back(std::abs(e));  // "left_forearm" -> "forearm"
     if (!std::isnan(b.border_roughness)) roughness.push_back(b.border_roughness);
     if (!std::isnan(b.truth_border_roughness)) truth_roughness.push_back(b.truth_border_roughness);
     for (int g = 0; g < 3; ++g) {
@@ -91,7 +97,13 @@ struct Tally {
             {"median_truth_border_roughness", median_of(truth_roughness)},
             {"mean_joint_angle_error_deg", angle.empty() ? std::nan("") : mean_of(angle)},
             {"mean_joint_angle_error_deg_every_fit", angle_all.empty() ? std::nan("") : mean_of(angle_all)},
+            {"median_segment_length_error_mm", segment_lengths_json()},
             {"silent_nonsense", silent}};
+  }
+  nlohmann::ordered_json segment_lengths_json() const {
+    nlohmann::ordered_json j = nlohmann::ordered_json::object();
+    for (const auto& [kind, e] : segment_length_error) j[kind] = 1000 * median_of(e);
+    return j;
   }
 };
 
@@ -198,6 +210,7 @@ int run_eval_bodies(int argc, char** argv) {
       j["worst_joint"] = b.worst_joint;
       for (const auto& [name, e] : b.joint_error) j["joint_error_mm"][name] = 1000 * e;
       if (b.by_body_model) j["guessed_joints"] = b.guessed_joints;
+      for (const auto& [part, e] : b.segment_length_error) j["segment_length_error_mm"][part] = 1000 * e;
     }
     for (const auto& [name, e] : b.girth_error) j["girth_error_mm"][name] = 1000 * e;
     for (const auto& [name, note] : b.girth_not_measured) j["girth_not_measured"][name] = note;
@@ -238,6 +251,11 @@ int run_eval_bodies(int argc, char** argv) {
             << "part borders' roughness (edge length over the hull's perimeter, median of the joints' borders; 1 is a\n"
                "smooth ring): median "
             << std::setprecision(3) << median_of(all.roughness) << " ours, " << median_of(all.truth_roughness) << " the rig's labels\n";
+  if (!all.segment_length_error.empty()) {
+    std::cout << "limb segments, joint to joint, |ours - the rig's| median over the segmented bodies (mm):";
+    for (const auto& [kind, e] : all.segment_length_error) std::cout << " " << kind << " " << std::setprecision(1) << 1000 * median_of(e);
+    std::cout << "\n";
+  }
   std::vector<double> fit_seconds;
   for (const auto& b : ev.bodies)
     if (!std::isnan(b.fit_seconds)) fit_seconds.push_back(b.fit_seconds);

@@ -58,6 +58,14 @@ TEST(RobustnessSet, RealDataFailuresAreMeasuredSegmentedOrNamedNeverSilent) {
     if (!b.segmented) {  // refused loudly, with the cause
       EXPECT_FALSE(b.segment_error.empty()) << b.name;
     }
+    // Each limb segment's length error is bounded by its two joints' errors.
+    if (b.joint_error.empty()) continue;
+    ASSERT_EQ(b.segment_length_error.size(), 8u) << b.name;
+    for (const auto& [part, e] : b.segment_length_error) {
+      int p = 0;
+      while (part_name(p) != part) ++p;
+      EXPECT_LE(std::abs(e), b.joint_error.at(joint_name(p - 1)) + b.joint_error.at(joint_name(p)) + 1e-12) << b.name << " " << part;
+    }
   }
 }
 

@@ -38,6 +38,14 @@ namespace fs = std::filesystem;
 
 namespace {
 
+/// Each limb segment's joint-to-joint length, ours (#joints x 3) minus the rig's, in one rigid frame.
+void add_segment_length_errors(const Eigen::MatrixXd& ours, const Eigen::MatrixXd& rig, BodyResult* r) {
+  for (const int part : {kLeftUpperArm, kLeftForearm, kRightUpperArm, kRightForearm, kLeftThigh, kLeftShank, kRightThigh, kRightShank}) {
+    const int start = part - 1, end = part;  // joint j starts part j + 1
+    r->segment_length_error[part_name(part)] = (ours.row(end) - ours.row(start)).norm() - (rig.row(end) - rig.row(start)).norm();
+  }
+}
+
 constexpr double kSilentJoint = 0.05, kSilentAgreement = 0.80, kSilentGirth = 0.05;  // m, fraction, m
 
 Eigen::Vector3d vec3(const nlohmann::json& j) { return Eigen::Vector3d(j[0].get<double>(), j[1].get<double>(), j[2].get<double>()); }
@@ -68,14 +76,17 @@ void evaluate_fit(const BodyFit& fit, const nlohmann::json& truth, const Triangl
     r->truth_border_roughness = border_roughness(mesh->V, mesh->F, theirs);
   }
   r->joint_error_max = r->joint_error_mean = 0;
+  Eigen::MatrixXd rig_joints(kNumJoints, 3);
   for (int j = 0; j < kNumJoints; ++j) {
     const Eigen::Vector3d rig = file_to_posekit.transpose() * vec3(truth.at("joints").at(joint_name(j)));
+    rig_joints.row(j) = rig.transpose();
     const double e = (fit.joints.row(j).transpose() - rig).norm();
     r->joint_error[joint_name(j)] = e;
     if (fit.joint_guessed[static_cast<size_t>(j)]) r->guessed_joints.push_back(joint_name(j));
     r->joint_error_mean += e / kNumJoints;
     if (e > r->joint_error_max) r->joint_error_max = e, r->worst_joint = joint_name(j);
   }
+  add_segment_length_errors(fit.joints, rig_joints, r);
   if (truth.contains("done") && truth.at("done").contains("pose")) {
     const PartPose want = part_pose_from_json(truth.at("done").at("pose").dump(), "truth");
     double sum = 0;
@@ -229,14 +240,17 @@ BodyResult evaluate_body(const fs::path& dir, const nlohmann::json& entry, const
       r.border_roughness = border_roughness(mesh.V, mesh.F, seg.triangle_part);
       // Joints compared where the user gets them, in the file's frame.
       r.joint_error_max = r.joint_error_mean = 0;
+      Eigen::MatrixXd our_joints(kNumJoints, 3), rig_joints(kNumJoints, 3);
       for (int j = 0; j < kNumJoints; ++j) {
         const Eigen::Vector3d ours = orientation.rotation.transpose() * joints.row(j).transpose();
         const Eigen::Vector3d rig = expected.rotation.transpose() * vec3(truth.at("joints").at(joint_name(j)));
+        our_joints.row(j) = ours.transpose(), rig_joints.row(j) = rig.transpose();
         const double e = (ours - rig).norm();
         r.joint_error[joint_name(j)] = e;
         r.joint_error_mean += e / kNumJoints;
         if (e > r.joint_error_max) r.joint_error_max = e, r.worst_joint = joint_name(j);
       }
+      add_segment_length_errors(our_joints, rig_joints, &r);
     } catch (const InvalidInput& e) {
       r.segment_error = e.what();
     }

@@ -34,7 +34,9 @@ struct BodyResult {
   double joint_error_mean = std::numeric_limits<double>::quiet_NaN();        ///< m
   std::string worst_joint;
   std::map<std::string, double> joint_error;  ///< joint name -> m
-  std::vector<std::string> guessed_joints;    ///< joints the body model's fit says it guessed (their part unseen)
+  /// Limb segment (its part's name, e.g. "left_forearm") -> its joint-to-joint length minus the rig's (m).
+  std::map<std::string, double> segment_length_error;
+  std::vector<std::string> guessed_joints;  ///< joints the body model's fit says it guessed (their part unseen)
   /// With a body model: the fit labelled and placed the joints (meshes and scans alike); the mean
   /// angle (radians) between each fitted joint rotation and the truth's, where the truth has a pose.
   bool by_body_model = false;
