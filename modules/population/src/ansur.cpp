@@ -127,7 +127,7 @@ std::vector<SurveySubject> read_survey_csv(const std::string& path) {
     if (weight_column >= 0) s.weight_kg = number(weight_column) / 10.0;
     for (int k = 0; has_segments && k < kLimbSegmentCount; ++k) {
       const double upper = number(segment_column[k][0]), lower = segment_column[k][1] >= 0 ? number(segment_column[k][1]) : 0;
-      if (upper <= lower)
+      if (segment_column[k][1] >= 0 && upper <= lower)  // a difference of two heights
         throw InvalidInput(where + ": column '" + header[segment_column[k][0]] + "' is not above '" + header[segment_column[k][1]] + "'");
       s.segments[k] = (upper - lower) / 1000.0;
     }
