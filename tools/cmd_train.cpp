@@ -88,23 +88,6 @@ std::vector<std::string> offsets_kept(const PoseModel& model) {
   return kept;
 }
 
-/// --calibration-population: empty for random MakeHuman bodies, else `count` bodies fitted to subjects
-/// of the survey drawn with `seed` (both: and `count` random MakeHuman bodies besides).
-std::vector<BodySpec> calibration_population_specs(const ArgParser& args, int count, unsigned seed) {
-  const std::string population = args.get("calibration-population");
-  if (population == "makehuman") return {};
-  if (population != "ansur" && population != "both")
-    throw UsageError("--calibration-population is makehuman, ansur or both, not '" + population + "'");
-  const std::string data_root = find_data_root(args.has("data") ? args.get("data") : "");
-  const std::string survey = find_ansur_root(args.has("survey") ? args.get("survey") : "", data_root);
-  const SurveyBodyFitter fitter(load_makehuman_model(data_root));
-  std::vector<BodySpec> specs;
-  for (const SurveySubject& subject : sample_survey(read_survey(survey), count, seed)) specs.push_back(fitter.fit(subject).spec);
-  if (population == "both")
-    for (BodySpec& random : make_calibration_specs(seed, count)) specs.push_back(std::move(random));
-  return specs;
-}
-
 }  // namespace
 
 int run_train(int argc, char** argv) {
@@ -175,7 +158,7 @@ int run_train(int argc, char** argv) {
     CalibrationOptions co;
     co.bodies = static_cast<int>(calibration_bodies);
     co.progress = [&](int done, int) { calibration.update(done); };
-    co.specs = calibration_population_specs(args, static_cast<int>(calibration_bodies), co.seed);
+    co.specs = survey_population_specs(args, "calibration-population", static_cast<int>(calibration_bodies), co.seed);
     prior = add_segmentation_prior(&model, args.has("data") ? args.get("data") : "", co);
     calibration.finish();
     if (!prior.not_made.empty()) std::cerr << "posekit train: segmentation prior is the template alone: " << prior.not_made << "\n";

@@ -1,13 +1,16 @@
 #include "fitted_input.h"
 
+#include <algorithm>
 #include <cmath>
 #include <iostream>
 
 #include "posekit/body/makehuman_model.h"
 #include "posekit/body/parts.h"
+#include "posekit/body/subjects.h"
 #include "posekit/core/data_root.h"
 #include "posekit/core/error.h"
 #include "posekit/population/ansur.h"
+#include "posekit/population/survey_fit.h"
 #include "posekit/registration/shape_space.h"
 #include "posekit/shape/body_orientation.h"
 
@@ -28,6 +31,33 @@ std::unique_ptr<SurveyDistribution> load_survey(const std::string& survey_arg, s
     *why_not = e.what();
     return nullptr;
   }
+}
+
+std::vector<BodySpec> survey_population_specs(const ArgParser& args, const std::string& option, int count, unsigned seed,
+                                              const std::vector<std::string>& leave_out_ids, std::string* note) {
+  const std::string population = args.get(option);
+  if (population == "makehuman") return {};
+  if (population != "ansur" && population != "both")
+    throw UsageError("--" + option + " is makehuman, ansur or both, not '" + population + "'");
+  const std::string data_root = find_data_root(args.has("data") ? args.get("data") : "");
+  const std::string survey_path = find_ansur_root(args.has("survey") ? args.get("survey") : "", data_root);
+  std::vector<SurveySubject> survey = read_survey(survey_path);
+  for (const std::string& id : leave_out_ids) {
+    const auto it = std::find_if(survey.begin(), survey.end(), [&](const SurveySubject& s) { return s.id == id; });
+    if (it == survey.end()) throw InvalidInput("--leave-out-ids: subject '" + id + "' is not in " + survey_path);
+    survey.erase(it);
+  }
+  const SurveyBodyFitter fitter(load_makehuman_model(data_root));
+  std::vector<BodySpec> specs;
+  for (SurveyFit& fit : fit_survey(fitter, sample_survey(survey, count, seed))) specs.push_back(std::move(fit.spec));
+  if (note)
+    *note = "MakeHuman fitted to " + std::to_string(specs.size()) + " subjects of " + survey_path + " (seed " + std::to_string(seed) +
+            (leave_out_ids.empty() ? "" : ", " + std::to_string(leave_out_ids.size()) + " left out") + ")";
+  if (population == "both") {
+    for (BodySpec& random : make_calibration_specs(seed, count)) specs.push_back(std::move(random));
+    if (note) *note += " and " + std::to_string(count) + " random MakeHuman bodies";
+  }
+  return specs;
 }
 
 void add_body_model_options(ArgParser* args, bool data_option) {

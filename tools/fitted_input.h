@@ -2,8 +2,10 @@
 // --body-model in the commands: the body model fitted to a body file as the user gave it.
 #include <memory>
 #include <string>
+#include <vector>
 
 #include "cli.h"
+#include "posekit/body/body_spec.h"
 #include "posekit/fitting/body_fit.h"
 #include "posekit/population/survey_plausibility.h"
 
@@ -17,6 +19,14 @@ void add_body_model_options(ArgParser* args, bool data_option = true);
 /// why there is none in `why_not`: measuring must not depend on ANSUR II being there. A survey the
 /// user named that cannot be read is an error.
 std::unique_ptr<SurveyDistribution> load_survey(const std::string& survey_arg, std::string* why_not);
+
+/// The bodies of a population as option `option` of `args` names it: "makehuman" gives none (the
+/// caller's random MakeHuman bodies), "ansur" `count` MakeHuman bodies fitted to subjects drawn with
+/// `seed` from the survey (--survey, else ANSUR II beside --data's root), "both" those and `count`
+/// random ones. Subjects in `leave_out_ids` are never drawn (an unknown one is an error). `note`
+/// (may be null) says what the bodies are.
+std::vector<BodySpec> survey_population_specs(const ArgParser& args, const std::string& option, int count, unsigned seed,
+                                              const std::vector<std::string>& leave_out_ids = {}, std::string* note = nullptr);
 
 /// The body model of --body-model (its MakeHuman data from --data).
 std::unique_ptr<BodyModel> load_body_model(const ArgParser& args);
