@@ -50,6 +50,16 @@ int customize_train(int argc, char** argv) {
       .option("seed", "S", "population seed", "20261124")
       .option("threads", "N", "threads", "2")
       .option("max-turn", "DEG", "each body turned about the vertical by up to this angle before rendering", "0")
+      .option("cameras", "KIND",
+              "dataset (level at mid-height, 2.6-3.4 m, the dataset's photos) or phone (held 1.0-1.5 m high, 2.2-2.5 m away, "
+              "aimed at the body's middle)",
+              "dataset")
+      .option("population", "KIND",
+              "makehuman (random sliders and local modifiers), ansur (MakeHuman fitted to surveyed adults drawn at random: real "
+              "proportions) or both (--bodies of each)",
+              "makehuman")
+      .option("survey", "DIR|FILE", "--population ansur: ANSUR II's folder or a survey CSV (default: ansur2 beside the data root)")
+      .option("leave-out-ids", "A,B", "--population ansur: never draw these SubjectIds (e.g. the bodies customize robustness photographs)")
       .option("leave-out", "WHAT", "none, obese (BMI 30 and over) or men (gender over 0.5): bodies outside the population", "none")
       .flag("linear-only", "train the linear models only (no MLPs)")
       .data_option()
@@ -63,6 +73,14 @@ int customize_train(int argc, char** argv) {
   o.mlp = !args.flag_set("linear-only");
   o.max_turn_degrees = args.get_double("max-turn");
   if (!(o.max_turn_degrees >= 0 && o.max_turn_degrees <= 20)) throw UsageError("--max-turn: 0 to 20 degrees");
+  const std::string cameras = args.get("cameras");
+  if (cameras == "phone") o.cameras = CustomizationTrainingOptions::Cameras::kPhone;
+  else if (cameras != "dataset") throw UsageError("--cameras expects dataset or phone");
+  std::vector<std::string> leave_out_ids;
+  if (args.has("leave-out-ids")) leave_out_ids = split_commas(args.get("leave-out-ids"));
+  if (!leave_out_ids.empty() && args.get("population") == "makehuman")
+    throw UsageError("--leave-out-ids draws from a survey: it needs --population ansur or both");
+  o.specs = survey_population_specs(args, "population", o.bodies, o.seed, leave_out_ids, &o.specs_note);
   const std::string leave = args.get("leave-out");
   if (leave == "obese") {
     o.keep = [](int, double bmi, double) { return bmi < 30.0; };

@@ -8,6 +8,7 @@
 #include <opencv2/imgcodecs.hpp>
 
 #include "posekit/body/makehuman_model.h"
+#include "posekit/body/subjects.h"
 #include "posekit/core/error.h"
 #include "posekit/core/rasterizer.h"
 #include "posekit/customization/phone_set.h"
@@ -360,6 +361,28 @@ TEST(PhotoCameras, CameraFilesAreReadAndCheckedAndTheStatureSetsTheScale) {
   const PhotoCameras assumed = cameras_from_stature(front, side, f.stature, 3.0);
   EXPECT_FALSE(assumed.assumed.empty());
   EXPECT_NEAR(find_photo_landmarks(front, side, assumed).stature, f.stature, 0.015);
+}
+
+// The population and its cameras are the caller's: given bodies photographed by phone cameras (held
+// 1.0-1.5 m above the soles, 2.2-2.5 m away) train a model that records both, and the photos' 2-D
+// features it learned from differ from those of the dataset's level cameras.
+TEST(PhotoCustomization, TrainsOnGivenBodiesWithPhoneCameras) {
+  CustomizationTrainingOptions o;
+  o.data_root = test::test_data_root();
+  o.mlp = false;
+  o.specs = make_calibration_specs(7, 24);
+  o.specs_note = "24 given bodies";
+  o.cameras = CustomizationTrainingOptions::Cameras::kPhone;
+  const CustomizationModel phone = train_customization_model(o);
+  EXPECT_GE(phone.bodies, 20);
+  EXPECT_NE(phone.population.find("24 given bodies (24)"), std::string::npos) << phone.population;
+  EXPECT_NE(phone.population.find("phone cameras"), std::string::npos) << phone.population;
+  o.cameras = CustomizationTrainingOptions::Cameras::kDataset;
+  const CustomizationModel level = train_customization_model(o);
+  EXPECT_EQ(level.population.find("phone cameras"), std::string::npos);
+  ASSERT_EQ(level.descriptor_mean.size(), phone.descriptor_mean.size());
+  // Seen from 1.0-1.5 m high instead of the mid-height, the same bodies' features move.
+  EXPECT_GT((level.descriptor_mean - phone.descriptor_mean).cwiseQuotient(level.descriptor_scale).cwiseAbs().maxCoeff(), 0.5);
 }
 
 // A small population (linear models) customizes the small dataset's subjects from their photos:

@@ -124,6 +124,12 @@ TEST(Cli, BadInputGivesOneLineAndNonZeroExit) {
   EXPECT_NE(r.out.find("bad.ply"), std::string::npos);
   EXPECT_EQ(run("info " + bad + " --bogus").code, 2);
   EXPECT_EQ(run("info").code, 2);
+  // customize train's population and cameras: refused before any training.
+  const std::string out = " --out " + dir.file("m.pkc");
+  EXPECT_EQ(run("customize train --cameras drone" + out).code, 2);
+  EXPECT_EQ(run("customize train --population scans" + out).code, 2);
+  EXPECT_EQ(run("customize train --leave-out-ids 17973" + out).code, 2);
+  EXPECT_FALSE(std::filesystem::exists(dir.file("m.pkc")));
 }
 
 TEST(Cli, ConvertChangesFormatAndUnit) {

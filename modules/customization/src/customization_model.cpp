@@ -434,18 +434,23 @@ void photograph_training_body(TrainingRun& run, int i) {
   }
   std::mt19937 rng(o.seed * 31u + static_cast<unsigned>(i));
   std::uniform_real_distribution<double> u(0, 1);
-  const double distance = 2.6 + 0.8 * u(rng);
-  const double mid = 0.5 * (body.mesh.V.col(1).maxCoeff() + body.mesh.V.col(1).minCoeff()) + 0.1 * (u(rng) - 0.5);
+  const double soles = body.mesh.V.col(1).minCoeff(), mid_height = 0.5 * (body.mesh.V.col(1).maxCoeff() + soles);
+  const bool phone = o.cameras == CustomizationTrainingOptions::Cameras::kPhone;
+  const double distance = phone ? 2.2 + 0.3 * u(rng) : 2.6 + 0.8 * u(rng);
+  const double mid = mid_height + 0.1 * (u(rng) - 0.5);
+  const double eye_height = phone ? soles + 1.0 + 0.5 * u(rng) : mid;
+  const double focal = phone ? (2800 + 400 * u(rng)) * 1200.0 / 4000.0 : 1400;
+  const int columns = phone ? 900 : 800;
   // A person never stands exactly square to the camera: each body turned by up to the population's
   // turn about the vertical, so that the left and right arms' readings are not always equal (the
   // regression then learns each side from its own arm, not from their mean).
   const double turn = o.max_turn_degrees * (2 * u(rng) - 1) * M_PI / 180;
   const TriangleMesh mesh = turned_about_vertical(body.mesh, turn);
   const BodyFeatures f = find_body_features(mesh.V, mesh.F);
-  s.cameras.front =
-      PinholeCamera::look_at(Eigen::Vector3d(0, mid, distance), Eigen::Vector3d(0, mid, 0), Eigen::Vector3d::UnitY(), 800, 1200, 1400);
-  s.cameras.side =
-      PinholeCamera::look_at(Eigen::Vector3d(distance, mid, 0), Eigen::Vector3d(0, mid, 0), Eigen::Vector3d::UnitY(), 800, 1200, 1400);
+  s.cameras.front = PinholeCamera::look_at(Eigen::Vector3d(0, eye_height, distance), Eigen::Vector3d(0, mid, 0), Eigen::Vector3d::UnitY(),
+                                           columns, 1200, focal);
+  s.cameras.side = PinholeCamera::look_at(Eigen::Vector3d(distance, eye_height, 0), Eigen::Vector3d(0, mid, 0), Eigen::Vector3d::UnitY(),
+                                          columns, 1200, focal);
   const Silhouette sil[2] = {silhouette_from_render(render_mesh(mesh, s.cameras.front)),
                              silhouette_from_render(render_mesh(mesh, s.cameras.side))};
   s.turn = turn;
@@ -619,8 +624,11 @@ void fit_layer(const std::vector<Sample>& samples, const std::vector<int>& train
 std::string describe_training_population(const CustomizationTrainingOptions& o, const std::vector<Sample>& samples, size_t train,
                                          size_t valid) {
   std::ostringstream pop;
-  pop << "make_calibration_specs(" << o.seed << ", " << o.bodies << "): " << train << " training and " << valid
-      << " validation bodies, turned up to " << o.max_turn_degrees << " degrees";
+  if (o.specs.empty()) pop << "make_calibration_specs(" << o.seed << ", " << o.bodies << ")";
+  else pop << (o.specs_note.empty() ? "given bodies" : o.specs_note) << " (" << o.specs.size() << ")";
+  pop << ": " << train << " training and " << valid << " validation bodies, turned up to " << o.max_turn_degrees << " degrees";
+  if (o.cameras == CustomizationTrainingOptions::Cameras::kPhone)
+    pop << ", photographed by phone cameras (2.2-2.5 m away, 1.0-1.5 m above the soles, f 2800-3200 px at 4000 rows)";
   int failed = 0, left_out = 0;
   for (const Sample& s : samples) (s.why == "left out" ? left_out : failed) += !s.ok;
   if (left_out) pop << ", " << left_out << " left out (" << (o.population_note.empty() ? "keep" : o.population_note) << ")";
@@ -639,7 +647,7 @@ std::string describe_training_population(const CustomizationTrainingOptions& o, 
 CustomizationModel train_customization_model(const CustomizationTrainingOptions& o) {
   const Stopwatch t0;
   if (o.bodies < 20) throw InvalidInput("customize train: at least 20 bodies");
-  TrainingRun run{o, load_makehuman_model(o.data_root), {}, make_calibration_specs(o.seed, o.bodies), {}};
+  TrainingRun run{o, load_makehuman_model(o.data_root), {}, o.specs.empty() ? make_calibration_specs(o.seed, o.bodies) : o.specs, {}};
   run.samples.resize(run.specs.size());
   CustomizationModel model;
   model.seed = o.seed;

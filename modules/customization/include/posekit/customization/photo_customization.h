@@ -9,6 +9,7 @@
 #include <string>
 #include <vector>
 
+#include "posekit/body/body_spec.h"
 #include "posekit/core/triangle_mesh.h"
 #include "posekit/customization/silhouette.h"
 #include "posekit/shape/body_features.h"
@@ -113,6 +114,16 @@ struct CustomizationTrainingOptions {
   /// is rendered (people do not stand exactly square to the camera; symmetric bodies only would tie
   /// each arm's prediction to the mean of both arms' readings).
   double max_turn_degrees = 0;
+  /// The cameras the population is photographed with. kDataset: the dataset's (800 x 1200 px,
+  /// f 1400 px, level at the body's mid-height within 5 cm, 2.6-3.4 m away). kPhone: a phone held
+  /// by someone standing (900 x 1200 px, f 840-960 px: a 3000 x 4000 photo's 2800-3200 px at the
+  /// rows the silhouettes are worked at; 2.2-2.5 m away, 1.0-1.5 m above the soles, aimed at the
+  /// body's mid-height).
+  enum class Cameras { kDataset, kPhone } cameras = Cameras::kDataset;
+  /// The population's bodies; empty: make_calibration_specs(seed, bodies). `specs_note` says in the
+  /// model file what they are (e.g. MakeHuman fitted to surveyed adults).
+  std::vector<BodySpec> specs;
+  std::string specs_note;
   /// Leaves bodies out of the population: return false to leave one out (e.g. the heaviest).
   std::function<bool(int index, double bmi, double gender)> keep;
   std::string population_note;  ///< recorded in the model (what `keep` does)
