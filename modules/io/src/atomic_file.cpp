@@ -215,4 +215,21 @@ void require_output_folder(const std::string& path, bool make_folder) {
   create_folders(folder.string());
 }
 
+void write_folder_atomically(const std::string& folder, bool replace, const std::function<void(const std::string&)>& build) {
+  const fs::path out = fs::absolute(folder).lexically_normal();
+  std::error_code ec;
+  if (fs::exists(out, ec) && !replace) throw IoError(out.string() + ": already exists (choose another --out or pass --force)");
+  const fs::path tmp = out.string() + ".tmp-" + std::to_string(::getpid());
+  fs::remove_all(tmp, ec);
+  if (!fs::create_directories(tmp, ec) || ec) throw IoError(tmp.string() + ": cannot create the output folder (" + ec.message() + ")");
+  try {
+    build(tmp.string());
+    if (fs::exists(out, ec)) fs::remove_all(out);
+    fs::rename(tmp, out);
+  } catch (...) {
+    fs::remove_all(tmp, ec);
+    throw;
+  }
+}
+
 }  // namespace posekit

@@ -31,4 +31,9 @@ void create_folders(const std::string& folder);
 /// creates it) and be a folder. Throws IoError (WriteError when it cannot be made) naming the folder.
 void require_output_folder(const std::string& path, bool make_folder = false);
 
+/// Builds a whole folder through `build`, called with a temporary sibling ("<folder>.tmp-<pid>"),
+/// renamed to `folder` when `build` returned; a failure removes the temporary and rethrows. Throws
+/// IoError when `folder` exists and `replace` is false, or the temporary cannot be created.
+void write_folder_atomically(const std::string& folder, bool replace, const std::function<void(const std::string& temporary)>& build);
+
 }  // namespace posekit
