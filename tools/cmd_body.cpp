@@ -6,6 +6,7 @@
 
 #include "cli.h"
 #include "commands.h"
+#include "posekit/body/anatomical_driving.h"
 #include "posekit/body/body_spec.h"
 #include "posekit/body/makehuman_model.h"
 #include "posekit/body/parts.h"
@@ -64,6 +65,10 @@ int run_body(int argc, char** argv) {
       .option("frame", "N", "BVH frame to use", "0")
       .option("pose-units", "LIST", "MakeHuman pose units Name=weight,... ('Left' units mirrored when named 'Right')")
       .option("skinning", "KIND", "lbs or dqs", "lbs")
+      .option("driving", "RULE",
+              "how a 16-part pose JSON drives the rig: rig (one bone per part, skinned by --skinning), anatomical or\n"
+              "anatomical-alternative (spread over the bones as a body moves, skinned as posekit dataset make does)",
+              "rig")
       .output("out", "FILE", "write the body mesh (.ply .obj .off .stl)")
       .option("unit", "U", "unit of the written mesh", "m")
       .output("save-spec", "FILE", "write the effective body spec JSON")
@@ -73,7 +78,8 @@ int run_body(int argc, char** argv) {
       .flag("list-pose-units", "list the pose units the data provides and exit")
       .flag("json", "machine-readable report on stdout")
       .example("posekit body --gender 1 --weight 0.8 --out man.ply --labels")
-      .example("posekit body --spec subject.json --pose walk.json --skinning dqs --out posed.ply");
+      .example("posekit body --spec subject.json --pose walk.json --skinning dqs --out posed.ply")
+      .example("posekit body --gender 0 --pose sitting.json --driving anatomical --out sitting.ply");
   if (!args.parse(argc, argv)) return 0;
   const Stopwatch t0;
   const auto model = load_makehuman_model(find_data_root(args.get("data")));
@@ -111,6 +117,12 @@ int run_body(int argc, char** argv) {
 
   const Eigen::MatrixXd joints = joint_centres(model->rig, body);
   if (args.has("pose") && args.has("pose-units")) throw UsageError("give --pose or --pose-units, not both");
+  const std::string driving_name = args.get("driving");
+  if (driving_name != "rig" && driving_name != "anatomical" && driving_name != "anatomical-alternative")
+    throw UsageError("--driving expects rig, anatomical or anatomical-alternative, got '" + driving_name + "'");
+  const std::optional<AnatomicalDriving> driving = anatomical_driving_by_name(driving_name, "--driving");
+  if (driving && (!args.has("pose") || ends_with(args.get("pose"), ".bvh") || ends_with(args.get("pose"), ".BVH")))
+    throw UsageError("--driving " + args.get("driving") + " drives a 16-part pose JSON: give --pose pose.json");
   if (args.has("pose") || args.has("pose-units")) {
     const std::string pose_path = args.has("pose") ? args.get("pose") : "pose units " + args.get("pose-units");
     BonePose pose;
@@ -137,15 +149,17 @@ int run_body(int argc, char** argv) {
       const BvhMotion motion = read_bvh(pose_path, Unit::kDecimetre, io_warnings());
       pose = bone_pose_from_bvh(model->rig, motion, static_cast<int>(args.get_int("frame")));
     } else {
-      pose = bone_pose_from_part_pose(model->rig, read_part_pose(pose_path));
+      const PartPose part_pose = read_part_pose(pose_path);
+      pose = driving ? anatomical_bone_pose(model->rig, body, part_pose, *driving) : bone_pose_from_part_pose(model->rig, part_pose);
     }
     const BoneTransforms T = pose_bone_transforms(model->rig, body.bone_heads, pose);
-    const std::string kind = args.get("skinning");
+    const std::string kind = driving ? (driving->dual_quaternion ? "dqs" : "lbs") : args.get("skinning");
     if (kind == "lbs") body.mesh.V = linear_blend_skinning(body.mesh.V, model->weights, T);
     else if (kind == "dqs") body.mesh.V = dual_quaternion_skinning(body.mesh.V, model->weights, T);
     else throw UsageError("--skinning must be lbs or dqs, got '" + kind + "'");
     report["pose"] = pose_path;
     report["skinning"] = kind;
+    report["driving"] = args.get("driving");
   }
   if (args.flag_set("labels")) body.mesh.vertex_scalars["part"] = vertex_part_labels(*model).cast<double>();
   if (args.has("save-spec")) write_body_spec(args.get("save-spec"), spec);

@@ -88,13 +88,6 @@ Eigen::MatrixXd pose_body(const MakeHumanModel& model, const Body& body, const P
                                   : linear_blend_skinning(body.mesh.V, model.weights, T);
 }
 
-std::optional<AnatomicalDriving> parse_driving(const std::string& name) {
-  if (name == "rig") return std::nullopt;
-  if (name == "anatomical") return AnatomicalDriving{};
-  if (name == "anatomical-alternative") return AnatomicalDriving::alternative();
-  throw InvalidInput("dataset: unknown driving '" + name + "' (expected rig, anatomical or anatomical-alternative)");
-}
-
 std::string correspondence_csv(const SurfacePoints& s) {
   std::ostringstream o;
   o << "# subject vertex -> template triangle and barycentric coordinates (posekit dataset)\n"
@@ -202,7 +195,7 @@ DatasetSummary make_dataset(const std::string& out_dir, const DatasetOptions& o)
   if (!fs::create_directories(tmp, ec) || ec) throw IoError(tmp.string() + ": cannot create the output folder (" + ec.message() + ")");
   try {
     const auto model = load_makehuman_model(o.data_root);
-    const std::optional<AnatomicalDriving> anatomy = parse_driving(o.driving);
+    const std::optional<AnatomicalDriving> anatomy = anatomical_driving_by_name(o.driving, "dataset");
     DatasetWriter w(tmp);
     DatasetSummary summary;
     nlohmann::ordered_json manifest;

@@ -51,6 +51,13 @@ Eigen::Vector3d direction(const Body& body, int from_bone, int to_bone) {
 
 }  // namespace
 
+std::optional<AnatomicalDriving> anatomical_driving_by_name(const std::string& name, const std::string& context) {
+  if (name == "rig") return std::nullopt;
+  if (name == "anatomical") return AnatomicalDriving{};
+  if (name == "anatomical-alternative") return AnatomicalDriving::alternative();
+  throw InvalidInput(context + ": unknown driving '" + name + "' (expected rig, anatomical or anatomical-alternative)");
+}
+
 AnatomicalDriving AnatomicalDriving::alternative() {
   AnatomicalDriving d;
   d.name = "anatomical-alternative";

@@ -20,6 +20,7 @@
 // - Hips turn about the femoral heads (upperleg01), as the part rig already does.
 #include <Eigen/Core>
 #include <array>
+#include <optional>
 #include <string>
 
 #include "posekit/body/makehuman_model.h"
@@ -49,6 +50,10 @@ struct AnatomicalDriving {
   /// The second, differently built rule of the cross-generator test: other fractions, LBS.
   static AnatomicalDriving alternative();
 };
+
+/// The driving of a name: "rig" (none: one bone per part), "anatomical" or "anatomical-alternative".
+/// Throws InvalidInput naming `context` for any other name.
+std::optional<AnatomicalDriving> anatomical_driving_by_name(const std::string& name, const std::string& context);
 
 /// Bone rotations realising `pose` on a body (its rest bone heads and tails) by `driving`.
 /// Throws InvalidInput when the rig lacks a bone the chains need.
