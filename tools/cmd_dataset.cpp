@@ -71,6 +71,36 @@ int make_robustness(const ArgParser& args) {
   return 0;
 }
 
+int make_people(const ArgParser& args) {
+  PeopleSetOptions o;
+  o.data_root = find_data_root(args.get("data"));
+  const long seed = args.get_int("seed"), people = args.get_int("people"), natural = args.get_int("natural-rest");
+  if (seed < 0) throw UsageError("--seed must be non-negative");
+  if (people < 2 || people > 16) throw UsageError("--people must be 2..16");
+  if (natural < 0 || natural > people) throw UsageError("--natural-rest must be 0..--people");
+  o.seed = static_cast<unsigned>(seed);
+  o.people = static_cast<int>(people);
+  o.natural_rest = static_cast<int>(natural);
+  o.small = args.flag_set("small");
+  o.driving = args.get("driving");
+  o.force = args.flag_set("force");
+  std::optional<Progress> progress;
+  o.progress = [&](int done, int total, const std::string&) {
+    if (!progress) progress.emplace("dataset make --people", total);
+    progress->update(done);
+  };
+  const DatasetSummary s = make_people_set(args.get("out"), o);
+  if (progress) progress->finish();
+  if (args.flag_set("json")) {
+    print_json(
+        {{"out", args.get("out")}, {"people", s.subjects}, {"meshes_per_person", s.poses}, {"files", s.files}, {"seconds", s.seconds}});
+    return 0;
+  }
+  std::cout << "wrote " << args.get("out") << ": " << s.subjects << " people, " << s.poses << " meshes each, in " << std::fixed
+            << std::setprecision(1) << s.seconds << " s; evaluate with: posekit eval pose --dataset " << args.get("out") << " --people\n";
+  return 0;
+}
+
 int dataset_make(int argc, char** argv) {
   std::string variations;
   for (const auto& v : robustness_variations()) variations += "\n      " + v.name + ": " + v.description;
@@ -81,7 +111,10 @@ int dataset_make(int argc, char** argv) {
                  "and front/side photos with silhouette masks. Written to a temporary folder, renamed when done.\n\n"
                  "With --robustness, the robustness set instead: --shapes bodies (women, men, mixed; BMI about 15\n"
                  "to 40) each in every variation, with the rig's joints, girths and part labels as truth:" +
-                     variations);
+                     variations +
+                     "\n\nWith --people N, N people of one topology instead (for posekit eval pose --people): a folder each\n"
+                     "of the person at rest and in every pose (with its 16-part pose JSON); the last --natural-rest of them\n"
+                     "stand with the arms 25 degrees closer and the elbows bent 25 degrees, posed from that rest.");
   args.output_folder("out", "DIR", "output folder (must not exist unless --force; its parent must, unless --mkdir)")
       .data_option()
       .option("seed", "N", "random seed (same seed, same bytes)", "1")
@@ -104,16 +137,21 @@ int dataset_make(int argc, char** argv) {
       .option("survey", "DIR|FILE",
               "--population ansur: ANSUR II's folder or a survey CSV (default: $POSEKIT_ANSUR, else ansur2 "
               "beside the data root)")
+      .option("people", "N", "write N people of one topology in the pose set instead (2..16)")
+      .option("natural-rest", "K", "--people: how many of them (the last) stand in a natural rest", "1")
       .flag("force", "replace an existing output folder")
       .flag("json", "summary as JSON on stdout")
       .example("posekit dataset make --out dataset")
       .example("posekit dataset make --out small --small --seed 7")
       .example("posekit dataset make --out anatomical --driving anatomical")
       .example("posekit dataset make --robustness --out robustness")
-      .example("posekit dataset make --robustness --population ansur --out robustness-ansur");
+      .example("posekit dataset make --robustness --population ansur --out robustness-ansur")
+      .example("posekit dataset make --people 5 --driving anatomical --out people");
   if (!args.parse(argc, argv)) return 0;
   if (!args.has("out")) throw UsageError("--out DIR is required");
+  if (args.flag_set("robustness") && args.has("people")) throw UsageError("give --robustness or --people, not both");
   if (args.flag_set("robustness")) return make_robustness(args);
+  if (args.has("people")) return make_people(args);
   DatasetOptions o;
   o.data_root = find_data_root(args.get("data"));
   const long seed = args.get_int("seed");

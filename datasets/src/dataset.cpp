@@ -333,6 +333,65 @@ DatasetSummary make_dataset(const std::string& out_dir, const DatasetOptions& o)
   }
 }
 
+DatasetSummary make_people_set(const std::string& out_dir, const PeopleSetOptions& o) {
+  if (o.people < 2) throw InvalidInput("people set: at least two people are needed (each is posed by a model of the others)");
+  if (o.natural_rest < 0 || o.natural_rest > o.people)
+    throw InvalidInput("people set: " + std::to_string(o.natural_rest) + " people in a natural rest, of " + std::to_string(o.people));
+  const Stopwatch t0;
+  DatasetSummary summary;
+  write_folder_atomically(out_dir, o.force, [&](const std::string& tmp) {
+    const auto model = load_makehuman_model(o.data_root);
+    const std::optional<AnatomicalDriving> anatomy = anatomical_driving_by_name(o.driving, "people set");
+    const auto specs = make_subject_specs(*model, o.seed, std::max(o.people, 2));
+    DatasetWriter w(tmp);
+    nlohmann::ordered_json people = nlohmann::ordered_json::array();
+    int step = 0;
+    for (int i = 0; i < o.people; ++i) {
+      const SubjectSpec& s = specs[static_cast<size_t>(i)];
+      const Body body = build_body(*model, s.spec);
+      const Eigen::MatrixXd joints = joint_centres(model->rig, body);
+      const bool natural = i >= o.people - o.natural_rest;
+      const PartPose rest = natural ? natural_rest_pose(joints) : PartPose{};
+      std::vector<NamedPose> poses = standard_pose_set(joints, o.seed, o.small ? 4 : 10, o.small);
+      poses.insert(poses.begin(), NamedPose{"rest", PartPose{}, false});
+      for (const NamedPose& p : poses) {
+        TriangleMesh m;
+        m.V = pose_body(*model, body, natural ? pose_from_rest(p.pose, rest) : p.pose, anatomy);
+        m.F = body.mesh.F;
+        w.mesh(s.id + "/" + p.name + ".ply", m, "pose example", s.id + " in pose '" + p.name + "'");
+        if (p.name != "rest")
+          w.text(s.id + "/" + p.name + ".json", pose_json(p), "pose", "16-part pose of '" + p.name + "' from " + s.id + "'s rest");
+      }
+      const BodyStats st = body_stats(body.mesh);
+      people.push_back({{"id", s.id},
+                        {"gender", s.female ? "female" : "male"},
+                        {"bmi", st.bmi},
+                        {"stature_m", st.stature_m},
+                        {"rest", natural ? "natural: arms 25 degrees closer, elbows bent 25 degrees" : "the template's A-pose"},
+                        {"rest_pose", nlohmann::ordered_json::parse(part_pose_to_json(rest))},
+                        {"spec", nlohmann::ordered_json::parse(body_spec_to_json(s.spec))},
+                        {"meshes", poses.size()}});
+      summary.poses = static_cast<int>(poses.size());
+      ++summary.subjects;
+      if (o.progress) o.progress(++step, o.people, "person " + s.id);
+    }
+    nlohmann::ordered_json manifest;
+    manifest["format"] = "posekit people set 1";
+    manifest["generator"] = {{"seed", o.seed},
+                             {"small", o.small},
+                             {"source", "MakeHuman CC0 assets (data root)"},
+                             {"driving", o.driving},
+                             {"use", "posekit eval pose --dataset <this folder> --people"}};
+    manifest["units"] = {{"meshes", "m"}, {"angles", "radians"}};
+    manifest["people"] = people;
+    summary.files = static_cast<long>(w.files().size()) + 1;
+    write_file_atomically(
+        tmp + "/manifest.json", [&](std::ostream& os) { os << manifest.dump(2) << "\n"; }, false);
+  });
+  summary.seconds = t0.seconds();
+  return summary;
+}
+
 TriangleMesh load_subject_mesh(const std::string& path, Unit unit) {
   TriangleMesh m = read_mesh(path, {unit});
   m.vertex_scalars.clear();

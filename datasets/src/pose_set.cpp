@@ -1,6 +1,7 @@
 #include "posekit/datasets/pose_set.h"
 
 #include <Eigen/Geometry>
+#include <array>
 #include <cmath>
 #include <random>
 
@@ -152,6 +153,36 @@ std::vector<NamedPose> standard_pose_set(const Eigen::MatrixXd& C, unsigned seed
   // Every fifth pose, and every walking/squat variant after the first, is held out.
   for (size_t i = 0; i < poses.size(); ++i) poses[i].test = (i % 5 == 2);
   return poses;
+}
+
+PartPose natural_rest_pose(const Eigen::MatrixXd& C) {
+  const JointAxes ax = joint_axes(C);
+  PartPose p;
+  p.joint_rotation[J("left_shoulder")] = -25 * kDeg * ax.left_arm_raise;
+  p.joint_rotation[J("right_shoulder")] = -25 * kDeg * ax.right_arm_raise;
+  p.joint_rotation[J("left_elbow")] = 25 * kDeg * ax.left_elbow_flex;
+  p.joint_rotation[J("right_elbow")] = 25 * kDeg * ax.right_elbow_flex;
+  return p;
+}
+
+PartPose pose_from_rest(const PartPose& pose, const PartPose& rest) {
+  // World rotations of the parts (parents first), the pose's after the rest's, then relative again.
+  std::array<Eigen::Matrix3d, kNumParts> by_pose, at_rest, both;
+  by_pose[kPelvis] = rotation_from_axis_angle(pose.root_rotation);
+  at_rest[kPelvis] = rotation_from_axis_angle(rest.root_rotation);
+  for (int part = 1; part < kNumParts; ++part) {
+    const auto parent = static_cast<size_t>(part_parent(part));
+    by_pose[static_cast<size_t>(part)] = by_pose[parent] * rotation_from_axis_angle(pose.joint(part - 1));
+    at_rest[static_cast<size_t>(part)] = at_rest[parent] * rotation_from_axis_angle(rest.joint(part - 1));
+  }
+  for (size_t part = 0; part < both.size(); ++part) both[part] = by_pose[part] * at_rest[part];
+  PartPose out;
+  out.root_rotation = axis_angle_from_rotation(both[kPelvis]);
+  out.root_translation = pose.root_translation + rest.root_translation;
+  for (int part = 1; part < kNumParts; ++part)
+    out.joint(part - 1) =
+        axis_angle_from_rotation(both[static_cast<size_t>(part_parent(part))].transpose() * both[static_cast<size_t>(part)]);
+  return out;
 }
 
 }  // namespace posekit

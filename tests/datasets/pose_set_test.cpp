@@ -59,3 +59,32 @@ TEST(PoseSet, SeedChangesOnlyTheRandomPoses) {
     EXPECT_EQ(a[i].pose.joint_rotation, c[i].pose.joint_rotation);
   }
 }
+
+TEST(PoseSet, PoseFromARestTurnsEachPartAfterItsRestTurn) {
+  POSEKIT_REQUIRE_MAKEHUMAN();
+  const Eigen::MatrixXd J = joint_centres(model.rig, build_body(model, BodySpec{}));
+  const PartPose rest = natural_rest_pose(J);
+  // The arms 25 degrees closer to the body, the elbows bent 25 degrees; nothing else moves.
+  for (const char* joint : {"left_shoulder", "right_shoulder", "left_elbow", "right_elbow"})
+    EXPECT_NEAR(rest.joint(find_joint_index(joint)).norm() * 180 / M_PI, 25, 1e-9) << joint;
+  const Eigen::Vector3d shoulder = J.row(find_joint_index("left_shoulder")), elbow = J.row(find_joint_index("left_elbow"));
+  const Eigen::Vector3d arm = (elbow - shoulder).normalized();
+  const Eigen::Vector3d lowered = rotation_from_axis_angle(rest.joint(find_joint_index("left_shoulder"))) * arm;
+  const Eigen::Vector3d down = -Eigen::Vector3d::UnitY();
+  EXPECT_NEAR(std::acos(arm.dot(down)) * 180 / M_PI - std::acos(lowered.dot(down)) * 180 / M_PI, 25, 0.5);
+  // World rotations compose: each part as the rest turns it, then as the pose does.
+  const auto poses = standard_pose_set(J, 1);
+  auto world = [](const PartPose& p) {
+    std::array<Eigen::Matrix3d, kNumParts> g;
+    g[kPelvis] = rotation_from_axis_angle(p.root_rotation);
+    for (int part = 1; part < kNumParts; ++part) g[part] = g[part_parent(part)] * rotation_from_axis_angle(p.joint(part - 1));
+    return g;
+  };
+  for (const NamedPose& p : poses) {
+    const auto both = world(pose_from_rest(p.pose, rest)), by_pose = world(p.pose), at_rest = world(rest);
+    for (int part = 0; part < kNumParts; ++part) EXPECT_LT((both[part] - by_pose[part] * at_rest[part]).norm(), 1e-9) << p.name << part;
+  }
+  // From the template's own rest a pose is itself.
+  const PartPose same = pose_from_rest(poses[7].pose, PartPose{});
+  for (int j = 0; j < kNumJoints; ++j) EXPECT_LT((same.joint(j) - poses[7].pose.joint(j)).norm(), 1e-12);
+}

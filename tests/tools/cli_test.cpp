@@ -224,6 +224,54 @@ TEST(Cli, BodyRejectsBadSpecsAndForeignSkeletons) {
   EXPECT_EQ(dir.count(), 1) << "nothing written on failure";
 }
 
+TEST(Cli, PeopleSetStandsTheLastInANaturalRestAndEvaluatesEachOnAModelOfTheOthers) {
+  ASSERT_FALSE(test::test_data_root().empty());
+  test::TempDir dir;
+  const std::string out = dir.file("people");
+  CommandResult r = run("dataset make --people 3 --small --out " + out + " --json");
+  ASSERT_EQ(r.code, 0) << r.out;
+  EXPECT_EQ(nlohmann::json::parse(r.out)["people"], 3);
+  const auto manifest = nlohmann::json::parse(read_file_bytes(out + "/manifest.json"));
+  ASSERT_EQ(manifest["people"].size(), 3u);
+  const auto& natural = manifest["people"][2];
+  EXPECT_EQ(natural["rest"].get<std::string>().rfind("natural", 0), 0u) << natural.dump();
+  EXPECT_EQ(manifest["people"][0]["rest"].get<std::string>().rfind("natural", 0), std::string::npos);
+  // The natural rest against the same body in MakeHuman's A-pose: the arms closer, the feet where they were.
+  const std::string id = natural["id"];
+  const std::string spec = dir.write("spec.json", natural["spec"].dump());
+  ASSERT_EQ(run("body --spec " + spec + " --out " + dir.file("a.ply")).code, 0);
+  const TriangleMesh a_pose = read_mesh(dir.file("a.ply")), rest = read_mesh(out + "/" + id + "/rest.ply");
+  ASSERT_EQ(a_pose.V.rows(), rest.V.rows());
+  EXPECT_GT(a_pose.V.col(0).maxCoeff() - rest.V.col(0).maxCoeff(), 0.05);  // the left hand nearer the body
+  EXPECT_LT(std::abs(a_pose.V.col(1).minCoeff() - rest.V.col(1).minCoeff()), 1e-4);
+  // The same pose driven anatomically moves the shoulder girdle as well.
+  const std::string raise = out + "/" + id + "/left_shoulder_raise_30.json";
+  ASSERT_EQ(run("body --spec " + spec + " --pose " + raise + " --skinning dqs --out " + dir.file("rig.ply")).code, 0);
+  ASSERT_EQ(run("body --spec " + spec + " --pose " + raise + " --driving anatomical --out " + dir.file("anat.ply")).code, 0);
+  EXPECT_GT((read_mesh(dir.file("rig.ply")).V - read_mesh(dir.file("anat.ply")).V).rowwise().norm().maxCoeff(), 0.01);
+  EXPECT_EQ(run("body --spec " + spec + " --driving anatomical --out " + dir.file("x.ply")).code, 2);
+  EXPECT_EQ(run("body --spec " + spec + " --pose " + raise + " --driving bones --out " + dir.file("x.ply")).code, 2);
+  // Each person posed by a model of the other two: the learned deformation beats skinning on the
+  // person standing otherwise too (section 3.3.3).
+  r = run("eval pose --dataset " + out + " --people --json");
+  ASSERT_EQ(r.code, 0) << r.out;
+  const auto ev = nlohmann::json::parse(r.out);
+  ASSERT_EQ(ev["per_person"].size(), 3u);
+  for (const auto& person : ev["per_person"]) {
+    double learned = 0, lbs = 0;
+    for (const auto& m : person["methods"]) {
+      if (m["method"] == "learned") learned = m["raw"]["mean_mm"];
+      if (m["method"] == "lbs") lbs = m["raw"]["mean_mm"];
+    }
+    EXPECT_LT(learned, lbs) << person["person"];
+  }
+  EXPECT_EQ(run("dataset make --people 1 --out " + dir.file("p1")).code, 2);
+  EXPECT_EQ(run("dataset make --people 3 --natural-rest 4 --out " + dir.file("p2")).code, 2);
+  EXPECT_EQ(run("dataset make --people 3 --robustness --out " + dir.file("p3")).code, 2);
+  EXPECT_FALSE(std::filesystem::exists(dir.file("p1")));
+  EXPECT_FALSE(std::filesystem::exists(dir.file("x.ply")));
+}
+
 TEST(Cli, DatasetMakeWritesAConsistentFolderAndRefusesToOverwrite) {
   ASSERT_FALSE(test::test_data_root().empty());
   test::TempDir dir;

@@ -42,6 +42,26 @@ struct DatasetSummary {
 /// exists (unless options.force) or is not writable.
 DatasetSummary make_dataset(const std::string& out_dir, const DatasetOptions& options);
 
+/// Several people of one topology in the pose set, for `posekit eval pose --people` (each person
+/// posed by a model trained on the others, section 3.3.3): one folder per person of MakeHuman's skin
+/// mesh (13,380 vertices, m) at rest and in every pose of the pose set, with the 16-part pose of
+/// each from that person's rest. The bodies are the evaluation subjects' of `seed`. The last
+/// `natural_rest` people stand in natural_rest_pose (arms closer, elbows bent) instead of the
+/// template's A-pose, and their poses are taken from that rest (pose_from_rest).
+struct PeopleSetOptions {
+  std::string data_root;
+  unsigned seed = 1;
+  int people = 5;
+  int natural_rest = 1;
+  bool small = false;           ///< a third of the poses
+  std::string driving = "rig";  ///< as DatasetOptions::driving
+  bool force = false;           ///< replace an existing output folder
+  std::function<void(int, int, const std::string&)> progress;
+};
+/// Through a temporary folder renamed at the end (write_folder_atomically). Returns poses = meshes
+/// per person (rest included) and subjects = people.
+DatasetSummary make_people_set(const std::string& out_dir, const PeopleSetOptions& options);
+
 /// A subject's mesh: any closed body mesh (PLY/OBJ/OFF/STL).
 TriangleMesh load_subject_mesh(const std::string& path, Unit unit = Unit::kMetre);
 

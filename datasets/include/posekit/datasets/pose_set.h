@@ -28,4 +28,13 @@ JointAxes joint_axes(const Eigen::MatrixXd& joint_centres);
 /// plausible combinations drawn from `seed`. About a fifth is marked `test`, spread over the kinds.
 std::vector<NamedPose> standard_pose_set(const Eigen::MatrixXd& joint_centres, unsigned seed, int num_random = 10, bool small = false);
 
+/// A natural standing rest against the template's A-pose: both arms 25 degrees closer to the body
+/// and both elbows bent 25 degrees (a body scanner's or a person's own rest, not MakeHuman's).
+PartPose natural_rest_pose(const Eigen::MatrixXd& joint_centres);
+
+/// `pose` taken from the rest `rest` instead of from the template's: each part turned by `pose`'s
+/// world rotation of it after the rest's (posekit poses a subject so, about the subject's own rest),
+/// as joint rotations from the template's rest.
+PartPose pose_from_rest(const PartPose& pose, const PartPose& rest);
+
 }  // namespace posekit
