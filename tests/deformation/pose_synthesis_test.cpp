@@ -104,7 +104,8 @@ TEST(PoseSynthesis, FastKernelsAgreeWithEq4AndEq6EvaluatedInDouble) {
       x[6] = 1;
       Eigen::Matrix3d Q;
       for (int m = 0; m < 9; ++m) Q(m / 3, m % 3) = model.coefficients.row(source).segment<kPoseFeatures>(m * kPoseFeatures).dot(x);
-      const Eigen::Matrix3d Tk = parts.R[static_cast<size_t>(info.triangle_part[k])] * Q;
+      // T^Q turns with the part it was learned in: its template triangle's, not the subject's label.
+      const Eigen::Matrix3d Tk = parts.R[static_cast<size_t>(model.triangle_part[source])] * Q;
       for (int e = 0; e < 9; ++e) T(k, e) = Tk(e / 3, e % 3);
       if (info.triangle_part[k] == kPelvis)
         anchor[k] = area[k] * std::exp(-(Q - Eigen::Matrix3d::Identity()).squaredNorm() / (0.02 * 0.02));

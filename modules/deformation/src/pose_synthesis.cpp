@@ -82,6 +82,9 @@ struct PoseSynthesizer::Impl {
   Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor> coefficients;  // #F x 63, from the template
   Eigen::Matrix<int, Eigen::Dynamic, 2, Eigen::RowMajor> triangle_joints;               // #F x 2
   Eigen::VectorXd pelvis_area;                                                          // #F: the area of pelvis triangles, 0 elsewhere
+  /// #F: the part whose rotation carries each triangle's learned T^Q, its template triangle's (T^Q was
+  /// learned in that part's frame), whatever part the subject's own segmentation gave the triangle.
+  Eigen::VectorXi deformation_part;
   // PosePlacement::kParts (set_up_part_placement): each vertex's core weight; per part its core's
   // total weight and rest mean; per vertex its non-zero blend weights (blend_start[v] ..
   // blend_start[v + 1] in blend_part, blend_weight); the LU of the core means of the blend weights.
@@ -171,9 +174,11 @@ PoseSynthesizer::PoseSynthesizer(std::shared_ptr<const PoseModel> model, const T
   }
   s.coefficients.resize(s.F.rows(), M.coefficients.cols());
   s.triangle_joints.resize(s.F.rows(), 2);
+  s.deformation_part.resize(s.F.rows());
   for (Eigen::Index k = 0; k < s.F.rows(); ++k) {
     s.coefficients.row(k) = M.coefficients.row(s.info.template_triangle[k]);
     s.triangle_joints.row(k) = M.triangle_joints.row(s.info.template_triangle[k]);
+    s.deformation_part[k] = M.triangle_part[s.info.template_triangle[k]];
   }
   s.vertex_part = vertex_labels_from_triangles(s.V, s.F, s.info.triangle_part);
   {
@@ -365,7 +370,7 @@ double* PoseSynthesizer::Impl::right_hand_side(const PartPose& pose, const PartT
     }
   double* rhs = solver->start_right_hand_side();
   const RightHandSideInput input{F.rows(),
-                                 info.triangle_part.data(),
+                                 method == PoseMethod::kLearned ? deformation_part.data() : info.triangle_part.data(),
                                  triangle_joints.data(),
                                  method == PoseMethod::kLearned ? edge_coefficients.data() : nullptr,
                                  solver->weighted_rest_edges().data(),

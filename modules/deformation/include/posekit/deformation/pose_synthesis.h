@@ -1,8 +1,9 @@
 #pragma once
 // Posing a body of any topology (section 3.3.3 of Zhu & Mok): its own segmentation and skeleton
 // give T^R, the template's learned T^Q is carried over through the ct-FFD correspondence, and one
-// prefactorised solve (Eq. 5-6) per pose recovers the vertices. The two baselines users compare
-// with run in the same code path.
+// prefactorised solve (Eq. 5-6) per pose recovers the vertices. Each triangle's T^Q turns with the
+// part it was learned in (its template triangle's), so that the subject's own borders move T^R and
+// the placement only. The two baselines users compare with run in the same code path.
 #include <Eigen/Core>
 #include <memory>
 #include <string>
