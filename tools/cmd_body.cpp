@@ -118,8 +118,7 @@ int run_body(int argc, char** argv) {
   const Eigen::MatrixXd joints = joint_centres(model->rig, body);
   if (args.has("pose") && args.has("pose-units")) throw UsageError("give --pose or --pose-units, not both");
   const std::string driving_name = args.get("driving");
-  if (driving_name != "rig" && driving_name != "anatomical" && driving_name != "anatomical-alternative")
-    throw UsageError("--driving expects rig, anatomical or anatomical-alternative, got '" + driving_name + "'");
+  if (!is_driving_name(driving_name)) throw UsageError(std::string("--driving expects ") + kDrivingNames + ", got '" + driving_name + "'");
   const std::optional<AnatomicalDriving> driving = anatomical_driving_by_name(driving_name, "--driving");
   if (driving && (!args.has("pose") || ends_with(args.get("pose"), ".bvh") || ends_with(args.get("pose"), ".BVH")))
     throw UsageError("--driving " + args.get("driving") + " drives a 16-part pose JSON: give --pose pose.json");

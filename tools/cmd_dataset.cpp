@@ -8,6 +8,7 @@
 
 #include "cli.h"
 #include "commands.h"
+#include "posekit/body/anatomical_driving.h"
 #include "posekit/core/data_root.h"
 #include "posekit/core/error.h"
 #include "posekit/datasets/dataset.h"
@@ -159,8 +160,7 @@ int dataset_make(int argc, char** argv) {
   o.seed = static_cast<unsigned>(seed);
   o.small = args.flag_set("small");
   o.driving = args.get("driving");
-  if (o.driving != "rig" && o.driving != "anatomical" && o.driving != "anatomical-alternative")
-    throw UsageError("--driving expects rig, anatomical or anatomical-alternative, got '" + o.driving + "'");
+  if (!is_driving_name(o.driving)) throw UsageError(std::string("--driving expects ") + kDrivingNames + ", got '" + o.driving + "'");
   o.subjects = static_cast<int>(args.get_int("subjects"));
   if (o.subjects < 1 || o.subjects > 200) throw UsageError("--subjects must be 1..200");
   o.scan_noise_sigma = args.get_double("noise-mm") / 1000.0;

@@ -1,7 +1,5 @@
 #include "posekit/datasets/dataset.h"
 
-#include <unistd.h>
-
 #include <algorithm>
 #include <filesystem>
 #include <fstream>
@@ -187,17 +185,12 @@ void write_photos(DatasetWriter& w, const std::string& id, const TriangleMesh& r
 
 DatasetSummary make_dataset(const std::string& out_dir, const DatasetOptions& o) {
   const Stopwatch t0;
-  const fs::path out = fs::absolute(out_dir).lexically_normal();
-  std::error_code ec;
-  if (fs::exists(out, ec) && !o.force) throw IoError(out.string() + ": already exists (choose another --out or pass --force)");
-  const fs::path tmp = out.string() + ".tmp-" + std::to_string(::getpid());
-  fs::remove_all(tmp, ec);
-  if (!fs::create_directories(tmp, ec) || ec) throw IoError(tmp.string() + ": cannot create the output folder (" + ec.message() + ")");
-  try {
+  DatasetSummary summary;
+  write_folder_atomically(out_dir, o.force, [&](const std::string& tmp_folder) {
+    const fs::path tmp(tmp_folder);
     const auto model = load_makehuman_model(o.data_root);
     const std::optional<AnatomicalDriving> anatomy = anatomical_driving_by_name(o.driving, "dataset");
     DatasetWriter w(tmp);
-    DatasetSummary summary;
     nlohmann::ordered_json manifest;
     manifest["format"] = "posekit dataset 1";
     manifest["generator"] = {
@@ -323,14 +316,9 @@ DatasetSummary make_dataset(const std::string& out_dir, const DatasetOptions& o)
     summary.files = static_cast<long>(w.files().size()) + 1;
     const std::string text = manifest.dump(2) + "\n";
     write_file_atomically((tmp / "manifest.json").string(), [&](std::ostream& os) { os << text; }, false);
-    if (fs::exists(out)) fs::remove_all(out);
-    fs::rename(tmp, out);
-    summary.seconds = t0.seconds();
-    return summary;
-  } catch (...) {
-    fs::remove_all(tmp, ec);
-    throw;
-  }
+  });
+  summary.seconds = t0.seconds();
+  return summary;
 }
 
 DatasetSummary make_people_set(const std::string& out_dir, const PeopleSetOptions& o) {

@@ -1,7 +1,5 @@
 #include "posekit/datasets/robustness.h"
 
-#include <unistd.h>
-
 #include <Eigen/Geometry>
 #include <algorithm>
 #include <cmath>
@@ -656,15 +654,11 @@ RobustnessSummary make_robustness_set(const std::string& out_dir, const Robustne
   const std::vector<RobustnessVariation> chosen = chosen_variations(o.only);
   if (o.shape_specs.empty() && o.shapes < 1) throw InvalidInput("robustness set: at least one shape is needed");
 
-  const fs::path out = fs::absolute(out_dir).lexically_normal();
-  std::error_code ec;
-  if (fs::exists(out, ec) && !o.force) throw IoError(out.string() + ": already exists (choose another --out or pass --force)");
-  const fs::path tmp = out.string() + ".tmp-" + std::to_string(::getpid());
-  fs::remove_all(tmp, ec);
-  if (!fs::create_directories(tmp / "bodies", ec) || ec)
-    throw IoError(tmp.string() + ": cannot create the output folder (" + ec.message() + ")");
-  fs::create_directories(tmp / "truth", ec);
-  try {
+  RobustnessSummary r;
+  write_folder_atomically(out_dir, o.force, [&](const std::string& tmp_folder) {
+    const fs::path tmp(tmp_folder);
+    create_folders((tmp / "bodies").string());
+    create_folders((tmp / "truth").string());
     const auto model = load_makehuman_model(o.data_root);
     const PoseUnits units = read_pose_units(model->data_root + "/poseunits/body-poseunits.json");
     const Eigen::VectorXi rest_labels = triangle_part_labels(model->body_F, vertex_part_labels(*model));
@@ -698,18 +692,12 @@ RobustnessSummary make_robustness_set(const std::string& out_dir, const Robustne
     manifest["bodies"] = bodies;
     const std::string text = manifest.dump(2) + "\n";
     write_file_atomically((tmp / "manifest.json").string(), [&](std::ostream& os) { os << text; }, false);
-    if (o.force) fs::remove_all(out, ec);
-    fs::rename(tmp, out);
-    RobustnessSummary r;
     r.bodies = total;
     r.shapes = shapes;
     r.variations = static_cast<int>(chosen.size());
-    r.seconds = t0.seconds();
-    return r;
-  } catch (...) {
-    fs::remove_all(tmp, ec);
-    throw;
-  }
+  });
+  r.seconds = t0.seconds();
+  return r;
 }
 
 }  // namespace posekit

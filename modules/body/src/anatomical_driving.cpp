@@ -51,11 +51,15 @@ Eigen::Vector3d direction(const Body& body, int from_bone, int to_bone) {
 
 }  // namespace
 
+const char* const kDrivingNames = "rig, anatomical or anatomical-alternative";
+
+bool is_driving_name(const std::string& name) { return name == "rig" || name == "anatomical" || name == "anatomical-alternative"; }
+
 std::optional<AnatomicalDriving> anatomical_driving_by_name(const std::string& name, const std::string& context) {
+  if (!is_driving_name(name)) throw InvalidInput(context + ": unknown driving '" + name + "' (expected " + kDrivingNames + ")");
   if (name == "rig") return std::nullopt;
   if (name == "anatomical") return AnatomicalDriving{};
-  if (name == "anatomical-alternative") return AnatomicalDriving::alternative();
-  throw InvalidInput(context + ": unknown driving '" + name + "' (expected rig, anatomical or anatomical-alternative)");
+  return AnatomicalDriving::alternative();
 }
 
 AnatomicalDriving AnatomicalDriving::alternative() {

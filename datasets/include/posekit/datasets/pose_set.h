@@ -34,7 +34,8 @@ PartPose natural_rest_pose(const Eigen::MatrixXd& joint_centres);
 
 /// `pose` taken from the rest `rest` instead of from the template's: each part turned by `pose`'s
 /// world rotation of it after the rest's (posekit poses a subject so, about the subject's own rest),
-/// as joint rotations from the template's rest.
+/// as joint rotations from the template's rest. The root translations add: exact for a rest that
+/// does not move the pelvis (natural_rest_pose), not for one that turns it and moves it too.
 PartPose pose_from_rest(const PartPose& pose, const PartPose& rest);
 
 }  // namespace posekit

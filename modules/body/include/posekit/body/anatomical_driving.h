@@ -51,6 +51,12 @@ struct AnatomicalDriving {
   static AnatomicalDriving alternative();
 };
 
+/// The drivings' names, for messages: "rig, anatomical or anatomical-alternative".
+extern const char* const kDrivingNames;
+
+/// Whether anatomical_driving_by_name knows `name`.
+bool is_driving_name(const std::string& name);
+
 /// The driving of a name: "rig" (none: one bone per part), "anatomical" or "anatomical-alternative".
 /// Throws InvalidInput naming `context` for any other name.
 std::optional<AnatomicalDriving> anatomical_driving_by_name(const std::string& name, const std::string& context);
