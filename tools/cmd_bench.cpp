@@ -901,10 +901,11 @@ int bench_fit(int argc, char** argv) {
       t.fit.push_back(seconds_between(t1, t2));
       t.measure.push_back(seconds_between(t2, t3));
       t.total.push_back(seconds_between(t0, t3));
-      for (const auto& [stage, seconds] : fit.stage_seconds) {
+      for (const auto& stage_time : fit.stage_seconds) {
+        const std::string& stage = stage_time.first;  // a structured binding cannot be captured in C++17
         auto it = std::find_if(t.stages.begin(), t.stages.end(), [&](const auto& e) { return e.first == stage; });
         if (it == t.stages.end()) it = t.stages.insert(t.stages.end(), {stage, {}});
-        it->second.push_back(seconds);
+        it->second.push_back(stage_time.second);
       }
       t.points = T.rows();
       t.confident = t.confident && fit.confident;

@@ -104,8 +104,9 @@ TEST(FuzzSeeds, EveryReaderHasSeedsThatReadWithoutError) {
   for (const auto& [name, text] : {std::pair<std::string, std::string>{"leica.pts", "2\n1 2 3 -100 10 20 30\n4 5 6 50 40 50 60\n"},
                                    {"rgb.xyz", "0.1;0.2;0.3;255;0;12\n1,2,3,0,128,255\n"},
                                    {"header.xyz", "X Y Z Intensity\n1 2 3 0.5\nnan nan nan 0\n"}}) {
-    std::filesystem::copy_file(tmp.write(name, text), xyz + "/" + name, std::filesystem::copy_options::overwrite_existing);
-    check(xyz + "/" + name, [&] { read_point_cloud(xyz + "/" + name); });
+    const std::string path = xyz + "/" + name;  // a structured binding cannot be captured in C++17
+    std::filesystem::copy_file(tmp.write(name, text), path, std::filesystem::copy_options::overwrite_existing);
+    check(path, [&] { read_point_cloud(path); });
   }
   const std::string bvh = seed_dir(tmp, "bvh");
   const std::string motion =
@@ -120,9 +121,9 @@ TEST(FuzzSeeds, EveryReaderHasSeedsThatReadWithoutError) {
        {std::pair<std::string, std::string>{"pose.json", R"({"format": "posekit 16-part pose 1", "joints": {"left_knee": [1.2, 0, 0],
  "right_hip": [0, 0.1, -0.2]}, "root_rotation": [0, 0, 0], "root_translation": [0, 0.05, 0]})"},
         {"empty.json", R"({"joints": {}})"}}) {
-    const std::string path = pose + "/" + name;
+    const std::string path = pose + "/" + name, &body = text;
     write_file_atomically(
-        path, [&](std::ostream& out) { out << text; }, false);
+        path, [&](std::ostream& out) { out << body; }, false);
     check(path, [&] { parse_json(read_file_bytes(path), path); });
   }
   EXPECT_GE(seeds, 17);
