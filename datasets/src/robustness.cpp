@@ -462,7 +462,8 @@ class ShapeVariations {
       s.triangle_part.resize(s.mesh.F.rows());
       for (Eigen::Index f = 0; f < s.mesh.F.rows(); ++f) s.triangle_part[f] = pressed.triangle_part[origin[static_cast<size_t>(f)] / 4];
     } else if (v == "torso_twist") {
-      const double a = (10 + 10 * u(rng)) * kDeg * (u(rng) < 0.5 ? -1 : 1);
+      const double size = 10 + 10 * u(rng), side = u(rng) < 0.5 ? -1 : 1;  // drawn in this order
+      const double a = size * kDeg * side;
       pose.joint_rotation[find_joint_index("upper_back")] = a * Eigen::Vector3d::UnitY();
       s = posed(pose, {}, {{"twist_deg", a / kDeg}}, rest);
     } else if (v == "xup_mm_bent") {

@@ -53,7 +53,10 @@ SimulatedScan simulate_scan(const TriangleMesh& mesh, const ScannerOptions& o) {
   std::uniform_real_distribution<double> unit(0.0, 1.0);
   const Eigen::Vector3d lo = box.min.array() - 0.2, span = box.extent().array() + 0.4;
   for (int i = 0; i < scan.outliers; ++i) {
-    points.push_back(lo + Eigen::Vector3d(unit(rng), unit(rng), unit(rng)).cwiseProduct(span));
+    // Drawn in sequence, z first: a constructor's arguments are evaluated in an unspecified order
+    // (GCC right to left, clang left to right), and the scans must not depend on the compiler.
+    const double z = unit(rng), y = unit(rng), x = unit(rng);
+    points.push_back(lo + Eigen::Vector3d(x, y, z).cwiseProduct(span));
     view_of.push_back(-1);
   }
   scan.cloud.P.resize(static_cast<Eigen::Index>(points.size()), 3);

@@ -11,6 +11,7 @@
 #include "posekit/core/closest_point.h"
 #include "posekit/core/error.h"
 #include "posekit/core/point_grid.h"
+#include "posekit/core/sanitizer.h"
 #include "posekit/customization/model_silhouette_fit.h"
 #include "posekit/fitting/body_fit.h"
 #include "posekit/fitting/fitted_measurements.h"
@@ -32,7 +33,7 @@ struct Population {
 
 // The sanitizer build runs the two tests that need no accuracy from the space (the box, the two
 // silhouettes) on a third of the sample: the same code, a third of the survey fits (each 8x slower).
-#if defined(__SANITIZE_ADDRESS__)
+#if POSEKIT_ADDRESS_SANITIZER
 constexpr int kSampledSubjects = 24;
 #else
 constexpr int kSampledSubjects = 64;

@@ -6,6 +6,7 @@
 #include <cstdlib>
 #include <filesystem>
 
+#include "posekit/core/sanitizer.h"
 #include "posekit/io/atomic_file.h"
 
 namespace posekit::test {
@@ -13,7 +14,7 @@ namespace posekit::test {
 bool have_program(const std::string& name) { return std::system(("command -v " + name + " > /dev/null 2>&1").c_str()) == 0; }
 
 bool other_programs_checked() {
-#if defined(__SANITIZE_ADDRESS__)
+#if POSEKIT_ADDRESS_SANITIZER
   return false;
 #else
   return true;

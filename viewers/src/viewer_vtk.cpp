@@ -51,9 +51,10 @@
 
 #include "posekit/core/error.h"
 #include "posekit/core/plugin.h"
+#include "posekit/core/sanitizer.h"
 #include "posekit/io/atomic_file.h"
 
-#ifdef __SANITIZE_ADDRESS__
+#if POSEKIT_ADDRESS_SANITIZER
 #include <sanitizer/lsan_interface.h>
 #endif
 
@@ -63,7 +64,7 @@ namespace {
 /// The OpenGL driver (Mesa) keeps allocations it frees only when it is unloaded, where
 /// LeakSanitizer cannot name it: allocations made while rendering are left out of leak checks.
 struct RenderingLeakScope {
-#ifdef __SANITIZE_ADDRESS__
+#if POSEKIT_ADDRESS_SANITIZER
   RenderingLeakScope() { __lsan_disable(); }
   ~RenderingLeakScope() { __lsan_enable(); }
 #endif
