@@ -7,8 +7,13 @@ case "$kind" in
   release) flags=(-DCMAKE_BUILD_TYPE=Release) ;;
   # Line tables only (-g1): sanitizer reports keep file:line, and the build is lighter than with -g.
   # -O1: half the compile time of -O2 under the sanitizers (report.cpp: 25 s against 54 s).
+  # clang where present: it compiles this build in 31% less time than GCC, it builds the fuzz targets
+  # into it (scripts/fuzz.sh), and the release build stays GCC's, so both compilers check the code.
   asan)    flags=(-DCMAKE_BUILD_TYPE=RelWithDebInfo "-DCMAKE_CXX_FLAGS_RELWITHDEBINFO=-O1 -g1 -DNDEBUG"
-                  "-DCMAKE_C_FLAGS_RELWITHDEBINFO=-O1 -g1 -DNDEBUG" -DPOSEKIT_SANITIZE=ON) ;;
+                  "-DCMAKE_C_FLAGS_RELWITHDEBINFO=-O1 -g1 -DNDEBUG" -DPOSEKIT_SANITIZE=ON)
+           if [ -z "${CXX:-}" ] && command -v clang++ >/dev/null && command -v clang >/dev/null; then
+             export CC=clang CXX=clang++
+           fi ;;
   *) echo "build.sh: unknown build '$kind' (release|asan)" >&2; exit 2 ;;
 esac
 # ccache keys on paths relative to the checkout, so every clone (CI's included) shares one cache.

@@ -2,9 +2,9 @@
 # scripts/fuzz.sh [SECONDS] [TARGET...]: fuzz posekit's file readers, measuring and pose fitting with
 # libFuzzer under AddressSanitizer + UndefinedBehaviorSanitizer, each target for SECONDS (default 60),
 # one per core at a time. Targets: ply obj off stl pcd xyz bvh pose_json pkm pks measure (the default: all
-# these), and fit, only when named (it builds most of the library with clang, and trains a model on
-# the small dataset once: POSEKIT_DATA must point at the MakeHuman assets).
-#   1. builds the targets with clang into build/fuzz (-DPOSEKIT_FUZZ=ON),
+# these), and fit, only when named (it trains a model on the small dataset once: POSEKIT_DATA must
+# point at the MakeHuman assets).
+#   1. builds the targets in the sanitizer build with clang (scripts/build.sh asan: build/asan),
 #   2. writes the seed corpus with the tests (release build: FuzzSeeds.*, *.WritesFuzzSeeds*),
 #   3. runs each target on build/fuzz/corpus/<target> (kept between runs) plus the seeds.
 # A finding (crash, sanitizer report, an exception other than posekit::Error, a single allocation over
@@ -21,16 +21,13 @@ for t in "${targets[@]}"; do [ "$t" = fit ] && fit=ON; done
 case "$seconds" in ''|*[!0-9]*) echo "fuzz.sh: SECONDS must be a whole number, got '$seconds'" >&2; exit 2 ;; esac
 command -v clang++ >/dev/null || { echo "fuzz.sh: needs clang (apt-get install clang libclang-rt-14-dev)" >&2; exit 1; }
 
-export CCACHE_BASEDIR=${CCACHE_BASEDIR:-$PWD} CCACHE_NOHASHDIR=${CCACHE_NOHASHDIR:-1}
 export POSEKIT_DATA=${POSEKIT_DATA:-$(cd .. && pwd)/shared/datasets/makehuman}  # the measure and fit seeds' bodies
-generator=()
-command -v ninja >/dev/null && generator=(-G Ninja)
-if [ ! -f build/fuzz/CMakeCache.txt ]; then
-  CC=clang CXX=clang++ cmake -S . -B build/fuzz "${generator[@]}" -DCMAKE_BUILD_TYPE=RelWithDebInfo -DPOSEKIT_FUZZ=ON >/dev/null
+if [ -f build/asan/CMakeCache.txt ] && ! grep -q '^CMAKE_CXX_COMPILER:.*clang' build/asan/CMakeCache.txt; then
+  echo "fuzz.sh: build/asan was configured with another compiler than clang, so it has no fuzz targets: remove build/asan" >&2
+  exit 1
 fi
-[ "$fit" = OFF ] || cmake build/fuzz -DPOSEKIT_FUZZ_FIT=ON >/dev/null
 jobs=$(nproc 2>/dev/null || echo 2)
-cmake --build build/fuzz --parallel "$jobs" --target $(printf 'fuzz_%s ' "${targets[@]}")
+CC=clang CXX=clang++ bash scripts/build.sh asan $(printf 'fuzz_%s ' "${targets[@]}")
 
 bash scripts/build.sh release posekit_io_tests posekit_deformation_tests posekit_registration_tests posekit_shape_tests posekit
 seeds=$PWD/build/fuzz/seeds
@@ -55,7 +52,7 @@ run_one() {
   local tmp max_len=16384
   case "$target" in measure|fit) max_len=65536 ;; esac  # small bodies, not only small files
   tmp=$(mktemp -d)
-  if TMPDIR=$tmp "build/fuzz/tests/fuzz/fuzz_$target" "build/fuzz/corpus/$target" "$seeds/$target" \
+  if TMPDIR=$tmp "build/asan/tests/fuzz/fuzz_$target" "build/fuzz/corpus/$target" "$seeds/$target" \
       -max_total_time="$seconds" -rss_limit_mb=1024 -malloc_limit_mb=256 -timeout=10 -max_len="$max_len" \
       -print_final_stats=1 -artifact_prefix="build/fuzz/findings/$target-" >"$log" 2>&1; then
     local runs rate

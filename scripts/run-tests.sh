@@ -2,7 +2,7 @@
 # Set-up command 2: install what is missing, check the layout and function sizes, build, run every test in a release build and the
 # Python module's tests (installed by pip into a venv; and the wheel route), install it and build and run examples/ against the installed package, fuzz every
 # file reader and the measuring briefly (POSEKIT_FUZZ_SECONDS per target, default 3; 0 skips; scripts/fuzz.sh runs
-# them for longer), then run every test again under AddressSanitizer + UndefinedBehaviorSanitizer.
+# them for longer) from the sanitizer build, then run every test again under AddressSanitizer + UndefinedBehaviorSanitizer.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 # Each stage's header says when it began (minutes:seconds since the start): the 30-minute budget by stage.
@@ -19,12 +19,13 @@ stage "Python module: pip install . into a venv (its tests run against it), and 
 bash scripts/check-python-install.sh
 stage "install, and examples/ built against the installed package"
 bash scripts/check-install.sh
+stage "sanitizer build (clang; AddressSanitizer + UndefinedBehaviorSanitizer, and the fuzz targets)"
+bash scripts/build.sh asan
 fuzz_seconds=${POSEKIT_FUZZ_SECONDS:-3}
 if [ "$fuzz_seconds" -gt 0 ]; then
   stage "fuzzing every file reader and the measuring for ${fuzz_seconds} s each (libFuzzer, AddressSanitizer + UndefinedBehaviorSanitizer)"
   bash scripts/fuzz.sh "$fuzz_seconds"
 fi
-bash scripts/build.sh asan
 stage "tests (AddressSanitizer + UndefinedBehaviorSanitizer)"
 export ASAN_OPTIONS=detect_leaks=1:abort_on_error=1 UBSAN_OPTIONS=print_stacktrace=1:halt_on_error=1
 # Left out here, run in the release pass above: the sweeps over all sixteen subjects repeat, per
