@@ -53,8 +53,9 @@ namespace fs = std::filesystem;
 namespace posekit::cli {
 namespace {
 
-nlohmann::ordered_json stats_json(const ErrorStats& s) {
-  return {{"mean_mm", s.mean_mm}, {"p95_mm", s.p95_mm}, {"max_mm", s.max_mm}, {"vertices", s.count}};
+/// `counted`: what the statistics are over ("vertices"; "joints" for meshes x joints).
+nlohmann::ordered_json stats_json(const ErrorStats& s, const char* counted = "vertices") {
+  return {{"mean_mm", s.mean_mm}, {"p95_mm", s.p95_mm}, {"max_mm", s.max_mm}, {counted, s.count}};
 }
 
 std::vector<std::string> split_names(const std::string& list) {
@@ -73,6 +74,12 @@ nlohmann::ordered_json parts_json(const std::array<ErrorStats, kNumParts>& a) {
   return j;
 }
 
+nlohmann::ordered_json joints_json(const std::array<ErrorStats, kNumJoints>& a) {
+  nlohmann::ordered_json j;
+  for (int k = 0; k < kNumJoints; ++k) j[joint_name(k)] = stats_json(a[static_cast<size_t>(k)], "meshes");
+  return j;
+}
+
 nlohmann::ordered_json per_method_json(const std::vector<FolderMethodErrors>& methods, const std::vector<double>& v) {
   nlohmann::ordered_json j;
   for (size_t m = 0; m < methods.size(); ++m) j[pose_method_name(methods[m].method)] = v[m];
@@ -81,14 +88,16 @@ nlohmann::ordered_json per_method_json(const std::vector<FolderMethodErrors>& me
 
 /// Methods (with per part), meshes and kinds of pose of a folder evaluation, as JSON fields.
 void add_folder_json(const std::vector<FolderMethodErrors>& methods, const std::vector<FolderTypeErrors>& by_type,
-                     const std::vector<FolderMeshErrors>* meshes, nlohmann::ordered_json* out) {
+                     const ErrorStats& joint_spread, const std::vector<FolderMeshErrors>* meshes, nlohmann::ordered_json* out) {
   nlohmann::ordered_json m = nlohmann::ordered_json::array(), t = nlohmann::ordered_json::array();
   for (const auto& e : methods)
     m.push_back({{"method", pose_method_name(e.method)},
                  {"raw", stats_json(e.raw)},
                  {"shape", stats_json(e.shape)},
                  {"raw_per_part", parts_json(e.raw_per_part)},
-                 {"shape_per_part", parts_json(e.shape_per_part)}});
+                 {"shape_per_part", parts_json(e.shape_per_part)},
+                 {"joints_from_given_pose", stats_json(e.joints, "joints")},
+                 {"joints_from_given_pose_per_joint", joints_json(e.joints_per_joint)}});
   for (const auto& e : by_type)
     t.push_back({{"type", e.type},
                  {"meshes", e.meshes},
@@ -96,6 +105,7 @@ void add_folder_json(const std::vector<FolderMethodErrors>& methods, const std::
                  {"shape_mean_mm", per_method_json(methods, e.shape_mean_mm)}});
   (*out)["methods"] = m;
   (*out)["by_pose_type"] = t;
+  (*out)["joint_spread"] = stats_json(joint_spread, "joints");
   if (!meshes) return;
   nlohmann::ordered_json rows = nlohmann::ordered_json::array();
   for (const auto& e : *meshes)
@@ -104,23 +114,28 @@ void add_folder_json(const std::vector<FolderMethodErrors>& methods, const std::
                     {"pose_fit_rms_mm", e.pose_fit_rms_mm},
                     {"raw_mean_mm", per_method_json(methods, e.raw_mean_mm)},
                     {"shape_mean_mm", per_method_json(methods, e.shape_mean_mm)},
+                    {"joint_spread_max_mm", e.joint_spread_max_mm},
                     {"problems", e.problems}});
   (*out)["meshes"] = rows;
 }
 
 /// The tables of a folder evaluation: methods, parts, kinds of pose, then one row per `rows` entry.
 void print_folder_tables(const std::vector<FolderMethodErrors>& methods, const std::vector<FolderTypeErrors>& by_type,
-                         const std::string& row_head,
+                         const ErrorStats& joint_spread, const std::string& row_head,
                          const std::vector<std::tuple<std::string, const std::vector<double>*, const std::vector<double>*>>& rows) {
-  std::cout << std::fixed << std::setprecision(2)
-            << "raw: per-vertex error; shape: after each part is rigidly aligned onto the held-out mesh (raw - shape: placement)\n\n"
-               "| method | raw mean mm | raw 95th pct | shape mean mm | shape 95th pct |\n|---|---|---|---|---|\n";
+  std::cout
+      << std::fixed << std::setprecision(2)
+      << "raw: per-vertex error; shape: after each part is rigidly aligned onto the held-out mesh (raw - shape: placement);\n"
+         "joints: where the posed body puts them (its pose estimated back) against the given pose's T^R\n\n"
+         "| method | raw mean mm | raw 95th pct | shape mean mm | shape 95th pct | joints mean / max mm |\n|---|---|---|---|---|---|\n";
   for (const auto& m : methods)
     std::cout << "| " << pose_method_name(m.method) << " | " << m.raw.mean_mm << " | " << m.raw.p95_mm << " | " << m.shape.mean_mm << " | "
-              << m.shape.p95_mm << " |\n";
-  auto head = [&](const std::string& first) {
+              << m.shape.p95_mm << " | " << m.joints.mean_mm << " / " << m.joints.max_mm << " |\n";
+  std::cout << "\nthe methods' joints, per mesh and joint, at most " << joint_spread.max_mm << " mm apart (mean " << joint_spread.mean_mm
+            << ", 95th pct " << joint_spread.p95_mm << ")\n";
+  auto head = [&](const std::string& first, const char* columns = "raw / shape") {
     std::cout << "\n| " << first << " |";
-    for (const auto& m : methods) std::cout << " " << pose_method_name(m.method) << " raw / shape |";
+    for (const auto& m : methods) std::cout << " " << pose_method_name(m.method) << " " << columns << " |";
     std::cout << "\n|---|";
     for (size_t m = 0; m < methods.size(); ++m) std::cout << "---|";
     std::cout << "\n";
@@ -130,6 +145,14 @@ void print_folder_tables(const std::vector<FolderMethodErrors>& methods, const s
     std::cout << "| " << part_name(p) << " |";
     for (const auto& m : methods)
       std::cout << " " << m.raw_per_part[static_cast<size_t>(p)].mean_mm << " / " << m.shape_per_part[static_cast<size_t>(p)].mean_mm
+                << " |";
+    std::cout << "\n";
+  }
+  head("joint (mm from the given pose's)", "mean / max");
+  for (int j = 0; j < kNumJoints; ++j) {
+    std::cout << "| " << joint_name(j) << " |";
+    for (const auto& m : methods)
+      std::cout << " " << m.joints_per_joint[static_cast<size_t>(j)].mean_mm << " / " << m.joints_per_joint[static_cast<size_t>(j)].max_mm
                 << " |";
     std::cout << "\n";
   }
@@ -175,7 +198,7 @@ int eval_registered_folder(const ArgParser& args) {
     if (progress) progress->finish();
     for (size_t p = 0; p < ev.people.size(); ++p) report_pose_estimation(ev.reports[p], std::cerr, "eval pose: " + ev.people[p]);
     out["people"] = ev.people.size();
-    add_folder_json(ev.methods, ev.by_pose_type, nullptr, &out);
+    add_folder_json(ev.methods, ev.by_pose_type, ev.joint_spread, nullptr, &out);
     nlohmann::ordered_json persons = nlohmann::ordered_json::array();
     for (size_t p = 0; p < ev.people.size(); ++p) {
       const FolderPoseEvaluation& e = ev.per_person[p];
@@ -183,7 +206,7 @@ int eval_registered_folder(const ArgParser& args) {
                                   {"rest", ev.reports[p].rest_name},
                                   {"trained_on_others_poses", e.training_poses},
                                   {"train_seconds", e.train_seconds}};
-      add_folder_json(e.methods, e.by_pose_type, &e.meshes, &j);
+      add_folder_json(e.methods, e.by_pose_type, e.joint_spread, &e.meshes, &j);
       persons.push_back(j);
     }
     out["per_person"] = persons;
@@ -201,7 +224,7 @@ int eval_registered_folder(const ArgParser& args) {
       for (const auto& m : ev.per_person[p].methods) raw[p].push_back(m.raw.mean_mm), shape[p].push_back(m.shape.mean_mm);
       rows.emplace_back(ev.people[p] + " (" + std::to_string(ev.per_person[p].meshes.size()) + ")", &raw[p], &shape[p]);
     }
-    print_folder_tables(ev.methods, ev.by_pose_type, "person (meshes)", rows);
+    print_folder_tables(ev.methods, ev.by_pose_type, ev.joint_spread, "person (meshes)", rows);
     return 0;
   }
   Progress progress("eval pose: train", 100);
@@ -216,7 +239,7 @@ int eval_registered_folder(const ArgParser& args) {
   out["held_out"] = ev.meshes.size();
   out["train_seconds"] = ev.train_seconds;
   out["poses_estimated_for_training"] = ev.training.poses_estimated;
-  add_folder_json(ev.methods, ev.by_pose_type, &ev.meshes, &out);
+  add_folder_json(ev.methods, ev.by_pose_type, ev.joint_spread, &ev.meshes, &out);
   out["warnings"] = ev.training.warnings;
   out["peak_rss_mib"] = peak_rss_mib();
   if (args.flag_set("json")) {
@@ -228,7 +251,7 @@ int eval_registered_folder(const ArgParser& args) {
             << (ev.meshes.size() == 1 ? " held-out mesh" : " held-out meshes") << ", each posed at its pose estimated from its vertices\n";
   std::vector<std::tuple<std::string, const std::vector<double>*, const std::vector<double>*>> rows;
   for (const auto& m : ev.meshes) rows.emplace_back(m.name, &m.raw_mean_mm, &m.shape_mean_mm);
-  print_folder_tables(ev.methods, ev.by_pose_type, "held-out mesh", rows);
+  print_folder_tables(ev.methods, ev.by_pose_type, ev.joint_spread, "held-out mesh", rows);
   return 0;
 }
 
@@ -255,7 +278,8 @@ int run_eval(int argc, char** argv) {
                  "With --held-out or --every: any folder of registered meshes of one person (SCAPE-style: one topology,\n"
                  "no joint angles needed). Trains on the rest of the folder, estimates each held-out mesh's pose from\n"
                  "its vertices, poses the rest mesh at it with each method and reports the raw error and the shape\n"
-                 "error (each part rigidly aligned first), per method, part, kind of pose and mesh.");
+                 "error (each part rigidly aligned first), per method, part, kind of pose and mesh, and where each\n"
+                 "method puts the joints (its posed body's pose estimated back) against the given pose and each other.");
   args.option("dataset", "DIR", "a posekit dataset, or with --held-out/--every any folder of registered meshes")
       .pose_model_option("default: train on the dataset's training split first")
       .option("held-out", "A,B,...", "these examples are held out (by file name without extension); the rest is trained on")

@@ -553,6 +553,12 @@ TEST(PoseModel, EvaluatesAFolderOfRegisteredMeshesOnHeldOutMeshesByTheirEstimate
   const auto probe = std::find_if(ev.meshes.begin(), ev.meshes.end(), [](const FolderMeshErrors& m) { return m.name == "probe_rigid"; });
   ASSERT_NE(probe, ev.meshes.end());
   EXPECT_LT(probe->raw_mean_mm[1], 0.01);  // rigid, exactly
+  // Joints read back off the posed bodies: rigid's are where T^R put them, at every pose.
+  const FolderMethodErrors& rigid = ev.methods[1];
+  EXPECT_EQ(rigid.joints.count, static_cast<long>(ev.meshes.size()) * kNumJoints);
+  EXPECT_LT(rigid.joints.max_mm, 0.05);
+  EXPECT_EQ(ev.joint_spread.count, rigid.joints.count);
+  for (const auto& m : ev.meshes) EXPECT_LE(m.joint_spread_max_mm, ev.joint_spread.max_mm + 1e-9) << m.name;
   for (const FolderMethodErrors* m : {&ev.methods[0], &ev.methods[1], &ev.methods[2]}) {
     EXPECT_LE(m->shape.mean_mm, m->raw.mean_mm) << pose_method_name(m->method);  // aligned parts can only be closer
     EXPECT_GT(m->raw.count, 0);
@@ -567,7 +573,9 @@ TEST(PoseModel, EvaluatesAFolderOfRegisteredMeshesOnHeldOutMeshesByTheirEstimate
   const double n = static_cast<double>(ev.meshes.size() - 1);
   std::cout << "folder of " << data.names.size() + 1 << " meshes, " << ev.meshes.size() - 1
             << " held out (and the probe): raw / shape mean mm learned " << raw[0] / n << " / " << shape[0] / n << ", rigid " << raw[1] / n
-            << " / " << shape[1] / n << ", lbs " << raw[2] / n << " / " << shape[2] / n << "\n";
+            << " / " << shape[1] / n << ", lbs " << raw[2] / n << " / " << shape[2] / n << "; joints from T^R mean / max mm learned "
+            << ev.methods[0].joints.mean_mm << " / " << ev.methods[0].joints.max_mm << ", lbs " << ev.methods[2].joints.mean_mm << " / "
+            << ev.methods[2].joints.max_mm << "; methods' joints apart at most " << ev.joint_spread.max_mm << "\n";
   // Every N-th: the rest example is never held out.
   DatasetTrainingOptions every;
   every.hold_out_every = 4;
@@ -636,7 +644,13 @@ TEST(PoseModel, EvaluatesSeveralPeopleOfOneTopologyEachPosedByAModelOfTheOthers)
   EXPECT_LT(learned.shape.mean_mm, 0.7 * lbs.shape.mean_mm);
   std::cout << "3 people, each by the others' model: raw / shape mean mm learned " << learned.raw.mean_mm << " / " << learned.shape.mean_mm
             << ", rigid " << ev.methods[1].raw.mean_mm << " / " << ev.methods[1].shape.mean_mm << ", lbs " << lbs.raw.mean_mm << " / "
-            << lbs.shape.mean_mm << "\n";
+            << lbs.shape.mean_mm << "; joints from T^R mean mm learned " << learned.joints.mean_mm << ", rigid "
+            << ev.methods[1].joints.mean_mm << ", lbs " << lbs.joints.mean_mm << "; methods' joints apart at most "
+            << ev.joint_spread.max_mm << "\n";
+  // Pooled over the people: every mesh's joints, once.
+  EXPECT_EQ(ev.joint_spread.count, 3 * static_cast<long>(poses.size()) * kNumJoints);
+  EXPECT_EQ(learned.raw.count, 3 * ev.per_person[0].methods[0].raw.count);
+  EXPECT_LT(ev.methods[1].joints.max_mm, 0.05);
   // A person of another topology is named; one person is not several.
   const auto& ds = test::small_dataset();
   std::filesystem::create_directories(dir.file("zz_other"));

@@ -476,6 +476,14 @@ TEST(Cli, TrainsOnAFolderOfMeshesAloneAndNamesWhatIsWrongWithAFolder) {
   }
   ASSERT_EQ(ev["meshes"].size(), 2u);
   EXPECT_EQ(ev["meshes"][1]["type"].get<std::string>(), "torso");
+  // Where each method put the joints: 2 meshes x 15 joints; rigid's are the given pose's.
+  EXPECT_EQ(ev["joint_spread"]["joints"].get<int>(), 30);
+  for (const auto& m : ev["methods"]) {
+    EXPECT_EQ(m["joints_from_given_pose"]["joints"].get<int>(), 30) << m.dump();
+    EXPECT_EQ(m["joints_from_given_pose_per_joint"].size(), 15u);
+    if (m["method"] == "rigid") EXPECT_LT(m["joints_from_given_pose"]["max_mm"].get<double>(), 0.05) << m.dump();
+  }
+  for (const auto& m : ev["meshes"]) EXPECT_LE(m["joint_spread_max_mm"].get<double>(), ev["joint_spread"]["max_mm"].get<double>());
   EXPECT_EQ(run("eval pose --dataset " + dir.file("meshes") + " --every 1").code, 2);
   EXPECT_EQ(run("eval pose --dataset " + dir.file("meshes") + " --every 3 --held-out rest").code, 2);
   EXPECT_EQ(run("eval pose --dataset " + dir.file("meshes") + " --every 3 --people").code, 2);

@@ -14,6 +14,7 @@
 #include "posekit/datasets/dataset.h"
 #include "posekit/datasets/remesh.h"
 #include "posekit/deformation/pose_dataset.h"
+#include "posekit/deformation/rigid_pose.h"
 #include "posekit/io/atomic_file.h"
 #include "posekit/io/json.h"
 #include "posekit/io/mesh_io.h"
@@ -235,15 +236,29 @@ Eigen::VectorXd part_aligned_errors(const Eigen::MatrixXd& X, const Eigen::Matri
   return e;
 }
 
+/// Where a pose puts each joint centre (#joints x 3): carried by its child part's T^R.
+Eigen::MatrixXd posed_joint_centres(const PartPose& pose, const Eigen::MatrixXd& joint_centres) {
+  const PartTransforms T = part_transforms(pose, joint_centres);
+  Eigen::MatrixXd out(kNumJoints, 3);
+  for (int j = 0; j < kNumJoints; ++j) {
+    const size_t child = static_cast<size_t>(j + 1);
+    out.row(j) = (T.R[child] * joint_centres.row(j).transpose() + T.t[child]).transpose();
+  }
+  return out;
+}
+
 /// Scores posed bodies against held-out meshes, per method: raw and part-aligned errors per vertex,
-/// per part, per mesh and per kind of pose.
+/// per part, per mesh and per kind of pose, and where each method puts the joints.
 class HeldOutScorer {
  public:
   explicit HeldOutScorer(std::vector<PoseMethod> methods) : methods_(std::move(methods)), samples_(methods_.size()) {}
 
   /// Poses `synth` at `pose` with every method and scores it against `truth`; returns the mesh's row.
-  FolderMeshErrors add(const std::string& name, const PoseSynthesizer& synth, const PartPose& pose, const Eigen::MatrixXd& truth,
-                       const Eigen::VectorXi& vertex_part, const std::array<std::vector<int>, kNumParts>& part_vertices) {
+  /// `joint_reader`, the estimator that read `pose` off `truth`, reads each posed body's joints the
+  /// same way: a method that reproduced `truth` would put them where `pose` does.
+  FolderMeshErrors add(const std::string& name, const PoseSynthesizer& synth, const PartPoseEstimator& joint_reader, const PartPose& pose,
+                       const Eigen::MatrixXd& truth, const Eigen::VectorXi& vertex_part,
+                       const std::array<std::vector<int>, kNumParts>& part_vertices) {
     FolderMeshErrors mesh;
     mesh.name = name;
     mesh.type = pose_type(name);
@@ -252,6 +267,8 @@ class HeldOutScorer {
     type.raw_mean_mm.resize(methods_.size(), 0.0);
     type.shape_mean_mm.resize(methods_.size(), 0.0);
     ++type.meshes;
+    const Eigen::MatrixXd given_joints = posed_joint_centres(pose, synth.info().joint_centres);
+    std::vector<Eigen::MatrixXd> joints;
     for (size_t m = 0; m < methods_.size(); ++m) {
       const Eigen::MatrixXd X = synth.pose(pose, methods_[m]);
       const Eigen::VectorXd raw = (X - truth).rowwise().norm();
@@ -267,16 +284,60 @@ class HeldOutScorer {
         s.raw_part[static_cast<size_t>(vertex_part[v])].push_back(raw[v]);
         s.shape_part[static_cast<size_t>(vertex_part[v])].push_back(shape[v]);
       }
+      joints.push_back(posed_joint_centres(joint_reader.estimate(X).pose, synth.info().joint_centres));
+      for (int j = 0; j < kNumJoints; ++j) {
+        const double d = (joints.back().row(j) - given_joints.row(j)).norm();
+        s.joints.push_back(d);
+        s.joint[static_cast<size_t>(j)].push_back(d);
+      }
+    }
+    for (int j = 0; j < kNumJoints; ++j) {
+      double spread = 0;
+      for (size_t a = 0; a < joints.size(); ++a)
+        for (size_t b = a + 1; b < joints.size(); ++b) spread = std::max(spread, (joints[a].row(j) - joints[b].row(j)).norm());
+      spread_.push_back(spread);
+      mesh.joint_spread_max_mm = std::max(mesh.joint_spread_max_mm, 1000 * spread);
     }
     return mesh;
   }
 
-  void finish(std::vector<FolderMethodErrors>* methods, std::vector<FolderTypeErrors>* by_pose_type) const {
+  /// Adds another scorer's meshes (same methods) to this one's.
+  void merge(const HeldOutScorer& other) {
+    for (size_t m = 0; m < methods_.size(); ++m) {
+      Sample& s = samples_[m];
+      const Sample& o = other.samples_[m];
+      auto append = [](std::vector<double>* to, const std::vector<double>& from) { to->insert(to->end(), from.begin(), from.end()); };
+      append(&s.raw, o.raw);
+      append(&s.shape, o.shape);
+      append(&s.joints, o.joints);
+      for (size_t j = 0; j < kNumJoints; ++j) append(&s.joint[j], o.joint[j]);
+      for (size_t p = 0; p < kNumParts; ++p) {
+        append(&s.raw_part[p], o.raw_part[p]);
+        append(&s.shape_part[p], o.shape_part[p]);
+      }
+    }
+    spread_.insert(spread_.end(), other.spread_.begin(), other.spread_.end());
+    for (const auto& [name, t] : other.types_) {
+      FolderTypeErrors& mine = types_[name];
+      mine.type = name;
+      mine.raw_mean_mm.resize(methods_.size(), 0.0);
+      mine.shape_mean_mm.resize(methods_.size(), 0.0);
+      mine.meshes += t.meshes;
+      for (size_t m = 0; m < methods_.size(); ++m) {
+        mine.raw_mean_mm[m] += t.raw_mean_mm[m];
+        mine.shape_mean_mm[m] += t.shape_mean_mm[m];
+      }
+    }
+  }
+
+  void finish(std::vector<FolderMethodErrors>* methods, std::vector<FolderTypeErrors>* by_pose_type, ErrorStats* joint_spread) const {
     for (size_t m = 0; m < methods_.size(); ++m) {
       FolderMethodErrors r;
       r.method = methods_[m];
       r.raw = error_stats(samples_[m].raw);
       r.shape = error_stats(samples_[m].shape);
+      r.joints = error_stats(samples_[m].joints);
+      for (size_t j = 0; j < kNumJoints; ++j) r.joints_per_joint[j] = error_stats(samples_[m].joint[j]);
       for (int p = 0; p < kNumParts; ++p) {
         r.raw_per_part[static_cast<size_t>(p)] = error_stats(samples_[m].raw_part[static_cast<size_t>(p)]);
         r.shape_per_part[static_cast<size_t>(p)] = error_stats(samples_[m].shape_part[static_cast<size_t>(p)]);
@@ -290,15 +351,18 @@ class HeldOutScorer {
       }
       by_pose_type->push_back(t);
     }
+    *joint_spread = error_stats(spread_);
   }
 
  private:
   struct Sample {
-    std::vector<double> raw, shape;
+    std::vector<double> raw, shape, joints;
     std::array<std::vector<double>, kNumParts> raw_part, shape_part;
+    std::array<std::vector<double>, kNumJoints> joint;
   };
   std::vector<PoseMethod> methods_;
   std::vector<Sample> samples_;
+  std::vector<double> spread_;  ///< per mesh and joint
   std::map<std::string, FolderTypeErrors> types_;
 };
 
@@ -350,12 +414,12 @@ FolderPoseEvaluation evaluate_registered_folder(const std::string& dir, const Tr
   HeldOutScorer scorer(methods);
   for (size_t i : held_out) {
     const PartPoseEstimate e = estimator.estimate(data.V[i]);
-    FolderMeshErrors row = scorer.add(data.names[i], synth, e.pose, data.V[i], vertex_part, part_vertices);
+    FolderMeshErrors row = scorer.add(data.names[i], synth, estimator, e.pose, data.V[i], vertex_part, part_vertices);
     row.pose_fit_rms_mm = 1000 * e.rms;
     row.problems = pose_estimate_problems(e);
     out.meshes.push_back(std::move(row));
   }
-  scorer.finish(&out.methods, &out.by_pose_type);
+  scorer.finish(&out.methods, &out.by_pose_type, &out.joint_spread);
   return out;
 }
 
@@ -445,17 +509,17 @@ PeoplePoseEvaluation evaluate_registered_people(const std::string& dir, const Tr
     for (size_t i = 0; i < me.data.names.size(); ++i) {
       if (static_cast<int>(i) == me.rest) continue;
       const PartPoseEstimate e = estimator.estimate(me.data.V[i]);
-      FolderMeshErrors row = scorer.add(me.data.names[i], synth, e.pose, me.data.V[i], vertex_part, part_vertices);
-      pooled.add(me.data.names[i], synth, e.pose, me.data.V[i], vertex_part, part_vertices);
+      FolderMeshErrors row = scorer.add(me.data.names[i], synth, estimator, e.pose, me.data.V[i], vertex_part, part_vertices);
       row.pose_fit_rms_mm = 1000 * e.rms;
       row.problems = pose_estimate_problems(e);
       result.meshes.push_back(std::move(row));
     }
-    scorer.finish(&result.methods, &result.by_pose_type);
+    scorer.finish(&result.methods, &result.by_pose_type, &result.joint_spread);
+    pooled.merge(scorer);
     out.per_person.push_back(std::move(result));
     if (progress) progress(static_cast<int>(person.size() + p + 1), steps, "evaluated " + out.people[p]);
   }
-  pooled.finish(&out.methods, &out.by_pose_type);
+  pooled.finish(&out.methods, &out.by_pose_type, &out.joint_spread);
   return out;
 }
 

@@ -73,6 +73,11 @@ struct FolderMethodErrors {
   PoseMethod method;
   ErrorStats raw, shape;
   std::array<ErrorStats, kNumParts> raw_per_part, shape_per_part;
+  /// Where the method's posed body puts each joint, against where T^R of the given pose puts it (its
+  /// centre carried by the child part), over every mesh and joint. The posed body's joints are read
+  /// off it as from any registered mesh: its pose estimated back from its vertices (PartPoseEstimator).
+  ErrorStats joints;
+  std::array<ErrorStats, kNumJoints> joints_per_joint;
 };
 
 struct FolderMeshErrors {
@@ -80,6 +85,8 @@ struct FolderMeshErrors {
   double pose_fit_rms_mm = 0;                      ///< the held-out mesh against its parts' rigid motions
   std::vector<std::string> problems;               ///< pose_estimate_problems of its estimated pose
   std::vector<double> raw_mean_mm, shape_mean_mm;  ///< per method
+  /// The largest distance between two methods' placements of one joint (FolderMethodErrors::joints)
+  double joint_spread_max_mm = 0;
 };
 
 struct FolderTypeErrors {
@@ -95,6 +102,9 @@ struct FolderPoseEvaluation {
   std::vector<FolderMethodErrors> methods;
   std::vector<FolderMeshErrors> meshes;
   std::vector<FolderTypeErrors> by_pose_type;
+  /// Per mesh and joint, the largest distance between two methods' placements of the joint (issue
+  /// 45: the three methods agree on where each joint sits)
+  ErrorStats joint_spread;
 };
 
 /// Evaluation on a folder of registered meshes of one person (issue 45 part 3): trains on every
@@ -112,6 +122,7 @@ struct PeoplePoseEvaluation {
   std::vector<FolderPoseEvaluation> per_person;  ///< each person's meshes, the model trained on the others
   std::vector<FolderMethodErrors> methods;       ///< every person's meshes pooled
   std::vector<FolderTypeErrors> by_pose_type;
+  ErrorStats joint_spread;  ///< as FolderPoseEvaluation's, pooled
 };
 
 /// The same for several people of one topology (issue 45 part 3): `dir` holds one folder of
