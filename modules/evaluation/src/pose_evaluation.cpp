@@ -9,6 +9,7 @@
 
 #include "posekit/body/parts.h"
 #include "posekit/core/error.h"
+#include "posekit/core/parallel.h"
 #include "posekit/core/timer.h"
 #include "posekit/core/units.h"
 #include "posekit/datasets/dataset.h"
@@ -247,32 +248,63 @@ Eigen::MatrixXd posed_joint_centres(const PartPose& pose, const Eigen::MatrixXd&
   return out;
 }
 
-/// Scores posed bodies against held-out meshes, per method: raw and part-aligned errors per vertex,
-/// per part, per mesh and per kind of pose, and where each method puts the joints.
+/// One held-out mesh posed by every method: its pose read off it, and per method the per-vertex raw
+/// and part-aligned errors (m) and the joints read back off the posed body.
+struct HeldOutScore {
+  PartPoseEstimate estimate;
+  Eigen::MatrixXd given_joints;  ///< #joints x 3, where the estimated pose puts them
+  std::vector<Eigen::VectorXd> raw, shape;
+  std::vector<Eigen::MatrixXd> joints;
+};
+
+/// Reads the pose of `truth` with `estimator`, poses `synth` at it with every method and scores the
+/// result. The same estimator reads each posed body's joints: a method that reproduced `truth`
+/// would put them where the pose does. Safe to call from several threads at once.
+HeldOutScore score_held_out(const PoseSynthesizer& synth, const PartPoseEstimator& estimator, const std::vector<PoseMethod>& methods,
+                            const Eigen::MatrixXd& truth, const std::array<std::vector<int>, kNumParts>& part_vertices) {
+  HeldOutScore out;
+  out.estimate = estimator.estimate(truth);
+  out.given_joints = posed_joint_centres(out.estimate.pose, synth.info().joint_centres);
+  for (PoseMethod method : methods) {
+    const Eigen::MatrixXd X = synth.pose(out.estimate.pose, method);
+    out.raw.push_back((X - truth).rowwise().norm());
+    out.shape.push_back(part_aligned_errors(X, truth, part_vertices));
+    out.joints.push_back(posed_joint_centres(estimator.estimate(X).pose, synth.info().joint_centres));
+  }
+  return out;
+}
+
+/// Every held-out mesh of `names` (`meshes` their vertices) scored on all cores, in order.
+std::vector<HeldOutScore> score_all_held_out(const PoseSynthesizer& synth, const PartPoseEstimator& estimator,
+                                             const std::vector<PoseMethod>& methods, const std::vector<const Eigen::MatrixXd*>& meshes,
+                                             const std::array<std::vector<int>, kNumParts>& part_vertices) {
+  std::vector<HeldOutScore> scores(meshes.size());
+  parallel_for_each(static_cast<long>(meshes.size()), 0, [&](long i) {
+    scores[static_cast<size_t>(i)] = score_held_out(synth, estimator, methods, *meshes[static_cast<size_t>(i)], part_vertices);
+  });
+  return scores;
+}
+
+/// Gathers scored held-out meshes, per method: raw and part-aligned errors per vertex, per part, per
+/// mesh and per kind of pose, and where each method puts the joints.
 class HeldOutScorer {
  public:
   explicit HeldOutScorer(std::vector<PoseMethod> methods) : methods_(std::move(methods)), samples_(methods_.size()) {}
 
-  /// Poses `synth` at `pose` with every method and scores it against `truth`; returns the mesh's row.
-  /// `joint_reader`, the estimator that read `pose` off `truth`, reads each posed body's joints the
-  /// same way: a method that reproduced `truth` would put them where `pose` does.
-  FolderMeshErrors add(const std::string& name, const PoseSynthesizer& synth, const PartPoseEstimator& joint_reader, const PartPose& pose,
-                       const Eigen::MatrixXd& truth, const Eigen::VectorXi& vertex_part,
-                       const std::array<std::vector<int>, kNumParts>& part_vertices) {
+  /// Adds one mesh's score (score_held_out with this scorer's methods); returns the mesh's row.
+  FolderMeshErrors add(const std::string& name, const HeldOutScore& score, const Eigen::VectorXi& vertex_part) {
     FolderMeshErrors mesh;
     mesh.name = name;
     mesh.type = pose_type(name);
+    mesh.pose_fit_rms_mm = 1000 * score.estimate.rms;
+    mesh.problems = pose_estimate_problems(score.estimate);
     FolderTypeErrors& type = types_[mesh.type];
     type.type = mesh.type;
     type.raw_mean_mm.resize(methods_.size(), 0.0);
     type.shape_mean_mm.resize(methods_.size(), 0.0);
     ++type.meshes;
-    const Eigen::MatrixXd given_joints = posed_joint_centres(pose, synth.info().joint_centres);
-    std::vector<Eigen::MatrixXd> joints;
     for (size_t m = 0; m < methods_.size(); ++m) {
-      const Eigen::MatrixXd X = synth.pose(pose, methods_[m]);
-      const Eigen::VectorXd raw = (X - truth).rowwise().norm();
-      const Eigen::VectorXd shape = part_aligned_errors(X, truth, part_vertices);
+      const Eigen::VectorXd &raw = score.raw[m], &shape = score.shape[m];
       mesh.raw_mean_mm.push_back(1000 * raw.mean());
       mesh.shape_mean_mm.push_back(1000 * shape.mean());
       type.raw_mean_mm[m] += 1000 * raw.mean();
@@ -284,17 +316,17 @@ class HeldOutScorer {
         s.raw_part[static_cast<size_t>(vertex_part[v])].push_back(raw[v]);
         s.shape_part[static_cast<size_t>(vertex_part[v])].push_back(shape[v]);
       }
-      joints.push_back(posed_joint_centres(joint_reader.estimate(X).pose, synth.info().joint_centres));
       for (int j = 0; j < kNumJoints; ++j) {
-        const double d = (joints.back().row(j) - given_joints.row(j)).norm();
+        const double d = (score.joints[m].row(j) - score.given_joints.row(j)).norm();
         s.joints.push_back(d);
         s.joint[static_cast<size_t>(j)].push_back(d);
       }
     }
     for (int j = 0; j < kNumJoints; ++j) {
       double spread = 0;
-      for (size_t a = 0; a < joints.size(); ++a)
-        for (size_t b = a + 1; b < joints.size(); ++b) spread = std::max(spread, (joints[a].row(j) - joints[b].row(j)).norm());
+      for (size_t a = 0; a < score.joints.size(); ++a)
+        for (size_t b = a + 1; b < score.joints.size(); ++b)
+          spread = std::max(spread, (score.joints[a].row(j) - score.joints[b].row(j)).norm());
       spread_.push_back(spread);
       mesh.joint_spread_max_mm = std::max(mesh.joint_spread_max_mm, 1000 * spread);
     }
@@ -411,14 +443,11 @@ FolderPoseEvaluation evaluate_registered_folder(const std::string& dir, const Tr
   const PoseSynthesizer synth(model, rest, so);
   Eigen::VectorXi vertex_part;
   const auto part_vertices = vertices_of_parts(V0, data.F, prepared.options.triangle_part, &vertex_part);
+  std::vector<const Eigen::MatrixXd*> held_out_meshes;
+  for (size_t i : held_out) held_out_meshes.push_back(&data.V[i]);
+  const std::vector<HeldOutScore> scores = score_all_held_out(synth, estimator, methods, held_out_meshes, part_vertices);
   HeldOutScorer scorer(methods);
-  for (size_t i : held_out) {
-    const PartPoseEstimate e = estimator.estimate(data.V[i]);
-    FolderMeshErrors row = scorer.add(data.names[i], synth, estimator, e.pose, data.V[i], vertex_part, part_vertices);
-    row.pose_fit_rms_mm = 1000 * e.rms;
-    row.problems = pose_estimate_problems(e);
-    out.meshes.push_back(std::move(row));
-  }
+  for (size_t k = 0; k < held_out.size(); ++k) out.meshes.push_back(scorer.add(data.names[held_out[k]], scores[k], vertex_part));
   scorer.finish(&out.methods, &out.by_pose_type, &out.joint_spread);
   return out;
 }
@@ -505,15 +534,13 @@ PeoplePoseEvaluation evaluate_registered_people(const std::string& dir, const Tr
     estimator.learn_rigid_cores(meshes);
     Eigen::VectorXi vertex_part;
     const auto part_vertices = vertices_of_parts(V0, F, me.options.triangle_part, &vertex_part);
+    std::vector<size_t> posed;
+    std::vector<const Eigen::MatrixXd*> posed_meshes;
+    for (size_t i = 0; i < me.data.names.size(); ++i)
+      if (static_cast<int>(i) != me.rest) posed.push_back(i), posed_meshes.push_back(&me.data.V[i]);
+    const std::vector<HeldOutScore> scores = score_all_held_out(synth, estimator, methods, posed_meshes, part_vertices);
     HeldOutScorer scorer(methods);
-    for (size_t i = 0; i < me.data.names.size(); ++i) {
-      if (static_cast<int>(i) == me.rest) continue;
-      const PartPoseEstimate e = estimator.estimate(me.data.V[i]);
-      FolderMeshErrors row = scorer.add(me.data.names[i], synth, estimator, e.pose, me.data.V[i], vertex_part, part_vertices);
-      row.pose_fit_rms_mm = 1000 * e.rms;
-      row.problems = pose_estimate_problems(e);
-      result.meshes.push_back(std::move(row));
-    }
+    for (size_t k = 0; k < posed.size(); ++k) result.meshes.push_back(scorer.add(me.data.names[posed[k]], scores[k], vertex_part));
     scorer.finish(&result.methods, &result.by_pose_type, &result.joint_spread);
     pooled.merge(scorer);
     out.per_person.push_back(std::move(result));

@@ -111,7 +111,8 @@ struct FolderPoseEvaluation {
 /// example but the held-out ones (options.held_out or hold_out_every; else the manifest's split),
 /// estimates each held-out mesh's pose from its vertices (PartPoseEstimator, rigid cores learned on
 /// the training examples), poses the rest example at it with each method and compares vertex by
-/// vertex. Throws InvalidInput when nothing is held out or nothing is left to train on.
+/// vertex, the held-out meshes on all cores. Throws InvalidInput when nothing is held out or nothing is
+/// left to train on.
 FolderPoseEvaluation evaluate_registered_folder(const std::string& dir, const TrainingOptions& base, const DatasetTrainingOptions& options,
                                                 const std::vector<PoseMethod>& methods = {PoseMethod::kLearned, PoseMethod::kRigid,
                                                                                           PoseMethod::kLbs});
