@@ -218,6 +218,14 @@ TEST(Subjects, SixteenSubjectsFillTheFourBmiClassesTwiceForEachGender) {
   // No two subjects share proportions.
   for (size_t i = 0; i < specs.size(); ++i)
     for (size_t j = i + 1; j < specs.size(); ++j) EXPECT_NE(specs[i].spec.modifiers, specs[j].spec.modifiers);
+  // One subject made alone is that subject, to the bit.
+  for (int k : {0, 9, 15}) {
+    const SubjectSpec one = make_subject_spec(model, 1, k);
+    EXPECT_EQ(one.id, specs[static_cast<size_t>(k)].id);
+    EXPECT_EQ(one.target_bmi, specs[static_cast<size_t>(k)].target_bmi);
+    EXPECT_EQ(body_spec_to_json(one.spec), body_spec_to_json(specs[static_cast<size_t>(k)].spec)) << k;
+  }
+  EXPECT_THROW(make_subject_spec(model, 1, 16), InvalidInput);
 }
 
 TEST(Subjects, GroundTruthGirthsAreOrderedLikeBodies) {

@@ -149,7 +149,7 @@ TEST(SegmentationPrior, OfTheTemplateAloneIsTheSingleLabelling) {
   const LayeredRepresentation template_rep = representation_of(templ.mesh);
   SegmentationPrior prior;
   prior.bodies.push_back(make_calibration_body(templ.mesh.V, templ.mesh.F, labels, J, template_rep));
-  const Body other = build_body(model, make_subject_specs(model, 1, 16)[5].spec);
+  const Body other = build_body(model, make_subject_spec(model, 1, 5).spec);
   const LayeredRepresentation rep = representation_of(other.mesh);
   EXPECT_EQ(representation_labels_from_prior(prior, rep),
             representation_labels_from_body(templ.mesh.V, templ.mesh.F, labels, template_rep));

@@ -57,7 +57,7 @@ TEST(SkeletonChecks, TheSixteenSubjectsPass) {
 // upper thighs labelled pelvis, an elbow 8 cm low.
 TEST(SkeletonChecks, HipsOnOneSideAndALowElbowAreCaught) {
   POSEKIT_REQUIRE_MAKEHUMAN();
-  Truth t = truth_of(model, make_subject_specs(model, 1, 16)[9].spec);  // m02
+  Truth t = truth_of(model, make_subject_spec(model, 1, 9).spec);  // m02
   const Eigen::MatrixXd C = face_centroids(t.mesh.V, t.mesh.F);
   const int left_hip = find_joint_index("left_hip"), right_hip = find_joint_index("right_hip");
   const double mid_thigh = 0.5 * (t.joints(left_hip, 1) + t.joints(find_joint_index("left_knee"), 1));
@@ -78,7 +78,7 @@ TEST(SkeletonChecks, HipsOnOneSideAndALowElbowAreCaught) {
 
 TEST(SkeletonChecks, SwallowedSplitAndMissingPartsAreCaught) {
   POSEKIT_REQUIRE_MAKEHUMAN();
-  const Truth t = truth_of(model, make_subject_specs(model, 1, 16)[2].spec);  // f03
+  const Truth t = truth_of(model, make_subject_spec(model, 1, 2).spec);  // f03
   const Eigen::MatrixXd C = face_centroids(t.mesh.V, t.mesh.F);
   // The left shank swallows the lower two thirds of the left thigh.
   Eigen::VectorXi swallowed = t.labels;

@@ -99,7 +99,7 @@ TEST(BodyFeatures, NearlyStraightArmsHaveTheirElbowsBetweenShoulderAndWrist) {
   POSEKIT_REQUIRE_MAKEHUMAN();
   // Real registrations stand with arms nearly straight; MakeHuman's rest pose bends them about 40
   // degrees. The kink of a straight arm's axis is no cue: the elbow drifted 6-14 cm along it.
-  const Body b = build_body(model, make_subject_specs(model, 1, 1)[0].spec);
+  const Body b = build_body(model, make_subject_spec(model, 1, 0, 1).spec);
   const Eigen::MatrixXd J = joint_centres(model.rig, b);
   for (double flexion_deg : {5.0, 20.0}) {
     PartPose pose;
@@ -129,7 +129,7 @@ TEST(BodyFeatures, AThighPressedOverTheMidlineIsNotTakenForThePelvis) {
   // A heavy body with its thighs drawn in 11 degrees each about the femoral heads: below the crotch
   // each thigh's section reaches over the body's axis. The lowest section enclosing the axis was a
   // thigh, and the crotch fell 49 cm here (14-17 cm on the robustness set's touching thighs).
-  BodySpec heavy = make_subject_specs(model, 1, 1)[0].spec;
+  BodySpec heavy = make_subject_spec(model, 1, 0, 1).spec;
   heavy.weight = 1.0;
   const Body b = build_body(model, heavy);
   PartPose pose;
@@ -214,7 +214,7 @@ TEST(BodyFeatures, WarnsWhenAnArmStaysAgainstTheTorsoBelowTheArmpit) {
   POSEKIT_REQUIRE_MAKEHUMAN();
   // f08 with her arms lowered by 0.4 rad: they part from the torso at the armpit but stay against
   // it below, so the arms' separation (and the bust band's end) cannot be placed as defined.
-  const Body b = build_body(model, make_subject_specs(model, 1, 16)[7].spec);
+  const Body b = build_body(model, make_subject_spec(model, 1, 7).spec);
   auto clear_warnings = [](const BodyFeatures& f) {
     int n = 0;
     for (const auto& w : f.warnings) n += w.find("mm clear of the torso") != std::string::npos;
@@ -232,7 +232,7 @@ TEST(BodyFeatures, WarnsWhenAnArmStaysAgainstTheTorsoBelowTheArmpit) {
 TEST(BodyFeatures, AHoleInAHandIsNoCutWrist) {
   POSEKIT_REQUIRE_MAKEHUMAN();
   // Cut each hand across, at `beyond` metres past the wrist along the forearm (sides: which hands).
-  const Body b = build_body(model, make_subject_specs(model, 1, 16)[1].spec);
+  const Body b = build_body(model, make_subject_spec(model, 1, 1).spec);
   const BodyFeatures whole = find_body_features(b.mesh.V, b.mesh.F);
   const auto cut_hands = [&](double beyond, std::initializer_list<int> sides) {
     std::vector<bool> keep(static_cast<size_t>(b.mesh.F.rows()), true);
@@ -269,7 +269,7 @@ TEST(BodyFeatures, AnArmNotFollowedLeavesItsJointsUnsetNotGarbage) {
   // Arms reaching forward (the dataset's reach_forward) leave the horizontal sections at the
   // shoulder: neither is followed to the hand. Their elbows, wrists and hand tips are NaN (written
   // as null), not what the memory held.
-  const Body b = build_body(model, make_subject_specs(model, 1, 16)[0].spec);
+  const Body b = build_body(model, make_subject_spec(model, 1, 0).spec);
   PartPose forward;
   forward.joint_rotation[find_joint_index("left_shoulder")] = Eigen::Vector3d(-M_PI / 2, 0, 0);
   forward.joint_rotation[find_joint_index("right_shoulder")] = Eigen::Vector3d(-M_PI / 2, 0, 0);

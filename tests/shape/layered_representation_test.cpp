@@ -44,7 +44,7 @@ TEST(LayeredRepresentation, OnTwoThreadsAndFromTheFeaturesSurfaceTheSameToTheBit
   // hole at the waist and a floating bit: features and representation on two threads, and the
   // representation cut from the surface the features gave, equal the single-thread ones made the
   // plain way.
-  TriangleMesh mesh = remesh_body(build_body(model, make_subject_specs(model, 1, 16)[3].spec).mesh, 50000);
+  TriangleMesh mesh = remesh_body(build_body(model, make_subject_spec(model, 1, 3).spec).mesh, 50000);
   std::vector<bool> keep(static_cast<size_t>(mesh.F.rows()), true);
   const double waist = mesh.V.col(1).minCoeff() + 0.6 * (mesh.V.col(1).maxCoeff() - mesh.V.col(1).minCoeff());
   Eigen::Vector3d front(mesh.V.col(0).mean(), waist, -1);  // the front of the belly at that height

@@ -121,7 +121,7 @@ TEST(Measurements, DenseScanGirthsDoNotCutTheSectionsCorners) {
   POSEKIT_REQUIRE_MAKEHUMAN();
   // A dense noise-free cloud on the body's surface: 5-degree sectors' hull cut the corners of the
   // hip's section, 3 mm short (booth scans' hips came out 4-7 mm short of the truth, a bust 17 mm).
-  const Body b = build_body(model, make_subject_specs(model, 1, 16)[15].spec);
+  const Body b = build_body(model, make_subject_spec(model, 1, 15).spec);
   const BodyMeasurements mesh = measure_body(b.mesh.V, b.mesh.F);
   const Eigen::MatrixXd P = points_on_surface(b.mesh, 600000, 0, 3);
   const BodyMeasurements cloud = measure_point_cloud(P);
@@ -169,7 +169,7 @@ TEST(Measurements, SparseScansAreCutIntoWholeSections) {
 TEST(Measurements, ABellyFullerThanTheBustBandIsFlaggedInsteadOfGuessed) {
   POSEKIT_REQUIRE_MAKEHUMAN();
   // f08 as she is: mesh and scan measure the bust alike (the scan sees the gap under her arms).
-  const Body b = build_body(model, make_subject_specs(model, 1, 16)[7].spec);
+  const Body b = build_body(model, make_subject_spec(model, 1, 7).spec);
   const BodyMeasurements plain = measure_body(b.mesh.V, b.mesh.F);
   const BodyMeasurements plain_scan = measure_point_cloud(simulate_scan(b.mesh).cloud.P);
   EXPECT_FALSE(plain.features.torso_levels_doubtful);
@@ -206,7 +206,7 @@ TEST(Measurements, ThighsThatTouchInAScanAreMeasuredOneAtATimeAboveTheJoin) {
   // a few cm below the crotch, so sections there go round both legs and enclose the body's axis.
   // They were taken for the pelvis: the crotch came out 4.9 cm low and the thigh girth 2 cm below
   // it went round both legs (reported as not measured). The crotch is now above the join.
-  const Body b = build_body(model, make_subject_specs(model, 1, 16)[7].spec);
+  const Body b = build_body(model, make_subject_spec(model, 1, 7).spec);
   const BodyMeasurements mesh = measure_body(b.mesh.V, b.mesh.F);
   ScannerOptions noisy;
   noisy.noise_sigma = 0.003;

@@ -133,7 +133,12 @@ BodyStats body_stats(const TriangleMesh& body) {
   return s;
 }
 
-std::vector<SubjectSpec> make_subject_specs(const MakeHumanModel& model, unsigned seed, int count) {
+namespace {
+
+/// Subjects 0..count-1 of a seed; only those `wanted` accepts get their fatness bisected (the
+/// others only draw from the generator, so that each subject is the same whichever are made).
+template <class Wanted>
+std::vector<SubjectSpec> subject_specs(const MakeHumanModel& model, unsigned seed, int count, Wanted wanted) {
   if (count < 1) throw InvalidInput("make_subject_specs: count must be positive");
   std::mt19937 rng(seed);
   std::uniform_real_distribution<double> u(0.0, 1.0);
@@ -149,6 +154,7 @@ std::vector<SubjectSpec> make_subject_specs(const MakeHumanModel& model, unsigne
     const int c = static_cast<int>(s.target_class);
     s.target_bmi = class_lo[c] + (class_hi[c] - class_lo[c]) * u(rng);
     const BodySpec b = random_sliders(s.female ? 0.0 : 1.0, rng);
+    if (!wanted(i)) continue;
     // Bisection on fatness: BMI grows with it.
     double lo = kMinFatness, hi = kMaxFatness;
     for (int it = 0; it < 32; ++it) {
@@ -163,6 +169,18 @@ std::vector<SubjectSpec> make_subject_specs(const MakeHumanModel& model, unsigne
     out.push_back(std::move(s));
   }
   return out;
+}
+
+}  // namespace
+
+std::vector<SubjectSpec> make_subject_specs(const MakeHumanModel& model, unsigned seed, int count) {
+  return subject_specs(model, seed, count, [](int) { return true; });
+}
+
+SubjectSpec make_subject_spec(const MakeHumanModel& model, unsigned seed, int index, int count) {
+  if (index < 0 || index >= count)
+    throw InvalidInput("make_subject_spec: subject " + std::to_string(index) + " is not one of " + std::to_string(count));
+  return subject_specs(model, seed, count, [index](int i) { return i == index; }).front();
 }
 
 std::vector<BodySpec> make_calibration_specs(unsigned seed, int count) {
