@@ -9,6 +9,7 @@
 
 #include "posekit/core/error.h"
 #include "posekit/core/mesh_topology.h"
+#include "posekit/core/point_grid.h"
 #include "testing/makehuman_fixture.h"
 
 using namespace posekit;
@@ -49,11 +50,11 @@ TEST(Parts, LeftAndRightLabelsAreMirrorImages) {
   const Body b = build_body(model, BodySpec{});
   const Eigen::VectorXi labels = vertex_part_labels(model);
   const Eigen::MatrixXd& V = b.mesh.V;
+  const PointGrid grid(V);
   int mismatched = 0;
   for (Eigen::Index v = 0; v < V.rows(); ++v) {
-    const Eigen::RowVector3d m(-V(v, 0), V(v, 1), V(v, 2));
-    Eigen::Index best = 0;
-    (V.rowwise() - m).rowwise().squaredNorm().minCoeff(&best);
+    double sq_distance = 0;
+    const int best = grid.nearest(Eigen::Vector3d(-V(v, 0), V(v, 1), V(v, 2)), &sq_distance);
     if (labels[best] != mirror_part(labels[v])) ++mismatched;
   }
   RecordProperty("mirror_mismatches", mismatched);

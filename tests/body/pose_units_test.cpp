@@ -3,6 +3,7 @@
 #include <gtest/gtest.h>
 
 #include "posekit/core/error.h"
+#include "posekit/core/point_grid.h"
 #include "testing/makehuman_fixture.h"
 
 using namespace posekit;
@@ -16,10 +17,12 @@ Eigen::MatrixXd pose_with_units(const MakeHumanModel& model, const Body& b, cons
 
 /// Largest distance from a vertex's mirror image (x -> -x) to its nearest vertex.
 double mirror_asymmetry(const Eigen::MatrixXd& V) {
+  const PointGrid grid(V);
   double worst = 0;
   for (Eigen::Index v = 0; v < V.rows(); v += 7) {
-    const Eigen::RowVector3d m(-V(v, 0), V(v, 1), V(v, 2));
-    worst = std::max(worst, std::sqrt((V.rowwise() - m).rowwise().squaredNorm().minCoeff()));
+    double sq_distance = 0;
+    grid.nearest(Eigen::Vector3d(-V(v, 0), V(v, 1), V(v, 2)), &sq_distance);
+    worst = std::max(worst, std::sqrt(sq_distance));
   }
   return worst;
 }
