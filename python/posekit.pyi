@@ -47,6 +47,9 @@ class PoseModel:
     @property
     def training_poses(self) -> int:
         """How many posed examples Eq. 5 was fitted to."""
+    @property
+    def triangle_rms(self) -> numpy.ndarray:
+        """Per template triangle, the RMS residual of Eq. 5 (weights Eq. 6's least squares); empty for an older model file."""
 
 class Subject:
     """A customized body prepared for posing with a model (segmentation, skeleton, correspondence, factorisation once; then each pose is one solve)"""

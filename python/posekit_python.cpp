@@ -564,6 +564,9 @@ void bind_posing(py::module_& m) {
       .def_readonly("training_poses", &PoseModel::training_poses, "How many posed examples Eq. 5 was fitted to.")
       .def_readonly("fit_rms", &PoseModel::fit_rms, "RMS residual of Eq. 5 over the training examples' T^Q entries.")
       .def_property_readonly(
+          "triangle_rms", [](const PoseModel& model) { return Eigen::VectorXd(model.triangle_rms); },
+          "Per template triangle, the RMS residual of Eq. 5 (weights Eq. 6's least squares); empty for an older model file.")
+      .def_property_readonly(
           "template", [](const PoseModel& model) { return py::make_tuple(rows(model.template_V), Faces(model.template_F)); },
           "The training template at rest: (V #V x 3 in metres, F #F x 3).")
       .def_property_readonly(

@@ -130,6 +130,8 @@ int info_model(const std::string& path, const std::string& ext, bool json) {
     report["joints"] = m.joint_centres.rows();
     report["training_poses"] = m.training_poses;
     report["fit_rms"] = m.fit_rms;
+    // Eq. 6 weighted by these (eq6_triangle_weights); a model of an older posekit has none.
+    report["eq6_weights"] = m.triangle_rms.size() ? "training residuals" : "area (no residuals stored)";
     report["joints_with_learned_offsets"] = offsets;
     report["segmentation_prior_bodies"] = m.segmentation_prior.bodies.size();
   } else {

@@ -13,6 +13,7 @@
 #include "posekit/body/makehuman_model.h"
 #include "posekit/body/skinning.h"
 #include "posekit/core/error.h"
+#include "posekit/deformation/pose_synthesis.h"
 #include "posekit/deformation/rigid_pose.h"
 #include "posekit/deformation/segmentation_calibration.h"
 #include "posekit/evaluation/pose_evaluation.h"
@@ -45,6 +46,9 @@ TEST(PoseModel, FitsTheTrainingPosesAndSavesLosslessly) {
   EXPECT_EQ(back.triangle_joints, model.triangle_joints);
   EXPECT_TRUE(back.coefficients == model.coefficients);
   EXPECT_TRUE(back.template_V == model.template_V);
+  ASSERT_EQ(model.triangle_rms.size(), model.template_F.rows());
+  EXPECT_TRUE(back.triangle_rms == model.triangle_rms);
+  EXPECT_NEAR(model.triangle_rms.norm() / std::sqrt(static_cast<double>(model.triangle_rms.size())), model.fit_rms, 1e-12);
   EXPECT_EQ(dir.count(), 1);  // no temporary left behind
 
   // Truncated, foreign and corrupted files name the file.
@@ -60,19 +64,29 @@ TEST(PoseModel, FitsTheTrainingPosesAndSavesLosslessly) {
   std::string nan_bytes = bytes;
   const double nan = std::nan("");
   // The last coefficient, before the (empty) segmentation prior's count and neighbours, the (empty)
-  // joint offsets' count and the CRC.
-  std::memcpy(&nan_bytes[nan_bytes.size() - 4 - 4 - 8 - sizeof(double)], &nan, sizeof(double));
+  // joint offsets' count, the triangle residuals (count and values) and the CRC.
+  const size_t residual_bytes = 4 + 8 * static_cast<size_t>(model.triangle_rms.size());
+  std::memcpy(&nan_bytes[nan_bytes.size() - 4 - residual_bytes - 4 - 8 - sizeof(double)], &nan, sizeof(double));
   dir.write("nan.pkm", sealed(nan_bytes));
   std::string rms_bytes = bytes;
   std::memcpy(&rms_bytes[8 + 4 * 5 + 4], &nan, sizeof(double));  // after the magic, 5 counts and the pose count
   dir.write("nan_rms.pkm", sealed(rms_bytes));
+  std::string negative_residual = bytes;
+  const double minus_one = -1;
+  std::memcpy(&negative_residual[bytes.size() - 4 - sizeof(double)], &minus_one, sizeof(double));  // the last triangle's
+  dir.write("negative.pkm", sealed(negative_residual));
+  std::string residual_count = bytes;
+  const std::uint32_t five = 5;
+  std::memcpy(&residual_count[bytes.size() - 4 - residual_bytes], &five, 4);
+  dir.write("residual_count.pkm", sealed(residual_count));
   std::string huge = bytes;
   const std::uint32_t forty_million = 40000000;
   std::memcpy(&huge[12], &forty_million, 4);  // the vertex count: 960 MB if allocated before the size check
   dir.write("huge.pkm", sealed(huge));
   const std::vector<std::pair<const char*, const char*>> bad = {
-      {"cut.pkm", "checksum"},        {"foreign.pkm", "not a posekit pose model"}, {"nan.pkm", "NaN"},
-      {"nan_rms.pkm", "fit RMS nan"}, {"huge.pkm", "40000000 x 3 values"},         {"missing.pkm", "missing.pkm"}};
+      {"cut.pkm", "checksum"},        {"foreign.pkm", "not a posekit pose model"},   {"nan.pkm", "NaN"},
+      {"nan_rms.pkm", "fit RMS nan"}, {"huge.pkm", "40000000 x 3 values"},           {"missing.pkm", "missing.pkm"},
+      {"negative.pkm", "negative"},   {"residual_count.pkm", "5 triangle residuals"}};
   for (const auto& [name, phrase] : bad) {
     try {
       read_pose_model(dir.file(name));
@@ -96,14 +110,24 @@ TEST(PoseModel, FitsTheTrainingPosesAndSavesLosslessly) {
     }
   }
   EXPECT_EQ(refused, kFlips);
-  // Version 3 (no joint offsets) and 2 files (no checksum either) are still read.
-  std::string v3 = bytes.substr(0, bytes.size() - 8);
+  // Version 4 (no triangle residuals: area weights alone), 3 (no joint offsets either) and 2 files
+  // (no checksum either) are still read.
+  std::string v4 = bytes.substr(0, bytes.size() - 4 - residual_bytes);
+  const std::uint32_t four = 4;
+  std::memcpy(&v4[8], &four, 4);
+  const std::uint32_t v4_crc = crc32(v4.data(), v4.size());
+  v4.append(reinterpret_cast<const char*>(&v4_crc), 4);
+  const PoseModel from_v4 = read_pose_model(dir.write("v4.pkm", v4));
+  EXPECT_TRUE(from_v4.coefficients == model.coefficients);
+  EXPECT_EQ(from_v4.triangle_rms.size(), 0);
+  EXPECT_EQ(eq6_triangle_weights(from_v4).size(), 0);
+  std::string v3 = bytes.substr(0, bytes.size() - 8 - residual_bytes);
   const std::uint32_t three = 3;
   std::memcpy(&v3[8], &three, 4);
   const std::uint32_t v3_crc = crc32(v3.data(), v3.size());
   v3.append(reinterpret_cast<const char*>(&v3_crc), 4);
   EXPECT_TRUE(read_pose_model(dir.write("v3.pkm", v3)).coefficients == model.coefficients);
-  std::string v2 = bytes.substr(0, bytes.size() - 8);
+  std::string v2 = bytes.substr(0, bytes.size() - 8 - residual_bytes);
   const std::uint32_t two = 2;
   std::memcpy(&v2[8], &two, 4);
   EXPECT_TRUE(read_pose_model(dir.write("v2.pkm", v2)).coefficients == model.coefficients);
@@ -114,7 +138,7 @@ TEST(PoseModel, FitsTheTrainingPosesAndSavesLosslessly) {
   EXPECT_TRUE(read_pose_model(dir.file("offsets.pkm")).joint_offsets == with_offsets.joint_offsets);
   std::string bad_rows = read_file_bytes(dir.file("offsets.pkm"));
   const std::uint32_t seven = 7;
-  std::memcpy(&bad_rows[bad_rows.size() - 4 - 8 * 3 * kOffsetFeatures * kNumJoints - 4], &seven, 4);
+  std::memcpy(&bad_rows[bad_rows.size() - 4 - residual_bytes - 8 * 3 * kOffsetFeatures * kNumJoints - 4], &seven, 4);
   try {
     read_pose_model(dir.write("rows.pkm", sealed(bad_rows)));
     FAIL();
@@ -161,11 +185,12 @@ TEST(PoseModel, KeepsItsSegmentationPrior) {
 
   // A prior cut short or with a label outside the 16 parts names the file.
   const std::string bytes = read_file_bytes(dir.file("m.pkm"));
-  dir.write("cut_prior.pkm", bytes.substr(0, bytes.size() - 100));
+  const size_t tail = 4 + 8 * static_cast<size_t>(m.triangle_rms.size());  // the triangle residuals after the prior
+  dir.write("cut_prior.pkm", bytes.substr(0, bytes.size() - tail - 100));
   std::string bad_label = bytes;
   const CalibrationBody& last = m.segmentation_prior.bodies.back();
   const size_t skeleton_bytes = kNumJoints * (4 + 6 * 8) + 3 * 8;
-  bad_label[bytes.size() - skeleton_bytes - 1] = static_cast<char>(200);  // the last body's last label
+  bad_label[bytes.size() - tail - skeleton_bytes - 1] = static_cast<char>(200);  // the last body's last label
   ASSERT_EQ(last.labels.size() > 0, true);
   dir.write("bad_label.pkm", bad_label);
   for (const char* name : {"cut_prior.pkm", "bad_label.pkm"}) {
@@ -256,7 +281,7 @@ TEST(PoseModel, WritesFuzzSeedsThatReadBack) {
   m.segmentation_prior.bodies = {body, body};
   write_pose_model(dir + "/prior.pkm", m);
   std::string v2 = read_file_bytes(dir + "/prior.pkm");
-  v2.resize(v2.size() - 8);  // the CRC and the (empty) joint offsets' count
+  v2.resize(v2.size() - 12);  // the CRC and the (empty) joint offsets' and triangle residuals' counts
   const std::uint32_t two = 2;
   std::memcpy(&v2[8], &two, 4);
   write_file_atomically(dir + "/prior_v2.pkm", [&](std::ostream& out) { out << v2; });

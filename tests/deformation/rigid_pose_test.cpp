@@ -5,6 +5,7 @@
 #include <Eigen/Geometry>
 #include <Eigen/SparseLU>
 #include <cmath>
+#include <limits>
 #include <random>
 
 #include "posekit/core/error.h"
@@ -147,32 +148,47 @@ TEST(PoissonSolver, MatchesADirectSolveOfEq6ForNonRigidTransformations) {
   for (Eigen::Index k = 0; k < T.rows(); ++k) T(k, 0) += 1, T(k, 4) += 1, T(k, 8) += 1;
   const Eigen::VectorXd weight = (Eigen::VectorXd::Random(s.V.rows()).array() + 1.0) * 0.01;
   const Eigen::MatrixXd targets = Eigen::MatrixXd::Random(s.V.rows(), 3);
-  // Reference: the normal equations of Eq. 6 assembled here and solved by a general sparse LU.
+  // Reference: the normal equations of Eq. 6 (each triangle's area times its weight) assembled here
+  // and solved by a general sparse LU.
   const Eigen::VectorXd area = face_areas(s.V, s.F);
-  std::vector<Eigen::Triplet<double>> entries;
-  Eigen::MatrixXd rhs = (targets.array().colwise() * weight.array()).matrix();
-  for (Eigen::Index k = 0; k < s.F.rows(); ++k) {
-    const double w = area[k] + 1e-6 * area.mean();
-    Eigen::Matrix3d Tk;
-    for (int e = 0; e < 9; ++e) Tk(e / 3, e % 3) = T(k, e);
-    for (int c = 0; c < 3; ++c) {
-      const int i = s.F(k, c), j = s.F(k, (c + 1) % 3);
-      entries.insert(entries.end(), {{i, i, w}, {j, j, w}, {i, j, -w}, {j, i, -w}});
-      const Eigen::RowVector3d d = w * (Tk * (s.V.row(j) - s.V.row(i)).transpose()).transpose();
-      rhs.row(j) += d;
-      rhs.row(i) -= d;
+  auto direct_solve = [&](const Eigen::VectorXd& triangle_weight) {
+    std::vector<Eigen::Triplet<double>> entries;
+    Eigen::MatrixXd rhs = (targets.array().colwise() * weight.array()).matrix();
+    for (Eigen::Index k = 0; k < s.F.rows(); ++k) {
+      const double w = (area[k] + 1e-6 * area.mean()) * triangle_weight[k];
+      Eigen::Matrix3d Tk;
+      for (int e = 0; e < 9; ++e) Tk(e / 3, e % 3) = T(k, e);
+      for (int c = 0; c < 3; ++c) {
+        const int i = s.F(k, c), j = s.F(k, (c + 1) % 3);
+        entries.insert(entries.end(), {{i, i, w}, {j, j, w}, {i, j, -w}, {j, i, -w}});
+        const Eigen::RowVector3d d = w * (Tk * (s.V.row(j) - s.V.row(i)).transpose()).transpose();
+        rhs.row(j) += d;
+        rhs.row(i) -= d;
+      }
     }
-  }
-  for (Eigen::Index v = 0; v < s.V.rows(); ++v) entries.emplace_back(v, v, weight[v]);
-  Eigen::SparseMatrix<double> A(s.V.rows(), s.V.rows());
-  A.setFromTriplets(entries.begin(), entries.end());
-  Eigen::SparseLU<Eigen::SparseMatrix<double>> lu(A);
-  const Eigen::MatrixXd expected = lu.solve(rhs);
-  const PoissonSolver solver(s.V, s.F, weight);
+    for (Eigen::Index v = 0; v < s.V.rows(); ++v) entries.emplace_back(v, v, weight[v]);
+    Eigen::SparseMatrix<double> A(s.V.rows(), s.V.rows());
+    A.setFromTriplets(entries.begin(), entries.end());
+    Eigen::SparseLU<Eigen::SparseMatrix<double>> lu(A);
+    return Eigen::MatrixXd(lu.solve(rhs));
+  };
+  const Eigen::VectorXd uniform = Eigen::VectorXd::Ones(s.F.rows());
+  const Eigen::VectorXd uneven = (Eigen::VectorXd::Random(s.F.rows()).array() + 1.05).matrix();  // 0.05 to 2.05
+  const Eigen::MatrixXd expected = direct_solve(uniform), expected_uneven = direct_solve(uneven);
+  ASSERT_GT((expected_uneven - expected).cwiseAbs().maxCoeff(), 1e-3 * expected.cwiseAbs().maxCoeff());  // the weights matter
+  const PoissonSolver solver(s.V, s.F, weight), weighted(s.V, s.F, weight, uneven);
   for (bool avx2 : {true, false}) {  // the AVX2 kernels where the CPU has them, and the baseline ones
     use_avx2_kernels(avx2);
-    const Eigen::MatrixXd X = solver.solve(T, targets);
+    const Eigen::MatrixXd X = solver.solve(T, targets), Y = weighted.solve(T, targets);
     use_avx2_kernels(true);
     EXPECT_LT((X - expected).cwiseAbs().maxCoeff(), 1e-9 * expected.cwiseAbs().maxCoeff()) << "avx2 " << avx2;
+    EXPECT_LT((Y - expected_uneven).cwiseAbs().maxCoeff(), 1e-9 * expected_uneven.cwiseAbs().maxCoeff()) << "avx2 " << avx2;
   }
+  // Weights must be one per triangle, positive and finite.
+  EXPECT_THROW(PoissonSolver(s.V, s.F, weight, Eigen::VectorXd::Ones(3)), InvalidInput);
+  Eigen::VectorXd bad = uniform;
+  bad[5] = 0;
+  EXPECT_THROW(PoissonSolver(s.V, s.F, weight, bad), InvalidInput);
+  bad[5] = std::numeric_limits<double>::infinity();
+  EXPECT_THROW(PoissonSolver(s.V, s.F, weight, bad), InvalidInput);
 }

@@ -147,7 +147,8 @@ struct PoissonSolver::Impl {
   Eigen::MatrixXd edges_from_transformations(const Eigen::MatrixXd& T) const;
 };
 
-PoissonSolver::PoissonSolver(const Eigen::MatrixXd& V, const Eigen::MatrixXi& F, const Eigen::VectorXd& position_weight)
+PoissonSolver::PoissonSolver(const Eigen::MatrixXd& V, const Eigen::MatrixXi& F, const Eigen::VectorXd& position_weight,
+                             const Eigen::VectorXd& triangle_weight)
     : impl_(std::make_unique<Impl>()) {
   Impl& s = *impl_;
   if (V.rows() < 3 || F.rows() < 1 || V.cols() != 3 || F.cols() != 3)
@@ -163,7 +164,12 @@ PoissonSolver::PoissonSolver(const Eigen::MatrixXd& V, const Eigen::MatrixXi& F,
   const Eigen::VectorXd area = face_areas(V, F);
   const double mean_area = area.mean();
   if (!(mean_area > 0)) throw InvalidInput("PoissonSolver: all triangles are degenerate");
-  const Eigen::VectorXd weight = (area.array() + 1e-6 * mean_area).matrix();
+  Eigen::VectorXd weight = (area.array() + 1e-6 * mean_area).matrix();
+  if (triangle_weight.size()) {
+    if (triangle_weight.size() != F.rows() || !(triangle_weight.minCoeff() > 0) || !triangle_weight.allFinite())
+      throw InvalidInput("PoissonSolver: expected " + std::to_string(F.rows()) + " positive finite triangle weights");
+    weight.array() *= triangle_weight.array();
+  }
   s.rest_centroids = face_centroids(V, F);
   s.weighted_edges = EdgeMatrix::Zero(F.rows(), 12);
   std::vector<Eigen::Triplet<double>> triplets;

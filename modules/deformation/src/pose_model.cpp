@@ -372,6 +372,7 @@ PoseModel train_pose_model(const PoseDataset& data, const TrainingOptions& optio
   // Residual of Eq. 5 over the training set.
   double sq = 0;
   long count = 0;
+  Eigen::VectorXd triangle_sq = Eigen::VectorXd::Zero(F.rows());
   for (int e = 0; e < m; ++e) {
     const int ex = examples[static_cast<size_t>(e)];
     const auto R = part_rotations(data.poses[static_cast<size_t>(ex)]);
@@ -381,12 +382,14 @@ PoseModel train_pose_model(const PoseDataset& data, const TrainingOptions& optio
       for (int entry = 0; entry < 9; ++entry) {
         const double r = predicted(k, entry) - Q(entry / 3, entry % 3);
         sq += r * r;
+        triangle_sq[k] += r * r;
         ++count;
       }
     }
     if (options.progress) options.progress(m + e + 1, 2 * m);
   }
   model.fit_rms = std::sqrt(sq / std::max<long>(count, 1));
+  model.triangle_rms = (triangle_sq / (9.0 * std::max(m, 1))).cwiseSqrt();
   if (options.learn_joint_offsets) {
     model.joint_offsets = fit_joint_offsets_that_help(data, examples, model);
   }

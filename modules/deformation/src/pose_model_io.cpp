@@ -20,8 +20,8 @@ namespace {
 
 constexpr char kMagic[8] = {'P', 'O', 'S', 'E', 'K', 'P', 'K', 'M'};
 /// 2 adds the segmentation prior, 3 a CRC-32 of everything before it at the end, 4 the learned joint
-/// offsets after the prior; 1 to 3 are still read.
-constexpr std::uint32_t kVersion = 4;
+/// offsets after the prior, 5 the per-triangle training residuals after the offsets; 1 to 4 are still read.
+constexpr std::uint32_t kVersion = 5;
 
 using io_detail::put;
 using io_detail::put_matrix;
@@ -117,6 +117,8 @@ std::string pose_model_bytes(const PoseModel& model) {
     }
     put(os, static_cast<std::uint32_t>(model.joint_offsets.rows()));
     put_matrix(os, model.joint_offsets);
+    put(os, static_cast<std::uint32_t>(model.triangle_rms.size()));
+    put_matrix(os, model.triangle_rms);
   }
   std::string bytes = os.str();
   const std::uint32_t crc = crc32(bytes.data(), bytes.size());
@@ -169,13 +171,22 @@ PoseModel pose_model_from_bytes(std::string bytes, const std::string& path) {
       throw IoError(path + ": " + std::to_string(rows) + " rows of joint offsets, expected 0 or " + std::to_string(kNumJoints));
     m.joint_offsets = in.matrix<double>(rows, rows ? 3 * kOffsetFeatures : 0, "the joint offsets");
   }
+  if (version >= 5) {
+    const auto count = in.get<std::uint32_t>("the triangle residuals");
+    if (count != 0 && count != nf)
+      throw IoError(path + ": " + std::to_string(count) + " triangle residuals, expected 0 or " + std::to_string(nf));
+    m.triangle_rms = in.matrix<double>(count, 1, "the triangle residuals");
+  }
   if (!in.at_end())
     throw IoError(path + ": unexpected bytes after the " +
-                  (version >= 4   ? "joint offsets"
+                  (version >= 5   ? "triangle residuals"
+                   : version >= 4 ? "joint offsets"
                    : version >= 2 ? "segmentation prior"
                                   : "coefficients"));
-  if (!m.template_V.allFinite() || !m.joint_centres.allFinite() || !m.coefficients.allFinite() || !m.joint_offsets.allFinite())
+  if (!m.template_V.allFinite() || !m.joint_centres.allFinite() || !m.coefficients.allFinite() || !m.joint_offsets.allFinite() ||
+      !m.triangle_rms.allFinite())
     throw IoError(path + ": the model holds a NaN or infinite value");
+  if (m.triangle_rms.size() && m.triangle_rms.minCoeff() < 0) throw IoError(path + ": a triangle residual is negative");
   if (m.template_F.minCoeff() < 0 || m.template_F.maxCoeff() >= static_cast<int>(nv))
     throw IoError(path + ": a template triangle refers to a vertex outside [0, " + std::to_string(nv) + ")");
   if (m.triangle_part.minCoeff() < 0 || m.triangle_part.maxCoeff() >= kNumParts) throw IoError(path + ": a part label is outside [0, 16)");

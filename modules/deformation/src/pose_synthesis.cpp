@@ -193,7 +193,15 @@ PoseSynthesizer::PoseSynthesizer(std::shared_ptr<const PoseModel> model, const T
   for (Eigen::Index e = 0; e < edges.rows(); ++e) edge_length[e] = (s.V.row(edges(e, 0)) - s.V.row(edges(e, 1))).norm();
 
   t0.restart();
-  s.solver = std::make_unique<PoissonSolver>(s.V, s.F);
+  Eigen::VectorXd triangle_weight;
+  if (options.weight_by_residuals) {
+    const Eigen::VectorXd template_weight = eq6_triangle_weights(M);
+    if (template_weight.size()) {
+      triangle_weight.resize(s.F.rows());
+      for (Eigen::Index k = 0; k < s.F.rows(); ++k) triangle_weight[k] = template_weight[s.info.template_triangle[k]];
+    }
+  }
+  s.solver = std::make_unique<PoissonSolver>(s.V, s.F, Eigen::VectorXd(), triangle_weight);
   s.info.seconds_factorisation = t0.seconds();
   const PoissonSolver::EdgeMatrix& rest_edges = s.solver->weighted_rest_edges();
   s.edge_coefficients.clear();
@@ -282,6 +290,14 @@ void PoseSynthesizer::Impl::set_up_part_placement(const Eigen::VectorXd& face_ar
   placement_system = system.fullPivLu();
   if (!placement_system.isInvertible()) throw InvalidInput("subject mesh: its parts cannot be placed (a part without a core)");
   parts_placed = true;
+}
+
+Eigen::VectorXd eq6_triangle_weights(const PoseModel& model) {
+  const Eigen::VectorXd& r = model.triangle_rms;
+  if (r.size() == 0 || r.size() != model.template_F.rows()) return {};
+  const double pooled = r.squaredNorm() / static_cast<double>(r.size());
+  if (!(pooled > 0)) return Eigen::VectorXd::Ones(r.size());  // every T^Q exact: nothing to weigh
+  return (pooled / (r.array().square() + pooled)).matrix();
 }
 
 PoseSynthesizer::~PoseSynthesizer() = default;

@@ -1,6 +1,7 @@
 #pragma once
 // Vertex positions from per-triangle transformations (Eq. 5-6 of Zhu & Mok, deformation transfer
-// of Sumner & Popovic 2004): min_x sum_k area_k sum_edges |x_j - x_i - T_k (v_j - v_i)|^2. The
+// of Sumner & Popovic 2004): min_x sum_k w_k area_k sum_edges |x_j - x_i - T_k (v_j - v_i)|^2 (w_k = 1
+// unless given). The
 // matrix depends only on the mesh, so it is factorised once (sparse Cholesky); a solve is one
 // forward and one backward sweep over the factor for the three coordinates together.
 #include <Eigen/Core>
@@ -16,8 +17,10 @@ class PoissonSolver {
 
   /// Rest mesh V (#V x 3), F (#F x 3). `position_weight` (#V, optional) adds soft constraints
   /// w_v |x_v - target_v|^2 whose targets are given per solve. Throws InvalidInput on a degenerate or
-  /// disconnected mesh.
-  PoissonSolver(const Eigen::MatrixXd& V, const Eigen::MatrixXi& F, const Eigen::VectorXd& position_weight = {});
+  /// disconnected mesh. `triangle_weight` (#F, optional, > 0) multiplies each triangle's area in the
+  /// least squares (a weighted Eq. 6).
+  PoissonSolver(const Eigen::MatrixXd& V, const Eigen::MatrixXi& F, const Eigen::VectorXd& position_weight = {},
+                const Eigen::VectorXd& triangle_weight = {});
   ~PoissonSolver();
   PoissonSolver(PoissonSolver&&) noexcept;
   PoissonSolver& operator=(PoissonSolver&&) noexcept;
@@ -33,7 +36,7 @@ class PoissonSolver {
   /// zero-weight vertices are ignored).
   Eigen::MatrixXd solve(const Eigen::MatrixXd& T, const Eigen::MatrixXd& position_targets) const;
 
-  /// Row k: area_k (v_{c+1} - v_c) for the corners c = 0, 1, 2 of triangle k: x y z and a 0 each.
+  /// Row k: w_k area_k (v_{c+1} - v_c) for the corners c = 0, 1, 2 of triangle k: x y z and a 0 each.
   const EdgeMatrix& weighted_rest_edges() const;
 
   /// The fast form of the two solves above for callers that already have T_k applied to the

@@ -31,6 +31,9 @@ struct PoseModel {
   Eigen::MatrixXd joint_offsets;
   int training_poses = 0;
   double fit_rms = 0;  ///< RMS residual of Eq. 5 over all entries and poses
+  /// #F: per triangle the RMS residual of Eq. 5 over its 9 entries and the training poses; empty
+  /// where unknown (a model file of an older posekit).
+  Eigen::VectorXd triangle_rms;
   /// Labelled bodies that segment and embed the skeleton of a customized model (segmentation_prior.h);
   /// empty: the template alone.
   SegmentationPrior segmentation_prior;

@@ -43,7 +43,18 @@ struct SubjectSetupOptions {
   Eigen::MatrixXd joint_centres;
   /// A correspondence subject triangle -> template triangle (#F); empty: ct-FFD (section 3.3.3).
   Eigen::VectorXi template_triangle;
+  /// Eq. 6 as a weighted least squares (eq6_triangle_weights): the triangles whose T^Q the
+  /// regression predicts well keep their shape, the mismatch between the parts goes where T^Q is
+  /// least certain. false, or a model without per-triangle residuals: area weights alone (the paper).
+  bool weight_by_residuals = true;
 };
+
+/// Per template triangle, the factor on its area in Eq. 6's least squares: s^2 / (r_k^2 + s^2), r_k
+/// its RMS training residual of Eq. 5 (PoseModel::triangle_rms) and s^2 the mean of r_k^2 over the
+/// template. An inverse-variance weight whose floor is the model's own pooled variance, so that
+/// nothing is tuned and scaling every residual changes nothing. Empty when the model has no
+/// residuals (a model file of an older posekit).
+Eigen::VectorXd eq6_triangle_weights(const PoseModel& model);
 
 /// What set-up found out about a subject, for reports.
 struct SubjectSetupInfo {
