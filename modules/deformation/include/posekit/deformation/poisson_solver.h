@@ -1,9 +1,8 @@
 #pragma once
 // Vertex positions from per-triangle transformations (Eq. 5-6 of Zhu & Mok, deformation transfer
-// of Sumner & Popovic 2004): min_x sum_k w_k area_k sum_edges |x_j - x_i - T_k (v_j - v_i)|^2 (w_k = 1
-// unless given). The
-// matrix depends only on the mesh, so it is factorised once (sparse Cholesky); a solve is one
-// forward and one backward sweep over the factor for the three coordinates together.
+// of Sumner & Popovic 2004): min_x sum_k w_k area_k sum_edges |x_j - x_i - T_k (v_j - v_i)|^2, w_k = 1
+// unless given. The matrix depends only on the mesh and w, so it is factorised once (sparse
+// Cholesky); a solve is one forward and one backward sweep over the factor for x, y and z together.
 #include <Eigen/Core>
 #include <memory>
 
