@@ -26,6 +26,7 @@
 #include "posekit/io/checksum.h"
 #include "posekit/io/mesh_io.h"
 #include "posekit/segmentation/segmentation.h"
+#include "posing_inputs.h"
 
 namespace posekit::cli::batch {
 namespace fs = std::filesystem;
@@ -67,7 +68,7 @@ int run_batch_pose(int argc, char** argv) {
   const std::string format = args.get("format");
   if (format != "ply" && format != "obj" && format != "off") throw UsageError("--format expects ply, obj or off, got '" + format + "'");
   const PoseMethod method = parse_pose_method(args.get("method"));
-  const auto model = std::make_shared<const PoseModel>(read_pose_model(args.get("model")));
+  const auto model = read_posing_model(args.get("model"), "batch pose");
   const std::uint32_t model_crc = file_crc32(args.get("model"));  // a retrained model redoes every subject
   const std::string pose_path = args.get("pose");
   const std::string frames = args.has("frames") ? args.get("frames") : "", data = args.has("data") ? args.get("data") : "";

@@ -47,7 +47,7 @@ int run_eval_fit(int argc, char** argv) {
   if (!args.has("dataset") || !args.has("model")) throw UsageError("--dataset DIR and --model FILE are required");
   const bool from_truth = args.flag_set("from-truth");
   const std::string dir = args.get("dataset");
-  const auto model = std::make_shared<const PoseModel>(read_pose_model(args.get("model")));
+  const auto model = read_posing_model(args.get("model"), "eval fit");
   const auto manifest = nlohmann::json::parse(read_file_bytes(dir + "/manifest.json"));
   const long limit = args.get_int("subjects");
   nlohmann::ordered_json rows = nlohmann::ordered_json::array();

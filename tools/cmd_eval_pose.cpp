@@ -299,7 +299,7 @@ int run_eval(int argc, char** argv) {
   Stopwatch t0;
   std::shared_ptr<const PoseModel> model;
   if (args.has("model")) {
-    model = std::make_shared<const PoseModel>(read_pose_model(args.get("model")));
+    model = read_posing_model(args.get("model"), "eval pose");
   } else {
     PoseModel trained = train_on_dataset(dir);
     const PriorReport prior = add_segmentation_prior(&trained);

@@ -161,7 +161,7 @@ int run_fit(int argc, char** argv) {
   if (!args.parse(argc, argv)) return 0;
   for (const char* required : {"model", "subject", "target"})
     if (!args.has(required)) throw UsageError(std::string("--") + required + " is required");
-  const auto model = std::make_shared<const PoseModel>(read_pose_model(args.get("model")));
+  const auto model = read_posing_model(args.get("model"), "fit");
   BodyOrientation orientation;
   BodyUnit unit;
   const TriangleMesh subject = read_posing_subject(args, "fit", &orientation, &unit);

@@ -50,7 +50,7 @@ int run_pose(int argc, char** argv) {
   for (const char* required : {"model", "subject", "pose", "out"})
     if (!args.has(required)) throw UsageError(std::string("--") + required + " is required");
   const PoseMethod method = parse_pose_method(args.get("method"));
-  const auto model = std::make_shared<const PoseModel>(read_pose_model(args.get("model")));
+  const auto model = read_posing_model(args.get("model"), "pose");
   BodyOrientation orientation;
   BodyUnit unit;
   const TriangleMesh subject = read_posing_subject(args, "pose", &orientation, &unit);

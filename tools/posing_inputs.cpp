@@ -67,6 +67,15 @@ void check_subject(const TriangleMesh& mesh, const std::string& path) {
 
 }  // namespace
 
+std::shared_ptr<const PoseModel> read_posing_model(const std::string& path, const std::string& command) {
+  auto model = std::make_shared<const PoseModel>(read_pose_model(path));
+  if (model->triangle_rms.size() == 0)
+    std::cerr << "posekit " << command << ": " << path
+              << " holds no per-triangle training residuals (a model of an older posekit): Eq. 6 weighs every triangle by its area"
+                 " alone; retrain it (posekit train) for the residual weights\n";
+  return model;
+}
+
 /// The subject of pose or fit (--subject, --unit, --up, --forward): read, turned into posekit's
 /// frame, and checked to be one body.
 TriangleMesh read_posing_subject(const ArgParser& args, const std::string& command, BodyOrientation* orientation, BodyUnit* unit) {

@@ -16,6 +16,11 @@
 
 namespace posekit::cli {
 
+/// The pose model a posing command poses with (--model FILE.pkm). A model of an older posekit has no
+/// per-triangle training residuals: Eq. 6 then weighs by area alone, as the paper does, and the
+/// user is told so on stderr (retraining gives the residual weights).
+std::shared_ptr<const PoseModel> read_posing_model(const std::string& path, const std::string& command);
+
 /// The subject of pose or fit (--subject, --unit, --up, --forward): read, turned into posekit's
 /// frame, and checked to be one closed body.
 TriangleMesh read_posing_subject(const ArgParser& args, const std::string& command, BodyOrientation* orientation, BodyUnit* unit);

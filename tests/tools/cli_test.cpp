@@ -7,6 +7,7 @@
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
+#include <cstring>
 #include <filesystem>
 #include <fstream>
 #include <iterator>
@@ -22,6 +23,7 @@
 #include "posekit/body/subjects.h"
 #include "posekit/io/atomic_file.h"
 #include "posekit/io/bvh.h"
+#include "posekit/io/checksum.h"
 #include "posekit/io/image_io.h"
 #include "posekit/io/mesh_io.h"
 #include "posekit/io/point_cloud_io.h"
@@ -535,6 +537,30 @@ TEST(Cli, TrainPoseSegmentAndEvalOnASmallDataset) {
   ASSERT_EQ(posed.V.rows(), truth.V.rows());
   EXPECT_LT((posed.V - truth.V).rowwise().norm().mean(), 0.012);
   EXPECT_EQ(posed.vertex_scalars.count("part"), 1u);
+  // The same model as an older posekit wrote it (version 4: no per-triangle residuals) still poses,
+  // by Eq. 6's area weights alone, and says so.
+  {
+    std::string v4 = read_file_bytes(dir.file("m.pkm"));
+    std::uint32_t triangles = 0;
+    std::memcpy(&triangles, &v4[16], 4);
+    v4.resize(v4.size() - 4 - 4 - 8 * static_cast<size_t>(triangles));  // the CRC, the residuals' count and values
+    const std::uint32_t four = 4;
+    std::memcpy(&v4[8], &four, 4);
+    const std::uint32_t crc = crc32(v4.data(), v4.size());
+    v4.append(reinterpret_cast<const char*>(&crc), 4);
+    write_file_atomically(dir.file("v4.pkm"), [&](std::ostream& out) { out << v4; });
+    r = run("pose --model " + dir.file("v4.pkm") + " --subject " + subject + " --pose " + ds +
+                "/subjects/f01/posed/squat_half.json --out " + dir.file("squat_v4.ply"),
+            true);
+    ASSERT_EQ(r.code, 0) << r.out;
+    EXPECT_NE(r.out.find("no per-triangle training residuals (a model of an older posekit)"), std::string::npos) << r.out;
+    EXPECT_EQ(nlohmann::json::parse(run("info " + dir.file("m.pkm") + " --json").out)["eq6_weights"], "training residuals");
+    EXPECT_EQ(nlohmann::json::parse(run("info " + dir.file("v4.pkm") + " --json").out)["eq6_weights"], "area (no residuals stored)");
+    const TriangleMesh by_area = read_mesh(dir.file("squat_v4.ply"));
+    ASSERT_EQ(by_area.V.rows(), truth.V.rows());
+    EXPECT_LT((by_area.V - truth.V).rowwise().norm().mean(), 0.012);
+    EXPECT_GT((by_area.V - posed.V).rowwise().norm().maxCoeff(), 1e-5);  // the residual weights moved something
+  }
 
   // A BVH of three frames: three meshes.
   BvhMotion motion = read_bvh(test::test_data_root() + "/poses/benchmark.bvh");
