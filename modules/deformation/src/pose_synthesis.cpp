@@ -103,9 +103,10 @@ struct PoseSynthesizer::Impl {
   Eigen::MatrixXd lbs_weights;  // #V x 16
   std::unique_ptr<PoissonSolver> solver;
   /// Eq. 4 folded into the solver's right-hand side: B_kf e_c (x y z), B_kf the 3 x 3 map of feature
-  /// f of triangle k and e_c the solver's weighted rest edge c. Per triangle in order: the bias
-  /// (f = 6) for c = 0, 1, 2, then for each of its joints (slot 0, then 1, if any) the three twist
-  /// axes. Float: the regression's own residual is 1e4 times larger than the rounding.
+  /// f of triangle k and e_c the solver's weighted rest edge c, for c = 0, 1 only (a triangle's edges
+  /// sum to zero, so B e_2 = -B e_0 - B e_1). Per triangle in order: the bias (f = 6), then for each
+  /// of its joints (slot 0, then 1, if any) the three twist axes; two floats of padding at the end.
+  /// Float: the regression's own residual is 1e4 times larger than the rounding.
   std::vector<float> edge_coefficients;
   /// The solver's right-hand side for `method` (its per-thread buffer, see PoissonSolver::finish).
   double* right_hand_side(const PartPose& pose, const PartTransforms& T, PoseMethod method) const;
@@ -205,18 +206,19 @@ PoseSynthesizer::PoseSynthesizer(std::shared_ptr<const PoseModel> model, const T
   s.info.seconds_factorisation = t0.seconds();
   const PoissonSolver::EdgeMatrix& rest_edges = s.solver->weighted_rest_edges();
   s.edge_coefficients.clear();
-  s.edge_coefficients.reserve(static_cast<size_t>(s.F.rows()) * 9 * kPoseFeatures);
+  s.edge_coefficients.reserve(static_cast<size_t>(s.F.rows()) * 6 * kPoseFeatures + 2);
   for (Eigen::Index k = 0; k < s.F.rows(); ++k) {
     for (int f : {6, 0, 1, 2, 3, 4, 5}) {
       if (f < 6 && s.triangle_joints(k, f / 3) < 0) continue;
       Eigen::Matrix3d B;
       for (int m = 0; m < 9; ++m) B(m / 3, m % 3) = s.coefficients(k, m * kPoseFeatures + f);
-      for (int c = 0; c < 3; ++c) {
+      for (int c = 0; c < 2; ++c) {
         const Eigen::Vector3d b = B * rest_edges.row(k).segment<3>(4 * c).transpose();
         for (int d = 0; d < 3; ++d) s.edge_coefficients.push_back(static_cast<float>(b[d]));
       }
     }
   }
+  s.edge_coefficients.insert(s.edge_coefficients.end(), 2, 0.0f);  // the last 8-float load stays inside
 
   s.pelvis_area = Eigen::VectorXd::Zero(s.F.rows());
   for (Eigen::Index k = 0; k < s.F.rows(); ++k)
@@ -339,38 +341,32 @@ inline __attribute__((always_inline)) void right_hand_side_body(const RightHandS
   const Double4* columns = reinterpret_cast<const Double4*>(in.part_columns);
   Double4* rows = reinterpret_cast<Double4*>(in.rhs);
   const float* b = in.coefficients;
-  float x[2 * 3 + 1];
   for (long k = 0; k < in.triangles; ++k) {
-    double g[9];
+    double g[6];  // the transformed edges 0 and 1; edge 2 is minus their sum
     if (b) {
-      // sum_f x_f B_kf e_c in float: 8 entries in one register, the ninth apart.
-      int features = 0;
-      x[features++] = 1;  // the bias
+      // sum_f x_f B_kf e_c in float: one feature's six entries in one 8-float register.
+      simd::Float8u sum = *reinterpret_cast<const simd::Float8u*>(b);  // the bias
+      int features = 1;
       for (int slot = 0; slot < 2; ++slot) {
         const int joint = in.triangle_joints[2 * k + slot];
         if (joint < 0) continue;
-        for (int axis = 0; axis < 3; ++axis) x[features++] = static_cast<float>(in.joint_rotation[3 * joint + axis]);
+        for (int axis = 0; axis < 3; ++axis, ++features)
+          sum += static_cast<float>(in.joint_rotation[3 * joint + axis]) * *reinterpret_cast<const simd::Float8u*>(b + 6 * features);
       }
-      simd::Float8u head = x[0] * *reinterpret_cast<const simd::Float8u*>(b);
-      float last = b[8];
-      for (int f = 1; f < features; ++f) {
-        head += x[f] * *reinterpret_cast<const simd::Float8u*>(b + 9 * f);
-        last += x[f] * b[9 * f + 8];
-      }
-      b += 9 * features;
-      for (int i = 0; i < 8; ++i) g[i] = head[i];
-      g[8] = last;
+      b += 6 * features;
+      for (int i = 0; i < 6; ++i) g[i] = sum[i];
     } else {
-      for (int c = 0; c < 3; ++c)
+      for (int c = 0; c < 2; ++c)
         for (int d = 0; d < 3; ++d) g[3 * c + d] = in.rest[12 * k + 4 * c + d];
     }
     const Double4* R = columns + 3 * in.triangle_part[k];
-    Double4 e[3];
-    for (int c = 0; c < 3; ++c) e[c] = g[3 * c] * R[0] + g[3 * c + 1] * R[1] + g[3 * c + 2] * R[2];
+    const Double4 e0 = g[0] * R[0] + g[1] * R[1] + g[2] * R[2];
+    const Double4 e1 = g[3] * R[0] + g[4] * R[1] + g[5] * R[2];
+    // Corner c gets e_{c-1} - e_c, with e_2 = -e_0 - e_1.
     const int* corner = in.corners + 3 * k;
-    rows[corner[0]] += e[2] - e[0];
-    rows[corner[1]] += e[0] - e[1];
-    rows[corner[2]] += e[1] - e[2];
+    rows[corner[0]] -= e0 + e0 + e1;
+    rows[corner[1]] += e0 - e1;
+    rows[corner[2]] += e0 + e1 + e1;
   }
 }
 POSEKIT_TARGET_AVX2 void right_hand_side_avx2(const RightHandSideInput& in) { right_hand_side_body(in); }
