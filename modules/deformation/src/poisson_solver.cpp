@@ -245,6 +245,8 @@ double* PoissonSolver::start_right_hand_side() const {
 }
 
 const int* PoissonSolver::factor_corners() const { return impl_->permuted_corners.data(); }
+const int* PoissonSolver::factor_rows() const { return impl_->row_of_vertex.data(); }
+void PoissonSolver::solve_in_place(double* Y) const { impl_->factor.solve_in_place(Y); }
 
 void PoissonSolver::finish(double* Y, const RowMatrixX3d& targets, Eigen::MatrixXd* X) const {
   const Impl& s = *impl_;

@@ -85,19 +85,22 @@ struct PoseSynthesizer::Impl {
   /// #F: the part whose rotation carries each triangle's learned T^Q, its template triangle's (T^Q was
   /// learned in that part's frame), whatever part the subject's own segmentation gave the triangle.
   Eigen::VectorXi deformation_part;
-  // PosePlacement::kParts (set_up_part_placement): each vertex's core weight; per part its core's
-  // total weight and rest mean; per vertex its non-zero blend weights (blend_start[v] ..
-  // blend_start[v + 1] in blend_part, blend_weight); the LU of the core means of the blend weights.
+  // PosePlacement::kParts (set_up_part_placement), all per row of the solver's factor (vertex
+  // vertex_of_row[r]): its part, its core weight and its non-zero blend weights (blend_start[r] ..
+  // blend_start[r + 1] in blend_part, blend_weight); per part its core's total weight and rest mean;
+  // the LU of the core means of the blend weights.
   bool parts_placed = false;
-  Eigen::VectorXd core_weight;
+  std::vector<int> vertex_of_row, part_of_row;
+  std::vector<double> core_of_row;
   Eigen::Matrix<double, kNumParts, 1> part_core_total;
   std::array<Eigen::Vector3d, kNumParts> part_core_rest;
   std::vector<int> blend_start, blend_part;
   std::vector<double> blend_weight;
   Eigen::FullPivLU<Eigen::Matrix<double, kNumParts, kNumParts>> placement_system;
   void set_up_part_placement(const Eigen::VectorXd& face_area);
-  /// Moves each part of X (posed by Eq. 6) so that its core's mean meets T^R's placement of it.
-  void place_parts(const PartTransforms& T, Eigen::MatrixXd* X) const;
+  /// X from Eq. 6's solution Y (factor order, any translation): each part moved so that its core's
+  /// mean meets T^R's placement of it. The blend weights sum to 1, so Y's translation cancels.
+  void place_parts(const PartTransforms& T, const double* Y, Eigen::MatrixXd* X) const;
   Eigen::VectorXi vertex_part;  // #V
   double offset_scale = 1;      // the subject's height over the template's, for joint offsets
   Eigen::MatrixXd lbs_weights;  // #V x 16
@@ -255,7 +258,7 @@ void PoseSynthesizer::Impl::set_up_part_placement(const Eigen::VectorXd& face_ar
     std::nth_element(values.begin(), values.begin() + static_cast<long>(values.size() / 2), values.end());
     median[p] = values[values.size() / 2];
   }
-  core_weight.resize(V.rows());
+  Eigen::VectorXd core_weight(V.rows());
   for (Eigen::Index v = 0; v < V.rows(); ++v) {
     const double m = median[static_cast<size_t>(vertex_part[v])];
     const double r = m > 0 ? sensitivity[v] / m : 0;
@@ -270,16 +273,22 @@ void PoseSynthesizer::Impl::set_up_part_placement(const Eigen::VectorXd& face_ar
     part_core_rest[p] += core_weight[v] * V.row(v).transpose();
     part_core_total[static_cast<Eigen::Index>(p)] += core_weight[v];
   }
-  blend_start.assign(static_cast<size_t>(V.rows()) + 1, 0);
+  const size_t n = static_cast<size_t>(V.rows());
+  vertex_of_row.resize(n);
+  for (size_t v = 0; v < n; ++v) vertex_of_row[static_cast<size_t>(solver->factor_rows()[v])] = static_cast<int>(v);
+  part_of_row.resize(n), core_of_row.resize(n);
+  blend_start.assign(n + 1, 0);
   blend_part.clear(), blend_weight.clear();
   Eigen::Matrix<double, kNumParts, kNumParts> system = Eigen::Matrix<double, kNumParts, kNumParts>::Zero();
-  for (Eigen::Index v = 0; v < V.rows(); ++v) {
+  for (size_t r = 0; r < n; ++r) {
+    const int v = vertex_of_row[r];
+    part_of_row[r] = vertex_part[v], core_of_row[r] = core_weight[v];
     for (int q = 0; q < kNumParts; ++q)
       if (lbs_weights(v, q) > 0) {
         blend_part.push_back(q), blend_weight.push_back(lbs_weights(v, q));
         system(vertex_part[v], q) += core_weight[v] * lbs_weights(v, q);
       }
-    blend_start[static_cast<size_t>(v) + 1] = static_cast<int>(blend_part.size());
+    blend_start[r + 1] = static_cast<int>(blend_part.size());
   }
   for (int p = 0; p < kNumParts; ++p) {
     if (part_core_total[p] > 0) {
@@ -394,17 +403,29 @@ double* PoseSynthesizer::Impl::right_hand_side(const PartPose& pose, const PartT
   return rhs;
 }
 
-void PoseSynthesizer::Impl::place_parts(const PartTransforms& T, Eigen::MatrixXd* X) const {
+void PoseSynthesizer::Impl::place_parts(const PartTransforms& T, const double* Y, Eigen::MatrixXd* X) const {
+  const size_t n = vertex_of_row.size();
   Eigen::Matrix<double, kNumParts, 3> miss = Eigen::Matrix<double, kNumParts, 3>::Zero();
-  for (Eigen::Index v = 0; v < V.rows(); ++v) miss.row(vertex_part[v]) -= core_weight[v] * X->row(v);
+  for (size_t r = 0; r < n; ++r)
+    for (int d = 0; d < 3; ++d) miss(part_of_row[r], d) -= core_of_row[r] * Y[4 * r + d];
   for (int p = 0; p < kNumParts; ++p) {
     const auto q = static_cast<size_t>(p);
     if (part_core_total[p] > 0) miss.row(p) = (T.R[q] * part_core_rest[q] + T.t[q]).transpose() + miss.row(p) / part_core_total[p];
   }
-  const Eigen::Matrix<double, kNumParts, 3> move = placement_system.solve(miss);
-  for (Eigen::Index v = 0; v < V.rows(); ++v)
-    for (int k = blend_start[static_cast<size_t>(v)]; k < blend_start[static_cast<size_t>(v) + 1]; ++k)
-      X->row(v) += blend_weight[static_cast<size_t>(k)] * move.row(blend_part[static_cast<size_t>(k)]);
+  const Eigen::Matrix<double, kNumParts, 3, Eigen::RowMajor> move = placement_system.solve(miss);
+  X->resize(V.rows(), 3);
+  double* x = X->data();
+  const Eigen::Index stride = V.rows();
+  for (size_t r = 0; r < n; ++r) {
+    double y[3] = {Y[4 * r], Y[4 * r + 1], Y[4 * r + 2]};
+    for (int k = blend_start[r]; k < blend_start[r + 1]; ++k) {
+      const double w = blend_weight[static_cast<size_t>(k)];
+      const double* m = move.data() + 3 * blend_part[static_cast<size_t>(k)];
+      for (int d = 0; d < 3; ++d) y[d] += w * m[d];
+    }
+    const Eigen::Index v = vertex_of_row[r];
+    for (int d = 0; d < 3; ++d) x[v + d * stride] = y[d];
+  }
 }
 
 Eigen::MatrixXd PoseSynthesizer::pose(const PartPose& pose, PoseMethod method) const {
@@ -475,8 +496,8 @@ void PoseSynthesizer::pose_with(const PartPose& pose, PoseMethod method, const E
   }
   double* rhs = s.right_hand_side(pose, T, method);
   if (s.parts_placed) {
-    s.solver->finish(rhs, s.pelvis_area, T.R[kPelvis], T.t[kPelvis], X);
-    s.place_parts(T, X);
+    s.solver->solve_in_place(rhs);
+    s.place_parts(T, rhs, X);
     return;
   }
   // Anchor: the pelvis where it stays rigid (T^Q near the identity), so that skin moving at the hips

@@ -58,6 +58,12 @@ class PoissonSolver {
   void finish(double* right_hand_side, const Eigen::VectorXd& anchor_weight, const Eigen::Matrix3d& R, const Eigen::Vector3d& t,
               Eigen::MatrixXd* X) const;
 
+  /// The lowest level: Y (from start_right_hand_side(), assembled) <- the solution, in the factor's
+  /// row order (vertex v is row factor_rows()[v]); no anchor, no targets. The translation is then
+  /// arbitrary: for callers that place the result themselves.
+  void solve_in_place(double* right_hand_side) const;
+  const int* factor_rows() const;
+
   bool has_position_weights() const;
   int num_vertices() const;
   int num_faces() const;
