@@ -131,6 +131,19 @@ TEST(PoissonSolver, RecoversARigidMotionAndPlacesTheAnchor) {
   // With soft position constraints the same motion is reproduced from targets alone.
   const PoissonSolver anchored(s.V, s.F, Eigen::VectorXd::Constant(s.V.rows(), 0.01));
   EXPECT_LT((anchored.solve(T, expected) - expected).rowwise().norm().maxCoeff(), 1e-9);
+  // The lowest level: the rest edges' divergence assembled in factor order and solved in place give
+  // the rest shape up to a translation, vertex v at row factor_rows()[v].
+  double* Y = solver.start_right_hand_side();
+  const PoissonSolver::EdgeMatrix& edges = solver.weighted_rest_edges();
+  for (Eigen::Index k = 0; k < s.F.rows(); ++k)
+    for (int c = 0; c < 3; ++c)
+      for (int d = 0; d < 3; ++d) Y[4 * solver.factor_corners()[3 * k + c] + d] += edges(k, 4 * ((c + 2) % 3) + d) - edges(k, 4 * c + d);
+  solver.solve_in_place(Y);
+  Eigen::MatrixXd rest(s.V.rows(), 3);
+  for (Eigen::Index v = 0; v < s.V.rows(); ++v)
+    for (int d = 0; d < 3; ++d) rest(v, d) = Y[4 * solver.factor_rows()[v] + d];
+  const Eigen::RowVector3d shift = (rest - s.V).colwise().mean();
+  EXPECT_LT(((rest.rowwise() - shift) - s.V).rowwise().norm().maxCoeff(), 1e-9);
   // Two separate spheres cannot be posed as one body.
   TriangleMesh two = s;
   two.V.conservativeResize(2 * s.V.rows(), 3);
