@@ -111,8 +111,9 @@ struct PoseSynthesizer::Impl {
   /// of its joints (slot 0, then 1, if any) the three twist axes; two floats of padding at the end.
   /// Float: the regression's own residual is 1e4 times larger than the rounding.
   std::vector<float> edge_coefficients;
-  /// The solver's right-hand side for `method` (its per-thread buffer, see PoissonSolver::finish).
-  double* right_hand_side(const PartPose& pose, const PartTransforms& T, PoseMethod method) const;
+  /// The solver's right-hand side for the learned method (its per-thread buffer, see
+  /// PoissonSolver::finish).
+  double* right_hand_side(const PartPose& pose, const PartTransforms& T) const;
 };
 
 namespace {}  // namespace
@@ -329,16 +330,14 @@ PoseScratch& pose_scratch() {
   return scratch;
 }
 
-/// The right-hand side of Eq. 6 for one pose, straight into the solver's buffer: per triangle the
-/// transformed weighted edges e_c = R_part (sum_f x_f B_kf) e_c (Eq. 4 and Eq. 1, with the products
-/// B_kf e_c precomputed), or e_c = R_part e_c for the rigid method (`coefficients` null, `rest` the
-/// solver's weighted rest edges), and their divergence at the corners.
+/// The right-hand side of Eq. 6 for one learned pose, straight into the solver's buffer: per triangle
+/// the transformed weighted edges e_c = R_part (sum_f x_f B_kf) e_c (Eq. 4 and Eq. 1, with the
+/// products B_kf e_c precomputed) and their divergence at the corners.
 struct RightHandSideInput {
   long triangles;
   const int* triangle_part;
   const int* triangle_joints;    // 2 per triangle, -1: none
-  const float* coefficients;     // PoseSynthesizer::Impl::edge_coefficients, or null
-  const double* rest;            // #F x 12
+  const float* coefficients;     // PoseSynthesizer::Impl::edge_coefficients
   const double* part_columns;    // per part the three columns of R, four doubles each (the fourth 0)
   const double* joint_rotation;  // 3 per joint
   const int* corners;            // PoissonSolver::factor_corners()
@@ -351,23 +350,19 @@ inline __attribute__((always_inline)) void right_hand_side_body(const RightHandS
   Double4* rows = reinterpret_cast<Double4*>(in.rhs);
   const float* b = in.coefficients;
   for (long k = 0; k < in.triangles; ++k) {
-    double g[6];  // the transformed edges 0 and 1; edge 2 is minus their sum
-    if (b) {
-      // sum_f x_f B_kf e_c in float: one feature's six entries in one 8-float register.
-      simd::Float8u sum = *reinterpret_cast<const simd::Float8u*>(b);  // the bias
-      int features = 1;
-      for (int slot = 0; slot < 2; ++slot) {
-        const int joint = in.triangle_joints[2 * k + slot];
-        if (joint < 0) continue;
-        for (int axis = 0; axis < 3; ++axis, ++features)
-          sum += static_cast<float>(in.joint_rotation[3 * joint + axis]) * *reinterpret_cast<const simd::Float8u*>(b + 6 * features);
-      }
-      b += 6 * features;
-      for (int i = 0; i < 6; ++i) g[i] = sum[i];
-    } else {
-      for (int c = 0; c < 2; ++c)
-        for (int d = 0; d < 3; ++d) g[3 * c + d] = in.rest[12 * k + 4 * c + d];
+    // sum_f x_f B_kf e_c in float: one feature's six entries (edges 0 and 1; edge 2 is minus their
+    // sum) in one 8-float register.
+    simd::Float8u sum = *reinterpret_cast<const simd::Float8u*>(b);  // the bias
+    int features = 1;
+    for (int slot = 0; slot < 2; ++slot) {
+      const int joint = in.triangle_joints[2 * k + slot];
+      if (joint < 0) continue;
+      for (int axis = 0; axis < 3; ++axis, ++features)
+        sum += static_cast<float>(in.joint_rotation[3 * joint + axis]) * *reinterpret_cast<const simd::Float8u*>(b + 6 * features);
     }
+    b += 6 * features;
+    double g[6];
+    for (int i = 0; i < 6; ++i) g[i] = sum[i];
     const Double4* R = columns + 3 * in.triangle_part[k];
     const Double4 e0 = g[0] * R[0] + g[1] * R[1] + g[2] * R[2];
     const Double4 e1 = g[3] * R[0] + g[4] * R[1] + g[5] * R[2];
@@ -382,7 +377,7 @@ POSEKIT_TARGET_AVX2 void right_hand_side_avx2(const RightHandSideInput& in) { ri
 void right_hand_side_portable(const RightHandSideInput& in) { right_hand_side_body(in); }
 }  // namespace
 
-double* PoseSynthesizer::Impl::right_hand_side(const PartPose& pose, const PartTransforms& T, PoseMethod method) const {
+double* PoseSynthesizer::Impl::right_hand_side(const PartPose& pose, const PartTransforms& T) const {
   alignas(32) double part_columns[kNumParts * 12];
   for (int p = 0; p < kNumParts; ++p)
     for (int c = 0; c < 3; ++c) {
@@ -390,15 +385,8 @@ double* PoseSynthesizer::Impl::right_hand_side(const PartPose& pose, const PartT
       part_columns[12 * p + 4 * c + 3] = 0;
     }
   double* rhs = solver->start_right_hand_side();
-  const RightHandSideInput input{F.rows(),
-                                 method == PoseMethod::kLearned ? deformation_part.data() : info.triangle_part.data(),
-                                 triangle_joints.data(),
-                                 method == PoseMethod::kLearned ? edge_coefficients.data() : nullptr,
-                                 solver->weighted_rest_edges().data(),
-                                 part_columns,
-                                 pose.joint_rotation[0].data(),
-                                 solver->factor_corners(),
-                                 rhs};
+  const RightHandSideInput input{F.rows(),     deformation_part.data(),       triangle_joints.data(),   edge_coefficients.data(),
+                                 part_columns, pose.joint_rotation[0].data(), solver->factor_corners(), rhs};
   (simd::has_avx2() ? right_hand_side_avx2 : right_hand_side_portable)(input);
   return rhs;
 }
@@ -494,7 +482,8 @@ void PoseSynthesizer::pose_with(const PartPose& pose, PoseMethod method, const E
     }
     return;
   }
-  double* rhs = s.right_hand_side(pose, T, method);
+  // Only the learned method goes through Eq. 6.
+  double* rhs = s.right_hand_side(pose, T);
   if (s.parts_placed) {
     s.solver->solve_in_place(rhs);
     s.place_parts(T, rhs, X);
