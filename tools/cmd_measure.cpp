@@ -229,7 +229,8 @@ int measure_by_body_model(const ArgParser& args, const SurveyDistribution* surve
     for (size_t k = 0; k < m.girths.size(); ++k) {
       const Girth& g = m.girths[k];
       nlohmann::ordered_json e = {{"measured", g.measured}, {"point", vec(g.point)}, {"normal", vec(g.normal)}};
-      if (g.measured) e["value"] = g.value, e["as_posed"] = fm.as_posed[k];
+      if (g.measured) e["value"] = g.value;
+      if (std::isfinite(fm.as_posed[k])) e["as_posed"] = fm.as_posed[k];  // also where the girth standing is not given
       if (!g.note.empty()) e["note"] = g.note;
       if (const Girth* f = fm.fitted.find(g.name); f && f->measured) e["fitted_body"] = f->value;
       j["girths"][g.name] = e;
@@ -251,7 +252,10 @@ int measure_by_body_model(const ArgParser& args, const SurveyDistribution* surve
     const Girth& g = m.girths[k];
     std::cout << "  " << std::left << std::setw(12) << g.name << std::right << " ";
     if (g.measured) std::cout << g.value * 100 << " cm (" << 100 * fm.as_posed[k] << ")";
-    else std::cout << "not measured: " << g.note;
+    else {
+      std::cout << "not measured: " << g.note;
+      if (std::isfinite(fm.as_posed[k])) std::cout << " (as posed " << 100 * fm.as_posed[k] << " cm)";
+    }
     if (const Girth* f = fm.fitted.find(g.name); f && f->measured) std::cout << " (" << 100 * f->value << ")";
     if (g.measured && !g.note.empty()) std::cout << ": " << g.note;
     std::cout << "\n";
