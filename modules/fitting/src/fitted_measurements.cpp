@@ -420,10 +420,16 @@ FittedMeasurements measure_by_body_fit(const BodyModel& model, const BodyFit& fi
     out.as_posed.push_back(as_posed);
   }
   const std::string raised = thighs_raised_reason(fit);
-  if (!raised.empty())
-    for (Girth& g : m.girths)
-      if ((g.name == "hip" || g.name == "thigh") && g.measured) g.measured = false, g.note = raised, g.tape.resize(0, 3);
+  std::vector<bool> seated(m.girths.size(), false);  // declined for the posture: the section as posed is the person's
+  for (size_t k = 0; k < m.girths.size(); ++k) {
+    Girth& g = m.girths[k];
+    if (raised.empty() || (g.name != "hip" && g.name != "thigh") || !g.measured) continue;
+    g.measured = false, g.note = raised, g.tape.resize(0, 3);
+    seated[k] = true;
+  }
   reject_implausible_girths(&m);
+  for (size_t k = 0; k < m.girths.size(); ++k)
+    if (!m.girths[k].measured && !seated[k]) out.as_posed[k] = std::numeric_limits<double>::quiet_NaN();  // no section of its own
 
   out.landmarks = carried_landmarks(rest, fit.V, out.fitted, m);
   return out;
