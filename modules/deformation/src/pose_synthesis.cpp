@@ -492,19 +492,17 @@ void PoseSynthesizer::pose_with(const PartPose& pose, PoseMethod method, const E
   // Anchor: the pelvis where it stays rigid (T^Q near the identity), so that skin moving at the hips
   // does not drag the body along.
   Eigen::VectorXd anchor = s.pelvis_area;
-  if (method == PoseMethod::kLearned) {
-    for (Eigen::Index k = 0; k < s.F.rows(); ++k) {
-      if (!(anchor[k] > 0)) continue;
-      Eigen::Matrix<double, kPoseFeatures, 1> x = Eigen::Matrix<double, kPoseFeatures, 1>::Zero();
-      const int a = s.triangle_joints(k, 0), b = s.triangle_joints(k, 1);
-      if (a >= 0) x.segment<3>(0) = pose.joint(a);
-      if (b >= 0) x.segment<3>(3) = pose.joint(b);
-      x[6] = 1;
-      const Eigen::Map<const Eigen::Matrix<double, 9, kPoseFeatures, Eigen::RowMajor>> B(s.coefficients.row(k).data());
-      const Eigen::Matrix<double, 9, 1> q = B * x;
-      const Eigen::Map<const Eigen::Matrix<double, 3, 3, Eigen::RowMajor>> Q(q.data());
-      anchor[k] *= std::exp(-(Q - Eigen::Matrix3d::Identity()).squaredNorm() / (0.02 * 0.02));
-    }
+  for (Eigen::Index k = 0; k < s.F.rows(); ++k) {
+    if (!(anchor[k] > 0)) continue;
+    Eigen::Matrix<double, kPoseFeatures, 1> x = Eigen::Matrix<double, kPoseFeatures, 1>::Zero();
+    const int a = s.triangle_joints(k, 0), b = s.triangle_joints(k, 1);
+    if (a >= 0) x.segment<3>(0) = pose.joint(a);
+    if (b >= 0) x.segment<3>(3) = pose.joint(b);
+    x[6] = 1;
+    const Eigen::Map<const Eigen::Matrix<double, 9, kPoseFeatures, Eigen::RowMajor>> B(s.coefficients.row(k).data());
+    const Eigen::Matrix<double, 9, 1> q = B * x;
+    const Eigen::Map<const Eigen::Matrix<double, 3, 3, Eigen::RowMajor>> Q(q.data());
+    anchor[k] *= std::exp(-(Q - Eigen::Matrix3d::Identity()).squaredNorm() / (0.02 * 0.02));
   }
   if (!(anchor.sum() > 1e-6 * s.pelvis_area.sum())) anchor = s.pelvis_area;
   s.solver->finish(rhs, anchor, T.R[kPelvis], T.t[kPelvis], X);
