@@ -137,11 +137,14 @@ TEST(FeatureCalibration, ShippedConstantsAreAsGoodAsARefitOnCalibrationBodies) {
   constants.push_back(refit_typical_torso_fractions(samples));  // segmentation's, from the same bodies
   EXPECT_EQ(constants.back().samples, 16);
   for (const RefitConstant& c : constants) {
-    if (c.fit == "mean")  // the elbow's path fraction: a prior between MakeHuman's mean (0.51) and real adults' (0.56)
+    if (c.fit == "mean") {  // the elbow's path fraction: a prior between MakeHuman's mean (0.51) and real adults' (0.56)
       EXPECT_NEAR(c.refit[0], c.shipped[0], 0.03) << c.name;
-    else EXPECT_LE(c.shipped_rms_mm, c.refit_rms_mm + 1.5) << c.name << ": shipped " << c.shipped_rms_mm << " mm, refit " << c.refit_rms_mm;
+    } else {
+      EXPECT_LE(c.shipped_rms_mm, c.refit_rms_mm + 1.5) << c.name << ": shipped " << c.shipped_rms_mm << " mm, refit " << c.refit_rms_mm;
+    }
     EXPECT_LT(c.shipped_rms_mm, 20.0) << c.name;  // the joints themselves within 2 cm RMS (the elbows' 11-15 mm)
-    if (c.name.size() > 6 && c.name.compare(c.name.size() - 6, 6, "Offset") == 0)  // an offset's components within 3 mm
+    if (c.name.size() > 6 && c.name.compare(c.name.size() - 6, 6, "Offset") == 0) {  // an offset's components within 3 mm
       for (size_t k = 0; k < c.refit.size(); ++k) EXPECT_NEAR(c.refit[k], c.shipped[k], 0.003) << c.name << "[" << k << "]";
+    }
   }
 }

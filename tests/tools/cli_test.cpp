@@ -483,7 +483,9 @@ TEST(Cli, TrainsOnAFolderOfMeshesAloneAndNamesWhatIsWrongWithAFolder) {
   for (const auto& m : ev["methods"]) {
     EXPECT_EQ(m["joints_from_given_pose"]["joints"].get<int>(), 30) << m.dump();
     EXPECT_EQ(m["joints_from_given_pose_per_joint"].size(), 15u);
-    if (m["method"] == "rigid") EXPECT_LT(m["joints_from_given_pose"]["max_mm"].get<double>(), 0.05) << m.dump();
+    if (m["method"] == "rigid") {
+      EXPECT_LT(m["joints_from_given_pose"]["max_mm"].get<double>(), 0.05) << m.dump();
+    }
   }
   for (const auto& m : ev["meshes"]) EXPECT_LE(m["joint_spread_max_mm"].get<double>(), ev["joint_spread"]["max_mm"].get<double>());
   EXPECT_EQ(run("eval pose --dataset " + dir.file("meshes") + " --every 1").code, 2);

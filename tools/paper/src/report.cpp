@@ -74,7 +74,7 @@ struct Table {
 
 struct Figure {
   std::string file, title, caption, command;
-  std::string web;  ///< the interactive figure's HTML (web_viewer.h), or empty
+  std::string web = {};  ///< the interactive figure's HTML (web_viewer.h), or empty
 };
 
 /// The report under construction: figures, tables and warnings in reading order.
