@@ -189,6 +189,10 @@ const std::string& ArgParser::get(const std::string& name) const {
 }
 bool ArgParser::has(const std::string& name) const { return values_.count(name) > 0; }
 
+bool ArgParser::declares(const std::string& name) const {
+  return std::any_of(options_.begin(), options_.end(), [&](const Option& o) { return o.name == name; });
+}
+
 double ArgParser::get_double(const std::string& name) const {
   const std::string& v = get(name);
   try {

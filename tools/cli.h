@@ -55,6 +55,8 @@ class ArgParser {
 
   const std::string& get(const std::string& name) const;
   bool has(const std::string& name) const;
+  /// Whether the command takes option `name` (given or not).
+  bool declares(const std::string& name) const;
   bool flag_set(const std::string& name) const { return has(name); }
   double get_double(const std::string& name) const;
   std::vector<double> get_double_list(const std::string& name) const;  ///< "a,b,c"

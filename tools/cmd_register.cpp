@@ -142,7 +142,7 @@ int run_register(int argc, char** argv) {
       .output("out", "FILE", "correspondence JSON: for each target triangle its source triangle")
       .output("deformed", "FILE", "write the source deformed onto the target (mesh)")
       .output("quality", "FILE", "write the summary with the quality judged without ground truth (JSON)")
-      .option("threads", "T", "ctffd: threads (0: all cores; the result is the same to rounding)", "0")
+      .option("threads", "T", "threads of ctffd and of the body model's fit (0: all cores; the result is the same to rounding)", "0")
       .flag("json", "summary as JSON on stdout")
       .example("posekit register dataset/template/rest.ply dataset/subjects/f01/rest.ply --out corr.json --deformed d.ply");
   add_body_model_options(&args, false);

@@ -64,6 +64,14 @@ void add_body_model_options(ArgParser* args, bool data_option) {
   args->body_model_option("fitted to the body, its parts, joints and pose read off the fit")
       .flag("accept-poor", "with --body-model: give the result of a poor fit too (marked poor; exit status 0)");
   if (data_option) args->data_option("for --body-model");
+  if (!args->declares("threads"))
+    args->option("threads", "N", "with --body-model: threads of the fit (0: all cores; the same fit on any number)", "0");
+}
+
+int body_fit_threads(const ArgParser& args) {
+  const long threads = args.get_int("threads");
+  if (threads < 0 || threads > 4096) throw UsageError("--threads is 0 (all cores) or a number of threads, not " + std::to_string(threads));
+  return static_cast<int>(threads);
 }
 
 std::unique_ptr<BodyModel> load_body_model(const ArgParser& args) {
@@ -75,6 +83,7 @@ BodyFit fit_body_model_to_input(const BodyModel& model, const BodyInput& input, 
                                 const BodyFitOptions& options) {
   // An up axis given (--up) is the only one tried; auto: every axis direction.
   BodyFitOptions o = options;
+  o.threads = body_fit_threads(args);
   if (const std::string& up = args.get("up"); !up.empty() && up != "auto" && o.up_candidates.empty()) o.up_candidates = {parse_axis(up)};
   const BodyFit fit =
       input.is_cloud ? fit_body_model(model, input.cloud.P, o) : fit_body_model_to_mesh(model, input.mesh.V, input.mesh.F, o);

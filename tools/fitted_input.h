@@ -11,8 +11,9 @@
 
 namespace posekit::cli {
 
-/// The options every --body-model command takes: --body-model FILE, --accept-poor, and unless the
-/// command has it already (`data_option` false), --data DIR.
+/// The options every --body-model command takes: --body-model FILE, --accept-poor, --threads N
+/// (unless the command has its own, which the fit then follows too), and unless the command has it
+/// already (`data_option` false), --data DIR.
 void add_body_model_options(ArgParser* args, bool data_option = true);
 
 /// The survey's distribution (ANSUR II as find_ansur_root finds it, or `survey_arg`), or null with
@@ -28,10 +29,13 @@ std::unique_ptr<SurveyDistribution> load_survey(const std::string& survey_arg, s
 std::vector<BodySpec> survey_population_specs(const ArgParser& args, const std::string& option, int count, unsigned seed,
                                               const std::vector<std::string>& leave_out_ids = {}, std::string* note = nullptr);
 
+/// --threads of a --body-model command (0: all cores); UsageError when negative.
+int body_fit_threads(const ArgParser& args);
+
 /// The body model of --body-model (its MakeHuman data from --data).
 std::unique_ptr<BodyModel> load_body_model(const ArgParser& args);
 
-/// The body model fitted to `input` read from `path` (a mesh or a scan, any frame). The fit's
+/// The body model fitted to `input` read from `path` (a mesh or a scan, any frame) on --threads. The fit's
 /// warnings go to stderr; a poor fit throws BelowConfidence with its reasons unless --accept-poor,
 /// when it is announced on stderr and returned (fit.confident false).
 BodyFit fit_body_model_to_input(const BodyModel& model, const BodyInput& input, const std::string& path, const ArgParser& args,

@@ -185,7 +185,11 @@ DatasetTrainingOptions dataset_training_options(const ArgParser& args, std::uniq
   if (dto.unit != "auto") parse_unit(dto.unit);
   dto.up = args.get("up");
   dto.forward = args.get("forward");
-  if (args.has("body-model")) *body_model = load_body_model(args), dto.label_rest = body_model_labeller(**body_model);
+  if (args.has("body-model")) {
+    BodyFitOptions fit;
+    fit.threads = body_fit_threads(args);
+    *body_model = load_body_model(args), dto.label_rest = body_model_labeller(**body_model, fit);
+  }
   dto.accept_poor_fit = args.flag_set("accept-poor");
   return dto;
 }

@@ -1245,6 +1245,12 @@ TEST(Cli, SegmentMeasureRegisterTrainAndPoseByTheBodyModelInAnyFrameAndRefusePoo
     r = run("segment " + file + " --body-model " + space + " --up -Z --accept-poor --json");
     ASSERT_EQ(r.code, 0) << r.out;
     EXPECT_EQ(nlohmann::json::parse(r.out)["up"], nlohmann::json::array({0.0, 0.0, -1.0})) << r.out;
+    // On one thread the same fit: the same part of every vertex as on all cores above.
+    r = run("segment " + file + " --body-model " + space + " --threads 1 --out " + dir.file("zup_1_parts.ply"));
+    ASSERT_EQ(r.code, 0) << r.out;
+    const TriangleMesh one = read_mesh(dir.file("zup_1_parts.ply")), all = read_mesh(dir.file("s01_zup_parts.ply"));
+    EXPECT_TRUE(one.vertex_scalars.at("part") == all.vertex_scalars.at("part"));
+    EXPECT_EQ(run("segment " + file + " --body-model " + space + " --threads -1").code, 2);
   }
   // Arms resting on the torso below the armpits: measured through the fit, the bust too, within
   // ISO 20685-1's allowances of the body's standing girths.

@@ -1414,9 +1414,9 @@ Eigen::VectorXi parts_of_every_vertex(const BodyModel& model, const BodyFit& fit
   return part;
 }
 
-RestLabeller body_model_labeller(const BodyModel& model) {
-  return [&model](const Eigen::MatrixXd& V, const Eigen::MatrixXi& F) {
-    const BodyFit fit = fit_body_model_to_mesh(model, V, F);
+RestLabeller body_model_labeller(const BodyModel& model, const BodyFitOptions& options) {
+  return [&model, options](const Eigen::MatrixXd& V, const Eigen::MatrixXi& F) {
+    const BodyFit fit = fit_body_model_to_mesh(model, V, F, options);
     RestLabels labels;
     if (!fit.confident)
       for (const auto& r : fit.reasons) labels.poor_fit += (labels.poor_fit.empty() ? "" : "; ") + r;
