@@ -148,7 +148,7 @@ Eigen::VectorXi parts_of_every_vertex(const BodyModel& model, const BodyFit& fit
 
 /// Labels for train_on_dataset's rest example (deformation/dataset_training.h) from the body model
 /// fitted to it: its parts (parts_of_every_vertex) and joints; an unconfident fit is a poor labelling
-/// with the fit's reasons. `model` must outlive the labeller.
+/// with the fit's reasons. Fitted with `options` (its threads, say). `model` must outlive the labeller.
 RestLabeller body_model_labeller(const BodyModel& model, const BodyFitOptions& options = {});
 
 }  // namespace posekit
